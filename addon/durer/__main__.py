@@ -1,0 +1,63 @@
+"""Command line: `python -m durer demo | render | extension` (also installed as `durer`)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+
+def demo(argv: Sequence[str]) -> int:
+    """Render the built-in showcase scene with the core (no Blender needed)."""
+    import durer
+
+    parser = argparse.ArgumentParser(prog="python -m durer demo", description=demo.__doc__)
+    parser.add_argument("--output", default="out/showcase.png", help="image file (PNG, JPEG, ...); default %(default)s")
+    parser.add_argument("--width", type=int, default=960)
+    parser.add_argument("--height", type=int, default=540)
+    parser.add_argument("--spp", type=int, default=16, help="samples per pixel (default %(default)s)")
+    parser.add_argument("--precision", choices=("float", "double"), default="double")
+    args = parser.parse_args(argv)
+    scene, camera = durer.showcase_scene()
+    try:
+        result = durer.render(scene, camera, args.width, args.height, spp=args.spp, precision=args.precision)
+    except (TypeError, ValueError) as error:
+        parser.error(str(error))
+    path = durer.save_image(args.output, result.color).resolve()
+    stats = result.stats
+    print(f"rendered {args.width}x{args.height}, {args.spp} spp, {stats['rays'] / 1e6:.1f} Mrays in "
+          f"{stats['milliseconds']:.0f} ms ({stats['mrays_per_s']:.1f} Mrays/s, {stats['threads']} threads)")
+    print(f"image written to {path}")
+    return 0
+
+
+def render(argv: Sequence[str]) -> int:
+    """Render a .blend file with Dürer through Blender (needs the bpy module)."""
+    from durer.blender import batch
+
+    return batch.main(argv)
+
+
+def extension(argv: Sequence[str]) -> int:
+    """Build the Blender extension zip (dist/durer-<version>-<platform>.zip)."""
+    from durer.blender import extension as ext
+
+    return ext.main(argv)
+
+
+COMMANDS = {"demo": demo, "render": render, "extension": extension}
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] not in COMMANDS:
+        lines = [f"  {name:10} {command.__doc__}" for name, command in COMMANDS.items()]
+        print("usage: python -m durer COMMAND [options]   (COMMAND --help for its options)\n\ncommands:")
+        print("\n".join(lines))
+        return 0 if argv and argv[0] in ("-h", "--help") else 2
+    return COMMANDS[argv[0]](argv[1:])
+
+
+if __name__ == "__main__":
+    sys.exit(main())

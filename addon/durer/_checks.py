@@ -1,0 +1,86 @@
+"""Argument checks shared by the public API: each error names the argument it is about."""
+
+from __future__ import annotations
+
+import numbers
+from typing import Any
+
+import numpy as np
+
+
+def _numeric_array(value: Any, name: str) -> np.ndarray:
+    try:
+        array = np.asarray(value)
+    except (TypeError, ValueError) as error:  # ragged nesting and the like
+        raise TypeError(f"{name} must be an array of numbers: {error}") from None
+    if array.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must contain real numbers, got dtype {array.dtype}")
+    return array
+
+
+def float_array(value: Any, name: str, shape: tuple[int | None, ...], *, finite: bool = True) -> np.ndarray:
+    """`value` as a C-contiguous float64 array of `shape` (None: any length)."""
+    array = _numeric_array(value, name)
+    if array.ndim != len(shape) or any(s is not None and s != n for s, n in zip(shape, array.shape)):
+        wanted = "(" + ", ".join("N" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
+        raise ValueError(f"{name} must have shape {wanted}, got {array.shape}")
+    array = np.ascontiguousarray(array, dtype=np.float64)
+    if finite and not np.isfinite(array).all():
+        bad = np.argwhere(~np.isfinite(array))[0]
+        raise ValueError(f"{name} must be finite, got {array[tuple(bad)]} at index {tuple(int(i) for i in bad)}")
+    return array
+
+
+def vector3(value: Any, name: str) -> tuple[float, float, float]:
+    x, y, z = float_array(value, name, (3,))
+    return float(x), float(y), float(z)
+
+
+def nonzero_vector3(value: Any, name: str) -> tuple[float, float, float]:
+    v = vector3(value, name)
+    if not any(v):
+        raise ValueError(f"{name} must not be the zero vector")
+    return v
+
+
+def color(value: Any, name: str, channels: tuple[int, ...] = (3,)) -> tuple[float, ...]:
+    array = _numeric_array(value, name)
+    if array.ndim != 1 or array.shape[0] not in channels:
+        wanted = " or ".join(f"({c},)" for c in channels)
+        raise ValueError(f"{name} must have shape {wanted}, got {array.shape}")
+    array = array.astype(np.float64)
+    if not np.isfinite(array).all() or (array < 0).any():
+        raise ValueError(f"{name} must be finite and >= 0, got {tuple(array.tolist())}")
+    return tuple(float(c) for c in array)
+
+
+def real(value: Any, name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
+    return float(value)
+
+
+def finite_real(value: Any, name: str) -> float:
+    x = real(value, name)
+    if not np.isfinite(x):
+        raise ValueError(f"{name} must be finite, got {x}")
+    return x
+
+
+def integer(value: Any, name: str, minimum: int | None = None, maximum: int | None = None) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__}")
+    n = int(value)
+    if minimum is not None and n < minimum:
+        raise ValueError(f"{name} must be >= {minimum}, got {n}")
+    if maximum is not None and n > maximum:
+        raise ValueError(f"{name} must be <= {maximum}, got {n}")
+    return n
+
+
+def choice(value: Any, name: str, options: tuple[str, ...]) -> str:
+    if not isinstance(value, str):
+        raise TypeError(f"{name} must be a string, one of {', '.join(options)}; got {type(value).__name__}")
+    if value not in options:
+        raise ValueError(f"{name} must be one of {', '.join(repr(o) for o in options)}; got {value!r}")
+    return value

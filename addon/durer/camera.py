@@ -1,0 +1,89 @@
+"""Orthographic and perspective cameras (MIT 6.837 conventions, plus Blender's fit and shift)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from . import _checks, _core
+
+FITS = ("auto", "horizontal", "vertical")
+
+
+@dataclass(frozen=True)
+class _Camera:
+    """Common fields. `direction` and `up` need not be unit or orthogonal: the frame is
+    horizontal = normalize(direction × up), up' = horizontal × direction. `fit` says which image
+    dimension the size or field of view spans: "auto" the larger (6.837; Blender's Auto), or
+    "horizontal"/"vertical". `shift` moves the image window by (x right, y up) in units of that
+    span (Blender's shift_x/shift_y). Camera rays count hits with t in [t_min, t_max)."""
+
+    center: tuple[float, float, float]
+    direction: tuple[float, float, float]
+    up: tuple[float, float, float]
+    _projection: ClassVar[str]
+    _size_name: ClassVar[str]
+    _spec: _core.CameraSpec = field(init=False, repr=False, compare=False)
+
+    def _build(self, size: float, fit: str, shift: ArrayLike, t_min: float, t_max: float) -> None:
+        set_ = object.__setattr__
+        set_(self, "center", _checks.vector3(self.center, "center"))
+        set_(self, "direction", _checks.nonzero_vector3(self.direction, "direction"))
+        set_(self, "up", _checks.nonzero_vector3(self.up, "up"))
+        size = _checks.real(size, self._size_name)
+        _checks.choice(fit, "fit", FITS)
+        sx, sy = _checks.float_array(shift, "shift", (2,))
+        set_(self, "shift", (float(sx), float(sy)))
+        t_min, t_max = _checks.real(t_min, "t_min"), _checks.real(t_max, "t_max")
+        spec = _core.CameraSpec(self._projection, self.center, self.direction, self.up, size, fit, sx, sy, t_min, t_max)
+        set_(self, "_spec", spec)
+
+    def rays(self, width: int, height: int, precision: str = "double") -> tuple[np.ndarray, np.ndarray]:
+        """The pixel-centre rays: origins and unit directions, each (height, width, 3), top row
+        first, exactly as `render` generates them with spp=1."""
+        width = _checks.integer(width, "width", 1)
+        height = _checks.integer(height, "height", 1)
+        _checks.choice(precision, "precision", ("float", "double"))
+        return _core.camera_rays(self._spec, width, height, precision)
+
+
+@dataclass(frozen=True)
+class OrthographicCamera(_Camera):
+    """Parallel rays along `direction`. The pixel at image position (x, y) in [0, 1]² casts from
+    center + (x − ½)·size·horizontal + (y − ½)·size·up (for a square image; `size` spans the fitted
+    dimension). t_min defaults to −inf as in 6.837: objects behind the centre are visible."""
+
+    size: float = 1.0
+    fit: str = "auto"
+    shift: tuple[float, float] = (0.0, 0.0)
+    t_min: float = -math.inf
+    t_max: float = math.inf
+    _projection: ClassVar[str] = "orthographic"
+    _size_name: ClassVar[str] = "size"
+
+    def __post_init__(self) -> None:
+        self._build(self.size, self.fit, self.shift, self.t_min, self.t_max)
+
+
+@dataclass(frozen=True)
+class PerspectiveCamera(_Camera):
+    """Rays from `center` through an image plane; `fov_degrees` in (0, 180) spans the fitted
+    dimension (the larger one by default)."""
+
+    fov_degrees: float = 60.0
+    fit: str = "auto"
+    shift: tuple[float, float] = (0.0, 0.0)
+    t_min: float = 0.0
+    t_max: float = math.inf
+    _projection: ClassVar[str] = "perspective"
+    _size_name: ClassVar[str] = "fov_degrees"
+
+    def __post_init__(self) -> None:
+        self._build(self.fov_degrees, self.fit, self.shift, self.t_min, self.t_max)
+
+
+Camera = OrthographicCamera | PerspectiveCamera

@@ -1,0 +1,65 @@
+"""`cast`: closest hits of arbitrary rays, in bulk."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from . import _checks, _core
+from .render import PRECISIONS, SPHERE_METHODS, poll_function, threads_argument
+from .scene import Scene
+
+
+@dataclass
+class CastResult:
+    """t (N,): closest hit in units of each ray's direction, inf on a miss; normal (N, 3): unit
+    world-space normal, 0 on a miss; object_id, material_id (N,) int32: -1 on a miss. Floats are
+    float64 for precision "double", float32 for "float"."""
+
+    t: np.ndarray
+    normal: np.ndarray
+    object_id: np.ndarray
+    material_id: np.ndarray
+
+
+def cast(
+    scene: Scene,
+    origins: ArrayLike,
+    directions: ArrayLike,
+    *,
+    t_min: float = 0.0,
+    t_max: float = math.inf,
+    precision: str = "double",
+    sphere_method: str = "robust",
+    threads: int | None = None,
+    check: bool = True,
+    cancel: Callable[[], bool] | None = None,
+) -> CastResult:
+    """Cast N rays P(t) = origin + t·direction and report each one's closest hit with t in
+    [t_min, t_max). Directions need not be unit length. Inputs are rounded to `precision`.
+
+    With check=True (the default) non-finite coordinates and zero directions raise ValueError
+    naming the ray; with check=False they are cast anyway and are guaranteed to miss.
+    """
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene must be a durer.Scene, got {type(scene).__name__}")
+    origins = _checks.float_array(origins, "origins", (None, 3), finite=check)
+    directions = _checks.float_array(directions, "directions", (origins.shape[0], 3), finite=check)
+    if check:
+        zero = ~directions.any(axis=1)
+        if zero.any():
+            raise ValueError(f"directions[{int(np.argmax(zero))}] must not be the zero vector")
+    t_min, t_max = _checks.real(t_min, "t_min"), _checks.real(t_max, "t_max")
+    _checks.choice(precision, "precision", PRECISIONS)
+    _checks.choice(sphere_method, "sphere_method", SPHERE_METHODS)
+    out = _core.cast(
+        scene._core, origins, directions, t_min, t_max, precision, sphere_method,
+        threads_argument(threads), poll_function(None, cancel),
+    )
+    if out["cancelled"]:
+        raise RuntimeError("cast cancelled")
+    return CastResult(out["t"], out["normal"], out["object_id"], out["material_id"])

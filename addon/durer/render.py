@@ -1,0 +1,151 @@
+"""`render`: an image of a scene through a camera, with colour, depth and normal passes."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from . import _checks, _core
+from .camera import OrthographicCamera, PerspectiveCamera
+from .scene import Scene
+
+PASSES = ("color", "depth", "normal")
+PRECISIONS = ("float", "double")
+SPHERE_METHODS = ("algebraic", "geometric", "robust")
+
+
+class _Flag(Protocol):
+    def is_set(self) -> bool: ...
+
+
+@dataclass
+class RenderResult:
+    """Float32 arrays, top row first (numpy convention); a pass not requested is None.
+
+    color  (H, W, 4): linear RGBA; the box-filtered mean of the pixel's samples.
+    depth  (H, W):    t along the unit camera ray (distance from the ray origin) of the pixel's
+                      nearest sample hit; +inf where every sample missed.
+    normal (H, W, 3): unit world-space normal, the normalised mean over the pixel's hit samples;
+                      0 where every sample missed.
+    stats:            rays, intersection_tests, milliseconds, mrays_per_s, threads, width, height,
+                      spp, precision, sphere_method, passes, cancelled.
+    """
+
+    color: np.ndarray | None
+    depth: np.ndarray | None
+    normal: np.ndarray | None
+    stats: dict[str, Any] = field(default_factory=dict)
+
+
+class RenderCancelled(Exception):
+    """The render was cancelled; `result` holds the tiles finished before it stopped."""
+
+    def __init__(self, result: RenderResult) -> None:
+        super().__init__(f"render cancelled after {result.stats['rays']} of {result.stats['requested_rays']} rays")
+        self.result = result
+
+
+def poll_function(
+    progress: Callable[[float], Any] | None, cancel: Callable[[], bool] | _Flag | None
+) -> Callable[[float], bool]:
+    """The core's poll(fraction) -> cancel? from the user's progress and cancel arguments."""
+    if progress is not None and not callable(progress):
+        raise TypeError("progress must be callable (it receives the finished fraction) or None")
+    if cancel is None:
+        should_stop: Callable[[], bool] = lambda: False  # noqa: E731
+    elif hasattr(cancel, "is_set"):
+        should_stop = cancel.is_set
+    elif callable(cancel):
+        should_stop = cancel
+    else:
+        raise TypeError("cancel must be a callable returning bool, an object with is_set() (threading.Event), or None")
+
+    def poll(fraction: float) -> bool:
+        if progress is not None:
+            progress(fraction)
+        return bool(should_stop())
+
+    return poll
+
+
+def threads_argument(threads: int | None) -> int:
+    return 0 if threads is None else _checks.integer(threads, "threads", 1)
+
+
+def render(
+    scene: Scene,
+    camera: OrthographicCamera | PerspectiveCamera,
+    width: int,
+    height: int,
+    *,
+    spp: int = 1,
+    seed: int = 0,
+    precision: str = "double",
+    sphere_method: str = "robust",
+    passes: Iterable[str] = PASSES,
+    threads: int | None = None,
+    progress: Callable[[float], Any] | None = None,
+    cancel: Callable[[], bool] | _Flag | None = None,
+    out: RenderResult | None = None,
+) -> RenderResult:
+    """Render `scene` through `camera` at width x height pixels.
+
+    spp samples per pixel, jittered-stratified and deterministic for a `seed` (1 samples the pixel
+    centre), averaged with a box filter. `precision` "float" or "double" is used for every ray and
+    intersection; `sphere_method` "robust" (default), "algebraic" or "geometric". Only the
+    requested `passes` are computed. The GIL is released while rendering on `threads` threads
+    (None: all cores); `progress(fraction)` is called from this thread as tiles finish, and the
+    render stops within 0.1 s once `cancel()` returns true (or the `cancel` Event is set), raising
+    RenderCancelled with the partial result. `out`, an earlier RenderResult of the same size and
+    passes, has its arrays overwritten instead of new ones being allocated (saves the page faults of
+    fresh memory when rendering frame after frame).
+    """
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene must be a durer.Scene, got {type(scene).__name__}")
+    if not isinstance(camera, (OrthographicCamera, PerspectiveCamera)):
+        raise TypeError(f"camera must be an OrthographicCamera or PerspectiveCamera, got {type(camera).__name__}")
+    width = _checks.integer(width, "width", 1, 2**20)
+    height = _checks.integer(height, "height", 1, 2**20)
+    spp = _checks.integer(spp, "spp", 1, 2**20)
+    seed = _checks.integer(seed, "seed", 0, 2**64 - 1)
+    _checks.choice(precision, "precision", PRECISIONS)
+    _checks.choice(sphere_method, "sphere_method", SPHERE_METHODS)
+    wanted = _pass_set(passes)
+    poll = poll_function(progress, cancel)
+    if out is not None and not isinstance(out, RenderResult):
+        raise TypeError(f"out must be a RenderResult or None, got {type(out).__name__}")
+    buffers = {} if out is None else {"color": out.color, "depth": out.depth, "normal": out.normal}
+    out = _core.render(
+        scene._core, camera._spec, width, height, spp, seed, precision, sphere_method,
+        "color" in wanted, "depth" in wanted, "normal" in wanted, threads_argument(threads), poll, buffers,
+    )
+    stats = dict(out["stats"])
+    seconds = stats["milliseconds"] / 1000
+    stats.update(
+        width=width, height=height, spp=spp, precision=precision, sphere_method=sphere_method,
+        passes=tuple(p for p in PASSES if p in wanted), requested_rays=width * height * spp,
+        mrays_per_s=stats["rays"] / seconds / 1e6 if seconds > 0 else float("inf"),
+    )
+    result = RenderResult(out.get("color"), out.get("depth"), out.get("normal"), stats)
+    if stats["cancelled"]:
+        raise RenderCancelled(result)
+    if progress is not None:
+        progress(1.0)
+    return result
+
+
+def _pass_set(passes: Iterable[str]) -> set[str]:
+    if isinstance(passes, str):
+        passes = (passes,)
+    try:
+        names = list(passes)
+    except TypeError:
+        raise TypeError("passes must be a collection of pass names") from None
+    for name in names:
+        _checks.choice(name, "passes", PASSES)
+    if not names:
+        raise ValueError(f"passes must name at least one of {', '.join(PASSES)}")
+    return set(names)

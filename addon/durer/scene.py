@@ -1,0 +1,145 @@
+"""The scene: geometry in bulk numpy arrays, materials, lights, background and ambient light."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from . import _checks, _core
+
+
+class Scene:
+    """What Dürer renders.
+
+    Objects get ids in the order they are added (spheres added in bulk get consecutive ids); `render`
+    and `cast` report hits by these ids. Material 0 exists from the start: diffuse 0.8 grey. Every add
+    checks its input and raises ValueError/TypeError naming the argument; an add that raises changes
+    nothing.
+    """
+
+    def __init__(self) -> None:
+        self._core = _core.Scene()
+
+    # --- materials and objects -------------------------------------------------------------------
+    def add_material(self, diffuse: ArrayLike = (0.8, 0.8, 0.8)) -> int:
+        """Add a material; returns its id. `diffuse` is kd, linear RGB >= 0: the flat colour without
+        lights and the diffuse colour with them."""
+        return self._core.add_material(_checks.color(diffuse, "diffuse"))
+
+    def add_spheres(self, centers: ArrayLike, radii: ArrayLike, material: ArrayLike = 0) -> np.ndarray:
+        """Add N spheres. `centers` (N, 3); `radii` (N,) or one radius for all, each finite and > 0;
+        `material` one id or (N,) ids. Returns the (N,) int32 object ids."""
+        centers = _checks.float_array(centers, "centers", (None, 3))
+        n = centers.shape[0]
+        radii_array = _checks._numeric_array(radii, "radii")
+        if radii_array.ndim == 0:
+            radii_array = np.full(n, radii_array, dtype=np.float64)
+        radii_array = _checks.float_array(radii_array, "radii", (n,), finite=False)
+        bad = ~(np.isfinite(radii_array) & (radii_array > 0))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ValueError(f"radii must be finite and > 0, got {radii_array[i]} at index {i}")
+        materials = _material_ids(material, n)
+        if n == 0:
+            return np.empty(0, dtype=np.int32)
+        first = self._core.add_spheres(centers, radii_array, materials)
+        return np.arange(first, first + n, dtype=np.int32)
+
+    def add_plane(
+        self,
+        normal: ArrayLike,
+        offset: float,
+        material: int = 0,
+        bounds: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
+    ) -> int:
+        """Add the plane of points p with normal·p = offset; returns its object id.
+
+        `normal` need not be unit length (the plane is the same set of points either way). With
+        `bounds=(corner, edge1, edge2)` only the parallelogram corner + a·edge1 + b·edge2, a, b in
+        [0, 1], is there; the corner must lie on the plane and the edges in it. The normal is the
+        shading normal as given: it is not flipped toward the viewer.
+        """
+        normal3 = _checks.nonzero_vector3(normal, "normal")
+        offset_value = _checks.finite_real(offset, "offset")
+        material_id = _checks.integer(material, "material")
+        corners = None
+        if bounds is not None:
+            if len(bounds) != 3:
+                raise ValueError("bounds must be (corner, edge1, edge2)")
+            corners = tuple(_checks.vector3(v, f"bounds {part}") for v, part in zip(bounds, ("corner", "edge1", "edge2")))
+        return self._core.add_plane(normal3, offset_value, material_id, corners)
+
+    # --- lights and background ------------------------------------------------------------------
+    def add_directional_light(self, direction: ArrayLike, color: ArrayLike) -> None:
+        """A light infinitely far away. `direction` is the way the light travels (surfaces facing
+        -direction are lit); `color` is linear RGB >= 0 and does not fall off."""
+        self._core.add_directional_light(_checks.nonzero_vector3(direction, "direction"), _checks.color(color, "color"))
+
+    def add_point_light(self, position: ArrayLike, color: ArrayLike) -> None:
+        """A light at `position`; `color` is linear RGB >= 0 with no falloff (6.837, assignment 2)."""
+        self._core.add_point_light(_checks.vector3(position, "position"), _checks.color(color, "color"))
+
+    @property
+    def background(self) -> tuple[float, float, float, float]:
+        """Linear RGBA of pixels that see no object; default (0, 0, 0, 1). Set RGB (alpha 1) or RGBA."""
+        return tuple(self._core.background)
+
+    @background.setter
+    def background(self, value: ArrayLike) -> None:
+        rgba = _checks.color(value, "background", (3, 4))
+        if len(rgba) == 3:
+            rgba = (*rgba, 1.0)
+        if rgba[3] > 1:
+            raise ValueError(f"background alpha must be in [0, 1], got {rgba[3]}")
+        self._core.background = rgba
+
+    @property
+    def ambient(self) -> tuple[float, float, float]:
+        """Ambient light, linear RGB; used only when the scene has lights (default black)."""
+        return tuple(self._core.ambient)
+
+    @ambient.setter
+    def ambient(self, value: ArrayLike) -> None:
+        self._core.ambient = _checks.color(value, "ambient")
+
+    # --- counts ----------------------------------------------------------------------------------
+    @property
+    def sphere_count(self) -> int:
+        return self._core.sphere_count
+
+    @property
+    def plane_count(self) -> int:
+        return self._core.plane_count
+
+    @property
+    def material_count(self) -> int:
+        return self._core.material_count
+
+    @property
+    def light_count(self) -> int:
+        return self._core.light_count
+
+    @property
+    def object_count(self) -> int:
+        return self._core.object_count
+
+    def __repr__(self) -> str:
+        return (
+            f"Scene({self.sphere_count} spheres, {self.plane_count} planes, {self.material_count} materials, "
+            f"{self.light_count} lights)"
+        )
+
+
+def _material_ids(material: Any, n: int) -> np.ndarray:
+    array = np.asarray(material)
+    if array.dtype.kind not in "iu":
+        raise TypeError(f"material must be an integer id or (N,) integer ids, got dtype {array.dtype}")
+    if array.ndim == 0:
+        return array.astype(np.int32).reshape(1)
+    if array.shape != (n,):
+        raise ValueError(f"material must be one id or have shape ({n},), got {array.shape}")
+    if n and (array.min() < np.iinfo(np.int32).min or array.max() > np.iinfo(np.int32).max):
+        raise ValueError("material ids must fit in int32")
+    return np.ascontiguousarray(array, dtype=np.int32)

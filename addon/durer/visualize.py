@@ -1,0 +1,55 @@
+"""The 6.837 pass visualisations and image writing."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+
+def depth_to_gray(depth: ArrayLike, near: float, far: float) -> np.ndarray:
+    """Depth (H, W) to grey in [0, 1]: `near` white, `far` black, clamped; misses (inf) black."""
+    if not (np.isfinite(near) and np.isfinite(far) and near < far):
+        raise ValueError(f"near and far must be finite with near < far, got {near} and {far}")
+    d = np.asarray(depth, dtype=np.float32)
+    return np.clip((far - d) / np.float32(far - near), 0, 1).astype(np.float32)
+
+
+def normal_to_rgb(normal: ArrayLike) -> np.ndarray:
+    """Normals (H, W, 3) to colours: |n| per component (6.837's normal visualisation)."""
+    n = np.asarray(normal, dtype=np.float32)
+    if n.ndim < 1 or n.shape[-1] != 3:
+        raise ValueError(f"normal must have shape (..., 3), got {n.shape}")
+    return np.abs(n)
+
+
+def linear_to_srgb(linear: ArrayLike) -> np.ndarray:
+    """The sRGB transfer function (what Blender's "Standard" view applies when saving 8-bit files)."""
+    x = np.clip(np.asarray(linear, dtype=np.float64), 0, 1)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+
+
+def save_image(path: str | Path, pixels: ArrayLike, *, srgb: bool = True) -> Path:
+    """Write a top-row-first image ((H, W), (H, W, 3) or (H, W, 4) floats in [0, 1]) as 8-bit PNG
+    (or any format Pillow knows by the extension). Colour channels of linear renders are sRGB
+    encoded by default; pass srgb=False for data such as depth or normal visualisations."""
+    from PIL import Image
+
+    p = np.asarray(pixels, dtype=np.float64)
+    if p.ndim not in (2, 3) or (p.ndim == 3 and p.shape[2] not in (3, 4)):
+        raise ValueError(f"pixels must have shape (H, W), (H, W, 3) or (H, W, 4), got {p.shape}")
+    if srgb:
+        p = p.copy()
+        if p.ndim == 2:
+            p = linear_to_srgb(p)
+        else:
+            p[..., :3] = linear_to_srgb(p[..., :3])
+    data = np.round(np.clip(p, 0, 1) * 255).astype(np.uint8)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    image = Image.fromarray(data)
+    if path.suffix.lower() in (".jpg", ".jpeg") and image.mode == "RGBA":
+        image = image.convert("RGB")
+    image.save(path)
+    return path

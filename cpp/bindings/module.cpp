@@ -1,0 +1,273 @@
+// durer._core: a thin binding. Shapes and dtypes are checked by the Python package (durer/*.py);
+// values are checked by the core, whose std::invalid_argument becomes ValueError.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <array>
+#include <optional>
+#include <string>
+
+#include "durer/Camera.h"
+#include "durer/Cast.h"
+#include "durer/Renderer.h"
+#include "durer/Scene.h"
+
+namespace py = pybind11;
+using namespace durer;
+
+namespace {
+
+using Triple = std::array<double, 3>;
+using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+using IdArray = py::array_t<int32_t, py::array::c_style | py::array::forcecast>;
+
+Vec3d vec(const Triple& t) { return Vec3d(t[0], t[1], t[2]); }
+Triple triple(const Vec3d& v) { return {v.x, v.y, v.z}; }
+
+Precision precisionNamed(const std::string& name) {
+  if (name == "float") return Precision::Float;
+  if (name == "double") return Precision::Double;
+  throw py::value_error("precision must be 'float' or 'double', got '" + name + "'");
+}
+
+SphereMethod methodNamed(const std::string& name) {
+  if (name == "algebraic") return SphereMethod::Algebraic;
+  if (name == "geometric") return SphereMethod::Geometric;
+  if (name == "robust") return SphereMethod::Robust;
+  throw py::value_error("sphere_method must be 'algebraic', 'geometric' or 'robust', got '" + name + "'");
+}
+
+Fit fitNamed(const std::string& name) {
+  if (name == "auto") return Fit::Auto;
+  if (name == "horizontal") return Fit::Horizontal;
+  if (name == "vertical") return Fit::Vertical;
+  throw py::value_error("fit must be 'auto', 'horizontal' or 'vertical', got '" + name + "'");
+}
+
+CameraSpec cameraSpec(const std::string& projection, const Triple& center, const Triple& direction,
+                      const Triple& up, double size, const std::string& fit, double shiftX, double shiftY,
+                      double tMin, double tMax) {
+  CameraSpec spec;
+  if (projection == "orthographic") {
+    spec.projection = Projection::Orthographic;
+  } else if (projection == "perspective") {
+    spec.projection = Projection::Perspective;
+  } else {
+    throw py::value_error("projection must be 'orthographic' or 'perspective', got '" + projection + "'");
+  }
+  spec.center = vec(center);
+  spec.direction = vec(direction);
+  spec.up = vec(up);
+  spec.size = size;
+  spec.fit = fitNamed(fit);
+  spec.shiftX = shiftX;
+  spec.shiftY = shiftY;
+  spec.tMin = tMin;
+  spec.tMax = tMax;
+  validate(spec);
+  return spec;
+}
+
+// Runs a long core job without the GIL; `poll(fraction) -> bool` (with the GIL) may cancel it.
+template <typename Job>
+auto withoutGil(JobControl& control, const py::function& poll, Job job) {
+  const std::function<void()> pollWithGil = [&] {
+    py::gil_scoped_acquire gil;
+    if (poll(control.fraction()).template cast<bool>()) control.cancel = true;
+  };
+  py::gil_scoped_release release;
+  return job(pollWithGil);
+}
+
+// The float32 buffer of a requested pass: out[name] when given (reused, e.g. frame after frame), else new.
+float* target(const py::dict& out, const char* name, bool wanted, std::vector<py::ssize_t> shape, py::dict& result) {
+  if (!wanted) return nullptr;
+  py::array_t<float> a;
+  if (out.contains(name) && !out[name].is_none()) {
+    py::object given = out[name];
+    if (!py::isinstance<py::array_t<float>>(given)) throw py::type_error(std::string("out.") + name + " must be a float32 array");
+    a = given.cast<py::array_t<float>>();
+    const bool sameShape = a.ndim() == static_cast<py::ssize_t>(shape.size()) &&
+                           std::equal(shape.begin(), shape.end(), a.shape());
+    if (!sameShape) throw py::value_error(std::string("out.") + name + " has the wrong shape for this render");
+    if (!(a.flags() & py::array::c_style) || !a.writeable()) {
+      throw py::value_error(std::string("out.") + name + " must be C-contiguous and writeable");
+    }
+  } else {
+    a = py::array_t<float>(shape);
+  }
+  result[name] = a;
+  return a.mutable_data();
+}
+
+py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int height, int spp, uint64_t seed,
+                  const std::string& precision, const std::string& method, bool color, bool depth, bool normal,
+                  int threads, const py::function& poll, const py::dict& out) {
+  RenderSettings settings;
+  settings.width = width;
+  settings.height = height;
+  settings.samplesPerPixel = spp;
+  settings.seed = seed;
+  settings.precision = precisionNamed(precision);
+  settings.sphereMethod = methodNamed(method);
+  settings.passes = (color ? kPassColor : 0u) | (depth ? kPassDepth : 0u) | (normal ? kPassNormal : 0u);
+  settings.threads = threads;
+  validate(settings);
+  const py::ssize_t h = height, w = width;
+  py::dict result;
+  RenderTargets targets;
+  targets.color = target(out, "color", color, {h, w, 4}, result);
+  targets.depth = target(out, "depth", depth, {h, w}, result);
+  targets.normal = target(out, "normal", normal, {h, w, 3}, result);
+  JobControl control;
+  const RenderStats stats = withoutGil(control, poll, [&](const std::function<void()>& p) {
+    return render(scene, camera, settings, targets, control, p);
+  });
+  py::dict s;
+  s["rays"] = stats.cameraRays;
+  s["intersection_tests"] = stats.intersectionTests;
+  s["milliseconds"] = stats.milliseconds;
+  s["threads"] = stats.threads;
+  s["cancelled"] = stats.cancelled;
+  result["stats"] = s;
+  return result;
+}
+
+template <typename Real>
+py::dict castIn(const Scene& scene, const CastInput& input, const py::function& poll) {
+  const py::ssize_t n = static_cast<py::ssize_t>(input.count);
+  py::array_t<Real> t(n), normal({n, py::ssize_t(3)});
+  py::array_t<int32_t> objectId(n), materialId(n);
+  CastOutput<Real> output{t.mutable_data(), normal.mutable_data(), objectId.mutable_data(), materialId.mutable_data()};
+  JobControl control;
+  const CastStats stats = withoutGil(control, poll, [&](const std::function<void()>& p) {
+    return cast<Real>(scene, input, output, control, p);
+  });
+  py::dict out;
+  out["t"] = t;
+  out["normal"] = normal;
+  out["object_id"] = objectId;
+  out["material_id"] = materialId;
+  out["intersection_tests"] = stats.intersectionTests;
+  out["milliseconds"] = stats.milliseconds;
+  out["cancelled"] = control.cancel.load();
+  return out;
+}
+
+py::dict castPy(const Scene& scene, const DoubleArray& origins, const DoubleArray& directions, double tMin,
+                double tMax, const std::string& precision, const std::string& method, int threads,
+                const py::function& poll) {
+  if (origins.ndim() != 2 || origins.shape(1) != 3) throw py::value_error("origins must have shape (N, 3)");
+  if (directions.ndim() != 2 || directions.shape(1) != 3 || directions.shape(0) != origins.shape(0)) {
+    throw py::value_error("directions must have the shape of origins, (N, 3)");
+  }
+  CastInput input;
+  input.origins = origins.data();
+  input.directions = directions.data();
+  input.count = static_cast<size_t>(origins.shape(0));
+  input.tMin = tMin;
+  input.tMax = tMax;
+  input.sphereMethod = methodNamed(method);
+  input.threads = threads;
+  return precisionNamed(precision) == Precision::Float ? castIn<float>(scene, input, poll)
+                                                       : castIn<double>(scene, input, poll);
+}
+
+template <typename Real>
+py::tuple cameraRaysIn(const CameraSpec& spec, int width, int height) {
+  const Camera<Real> camera(spec, width, height);
+  const py::ssize_t n = static_cast<py::ssize_t>(width) * height;
+  py::array_t<Real> origins({n, py::ssize_t(3)}), directions({n, py::ssize_t(3)});
+  Real* o = origins.mutable_data();
+  Real* d = directions.mutable_data();
+  RayPacket<Real> packet;
+  Real sx[kPacketSize], sy[kPacketSize];
+  for (py::ssize_t first = 0; first < n; first += kPacketSize) {
+    const int count = static_cast<int>(std::min<py::ssize_t>(kPacketSize, n - first));
+    for (int k = 0; k < count; ++k) {
+      sx[k] = static_cast<Real>((first + k) % width + 0.5);
+      sy[k] = static_cast<Real>((first + k) / width + 0.5);
+    }
+    camera.generate(packet, sx, sy, count);
+    for (int k = 0; k < count; ++k) {
+      const py::ssize_t i = 3 * (first + k);
+      o[i] = packet.ox[k], o[i + 1] = packet.oy[k], o[i + 2] = packet.oz[k];
+      d[i] = packet.dx[k], d[i + 1] = packet.dy[k], d[i + 2] = packet.dz[k];
+    }
+  }
+  return py::make_tuple(origins.reshape({py::ssize_t(height), py::ssize_t(width), py::ssize_t(3)}),
+                        directions.reshape({py::ssize_t(height), py::ssize_t(width), py::ssize_t(3)}));
+}
+
+py::tuple cameraRaysPy(const CameraSpec& spec, int width, int height, const std::string& precision) {
+  if (width < 1) throw py::value_error("width must be >= 1");
+  if (height < 1) throw py::value_error("height must be >= 1");
+  return precisionNamed(precision) == Precision::Float ? cameraRaysIn<float>(spec, width, height)
+                                                       : cameraRaysIn<double>(spec, width, height);
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "Dürer's C++ ray-casting core (use the durer package, which checks arguments)";
+
+  py::class_<CameraSpec>(m, "CameraSpec")
+      .def(py::init(&cameraSpec), py::arg("projection"), py::arg("center"), py::arg("direction"), py::arg("up"),
+           py::arg("size"), py::arg("fit"), py::arg("shift_x"), py::arg("shift_y"), py::arg("t_min"),
+           py::arg("t_max"));
+
+  py::class_<Scene>(m, "Scene")
+      .def(py::init<>())
+      .def("add_material", [](Scene& s, const Triple& diffuse) { return s.addMaterial(Material{vec(diffuse)}); },
+           py::arg("diffuse"))
+      .def(
+          "add_spheres",
+          [](Scene& s, const DoubleArray& centers, const DoubleArray& radii, const IdArray& materials) {
+            const size_t n = static_cast<size_t>(radii.size());
+            if (centers.size() != py::ssize_t(3 * n)) throw py::value_error("centers must have shape (N, 3)");
+            const bool perSphere = materials.size() != 1;
+            if (perSphere && materials.size() != py::ssize_t(n)) throw py::value_error("material must be one id or N ids");
+            return s.addSpheres(centers.data(), radii.data(), materials.data(), n, perSphere);
+          },
+          py::arg("centers"), py::arg("radii"), py::arg("materials"))
+      .def(
+          "add_plane",
+          [](Scene& s, const Triple& normal, double offset, int32_t material,
+             const std::optional<std::array<Triple, 3>>& bounds) {
+            if (!bounds) return s.addPlane(vec(normal), offset, material, nullptr);
+            const PlaneBounds b{vec((*bounds)[0]), vec((*bounds)[1]), vec((*bounds)[2])};
+            return s.addPlane(vec(normal), offset, material, &b);
+          },
+          py::arg("normal"), py::arg("offset"), py::arg("material"), py::arg("bounds"))
+      .def("add_directional_light",
+           [](Scene& s, const Triple& d, const Triple& c) { s.addDirectionalLight(vec(d), vec(c)); })
+      .def("add_point_light", [](Scene& s, const Triple& p, const Triple& c) { s.addPointLight(vec(p), vec(c)); })
+      .def_property(
+          "background",
+          [](const Scene& s) {
+            const Vec4d& b = s.background();
+            return std::array<double, 4>{b.x, b.y, b.z, b.w};
+          },
+          [](Scene& s, const std::array<double, 4>& b) { s.setBackground(Vec4d(b[0], b[1], b[2], b[3])); })
+      .def_property(
+          "ambient", [](const Scene& s) { return triple(s.ambient()); },
+          [](Scene& s, const Triple& a) { s.setAmbient(vec(a)); })
+      .def_property_readonly("sphere_count", [](const Scene& s) { return s.group().spheres().size(); })
+      .def_property_readonly("plane_count", [](const Scene& s) { return s.group().planes().size(); })
+      .def_property_readonly("material_count", [](const Scene& s) { return s.materials().size(); })
+      .def_property_readonly("object_count", &Scene::objectCount)
+      .def_property_readonly("light_count", [](const Scene& s) {
+        return s.directionalLights().size() + s.pointLights().size();
+      });
+
+  m.def("render", &renderPy, py::arg("scene"), py::arg("camera"), py::arg("width"), py::arg("height"),
+        py::arg("spp"), py::arg("seed"), py::arg("precision"), py::arg("sphere_method"), py::arg("color"),
+        py::arg("depth"), py::arg("normal"), py::arg("threads"), py::arg("poll"), py::arg("out"));
+  m.def("cast", &castPy, py::arg("scene"), py::arg("origins"), py::arg("directions"), py::arg("t_min"),
+        py::arg("t_max"), py::arg("precision"), py::arg("sphere_method"), py::arg("threads"), py::arg("poll"));
+  m.def("camera_rays", &cameraRaysPy, py::arg("camera"), py::arg("width"), py::arg("height"),
+        py::arg("precision"));
+  m.def("default_thread_count", &defaultThreadCount);
+}

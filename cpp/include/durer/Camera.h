@@ -1,0 +1,84 @@
+#pragma once
+#include <cmath>
+
+#include "durer/RayPacket.h"
+#include "durer/Vec.h"
+
+namespace durer {
+
+enum class Projection { Orthographic, Perspective };
+
+// Which image dimension the camera's size or field of view spans.
+enum class Fit {
+  Auto,        // the larger one (the 6.837 rule; Blender's sensor fit "Auto")
+  Horizontal,  // the width
+  Vertical,    // the height
+};
+
+// A camera as the user states it. direction and up need not be unit or orthogonal: the frame is
+// horizontal = normalize(direction × up), up' = horizontal × direction (the 6.837 construction).
+struct CameraSpec {
+  Projection projection = Projection::Orthographic;
+  Vec3d center{0};         // world space: the eye (perspective) or the image centre (orthographic)
+  Vec3d direction{0, 0, -1};
+  Vec3d up{0, 1, 0};
+  double size = 1;         // orthographic: world-space extent of the fitted dimension; perspective: its field of view, degrees
+  Fit fit = Fit::Auto;
+  double shiftX = 0;       // image-plane offset in units of the fitted extent, right
+  double shiftY = 0;       // likewise, up
+  double tMin = 0;         // camera rays count hits with t in [tMin, tMax), t in world units
+  double tMax = 0;
+};
+
+void validate(const CameraSpec& spec);  // throws std::invalid_argument naming the field
+
+// A camera set up for one image size. Sample positions are in pixels: x right from the left edge,
+// y down from the top edge, so pixel (i, j)'s centre is (i + 0.5, j + 0.5). Directions are unit,
+// so t is a distance.
+template <typename Real>
+class Camera {
+ public:
+  Camera(const CameraSpec& spec, int width, int height);
+
+  void generate(RayPacket<Real>& packet, const Real* sampleX, const Real* sampleY, int count) const;
+
+  Real tMin() const { return m_tMin; }
+  Real tMax() const { return m_tMax; }
+
+ private:
+  bool m_perspective;
+  Vec3<Real> m_center, m_forward, m_horizontal, m_up;  // unit, orthonormal frame
+  Real m_pixelSize;                                    // image-plane units per pixel (at distance 1 for perspective)
+  Real m_xOffset, m_yOffset;                           // image-plane position of sample (0, 0)
+  Real m_tMin, m_tMax;
+};
+
+// Inline so that render kernels can inline (and clone) it.
+template <typename Real>
+inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX, const Real* sampleY, int count) const {
+  packet.count = count;
+  packet.tMin = m_tMin;
+  packet.tMax = m_tMax;
+  // Plain component arithmetic so that the loop vectorises.
+  const Vec3<Real> c = m_center, f = m_forward, h = m_horizontal, u = m_up;
+  if (m_perspective) {
+    for (int k = 0; k < count; ++k) {
+      const Real x = sampleX[k] * m_pixelSize + m_xOffset;
+      const Real y = m_yOffset - sampleY[k] * m_pixelSize;
+      const Real dx = f.x + x * h.x + y * u.x, dy = f.y + x * h.y + y * u.y, dz = f.z + x * h.z + y * u.z;
+      const Real inv = 1 / std::sqrt(dx * dx + dy * dy + dz * dz);
+      packet.ox[k] = c.x, packet.oy[k] = c.y, packet.oz[k] = c.z;
+      packet.dx[k] = dx * inv, packet.dy[k] = dy * inv, packet.dz[k] = dz * inv;
+    }
+  } else {
+    for (int k = 0; k < count; ++k) {
+      const Real x = sampleX[k] * m_pixelSize + m_xOffset;
+      const Real y = m_yOffset - sampleY[k] * m_pixelSize;
+      packet.ox[k] = c.x + x * h.x + y * u.x, packet.oy[k] = c.y + x * h.y + y * u.y;
+      packet.oz[k] = c.z + x * h.z + y * u.z;
+      packet.dx[k] = f.x, packet.dy[k] = f.y, packet.dz[k] = f.z;
+    }
+  }
+}
+
+}  // namespace durer

@@ -1,0 +1,104 @@
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "durer/Hit.h"
+#include "durer/PrimitiveIds.h"
+#include "durer/RayPacket.h"
+#include "durer/Vec.h"
+
+namespace durer {
+
+// Points p with normal·p = offset; optionally bounded to the parallelogram corner + a·edge1 + b·edge2,
+// a, b in [0, 1]. The bounded test uses the dual basis: a = (p - corner)·dual1, b = (p - corner)·dual2.
+template <typename Real>
+struct Plane {
+  Vec3<Real> normal;  // unit, world space; the shading normal as given (not flipped toward the ray)
+  Real offset;        // normal·p = offset
+  bool bounded;
+  Vec3<Real> corner;  // bounded only: a point of the plane
+  Vec3<Real> dual1;   // bounded only: in the plane, dual1·edge1 = 1, dual1·edge2 = 0
+  Vec3<Real> dual2;   // bounded only: in the plane, dual2·edge1 = 0, dual2·edge2 = 1
+};
+
+template <typename Real>
+class PlaneSet {
+ public:
+  PlaneSet() = default;
+  template <typename Other>
+  explicit PlaneSet(const PlaneSet<Other>& other) {
+    for (size_t i = 0; i < other.size(); ++i) {
+      const auto& p = other.plane(i);
+      m_planes.push_back({toReal<Real>(p.normal), static_cast<Real>(p.offset), p.bounded, toReal<Real>(p.corner),
+                          toReal<Real>(p.dual1), toReal<Real>(p.dual2)});
+    }
+    m_ids = other.ids();
+  }
+
+  void add(const Plane<Real>& plane, int32_t material, int32_t objectId) {
+    m_planes.push_back(plane);
+    m_ids.add(material, objectId);
+  }
+
+  size_t size() const { return m_planes.size(); }
+  const Plane<Real>& plane(size_t i) const { return m_planes[i]; }
+  const PrimitiveIds& ids() const { return m_ids; }
+
+  // Lowers each ray's tHit to its closest plane hit in [tMin, tHit). A ray parallel to a plane gets
+  // t = ±inf or NaN (lying in it: 0/0), neither of which passes the range test.
+  void intersect(RayPacket<Real>& packet, int32_t primBase) const {
+    for (size_t i = 0; i < m_planes.size(); ++i) {
+      const int32_t id = primBase + static_cast<int32_t>(i);
+      if (m_planes[i].bounded) {
+        intersectOne<true>(packet, m_planes[i], id);
+      } else {
+        intersectOne<false>(packet, m_planes[i], id);
+      }
+    }
+  }
+
+  Hit<Real> hit(const RayPacket<Real>& packet, int k, size_t index) const {
+    Hit<Real> h;
+    h.t = packet.tHit[k];
+    h.normal = m_planes[index].normal;
+    h.objectId = m_ids.objectIds()[index];
+    h.materialId = m_ids.materials()[index];
+    return h;
+  }
+
+ private:
+  template <bool Bounded>
+  static void intersectOne(RayPacket<Real>& packet, const Plane<Real>& pl, int32_t id) {
+    const int n = packet.count;
+    const Real tMin = packet.tMin;
+    const Real* __restrict ox = packet.ox;
+    const Real* __restrict oy = packet.oy;
+    const Real* __restrict oz = packet.oz;
+    const Real* __restrict dx = packet.dx;
+    const Real* __restrict dy = packet.dy;
+    const Real* __restrict dz = packet.dz;
+    Real* __restrict tHit = packet.tHit;
+    int32_t* __restrict prim = packet.prim;
+    const Vec3<Real> nrm = pl.normal;
+    for (int k = 0; k < n; ++k) {
+      const Real denominator = nrm.x * dx[k] + nrm.y * dy[k] + nrm.z * dz[k];
+      const Real t = (pl.offset - (nrm.x * ox[k] + nrm.y * oy[k] + nrm.z * oz[k])) / denominator;
+      bool closer = (t >= tMin) & (t < tHit[k]);
+      if constexpr (Bounded) {
+        const Real qx = ox[k] + t * dx[k] - pl.corner.x;
+        const Real qy = oy[k] + t * dy[k] - pl.corner.y;
+        const Real qz = oz[k] + t * dz[k] - pl.corner.z;
+        const Real a = qx * pl.dual1.x + qy * pl.dual1.y + qz * pl.dual1.z;
+        const Real b = qx * pl.dual2.x + qy * pl.dual2.y + qz * pl.dual2.z;
+        closer = closer & (a >= 0) & (a <= 1) & (b >= 0) & (b <= 1);
+      }
+      tHit[k] = closer ? t : tHit[k];
+      prim[k] = closer ? id : prim[k];
+    }
+  }
+
+  std::vector<Plane<Real>> m_planes;
+  PrimitiveIds m_ids;
+};
+
+}  // namespace durer

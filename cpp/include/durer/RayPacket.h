@@ -1,0 +1,35 @@
+#pragma once
+#include <cstdint>
+
+namespace durer {
+
+// Rays traced together, structure-of-arrays so that the per-primitive loops over rays vectorise.
+// 64 rays (an 8x8 pixel tile) keep every array of a packet in L1 while a primitive list streams by.
+constexpr int kPacketSize = 64;
+
+// Packed index of a primitive during the search: spheres first, then planes (see Group).
+constexpr int32_t kNoPrimitive = -1;
+
+template <typename Real>
+struct RayPacket {
+  int count = 0;                       // rays in use, <= kPacketSize
+  Real tMin = 0;                       // hits with t in [tMin, tMax) count
+  Real tMax = 0;
+  alignas(64) Real ox[kPacketSize];    // origin, world space
+  alignas(64) Real oy[kPacketSize];
+  alignas(64) Real oz[kPacketSize];
+  alignas(64) Real dx[kPacketSize];    // direction, world space, non-zero (any length)
+  alignas(64) Real dy[kPacketSize];
+  alignas(64) Real dz[kPacketSize];
+  alignas(64) Real tHit[kPacketSize];  // in/out: closest t so far; starts at tMax
+  alignas(64) int32_t prim[kPacketSize];  // out: packed primitive index of the closest hit, kNoPrimitive on a miss
+
+  void resetHits() {
+    for (int k = 0; k < count; ++k) {
+      tHit[k] = tMax;
+      prim[k] = kNoPrimitive;
+    }
+  }
+};
+
+}  // namespace durer

@@ -1,0 +1,59 @@
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "durer/Group.h"
+#include "durer/Light.h"
+#include "durer/Material.h"
+#include "durer/Vec.h"
+
+namespace durer {
+
+struct PlaneBounds {
+  Vec3d corner;  // on the plane
+  Vec3d edge1;   // in the plane, non-zero
+  Vec3d edge2;   // in the plane, not parallel to edge1
+};
+
+// What is rendered: geometry (kept in double; converted once per render for float precision),
+// materials, lights and the background. Every add validates its input and throws
+// std::invalid_argument naming the field; an add that throws changes nothing.
+class Scene {
+ public:
+  Scene();  // material 0 is the default material (diffuse 0.8 grey, Blender's default)
+
+  int32_t addMaterial(const Material& material);
+  // centers: count x 3 doubles; radii: count doubles; materials: count ids, or one id if !perSphere.
+  // Returns the object id of the first sphere; the others follow consecutively.
+  int32_t addSpheres(const double* centers, const double* radii, const int32_t* materials, size_t count,
+                     bool perSphere);
+  int32_t addPlane(const Vec3d& normal, double offset, int32_t material, const PlaneBounds* bounds);
+  void addDirectionalLight(const Vec3d& direction, const Vec3d& color);
+  void addPointLight(const Vec3d& position, const Vec3d& color);
+  void setBackground(const Vec4d& rgba);
+  void setAmbient(const Vec3d& rgb);
+
+  const Group<double>& group() const { return m_group; }
+  const std::vector<Material>& materials() const { return m_materials; }
+  const std::vector<DirectionalLight>& directionalLights() const { return m_directionalLights; }
+  const std::vector<PointLight>& pointLights() const { return m_pointLights; }
+  const Vec4d& background() const { return m_background; }
+  const Vec3d& ambient() const { return m_ambient; }
+  int32_t objectCount() const { return m_objectCount; }
+  bool hasLights() const { return !m_directionalLights.empty() || !m_pointLights.empty(); }
+
+ private:
+  void requireMaterial(int32_t material, const char* field) const;
+  int32_t takeObjectIds(size_t count);
+
+  Group<double> m_group;
+  std::vector<Material> m_materials;
+  std::vector<DirectionalLight> m_directionalLights;
+  std::vector<PointLight> m_pointLights;
+  Vec4d m_background{0, 0, 0, 1};
+  Vec3d m_ambient{0};
+  int32_t m_objectCount = 0;
+};
+
+}  // namespace durer

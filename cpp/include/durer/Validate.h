@@ -1,0 +1,18 @@
+#pragma once
+// Checks that turn bad input into std::invalid_argument naming the field (ValueError in Python),
+// so that nothing downstream sees NaN, a zero vector or an empty range.
+#include <string>
+
+#include "durer/Vec.h"
+
+namespace durer {
+
+void requireFinite(double value, const std::string& field);
+void requireFinite(const Vec3d& value, const std::string& field);
+void requirePositive(double value, const std::string& field);  // finite and > 0
+void requireNonZero(const Vec3d& value, const std::string& field);  // finite and of non-zero length
+void requireNonNegativeColor(const Vec3d& value, const std::string& field);  // finite, each >= 0
+void requireRange(double tMin, double tMax, const std::string& minField, const std::string& maxField);
+[[noreturn]] void fail(const std::string& message);
+
+}  // namespace durer

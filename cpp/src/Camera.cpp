@@ -1,0 +1,62 @@
+#include "durer/Camera.h"
+
+#include <cmath>
+
+#include "durer/Validate.h"
+
+namespace durer {
+
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+// sin of the smallest angle between direction and up that still gives a trustworthy frame.
+constexpr double kMinSinUpAngle = 1e-9;
+
+Vec3d unit(const Vec3d& v) {
+  const double largest = std::fmax(std::fabs(v.x), std::fmax(std::fabs(v.y), std::fabs(v.z)));
+  return glm::normalize(v / largest);
+}
+}  // namespace
+
+void validate(const CameraSpec& spec) {
+  requireFinite(spec.center, "center");
+  requireNonZero(spec.direction, "direction");
+  requireNonZero(spec.up, "up");
+  if (glm::length(glm::cross(unit(spec.direction), unit(spec.up))) < kMinSinUpAngle) {
+    fail("up must not be parallel to direction");
+  }
+  if (spec.projection == Projection::Orthographic) {
+    requirePositive(spec.size, "size");
+  } else if (!(std::isfinite(spec.size) && spec.size > 0 && spec.size < 180)) {
+    fail("fov_degrees must be in (0, 180), got " + std::to_string(spec.size));
+  }
+  requireFinite(spec.shiftX, "shift x");
+  requireFinite(spec.shiftY, "shift y");
+  requireRange(spec.tMin, spec.tMax, "t_min", "t_max");
+}
+
+template <typename Real>
+Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
+    : m_perspective(spec.projection == Projection::Perspective),
+      m_tMin(static_cast<Real>(spec.tMin)),
+      m_tMax(static_cast<Real>(spec.tMax)) {
+  const Vec3d forward = unit(spec.direction);
+  const Vec3d horizontal = glm::normalize(glm::cross(forward, unit(spec.up)));
+  const Vec3d up = glm::cross(horizontal, forward);
+  const double extent = m_perspective ? 2 * std::tan(spec.size * kPi / 360) : spec.size;
+  const double span = spec.fit == Fit::Horizontal ? width
+                      : spec.fit == Fit::Vertical ? height
+                                                  : std::max(width, height);
+  const double pixelSize = extent / span;
+  m_center = toReal<Real>(spec.center);
+  m_forward = toReal<Real>(forward);
+  m_horizontal = toReal<Real>(horizontal);
+  m_up = toReal<Real>(up);
+  m_pixelSize = static_cast<Real>(pixelSize);
+  m_xOffset = static_cast<Real>(-0.5 * width * pixelSize + spec.shiftX * extent);
+  m_yOffset = static_cast<Real>(0.5 * height * pixelSize + spec.shiftY * extent);
+}
+
+template class Camera<float>;
+template class Camera<double>;
+
+}  // namespace durer

@@ -1,0 +1,94 @@
+#include "durer/Cast.h"
+
+#include <algorithm>
+#include <chrono>
+#include <optional>
+
+#include "durer/GroupIn.h"
+#include "durer/HotKernel.h"
+#include "durer/RayPacket.h"
+#include "durer/Validate.h"
+
+namespace durer {
+
+namespace {
+
+constexpr int64_t kRaysPerItem = 16 * kPacketSize;  // enough work per queue item to hide its cost
+
+template <typename Real, SphereMethod M>
+DURER_HOT_KERNEL void castItem(const Group<Real>& group, const CastInput& in, const CastOutput<Real>& out, int64_t item,
+              const std::atomic<bool>& cancel) {
+  const size_t begin = static_cast<size_t>(item * kRaysPerItem);
+  const size_t end = std::min(in.count, begin + kRaysPerItem);
+  RayPacket<Real> packet;
+  packet.tMin = static_cast<Real>(in.tMin);
+  packet.tMax = static_cast<Real>(in.tMax);
+  for (size_t first = begin; first < end; first += kPacketSize) {
+    packet.count = static_cast<int>(std::min<size_t>(kPacketSize, end - first));
+    for (int k = 0; k < packet.count; ++k) {
+      const double* o = in.origins + 3 * (first + k);
+      const double* d = in.directions + 3 * (first + k);
+      packet.ox[k] = static_cast<Real>(o[0]);
+      packet.oy[k] = static_cast<Real>(o[1]);
+      packet.oz[k] = static_cast<Real>(o[2]);
+      packet.dx[k] = static_cast<Real>(d[0]);
+      packet.dy[k] = static_cast<Real>(d[1]);
+      packet.dz[k] = static_cast<Real>(d[2]);
+    }
+    group.template intersect<M>(packet, &cancel);
+    if (cancel.load(std::memory_order_relaxed)) return;
+    for (int k = 0; k < packet.count; ++k) {
+      const size_t i = first + k;
+      const Hit<Real> hit = group.hit(packet, k);
+      out.t[i] = hit.t;
+      for (int c = 0; c < 3; ++c) out.normal[3 * i + c] = hit.normal[c];
+      out.objectId[i] = hit.objectId;
+      out.materialId[i] = hit.materialId;
+    }
+  }
+}
+
+template <typename Real, SphereMethod M>
+CastStats castWith(const Scene& scene, const CastInput& in, const CastOutput<Real>& out, JobControl& control,
+                   const std::function<void()>& poll) {
+  std::optional<Group<Real>> storage;
+  const Group<Real>& group = groupIn<Real>(scene, storage);
+  const int64_t items = (static_cast<int64_t>(in.count) + kRaysPerItem - 1) / kRaysPerItem;
+  const int threads = in.threads > 0 ? in.threads : defaultThreadCount();
+  runParallel(
+      items, threads, control, [&](int64_t item) { castItem<Real, M>(group, in, out, item, control.cancel); }, poll);
+  CastStats stats;
+  stats.intersectionTests = static_cast<int64_t>(in.count) * group.primitiveCount();
+  return stats;
+}
+
+}  // namespace
+
+template <typename Real>
+CastStats cast(const Scene& scene, const CastInput& input, const CastOutput<Real>& output, JobControl& control,
+               const std::function<void()>& poll) {
+  requireRange(input.tMin, input.tMax, "t_min", "t_max");
+  if (input.threads < 0) fail("threads must be >= 1, got " + std::to_string(input.threads));
+  const auto start = std::chrono::steady_clock::now();
+  CastStats stats;
+  switch (input.sphereMethod) {
+    case SphereMethod::Algebraic:
+      stats = castWith<Real, SphereMethod::Algebraic>(scene, input, output, control, poll);
+      break;
+    case SphereMethod::Geometric:
+      stats = castWith<Real, SphereMethod::Geometric>(scene, input, output, control, poll);
+      break;
+    case SphereMethod::Robust:
+      stats = castWith<Real, SphereMethod::Robust>(scene, input, output, control, poll);
+      break;
+  }
+  stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return stats;
+}
+
+template CastStats cast<float>(const Scene&, const CastInput&, const CastOutput<float>&, JobControl&,
+                               const std::function<void()>&);
+template CastStats cast<double>(const Scene&, const CastInput&, const CastOutput<double>&, JobControl&,
+                                const std::function<void()>&);
+
+}  // namespace durer

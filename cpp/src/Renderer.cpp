@@ -1,0 +1,255 @@
+#include "durer/Renderer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <limits>
+#include <optional>
+#include <vector>
+
+#include "durer/GroupIn.h"
+#include "durer/HotKernel.h"
+#include "durer/PixelSampler.h"
+#include "durer/Shading.h"
+#include "durer/Validate.h"
+
+namespace durer {
+
+void validate(const RenderSettings& s) {
+  if (s.width < 1) fail("width must be >= 1, got " + std::to_string(s.width));
+  if (s.height < 1) fail("height must be >= 1, got " + std::to_string(s.height));
+  if (s.samplesPerPixel < 1) fail("spp must be >= 1, got " + std::to_string(s.samplesPerPixel));
+  if (s.threads < 0) fail("threads must be >= 1, got " + std::to_string(s.threads));
+  if (s.passes == 0 || (s.passes & ~(kPassColor | kPassDepth | kPassNormal)) != 0) fail("passes: none requested");
+}
+
+namespace {
+
+constexpr int kTileSize = 8;  // 8x8 pixels = one packet of kPacketSize rays per sample
+static_assert(kTileSize * kTileSize == kPacketSize, "a tile is one packet");
+
+template <typename Real, SphereMethod M>
+class TileRenderer {
+ public:
+  TileRenderer(const Scene& scene, const Group<Real>& group, const CameraSpec& spec, const RenderSettings& settings,
+               const RenderTargets& targets, const std::atomic<bool>& cancel)
+      : m_group(group),
+        m_camera(spec, settings.width, settings.height),
+        m_shading(scene),
+        m_sampler(settings.samplesPerPixel, settings.seed),
+        m_settings(settings),
+        m_targets(targets),
+        m_cancel(cancel),
+        m_flat(scene, group),
+        m_needNormal(targets.normal != nullptr || (targets.color != nullptr && m_shading.lit())),
+        m_tilesX((settings.width + kTileSize - 1) / kTileSize) {}
+
+  int64_t tileCount() const {
+    return static_cast<int64_t>(m_tilesX) * ((m_settings.height + kTileSize - 1) / kTileSize);
+  }
+
+  // Renders one tile; returns the camera rays traced (0 if cancelled before the tile finished).
+  DURER_HOT_KERNEL int64_t render(int64_t tile) const {
+    const int x0 = static_cast<int>(tile % m_tilesX) * kTileSize;
+    const int y0 = static_cast<int>(tile / m_tilesX) * kTileSize;
+    const int w = std::min(kTileSize, m_settings.width - x0);
+    const int h = std::min(kTileSize, m_settings.height - y0);
+    const int count = w * h;
+    Accumulator acc;
+    acc.clear(count);
+    RayPacket<Real> packet;
+    alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
+    for (int s = 0; s < m_sampler.samplesPerPixel(); ++s) {
+      for (int row = 0, k = 0; row < h; ++row) {
+        for (int col = 0; col < w; ++col, ++k) {
+          const int x = x0 + col, y = y0 + row;
+          double u, v;
+          m_sampler.offset(static_cast<uint64_t>(y) * m_settings.width + x, s, u, v);
+          sampleX[k] = static_cast<Real>(x + u);
+          sampleY[k] = static_cast<Real>(y + v);
+        }
+      }
+      m_camera.generate(packet, sampleX, sampleY, count);
+      m_group.template intersect<M>(packet, &m_cancel);
+      if (m_cancel.load(std::memory_order_relaxed)) return 0;
+      accumulate(packet, acc);
+    }
+    write(acc, x0, y0, w, h);
+    return static_cast<int64_t>(count) * m_sampler.samplesPerPixel();
+  }
+
+ private:
+  // Per-pixel sums over the samples of a tile, structure-of-arrays.
+  struct Accumulator {
+    alignas(64) Real r[kPacketSize], g[kPacketSize], b[kPacketSize], a[kPacketSize];  // colour sums
+    alignas(64) Real depth[kPacketSize];                                          // nearest t
+    alignas(64) Real nx[kPacketSize], ny[kPacketSize], nz[kPacketSize];           // normal sums
+    void clear(int count) {
+      for (int k = 0; k < count; ++k) {
+        r[k] = g[k] = b[k] = a[k] = nx[k] = ny[k] = nz[k] = 0;
+        depth[k] = std::numeric_limits<Real>::infinity();
+      }
+    }
+  };
+
+  // Colour of every material without lights, the background last; material of each primitive.
+  struct FlatTable {
+    std::vector<Real> r, g, b, a;       // by material id; index materials: the background
+    std::vector<int32_t> primMaterial;  // by packed primitive index + 1; entry 0 (a miss): the background
+    FlatTable(const Scene& scene, const Group<Real>& group) {
+      for (const Material& m : scene.materials()) {
+        r.push_back(static_cast<Real>(m.diffuse.r));
+        g.push_back(static_cast<Real>(m.diffuse.g));
+        b.push_back(static_cast<Real>(m.diffuse.b));
+        a.push_back(1);
+      }
+      const Vec4d& bg = scene.background();
+      r.push_back(static_cast<Real>(bg.r));
+      g.push_back(static_cast<Real>(bg.g));
+      b.push_back(static_cast<Real>(bg.b));
+      a.push_back(static_cast<Real>(bg.a));
+      primMaterial.push_back(static_cast<int32_t>(scene.materials().size()));
+      const auto& sm = group.spheres().ids().materials();
+      const auto& pm = group.planes().ids().materials();
+      primMaterial.insert(primMaterial.end(), sm.begin(), sm.end());
+      primMaterial.insert(primMaterial.end(), pm.begin(), pm.end());
+    }
+  };
+
+  void accumulate(const RayPacket<Real>& packet, Accumulator& acc) const {
+    if (!m_needNormal) {
+      accumulateFlat(packet, acc);
+      return;
+    }
+    for (int k = 0; k < packet.count; ++k) {
+      if (packet.prim[k] == kNoPrimitive) {
+        addColor(acc, k, m_flat.r.back(), m_flat.g.back(), m_flat.b.back(), m_flat.a.back());
+        continue;
+      }
+      const Real t = packet.tHit[k];
+      acc.depth[k] = std::min(acc.depth[k], t);
+      const Hit<Real> hit = m_group.hit(packet, k);
+      acc.nx[k] += hit.normal.x;
+      acc.ny[k] += hit.normal.y;
+      acc.nz[k] += hit.normal.z;
+      if (m_targets.color) {
+        const Vec3<Real> point(packet.ox[k] + t * packet.dx[k], packet.oy[k] + t * packet.dy[k],
+                               packet.oz[k] + t * packet.dz[k]);
+        const Vec3<Real> rgb = m_shading.shade(hit.materialId, point, hit.normal);
+        addColor(acc, k, rgb.r, rgb.g, rgb.b, 1);
+      }
+    }
+  }
+
+  // Unlit colour and depth need no hit record: a branch-free table lookup per ray.
+  void accumulateFlat(const RayPacket<Real>& packet, Accumulator& acc) const {
+    const int32_t* materialOf = m_flat.primMaterial.data() + 1;  // materialOf[kNoPrimitive]: the background
+    const Real inf = std::numeric_limits<Real>::infinity();
+    for (int k = 0; k < packet.count; ++k) {
+      const int32_t prim = packet.prim[k];
+      const size_t m = static_cast<size_t>(materialOf[prim]);
+      addColor(acc, k, m_flat.r[m], m_flat.g[m], m_flat.b[m], m_flat.a[m]);
+      acc.depth[k] = std::min(acc.depth[k], prim != kNoPrimitive ? packet.tHit[k] : inf);
+    }
+  }
+
+  static void addColor(Accumulator& acc, int k, Real r, Real g, Real b, Real a) {
+    acc.r[k] += r;
+    acc.g[k] += g;
+    acc.b[k] += b;
+    acc.a[k] += a;
+  }
+
+  void write(const Accumulator& acc, int x0, int y0, int w, int h) const {
+    const Real invSpp = Real(1) / static_cast<Real>(m_sampler.samplesPerPixel());
+    const bool single = m_sampler.samplesPerPixel() == 1;
+    for (int row = 0; row < h; ++row) {
+      const size_t first = static_cast<size_t>(y0 + row) * m_settings.width + x0;
+      const int k0 = row * w;
+      if (m_targets.color) {
+        float* out = m_targets.color + 4 * first;
+        for (int col = 0; col < w; ++col) {
+          const int k = k0 + col;
+          out[4 * col + 0] = static_cast<float>(acc.r[k] * invSpp);
+          out[4 * col + 1] = static_cast<float>(acc.g[k] * invSpp);
+          out[4 * col + 2] = static_cast<float>(acc.b[k] * invSpp);
+          out[4 * col + 3] = static_cast<float>(acc.a[k] * invSpp);
+        }
+      }
+      if (m_targets.depth) {
+        float* out = m_targets.depth + first;
+        for (int col = 0; col < w; ++col) out[col] = static_cast<float>(acc.depth[k0 + col]);
+      }
+      if (m_targets.normal) {
+        float* out = m_targets.normal + 3 * first;
+        for (int col = 0; col < w; ++col) {
+          const int k = k0 + col;
+          // One sample's normal is unit already; a mean of several is renormalised (0 stays 0).
+          const Real length = single ? 1 : std::sqrt(acc.nx[k] * acc.nx[k] + acc.ny[k] * acc.ny[k] + acc.nz[k] * acc.nz[k]);
+          const Real scale = length > 0 ? 1 / length : 0;
+          out[3 * col + 0] = static_cast<float>(acc.nx[k] * scale);
+          out[3 * col + 1] = static_cast<float>(acc.ny[k] * scale);
+          out[3 * col + 2] = static_cast<float>(acc.nz[k] * scale);
+        }
+      }
+    }
+  }
+
+  const Group<Real>& m_group;
+  Camera<Real> m_camera;
+  Shading<Real> m_shading;
+  PixelSampler m_sampler;
+  const RenderSettings& m_settings;
+  RenderTargets m_targets;
+  const std::atomic<bool>& m_cancel;
+  FlatTable m_flat;
+  bool m_needNormal;
+  int m_tilesX;
+};
+
+template <typename Real, SphereMethod M>
+RenderStats renderWith(const Scene& scene, const CameraSpec& spec, const RenderSettings& settings,
+                       const RenderTargets& targets, JobControl& control, const std::function<void()>& poll) {
+  std::optional<Group<Real>> storage;
+  const Group<Real>& group = groupIn<Real>(scene, storage);
+  const TileRenderer<Real, M> tiles(scene, group, spec, settings, targets, control.cancel);
+  RenderStats stats;
+  stats.threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
+  std::atomic<int64_t> rays{0};
+  runParallel(
+      tiles.tileCount(), stats.threads, control,
+      [&](int64_t tile) { rays.fetch_add(tiles.render(tile), std::memory_order_relaxed); }, poll);
+  stats.cameraRays = rays.load();
+  stats.intersectionTests = stats.cameraRays * group.primitiveCount();
+  stats.cancelled = control.cancel.load();
+  return stats;
+}
+
+template <typename Real>
+RenderStats renderIn(const Scene& scene, const CameraSpec& spec, const RenderSettings& settings,
+                     const RenderTargets& targets, JobControl& control, const std::function<void()>& poll) {
+  switch (settings.sphereMethod) {
+    case SphereMethod::Algebraic:
+      return renderWith<Real, SphereMethod::Algebraic>(scene, spec, settings, targets, control, poll);
+    case SphereMethod::Geometric:
+      return renderWith<Real, SphereMethod::Geometric>(scene, spec, settings, targets, control, poll);
+    case SphereMethod::Robust:
+      break;
+  }
+  return renderWith<Real, SphereMethod::Robust>(scene, spec, settings, targets, control, poll);
+}
+
+}  // namespace
+
+RenderStats render(const Scene& scene, const CameraSpec& camera, const RenderSettings& settings,
+                   const RenderTargets& targets, JobControl& control, const std::function<void()>& poll) {
+  validate(camera);
+  validate(settings);
+  const auto start = std::chrono::steady_clock::now();
+  RenderStats stats = settings.precision == Precision::Float
+                          ? renderIn<float>(scene, camera, settings, targets, control, poll)
+                          : renderIn<double>(scene, camera, settings, targets, control, poll);
+  stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return stats;
+}
+
+}  // namespace durer

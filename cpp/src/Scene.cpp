@@ -1,0 +1,131 @@
+#include "durer/Scene.h"
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "durer/Validate.h"
+
+namespace durer {
+
+namespace {
+// Unit vector without overflow or underflow for any finite non-zero input.
+Vec3d safeNormalize(const Vec3d& v) {
+  const double largest = std::fmax(std::fabs(v.x), std::fmax(std::fabs(v.y), std::fabs(v.z)));
+  return glm::normalize(v / largest);
+}
+}  // namespace
+
+Scene::Scene() { m_materials.push_back(Material{}); }
+
+void Scene::requireMaterial(int32_t material, const char* field) const {
+  if (material < 0 || static_cast<size_t>(material) >= m_materials.size()) {
+    fail(std::string(field) + " " + std::to_string(material) + " is not a material id (the scene has " +
+         std::to_string(m_materials.size()) + " materials, ids 0.." + std::to_string(m_materials.size() - 1) + ")");
+  }
+}
+
+int32_t Scene::takeObjectIds(size_t count) {
+  if (count > static_cast<size_t>(std::numeric_limits<int32_t>::max() - m_objectCount)) {
+    fail("the scene cannot hold more than 2^31 - 1 objects");
+  }
+  const int32_t first = m_objectCount;
+  m_objectCount += static_cast<int32_t>(count);
+  return first;
+}
+
+int32_t Scene::addMaterial(const Material& material) {
+  requireNonNegativeColor(material.diffuse, "diffuse");
+  if (m_materials.size() >= static_cast<size_t>(std::numeric_limits<int32_t>::max())) fail("too many materials");
+  m_materials.push_back(material);
+  return static_cast<int32_t>(m_materials.size() - 1);
+}
+
+int32_t Scene::addSpheres(const double* centers, const double* radii, const int32_t* materials, size_t count,
+                          bool perSphere) {
+  // Validate everything before changing anything.
+  for (size_t i = 0; i < count; ++i) {
+    const Vec3d c(centers[3 * i], centers[3 * i + 1], centers[3 * i + 2]);
+    if (!(std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z))) {
+      requireFinite(c, "centers[" + std::to_string(i) + "]");
+    }
+    if (!(std::isfinite(radii[i]) && radii[i] > 0)) requirePositive(radii[i], "radii[" + std::to_string(i) + "]");
+    if (perSphere || i == 0) {
+      const int32_t m = materials[perSphere ? i : 0];
+      if (m < 0 || static_cast<size_t>(m) >= m_materials.size()) {
+        requireMaterial(m, perSphere ? ("material[" + std::to_string(i) + "]").c_str() : "material");
+      }
+    }
+  }
+  const int32_t first = takeObjectIds(count);
+  SphereSet<double>& spheres = m_group.spheres();
+  spheres.reserve(spheres.size() + count);
+  for (size_t i = 0; i < count; ++i) {
+    const Vec3d c(centers[3 * i], centers[3 * i + 1], centers[3 * i + 2]);
+    spheres.add({c, radii[i]}, materials[perSphere ? i : 0], first + static_cast<int32_t>(i));
+  }
+  return first;
+}
+
+int32_t Scene::addPlane(const Vec3d& normal, double offset, int32_t material, const PlaneBounds* bounds) {
+  requireNonZero(normal, "normal");
+  requireFinite(offset, "offset");
+  requireMaterial(material, "material");
+  // Keep n·p = offset true for the unit normal: offset scales with 1/|normal|.
+  const double largest = std::fmax(std::fabs(normal.x), std::fmax(std::fabs(normal.y), std::fabs(normal.z)));
+  const Vec3d scaled = normal / largest;
+  const Vec3d unit = scaled / glm::length(scaled);
+  const double unitOffset = offset / largest / glm::length(scaled);
+  requireFinite(unitOffset, "offset / |normal|");
+  Plane<double> plane{unit, unitOffset, false, Vec3d(0), Vec3d(0), Vec3d(0)};
+  if (bounds) {
+    requireFinite(bounds->corner, "bounds corner");
+    requireNonZero(bounds->edge1, "bounds edge1");
+    requireNonZero(bounds->edge2, "bounds edge2");
+    // A relative tolerance: bounds usually come from a quad whose plane was fitted in single precision.
+    constexpr double kTolerance = 1e-6;
+    const double scale = std::fmax(1.0, std::fmax(std::fabs(unitOffset), glm::length(bounds->corner)));
+    if (std::fabs(glm::dot(unit, bounds->corner) - unitOffset) > kTolerance * scale) {
+      fail("bounds corner is not on the plane (normal·corner must equal offset)");
+    }
+    const Vec3d e1 = safeNormalize(bounds->edge1), e2 = safeNormalize(bounds->edge2);
+    if (std::fabs(glm::dot(unit, e1)) > kTolerance) fail("bounds edge1 is not in the plane (normal·edge1 must be 0)");
+    if (std::fabs(glm::dot(unit, e2)) > kTolerance) fail("bounds edge2 is not in the plane (normal·edge2 must be 0)");
+    if (glm::length(glm::cross(e1, e2)) < kTolerance) fail("bounds edge1 and edge2 must not be parallel");
+    const Vec3d c1 = glm::cross(bounds->edge2, unit), c2 = glm::cross(unit, bounds->edge1);
+    plane.bounded = true;
+    plane.corner = bounds->corner;
+    plane.dual1 = c1 / glm::dot(c1, bounds->edge1);
+    plane.dual2 = c2 / glm::dot(c2, bounds->edge2);
+    requireFinite(plane.dual1, "bounds edge1 (too long or too short)");
+    requireFinite(plane.dual2, "bounds edge2 (too long or too short)");
+  }
+  const int32_t id = takeObjectIds(1);
+  m_group.planes().add(plane, material, id);
+  return id;
+}
+
+void Scene::addDirectionalLight(const Vec3d& direction, const Vec3d& color) {
+  requireNonZero(direction, "direction");
+  requireNonNegativeColor(color, "color");
+  m_directionalLights.push_back({safeNormalize(direction), color});
+}
+
+void Scene::addPointLight(const Vec3d& position, const Vec3d& color) {
+  requireFinite(position, "position");
+  requireNonNegativeColor(color, "color");
+  m_pointLights.push_back({position, color});
+}
+
+void Scene::setBackground(const Vec4d& rgba) {
+  requireNonNegativeColor(Vec3d(rgba), "background");
+  if (!(std::isfinite(rgba.w) && rgba.w >= 0 && rgba.w <= 1)) fail("background alpha must be in [0, 1]");
+  m_background = rgba;
+}
+
+void Scene::setAmbient(const Vec3d& rgb) {
+  requireNonNegativeColor(rgb, "ambient");
+  m_ambient = rgb;
+}
+
+}  // namespace durer

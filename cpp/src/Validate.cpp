@@ -1,0 +1,51 @@
+#include "durer/Validate.h"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace durer {
+
+namespace {
+std::string show(const Vec3d& v) {
+  std::ostringstream s;
+  s << "(" << v.x << ", " << v.y << ", " << v.z << ")";
+  return s.str();
+}
+bool isFinite(const Vec3d& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+}  // namespace
+
+void fail(const std::string& message) { throw std::invalid_argument(message); }
+
+void requireFinite(double value, const std::string& field) {
+  if (!std::isfinite(value)) fail(field + " must be finite, got " + std::to_string(value));
+}
+
+void requireFinite(const Vec3d& value, const std::string& field) {
+  if (!isFinite(value)) fail(field + " must be finite, got " + show(value));
+}
+
+void requirePositive(double value, const std::string& field) {
+  if (!(std::isfinite(value) && value > 0)) fail(field + " must be finite and > 0, got " + std::to_string(value));
+}
+
+void requireNonZero(const Vec3d& value, const std::string& field) {
+  requireFinite(value, field);
+  // The squared length can underflow to 0 (or overflow) for a usable vector; scale first.
+  const double largest = std::fmax(std::fabs(value.x), std::fmax(std::fabs(value.y), std::fabs(value.z)));
+  if (largest == 0) fail(field + " must not be the zero vector");
+}
+
+void requireNonNegativeColor(const Vec3d& value, const std::string& field) {
+  requireFinite(value, field);
+  if (value.x < 0 || value.y < 0 || value.z < 0) fail(field + " must be >= 0 in each channel, got " + show(value));
+}
+
+void requireRange(double tMin, double tMax, const std::string& minField, const std::string& maxField) {
+  if (std::isnan(tMin)) fail(minField + " must not be NaN");
+  if (std::isnan(tMax)) fail(maxField + " must not be NaN");
+  if (!(tMin < tMax)) fail(minField + " must be < " + maxField + ", got " + std::to_string(tMin) + " and " +
+                           std::to_string(tMax));
+}
+
+}  // namespace durer

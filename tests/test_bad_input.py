@@ -1,0 +1,131 @@
+"""Bad input raises ValueError/TypeError naming the argument, and changes nothing."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import durer
+
+NAN, INF = math.nan, math.inf
+ORTHO = dict(center=(0, 0, 5), direction=(0, 0, -1), up=(0, 1, 0), size=2.0)
+PERSP = dict(center=(0, 0, 5), direction=(0, 0, -1), up=(0, 1, 0), fov_degrees=45.0)
+
+
+def scene() -> durer.Scene:
+    s = durer.Scene()
+    s.add_spheres([[0, 0, 0]], [1.0])
+    return s
+
+
+def camera() -> durer.OrthographicCamera:
+    return durer.OrthographicCamera(**ORTHO)
+
+
+CASES = [
+    # (description, call, exception, message fragment)
+    ("NaN centre", lambda: scene().add_spheres([[0, NAN, 0]], [1.0]), ValueError, "centers"),
+    ("inf centre", lambda: scene().add_spheres([[INF, 0, 0]], [1.0]), ValueError, "centers"),
+    ("zero radius", lambda: scene().add_spheres([[0, 0, 0]], [0.0]), ValueError, "radii"),
+    ("negative radius", lambda: scene().add_spheres([[0, 0, 0], [1, 1, 1]], [1.0, -2.0]), ValueError, "radii"),
+    ("NaN radius", lambda: scene().add_spheres([[0, 0, 0]], NAN), ValueError, "radii"),
+    ("centres shape", lambda: scene().add_spheres([[0, 0]], [1.0]), ValueError, "centers"),
+    ("radii shape", lambda: scene().add_spheres([[0, 0, 0]], [1.0, 2.0]), ValueError, "radii"),
+    ("centres dtype", lambda: scene().add_spheres([["a", "b", "c"]], [1.0]), TypeError, "centers"),
+    ("radii dtype", lambda: scene().add_spheres([[0, 0, 0]], ["x"]), TypeError, "radii"),
+    ("unknown material", lambda: scene().add_spheres([[0, 0, 0]], [1.0], material=7), ValueError, "material"),
+    ("unknown material in array", lambda: scene().add_spheres([[0, 0, 0], [2, 0, 0]], 1.0, material=np.array([0, 9])),
+     ValueError, "material"),
+    ("float material", lambda: scene().add_spheres([[0, 0, 0]], [1.0], material=1.5), TypeError, "material"),
+    ("material count", lambda: scene().add_spheres([[0, 0, 0]], [1.0], material=np.array([0, 0])), ValueError, "material"),
+    ("zero normal", lambda: scene().add_plane((0, 0, 0), 1.0), ValueError, "normal"),
+    ("NaN normal", lambda: scene().add_plane((0, NAN, 1), 1.0), ValueError, "normal"),
+    ("inf offset", lambda: scene().add_plane((0, 1, 0), INF), ValueError, "offset"),
+    ("plane material", lambda: scene().add_plane((0, 1, 0), 0.0, material=3), ValueError, "material"),
+    ("bounds off the plane", lambda: scene().add_plane((0, 1, 0), 0.0, bounds=((0, 1, 0), (1, 0, 0), (0, 0, 1))),
+     ValueError, "corner"),
+    ("bounds edge out of plane", lambda: scene().add_plane((0, 1, 0), 0.0, bounds=((0, 0, 0), (1, 1, 0), (0, 0, 1))),
+     ValueError, "edge1"),
+    ("parallel bounds edges", lambda: scene().add_plane((0, 1, 0), 0.0, bounds=((0, 0, 0), (1, 0, 0), (2, 0, 0))),
+     ValueError, "parallel"),
+    ("zero bounds edge", lambda: scene().add_plane((0, 1, 0), 0.0, bounds=((0, 0, 0), (0, 0, 0), (0, 0, 1))),
+     ValueError, "edge1"),
+    ("negative diffuse", lambda: scene().add_material(diffuse=(1, -0.1, 0)), ValueError, "diffuse"),
+    ("NaN diffuse", lambda: scene().add_material(diffuse=(1, NAN, 0)), ValueError, "diffuse"),
+    ("diffuse shape", lambda: scene().add_material(diffuse=(1, 0)), ValueError, "diffuse"),
+    ("zero light direction", lambda: scene().add_directional_light((0, 0, 0), (1, 1, 1)), ValueError, "direction"),
+    ("NaN light colour", lambda: scene().add_directional_light((0, 0, -1), (1, NAN, 1)), ValueError, "color"),
+    ("inf light position", lambda: scene().add_point_light((0, INF, 0), (1, 1, 1)), ValueError, "position"),
+    ("background alpha", lambda: setattr(scene(), "background", (0, 0, 0, 2)), ValueError, "background"),
+    ("background shape", lambda: setattr(scene(), "background", (0, 0)), ValueError, "background"),
+    ("NaN ambient", lambda: setattr(scene(), "ambient", (NAN, 0, 0)), ValueError, "ambient"),
+    # cameras
+    ("NaN camera centre", lambda: durer.OrthographicCamera(**{**ORTHO, "center": (NAN, 0, 0)}), ValueError, "center"),
+    ("zero direction", lambda: durer.OrthographicCamera(**{**ORTHO, "direction": (0, 0, 0)}), ValueError, "direction"),
+    ("zero up", lambda: durer.PerspectiveCamera(**{**PERSP, "up": (0, 0, 0)}), ValueError, "up"),
+    ("up parallel to direction", lambda: durer.OrthographicCamera(**{**ORTHO, "up": (0, 0, 3)}), ValueError, "parallel"),
+    ("up antiparallel", lambda: durer.PerspectiveCamera(**{**PERSP, "up": (0, 0, 1)}), ValueError, "parallel"),
+    ("zero size", lambda: durer.OrthographicCamera(**{**ORTHO, "size": 0.0}), ValueError, "size"),
+    ("negative size", lambda: durer.OrthographicCamera(**{**ORTHO, "size": -1.0}), ValueError, "size"),
+    ("inf size", lambda: durer.OrthographicCamera(**{**ORTHO, "size": INF}), ValueError, "size"),
+    ("fov 0", lambda: durer.PerspectiveCamera(**{**PERSP, "fov_degrees": 0.0}), ValueError, "fov_degrees"),
+    ("fov 180", lambda: durer.PerspectiveCamera(**{**PERSP, "fov_degrees": 180.0}), ValueError, "fov_degrees"),
+    ("fov NaN", lambda: durer.PerspectiveCamera(**{**PERSP, "fov_degrees": NAN}), ValueError, "fov_degrees"),
+    ("fov string", lambda: durer.PerspectiveCamera(**{**PERSP, "fov_degrees": "wide"}), TypeError, "fov_degrees"),
+    ("unknown fit", lambda: durer.PerspectiveCamera(**PERSP, fit="diagonal"), ValueError, "fit"),
+    ("NaN shift", lambda: durer.PerspectiveCamera(**PERSP, shift=(NAN, 0)), ValueError, "shift"),
+    ("empty t range", lambda: durer.PerspectiveCamera(**PERSP, t_min=5.0, t_max=5.0), ValueError, "t_min"),
+    ("NaN t_max", lambda: durer.OrthographicCamera(**ORTHO, t_max=NAN), ValueError, "t_max"),
+    ("centre shape", lambda: durer.OrthographicCamera(**{**ORTHO, "center": (0, 0)}), ValueError, "center"),
+    # render
+    ("width 0", lambda: durer.render(scene(), camera(), 0, 10), ValueError, "width"),
+    ("height -1", lambda: durer.render(scene(), camera(), 10, -1), ValueError, "height"),
+    ("float width", lambda: durer.render(scene(), camera(), 10.5, 10), TypeError, "width"),
+    ("spp 0", lambda: durer.render(scene(), camera(), 4, 4, spp=0), ValueError, "spp"),
+    ("negative seed", lambda: durer.render(scene(), camera(), 4, 4, seed=-1), ValueError, "seed"),
+    ("unknown precision", lambda: durer.render(scene(), camera(), 4, 4, precision="half"), ValueError, "precision"),
+    ("unknown method", lambda: durer.render(scene(), camera(), 4, 4, sphere_method="magic"), ValueError,
+     "sphere_method"),
+    ("unknown pass", lambda: durer.render(scene(), camera(), 4, 4, passes=("color", "albedo")), ValueError, "passes"),
+    ("no passes", lambda: durer.render(scene(), camera(), 4, 4, passes=()), ValueError, "passes"),
+    ("threads 0", lambda: durer.render(scene(), camera(), 4, 4, threads=0), ValueError, "threads"),
+    ("not a scene", lambda: durer.render("scene", camera(), 4, 4), TypeError, "scene"),
+    ("not a camera", lambda: durer.render(scene(), object(), 4, 4), TypeError, "camera"),
+    ("progress not callable", lambda: durer.render(scene(), camera(), 4, 4, progress=3), TypeError, "progress"),
+    ("cancel not callable", lambda: durer.render(scene(), camera(), 4, 4, cancel="yes"), TypeError, "cancel"),
+    # cast
+    ("NaN origin", lambda: durer.cast(scene(), [[0, NAN, 0]], [[0, 0, 1]]), ValueError, "origins"),
+    ("inf direction", lambda: durer.cast(scene(), [[0, 0, 0]], [[0, -INF, 1]]), ValueError, "directions"),
+    ("zero direction ray", lambda: durer.cast(scene(), [[0, 0, 0], [1, 1, 1]], [[0, 0, 1], [0, 0, 0]]), ValueError,
+     "directions\\[1\\]"),
+    ("origins shape", lambda: durer.cast(scene(), [0, 0, 0], [[0, 0, 1]]), ValueError, "origins"),
+    ("directions count", lambda: durer.cast(scene(), [[0, 0, 0]], [[0, 0, 1], [0, 1, 0]]), ValueError, "directions"),
+    ("cast precision", lambda: durer.cast(scene(), [[0, 0, 0]], [[0, 0, 1]], precision="quad"), ValueError, "precision"),
+    ("cast t range", lambda: durer.cast(scene(), [[0, 0, 0]], [[0, 0, 1]], t_min=2.0, t_max=1.0), ValueError, "t_min"),
+    ("cast t_min NaN", lambda: durer.cast(scene(), [[0, 0, 0]], [[0, 0, 1]], t_min=NAN), ValueError, "t_min"),
+    ("cast complex", lambda: durer.cast(scene(), np.zeros((1, 3), complex), [[0, 0, 1]]), TypeError, "origins"),
+]
+
+
+@pytest.mark.parametrize(("what", "call", "error", "field"), CASES, ids=[c[0] for c in CASES])
+def test_bad_input_is_rejected_naming_the_field(what, call, error, field):
+    with pytest.raises(error, match=field):
+        call()
+
+
+def test_a_rejected_add_changes_nothing():
+    s = scene()
+    with pytest.raises(ValueError):
+        s.add_spheres([[0, 0, 0], [1, 1, 1], [2, 2, 2]], [1.0, 1.0, -1.0])
+    with pytest.raises(ValueError):
+        s.add_plane((0, 1, 0), 0.0, bounds=((0, 5, 0), (1, 0, 0), (0, 0, 1)))
+    assert (s.sphere_count, s.plane_count, s.object_count) == (1, 0, 1)
+    assert s.add_spheres([[3, 3, 3]], 1.0).tolist() == [1]  # ids continue where they were
+
+
+def test_nearly_parallel_up_is_accepted_and_orthonormalised():
+    cam = durer.OrthographicCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1e-6, 1), size=2)
+    _, d = cam.rays(2, 2)
+    np.testing.assert_allclose(d[0, 0], (0, 0, -1))

@@ -1,0 +1,28 @@
+"""The package imports without Blender and ships its typing information."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import durer
+
+
+def test_import_without_bpy():
+    # bpy = None in sys.modules makes any `import bpy` fail, as on a machine without Blender.
+    code = "import sys; sys.modules['bpy'] = None; import durer; print(durer.Scene().material_count)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "1"
+
+
+def test_typing_files_are_shipped():
+    package = Path(durer.__file__).parent
+    assert (package / "py.typed").exists()
+    assert (package / "_core.pyi").exists()
+
+
+def test_public_api():
+    for name in ("Scene", "OrthographicCamera", "PerspectiveCamera", "render", "cast", "RenderResult",
+                 "CastResult", "RenderCancelled", "depth_to_gray", "normal_to_rgb", "save_image"):
+        assert name in durer.__all__ and getattr(durer, name).__doc__, name

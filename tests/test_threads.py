@@ -1,0 +1,105 @@
+"""Progress, cancel and the GIL: long renders behave like a good citizen of the Python process."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import durer
+
+
+def heavy_scene(n: int = 20000) -> tuple[durer.Scene, durer.OrthographicCamera]:
+    """No acceleration structure yet: every ray tests every sphere, so this takes seconds."""
+    rng = np.random.default_rng(1)
+    scene = durer.Scene()
+    scene.add_spheres(rng.uniform(-5, 5, (n, 3)), rng.uniform(0.01, 0.05, n))
+    return scene, durer.OrthographicCamera((0, 0, 10), (0, 0, -1), (0, 1, 0), 10.0)
+
+
+def test_progress_is_reported_in_order_and_ends_at_one():
+    scene, camera = heavy_scene(3000)
+    fractions: list[float] = []
+    durer.render(scene, camera, 128, 128, progress=fractions.append)
+    assert len(fractions) >= 2
+    assert fractions == sorted(fractions)
+    assert fractions[-1] == 1.0 and all(0 <= f <= 1 for f in fractions)
+
+
+@pytest.mark.parametrize("kind", ["callable", "event"])
+def test_cancel_stops_promptly_and_says_so(kind):
+    scene, camera = heavy_scene()
+    event = threading.Event()
+    cancelled_at: list[float] = []
+
+    def cancel_later():
+        time.sleep(0.3)
+        cancelled_at.append(time.perf_counter())
+        event.set()
+
+    timer = threading.Thread(target=cancel_later)
+    timer.start()
+    cancel = event if kind == "event" else event.is_set
+    with pytest.raises(durer.RenderCancelled) as info:
+        durer.render(scene, camera, 400, 400, cancel=cancel)
+    stopped_at = time.perf_counter()
+    timer.join()
+    # The contract is 0.1 s; the bound leaves room for a loaded 2-core CI machine.
+    assert stopped_at - cancelled_at[0] < 0.25
+    partial = info.value.result
+    assert partial.stats["cancelled"] is True
+    assert 0 < partial.stats["rays"] < 400 * 400
+    assert partial.color.shape == (400, 400, 4)
+    assert "cancelled" in str(info.value)
+
+
+def test_cancel_before_start_renders_nothing():
+    scene, camera = heavy_scene(100)
+    with pytest.raises(durer.RenderCancelled) as info:
+        durer.render(scene, camera, 64, 64, cancel=lambda: True)
+    assert info.value.result.stats["rays"] < 64 * 64
+
+
+def test_a_python_thread_runs_while_rendering():
+    scene, camera = heavy_scene()
+    ticks = 0
+    stop = threading.Event()
+
+    def count():
+        nonlocal ticks
+        while not stop.is_set():
+            ticks += 1
+            time.sleep(0.001)
+
+    counter = threading.Thread(target=count)
+    counter.start()
+    start_ticks = ticks
+    result = durer.render(scene, camera, 160, 160, threads=1)
+    during = ticks - start_ticks
+    stop.set()
+    counter.join()
+    seconds = result.stats["milliseconds"] / 1000
+    assert seconds > 0.2
+    assert during >= 0.3 * seconds / 0.002  # the counter thread kept running (~1 tick per 1-2 ms)
+
+
+def test_exceptions_in_callbacks_propagate_and_stop_the_render():
+    scene, camera = heavy_scene(3000)
+
+    def broken(fraction: float) -> None:
+        raise KeyError("from progress")
+
+    with pytest.raises(KeyError, match="from progress"):
+        durer.render(scene, camera, 256, 256, progress=broken)
+    # the engine is still usable afterwards
+    assert durer.render(scene, camera, 8, 8).stats["rays"] == 64
+
+
+def test_cast_releases_the_gil_and_can_be_cancelled():
+    scene, _ = heavy_scene()
+    rng = np.random.default_rng(2)
+    origins = rng.uniform(-5, 5, (200000, 3))
+    with pytest.raises(RuntimeError, match="cancelled"):
+        durer.cast(scene, origins, rng.normal(size=(200000, 3)), cancel=lambda: True)
