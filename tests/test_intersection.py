@@ -19,7 +19,6 @@ from conftest import cast_one, tolerance, unit_sphere_scene
         ((0, 0, 5), (0, 0, -0.25), 16.0, (0, 0, 1)),
         ((0, 0, 0.5), (0, 0, -1), 1.5, (0, 0, -1)),       # origin inside: the far root, outward normal
         ((0, 0, 0), (1, 0, 0), 1.0, (1, 0, 0)),           # from the centre
-        ((1, 0, 5), (0, 0, -1), 5.0, (1, 0, 0)),          # tangent: a hit with a double root
         ((3, 4, 12), (-3, -4, -12), 1 - 1 / 13, (3 / 13, 4 / 13, 12 / 13)),  # oblique, off-axis
         ((0.6, 0, 5), (0, 0, -1), 5 - 0.8, (0.6, 0, 0.8)),
     ],
@@ -46,6 +45,18 @@ def test_sphere_misses(origin, direction, method, precision):
     assert math.isinf(hit.t[0]) and hit.t[0] > 0
     assert hit.object_id[0] == -1 and hit.material_id[0] == -1
     np.testing.assert_array_equal(hit.normal[0], 0)
+
+
+def test_exact_tangent(method, precision):
+    # The double root t = 5. The lecture's formulas see it; the robust method reports a hit only
+    # where the discriminant exceeds its rounding-error bound, so an exact graze is a miss.
+    hit = cast_one(unit_sphere_scene(), (1, 0, 5), (0, 0, -1), sphere_method=method, precision=precision)
+    if method == "robust":
+        assert hit.object_id[0] == -1 and math.isinf(hit.t[0])
+    else:
+        assert hit.object_id[0] == 0 and hit.t[0] == pytest.approx(5.0)
+    inside = cast_one(unit_sphere_scene(), (1 - 1e-3, 0, 5), (0, 0, -1), sphere_method=method, precision=precision)
+    assert inside.object_id[0] == 0 and inside.t[0] == pytest.approx(5 - math.sqrt(1 - (1 - 1e-3) ** 2), rel=1e-4)
 
 
 def test_sphere_behind_is_hit_with_negative_t_min(method):

@@ -77,7 +77,7 @@ int32_t Scene::addPlane(const Vec3d& normal, double offset, int32_t material, co
   const Vec3d unit = scaled / glm::length(scaled);
   const double unitOffset = offset / largest / glm::length(scaled);
   requireFinite(unitOffset, "offset / |normal|");
-  Plane<double> plane{unit, unitOffset, false, Vec3d(0), Vec3d(0), Vec3d(0)};
+  Plane<double> plane{unit, unitOffset, unitOffset * unit, false, Vec3d(0), Vec3d(0), Vec3d(0)};
   if (bounds) {
     requireFinite(bounds->corner, "bounds corner");
     requireNonZero(bounds->edge1, "bounds edge1");
@@ -94,7 +94,7 @@ int32_t Scene::addPlane(const Vec3d& normal, double offset, int32_t material, co
     if (glm::length(glm::cross(e1, e2)) < kTolerance) fail("bounds edge1 and edge2 must not be parallel");
     const Vec3d c1 = glm::cross(bounds->edge2, unit), c2 = glm::cross(unit, bounds->edge1);
     plane.bounded = true;
-    plane.corner = bounds->corner;
+    plane.corner = plane.point = bounds->corner;
     plane.dual1 = c1 / glm::dot(c1, bounds->edge1);
     plane.dual2 = c2 / glm::dot(c2, bounds->edge2);
     requireFinite(plane.dual1, "bounds edge1 (too long or too short)");

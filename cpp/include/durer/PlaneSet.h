@@ -11,12 +11,15 @@ namespace durer {
 
 // Points p with normal·p = offset; optionally bounded to the parallelogram corner + a·edge1 + b·edge2,
 // a, b in [0, 1]. The bounded test uses the dual basis: a = (p - corner)·dual1, b = (p - corner)·dual2.
+// Rays meet it at t = normal·(point - o) / normal·d: measuring from a point of the plane rather than
+// subtracting normal·o from the offset keeps the digits when o and the plane are both far from 0.
 template <typename Real>
 struct Plane {
   Vec3<Real> normal;  // unit, world space; the shading normal as given (not flipped toward the ray)
   Real offset;        // normal·p = offset
+  Vec3<Real> point;   // a point of the plane: the corner if bounded, else offset·normal
   bool bounded;
-  Vec3<Real> corner;  // bounded only: a point of the plane
+  Vec3<Real> corner;  // bounded only: the parallelogram's corner
   Vec3<Real> dual1;   // bounded only: in the plane, dual1·edge1 = 1, dual1·edge2 = 0
   Vec3<Real> dual2;   // bounded only: in the plane, dual2·edge1 = 0, dual2·edge2 = 1
 };
@@ -29,7 +32,8 @@ class PlaneSet {
   explicit PlaneSet(const PlaneSet<Other>& other) {
     for (size_t i = 0; i < other.size(); ++i) {
       const auto& p = other.plane(i);
-      m_planes.push_back({toReal<Real>(p.normal), static_cast<Real>(p.offset), p.bounded, toReal<Real>(p.corner),
+      m_planes.push_back({toReal<Real>(p.normal), static_cast<Real>(p.offset), toReal<Real>(p.point), p.bounded,
+                          toReal<Real>(p.corner),
                           toReal<Real>(p.dual1), toReal<Real>(p.dual2)});
     }
     m_ids = other.ids();
@@ -82,7 +86,8 @@ class PlaneSet {
     const Vec3<Real> nrm = pl.normal;
     for (int k = 0; k < n; ++k) {
       const Real denominator = nrm.x * dx[k] + nrm.y * dy[k] + nrm.z * dz[k];
-      const Real t = (pl.offset - (nrm.x * ox[k] + nrm.y * oy[k] + nrm.z * oz[k])) / denominator;
+      const Real t = (nrm.x * (pl.point.x - ox[k]) + nrm.y * (pl.point.y - oy[k]) + nrm.z * (pl.point.z - oz[k])) /
+                     denominator;
       bool closer = (t >= tMin) & (t < tHit[k]);
       if constexpr (Bounded) {
         const Real qx = ox[k] + t * dx[k] - pl.corner.x;

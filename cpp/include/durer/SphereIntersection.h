@@ -1,6 +1,7 @@
 #pragma once
 // The three ray/sphere formulas, written on scalars so that the loops over a packet vectorise.
-// Inputs: f = origin - centre, d = ray direction (any non-zero length), r = radius.
+// Inputs: f = origin - centre, d = ray direction (any non-zero length), r = radius, and the
+// per-ray terms of d (sphereRayTerms).
 // Output: both roots in units of d, near <= far; NaN roots mean a miss (a NaN never compares as a hit).
 #include <cmath>
 #include <limits>
@@ -24,19 +25,71 @@ inline Real firstRootFrom(SphereRoots<Real> roots, Real tMin) {
 // Per-ray quantities shared by every sphere, computed once per packet.
 template <typename Real>
 struct SphereRayTerms {
-  Real invLength;    // 1/|d| (geometric)
-  Real invLengthSq;  // 1/(d·d) (algebraic, robust)
+  Real invLength;  // geometric: 1/|d|
+  Real lengthSq;   // algebraic: d·d, the lecture's a
+  Real sx, sy, sz; // robust: s = d·scale, exactly (scale is a power of two), with |s| in [1, 2·sqrt(3))
+  Real a, invA;    // robust: s·s and 1/(s·s)
+  Real scale;      // robust: t along d = t along s · scale; NaN if d is 0 or not finite (the ray misses)
 };
+
+template <SphereMethod M, typename Real>
+inline SphereRayTerms<Real> sphereRayTerms(Real dx, Real dy, Real dz) {
+  SphereRayTerms<Real> terms{};
+  if constexpr (M == SphereMethod::Robust) {
+    const Real largest = std::fmax(std::fabs(dx), std::fmax(std::fabs(dy), std::fabs(dz)));
+    const bool usable = largest > 0 && largest <= std::numeric_limits<Real>::max();
+    // A power-of-two scale changes exponents only: s is d exactly, and no square over- or underflows.
+    const Real scale = usable ? std::ldexp(Real(1), -std::ilogb(largest)) : std::numeric_limits<Real>::quiet_NaN();
+    terms.sx = dx * scale;
+    terms.sy = dy * scale;
+    terms.sz = dz * scale;
+    terms.a = terms.sx * terms.sx + terms.sy * terms.sy + terms.sz * terms.sz;
+    terms.invA = Real(1) / terms.a;
+    terms.scale = scale;
+  } else {
+    terms.lengthSq = dx * dx + dy * dy + dz * dz;
+    terms.invLength = Real(1) / std::sqrt(terms.lengthSq);
+  }
+  return terms;
+}
+
+// a·b - c·d with one rounding error instead of a catastrophic cancellation (Kahan; pbrt-v4's
+// DifferenceOfProducts): the fma recovers the rounding error of c·d exactly.
+template <typename Real>
+inline Real differenceOfProducts(Real a, Real b, Real c, Real d) {
+  const Real cd = c * d;
+  const Real error = std::fma(-c, d, cd);
+  return std::fma(a, b, -cd) + error;
+}
+
+// Squared distance from the centre to the ray's line, |f × s|² / (s·s): each component of the cross
+// product nearly exact, so it keeps its digits when |f| is many orders above the radius.
+template <typename Real>
+inline Real lineDistanceSq(Real fx, Real fy, Real fz, const SphereRayTerms<Real>& t) {
+  const Real cx = differenceOfProducts(fy, t.sz, fz, t.sy);
+  const Real cy = differenceOfProducts(fz, t.sx, fx, t.sz);
+  const Real cz = differenceOfProducts(fx, t.sy, fy, t.sx);
+  return (cx * cx + cy * cy + cz * cz) * t.invA;
+}
+
+// The robust method reports a hit only where r² - lineDistanceSq exceeds this multiple of
+// epsilon·(r² + lineDistanceSq), a bound on its rounding error (docs/numerics.md): rays that graze
+// within rounding of the tangent miss rather than risk a false hit.
+constexpr int kGrazingBound = 8;
+
+template <typename Real>
+inline bool robustMeets(Real r2, Real lineDistance2) {
+  return r2 - lineDistance2 > kGrazingBound * std::numeric_limits<Real>::epsilon() * (r2 + lineDistance2);
+}
 
 template <typename Real>
 inline SphereRoots<Real> sphereAlgebraic(Real fx, Real fy, Real fz, Real dx, Real dy, Real dz,
                                          SphereRayTerms<Real> terms, Real r) {
+  const Real a = terms.lengthSq;
   const Real b = 2 * (fx * dx + fy * dy + fz * dz);
   const Real c = fx * fx + fy * fy + fz * fz - r * r;
-  const Real discriminant = b * b - 4 * c / terms.invLengthSq;
-  const Real s = std::sqrt(discriminant);
-  const Real halfInvA = Real(0.5) * terms.invLengthSq;
-  return {(-b - s) * halfInvA, (-b + s) * halfInvA};
+  const Real s = std::sqrt(b * b - 4 * a * c);
+  return {(-b - s) / (2 * a), (-b + s) / (2 * a)};
 }
 
 // tMin >= 0 enables the lecture's early rejection (origin outside, centre behind the origin).
@@ -55,20 +108,22 @@ inline SphereRoots<Real> sphereGeometric(Real fx, Real fy, Real fz, Real dx, Rea
   return {(tp - tq) * invLength, (tp + tq) * invLength};
 }
 
+// With s the exactly scaled direction: b = f·s, the discriminant a·(r² - |f × s|²/a) with no
+// b² - ac cancellation (Ray Tracing Gems ch. 7), the root pair q/a and c/q with q of the sign of -b
+// (no -b ± sqrt cancellation), and c = (|f| - r)(|f| + r), accurate when the origin is near the
+// surface. Rays grazing within rounding miss (robustMeets).
 template <typename Real>
-inline SphereRoots<Real> sphereRobust(Real fx, Real fy, Real fz, Real dx, Real dy, Real dz,
-                                      SphereRayTerms<Real> terms, Real r) {
-  const Real invA = terms.invLengthSq;
-  const Real b = fx * dx + fy * dy + fz * dz;  // half the lecture's b
-  // l: from the centre to the ray's closest point; r² - |l|² avoids the cancellation in b² - ac.
-  const Real along = b * invA;
-  const Real lx = fx - along * dx, ly = fy - along * dy, lz = fz - along * dz;
-  const Real discriminant = (r * r - (lx * lx + ly * ly + lz * lz)) / invA;
-  const Real c = fx * fx + fy * fy + fz * fz - r * r;
-  // q has the sign of -b, so -b and the square root never cancel; the other root is c/q (Vieta).
-  const Real q = -(b + std::copysign(std::sqrt(discriminant), b));
-  const Real t0 = q * invA;
-  const Real t1 = c / q;
+inline SphereRoots<Real> sphereRobust(Real fx, Real fy, Real fz, const SphereRayTerms<Real>& t, Real r) {
+  const Real r2 = r * r;
+  const Real lineDistance2 = lineDistanceSq(fx, fy, fz, t);
+  const Real nan = std::numeric_limits<Real>::quiet_NaN();
+  const Real root = robustMeets(r2, lineDistance2) ? std::sqrt(t.a * (r2 - lineDistance2)) : nan;
+  const Real b = fx * t.sx + fy * t.sy + fz * t.sz;
+  const Real q = -(b + std::copysign(root, b));
+  const Real distance = std::sqrt(fx * fx + fy * fy + fz * fz);
+  const Real c = (distance - r) * (distance + r);
+  const Real t0 = q * t.invA * t.scale;
+  const Real t1 = c / q * t.scale;
   const bool ordered = t0 <= t1;
   return {ordered ? t0 : t1, ordered ? t1 : t0};
 }
@@ -81,7 +136,7 @@ inline SphereRoots<Real> sphereRoots(Real fx, Real fy, Real fz, Real dx, Real dy
   } else if constexpr (M == SphereMethod::Geometric) {
     return sphereGeometric(fx, fy, fz, dx, dy, dz, terms, r, tMin);
   } else {
-    return sphereRobust(fx, fy, fz, dx, dy, dz, terms, r);
+    return sphereRobust(fx, fy, fz, terms, r);
   }
 }
 

@@ -53,11 +53,7 @@ class SphereSet {
     const int n = packet.count;
     const Real tMin = packet.tMin;
     alignas(64) SphereRayTerms<Real> terms[kPacketSize];
-    for (int k = 0; k < n; ++k) {
-      const Real lengthSq = packet.dx[k] * packet.dx[k] + packet.dy[k] * packet.dy[k] + packet.dz[k] * packet.dz[k];
-      terms[k].invLengthSq = Real(1) / lengthSq;
-      if constexpr (M == SphereMethod::Geometric) terms[k].invLength = Real(1) / std::sqrt(lengthSq);
-    }
+    for (int k = 0; k < n; ++k) terms[k] = sphereRayTerms<M>(packet.dx[k], packet.dy[k], packet.dz[k]);
     const Real* __restrict ox = packet.ox;
     const Real* __restrict oy = packet.oy;
     const Real* __restrict oz = packet.oz;
@@ -90,7 +86,7 @@ class SphereSet {
     }
   }
 
-  // Whether any ray's line passes within r of the centre (the robust method's discriminant >= 0).
+  // Whether the robust test can find a hit for any ray (the same decision, robustMeets).
   // Most spheres miss most packets; this skips their square roots and divisions.
   static bool anyRayMeets(const RayPacket<Real>& packet, const SphereRayTerms<Real>* terms, const Vec3<Real>& c,
                           Real r) {
@@ -98,9 +94,7 @@ class SphereSet {
     const Real r2 = r * r;
     for (int k = 0; k < packet.count; ++k) {
       const Real fx = packet.ox[k] - c.x, fy = packet.oy[k] - c.y, fz = packet.oz[k] - c.z;
-      const Real along = (fx * packet.dx[k] + fy * packet.dy[k] + fz * packet.dz[k]) * terms[k].invLengthSq;
-      const Real lx = fx - along * packet.dx[k], ly = fy - along * packet.dy[k], lz = fz - along * packet.dz[k];
-      meeting += r2 - (lx * lx + ly * ly + lz * lz) >= 0 ? 1 : 0;
+      meeting += robustMeets(r2, lineDistanceSq(fx, fy, fz, terms[k])) ? 1 : 0;
     }
     return meeting > 0;
   }
