@@ -72,14 +72,20 @@ class Scene:
         return self._core.add_plane(normal3, offset_value, material_id, corners)
 
     # --- lights and background ------------------------------------------------------------------
-    def add_directional_light(self, direction: ArrayLike, color: ArrayLike) -> None:
+    def add_directional_light(self, direction: ArrayLike, color: ArrayLike, *, shadows: bool = False) -> None:
         """A light infinitely far away. `direction` is the way the light travels (surfaces facing
-        -direction are lit); `color` is linear RGB >= 0 and does not fall off."""
-        self._core.add_directional_light(_checks.nonzero_vector3(direction, "direction"), _checks.color(color, "color"))
+        -direction are lit); `color` is linear RGB >= 0 and does not fall off. With shadows=True,
+        occluders between a point and the light block it (a shadow ray per lit point)."""
+        self._core.add_directional_light(
+            _checks.nonzero_vector3(direction, "direction"), _checks.color(color, "color"), _checks.boolean(shadows, "shadows")
+        )
 
-    def add_point_light(self, position: ArrayLike, color: ArrayLike) -> None:
-        """A light at `position`; `color` is linear RGB >= 0 with no falloff (6.837, assignment 2)."""
-        self._core.add_point_light(_checks.vector3(position, "position"), _checks.color(color, "color"))
+    def add_point_light(self, position: ArrayLike, color: ArrayLike, *, shadows: bool = False) -> None:
+        """A light at `position`; `color` is linear RGB >= 0 with no falloff (6.837, assignment 2).
+        With shadows=True, occluders strictly between a point and the light block it."""
+        self._core.add_point_light(
+            _checks.vector3(position, "position"), _checks.color(color, "color"), _checks.boolean(shadows, "shadows")
+        )
 
     @property
     def background(self) -> tuple[float, float, float, float]:

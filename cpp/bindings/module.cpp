@@ -127,6 +127,7 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
   });
   py::dict s;
   s["rays"] = stats.cameraRays;
+  s["shadow_rays"] = stats.shadowRays;
   s["intersection_tests"] = stats.intersectionTests;
   s["milliseconds"] = stats.milliseconds;
   s["threads"] = stats.threads;
@@ -242,8 +243,9 @@ PYBIND11_MODULE(_core, m) {
           },
           py::arg("normal"), py::arg("offset"), py::arg("material"), py::arg("bounds"))
       .def("add_directional_light",
-           [](Scene& s, const Triple& d, const Triple& c) { s.addDirectionalLight(vec(d), vec(c)); })
-      .def("add_point_light", [](Scene& s, const Triple& p, const Triple& c) { s.addPointLight(vec(p), vec(c)); })
+           [](Scene& s, const Triple& d, const Triple& c, bool shadows) { s.addDirectionalLight(vec(d), vec(c), shadows); })
+      .def("add_point_light",
+           [](Scene& s, const Triple& p, const Triple& c, bool shadows) { s.addPointLight(vec(p), vec(c), shadows); })
       .def_property(
           "background",
           [](const Scene& s) {

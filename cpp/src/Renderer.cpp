@@ -47,8 +47,13 @@ class TileRenderer {
     return static_cast<int64_t>(m_tilesX) * ((m_settings.height + kTileSize - 1) / kTileSize);
   }
 
-  // Renders one tile; returns the camera rays traced (0 if cancelled before the tile finished).
-  DURER_HOT_KERNEL int64_t render(int64_t tile) const {
+  struct RayCounts {
+    int64_t camera = 0;
+    int64_t shadow = 0;
+  };
+
+  // Renders one tile; returns the rays it traced (none if cancelled before the tile finished).
+  DURER_HOT_KERNEL RayCounts render(int64_t tile) const {
     const int x0 = static_cast<int>(tile % m_tilesX) * kTileSize;
     const int y0 = static_cast<int>(tile / m_tilesX) * kTileSize;
     const int w = std::min(kTileSize, m_settings.width - x0);
@@ -56,6 +61,7 @@ class TileRenderer {
     const int count = w * h;
     Accumulator acc;
     acc.clear(count);
+    RayCounts rays;
     RayPacket<Real> packet;
     alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
     for (int s = 0; s < m_sampler.samplesPerPixel(); ++s) {
@@ -70,11 +76,13 @@ class TileRenderer {
       }
       m_camera.generate(packet, sampleX, sampleY, count);
       m_group.template intersect<M>(packet, &m_cancel);
-      if (m_cancel.load(std::memory_order_relaxed)) return 0;
-      accumulate(packet, acc);
+      if (m_cancel.load(std::memory_order_relaxed)) return {};
+      rays.shadow += accumulate(packet, acc);
+      rays.camera += count;
     }
+    if (m_cancel.load(std::memory_order_relaxed)) return {};
     write(acc, x0, y0, w, h);
-    return static_cast<int64_t>(count) * m_sampler.samplesPerPixel();
+    return rays;
   }
 
  private:
@@ -115,29 +123,80 @@ class TileRenderer {
     }
   };
 
-  void accumulate(const RayPacket<Real>& packet, Accumulator& acc) const {
+  // Adds one sample per ray of the packet to the tile's sums; returns the shadow rays it cast.
+  int64_t accumulate(const RayPacket<Real>& packet, Accumulator& acc) const {
     if (!m_needNormal) {
       accumulateFlat(packet, acc);
-      return;
+      return 0;
     }
+    alignas(64) Hit<Real> hits[kPacketSize];
     for (int k = 0; k < packet.count; ++k) {
-      if (packet.prim[k] == kNoPrimitive) {
-        addColor(acc, k, m_flat.r.back(), m_flat.g.back(), m_flat.b.back(), m_flat.a.back());
-        continue;
+      hits[k] = m_group.hit(packet, k);
+      if (!hits[k].isHit()) continue;
+      acc.depth[k] = std::min(acc.depth[k], hits[k].t);
+      acc.nx[k] += hits[k].normal.x;
+      acc.ny[k] += hits[k].normal.y;
+      acc.nz[k] += hits[k].normal.z;
+    }
+    if (!m_targets.color) return 0;
+    if (!m_shading.lit()) {
+      for (int k = 0; k < packet.count; ++k) {
+        const size_t m = static_cast<size_t>(m_flat.primMaterial[static_cast<size_t>(packet.prim[k] + 1)]);
+        addColor(acc, k, m_flat.r[m], m_flat.g[m], m_flat.b[m], m_flat.a[m]);
       }
-      const Real t = packet.tHit[k];
-      acc.depth[k] = std::min(acc.depth[k], t);
-      const Hit<Real> hit = m_group.hit(packet, k);
-      acc.nx[k] += hit.normal.x;
-      acc.ny[k] += hit.normal.y;
-      acc.nz[k] += hit.normal.z;
-      if (m_targets.color) {
-        const Vec3<Real> point(packet.ox[k] + t * packet.dx[k], packet.oy[k] + t * packet.dy[k],
-                               packet.oz[k] + t * packet.dz[k]);
-        const Vec3<Real> rgb = m_shading.shade(hit.materialId, point, hit.normal);
-        addColor(acc, k, rgb.r, rgb.g, rgb.b, 1);
+      return 0;
+    }
+    return shadeLit(packet.count, hits, acc);
+  }
+
+  // ambient·kd + Σ max(N·L, 0)·light·kd, one light at a time so that the shadow rays toward a light
+  // are traced together as one packet.
+  int64_t shadeLit(int count, const Hit<Real>* hits, Accumulator& acc) const {
+    alignas(64) Real r[kPacketSize], g[kPacketSize], b[kPacketSize];
+    for (int k = 0; k < count; ++k) {
+      const Vec3<Real> rgb = hits[k].isHit() ? m_shading.ambient() * m_shading.diffuse(hits[k].materialId)
+                                             : Vec3<Real>(m_flat.r.back(), m_flat.g.back(), m_flat.b.back());
+      r[k] = rgb.r, g[k] = rgb.g, b[k] = rgb.b;
+    }
+    int64_t shadowRays = 0;
+    RayPacket<Real> shadow;
+    alignas(64) int pixelOf[kPacketSize];
+    alignas(64) Vec3<Real> term[kPacketSize];
+    for (const ShadingLight<Real>& light : m_shading.lights()) {
+      shadow.count = 0;
+      for (int k = 0; k < count; ++k) {
+        if (!hits[k].isHit()) continue;
+        const Hit<Real>& h = hits[k];
+        const Vec3<Real> toLight = light.toLight(h.point);
+        const Real cosine = glm::dot(h.normal, toLight);
+        if (!(cosine > 0)) continue;
+        const Vec3<Real> contribution = cosine * light.color * m_shading.diffuse(h.materialId);
+        if (!light.shadows) {
+          r[k] += contribution.r, g[k] += contribution.g, b[k] += contribution.b;
+          continue;
+        }
+        const int j = shadow.count++;
+        const Vec3<Real> origin = offsetRayOrigin(h.point, h.normal, h.pointError, toLight);
+        const Vec3<Real> direction = light.shadowDirection(origin);
+        shadow.ox[j] = origin.x, shadow.oy[j] = origin.y, shadow.oz[j] = origin.z;
+        shadow.dx[j] = direction.x, shadow.dy[j] = direction.y, shadow.dz[j] = direction.z;
+        pixelOf[j] = k;
+        term[j] = contribution;
+      }
+      if (shadow.count == 0) continue;
+      // t > 0: an offset of a few ulps of a number near 0 can underflow to t = -0 in the plane test.
+      shadow.tMin = std::numeric_limits<Real>::denorm_min();
+      shadow.tMax = light.shadowTMax();
+      m_group.template intersect<M>(shadow, &m_cancel);
+      shadowRays += shadow.count;
+      for (int j = 0; j < shadow.count; ++j) {
+        if (shadow.prim[j] != kNoPrimitive) continue;
+        const int k = pixelOf[j];
+        r[k] += term[j].r, g[k] += term[j].g, b[k] += term[j].b;
       }
     }
+    for (int k = 0; k < count; ++k) addColor(acc, k, r[k], g[k], b[k], hits[k].isHit() ? Real(1) : m_flat.a.back());
+    return shadowRays;
   }
 
   // Unlit colour and depth need no hit record: a branch-free table lookup per ray.
@@ -214,12 +273,18 @@ RenderStats renderWith(const Scene& scene, const CameraSpec& spec, const RenderS
   const TileRenderer<Real, M> tiles(scene, group, spec, settings, targets, control.cancel);
   RenderStats stats;
   stats.threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
-  std::atomic<int64_t> rays{0};
+  std::atomic<int64_t> cameraRays{0}, shadowRays{0};
   runParallel(
       tiles.tileCount(), stats.threads, control,
-      [&](int64_t tile) { rays.fetch_add(tiles.render(tile), std::memory_order_relaxed); }, poll);
-  stats.cameraRays = rays.load();
-  stats.intersectionTests = stats.cameraRays * group.primitiveCount();
+      [&](int64_t tile) {
+        const auto rays = tiles.render(tile);
+        cameraRays.fetch_add(rays.camera, std::memory_order_relaxed);
+        shadowRays.fetch_add(rays.shadow, std::memory_order_relaxed);
+      },
+      poll);
+  stats.cameraRays = cameraRays.load();
+  stats.shadowRays = shadowRays.load();
+  stats.intersectionTests = (stats.cameraRays + stats.shadowRays) * group.primitiveCount();
   stats.cancelled = control.cancel.load();
   return stats;
 }

@@ -105,16 +105,16 @@ int32_t Scene::addPlane(const Vec3d& normal, double offset, int32_t material, co
   return id;
 }
 
-void Scene::addDirectionalLight(const Vec3d& direction, const Vec3d& color) {
+void Scene::addDirectionalLight(const Vec3d& direction, const Vec3d& color, bool shadows) {
   requireNonZero(direction, "direction");
   requireNonNegativeColor(color, "color");
-  m_directionalLights.push_back({safeNormalize(direction), color});
+  m_directionalLights.push_back({safeNormalize(direction), color, shadows});
 }
 
-void Scene::addPointLight(const Vec3d& position, const Vec3d& color) {
+void Scene::addPointLight(const Vec3d& position, const Vec3d& color, bool shadows) {
   requireFinite(position, "position");
   requireNonNegativeColor(color, "color");
-  m_pointLights.push_back({position, color});
+  m_pointLights.push_back({position, color, shadows});
 }
 
 void Scene::setBackground(const Vec4d& rgba) {

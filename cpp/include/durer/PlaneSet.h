@@ -4,6 +4,7 @@
 
 #include "durer/Hit.h"
 #include "durer/PrimitiveIds.h"
+#include "durer/RayOffset.h"
 #include "durer/RayPacket.h"
 #include "durer/Vec.h"
 
@@ -62,9 +63,17 @@ class PlaneSet {
   }
 
   Hit<Real> hit(const RayPacket<Real>& packet, int k, size_t index) const {
+    const Plane<Real>& pl = m_planes[index];
+    const Real t = packet.tHit[k];
+    const Vec3<Real> p(packet.ox[k] + t * packet.dx[k], packet.oy[k] + t * packet.dy[k],
+                       packet.oz[k] + t * packet.dz[k]);
     Hit<Real> h;
-    h.t = packet.tHit[k];
-    h.normal = m_planes[index].normal;
+    h.t = t;
+    h.normal = pl.normal;
+    // One projection step back onto the plane, measured from its point: the error is then a few
+    // roundings of the coordinates' magnitude, whatever t's error was.
+    h.point = p - glm::dot(pl.normal, p - pl.point) * pl.normal;
+    h.pointError = errorGamma<Real>(8) * (glm::abs(h.point) + glm::abs(pl.point));
     h.objectId = m_ids.objectIds()[index];
     h.materialId = m_ids.materials()[index];
     return h;

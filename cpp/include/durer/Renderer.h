@@ -35,6 +35,7 @@ struct RenderTargets {
 
 struct RenderStats {
   int64_t cameraRays = 0;         // rays traced (fewer than width·height·spp when cancelled)
+  int64_t shadowRays = 0;         // toward lights that cast shadows, from lit points facing them
   int64_t intersectionTests = 0;  // ray-primitive tests
   double milliseconds = 0;        // wall time of the render
   int threads = 0;

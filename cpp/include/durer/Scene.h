@@ -29,8 +29,8 @@ class Scene {
   int32_t addSpheres(const double* centers, const double* radii, const int32_t* materials, size_t count,
                      bool perSphere);
   int32_t addPlane(const Vec3d& normal, double offset, int32_t material, const PlaneBounds* bounds);
-  void addDirectionalLight(const Vec3d& direction, const Vec3d& color);
-  void addPointLight(const Vec3d& position, const Vec3d& color);
+  void addDirectionalLight(const Vec3d& direction, const Vec3d& color, bool shadows);
+  void addPointLight(const Vec3d& position, const Vec3d& color, bool shadows);
   void setBackground(const Vec4d& rgba);
   void setAmbient(const Vec3d& rgb);
 

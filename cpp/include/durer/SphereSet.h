@@ -6,6 +6,7 @@
 
 #include "durer/Hit.h"
 #include "durer/PrimitiveIds.h"
+#include "durer/RayOffset.h"
 #include "durer/RayPacket.h"
 #include "durer/SphereIntersection.h"
 #include "durer/Vec.h"
@@ -104,9 +105,13 @@ class SphereSet {
     const Real t = packet.tHit[k];
     const Vec3<Real> p(packet.ox[k] + t * packet.dx[k], packet.oy[k] + t * packet.dy[k],
                        packet.oz[k] + t * packet.dz[k]);
+    const Vec3<Real> c = m_spheres[index].center;
     Hit<Real> h;
     h.t = t;
-    h.normal = glm::normalize(p - m_spheres[index].center);
+    h.normal = glm::normalize(p - c);
+    // Reprojection onto the sphere (pbrt-v4): the point's error no longer depends on t's error.
+    h.point = c + m_spheres[index].radius * h.normal;
+    h.pointError = errorGamma<Real>(6) * (glm::abs(h.point - c) + glm::abs(c));
     h.objectId = m_ids.objectIds()[index];
     h.materialId = m_ids.materials()[index];
     return h;

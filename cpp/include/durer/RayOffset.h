@@ -1,0 +1,39 @@
+#pragma once
+// Where secondary rays start: the epsilon policy (docs/numerics.md). A hit point carries a bound on
+// its rounding error; a secondary ray starts just outside that error box, on the side of the surface
+// it leaves toward, so it can neither re-hit its own surface (acne) nor skip past a nearby one (leaks).
+// No fixed t_min: the offset is a few ulps of the hit point's own magnitude, in the render's precision.
+#include <cmath>
+#include <limits>
+
+#include "durer/Vec.h"
+
+namespace durer {
+
+// gamma(n) = n·u / (1 - n·u), u the unit roundoff: bounds the relative error of n chained roundings
+// (Higham; pbrt-v4 uses the same bound).
+template <typename Real>
+constexpr Real errorGamma(int n) {
+  constexpr Real u = std::numeric_limits<Real>::epsilon() / 2;
+  return n * u / (1 - n * u);
+}
+
+// The origin of a ray leaving a surface point in direction w (any length): the point pushed along
+// the normal by the error box's extent in that direction, then one more ulp away in every component
+// the normal has, so that it is strictly off the surface even where the error bound is 0.
+// point: on the surface (reprojected); normal: unit; error: per-component bound on |point - exact|.
+template <typename Real>
+Vec3<Real> offsetRayOrigin(const Vec3<Real>& point, const Vec3<Real>& normal, const Vec3<Real>& error,
+                           const Vec3<Real>& w) {
+  const Real side = glm::dot(w, normal) < 0 ? Real(-1) : Real(1);
+  const Vec3<Real> away = side * normal;
+  const Vec3<Real> origin = point + glm::dot(glm::abs(normal), error) * away;
+  Vec3<Real> result;
+  for (int i = 0; i < 3; ++i) {
+    const Real inf = std::numeric_limits<Real>::infinity();
+    result[i] = away[i] > 0 ? std::nextafter(origin[i], inf) : away[i] < 0 ? std::nextafter(origin[i], -inf) : origin[i];
+  }
+  return result;
+}
+
+}  // namespace durer
