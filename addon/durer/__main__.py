@@ -46,7 +46,14 @@ def extension(argv: Sequence[str]) -> int:
     return ext.main(argv)
 
 
-COMMANDS = {"demo": demo, "render": render, "extension": extension}
+def numerics(argv: Sequence[str]) -> int:
+    """Sweep t's error by sphere method and precision as distance/radius grows (docs/numerics.md)."""
+    from durer import numerics as sweep
+
+    return sweep.main(argv)
+
+
+COMMANDS = {"demo": demo, "render": render, "extension": extension, "numerics": numerics}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -72,13 +72,25 @@ inline Real lineDistanceSq(Real fx, Real fy, Real fz, const SphereRayTerms<Real>
   return (cx * cx + cy * cy + cz * cz) * t.invA;
 }
 
-// The robust method reports a hit only where r² - lineDistanceSq exceeds this multiple of
-// epsilon·(r² + lineDistanceSq), a bound on its rounding error (docs/numerics.md): rays that graze
-// within rounding of the tangent miss rather than risk a false hit.
+// The robust method reports a hit only where it is sure of it: where the line passes within
+//   rEff = r - epsilon·|f|
+// of the centre, with a margin of kGrazingBound·epsilon·(rEff² + lineDistance²) on the squares.
+// epsilon·|f| bounds (twice over) how far the rounding of f = o - c alone can move the line; the
+// margin bounds the rounding of the line distance itself (docs/numerics.md). Rays that graze within
+// that band, and spheres so far away that rEff <= 0, are reported as misses, never as false hits.
 constexpr int kGrazingBound = 8;
 
 template <typename Real>
-inline bool robustMeets(Real r2, Real lineDistance2) {
+inline bool robustMeets(Real r, Real lineDistance2, Real centerDistance) {
+  constexpr Real epsilon = std::numeric_limits<Real>::epsilon();
+  const Real rEff = r - epsilon * centerDistance;
+  const Real rEff2 = rEff * rEff;
+  return rEff > 0 && rEff2 - lineDistance2 > kGrazingBound * epsilon * (rEff2 + lineDistance2);
+}
+
+// A necessary condition for robustMeets (rEff <= r) that needs no |f|: the per-packet prefilter.
+template <typename Real>
+inline bool robustMayMeet(Real r2, Real lineDistance2) {
   return r2 - lineDistance2 > kGrazingBound * std::numeric_limits<Real>::epsilon() * (r2 + lineDistance2);
 }
 
@@ -114,13 +126,12 @@ inline SphereRoots<Real> sphereGeometric(Real fx, Real fy, Real fz, Real dx, Rea
 // surface. Rays grazing within rounding miss (robustMeets).
 template <typename Real>
 inline SphereRoots<Real> sphereRobust(Real fx, Real fy, Real fz, const SphereRayTerms<Real>& t, Real r) {
-  const Real r2 = r * r;
   const Real lineDistance2 = lineDistanceSq(fx, fy, fz, t);
+  const Real distance = std::sqrt(fx * fx + fy * fy + fz * fz);
   const Real nan = std::numeric_limits<Real>::quiet_NaN();
-  const Real root = robustMeets(r2, lineDistance2) ? std::sqrt(t.a * (r2 - lineDistance2)) : nan;
+  const Real root = robustMeets(r, lineDistance2, distance) ? std::sqrt(t.a * (r * r - lineDistance2)) : nan;
   const Real b = fx * t.sx + fy * t.sy + fz * t.sz;
   const Real q = -(b + std::copysign(root, b));
-  const Real distance = std::sqrt(fx * fx + fy * fy + fz * fz);
   const Real c = (distance - r) * (distance + r);
   const Real t0 = q * t.invA * t.scale;
   const Real t1 = c / q * t.scale;

@@ -87,7 +87,7 @@ class SphereSet {
     }
   }
 
-  // Whether the robust test can find a hit for any ray (the same decision, robustMeets).
+  // Whether the robust test may find a hit for any ray (robustMayMeet, implied by robustMeets).
   // Most spheres miss most packets; this skips their square roots and divisions.
   static bool anyRayMeets(const RayPacket<Real>& packet, const SphereRayTerms<Real>* terms, const Vec3<Real>& c,
                           Real r) {
@@ -95,7 +95,7 @@ class SphereSet {
     const Real r2 = r * r;
     for (int k = 0; k < packet.count; ++k) {
       const Real fx = packet.ox[k] - c.x, fy = packet.oy[k] - c.y, fz = packet.oz[k] - c.z;
-      meeting += robustMeets(r2, lineDistanceSq(fx, fy, fz, terms[k])) ? 1 : 0;
+      meeting += robustMayMeet(r2, lineDistanceSq(fx, fy, fz, terms[k])) ? 1 : 0;
     }
     return meeting > 0;
   }
