@@ -103,3 +103,17 @@ def test_cameras_are_values():
     b = durer.OrthographicCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), size=2.0)
     assert a == b and hash(a) == hash(b)
     assert a.center == (0.0, 0.0, 0.0)
+
+
+def test_pixel_aspect_stretches_pixels_vertically():
+    # Pixels twice as tall as wide: 4x2 pixels cover a square window; "auto" compares 4 with 2·2.
+    cam = durer.OrthographicCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), 2.0, pixel_aspect=2.0)
+    origins, _ = cam.rays(4, 2)
+    np.testing.assert_allclose(origins[0, :, 0], [-0.75, -0.25, 0.25, 0.75])
+    np.testing.assert_allclose(origins[:, 0, 1], [0.5, -0.5])
+    vertical = durer.OrthographicCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), 2.0, fit="vertical", pixel_aspect=0.5)
+    origins, _ = vertical.rays(2, 4)  # height spans 4·0.5 = 2 pixel widths = size 2: one unit per width
+    np.testing.assert_allclose(origins[:, 0, 1], [0.75, 0.25, -0.25, -0.75])
+    np.testing.assert_allclose(origins[0, :, 0], [-0.5, 0.5])
+    with pytest.raises(ValueError, match="pixel_aspect"):
+        durer.OrthographicCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), 2.0, pixel_aspect=0.0)

@@ -20,7 +20,9 @@ class _Camera:
     horizontal = normalize(direction × up), up' = horizontal × direction. `fit` says which image
     dimension the size or field of view spans: "auto" the larger (6.837; Blender's Auto), or
     "horizontal"/"vertical". `shift` moves the image window by (x right, y up) in units of that
-    span (Blender's shift_x/shift_y). Camera rays count hits with t in [t_min, t_max)."""
+    span (Blender's shift_x/shift_y). `pixel_aspect` is a pixel's height / width on the image plane
+    (Blender's pixel aspect y / x); "auto" fit compares width with height·pixel_aspect. Camera rays
+    count hits with t in [t_min, t_max)."""
 
     center: tuple[float, float, float]
     direction: tuple[float, float, float]
@@ -29,7 +31,7 @@ class _Camera:
     _size_name: ClassVar[str]
     _spec: _core.CameraSpec = field(init=False, repr=False, compare=False)
 
-    def _build(self, size: float, fit: str, shift: ArrayLike, t_min: float, t_max: float) -> None:
+    def _build(self, size: float, fit: str, shift: ArrayLike, pixel_aspect: float, t_min: float, t_max: float) -> None:
         set_ = object.__setattr__
         set_(self, "center", _checks.vector3(self.center, "center"))
         set_(self, "direction", _checks.nonzero_vector3(self.direction, "direction"))
@@ -39,7 +41,9 @@ class _Camera:
         sx, sy = _checks.float_array(shift, "shift", (2,))
         set_(self, "shift", (float(sx), float(sy)))
         t_min, t_max = _checks.real(t_min, "t_min"), _checks.real(t_max, "t_max")
-        spec = _core.CameraSpec(self._projection, self.center, self.direction, self.up, size, fit, sx, sy, t_min, t_max)
+        aspect = _checks.real(pixel_aspect, "pixel_aspect")
+        spec = _core.CameraSpec(self._projection, self.center, self.direction, self.up, size, fit, sx, sy, aspect,
+                                t_min, t_max)
         set_(self, "_spec", spec)
 
     def rays(self, width: int, height: int, precision: str = "double") -> tuple[np.ndarray, np.ndarray]:
@@ -60,13 +64,14 @@ class OrthographicCamera(_Camera):
     size: float = 1.0
     fit: str = "auto"
     shift: tuple[float, float] = (0.0, 0.0)
+    pixel_aspect: float = 1.0
     t_min: float = -math.inf
     t_max: float = math.inf
     _projection: ClassVar[str] = "orthographic"
     _size_name: ClassVar[str] = "size"
 
     def __post_init__(self) -> None:
-        self._build(self.size, self.fit, self.shift, self.t_min, self.t_max)
+        self._build(self.size, self.fit, self.shift, self.pixel_aspect, self.t_min, self.t_max)
 
 
 @dataclass(frozen=True)
@@ -77,13 +82,14 @@ class PerspectiveCamera(_Camera):
     fov_degrees: float = 60.0
     fit: str = "auto"
     shift: tuple[float, float] = (0.0, 0.0)
+    pixel_aspect: float = 1.0
     t_min: float = 0.0
     t_max: float = math.inf
     _projection: ClassVar[str] = "perspective"
     _size_name: ClassVar[str] = "fov_degrees"
 
     def __post_init__(self) -> None:
-        self._build(self.fov_degrees, self.fit, self.shift, self.t_min, self.t_max)
+        self._build(self.fov_degrees, self.fit, self.shift, self.pixel_aspect, self.t_min, self.t_max)
 
 
 Camera = OrthographicCamera | PerspectiveCamera

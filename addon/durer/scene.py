@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -23,10 +24,11 @@ class Scene:
         self._core = _core.Scene()
 
     # --- materials and objects -------------------------------------------------------------------
-    def add_material(self, diffuse: ArrayLike = (0.8, 0.8, 0.8)) -> int:
+    def add_material(self, diffuse: ArrayLike = (0.8, 0.8, 0.8), *, emission: ArrayLike = (0.0, 0.0, 0.0)) -> int:
         """Add a material; returns its id. `diffuse` is kd, linear RGB >= 0: the flat colour without
-        lights and the diffuse colour with them."""
-        return self._core.add_material(_checks.color(diffuse, "diffuse"))
+        lights and the diffuse colour with them. `emission` (linear RGB >= 0) is added unlit, as
+        a light source seen directly (Blender's Emission shader)."""
+        return self._core.add_material(_checks.color(diffuse, "diffuse"), _checks.color(emission, "emission"))
 
     def add_spheres(self, centers: ArrayLike, radii: ArrayLike, material: ArrayLike = 0) -> np.ndarray:
         """Add N spheres. `centers` (N, 3); `radii` (N,) or one radius for all, each finite and > 0;
@@ -80,12 +82,56 @@ class Scene:
             _checks.nonzero_vector3(direction, "direction"), _checks.color(color, "color"), _checks.boolean(shadows, "shadows")
         )
 
-    def add_point_light(self, position: ArrayLike, color: ArrayLike, *, shadows: bool = False) -> None:
-        """A light at `position`; `color` is linear RGB >= 0 with no falloff (6.837, assignment 2).
-        With shadows=True, occluders strictly between a point and the light block it."""
+    def add_point_light(
+        self,
+        position: ArrayLike,
+        color: ArrayLike,
+        *,
+        attenuation: ArrayLike = (1.0, 0.0, 0.0),
+        shadows: bool = False,
+    ) -> None:
+        """A light at `position`. `color` (linear RGB >= 0) arrives at distance d as
+        color / (c0 + c1·d + c2·d²) with attenuation = (c0, c1, c2): (1, 0, 0), the default, is the
+        6.837 light without falloff; (0, 0, 1) the physical inverse square of Cycles. With
+        shadows=True, occluders strictly between a point and the light block it."""
         self._core.add_point_light(
-            _checks.vector3(position, "position"), _checks.color(color, "color"), _checks.boolean(shadows, "shadows")
+            _checks.vector3(position, "position"), _checks.color(color, "color"),
+            _checks.color(attenuation, "attenuation"), _checks.boolean(shadows, "shadows"),
         )
+
+    def add_spot_light(
+        self,
+        position: ArrayLike,
+        direction: ArrayLike,
+        color: ArrayLike,
+        *,
+        half_angle_degrees: float,
+        blend: float = 0.0,
+        attenuation: ArrayLike = (1.0, 0.0, 0.0),
+        shadows: bool = False,
+    ) -> None:
+        """A point light that shines along `direction` within a cone of `half_angle_degrees` in
+        (0, 180). `blend` in [0, 1] softens the edge as Blender's spot blend does:
+        smoothstep((cos θ − cos half) / ((1 − cos half)·blend)); 0 is a hard edge. `attenuation`
+        and `shadows` as for point lights."""
+        half = _checks.finite_real(half_angle_degrees, "half_angle_degrees")
+        if not 0 < half < 180:
+            raise ValueError(f"half_angle_degrees must be in (0, 180), got {half}")
+        self._core.add_spot_light(
+            _checks.vector3(position, "position"), _checks.nonzero_vector3(direction, "direction"),
+            _checks.color(color, "color"), _checks.color(attenuation, "attenuation"),
+            math.cos(math.radians(half)), _checks.finite_real(blend, "blend"), _checks.boolean(shadows, "shadows"),
+        )
+
+    @property
+    def shading(self) -> str:
+        """"auto" (default): lit where the scene has lights, else every hit takes its flat colour
+        (diffuse + emission); "flat" always; "lit" always (with no lights: emission + ambient·kd)."""
+        return self._core.shading
+
+    @shading.setter
+    def shading(self, mode: str) -> None:
+        self._core.shading = _checks.choice(mode, "shading", ("auto", "flat", "lit"))
 
     @property
     def background(self) -> tuple[float, float, float, float]:

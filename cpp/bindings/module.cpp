@@ -48,7 +48,7 @@ Fit fitNamed(const std::string& name) {
 
 CameraSpec cameraSpec(const std::string& projection, const Triple& center, const Triple& direction,
                       const Triple& up, double size, const std::string& fit, double shiftX, double shiftY,
-                      double tMin, double tMax) {
+                      double pixelAspect, double tMin, double tMax) {
   CameraSpec spec;
   if (projection == "orthographic") {
     spec.projection = Projection::Orthographic;
@@ -64,6 +64,7 @@ CameraSpec cameraSpec(const std::string& projection, const Triple& center, const
   spec.fit = fitNamed(fit);
   spec.shiftX = shiftX;
   spec.shiftY = shiftY;
+  spec.pixelAspect = pixelAspect;
   spec.tMin = tMin;
   spec.tMax = tMax;
   validate(spec);
@@ -216,13 +217,16 @@ PYBIND11_MODULE(_core, m) {
 
   py::class_<CameraSpec>(m, "CameraSpec")
       .def(py::init(&cameraSpec), py::arg("projection"), py::arg("center"), py::arg("direction"), py::arg("up"),
-           py::arg("size"), py::arg("fit"), py::arg("shift_x"), py::arg("shift_y"), py::arg("t_min"),
+           py::arg("size"), py::arg("fit"), py::arg("shift_x"), py::arg("shift_y"), py::arg("pixel_aspect"), py::arg("t_min"),
            py::arg("t_max"));
 
   py::class_<Scene>(m, "Scene")
       .def(py::init<>())
-      .def("add_material", [](Scene& s, const Triple& diffuse) { return s.addMaterial(Material{vec(diffuse)}); },
-           py::arg("diffuse"))
+      .def("add_material",
+           [](Scene& s, const Triple& diffuse, const Triple& emission) {
+             return s.addMaterial(Material{vec(diffuse), vec(emission)});
+           },
+           py::arg("diffuse"), py::arg("emission"))
       .def(
           "add_spheres",
           [](Scene& s, const DoubleArray& centers, const DoubleArray& radii, const IdArray& materials) {
@@ -245,7 +249,26 @@ PYBIND11_MODULE(_core, m) {
       .def("add_directional_light",
            [](Scene& s, const Triple& d, const Triple& c, bool shadows) { s.addDirectionalLight(vec(d), vec(c), shadows); })
       .def("add_point_light",
-           [](Scene& s, const Triple& p, const Triple& c, bool shadows) { s.addPointLight(vec(p), vec(c), shadows); })
+           [](Scene& s, const Triple& p, const Triple& c, const Triple& attenuation, bool shadows) {
+             s.addPointLight(PointLight{vec(p), vec(c), vec(attenuation), shadows});
+           })
+      .def("add_spot_light",
+           [](Scene& s, const Triple& p, const Triple& d, const Triple& c, const Triple& attenuation,
+              double cosHalfAngle, double blend, bool shadows) {
+             s.addSpotLight(SpotLight{vec(p), vec(d), vec(c), vec(attenuation), cosHalfAngle, blend, shadows});
+           })
+      .def_property(
+          "shading",
+          [](const Scene& s) {
+            const ShadingMode m = s.shadingMode();
+            return std::string(m == ShadingMode::Flat ? "flat" : m == ShadingMode::Lit ? "lit" : "auto");
+          },
+          [](Scene& s, const std::string& mode) {
+            if (mode == "auto") s.setShading(ShadingMode::Auto);
+            else if (mode == "flat") s.setShading(ShadingMode::Flat);
+            else if (mode == "lit") s.setShading(ShadingMode::Lit);
+            else throw py::value_error("shading must be 'auto', 'flat' or 'lit', got '" + mode + "'");
+          })
       .def_property(
           "background",
           [](const Scene& s) {
@@ -261,7 +284,7 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("material_count", [](const Scene& s) { return s.materials().size(); })
       .def_property_readonly("object_count", &Scene::objectCount)
       .def_property_readonly("light_count", [](const Scene& s) {
-        return s.directionalLights().size() + s.pointLights().size();
+        return s.directionalLights().size() + s.pointLights().size() + s.spotLights().size();
       });
 
   m.def("render", &renderPy, py::arg("scene"), py::arg("camera"), py::arg("width"), py::arg("height"),

@@ -31,6 +31,7 @@ void validate(const CameraSpec& spec) {
   }
   requireFinite(spec.shiftX, "shift x");
   requireFinite(spec.shiftY, "shift y");
+  requirePositive(spec.pixelAspect, "pixel_aspect");
   requireRange(spec.tMin, spec.tMax, "t_min", "t_max");
 }
 
@@ -43,17 +44,20 @@ Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
   const Vec3d horizontal = glm::normalize(glm::cross(forward, unit(spec.up)));
   const Vec3d up = glm::cross(horizontal, forward);
   const double extent = m_perspective ? 2 * std::tan(spec.size * kPi / 360) : spec.size;
+  // The fitted dimension's span in pixel widths: a row is `width` of them, a column height·aspect.
+  const double tall = height * spec.pixelAspect;
   const double span = spec.fit == Fit::Horizontal ? width
-                      : spec.fit == Fit::Vertical ? height
-                                                  : std::max(width, height);
+                      : spec.fit == Fit::Vertical ? tall
+                                                  : std::max<double>(width, tall);
   const double pixelSize = extent / span;
   m_center = toReal<Real>(spec.center);
   m_forward = toReal<Real>(forward);
   m_horizontal = toReal<Real>(horizontal);
   m_up = toReal<Real>(up);
-  m_pixelSize = static_cast<Real>(pixelSize);
+  m_pixelWidth = static_cast<Real>(pixelSize);
+  m_pixelHeight = static_cast<Real>(pixelSize * spec.pixelAspect);
   m_xOffset = static_cast<Real>(-0.5 * width * pixelSize + spec.shiftX * extent);
-  m_yOffset = static_cast<Real>(0.5 * height * pixelSize + spec.shiftY * extent);
+  m_yOffset = static_cast<Real>(0.5 * tall * pixelSize + spec.shiftY * extent);
 }
 
 template class Camera<float>;

@@ -105,9 +105,9 @@ class TileRenderer {
     std::vector<int32_t> primMaterial;  // by packed primitive index + 1; entry 0 (a miss): the background
     FlatTable(const Scene& scene, const Group<Real>& group) {
       for (const Material& m : scene.materials()) {
-        r.push_back(static_cast<Real>(m.diffuse.r));
-        g.push_back(static_cast<Real>(m.diffuse.g));
-        b.push_back(static_cast<Real>(m.diffuse.b));
+        r.push_back(static_cast<Real>(m.diffuse.r + m.emission.r));
+        g.push_back(static_cast<Real>(m.diffuse.g + m.emission.g));
+        b.push_back(static_cast<Real>(m.diffuse.b + m.emission.b));
         a.push_back(1);
       }
       const Vec4d& bg = scene.background();
@@ -149,12 +149,13 @@ class TileRenderer {
     return shadeLit(packet.count, hits, acc);
   }
 
-  // ambient·kd + Σ max(N·L, 0)·light·kd, one light at a time so that the shadow rays toward a light
+  // emission + ambient·kd + Σ max(N·L, 0)·light·kd, one light at a time so that the shadow rays toward a light
   // are traced together as one packet.
   int64_t shadeLit(int count, const Hit<Real>* hits, Accumulator& acc) const {
     alignas(64) Real r[kPacketSize], g[kPacketSize], b[kPacketSize];
     for (int k = 0; k < count; ++k) {
-      const Vec3<Real> rgb = hits[k].isHit() ? m_shading.ambient() * m_shading.diffuse(hits[k].materialId)
+      const int32_t m = hits[k].materialId;
+      const Vec3<Real> rgb = hits[k].isHit() ? m_shading.emission(m) + m_shading.ambient() * m_shading.diffuse(m)
                                              : Vec3<Real>(m_flat.r.back(), m_flat.g.back(), m_flat.b.back());
       r[k] = rgb.r, g[k] = rgb.g, b[k] = rgb.b;
     }
@@ -170,7 +171,7 @@ class TileRenderer {
         const Vec3<Real> toLight = light.toLight(h.point);
         const Real cosine = glm::dot(h.normal, toLight);
         if (!(cosine > 0)) continue;
-        const Vec3<Real> contribution = cosine * light.color * m_shading.diffuse(h.materialId);
+        const Vec3<Real> contribution = cosine * light.arriving(h.point, toLight) * m_shading.diffuse(h.materialId);
         if (!light.shadows) {
           r[k] += contribution.r, g[k] += contribution.g, b[k] += contribution.b;
           continue;

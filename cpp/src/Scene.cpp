@@ -36,6 +36,7 @@ int32_t Scene::takeObjectIds(size_t count) {
 
 int32_t Scene::addMaterial(const Material& material) {
   requireNonNegativeColor(material.diffuse, "diffuse");
+  requireNonNegativeColor(material.emission, "emission");
   if (m_materials.size() >= static_cast<size_t>(std::numeric_limits<int32_t>::max())) fail("too many materials");
   m_materials.push_back(material);
   return static_cast<int32_t>(m_materials.size() - 1);
@@ -111,10 +112,30 @@ void Scene::addDirectionalLight(const Vec3d& direction, const Vec3d& color, bool
   m_directionalLights.push_back({safeNormalize(direction), color, shadows});
 }
 
-void Scene::addPointLight(const Vec3d& position, const Vec3d& color, bool shadows) {
-  requireFinite(position, "position");
-  requireNonNegativeColor(color, "color");
-  m_pointLights.push_back({position, color, shadows});
+namespace {
+void requireAttenuation(const Vec3d& c) {
+  requireNonNegativeColor(c, "attenuation");
+  if (c.x == 0 && c.y == 0 && c.z == 0) fail("attenuation must not be all zero");
+}
+}  // namespace
+
+void Scene::addPointLight(const PointLight& light) {
+  requireFinite(light.position, "position");
+  requireNonNegativeColor(light.color, "color");
+  requireAttenuation(light.attenuation);
+  m_pointLights.push_back(light);
+}
+
+void Scene::addSpotLight(const SpotLight& light) {
+  requireFinite(light.position, "position");
+  requireNonZero(light.direction, "direction");
+  requireNonNegativeColor(light.color, "color");
+  requireAttenuation(light.attenuation);
+  if (!(light.cosHalfAngle > -1 && light.cosHalfAngle < 1)) fail("half_angle_degrees must be in (0, 180)");
+  if (!(light.blend >= 0 && light.blend <= 1)) fail("blend must be in [0, 1], got " + std::to_string(light.blend));
+  SpotLight spot = light;
+  spot.direction = safeNormalize(light.direction);
+  m_spotLights.push_back(spot);
 }
 
 void Scene::setBackground(const Vec4d& rgba) {

@@ -26,6 +26,7 @@ struct CameraSpec {
   Fit fit = Fit::Auto;
   double shiftX = 0;       // image-plane offset in units of the fitted extent, right
   double shiftY = 0;       // likewise, up
+  double pixelAspect = 1;  // a pixel's height / width on the image plane (Blender's pixel aspect y / x)
   double tMin = 0;         // camera rays count hits with t in [tMin, tMax), t in world units
   double tMax = 0;
 };
@@ -48,7 +49,7 @@ class Camera {
  private:
   bool m_perspective;
   Vec3<Real> m_center, m_forward, m_horizontal, m_up;  // unit, orthonormal frame
-  Real m_pixelSize;                                    // image-plane units per pixel (at distance 1 for perspective)
+  Real m_pixelWidth, m_pixelHeight;                    // image-plane units per pixel (at distance 1 for perspective)
   Real m_xOffset, m_yOffset;                           // image-plane position of sample (0, 0)
   Real m_tMin, m_tMax;
 };
@@ -63,8 +64,8 @@ inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX,
   const Vec3<Real> c = m_center, f = m_forward, h = m_horizontal, u = m_up;
   if (m_perspective) {
     for (int k = 0; k < count; ++k) {
-      const Real x = sampleX[k] * m_pixelSize + m_xOffset;
-      const Real y = m_yOffset - sampleY[k] * m_pixelSize;
+      const Real x = sampleX[k] * m_pixelWidth + m_xOffset;
+      const Real y = m_yOffset - sampleY[k] * m_pixelHeight;
       const Real dx = f.x + x * h.x + y * u.x, dy = f.y + x * h.y + y * u.y, dz = f.z + x * h.z + y * u.z;
       const Real inv = 1 / std::sqrt(dx * dx + dy * dy + dz * dz);
       packet.ox[k] = c.x, packet.oy[k] = c.y, packet.oz[k] = c.z;
@@ -72,8 +73,8 @@ inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX,
     }
   } else {
     for (int k = 0; k < count; ++k) {
-      const Real x = sampleX[k] * m_pixelSize + m_xOffset;
-      const Real y = m_yOffset - sampleY[k] * m_pixelSize;
+      const Real x = sampleX[k] * m_pixelWidth + m_xOffset;
+      const Real y = m_yOffset - sampleY[k] * m_pixelHeight;
       packet.ox[k] = c.x + x * h.x + y * u.x, packet.oy[k] = c.y + x * h.y + y * u.y;
       packet.oz[k] = c.z + x * h.z + y * u.z;
       packet.dx[k] = f.x, packet.dy[k] = f.y, packet.dz[k] = f.z;

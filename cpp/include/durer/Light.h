@@ -4,15 +4,30 @@
 namespace durer {
 
 struct DirectionalLight {
-  Vec3d direction;  // unit, world space: the way the light travels (the surface sees it from -direction)
-  Vec3d color;      // linear RGB, no falloff
+  Vec3d direction;       // unit, world space: the way the light travels (the surface sees it from -direction)
+  Vec3d color;           // linear RGB, no falloff
   bool shadows = false;  // whether occluders block it (shadow rays are cast only for such lights)
 };
 
+// Point and spot lights fall off as color / (c0 + c1·d + c2·d²) at distance d: (1, 0, 0) is the
+// 6.837 assignment-2 light (no falloff), (0, 0, 1) the physical inverse square (Cycles).
 struct PointLight {
-  Vec3d position;  // world space
-  Vec3d color;     // linear RGB, no falloff (the 6.837 assignment-2 light)
-  bool shadows = false;  // whether occluders block it
+  Vec3d position;            // world space
+  Vec3d color;               // linear RGB
+  Vec3d attenuation{1, 0, 0};  // c0, c1, c2 >= 0, not all 0
+  bool shadows = false;      // whether occluders block it
+};
+
+// A point light restricted to a cone, its edge softened as Blender's (Cycles') spot blend:
+// smoothstep((cosθ - cos(halfAngle)) / ((1 - cos(halfAngle))·blend)), a hard edge for blend 0.
+struct SpotLight {
+  Vec3d position;            // world space
+  Vec3d direction;           // unit, world space: the cone's axis, the way it shines
+  Vec3d color;               // linear RGB on the axis
+  Vec3d attenuation{1, 0, 0};  // as PointLight
+  double cosHalfAngle = 0;   // cos of the half opening angle, in (-1, 1)
+  double blend = 0;          // [0, 1]
+  bool shadows = false;
 };
 
 }  // namespace durer

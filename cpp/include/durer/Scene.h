@@ -10,6 +10,12 @@
 
 namespace durer {
 
+enum class ShadingMode {
+  Auto,  // lit if the scene has lights, else flat
+  Flat,  // every hit takes its material's diffuse + emission colour
+  Lit,   // emission + ambient·kd + the lights' diffuse terms, even with no lights (ambient only)
+};
+
 struct PlaneBounds {
   Vec3d corner;  // on the plane
   Vec3d edge1;   // in the plane, non-zero
@@ -30,18 +36,24 @@ class Scene {
                      bool perSphere);
   int32_t addPlane(const Vec3d& normal, double offset, int32_t material, const PlaneBounds* bounds);
   void addDirectionalLight(const Vec3d& direction, const Vec3d& color, bool shadows);
-  void addPointLight(const Vec3d& position, const Vec3d& color, bool shadows);
+  void addPointLight(const PointLight& light);
+  void addSpotLight(const SpotLight& light);  // light.direction need not be unit
   void setBackground(const Vec4d& rgba);
   void setAmbient(const Vec3d& rgb);
+  void setShading(ShadingMode mode) { m_shading = mode; }
 
   const Group<double>& group() const { return m_group; }
   const std::vector<Material>& materials() const { return m_materials; }
   const std::vector<DirectionalLight>& directionalLights() const { return m_directionalLights; }
   const std::vector<PointLight>& pointLights() const { return m_pointLights; }
+  const std::vector<SpotLight>& spotLights() const { return m_spotLights; }
+  ShadingMode shadingMode() const { return m_shading; }
   const Vec4d& background() const { return m_background; }
   const Vec3d& ambient() const { return m_ambient; }
   int32_t objectCount() const { return m_objectCount; }
-  bool hasLights() const { return !m_directionalLights.empty() || !m_pointLights.empty(); }
+  bool hasLights() const { return !m_directionalLights.empty() || !m_pointLights.empty() || !m_spotLights.empty(); }
+  // Whether hits are shaded with lights (Lit) or take their flat colour.
+  bool lit() const { return m_shading == ShadingMode::Lit || (m_shading == ShadingMode::Auto && hasLights()); }
 
  private:
   void requireMaterial(int32_t material, const char* field) const;
@@ -51,6 +63,8 @@ class Scene {
   std::vector<Material> m_materials;
   std::vector<DirectionalLight> m_directionalLights;
   std::vector<PointLight> m_pointLights;
+  std::vector<SpotLight> m_spotLights;
+  ShadingMode m_shading = ShadingMode::Auto;
   Vec4d m_background{0, 0, 0, 1};
   Vec3d m_ambient{0};
   int32_t m_objectCount = 0;

@@ -8,48 +8,86 @@
 
 namespace durer {
 
-// A light in the render's precision, directional and point alike.
+// A light in the render's precision: directional, point and spot alike.
 template <typename Real>
 struct ShadingLight {
-  bool directional;
-  Vec3<Real> vector;  // directional: unit direction toward the light; point: its position
-  Vec3<Real> color;   // linear RGB
-  bool shadows;       // whether shadow rays are cast toward it
+  enum class Kind { Directional, Point, Spot };
+  Kind kind;
+  Vec3<Real> vector;       // directional: unit direction toward the light; point, spot: position
+  Vec3<Real> color;        // linear RGB
+  Vec3<Real> attenuation;  // point, spot: c0, c1, c2 of color / (c0 + c1·d + c2·d²)
+  Vec3<Real> axis;         // spot: unit direction it shines
+  Real cosHalfAngle;       // spot
+  Real blend;              // spot, in [0, 1]
+  bool shadows;            // whether shadow rays are cast toward it
 
   Vec3<Real> toLight(const Vec3<Real>& point) const {  // unit
-    return directional ? vector : glm::normalize(vector - point);
+    return kind == Kind::Directional ? vector : glm::normalize(vector - point);
   }
-  // A shadow ray from `origin` toward the light covers t in [0, shadowTMax()): for a point light the
-  // direction is not normalised, so the light sits exactly at t = 1 and needs no epsilon either.
-  Vec3<Real> shadowDirection(const Vec3<Real>& origin) const { return directional ? vector : vector - origin; }
-  Real shadowTMax() const { return directional ? std::numeric_limits<Real>::infinity() : Real(1); }
+
+  // The light's colour arriving at `point` (toLight: its unit direction toward the light).
+  Vec3<Real> arriving(const Vec3<Real>& point, const Vec3<Real>& toLight) const {
+    if (kind == Kind::Directional) return color;
+    const Real d = glm::length(vector - point);
+    Real factor = 1 / (attenuation.x + d * (attenuation.y + d * attenuation.z));
+    if (kind == Kind::Spot) factor *= spotFactor(-glm::dot(toLight, axis));
+    return factor * color;
+  }
+
+  Real spotFactor(Real cosine) const {
+    if (blend <= 0) return cosine > cosHalfAngle ? Real(1) : Real(0);
+    const Real x = std::clamp((cosine - cosHalfAngle) / ((1 - cosHalfAngle) * blend), Real(0), Real(1));
+    return x * x * (3 - 2 * x);  // smoothstep
+  }
+
+  // A shadow ray from `origin` toward the light covers t in (0, shadowTMax()): for point and spot
+  // lights the direction is not normalised, so the light sits exactly at t = 1 and needs no epsilon.
+  Vec3<Real> shadowDirection(const Vec3<Real>& origin) const {
+    return kind == Kind::Directional ? vector : vector - origin;
+  }
+  Real shadowTMax() const { return kind == Kind::Directional ? std::numeric_limits<Real>::infinity() : Real(1); }
 };
 
-// The 6.837 assignment-2 shading, in the render's precision:
-//   no lights: the material's diffuse colour (flat);
-//   lights:    ambient·kd + Σ max(N·L, 0)·light·kd over directional and point lights,
-//              a light's term dropped where a shadow ray toward it is blocked (lights with shadows).
+// The 6.837 assignment-2 shading, in the render's precision, plus emission:
+//   flat (no lights, by default): diffuse + emission;
+//   lit:  emission + ambient·kd + Σ max(N·L, 0)·light·kd over the lights, a light's term dropped
+//         where a shadow ray toward it is blocked (lights with shadows).
 template <typename Real>
 class Shading {
  public:
-  explicit Shading(const Scene& scene) : m_ambient(toReal<Real>(scene.ambient())) {
-    for (const Material& m : scene.materials()) m_diffuse.push_back(toReal<Real>(m.diffuse));
+  explicit Shading(const Scene& scene) : m_ambient(toReal<Real>(scene.ambient())), m_lit(scene.lit()) {
+    using Kind = typename ShadingLight<Real>::Kind;
+    for (const Material& m : scene.materials()) {
+      m_diffuse.push_back(toReal<Real>(m.diffuse));
+      m_emission.push_back(toReal<Real>(m.emission));
+    }
+    const Vec3<Real> none(0);
     for (const DirectionalLight& l : scene.directionalLights()) {
-      m_lights.push_back({true, toReal<Real>(-l.direction), toReal<Real>(l.color), l.shadows});
+      m_lights.push_back({Kind::Directional, toReal<Real>(-l.direction), toReal<Real>(l.color), none, none, 0, 0,
+                          l.shadows});
     }
     for (const PointLight& l : scene.pointLights()) {
-      m_lights.push_back({false, toReal<Real>(l.position), toReal<Real>(l.color), l.shadows});
+      m_lights.push_back({Kind::Point, toReal<Real>(l.position), toReal<Real>(l.color), toReal<Real>(l.attenuation),
+                          none, 0, 0, l.shadows});
+    }
+    for (const SpotLight& l : scene.spotLights()) {
+      m_lights.push_back({Kind::Spot, toReal<Real>(l.position), toReal<Real>(l.color), toReal<Real>(l.attenuation),
+                          toReal<Real>(l.direction), static_cast<Real>(l.cosHalfAngle), static_cast<Real>(l.blend),
+                          l.shadows});
     }
   }
 
-  bool lit() const { return !m_lights.empty(); }  // whether shading needs hit records
+  bool lit() const { return m_lit; }  // whether shading needs hit records and lights
   const Vec3<Real>& diffuse(int32_t material) const { return m_diffuse[static_cast<size_t>(material)]; }
+  const Vec3<Real>& emission(int32_t material) const { return m_emission[static_cast<size_t>(material)]; }
   const Vec3<Real>& ambient() const { return m_ambient; }
   const std::vector<ShadingLight<Real>>& lights() const { return m_lights; }
 
  private:
-  std::vector<Vec3<Real>> m_diffuse;  // by material id
+  std::vector<Vec3<Real>> m_diffuse;   // by material id
+  std::vector<Vec3<Real>> m_emission;  // by material id
   Vec3<Real> m_ambient;
+  bool m_lit;
   std::vector<ShadingLight<Real>> m_lights;
 };
 
