@@ -1,0 +1,21 @@
+"""The README's Python example runs as written."""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def test_readme_python_example_runs(tmp_path, monkeypatch):
+    blocks = re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
+    assert blocks, "the README has a Python example"
+    monkeypatch.chdir(tmp_path)  # it writes into out/
+    namespace: dict = {}
+    exec(compile(blocks[0].replace("progress=print", "progress=None"), "README.md", "exec"), namespace)
+    result = namespace["result"]
+    assert result.color.shape == (480, 640, 4) and result.stats["shadow_rays"] > 0
+    assert sorted(os.listdir(tmp_path / "out")) == ["depth.png", "image.png", "normal.png"]
+    assert namespace["hits"].t.shape == (640 * 480,)
