@@ -2,9 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
-#include <optional>
 
-#include "durer/GroupIn.h"
 #include "durer/HotKernel.h"
 #include "durer/RayPacket.h"
 #include "durer/Validate.h"
@@ -51,8 +49,8 @@ DURER_HOT_KERNEL void castItem(const Group<Real>& group, const CastInput& in, co
 template <typename Real, SphereMethod M>
 CastStats castWith(const Scene& scene, const CastInput& in, const CastOutput<Real>& out, JobControl& control,
                    const std::function<void()>& poll) {
-  std::optional<Group<Real>> storage;
-  const Group<Real>& group = groupIn<Real>(scene, storage);
+  const std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>();
+  const Group<Real>& group = *prepared;
   const int64_t items = (static_cast<int64_t>(in.count) + kRaysPerItem - 1) / kRaysPerItem;
   const int threads = in.threads > 0 ? in.threads : defaultThreadCount();
   runParallel(

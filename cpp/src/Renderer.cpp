@@ -3,10 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <limits>
-#include <optional>
 #include <vector>
 
-#include "durer/GroupIn.h"
 #include "durer/HotKernel.h"
 #include "durer/PixelSampler.h"
 #include "durer/Shading.h"
@@ -129,6 +127,17 @@ class TileRenderer {
       accumulateFlat(packet, acc);
       return 0;
     }
+    if (!m_shading.lit()) {  // the normal pass without lighting: normals only, no hit points
+      accumulateFlat(packet, acc);
+      for (int k = 0; k < packet.count; ++k) {
+        if (packet.prim[k] == kNoPrimitive) continue;
+        const Vec3<Real> n = m_group.normal(packet, k);
+        acc.nx[k] += n.x;
+        acc.ny[k] += n.y;
+        acc.nz[k] += n.z;
+      }
+      return 0;
+    }
     alignas(64) Hit<Real> hits[kPacketSize];
     for (int k = 0; k < packet.count; ++k) {
       hits[k] = m_group.hit(packet, k);
@@ -139,13 +148,6 @@ class TileRenderer {
       acc.nz[k] += hits[k].normal.z;
     }
     if (!m_targets.color) return 0;
-    if (!m_shading.lit()) {
-      for (int k = 0; k < packet.count; ++k) {
-        const size_t m = static_cast<size_t>(m_flat.primMaterial[static_cast<size_t>(packet.prim[k] + 1)]);
-        addColor(acc, k, m_flat.r[m], m_flat.g[m], m_flat.b[m], m_flat.a[m]);
-      }
-      return 0;
-    }
     return shadeLit(packet.count, hits, acc);
   }
 
@@ -269,8 +271,8 @@ class TileRenderer {
 template <typename Real, SphereMethod M>
 RenderStats renderWith(const Scene& scene, const CameraSpec& spec, const RenderSettings& settings,
                        const RenderTargets& targets, JobControl& control, const std::function<void()>& poll) {
-  std::optional<Group<Real>> storage;
-  const Group<Real>& group = groupIn<Real>(scene, storage);
+  const std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>();
+  const Group<Real>& group = *prepared;
   const TileRenderer<Real, M> tiles(scene, group, spec, settings, targets, control.cancel);
   RenderStats stats;
   stats.threads = settings.threads > 0 ? settings.threads : defaultThreadCount();

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <type_traits>
 
 #include "durer/Validate.h"
 
@@ -24,6 +25,33 @@ void Scene::requireMaterial(int32_t material, const char* field) const {
          std::to_string(m_materials.size()) + " materials, ids 0.." + std::to_string(m_materials.size() - 1) + ")");
   }
 }
+
+std::unique_lock<std::mutex> Scene::changeGeometry() {
+  std::unique_lock<std::mutex> lock(m_preparedMutex);
+  m_preparedFloat.reset();
+  m_preparedDouble.reset();
+  return lock;
+}
+
+template <typename Real>
+std::shared_ptr<const Group<Real>> Scene::prepared() const {
+  // Below this many spheres a packet tests them all faster than it walks a hierarchy.
+  constexpr size_t kBvhMinSpheres = 16;
+  std::lock_guard<std::mutex> lock(m_preparedMutex);
+  auto& cached = [this]() -> std::shared_ptr<const Group<Real>>& {
+    if constexpr (std::is_same_v<Real, float>) return m_preparedFloat;
+    else return m_preparedDouble;
+  }();
+  if (!cached) {
+    auto group = std::make_shared<Group<Real>>(m_group);
+    if (group->spheres().size() >= kBvhMinSpheres) group->spheres().buildBvh();
+    cached = std::move(group);
+  }
+  return cached;
+}
+
+template std::shared_ptr<const Group<float>> Scene::prepared<float>() const;
+template std::shared_ptr<const Group<double>> Scene::prepared<double>() const;
 
 int32_t Scene::takeObjectIds(size_t count) {
   if (count > static_cast<size_t>(std::numeric_limits<int32_t>::max() - m_objectCount)) {
@@ -59,6 +87,7 @@ int32_t Scene::addSpheres(const double* centers, const double* radii, const int3
     }
   }
   const int32_t first = takeObjectIds(count);
+  const auto lock = changeGeometry();
   SphereSet<double>& spheres = m_group.spheres();
   spheres.reserve(spheres.size() + count);
   for (size_t i = 0; i < count; ++i) {
@@ -102,6 +131,7 @@ int32_t Scene::addPlane(const Vec3d& normal, double offset, int32_t material, co
     requireFinite(plane.dual2, "bounds edge2 (too long or too short)");
   }
   const int32_t id = takeObjectIds(1);
+  const auto lock = changeGeometry();
   m_group.planes().add(plane, material, id);
   return id;
 }

@@ -1,6 +1,8 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 #include "durer/Group.h"
@@ -43,6 +45,10 @@ class Scene {
   void setShading(ShadingMode mode) { m_shading = mode; }
 
   const Group<double>& group() const { return m_group; }
+  // The geometry as traced in precision Real: rounded to it, with its acceleration structure. Built
+  // on first use and kept until the scene changes; safe to call from concurrent renders.
+  template <typename Real>
+  std::shared_ptr<const Group<Real>> prepared() const;
   const std::vector<Material>& materials() const { return m_materials; }
   const std::vector<DirectionalLight>& directionalLights() const { return m_directionalLights; }
   const std::vector<PointLight>& pointLights() const { return m_pointLights; }
@@ -59,7 +65,13 @@ class Scene {
   void requireMaterial(int32_t material, const char* field) const;
   int32_t takeObjectIds(size_t count);
 
+  // Drops the prepared geometry and holds the lock while the caller changes m_group.
+  std::unique_lock<std::mutex> changeGeometry();
+
   Group<double> m_group;
+  mutable std::mutex m_preparedMutex;
+  mutable std::shared_ptr<const Group<float>> m_preparedFloat;
+  mutable std::shared_ptr<const Group<double>> m_preparedDouble;
   std::vector<Material> m_materials;
   std::vector<DirectionalLight> m_directionalLights;
   std::vector<PointLight> m_pointLights;

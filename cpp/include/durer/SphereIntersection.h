@@ -4,8 +4,11 @@
 // per-ray terms of d (sphereRayTerms).
 // Output: both roots in units of d, near <= far; NaN roots mean a miss (a NaN never compares as a hit).
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 
+#include "durer/RayPacket.h"
 #include "durer/SphereMethod.h"
 
 namespace durer {
@@ -29,17 +32,48 @@ struct SphereRayTerms {
   Real lengthSq;   // algebraic: d·d, the lecture's a
   Real sx, sy, sz; // robust: s = d·scale, exactly (scale is a power of two), with |s| in [1, 2·sqrt(3))
   Real a, invA;    // robust: s·s and 1/(s·s)
-  Real scale;      // robust: t along d = t along s · scale; NaN if d is 0 or not finite (the ray misses)
+  Real scale;      // robust: t along d = t along s · scale; NaN if d's largest component is 0, subnormal,
+                   // above 2^bias (2^1023, 2^127), inf or NaN: the ray then misses
 };
+
+template <typename Real>
+struct FloatBits;
+template <>
+struct FloatBits<double> {
+  using Bits = uint64_t;
+  static constexpr int kMantissaBits = 52;
+  static constexpr int kBias = 1023;
+};
+template <>
+struct FloatBits<float> {
+  using Bits = uint32_t;
+  static constexpr int kMantissaBits = 23;
+  static constexpr int kBias = 127;
+};
+
+// 2^-floor(log2 x) for x > 0, built from x's exponent bits (no library call, so it vectorises);
+// NaN where the result would not be a normal number: x zero, subnormal, above 2^bias, inf or NaN.
+template <typename Real>
+inline Real inversePowerOfTwo(Real x) {
+  using B = FloatBits<Real>;
+  typename B::Bits bits;
+  std::memcpy(&bits, &x, sizeof x);
+  const int exponent = static_cast<int>((bits >> B::kMantissaBits) & (2 * B::kBias + 1));  // biased
+  const bool usable = exponent >= 1 && exponent <= 2 * B::kBias - 1;
+  const typename B::Bits scaleBits = static_cast<typename B::Bits>(2 * B::kBias - exponent) << B::kMantissaBits;
+  Real scale;
+  std::memcpy(&scale, &scaleBits, sizeof scale);
+  return usable ? scale : std::numeric_limits<Real>::quiet_NaN();
+}
 
 template <SphereMethod M, typename Real>
 inline SphereRayTerms<Real> sphereRayTerms(Real dx, Real dy, Real dz) {
   SphereRayTerms<Real> terms{};
   if constexpr (M == SphereMethod::Robust) {
-    const Real largest = std::fmax(std::fabs(dx), std::fmax(std::fabs(dy), std::fabs(dz)));
-    const bool usable = largest > 0 && largest <= std::numeric_limits<Real>::max();
+    const Real ax = std::fabs(dx), ay = std::fabs(dy), az = std::fabs(dz);
+    const Real largest = ax > ay ? (ax > az ? ax : az) : (ay > az ? ay : az);
     // A power-of-two scale changes exponents only: s is d exactly, and no square over- or underflows.
-    const Real scale = usable ? std::ldexp(Real(1), -std::ilogb(largest)) : std::numeric_limits<Real>::quiet_NaN();
+    const Real scale = inversePowerOfTwo(largest);
     terms.sx = dx * scale;
     terms.sy = dy * scale;
     terms.sz = dz * scale;
@@ -138,6 +172,32 @@ inline SphereRoots<Real> sphereRobust(Real fx, Real fy, Real fz, const SphereRay
   const bool ordered = t0 <= t1;
   return {ordered ? t0 : t1, ordered ? t1 : t0};
 }
+
+// The per-ray terms of a whole packet, structure-of-arrays (an array of SphereRayTerms structs
+// costs store-forwarding stalls in the vectorised loops).
+template <typename Real>
+struct PacketRayTerms {
+  alignas(64) Real invLength[kPacketSize];
+  alignas(64) Real lengthSq[kPacketSize];
+  alignas(64) Real sx[kPacketSize];
+  alignas(64) Real sy[kPacketSize];
+  alignas(64) Real sz[kPacketSize];
+  alignas(64) Real a[kPacketSize];
+  alignas(64) Real invA[kPacketSize];
+  alignas(64) Real scale[kPacketSize];
+
+  template <SphereMethod M>
+  void compute(const Real* dx, const Real* dy, const Real* dz, int count) {
+    for (int k = 0; k < count; ++k) {
+      const SphereRayTerms<Real> t = sphereRayTerms<M>(dx[k], dy[k], dz[k]);
+      invLength[k] = t.invLength, lengthSq[k] = t.lengthSq;
+      sx[k] = t.sx, sy[k] = t.sy, sz[k] = t.sz, a[k] = t.a, invA[k] = t.invA, scale[k] = t.scale;
+    }
+  }
+  SphereRayTerms<Real> operator[](int k) const {
+    return {invLength[k], lengthSq[k], sx[k], sy[k], sz[k], a[k], invA[k], scale[k]};
+  }
+};
 
 template <SphereMethod M, typename Real>
 inline SphereRoots<Real> sphereRoots(Real fx, Real fy, Real fz, Real dx, Real dy, Real dz,

@@ -8,6 +8,7 @@
 #include "durer/PrimitiveIds.h"
 #include "durer/RayOffset.h"
 #include "durer/RayPacket.h"
+#include "durer/SphereBvh.h"
 #include "durer/SphereIntersection.h"
 #include "durer/Vec.h"
 
@@ -47,14 +48,72 @@ class SphereSet {
   const Sphere<Real>& sphere(size_t i) const { return m_spheres[i]; }
   const PrimitiveIds& ids() const { return m_ids; }
 
+  // Builds the bounding-volume hierarchy (and reorders the spheres and their ids to its order);
+  // worth it above a few dozen spheres, after which intersect() traverses it.
+  void buildBvh() {
+    std::vector<Vec3<Real>> centers(m_spheres.size());
+    std::vector<Real> radii(m_spheres.size());
+    for (size_t i = 0; i < m_spheres.size(); ++i) centers[i] = m_spheres[i].center, radii[i] = m_spheres[i].radius;
+    const std::vector<uint32_t> order = m_bvh.build(centers, radii);
+    std::vector<Sphere<Real>> sorted(m_spheres.size());
+    for (size_t i = 0; i < order.size(); ++i) sorted[i] = m_spheres[order[i]];
+    m_spheres.swap(sorted);
+    m_ids.permute(order);
+  }
+  bool hasBvh() const { return !m_bvh.empty(); }
+
   // Lowers each ray's tHit to its closest sphere hit in [tMin, tHit); sphere i is recorded as
-  // primBase + i. Between chunks of spheres it gives up if *cancel is set (the packet is then garbage).
+  // primBase + i. Gives up if *cancel is set (checked every few thousand sphere or node visits;
+  // the packet is then garbage).
   template <SphereMethod M>
   void intersect(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
+    if (m_spheres.empty()) return;
+    PacketRayTerms<Real> terms;
+    terms.template compute<M>(packet.dx, packet.dy, packet.dz, packet.count);
+    if (m_bvh.empty()) {
+      for (size_t i = 0; i < m_spheres.size(); ++i) {
+        if ((i & kCancelStride) == kCancelStride && cancel && cancel->load(std::memory_order_relaxed)) return;
+        intersectOne<M>(packet, terms, i, primBase);
+      }
+      return;
+    }
+    alignas(64) Real invX[kPacketSize], invY[kPacketSize], invZ[kPacketSize];
+    for (int k = 0; k < packet.count; ++k) {
+      invX[k] = 1 / packet.dx[k], invY[k] = 1 / packet.dy[k], invZ[k] = 1 / packet.dz[k];
+    }
+    int32_t stack[128];
+    int top = 0;
+    stack[top++] = 0;
+    for (size_t visits = 1; top > 0; ++visits) {
+      if ((visits & kCancelStride) == 0 && cancel && cancel->load(std::memory_order_relaxed)) return;
+      const int32_t index = stack[--top];
+      const BvhNode<Real>& node = m_bvh.node(index);
+      if (!SphereBvh<Real>::anyRayEnters(packet, invX, invY, invZ, node)) continue;
+      if (node.count > 0) {
+        for (int32_t i = node.first; i < node.first + node.count; ++i) {
+          intersectOne<M>(packet, terms, static_cast<size_t>(i), primBase);
+        }
+        continue;
+      }
+      // Near child first (judged by the first ray), so tHit shrinks early and prunes the far one.
+      const Real along = node.axis == 0 ? packet.dx[0] : node.axis == 1 ? packet.dy[0] : packet.dz[0];
+      const int32_t first = index + 1, second = node.first;
+      stack[top++] = along > 0 ? second : first;
+      stack[top++] = along > 0 ? first : second;
+    }
+  }
+
+  // One sphere against every ray of the packet: the vectorised inner loop.
+  template <SphereMethod M>
+  void intersectOne(RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, size_t i, int32_t primBase) const {
+    const Vec3<Real> c = m_spheres[i].center;
+    const Real r = m_spheres[i].radius;
+    if constexpr (M == SphereMethod::Robust) {
+      if (!anyRayMayMeet(packet, terms, c, r)) return;
+    }
     const int n = packet.count;
     const Real tMin = packet.tMin;
-    alignas(64) SphereRayTerms<Real> terms[kPacketSize];
-    for (int k = 0; k < n; ++k) terms[k] = sphereRayTerms<M>(packet.dx[k], packet.dy[k], packet.dz[k]);
+    const int32_t id = primBase + static_cast<int32_t>(i);
     const Real* __restrict ox = packet.ox;
     const Real* __restrict oy = packet.oy;
     const Real* __restrict oz = packet.oz;
@@ -63,34 +122,20 @@ class SphereSet {
     const Real* __restrict dz = packet.dz;
     Real* __restrict tHit = packet.tHit;
     int32_t* __restrict prim = packet.prim;
-    // 4096 spheres x 64 rays is well under a millisecond: cancel stays prompt even without acceleration.
-    constexpr size_t kChunk = 4096;
-    for (size_t begin = 0; begin < m_spheres.size(); begin += kChunk) {
-      if (cancel && cancel->load(std::memory_order_relaxed)) return;
-      const size_t end = std::min(m_spheres.size(), begin + kChunk);
-      for (size_t i = begin; i < end; ++i) {
-        const Vec3<Real> c = m_spheres[i].center;
-        const Real r = m_spheres[i].radius;
-        const int32_t id = primBase + static_cast<int32_t>(i);
-        if constexpr (M == SphereMethod::Robust) {
-          if (!anyRayMeets(packet, terms, c, r)) continue;  // the robust test's own discriminant: nothing skipped wrongly
-        }
-        for (int k = 0; k < n; ++k) {
-          const SphereRoots<Real> roots =
-              sphereRoots<M>(ox[k] - c.x, oy[k] - c.y, oz[k] - c.z, dx[k], dy[k], dz[k], terms[k], r, tMin);
-          const Real t = firstRootFrom(roots, tMin);
-          const bool closer = (t >= tMin) & (t < tHit[k]);  // false for NaN: NaN never hits
-          tHit[k] = closer ? t : tHit[k];
-          prim[k] = closer ? id : prim[k];
-        }
-      }
+    for (int k = 0; k < n; ++k) {
+      const SphereRoots<Real> roots =
+          sphereRoots<M>(ox[k] - c.x, oy[k] - c.y, oz[k] - c.z, dx[k], dy[k], dz[k], terms[k], r, tMin);
+      const Real t = firstRootFrom(roots, tMin);
+      const bool closer = (t >= tMin) & (t < tHit[k]);  // false for NaN: NaN never hits
+      tHit[k] = closer ? t : tHit[k];
+      prim[k] = closer ? id : prim[k];
     }
   }
 
   // Whether the robust test may find a hit for any ray (robustMayMeet, implied by robustMeets).
   // Most spheres miss most packets; this skips their square roots and divisions.
-  static bool anyRayMeets(const RayPacket<Real>& packet, const SphereRayTerms<Real>* terms, const Vec3<Real>& c,
-                          Real r) {
+  static bool anyRayMayMeet(const RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, const Vec3<Real>& c,
+                            Real r) {
     int meeting = 0;  // an integer count, not a bool: the reduction then vectorises
     const Real r2 = r * r;
     for (int k = 0; k < packet.count; ++k) {
@@ -100,15 +145,19 @@ class SphereSet {
     return meeting > 0;
   }
 
-  // Full record of ray k's hit on sphere `index` at packet.tHit[k].
-  Hit<Real> hit(const RayPacket<Real>& packet, int k, size_t index) const {
+  Vec3<Real> normal(const RayPacket<Real>& packet, int k, size_t index) const {
     const Real t = packet.tHit[k];
     const Vec3<Real> p(packet.ox[k] + t * packet.dx[k], packet.oy[k] + t * packet.dy[k],
                        packet.oz[k] + t * packet.dz[k]);
+    return glm::normalize(p - m_spheres[index].center);
+  }
+
+  // Full record of ray k's hit on sphere `index` at packet.tHit[k].
+  Hit<Real> hit(const RayPacket<Real>& packet, int k, size_t index) const {
     const Vec3<Real> c = m_spheres[index].center;
     Hit<Real> h;
-    h.t = t;
-    h.normal = glm::normalize(p - c);
+    h.t = packet.tHit[k];
+    h.normal = normal(packet, k, index);
     // Reprojection onto the sphere (pbrt-v4): the point's error no longer depends on t's error.
     h.point = c + m_spheres[index].radius * h.normal;
     h.pointError = errorGamma<Real>(6) * (glm::abs(h.point - c) + glm::abs(c));
@@ -118,8 +167,11 @@ class SphereSet {
   }
 
  private:
+  static constexpr size_t kCancelStride = 4095;  // a cancel check per 4096 visits: well under a millisecond
+
   std::vector<Sphere<Real>> m_spheres;
   PrimitiveIds m_ids;
+  SphereBvh<Real> m_bvh;  // empty: brute force
 };
 
 }  // namespace durer
