@@ -98,3 +98,15 @@ def test_adding_spheres_after_a_render_rebuilds():
     assert durer.cast(scene, **probe).object_id[0] == -1
     scene.add_spheres([[100.0, 0, 0]], 0.5)
     assert durer.cast(scene, **probe).object_id[0] == 20
+
+
+def test_ray_lying_in_a_box_face():
+    # Spheres of radius 0.5 at integer x: a box face of the leaf holding x = 0..3 lies at exactly
+    # x = -0.5 after outward rounding only if the rounding is exact; aim rays along that plane and
+    # along sphere extremes, where 0·inf arises.
+    centers = np.array([[float(i), 0.0, 0.0] for i in range(32)])
+    radii = np.full(32, 0.5)
+    lo = np.nextafter(-0.5, -np.inf)
+    origins = np.array([[lo, 0.0, 10.0], [-0.5, 0.0, 10.0], [lo, 0.0, -10.0]])
+    directions = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, -1.0], [0.0, 0.0, 1.0]])
+    assert_same_as_brute_force(centers, radii, origins, directions)

@@ -55,36 +55,35 @@ class SphereBvh {
     return order;
   }
 
-  // Whether any ray of the packet may meet the box at some t in [tMin, its tHit).
+  // Whether any ray of the packet may meet the box at some t in [tMin, its tHit].
   static bool anyRayEnters(const RayPacket<Real>& p, const Real* invX, const Real* invY, const Real* invZ,
                            const BvhNode<Real>& box) {
-    constexpr Real inf = std::numeric_limits<Real>::infinity();
-    const Real slack = 2 * errorGamma<Real>(3);
-    int entering = 0;
+    int entering = 0;  // an integer count, not a bool: the reduction then vectorises
     for (int k = 0; k < p.count; ++k) {
       Real nearT = p.tMin, farT = p.tHit[k];
-      slab(box.lo.x, box.hi.x, p.ox[k], invX[k], nearT, farT, inf);
-      slab(box.lo.y, box.hi.y, p.oy[k], invY[k], nearT, farT, inf);
-      slab(box.lo.z, box.hi.z, p.oz[k], invZ[k], nearT, farT, inf);
-      (void)slack;
+      slab(box.lo.x, box.hi.x, p.ox[k], invX[k], nearT, farT);
+      slab(box.lo.y, box.hi.y, p.oy[k], invY[k], nearT, farT);
+      slab(box.lo.z, box.hi.z, p.oz[k], invZ[k], nearT, farT);
       entering += nearT <= farT ? 1 : 0;
     }
     return entering > 0;
   }
 
  private:
-  // Narrows [nearT, farT] to one slab, widened by the test's rounding error; a NaN from 0·inf (the
-  // origin on a slab plane of a ray parallel to it) leaves the range as it was.
-  static void slab(Real lo, Real hi, Real o, Real inv, Real& nearT, Real& farT, Real inf) {
+  // Narrows [nearT, farT] to one slab, widened by the test's rounding error (two roundings and the
+  // reciprocal's: γ₃ each side); a NaN from 0·inf (a ray parallel to the slab, its origin on a
+  // face, so inside it) leaves the range as it was. -inf - slack·inf is -inf, so inf stays inf.
+  static void slab(Real lo, Real hi, Real o, Real inv, Real& nearT, Real& farT) {
+    constexpr Real inf = std::numeric_limits<Real>::infinity();
     const Real t0 = (lo - o) * inv, t1 = (hi - o) * inv;
-    Real tNear = t0 < t1 ? t0 : t1;
-    Real tFar = t0 < t1 ? t1 : t0;
     const Real slack = 2 * errorGamma<Real>(3);
-    tNear = tNear - slack * std::fabs(tNear);
-    tFar = tFar + slack * std::fabs(tFar);
-    nearT = tNear > nearT ? tNear : nearT;  // NaN keeps nearT
-    farT = tFar < farT ? tFar : farT;       // NaN keeps farT
-    (void)inf;
+    const bool defined = (t0 == t0) & (t1 == t1);
+    Real tNear = defined ? (t0 < t1 ? t0 : t1) : -inf;
+    Real tFar = defined ? (t0 < t1 ? t1 : t0) : inf;
+    tNear -= slack * std::fabs(tNear);
+    tFar += slack * std::fabs(tFar);
+    nearT = tNear > nearT ? tNear : nearT;
+    farT = tFar < farT ? tFar : farT;
   }
 
   int32_t buildNode(std::vector<uint32_t>& order, size_t begin, size_t end, const std::vector<Vec3<Real>>& centers) {
