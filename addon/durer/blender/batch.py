@@ -1,0 +1,243 @@
+"""Batch rendering of .blend files with Dürer through the ``bpy`` module.
+
+``python -m durer render FILE.blend [--frames 1-48] [--output out/frame_####.png] [--samples N]``
+calls `main`; scripts call `render_file`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import sys
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+
+#: Image formats chosen from the output file's extension.
+FORMATS = {
+    ".png": "PNG",
+    ".exr": "OPEN_EXR",
+    ".jpg": "JPEG",
+    ".jpeg": "JPEG",
+    ".tif": "TIFF",
+    ".tiff": "TIFF",
+    ".bmp": "BMP",
+    ".hdr": "HDR",
+    ".webp": "WEBP",
+}
+
+
+class BatchRenderError(RuntimeError):
+    """A frame failed to render (the message says which and why)."""
+
+
+def parse_frames(spec: str | int | Iterable[int] | None) -> list[int] | None:
+    """'1-48' -> [1..48]; '1,5,10-12' -> [1, 5, 10, 11, 12]; 7 -> [7]; None -> None (current frame)."""
+    if spec is None:
+        return None
+    if isinstance(spec, int):
+        return [spec]
+    if not isinstance(spec, str):
+        frames = [int(f) for f in spec]
+        if not frames:
+            raise ValueError("frames must not be empty")
+        return frames
+    frames: list[int] = []
+    for part in spec.replace(" ", "").split(","):
+        if not part:
+            continue
+        try:
+            if "-" in part[1:]:
+                i = part.index("-", 1)
+                first, last = int(part[:i]), int(part[i + 1 :])
+                if last < first:
+                    raise ValueError
+                frames.extend(range(first, last + 1))
+            else:
+                frames.append(int(part))
+        except ValueError:
+            raise ValueError(f"frames must look like 1-48 or 1,5,10-12, got {spec!r}") from None
+    if not frames:
+        raise ValueError(f"frames must look like 1-48 or 1,5,10-12, got {spec!r}")
+    return frames
+
+
+def _progress_bar(enabled: bool, frame: int, count: int):
+    if not enabled:
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return None
+    return tqdm(
+        total=100,
+        desc=f"frame {frame} ({count} left)" if count > 1 else f"frame {frame}",
+        unit="%",
+        leave=True,
+        file=sys.stderr,
+        bar_format="{desc}: {percentage:3.0f}%|{bar}| {elapsed}",
+    )
+
+
+def render_file(
+    path: str | os.PathLike,
+    frames: str | int | Iterable[int] | None = None,
+    output: str | os.PathLike | None = None,
+    samples: int | None = None,
+    *,
+    progress: bool | Callable[[int, float], object] = False,
+    scene: str | None = None,
+) -> list[Path]:
+    """Render frames of a .blend file with Dürer and write them; returns the written files.
+
+    frames:  "1-48", "1,5,10-12", an int, an iterable of ints, or None (the file's current frame).
+    output:  output path; "#" runs become the zero-padded frame number (Blender's convention, so
+             "out/frame_####.png"), a missing "#" gets the frame appended when rendering several
+             frames; the extension picks the format (.png, .exr, .jpg, .tif, ...). None: the
+             file's own output path.
+    samples: overrides scene.durer.samples.
+    progress: True draws a progress bar per frame (stderr); a callable gets (frame, fraction).
+    scene:   the scene to render (default: the file's active scene).
+
+    Raises FileNotFoundError for a missing file and BatchRenderError when a frame fails.
+    """
+    import bpy
+
+    from . import engine, register
+
+    blend = Path(path).expanduser().resolve()
+    if not blend.is_file():
+        raise FileNotFoundError(f"No such .blend file: {blend}")
+    frame_list = parse_frames(frames)
+    if samples is not None and int(samples) < 1:
+        raise ValueError(f"samples must be >= 1, got {samples}")
+    register()
+    try:
+        bpy.ops.wm.open_mainfile(filepath=str(blend), load_ui=False)
+    except RuntimeError as exc:
+        raise BatchRenderError(f"Cannot open {blend}: {exc}") from None
+    sc = bpy.data.scenes.get(scene) if scene else bpy.context.scene
+    if sc is None:
+        raise BatchRenderError(f"{blend} has no scene named {scene!r}")
+    if bpy.context.window is not None and bpy.context.window.scene != sc:
+        bpy.context.window.scene = sc
+    sc.render.engine = "DURER"
+    if samples is not None:
+        sc.durer.samples = int(samples)
+    if sc.camera is None:
+        raise BatchRenderError(f"Scene '{sc.name}' in {blend} has no camera")
+    if frame_list is None:
+        frame_list = [sc.frame_current]
+
+    explicit = None  # an output path with a known image extension: "#" -> frame number, as given
+    if output is not None:
+        out = str(Path(output).expanduser().resolve()) if not str(output).startswith("//") else str(output)
+        ext = Path(out).suffix.lower()
+        if ext in FORMATS:
+            sc.render.image_settings.file_format = FORMATS[ext]
+            if FORMATS[ext] == "OPEN_EXR":
+                sc.render.image_settings.color_depth = "32"
+        elif ext:
+            raise ValueError(f"Unknown image extension {ext!r}: use one of {', '.join(sorted(FORMATS))}")
+        if len(frame_list) > 1 and "#" not in Path(out).name:
+            stem = Path(out)
+            out = str(stem.with_name(stem.stem + "_####" + stem.suffix))
+        sc.render.filepath = out
+        sc.render.use_file_extension = True
+        if ext in FORMATS:
+            explicit = out
+
+    written: list[Path] = []
+    pattern, use_extension = sc.render.filepath, sc.render.use_file_extension
+    try:
+        for i, frame in enumerate(frame_list):
+            sc.frame_set(frame)
+            # write_still does not number stills: resolve "#" and the extension per frame ourselves.
+            if explicit is not None:
+                target = Path(bpy.path.abspath(re.sub(r"#+", lambda m, f=frame: f"{f:0{len(m.group())}d}", explicit)))
+            else:
+                target = Path(bpy.path.abspath(sc.render.frame_path(frame=frame)))
+            target.parent.mkdir(parents=True, exist_ok=True)
+            sc.render.filepath, sc.render.use_file_extension = str(target), False
+            _render_frame(bpy, engine, sc, blend, frame, len(frame_list) - i, progress)
+            sc.render.filepath, sc.render.use_file_extension = pattern, use_extension
+            if not target.is_file():
+                raise BatchRenderError(f"Frame {frame} of {blend} rendered but {target} was not written")
+            written.append(target)
+    finally:
+        sc.render.filepath, sc.render.use_file_extension = pattern, use_extension
+    return written
+
+
+def _render_frame(bpy, engine, sc, blend: Path, frame: int, left: int, progress) -> None:
+    bar = _progress_bar(progress is True, frame, left)
+    last = [0.0]
+
+    def hook(fraction: float) -> None:
+        if bar is not None:
+            bar.update(max(0.0, 100.0 * fraction - last[0]))
+            last[0] = max(last[0], 100.0 * fraction)
+        elif callable(progress):
+            progress(frame, fraction)
+
+    engine.progress_hooks.append(hook)
+    try:
+        bpy.ops.render.render(write_still=True, scene=sc.name)
+    except RuntimeError as exc:
+        raise BatchRenderError(f"Frame {frame} of {blend} failed: {exc}") from None
+    finally:
+        engine.progress_hooks.remove(hook)
+        if bar is not None:
+            bar.close()
+    info = engine.last_render
+    if info.error:
+        raise BatchRenderError(f"Frame {frame} of {blend} failed: {info.error}")
+    if info.cancelled:
+        raise BatchRenderError(f"Frame {frame} of {blend} was cancelled")
+
+
+def build_parser(prog: str = "python -m durer render") -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog=prog, description="Render a .blend file with Dürer (through the bpy module).")
+    p.add_argument("file", help="the .blend file")
+    p.add_argument("--frames", "-f", help="frames to render: 7, 1-48 or 1,5,10-12 (default: the file's current frame)")
+    p.add_argument(
+        "--output", "-o", help="output path; #### becomes the frame number (default: the file's output path)"
+    )
+    p.add_argument("--samples", "-s", type=int, help="samples per pixel (default: the file's Dürer setting)")
+    p.add_argument("--scene", help="scene to render (default: the active scene)")
+    p.add_argument("--quiet", "-q", action="store_true", help="no progress bars")
+    return p
+
+
+def main(argv: Sequence[str] | None = None, prog: str = "python -m durer render") -> int:
+    """The command line: returns the exit code (0 on success, 1 on a render error, 2 on bad input)."""
+    args = build_parser(prog).parse_args(argv)
+    try:
+        import bpy  # noqa: F401
+    except ImportError:
+        print(
+            f"{prog}: error: rendering .blend files needs Blender's bpy module: pip install bpy==5.0.1", file=sys.stderr
+        )
+        return 2
+    try:
+        files = render_file(
+            args.file,
+            frames=args.frames,
+            output=args.output,
+            samples=args.samples,
+            progress=not args.quiet,
+            scene=args.scene,
+        )
+    except (FileNotFoundError, ValueError) as exc:
+        print(f"{prog}: error: {exc}", file=sys.stderr)
+        return 2
+    except BatchRenderError as exc:
+        print(f"{prog}: error: {exc}", file=sys.stderr)
+        return 1
+    for f in files:
+        print(f"image written to {f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

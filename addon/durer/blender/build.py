@@ -1,0 +1,95 @@
+"""Exported Blender data (`export.SceneData`) -> Dürer's core objects (scene and camera), and
+Dürer's passes -> Blender's conventions.
+
+Everything that depends on the core's API lives here, so the export stays plain data.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+import durer
+
+from .export import CameraData, SceneData
+
+#: Blender's Depth pass holds this where no object is hit (Cycles writes 1e10).
+DEPTH_MISS = 1.0e10
+#: Dürer's attenuation (c0, c1, c2) for Cycles' physical inverse-square falloff.
+INVERSE_SQUARE = (0.0, 0.0, 1.0)
+
+
+def make_camera(cam: CameraData) -> durer.OrthographicCamera | durer.PerspectiveCamera:
+    """The Dürer camera for Blender's camera parameters (fit, shift, pixel aspect, clip range)."""
+    common = {
+        "fit": cam.fit,
+        "shift": cam.shift,
+        "pixel_aspect": cam.pixel_aspect,
+        "t_min": cam.clip_start,
+        "t_max": cam.clip_end,
+    }
+    center, direction, up = tuple(cam.center), tuple(cam.direction), tuple(cam.up)
+    if cam.projection == "orthographic":
+        # Cycles starts orthographic rays on the camera plane + clip_start; depth counts from the plane.
+        return durer.OrthographicCamera(center, direction, up, size=cam.size, **common)
+    # Cycles clips perspective rays at planes along the view axis; Dürer clips along the ray, which
+    # differs only off-axis near the clip distances.
+    return durer.PerspectiveCamera(center, direction, up, fov_degrees=cam.fov_degrees, **common)
+
+
+def make_scene(data: SceneData) -> durer.Scene:
+    """The Dürer scene: materials, spheres, planes (turned towards the camera), lights, world."""
+    scene = durer.Scene()
+    table = np.array(
+        [scene.add_material(diffuse=m.diffuse, emission=m.emission) for m in data.materials], dtype=np.int32
+    )
+    if data.sphere_count:
+        scene.add_spheres(data.sphere_centers, data.sphere_radii, material=table[data.sphere_materials])
+    for p in data.planes:
+        normal, offset = facing_camera(p.normal, p.offset, data.camera)
+        scene.add_plane(normal, offset, material=int(table[p.material]), bounds=p.bounds)
+    for light in data.lights:
+        attenuation = INVERSE_SQUARE if light.falloff == "inverse_square" else (1.0, 0.0, 0.0)
+        if light.kind == "sun":
+            scene.add_directional_light(light.direction, light.color, shadows=light.shadows)
+        elif light.kind == "spot":
+            scene.add_spot_light(
+                light.position,
+                light.direction,
+                light.color,
+                half_angle_degrees=min(math.degrees(light.spot_half_angle), 179.999),
+                blend=min(max(light.spot_blend, 0.0), 1.0),
+                attenuation=attenuation,
+                shadows=light.shadows,
+            )
+        else:
+            scene.add_point_light(light.position, light.color, attenuation=attenuation, shadows=light.shadows)
+    scene.shading = "lit"  # a Blender scene without lights shows only the world's light, never flat colours
+    scene.background = data.background
+    scene.ambient = data.ambient
+    return scene
+
+
+def facing_camera(normal, offset: float, cam: CameraData | None):
+    """Cycles shades the side of a surface the ray arrives on (back faces with the flipped normal)
+    and writes that normal to the Normal pass. The camera sees one side of a plane only, so turning
+    the plane's normal towards the camera does the same."""
+    if cam is None:
+        return normal, offset
+    if cam.projection == "orthographic":
+        back = float(np.dot(normal, cam.direction)) > 0.0
+    else:
+        back = float(np.dot(normal, cam.center)) < offset
+    return (-normal, -offset) if back else (normal, offset)
+
+
+def view_depth(depth: np.ndarray, camera, cam: CameraData) -> np.ndarray:
+    """Dürer's depth (distance along each unit ray from its origin) -> Blender's Depth pass
+    (distance along the camera's view axis; DEPTH_MISS on misses), top row first."""
+    depth = np.asarray(depth, dtype=np.float32)
+    if cam.projection == "perspective":
+        _, dirs = camera.rays(cam.width, cam.height)
+        cos = np.asarray(dirs, dtype=np.float64) @ np.asarray(cam.direction, dtype=np.float64)
+        depth = (depth * cos).astype(np.float32)
+    return np.where(np.isfinite(depth), depth, np.float32(DEPTH_MISS)).astype(np.float32)

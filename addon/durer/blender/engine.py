@@ -1,0 +1,294 @@
+"""The Dürer render engine (``bl_idname = "DURER"``): what Blender's Render button runs."""
+
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass, field
+
+import bpy
+import numpy as np
+
+#: Name of the float Image datablock that holds the Combined pixels after every render.
+IMAGE_NAME = "Dürer Render"
+#: How often the engine polls Blender's cancel flag (Esc) while Dürer renders, in seconds.
+POLL_SECONDS = 0.02
+
+
+@dataclass
+class RenderInfo:
+    """What the last render did (``durer.blender.engine.last_render``), for scripts and tests."""
+
+    width: int = 0
+    height: int = 0
+    samples: int = 0
+    stats: dict = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    error: str | None = None
+    cancelled: bool = False
+    export_seconds: float = 0.0
+    render_seconds: float = 0.0
+    spheres: int = 0
+    planes: int = 0
+
+
+last_render = RenderInfo()
+#: Callables given the finished fraction while Dürer renders (batch progress bars use this).
+progress_hooks: list = []
+
+
+def _flip(rows_top_first: np.ndarray) -> np.ndarray:
+    """Dürer images are top row first, Blender's bottom row first."""
+    return np.ascontiguousarray(rows_top_first[::-1], dtype=np.float32)
+
+
+def store_image(pixels_rgba_top_first: np.ndarray, name: str = IMAGE_NAME):
+    """Put the pixels in a float, linear Image datablock `name` (created or resized) and return it."""
+    h, w = pixels_rgba_top_first.shape[:2]
+    image = bpy.data.images.get(name)
+    if image is not None and (tuple(image.size) != (w, h) or not image.is_float):
+        bpy.data.images.remove(image)
+        image = None
+    if image is None:
+        image = bpy.data.images.new(name, w, h, alpha=True, float_buffer=True)
+    try:
+        image.colorspace_settings.is_data = False
+        image.colorspace_settings.name = "Linear Rec.709"
+    except TypeError:  # colour space not in this configuration: keep Blender's float default (linear)
+        pass
+    image.pixels.foreach_set(_flip(pixels_rgba_top_first).ravel())
+    image.update()
+    return image
+
+
+def render_kwargs(settings, render_func) -> dict:
+    """Keyword arguments for durer.render from scene.durer (only those the core accepts)."""
+    import inspect
+
+    try:
+        accepted = set(inspect.signature(render_func).parameters)
+    except (TypeError, ValueError):
+        accepted = set()
+    kwargs = {
+        "spp": int(settings.samples),
+        "seed": int(settings.seed),
+        "precision": settings.precision.lower(),
+        "sphere_method": settings.sphere_method.lower(),
+        "threads": int(settings.threads) or None,
+        "sampler": settings.sampler.lower(),
+    }
+    return {k: v for k, v in kwargs.items() if not accepted or k in accepted}
+
+
+class DurerEngineMixin:
+    """The engine's behaviour, apart from its Blender registration (see DurerRenderEngine), so
+    variants can be registered too (Blender confuses subclasses of a registered engine)."""
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
+        if renderlayer.use_pass_z:
+            self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
+        if renderlayer.use_pass_normal:
+            self.register_pass(scene, renderlayer, "Normal", 3, "XYZ", "VECTOR")
+
+    def render(self, depsgraph):
+        global last_render
+        info = last_render = RenderInfo()
+        try:
+            self._render(depsgraph, info)
+        except Exception as exc:  # noqa: BLE001 - never let an exception escape into Blender
+            info.error = f"{type(exc).__name__}: {exc}"
+            self.report({"ERROR"}, f"Dürer: {exc}")
+            self.update_stats("", f"Dürer | error: {exc}")
+
+    def _render(self, depsgraph, info: RenderInfo) -> None:
+        import durer
+
+        from . import build, export
+
+        scene = depsgraph.scene
+        settings = scene.durer
+        layer = depsgraph.view_layer
+        t0 = time.perf_counter()
+        data = export.export_depsgraph(depsgraph, camera=self.camera_override)
+        if data.camera is None:
+            raise ValueError("The scene has no camera")
+        cam_data = data.camera
+        w, h = cam_data.width, cam_data.height
+        core_scene = build.make_scene(data)
+        camera = build.make_camera(cam_data)
+        info.export_seconds = time.perf_counter() - t0
+        info.width, info.height, info.samples = w, h, int(settings.samples)
+        info.spheres, info.planes = data.sphere_count, len(data.planes)
+        info.warnings = data.warnings
+        for message in info.warnings:
+            self.report({"WARNING"}, message)
+
+        passes = ["color"]
+        if layer.use_pass_z:
+            passes.append("depth")
+        if layer.use_pass_normal:
+            passes.append("normal")
+        kwargs = render_kwargs(settings, durer.render)
+        self.update_stats("", f"Dürer | {w}x{h} | {info.samples} spp | rendering")
+        result, cancelled = self._run(durer, core_scene, camera, w, h, passes, kwargs)
+        info.render_seconds = time.perf_counter() - t0 - info.export_seconds
+        info.cancelled = cancelled
+        if result is None:
+            return
+        stats = dict(getattr(result, "stats", {}) or {})
+        info.stats = stats
+
+        crop = self._border(scene, w, h)
+        rw, rh = crop[1].stop - crop[1].start, crop[0].stop - crop[0].start
+        rr = self.begin_result(0, 0, rw, rh, layer=layer.name)
+        try:
+            rl = rr.layers[0]
+            color = np.asarray(result.color, dtype=np.float32)
+            rl.passes["Combined"].rect.foreach_set(_flip(color[crop]).ravel())
+            if "Depth" in rl.passes and getattr(result, "depth", None) is not None:
+                depth = build.view_depth(result.depth, camera, cam_data)
+                rl.passes["Depth"].rect.foreach_set(_flip(depth[crop]).ravel())
+            if "Normal" in rl.passes and getattr(result, "normal", None) is not None:
+                normal = np.asarray(result.normal, np.float32)
+                rl.passes["Normal"].rect.foreach_set(_flip(normal[crop]).ravel())
+        finally:
+            self.end_result(rr, cancel=False)
+        color = color[crop]
+        if threading.current_thread() is threading.main_thread():
+            store_image(color)
+        else:  # Blender's UI renders in a job thread: create datablocks on the main thread
+            bpy.app.timers.register(lambda c=color: (store_image(c), None)[1], first_interval=0.0)
+        mrays = stats.get("mrays_per_s")
+        speed = f" | {mrays:.1f} Mrays/s" if isinstance(mrays, (int, float)) else ""
+        state = " | cancelled" if cancelled else ""
+        self.update_stats("", f"Dürer | {w}x{h} | {info.samples} spp{speed}{state}")
+
+    def _border(self, scene, w: int, h: int) -> tuple[slice, slice]:
+        """Rows and columns (top row first) of the result Blender expects: the whole image, or
+        the Render Region (border) as Blender computes it (float32 border × size, truncated).
+        Dürer renders the whole frame and keeps the region."""
+        r = scene.render
+        if not r.use_border:
+            return slice(0, h), slice(0, w)
+
+        def edge(fraction: float, size: int) -> int:
+            return min(max(int(np.float32(fraction) * np.float32(size)), 0), size)
+
+        x0, x1 = edge(r.border_min_x, w), edge(r.border_max_x, w)
+        y0, y1 = edge(r.border_min_y, h), edge(r.border_max_y, h)  # from the bottom
+        if x1 <= x0 or y1 <= y0:
+            return slice(0, h), slice(0, w)
+        return slice(h - y1, h - y0), slice(x0, x1)
+
+    def break_requested(self) -> bool:
+        """Has the user asked to stop (Esc)? (Blender's test_break; a Python method so tests can
+        press Esc, which the bpy module has no keyboard for.)"""
+        return bool(self.test_break())
+
+    def _run(self, durer, core_scene, camera, w, h, passes, kwargs):
+        """Render in a worker thread while this thread polls Esc (test_break) and shows progress,
+        so every Blender call happens on the thread Blender called us on."""
+        cancel = threading.Event()
+        progress = [0.0]
+        out: dict = {}
+
+        def work():
+            try:
+                out["result"] = durer.render(
+                    core_scene,
+                    camera,
+                    w,
+                    h,
+                    passes=tuple(passes),
+                    progress=lambda f: progress.__setitem__(0, float(f)),
+                    cancel=cancel,
+                    **kwargs,
+                )
+            except BaseException as exc:  # noqa: BLE001 - handed to the calling thread
+                out["error"] = exc
+
+        worker = threading.Thread(target=work, name="durer-render", daemon=True)
+        worker.start()
+        shown = -1.0
+        while worker.is_alive():
+            worker.join(POLL_SECONDS)
+            if not cancel.is_set() and self.break_requested():
+                cancel.set()
+            if progress[0] != shown:
+                shown = progress[0]
+                self.update_progress(shown)
+                for hook in progress_hooks:
+                    hook(shown)
+        error = out.get("error")
+        cancelled_type = getattr(durer, "RenderCancelled", None)
+        if error is not None and cancelled_type is not None and isinstance(error, cancelled_type):
+            return getattr(error, "result", None), True
+        if error is not None:
+            raise error
+        self.update_progress(1.0)
+        for hook in progress_hooks:
+            hook(1.0)
+        return out.get("result"), False
+
+
+class DurerRenderEngine(DurerEngineMixin, bpy.types.RenderEngine):
+    bl_idname = "DURER"
+    bl_label = "Dürer"
+    bl_use_preview = False
+    bl_use_postprocess = True
+    bl_use_eevee_viewport = True
+
+
+#: EEVEE panels that show settings Dürer uses too (light colour and power, material and world surface).
+_EEVEE_PANELS_WE_USE = {
+    "DATA_PT_EEVEE_light",
+    "EEVEE_MATERIAL_PT_context_material",
+    "EEVEE_MATERIAL_PT_surface",
+    "EEVEE_WORLD_PT_surface",
+    "VIEWLAYER_PT_eevee_layer_passes_data",
+}
+_PANEL_PREFIXES = ("RENDER_PT_", "DATA_PT_", "MATERIAL_PT_", "WORLD_PT_", "VIEWLAYER_PT_", "OBJECT_PT_")
+_SKIP_WORDS = (
+    "eevee",
+    "lightprobe",
+    "freestyle",
+    "gpencil",
+    "grease",
+    "simplify",
+    "stereoscopy",
+    "volume",
+    "shadow_terminator",
+    "motion_blur",
+    "hair",
+    "curves",
+    "aov",
+    "cryptomatte",
+    "speaker",
+)
+
+
+def _compatible_panels():
+    """Blender's own panels that apply to any engine (format, output, camera, light, passes, ...)
+    and the EEVEE ones showing settings Dürer reads: like Cycles, we add our id to COMPAT_ENGINES."""
+    for name in dir(bpy.types):
+        if name in _EEVEE_PANELS_WE_USE:
+            pass
+        elif not name.startswith(_PANEL_PREFIXES) or any(w in name.lower() for w in _SKIP_WORDS):
+            continue
+        panel = getattr(bpy.types, name, None)
+        engines = getattr(panel, "COMPAT_ENGINES", None)
+        if isinstance(engines, set) and ("BLENDER_EEVEE" in engines or DurerRenderEngine.bl_idname in engines):
+            yield panel
+
+
+def register() -> None:
+    bpy.utils.register_class(DurerRenderEngine)
+    for panel in _compatible_panels():
+        panel.COMPAT_ENGINES.add(DurerRenderEngine.bl_idname)
+
+
+def unregister() -> None:
+    for panel in _compatible_panels():
+        panel.COMPAT_ENGINES.discard(DurerRenderEngine.bl_idname)
+    bpy.utils.unregister_class(DurerRenderEngine)

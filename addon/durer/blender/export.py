@@ -1,0 +1,724 @@
+"""Blender's evaluated depsgraph -> plain numpy data (`SceneData`) that Dürer can render.
+
+Nothing here calls the renderer, so tests can inspect exactly what a Blender scene turns into.
+Conventions (verified against Cycles in bpy 5.0.1, see docs/blender.md):
+
+* Geometry comes from ``depsgraph.object_instances`` (geometry-nodes and collection instances
+  count). Point clouds become one sphere per point (bulk ``foreach_get``, no per-point Python);
+  meshes whose vertices all lie on one sphere become that sphere; empties displayed as spheres and
+  metaball balls become spheres; flat quad meshes become bounded planes. ``object.durer.primitive``
+  overrides the detection (Auto / Sphere / Plane / Ignore); anything else is skipped and counted.
+* Lights are radiometric as in Cycles: a Sun of strength S gives irradiance S, so its Dürer colour
+  (which multiplies kd·max(N·L, 0) with no 1/pi) is colour·S/pi; a Point or Spot light of power P
+  has intensity colour·P/(4·pi²) with inverse-square falloff (Cycles' diffuse BRDF is kd/pi).
+* The camera keeps Blender's parameters (fit, shift in units of the fitted extent, clip range,
+  pixel aspect) and the resolved image size.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass, field
+
+import numpy as np
+
+#: Relative tolerance for "all vertices at the same distance from the centroid".
+SPHERE_TOLERANCE = 1e-3
+#: A sphere mesh's faces must be close to the sphere: every face centre at least this fraction of
+#: the radius from the centre (rejects cubes, cylinders and octahedra, whose corners are equidistant).
+SPHERE_FACE_FRACTION = 0.85
+#: Auto-detected sphere meshes need at least this many vertices (an icosahedron has 12).
+SPHERE_MIN_VERTICES = 12
+#: Relative tolerance for flatness and for "the faces cover their bounding rectangle".
+PLANE_TOLERANCE = 1e-5
+#: Relative spread of an object's axis scales above which its scale counts as non-uniform.
+SCALE_TOLERANCE = 1e-4
+
+# Object types whose evaluated mesh also appears among the depsgraph's instances.
+_CONVERTED_TYPES = {"CURVE", "SURFACE", "FONT", "META"}
+# Object types that carry geometry: when Dürer cannot render one, it is listed in the warning.
+_GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META", "CURVES", "POINTCLOUD", "VOLUME", "GREASEPENCIL"}
+
+
+@dataclass
+class MaterialData:
+    name: str
+    diffuse: tuple[float, float, float]
+    emission: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    @property
+    def key(self) -> tuple:
+        return (self.diffuse, self.emission)
+
+
+@dataclass
+class PlaneData:
+    name: str
+    normal: np.ndarray  # (3,) unit, the face normal (Blender's winding)
+    offset: float  # normal · p for points p on the plane
+    material: int
+    bounds: tuple[np.ndarray, np.ndarray, np.ndarray] | None  # (corner, edge1, edge2) or None: infinite
+
+
+@dataclass
+class LightData:
+    kind: str  # "sun", "point" or "spot"
+    name: str
+    color: np.ndarray  # (3,) Dürer colour: already includes strength and the radiometric factors
+    direction: np.ndarray | None = None  # the way the light travels (sun, spot axis)
+    position: np.ndarray | None = None  # point, spot
+    falloff: str = "none"  # "none" (sun) or "inverse_square" (point, spot)
+    spot_half_angle: float = math.pi  # radians
+    spot_blend: float = 0.0  # Blender's spot_blend: smoothstep over (1 - cos half angle)·blend in cos
+    shadows: bool = True  # Blender's light.use_shadow ("Cast Shadow")
+
+
+@dataclass
+class CameraData:
+    name: str
+    projection: str  # "orthographic" or "perspective"
+    center: np.ndarray
+    direction: np.ndarray  # unit view axis (the camera's -Z)
+    up: np.ndarray  # unit (the camera's +Y)
+    size: float  # orthographic: ortho_scale; perspective: unused (see fov_degrees)
+    fov_degrees: float  # perspective: the angle the fitted extent spans
+    fit: str  # resolved: "horizontal" or "vertical" (Blender's AUTO resolved like Blender does)
+    sensor_fit: str  # Blender's setting: "AUTO", "HORIZONTAL" or "VERTICAL"
+    shift: tuple[float, float]  # in units of the fitted extent (Blender's shift_x, shift_y)
+    clip_start: float
+    clip_end: float
+    width: int  # pixels, after resolution percentage
+    height: int
+    pixel_aspect: float  # pixel height / pixel width (Blender's pixel_aspect_y / pixel_aspect_x)
+
+    @property
+    def extent(self) -> float:
+        """Fitted image-plane extent: world units (orthographic) or at unit distance (perspective)."""
+        if self.projection == "orthographic":
+            return self.size
+        return 2.0 * math.tan(math.radians(self.fov_degrees) / 2.0)
+
+    def view_plane(self) -> tuple[float, float, float, float]:
+        """(left, right, bottom, top) of the image window in camera units, shift included:
+        world units for orthographic, at unit distance for perspective (Blender's view frame)."""
+        extent = self.extent
+        aspect_h = self.height * self.pixel_aspect
+        if self.fit == "horizontal":
+            w, h = extent, extent * aspect_h / self.width
+        else:
+            w, h = extent * self.width / aspect_h, extent
+        sx, sy = self.shift[0] * extent, self.shift[1] * extent
+        return (-w / 2 + sx, w / 2 + sx, -h / 2 + sy, h / 2 + sy)
+
+
+@dataclass
+class SceneData:
+    sphere_centers: np.ndarray = field(default_factory=lambda: np.empty((0, 3)))
+    sphere_radii: np.ndarray = field(default_factory=lambda: np.empty(0))
+    sphere_materials: np.ndarray = field(default_factory=lambda: np.empty(0, np.int32))
+    planes: list[PlaneData] = field(default_factory=list)
+    materials: list[MaterialData] = field(default_factory=list)
+    lights: list[LightData] = field(default_factory=list)
+    camera: CameraData | None = None
+    background: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
+    ambient: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    #: Number of spheres / planes each object contributed, by object name.
+    sources: Counter = field(default_factory=Counter)
+    #: Geometry Dürer cannot render yet, counted by a short description ("mesh", "curve", ...).
+    skipped: Counter = field(default_factory=Counter)
+    #: Object names with a non-uniform scale (their spheres use the mean scale).
+    nonuniform: list[str] = field(default_factory=list)
+    #: Other messages for the user (unsupported world or light settings, ...).
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def sphere_count(self) -> int:
+        return len(self.sphere_radii)
+
+    @property
+    def warnings(self) -> list[str]:
+        """Messages to show the user once per export (the engine reports them as warnings)."""
+        out = []
+        if self.skipped:
+            listed = ", ".join(f"{n} {kind}" for kind, n in sorted(self.skipped.items()))
+            out.append(f"Dürer skipped geometry it cannot render yet: {listed}")
+        if self.nonuniform:
+            names = ", ".join(sorted(set(self.nonuniform))[:5])
+            more = len(set(self.nonuniform)) - 5
+            out.append(
+                f"Non-uniform scale on {names}{f' and {more} more' if more > 0 else ''}: "
+                "Dürer renders their spheres with the mean scale"
+            )
+        out.extend(self.notes)
+        return out
+
+
+# ------------------------------------------------------------------------------------------------
+# helpers
+
+
+def _matrix(m) -> np.ndarray:
+    return np.array(m, dtype=np.float64).reshape(4, 4)
+
+
+def _scale(m: np.ndarray) -> tuple[float, bool]:
+    """Uniform scale factor of a 4x4 matrix (geometric mean of the axis scales) and whether the
+    linear part is a uniform scale times a rotation."""
+    lin = m[:3, :3]
+    norms = np.linalg.norm(lin, axis=0)
+    det = abs(float(np.linalg.det(lin)))
+    s = det ** (1.0 / 3.0)
+    if s == 0.0:
+        return 0.0, False
+    gram = lin.T @ lin / (s * s)
+    uniform = bool(np.abs(gram - np.eye(3)).max() <= SCALE_TOLERANCE) and bool(
+        np.ptp(norms) <= SCALE_TOLERANCE * norms.max()
+    )
+    return s, uniform
+
+
+def _transform_points(m: np.ndarray, p: np.ndarray) -> np.ndarray:
+    return p @ m[:3, :3].T + m[:3, 3]
+
+
+def _get(collection, attr: str, n: int, width: int, dtype=np.float32) -> np.ndarray:
+    buf = np.empty(n * width, dtype=dtype)
+    collection.foreach_get(attr, buf)
+    return buf.reshape(n, width) if width > 1 else buf
+
+
+def _durer_settings(obj):
+    """object.durer of the original object (evaluated copies can hold stale values; geometry
+    instances made by geometry nodes report their instancer as original)."""
+    original = getattr(obj, "original", None) or obj
+    return getattr(original, "durer", None)
+
+
+def _socket_value(node, name: str):
+    sock = node.inputs.get(name)
+    if sock is None:
+        return None, False
+    return sock.default_value, sock.is_linked
+
+
+def _rgb(value) -> tuple[float, float, float]:
+    return (float(value[0]), float(value[1]), float(value[2]))
+
+
+def material_data(mat, obj=None) -> MaterialData:
+    """Dürer's material for a Blender material (None: the object's colour).
+
+    Principled BSDF: Base Color (and Emission Color × Strength); Diffuse BSDF: Color; an Emission
+    shader alone: unlit, colour × strength; a linked colour (texture) or another shader: the
+    material's viewport display colour.
+    """
+    if mat is None:
+        color = _rgb(obj.color) if obj is not None else (0.8, 0.8, 0.8)
+        return MaterialData("(object colour)", color)
+    viewport = _rgb(mat.diffuse_color)
+    tree = mat.node_tree
+    if tree is None:
+        return MaterialData(mat.name, viewport)
+    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    if output is None or not output.inputs["Surface"].is_linked:
+        return MaterialData(mat.name, viewport)
+    node = output.inputs["Surface"].links[0].from_node
+    kind = node.bl_idname
+    if kind == "ShaderNodeBsdfPrincipled":
+        base, linked = _socket_value(node, "Base Color")
+        diffuse = viewport if linked else _rgb(base)
+        ecol, elinked = _socket_value(node, "Emission Color")
+        estr, _ = _socket_value(node, "Emission Strength")
+        emission = (0.0, 0.0, 0.0)
+        if ecol is not None and estr and not elinked:
+            emission = tuple(c * float(estr) for c in _rgb(ecol))
+        return MaterialData(mat.name, diffuse, emission)
+    if kind == "ShaderNodeBsdfDiffuse":
+        col, linked = _socket_value(node, "Color")
+        return MaterialData(mat.name, viewport if linked else _rgb(col))
+    if kind == "ShaderNodeEmission":
+        col, linked = _socket_value(node, "Color")
+        strength, _ = _socket_value(node, "Strength")
+        col = viewport if linked else _rgb(col)
+        return MaterialData(mat.name, (0.0, 0.0, 0.0), tuple(c * float(strength) for c in col))
+    return MaterialData(mat.name, viewport)
+
+
+def _object_materials(obj) -> list:
+    slots = getattr(obj, "material_slots", None)
+    if slots is not None and len(slots):
+        return [slot.material for slot in slots]
+    data = getattr(obj, "data", None)
+    mats = getattr(data, "materials", None)
+    return list(mats) if mats is not None else []
+
+
+def world_colors(world) -> tuple[tuple[float, float, float], str | None]:
+    """Linear RGB of a uniform world (Background colour × strength) and a note if the world is
+    not uniform (then its viewport colour is used)."""
+    if world is None:
+        return (0.0, 0.0, 0.0), None
+    tree = world.node_tree
+    if tree is None:
+        return _rgb(world.color), None
+    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld"]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    if output is None or not output.inputs["Surface"].is_linked:
+        return (0.0, 0.0, 0.0), None
+    node = output.inputs["Surface"].links[0].from_node
+    if node.bl_idname == "ShaderNodeBackground":
+        col, linked = _socket_value(node, "Color")
+        strength, slinked = _socket_value(node, "Strength")
+        if not linked and not slinked:
+            return tuple(c * float(strength) for c in _rgb(col)), None
+    return _rgb(world.color), f"World '{world.name}' is not a plain colour: Dürer uses its viewport colour"
+
+
+# ------------------------------------------------------------------------------------------------
+# camera
+
+
+def camera_data(scene, cam_obj) -> CameraData:
+    """The camera parameters Dürer needs, from Blender's camera object and render settings."""
+    render = scene.render
+    width = int(render.resolution_x * render.resolution_percentage // 100)
+    height = int(render.resolution_y * render.resolution_percentage // 100)
+    if width < 1 or height < 1:
+        raise ValueError(f"Render resolution {width}x{height} is empty")
+    xasp, yasp = float(render.pixel_aspect_x), float(render.pixel_aspect_y)
+    cam = cam_obj.data
+    if cam.type not in {"ORTHO", "PERSP"}:
+        raise ValueError(
+            f"Camera '{cam_obj.name}' is {cam.type.lower()}: Dürer renders orthographic and perspective cameras"
+        )
+    # Blender (BKE_camera_params_compute_viewplane): AUTO fits the larger of xasp·W and yasp·H.
+    if cam.sensor_fit == "AUTO":
+        fit = "horizontal" if xasp * width >= yasp * height else "vertical"
+    else:
+        fit = cam.sensor_fit.lower()
+    m = _matrix(cam_obj.matrix_world)
+    lin = m[:3, :3]
+    direction = -lin[:, 2] / np.linalg.norm(lin[:, 2])
+    up = lin[:, 1] / np.linalg.norm(lin[:, 1])
+    # Perspective: AUTO and HORIZONTAL use the sensor width, VERTICAL the sensor height.
+    sensor = cam.sensor_height if cam.sensor_fit == "VERTICAL" else cam.sensor_width
+    fov = math.degrees(2.0 * math.atan(0.5 * sensor / cam.lens))
+    return CameraData(
+        name=cam_obj.name,
+        projection="orthographic" if cam.type == "ORTHO" else "perspective",
+        center=m[:3, 3].copy(),
+        direction=direction,
+        up=up,
+        size=float(cam.ortho_scale),
+        fov_degrees=fov,
+        fit=fit,
+        sensor_fit=cam.sensor_fit,
+        shift=(float(cam.shift_x), float(cam.shift_y)),
+        clip_start=float(cam.clip_start),
+        clip_end=float(cam.clip_end),
+        width=width,
+        height=height,
+        pixel_aspect=yasp / xasp,
+    )
+
+
+# ------------------------------------------------------------------------------------------------
+# geometry
+
+
+@dataclass
+class _MeshShape:
+    kind: str  # "sphere", "plane" or "none"
+    center: np.ndarray | None = None
+    radius: float = 0.0
+    corner: np.ndarray | None = None  # plane: local corner, edges and normal direction
+    edge1: np.ndarray | None = None
+    edge2: np.ndarray | None = None
+
+
+def _mesh_arrays(me) -> tuple[np.ndarray, int]:
+    n = len(me.vertices)
+    co = _get(me.vertices, "co", n, 3).astype(np.float64)
+    return co, len(me.polygons)
+
+
+def _face_centers(me, co: np.ndarray) -> np.ndarray:
+    npoly = len(me.polygons)
+    starts = _get(me.polygons, "loop_start", npoly, 1, np.int32)
+    verts = _get(me.loops, "vertex_index", len(me.loops), 1, np.int32)
+    totals = _get(me.polygons, "loop_total", npoly, 1, np.int32)
+    sums = np.add.reduceat(co[verts], starts, axis=0)
+    return sums / totals[:, None]
+
+
+def _detect_sphere(me, co: np.ndarray, strict: bool = True) -> _MeshShape | None:
+    """A sphere through all vertices (they are equidistant from their centroid). `strict` (Auto)
+    also asks that the faces hug the sphere and the vertices span 3D."""
+    if len(co) < SPHERE_MIN_VERTICES or (strict and len(me.polygons) == 0):
+        return None
+    center = co.mean(axis=0)
+    dist = np.linalg.norm(co - center, axis=1)
+    radius = float(dist.max())
+    if radius <= 0 or float(dist.min()) < radius * (1.0 - SPHERE_TOLERANCE):
+        return None
+    if not strict:
+        return _MeshShape("sphere", center=center, radius=float(dist.mean()))
+    # Reject shapes whose corners are equidistant but whose faces are far inside (cubes, prisms).
+    face_dist = np.linalg.norm(_face_centers(me, co) - center, axis=1)
+    if float(face_dist.min()) < SPHERE_FACE_FRACTION * radius:
+        return None
+    # Reject rings (all vertices in a plane).
+    spread = np.linalg.svd(co - center, compute_uv=False)
+    if spread[-1] < 0.1 * spread[0]:
+        return None
+    return _MeshShape("sphere", center=center, radius=float(dist.mean()))
+
+
+def _bbox_plane(me, co: np.ndarray, axis_scale=(1.0, 1.0, 1.0)) -> _MeshShape:
+    """The rectangle of the local bounding box, normal along its thinnest axis (after the
+    object's axis scales)."""
+    lo, hi = co.min(axis=0), co.max(axis=0)
+    ext = hi - lo
+    axis = int(np.argmin(ext * np.asarray(axis_scale)))
+    a, b = [i for i in range(3) if i != axis]
+    normal = np.zeros(3)
+    normal[axis] = 1.0
+    if len(me.polygons):
+        npoly = len(me.polygons)
+        normals = _get(me.polygons, "normal", npoly, 3).astype(np.float64)
+        areas = _get(me.polygons, "area", npoly, 1).astype(np.float64)
+        if float((normals[:, axis] * areas).sum()) < 0:
+            normal[axis] = -1.0
+    mid = (lo + hi) / 2.0
+    corner = lo.copy()
+    corner[axis] = mid[axis]
+    e1 = np.zeros(3)
+    e1[a] = ext[a]
+    e2 = np.zeros(3)
+    e2[b] = ext[b]
+    if float(np.dot(np.cross(e1, e2), normal)) < 0:
+        e1, e2 = e2, e1
+    return _MeshShape("plane", corner=corner, edge1=e1, edge2=e2)
+
+
+def _detect_plane(me, co: np.ndarray) -> _MeshShape | None:
+    npoly = len(me.polygons)
+    if npoly == 0:
+        return None
+    size = float(np.ptp(co, axis=0).max())
+    if size <= 0:
+        return None
+    if npoly == 1 and len(co) == 4 and len(me.loops) == 4:
+        order = _get(me.loops, "vertex_index", 4, 1, np.int32)
+        v = co[order]
+        if np.abs(v[0] + v[2] - v[1] - v[3]).max() <= PLANE_TOLERANCE * size:
+            e1, e2 = v[1] - v[0], v[3] - v[0]
+            if np.linalg.norm(np.cross(e1, e2)) > 0:
+                return _MeshShape("plane", corner=v[0], edge1=e1, edge2=e2)
+        return None
+    # Grids and subdivided planes: flat along a local axis and covering their bounding rectangle.
+    ext = np.ptp(co, axis=0)
+    axis = int(np.argmin(ext))
+    if ext[axis] > PLANE_TOLERANCE * size:
+        return None
+    a, b = [i for i in range(3) if i != axis]
+    areas = _get(me.polygons, "area", npoly, 1).astype(np.float64)
+    rect = float(ext[a] * ext[b])
+    if rect <= 0 or abs(float(areas.sum()) - rect) > 1e-4 * rect:
+        return None
+    return _bbox_plane(me, co)
+
+
+def _bbox_sphere(co: np.ndarray) -> _MeshShape:
+    lo, hi = co.min(axis=0), co.max(axis=0)
+    return _MeshShape("sphere", center=(lo + hi) / 2.0, radius=float(np.mean((hi - lo) / 2.0)))
+
+
+def mesh_shape(me, mode: str = "AUTO", axis_scale=(1.0, 1.0, 1.0)) -> _MeshShape:
+    """What a mesh (in its local coordinates) is for Dürer under the override `mode`.
+    `axis_scale`: the object's scale along the local axes (picks a forced plane's normal)."""
+    co, _ = _mesh_arrays(me)
+    if len(co) == 0:
+        return _MeshShape("empty")
+    if mode == "SPHERE":
+        return _detect_sphere(me, co, strict=False) or _bbox_sphere(co)
+    if mode == "PLANE":
+        return _detect_plane(me, co) or _bbox_plane(me, co, axis_scale)
+    return _detect_plane(me, co) or _detect_sphere(me, co) or _MeshShape("none")
+
+
+def metaball_iso_radius(radius: float, stiffness: float, threshold: float) -> float:
+    """Radius of the surface of an isolated metaball ball (Blender's field s·(1 − d²/R²)³)."""
+    if stiffness <= threshold or radius <= 0:
+        return 0.0
+    return radius * math.sqrt(1.0 - (threshold / stiffness) ** (1.0 / 3.0))
+
+
+class _Builder:
+    def __init__(self) -> None:
+        self.data = SceneData()
+        self.centers: list[np.ndarray] = []
+        self.radii: list[np.ndarray] = []
+        self.mats: list[np.ndarray] = []
+        self.material_ids: dict[tuple, int] = {}
+        self.blender_materials: dict[int, int] = {}
+        self.shape_cache: dict[tuple, _MeshShape] = {}
+
+    # materials
+    def material(self, mat, obj) -> int:
+        key_ptr = mat.as_pointer() if mat is not None else None
+        if key_ptr is not None and key_ptr in self.blender_materials:
+            return self.blender_materials[key_ptr]
+        md = material_data(mat, obj)
+        mid = self.material_ids.get(md.key)
+        if mid is None:
+            mid = len(self.data.materials)
+            self.material_ids[md.key] = mid
+            self.data.materials.append(md)
+        if key_ptr is not None:
+            self.blender_materials[key_ptr] = mid
+        return mid
+
+    def object_material(self, obj) -> int:
+        mats = _object_materials(obj)
+        return self.material(mats[0] if mats else None, obj)
+
+    # geometry
+    def spheres(self, name: str, centers: np.ndarray, radii: np.ndarray, materials) -> None:
+        n = len(radii)
+        if n == 0:
+            return
+        self.centers.append(np.asarray(centers).reshape(n, 3))
+        self.radii.append(np.asarray(radii).reshape(n))
+        self.mats.append(np.broadcast_to(np.asarray(materials, dtype=np.int32), (n,)))
+        self.data.sources[name] += n
+
+    def sphere(self, name: str, m: np.ndarray, center, radius: float, material: int) -> None:
+        s, uniform = _scale(m)
+        if not uniform:
+            self.data.nonuniform.append(name)
+        c = _transform_points(m, np.asarray(center, dtype=np.float64).reshape(1, 3))
+        self.spheres(name, c, np.array([radius * s]), material)
+
+    def plane(self, name: str, m: np.ndarray, shape: _MeshShape, material: int, infinite: bool) -> None:
+        corner = _transform_points(m, shape.corner.reshape(1, 3))[0]
+        e1 = m[:3, :3] @ shape.edge1
+        e2 = m[:3, :3] @ shape.edge2
+        normal = np.cross(e1, e2)
+        length = float(np.linalg.norm(normal))
+        if length == 0:
+            return
+        normal /= length
+        if np.linalg.det(m[:3, :3]) < 0:
+            normal = -normal
+        bounds = None if infinite else (corner, e1, e2)
+        self.data.planes.append(PlaneData(name, normal, float(normal @ corner), material, bounds))
+        self.data.sources[name] += 1
+
+    def finish(self) -> SceneData:
+        d = self.data
+        if self.centers:  # at most one copy into float64, however many objects contributed
+            d.sphere_centers = _join(self.centers, np.float64)
+            d.sphere_radii = _join(self.radii, np.float64)
+            d.sphere_materials = _join(self.mats, np.int32)
+        return d
+
+
+def _join(chunks: list[np.ndarray], dtype) -> np.ndarray:
+    if len(chunks) == 1:
+        return np.ascontiguousarray(chunks[0], dtype=dtype)
+    return np.concatenate(chunks, dtype=dtype)
+
+
+def _pointcloud(b: _Builder, obj, m: np.ndarray) -> None:
+    pc = obj.data
+    n = len(pc.points)
+    if n == 0:
+        return
+    attrs = pc.attributes
+    pos = np.empty(n * 3, np.float32)
+    attrs["position"].data.foreach_get("vector", pos)
+    pos = pos.reshape(n, 3)
+    radius_attr = attrs.get("radius")
+    if radius_attr is not None:
+        radii = np.empty(n, np.float32)
+        radius_attr.data.foreach_get("value", radii)
+    else:
+        radii = np.full(n, 0.01, np.float32)  # Blender's default point radius
+    s, uniform = _scale(m)
+    if not uniform:
+        b.data.nonuniform.append(obj.name)
+    mats = _object_materials(obj)
+    index_attr = attrs.get("material_index")
+    if index_attr is not None and len(mats) > 1:
+        idx = np.empty(n, np.int32)
+        index_attr.data.foreach_get("value", idx)
+        table = np.array([b.material(mt, obj) for mt in mats], dtype=np.int32)
+        materials = table[np.clip(idx, 0, len(mats) - 1)]
+    else:
+        materials = b.material(mats[0] if mats else None, obj)
+    # Transform in double precision (Blender stores float32 positions; Dürer intersects in double).
+    if np.array_equal(m, np.eye(4)):
+        centers = pos
+    else:
+        centers = pos.astype(np.float64) @ m[:3, :3].T
+        centers += m[:3, 3]
+    radii = radii * s if s != 1.0 else radii
+    keep = radii > 0
+    if not keep.all():
+        centers, radii = centers[keep], radii[keep]
+        if not np.isscalar(materials):
+            materials = materials[keep]
+    b.spheres(obj.name, centers, radii, materials)
+
+
+def _mesh(b: _Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
+    me = obj.data
+    axis_scale = tuple(np.round(np.linalg.norm(m[:3, :3], axis=0), 9)) if mode == "PLANE" else None
+    key = (me.as_pointer(), len(me.vertices), len(me.polygons), mode, axis_scale)
+    shape = b.shape_cache.get(key)
+    if shape is None:
+        shape = b.shape_cache[key] = mesh_shape(me, mode, axis_scale or (1.0, 1.0, 1.0))
+    if shape.kind == "empty":
+        return
+    if shape.kind == "none":
+        b.data.skipped["mesh (not a sphere or flat quad)"] += 1
+        return
+    _add_shape(b, obj, m, shape, infinite)
+
+
+def _add_shape(b: _Builder, obj, m: np.ndarray, shape: _MeshShape, infinite: bool) -> None:
+    """A detected sphere or plane of `obj` (world matrix m), with the object's material."""
+    material = b.object_material(obj)
+    if shape.kind == "sphere":
+        b.sphere(obj.name, m, shape.center, shape.radius, material)
+    else:
+        b.plane(obj.name, m, shape, material, infinite)
+
+
+def _converted(b: _Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
+    """Curves, text, surfaces, metaballs... forced to a sphere or plane: use their evaluated mesh."""
+    try:
+        me = obj.to_mesh()
+    except RuntimeError:
+        me = None
+    try:
+        axis_scale = np.linalg.norm(m[:3, :3], axis=0)
+        shape = mesh_shape(me, mode, axis_scale) if me is not None else _MeshShape("empty")
+        if shape.kind in {"empty", "none"}:
+            b.data.skipped[obj.type.lower()] += 1
+            return
+        _add_shape(b, obj, m, shape, infinite)
+    finally:
+        if me is not None:
+            obj.to_mesh_clear()
+
+
+def _metaball(b: _Builder, obj, m: np.ndarray) -> None:
+    mb = obj.data
+    material = b.object_material(obj)
+    for el in mb.elements:
+        if el.hide:
+            continue
+        if el.type != "BALL" or el.use_negative:
+            b.data.skipped[f"metaball {el.type.lower()}{' (negative)' if el.use_negative else ''}"] += 1
+            continue
+        r = metaball_iso_radius(el.radius, el.stiffness, mb.threshold)
+        if r > 0:
+            b.sphere(obj.name, m, np.array(el.co), r, material)
+
+
+def _light(b: _Builder, obj, m: np.ndarray) -> None:
+    light = obj.data
+    color = np.array(_rgb(light.color), dtype=np.float64)
+    if getattr(light, "use_temperature", False):
+        color = color * np.array(_rgb(light.temperature_color))
+    power = float(getattr(light, "energy", 0.0)) * 2.0 ** float(getattr(light, "exposure", 0.0))
+    lin = m[:3, :3]
+    axis = -lin[:, 2] / np.linalg.norm(lin[:, 2])
+    position = m[:3, 3].copy()
+    shadows = bool(getattr(light, "use_shadow", True))
+    if light.type == "SUN":
+        b.data.lights.append(LightData("sun", obj.name, color * power / math.pi, direction=axis, shadows=shadows))
+    elif light.type in {"POINT", "SPOT"}:
+        intensity = color * power / (4.0 * math.pi**2)
+        if light.type == "POINT":
+            b.data.lights.append(
+                LightData("point", obj.name, intensity, position=position, falloff="inverse_square", shadows=shadows)
+            )
+        else:
+            b.data.lights.append(
+                LightData(
+                    "spot",
+                    obj.name,
+                    intensity,
+                    direction=axis,
+                    position=position,
+                    falloff="inverse_square",
+                    spot_half_angle=float(light.spot_size) / 2.0,
+                    spot_blend=float(light.spot_blend),
+                    shadows=shadows,
+                )
+            )
+    else:
+        b.data.skipped[f"{light.type.lower()} light"] += 1
+
+
+def export_depsgraph(depsgraph, camera=None) -> SceneData:
+    """Everything Dürer renders, from an evaluated depsgraph (render or viewport).
+
+    `camera`: the camera object (default: the scene's camera).
+    """
+    scene = depsgraph.scene_eval if hasattr(depsgraph, "scene_eval") else depsgraph.scene
+    b = _Builder()
+    for inst in depsgraph.object_instances:
+        obj = inst.object
+        kind = obj.type
+        if kind in {"CAMERA", "ARMATURE", "LATTICE", "SPEAKER", "LIGHT_PROBE"}:
+            continue
+        m = _matrix(inst.matrix_world)
+        if kind == "LIGHT":
+            _light(b, obj, m)
+            continue
+        settings = _durer_settings(obj)
+        mode = settings.primitive if settings is not None else "AUTO"
+        infinite = bool(settings.infinite_plane) if settings is not None else False
+        if mode == "IGNORE":
+            continue
+        if kind == "MESH" and obj.original is not None and obj.original.type in _CONVERTED_TYPES:
+            continue  # the mesh Blender made of a curve, text, surface or metaball: handled as that
+        if kind == "EMPTY":
+            if obj.empty_display_type == "SPHERE" and mode in {"AUTO", "SPHERE"} and obj.instance_type != "COLLECTION":
+                b.sphere(obj.name, m, np.zeros(3), float(obj.empty_display_size), b.object_material(obj))
+            continue
+        if kind == "POINTCLOUD":
+            _pointcloud(b, obj, m)
+        elif kind == "MESH":
+            _mesh(b, obj, m, mode, infinite)
+        elif kind == "META" and mode == "AUTO":
+            _metaball(b, obj, m)
+        elif kind in _GEOMETRY_TYPES and mode in {"SPHERE", "PLANE"}:
+            _converted(b, obj, m, mode, infinite)
+        elif kind in _GEOMETRY_TYPES:
+            b.data.skipped[kind.lower()] += 1
+    data = b.finish()
+
+    cam_obj = camera if camera is not None else scene.camera
+    if cam_obj is not None:
+        try:
+            cam_obj = cam_obj.evaluated_get(depsgraph)
+        except (RuntimeError, TypeError):
+            pass
+        data.camera = camera_data(scene, cam_obj)
+
+    world_rgb, note = world_colors(scene.world)
+    if note:
+        data.notes.append(note)
+    alpha = 0.0 if scene.render.film_transparent else 1.0
+    data.background = ((0.0, 0.0, 0.0) if alpha == 0.0 else world_rgb) + (alpha,)
+    settings = getattr(scene, "durer", None)
+    if settings is None or settings.use_world_lighting:
+        data.ambient = world_rgb
+    return data

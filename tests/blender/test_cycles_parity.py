@@ -1,0 +1,283 @@
+"""Dürer against Cycles (both inside the same bpy): camera geometry (hit masks, Depth, Normal)
+and brightness (Combined under Sun and Point lights)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from blender_helpers import (
+    aim_camera,
+    light,
+    material,
+    pointcloud_object,
+    quad,
+    render_passes,
+    use_cycles,
+    world,
+)
+
+bpy = pytest.importorskip("bpy")
+
+pytestmark = pytest.mark.blender
+
+MISS = 1e9  # Blender's Depth pass holds 1e10 where nothing is hit
+
+
+def build_scene(s, plane_material=None, sphere_material=None):
+    """Point-cloud spheres of several sizes above a bounded plane, black world."""
+    world(s, (0, 0, 0))
+    rng = np.random.default_rng(3)
+    n = 24
+    centers = np.column_stack([rng.uniform(-3, 3, n), rng.uniform(-3, 3, n), rng.uniform(-0.5, 1.5, n)])
+    radii = rng.uniform(0.2, 0.7, n)
+    cloud = pointcloud_object(s, "Spheres", centers, radius=radii)
+    cloud.data.materials.append(sphere_material or material("Spheres", (0.8, 0.8, 0.8)))
+    floor = quad(s, "Floor", location=(0, 0, -1.0), scale=(5, 4, 1))
+    floor.data.materials.append(plane_material or material("Floor", (0.8, 0.8, 0.8)))
+    return cloud, floor
+
+
+def both(s, tmp_path, **kw):
+    use_cycles(s)
+    cycles = render_passes(s, tmp_path / "cycles.exr", **kw)
+    s.render.engine = "DURER"
+    durer_ = render_passes(s, tmp_path / "durer.exr", **kw)
+    return cycles, durer_
+
+
+CAMERA_CASES = [
+    # projection, sensor_fit, resolution, percentage, shift
+    ("PERSP", "AUTO", (80, 50), 100, (0.0, 0.0)),
+    ("PERSP", "AUTO", (50, 80), 100, (0.1, -0.05)),
+    ("PERSP", "HORIZONTAL", (60, 90), 50, (0.0, 0.1)),
+    ("PERSP", "VERTICAL", (96, 60), 50, (-0.1, 0.05)),
+    ("PERSP", "VERTICAL", (50, 70), 100, (0.0, 0.0)),
+    ("ORTHO", "AUTO", (80, 50), 100, (0.05, 0.0)),
+    ("ORTHO", "AUTO", (50, 80), 100, (0.0, 0.0)),
+    ("ORTHO", "HORIZONTAL", (60, 90), 50, (0.1, -0.1)),
+    ("ORTHO", "VERTICAL", (96, 60), 50, (0.0, 0.0)),
+]
+
+
+@pytest.mark.parametrize("projection, fit, res, pct, shift", CAMERA_CASES)
+def test_masks_depth_normals_match_cycles(scene, tmp_path, projection, fit, res, pct, shift):
+    build_scene(scene)
+    cam = aim_camera(scene, (6, -8, 5)).data
+    cam.type = projection
+    cam.sensor_fit = fit
+    cam.lens, cam.sensor_width, cam.sensor_height = 40.0, 36.0, 24.0
+    cam.ortho_scale = 9.0
+    cam.shift_x, cam.shift_y = shift
+    cam.clip_start, cam.clip_end = 0.1, 100.0
+    scene.render.resolution_x, scene.render.resolution_y = res
+    scene.render.resolution_percentage = pct
+    light(scene, "SUN", energy=2.0, rotation=(0.4, 0.3, 0))
+    c, d = both(scene, tmp_path)
+    h, w = res[1] * pct // 100, res[0] * pct // 100
+    assert c["depth"].shape == d["depth"].shape == (h, w)
+    hit_c, hit_d = c["depth"] < MISS, d["depth"] < MISS
+    assert 0.2 < hit_c.mean() < 0.95, "the scene should fill part of the image"
+    agree = (hit_c == hit_d).mean()
+    assert agree >= 0.995, f"hit masks agree on {agree:.4%} of pixels"
+    hit = hit_c & hit_d
+    rel = np.abs(d["depth"][hit] - c["depth"][hit]) / c["depth"][hit]
+    assert rel.max() <= 1e-4, f"depth: max relative error {rel.max():.2e}"  # measured: <= 3.4e-6
+    dn = np.linalg.norm(d["normal"][hit] - c["normal"][hit], axis=1)
+    assert dn.max() <= 1e-3, f"normals: max error {dn.max():.2e}"  # measured: <= 8e-5
+    # Misses: Combined alpha 1 with the black world on both.
+    np.testing.assert_allclose(d["color"][..., 3], 1.0)
+
+
+def smooth_mask(c_img, d_hit, c_hit, lit_only=True):
+    """Pixels whose 3x3 neighbourhood is hit in both renders and has no step in Cycles' brightness
+    (no silhouette or shadow edge); `lit_only` also drops pixels Cycles shows in shadow."""
+    lum = c_img[..., :3].mean(axis=-1)
+    both_hit = d_hit & c_hit
+    pad = np.pad(lum, 1, mode="edge")
+    hpad = np.pad(both_hit, 1, mode="constant")
+    h, w = lum.shape
+    lo = np.full((h, w), np.inf)
+    hi = np.full((h, w), -np.inf)
+    all_hit = np.ones((h, w), bool)
+    for dy in range(3):
+        for dx in range(3):
+            lo = np.minimum(lo, pad[dy : dy + h, dx : dx + w])
+            hi = np.maximum(hi, pad[dy : dy + h, dx : dx + w])
+            all_hit &= hpad[dy : dy + h, dx : dx + w]
+    smooth = all_hit & (hi <= 1.3 * lo + 1e-3)
+    return smooth & (lum > 0.01) if lit_only else smooth
+
+
+def shading_scene(s):
+    build_scene(s, material("Floor", (0.7, 0.7, 0.7)), material("Spheres", (0.9, 0.5, 0.2)))
+    cam = aim_camera(s, (0, -10, 9)).data
+    cam.type = "ORTHO"
+    cam.ortho_scale = 9.0
+    s.render.resolution_x, s.render.resolution_y = 80, 60
+
+
+def compare_shading(c, d, lit_only=True, min_fraction=0.3):
+    hit_c, hit_d = c["depth"] < MISS, d["depth"] < MISS
+    mask = smooth_mask(c["color"], hit_d, hit_c, lit_only)
+    assert mask.mean() > min_fraction
+    cc, dd = c["color"][mask][:, :3], d["color"][mask][:, :3]
+    err = np.abs(dd - cc) - 0.01 * cc
+    assert err.max() <= 1e-4, f"{(err > 1e-4).mean():.2%} of compared pixels differ by more than 1 %"
+
+
+def test_sun_brightness_matches_cycles_on_lit_pixels(scene, tmp_path):
+    shading_scene(scene)
+    light(scene, "SUN", energy=2.5, color=(1.0, 0.9, 0.8), rotation=(0.5, 0.2, 0.3), angle=0.0)
+    c, d = both(scene, tmp_path, normal=False)
+    compare_shading(c, d)
+
+
+def test_sun_shadows_match_cycles(scene, tmp_path):
+    shading_scene(scene)
+    light(scene, "SUN", energy=2.5, color=(1.0, 0.9, 0.8), rotation=(0.5, 0.2, 0.3), angle=0.0)
+    c, d = both(scene, tmp_path, normal=False)
+    compare_shading(c, d, lit_only=False)
+
+
+def test_point_light_brightness_matches_cycles(scene, tmp_path):
+    shading_scene(scene)
+    light(scene, "POINT", energy=400.0, location=(1, -2, 4), shadow_soft_size=0.0)
+    c, d = both(scene, tmp_path, normal=False)
+    compare_shading(c, d)
+
+
+def test_emission_is_colour_times_strength(scene, tmp_path):
+    world(scene, (0, 0, 0))
+    cloud = pointcloud_object(scene, "Glow", [(0, 0, 0)], radius=1.0)
+    cloud.data.materials.append(material("Glow", emission=((1.0, 0.5, 0.25), 2.0)))
+    cam = aim_camera(scene, (0, -10, 0)).data
+    cam.type = "ORTHO"
+    cam.ortho_scale = 4.0
+    c, d = both(scene, tmp_path, normal=False)
+    centre = d["color"][24, 32, :3]
+    np.testing.assert_allclose(centre, [2.0, 1.0, 0.5], rtol=1e-4)
+    np.testing.assert_allclose(c["color"][24, 32, :3], [2.0, 1.0, 0.5], rtol=1e-3)
+    assert math.isclose(d["color"][0, 0, 3], 1.0)
+
+
+@pytest.mark.parametrize("camera_z, sun_x_rotation", [(-5, math.pi), (-5, 0.0), (5, 0.0), (5, math.pi)])
+@pytest.mark.parametrize("projection", ["PERSP", "ORTHO"])
+def test_both_sides_of_a_plane_like_cycles(scene, tmp_path, camera_z, sun_x_rotation, projection):
+    """Cycles lights whichever side of a face the light is on and writes the normal of the side
+    the camera sees."""
+    world(scene, (0, 0, 0))
+    floor = quad(scene, "Sheet", scale=(5, 5, 1), location=(0, 0, 0.25))
+    floor.data.materials.append(material("White", (1, 1, 1)))
+    scene.render.resolution_x, scene.render.resolution_y = 8, 8
+    aim_camera(scene, (0, 0.01, camera_z)).data.type = projection
+    light(scene, "SUN", energy=1.0, rotation=(sun_x_rotation, 0.3, 0), angle=0.0)
+    c, d = both(scene, tmp_path)
+    np.testing.assert_allclose(d["normal"], c["normal"], atol=1e-6)
+    np.testing.assert_allclose(d["color"], c["color"], rtol=1e-5, atol=1e-6)
+
+
+def test_ground_plane_at_zero_is_lit_like_cycles(scene, tmp_path):
+    world(scene, (0, 0, 0))
+    quad(scene, "Ground", scale=(5, 5, 1)).data.materials.append(material("White", (1, 1, 1)))
+    scene.render.resolution_x, scene.render.resolution_y = 8, 8
+    aim_camera(scene, (0, 0.01, 5))
+    light(scene, "SUN", energy=1.0, rotation=(0.2, 0.3, 0), angle=0.0)
+    c, d = both(scene, tmp_path)
+    np.testing.assert_allclose(d["color"], c["color"], rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize("crop", [False, True])
+def test_render_region_like_cycles(scene, tmp_path, crop):
+    build_scene(scene)
+    aim_camera(scene, (6, -8, 5))
+    scene.render.resolution_x, scene.render.resolution_y = 63, 47
+    r = scene.render
+    r.use_border, r.use_crop_to_border = True, crop
+    r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y = 0.13, 0.71, 0.27, 0.88
+    c, d = both(scene, tmp_path)
+    assert c["depth"].shape == d["depth"].shape
+    if crop:
+        assert c["depth"].shape == (
+            int(np.float32(0.88) * 47) - int(np.float32(0.27) * 47),
+            int(np.float32(0.71) * 63) - int(np.float32(0.13) * 63),
+        )
+    hit_c, hit_d = c["depth"] < MISS, d["depth"] < MISS
+    assert hit_c.any() and np.array_equal(hit_c, hit_d)
+    np.testing.assert_allclose(d["depth"][hit_c], c["depth"][hit_c], rtol=1e-4)
+
+
+def test_spot_light_brightness_matches_cycles(scene, tmp_path):
+    shading_scene(scene)
+    light(
+        scene,
+        "SPOT",
+        energy=800.0,
+        location=(0.5, -1, 5),
+        shadow_soft_size=0.0,
+        spot_size=math.radians(100),
+        spot_blend=0.3,
+    )
+    c, d = both(scene, tmp_path, normal=False)
+    compare_shading(c, d, min_fraction=0.15)  # the cone edge is excluded as a brightness step
+
+
+def test_transparent_film_like_cycles(scene, tmp_path):
+    build_scene(scene)
+    aim_camera(scene, (6, -8, 5))
+    scene.render.resolution_x, scene.render.resolution_y = 40, 30
+    world(scene, (0.3, 0.4, 0.5))
+    scene.render.film_transparent = True
+    light(scene, "SUN", energy=2.0, rotation=(0.4, 0.3, 0), angle=0.0)
+    c, d = both(scene, tmp_path, normal=False)
+    miss = c["depth"] >= MISS
+    assert miss.any()
+    np.testing.assert_array_equal(d["color"][miss], 0.0)
+    np.testing.assert_array_equal(c["color"][miss], 0.0)
+    np.testing.assert_array_equal(d["color"][~miss][:, 3], 1.0)
+
+
+@pytest.mark.parametrize("projection", ["PERSP", "ORTHO"])
+@pytest.mark.parametrize("fit", ["AUTO", "HORIZONTAL", "VERTICAL"])
+@pytest.mark.parametrize("aspect", [(2, 1), (1, 3)])
+def test_pixel_aspect_like_cycles(scene, tmp_path, projection, fit, aspect):
+    """Blender cannot write multilayer EXRs with a pixel aspect (5.0.1), so compare Combined RGBA
+    with a transparent film: alpha is the hit mask."""
+    build_scene(scene)
+    cam = aim_camera(scene, (6, -8, 5)).data
+    cam.type, cam.sensor_fit, cam.ortho_scale = projection, fit, 9.0
+    cam.shift_x = 0.05
+    scene.render.resolution_x, scene.render.resolution_y = 60, 44
+    scene.render.pixel_aspect_x, scene.render.pixel_aspect_y = aspect
+    scene.render.film_transparent = True
+    light(scene, "SUN", energy=2.0, rotation=(0.4, 0.3, 0), angle=0.0)
+    st = scene.render.image_settings
+    st.media_type, st.file_format, st.exr_codec, st.color_depth, st.color_mode = (
+        "IMAGE",
+        "OPEN_EXR",
+        "NONE",
+        "32",
+        "RGBA",
+    )
+    scene.view_settings.view_transform = "Standard"
+    images = {}
+    for engine_name in ("CYCLES", "DURER"):
+        if engine_name == "CYCLES":
+            use_cycles(scene)
+        else:
+            scene.render.engine = "DURER"
+        scene.render.filepath = str(tmp_path / f"{engine_name}.exr")
+        scene.render.use_file_extension = False
+        assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+        from blender_exr import read_exr
+
+        ch = read_exr(tmp_path / f"{engine_name}.exr")
+        images[engine_name] = np.stack([ch[k] for k in "RGBA"], axis=-1)
+    c, d = images["CYCLES"], images["DURER"]
+    assert c.shape == d.shape == (44, 60, 4)
+    hit_c, hit_d = c[..., 3] > 0.5, d[..., 3] > 0.5
+    assert 0.1 < hit_c.mean() < 0.95
+    assert (hit_c == hit_d).mean() >= 0.995
+    both_hit = hit_c & hit_d
+    np.testing.assert_allclose(d[both_hit][:, :3], c[both_hit][:, :3], rtol=1e-3, atol=1e-4)

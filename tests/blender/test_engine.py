@@ -1,0 +1,382 @@
+"""The Dürer engine inside Blender: the Render button's operator, passes, the image datablock,
+progress, cancel, errors, batch rendering and the extension package."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import sysconfig
+import textwrap
+import threading
+import time
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from blender_helpers import (
+    DEG,
+    aim_camera,
+    cube,
+    light,
+    material,
+    pointcloud_object,
+    render_passes,
+    uv_sphere,
+    world,
+)
+
+bpy = pytest.importorskip("bpy")
+
+import durer
+import durer.blender
+from durer.blender import batch, engine, extension
+
+pytestmark = pytest.mark.blender
+
+
+def simple_scene(s, width=64, height=48):
+    s.render.resolution_x, s.render.resolution_y = width, height
+    world(s, (0.05, 0.05, 0.05))
+    uv_sphere(s, "Ball", radius=1.0).data.materials.append(material("Red", (0.8, 0.1, 0.1)))
+    light(s, "SUN", energy=3.0, rotation=(40 * DEG, 0, 20 * DEG))
+    aim_camera(s, (0, -6, 0))
+
+
+def test_register_is_idempotent_and_reversible(scene):
+    assert durer.blender.is_registered()
+    durer.blender.register()
+    panels = (
+        bpy.types.RENDER_PT_format,
+        bpy.types.DATA_PT_EEVEE_light,
+        bpy.types.DATA_PT_lens,
+        bpy.types.VIEWLAYER_PT_layer_passes,
+        bpy.types.EEVEE_MATERIAL_PT_surface,
+    )
+    assert all("DURER" in p.COMPAT_ENGINES for p in panels)
+    durer.blender.unregister()
+    assert not any("DURER" in p.COMPAT_ENGINES for p in panels)
+    assert not hasattr(bpy.types.Scene, "durer")
+    with pytest.raises(TypeError):
+        scene.render.engine = "DURER"
+    durer.blender.register()
+    scene.render.engine = "DURER"
+    assert scene.render.engine == "DURER"
+
+
+def test_render_button_fills_image_datablock(scene):
+    simple_scene(scene)
+    scene.durer.samples = 2
+    assert bpy.ops.render.render() == {"FINISHED"}
+    info = engine.last_render
+    assert info.error is None and not info.cancelled
+    assert (info.width, info.height, info.samples, info.spheres) == (64, 48, 2, 1)
+    assert info.stats["mrays_per_s"] > 0 and info.stats["spp"] == 2
+    image = bpy.data.images[engine.IMAGE_NAME]
+    assert tuple(image.size) == (64, 48) and image.is_float
+    assert image.colorspace_settings.name == "Linear Rec.709"
+    pixels = np.empty(64 * 48 * 4, np.float32)
+    image.pixels.foreach_get(pixels)
+    pixels = pixels.reshape(48, 64, 4)[::-1]  # Blender's rows are bottom first
+    centre = pixels[24, 32]
+    assert centre[0] > 0.05 and centre[0] > 5 * centre[1] and centre[3] == 1.0
+    np.testing.assert_allclose(pixels[0, 0, :3], 0.05, rtol=1e-6)  # the world colour
+    # The same as the core renders the exported scene.
+    from durer.blender import build
+    from durer.blender.export import export_depsgraph
+
+    data = export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    sc = build.make_scene(data)
+    direct = durer.render(sc, build.make_camera(data.camera), 64, 48, spp=2, passes=("color",)).color
+    np.testing.assert_allclose(pixels, direct, atol=1e-6)
+
+
+def test_write_still_png_and_percentage(scene, tmp_path):
+    simple_scene(scene, 80, 60)
+    scene.render.resolution_percentage = 50
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.filepath = str(tmp_path / "still.png")
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    img = bpy.data.images.load(str(tmp_path / "still.png"))
+    assert tuple(img.size) == (40, 30)
+
+
+def test_passes_are_registered_and_written(scene, tmp_path):
+    simple_scene(scene)
+    out = render_passes(scene, tmp_path / "passes.exr")
+    hit = out["depth"] < 1e9
+    assert 0.05 < hit.mean() < 0.5
+    assert np.all(out["depth"][~hit] == 1e10)
+    # The ball (radius 1) seen from 6 units: view-axis depth 5 at the centre, more off-centre.
+    assert out["depth"][hit].min() == pytest.approx(5.0, abs=0.01)
+    n = out["normal"][hit]
+    np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-5)
+    assert np.all(out["normal"][~hit] == 0)
+    # The compositor's Render Layers node offers exactly the enabled passes.
+    tree = bpy.data.node_groups.new("Compositing", "CompositorNodeTree")
+    scene.compositing_node_group = tree
+    node = tree.nodes.new("CompositorNodeRLayers")
+    node.scene = scene
+
+    def offered(name):
+        return name in node.outputs and node.outputs[name].enabled
+
+    assert offered("Depth") and offered("Normal")
+    scene.view_layers[0].use_pass_normal = False
+    assert offered("Depth") and not offered("Normal")
+    out = render_passes(scene, tmp_path / "nonormal.exr", normal=False)
+    assert set(out) == {"color", "depth"}
+
+
+def test_errors_are_reported_and_blender_stays_usable(scene):
+    simple_scene(scene)
+    scene.camera.data.type = "PANO"
+    with pytest.raises(RuntimeError, match="Dürer: Camera 'Camera' is pano"):
+        bpy.ops.render.render()
+    assert "Camera 'Camera' is pano" in engine.last_render.error
+    scene.camera.data.type = "PERSP"
+    assert bpy.ops.render.render() == {"FINISHED"}
+    assert engine.last_render.error is None
+
+
+def test_skipped_geometry_is_reported(scene):
+    simple_scene(scene)
+    cube(scene, "Box", location=(3, 0, 0))
+    assert bpy.ops.render.render() == {"FINISHED"}
+    assert engine.last_render.warnings == [
+        "Dürer skipped geometry it cannot render yet: 1 mesh (not a sphere or flat quad)"
+    ]
+
+
+def test_progress_hooks_see_the_render(scene):
+    simple_scene(scene)
+    seen = []
+    engine.progress_hooks.append(seen.append)
+    try:
+        bpy.ops.render.render()
+    finally:
+        engine.progress_hooks.remove(seen.append)
+    assert seen and seen[-1] == 1.0 and seen == sorted(seen)
+
+
+class _CancellingEngine(engine.DurerEngineMixin, bpy.types.RenderEngine):
+    """The Dürer engine with Esc pressed `after` seconds into the render (bpy has no keyboard)."""
+
+    bl_idname = "DURER_TEST_CANCEL"
+    bl_label = "Dürer (cancel test)"
+    after = 0.3
+    started = 0.0
+    pressed = None
+
+    def break_requested(self):
+        now = time.perf_counter()
+        if now - type(self).started >= self.after:
+            if type(self).pressed is None:
+                type(self).pressed = now
+            return True
+        return False
+
+    def render(self, depsgraph):
+        type(self).started = time.perf_counter()
+        type(self).pressed = None
+        super().render(depsgraph)
+
+
+def test_escape_cancels_quickly_and_blender_stays_usable(scene):
+    rng = np.random.default_rng(0)
+    pointcloud_object(scene, "Many", rng.uniform(-3, 3, (50, 3)), radius=0.3)
+    aim_camera(scene, (0, -12, 0))
+    scene.render.resolution_x, scene.render.resolution_y = 320, 240
+    scene.durer.samples = 500  # several seconds: far longer than the 0.3 s before "Esc"
+    bpy.utils.register_class(_CancellingEngine)
+    try:
+        for panel in engine._compatible_panels():
+            panel.COMPAT_ENGINES.add(_CancellingEngine.bl_idname)
+        scene.render.engine = _CancellingEngine.bl_idname
+        t0 = time.perf_counter()
+        assert bpy.ops.render.render() == {"FINISHED"}
+        done = time.perf_counter()
+    finally:
+        scene.render.engine = "DURER"
+        for panel in engine._compatible_panels():
+            panel.COMPAT_ENGINES.discard(_CancellingEngine.bl_idname)
+        bpy.utils.unregister_class(_CancellingEngine)
+    assert engine.last_render.cancelled and engine.last_render.error is None
+    assert _CancellingEngine.pressed is not None
+    assert done - _CancellingEngine.pressed < 0.2, f"cancel took {done - _CancellingEngine.pressed:.3f} s"
+    assert done - t0 < 5
+    assert threading.active_count() == 1 or not any(t.name == "durer-render" for t in threading.enumerate())
+    scene.durer.samples = 1
+    assert bpy.ops.render.render() == {"FINISHED"} and not engine.last_render.cancelled
+
+
+# --- batch -----------------------------------------------------------------------------------------
+
+
+def saved_blend(s, path):
+    simple_scene(s, 40, 30)
+    s.frame_start, s.frame_end = 1, 3
+    ball = bpy.data.objects["Ball"]
+    ball.location = (-1, 0, 0)
+    ball.keyframe_insert("location", frame=1)
+    ball.location = (1, 0, 0)
+    ball.keyframe_insert("location", frame=3)
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return path
+
+
+def test_parse_frames():
+    assert batch.parse_frames("1-3,7, 9-10") == [1, 2, 3, 7, 9, 10]
+    assert batch.parse_frames("-2--1") == [-2, -1]
+    assert batch.parse_frames(5) == [5] and batch.parse_frames(None) is None
+    for bad in ("", "3-1", "a", "1-"):
+        with pytest.raises(ValueError, match="frames must look like"):
+            batch.parse_frames(bad)
+
+
+def test_render_file_frames_and_output(scene, tmp_path):
+    blend = saved_blend(scene, tmp_path / "anim.blend")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    seen = []
+    files = batch.render_file(
+        blend,
+        frames="1-3",
+        output=tmp_path / "out" / "frame_####.png",
+        samples=2,
+        progress=lambda f, x: seen.append((f, x)),
+    )
+    assert [f.name for f in files] == ["frame_0001.png", "frame_0002.png", "frame_0003.png"]
+    assert all(f.is_file() for f in files)
+    assert {f for f, _ in seen} == {1, 2, 3} and (3, 1.0) in seen
+    assert engine.last_render.samples == 2
+    first, last = (np.array(Image_pixels(f)) for f in (files[0], files[2]))
+    assert not np.array_equal(first, last)  # the ball moved
+
+
+def Image_pixels(path):
+    img = bpy.data.images.load(str(path))
+    px = np.empty(len(img.pixels), np.float32)
+    img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
+    return px
+
+
+def test_render_file_errors(scene, tmp_path):
+    with pytest.raises(FileNotFoundError):
+        batch.render_file(tmp_path / "missing.blend")
+    blend = saved_blend(scene, tmp_path / "bad.blend")
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+    bpy.context.scene.camera.data.type = "PANO"
+    bpy.ops.wm.save_mainfile()
+    with pytest.raises(batch.BatchRenderError, match="Frame 1 of .* failed: .*is pano"):
+        batch.render_file(blend, frames=1, output=tmp_path / "x.png")
+    assert batch.main([str(tmp_path / "missing.blend")]) == 2
+    assert batch.main([str(blend), "-q", "-f", "1", "-o", str(tmp_path / "y.png")]) == 1
+
+
+def test_batch_command_line(scene, tmp_path):
+    blend = saved_blend(scene, tmp_path / "cli.blend")
+    cmd = [
+        sys.executable,
+        "-m",
+        "durer",
+        "render",
+        str(blend),
+        "--frames",
+        "2",
+        "--output",
+        str(tmp_path / "cli_####.png"),
+        "--samples",
+        "1",
+    ]
+    done = subprocess.run(cmd, check=False, capture_output=True, text=True, timeout=120, env=os.environ.copy())
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "cli_0002.png").is_file()
+    assert str(tmp_path / "cli_0002.png") in done.stdout
+    assert "frame 2" in done.stderr  # the progress bar
+    done = subprocess.run(cmd[:5] + ["--frames", "x"], check=False, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and "frames must look like" in done.stderr
+
+
+# --- the extension package -------------------------------------------------------------------------
+
+
+def wheel_of_installed_durer(directory: Path) -> Path:
+    """A wheel of the durer package this test runs (compiled core included): what pip would build,
+    without compiling again."""
+    pkg = Path(durer.__file__).resolve().parent
+    version = durer.__version__
+    tag = sysconfig.get_platform().replace("-", "_").replace(".", "_")
+    py = f"cp{sys.version_info.major}{sys.version_info.minor}"
+    path = directory / f"durer-{version}-{py}-{py}-{tag}.whl"
+    info = f"durer-{version}.dist-info"
+    with zipfile.ZipFile(path, "w") as z:
+        root = Path(durer.__file__).parent
+        written = set()
+        for folder, dirs, files in os.walk(root, followlinks=True):
+            dirs[:] = [d for d in dirs if d != "__pycache__"]
+            for name in sorted(files):
+                f = Path(folder) / name
+                arcname = "durer/" + f.relative_to(root).as_posix()
+                z.write(f.resolve(), arcname)
+                written.add(arcname)
+        core = Path(durer._core.__file__)  # an editable install keeps it in site-packages or the build tree
+        if f"durer/{core.name}" not in written:
+            z.write(core, f"durer/{core.name}")
+        z.writestr(f"{info}/METADATA", f"Metadata-Version: 2.1\nName: durer\nVersion: {version}\n")
+        z.writestr(
+            f"{info}/WHEEL", f"Wheel-Version: 1.0\nGenerator: test\nRoot-Is-Purelib: false\nTag: {py}-{py}-{tag}\n"
+        )
+        z.writestr(f"{info}/RECORD", "")
+    assert pkg.is_dir()
+    return path
+
+
+def test_extension_zip_installs_and_renders(tmp_path):
+    wheel = wheel_of_installed_durer(tmp_path)
+    assert extension.main(["--wheel", str(wheel), "--dist", str(tmp_path / "dist")]) == 0
+    zip_path = next((tmp_path / "dist").glob("durer-*.zip"))
+    platform = extension.blender_platforms(extension.wheel_tags(wheel)[2])[0]
+    assert zip_path.name == f"durer-{durer.__version__}-{platform.replace('-', '_')}.zip"
+    with zipfile.ZipFile(zip_path) as z:
+        assert set(z.namelist()) == {"blender_manifest.toml", "__init__.py", f"wheels/{wheel.name}"}
+        manifest = z.read("blender_manifest.toml").decode()
+    assert f'platforms = ["{platform}"]' in manifest and f'"./wheels/{wheel.name}"' in manifest
+    # A fresh Blender (own user directory) installs it like "Install from Disk" and renders.
+    user = tmp_path / "blender-user"
+    script = textwrap.dedent(f"""
+        import importlib.machinery, sys
+
+        class ExtensionDurerOnly:  # hide the durer this test runs from: use the extension's wheel
+            def find_spec(self, name, path=None, target=None):
+                if name != "durer":
+                    return None
+                paths = [p for p in sys.path if p.startswith({str(user)!r})]
+                spec = importlib.machinery.PathFinder.find_spec(name, paths)
+                if spec is None:
+                    raise ModuleNotFoundError("durer is not in the extension's site-packages")
+                return spec
+
+        sys.meta_path.insert(0, ExtensionDurerOnly())
+        import bpy
+        result = bpy.ops.extensions.package_install_files(
+            filepath={str(zip_path)!r}, repo="user_default", enable_on_install=True)
+        assert result == {{"FINISHED"}}, result
+        assert "bl_ext.user_default.durer" in sys.modules
+        assert "bl_ext.user_default.durer" in bpy.context.preferences.addons
+        s = bpy.context.scene
+        s.render.engine = "DURER"
+        s.render.resolution_x, s.render.resolution_y = 32, 24
+        s.render.filepath = {str(tmp_path / "ext.png")!r}
+        bpy.ops.render.render(write_still=True)
+        import durer, durer.blender.engine as e
+        assert e.last_render.error is None, e.last_render.error
+        assert durer.__file__.startswith({str(user)!r}), durer.__file__
+        """)
+    env = dict(os.environ, BLENDER_USER_RESOURCES=str(user))
+    done = subprocess.run(
+        [sys.executable, "-c", script], check=False, capture_output=True, text=True, timeout=300, env=env
+    )
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    assert (tmp_path / "ext.png").is_file()

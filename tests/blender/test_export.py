@@ -1,0 +1,367 @@
+"""Blender scene -> plain numpy data (durer.blender.export), for every object kind."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+from blender_helpers import (
+    DEG,
+    cube,
+    export,
+    grid,
+    ico_sphere,
+    light,
+    link,
+    material,
+    mesh_object,
+    pointcloud_object,
+    points_object,
+    quad,
+    uv_sphere,
+    world,
+)
+
+bpy = pytest.importorskip("bpy")
+bmesh = pytest.importorskip("bmesh")
+
+from durer.blender import export as ex
+
+pytestmark = pytest.mark.blender
+
+
+# --- spheres ---------------------------------------------------------------------------------------
+
+
+def test_uv_and_ico_sphere_meshes_become_spheres(scene):
+    uv_sphere(scene, "UV", radius=1.5, location=(1, 2, 3))
+    ico_sphere(scene, "Ico", radius=0.5, location=(-1, 0, 0), scale=(2, 2, 2))
+    d = export(scene)
+    assert d.sphere_count == 2 and not d.planes and not d.skipped
+    order = np.argsort(d.sphere_radii)
+    np.testing.assert_allclose(d.sphere_radii[order], [1.0, 1.5], rtol=1e-5)
+    np.testing.assert_allclose(d.sphere_centers[order], [[-1, 0, 0], [1, 2, 3]], atol=1e-5)
+    assert d.sources == {"UV": 1, "Ico": 1}
+    assert not d.warnings
+
+
+def test_rotated_scaled_parented_sphere(scene):
+    parent = link(scene, bpy.data.objects.new("Parent", None))
+    parent.location = (0, 0, 5)
+    parent.scale = (3, 3, 3)
+    s = uv_sphere(scene, "Child", radius=0.25, location=(1, 0, 0), rotation=(30 * DEG, 10 * DEG, 0))
+    s.parent = parent
+    d = export(scene)
+    assert d.sphere_count == 1
+    np.testing.assert_allclose(d.sphere_centers[0], [3, 0, 5], atol=1e-5)
+    np.testing.assert_allclose(d.sphere_radii[0], 0.75, rtol=1e-5)
+
+
+def test_nonuniform_scale_warns_and_uses_mean_scale(scene):
+    uv_sphere(scene, "Squashed", radius=1.0, scale=(1, 1, 8))
+    d = export(scene)
+    assert d.nonuniform == ["Squashed"]
+    np.testing.assert_allclose(d.sphere_radii, [2.0], rtol=1e-5)  # (1·1·8)^(1/3)
+    assert any("Non-uniform scale on Squashed" in w for w in d.warnings)
+
+
+def test_shapes_with_equidistant_corners_are_not_spheres(scene):
+    cube(scene, "Cube")
+    mesh_object(
+        scene,
+        "Cylinder",
+        lambda bm: bmesh.ops.create_cone(bm, cap_ends=True, segments=32, radius1=1, radius2=1, depth=2),
+    )
+    mesh_object(scene, "Circle", lambda bm: bmesh.ops.create_circle(bm, cap_ends=True, segments=32, radius=1))
+    ico_sphere(scene, "Icosahedron", subdivisions=1)
+    d = export(scene)
+    assert d.sphere_count == 0 and not d.planes
+    assert d.skipped == {"mesh (not a sphere or flat quad)": 4}
+    assert d.warnings == ["Dürer skipped geometry it cannot render yet: 4 mesh (not a sphere or flat quad)"]
+
+
+def test_skipped_geometry_is_counted_by_kind(scene):
+    cube(scene, "A")
+    cube(scene, "B")
+    curve = bpy.data.curves.new("Curve", "CURVE")
+    curve.splines.new("POLY").points.add(2)
+    curve.bevel_depth = 0.1
+    link(scene, bpy.data.objects.new("Curve", curve))
+    light(scene, "AREA")
+    d = export(scene)
+    assert d.skipped == {"mesh (not a sphere or flat quad)": 2, "curve": 1, "area light": 1}
+    assert d.warnings[0] == (
+        "Dürer skipped geometry it cannot render yet: 1 area light, 1 curve, 2 mesh (not a sphere or flat quad)"
+    )
+
+
+def test_empty_displayed_as_sphere(scene):
+    e = link(scene, bpy.data.objects.new("Ball", None))
+    e.empty_display_type = "SPHERE"
+    e.empty_display_size = 0.5
+    e.location = (0, 1, 0)
+    e.scale = (2, 2, 2)
+    axes = link(scene, bpy.data.objects.new("Axes", None))  # plain axes: not geometry, not skipped
+    axes.empty_display_type = "PLAIN_AXES"
+    d = export(scene)
+    np.testing.assert_allclose(d.sphere_radii, [1.0])
+    np.testing.assert_allclose(d.sphere_centers, [[0, 1, 0]])
+    assert not d.skipped
+
+
+def test_metaball_balls_match_blender_surface(scene):
+    mb = bpy.data.metaballs.new("Meta")
+    mb.resolution = 0.02
+    mb.render_resolution = 0.02
+    el = mb.elements.new(type="BALL")
+    el.radius = 2.0
+    el.co = (0, 0, 0)
+    obj = link(scene, bpy.data.objects.new("Meta", mb))
+    obj.location = (10, 0, 0)
+    caps = mb.elements.new(type="CAPSULE")
+    caps.co = (100, 0, 0)
+    d = export(scene)
+    assert d.sphere_count == 1
+    assert d.skipped == {"metaball capsule": 1}
+    np.testing.assert_allclose(d.sphere_centers[0], [10, 0, 0], atol=1e-6)
+    # Blender's own tessellation of the ball: its vertices lie on the exported sphere.
+    dg = bpy.context.evaluated_depsgraph_get()
+    me = obj.evaluated_get(dg).to_mesh()
+    co = np.array([v.co[:] for v in me.vertices])
+    obj.evaluated_get(dg).to_mesh_clear()
+    near = co[np.linalg.norm(co, axis=1) < 20]
+    r = np.linalg.norm(near, axis=1)
+    assert len(r) > 100
+    np.testing.assert_allclose(np.median(r), d.sphere_radii[0], rtol=0.01)
+
+
+def test_collection_instances_count(scene):
+    coll = bpy.data.collections.new("Proto")
+    s = uv_sphere(scene, "Proto Sphere", radius=0.5)
+    scene.collection.objects.unlink(s)
+    coll.objects.link(s)
+    for i in range(3):
+        inst = link(scene, bpy.data.objects.new(f"Inst{i}", None))
+        inst.instance_type = "COLLECTION"
+        inst.instance_collection = coll
+        inst.location = (i * 2, 0, 0)
+        inst.empty_display_type = "SPHERE"  # an instancer's own display is not geometry
+    d = export(scene)
+    assert d.sphere_count == 3
+    np.testing.assert_allclose(np.sort(d.sphere_centers[:, 0]), [0, 2, 4], atol=1e-6)
+    np.testing.assert_allclose(d.sphere_radii, 0.5, rtol=1e-5)
+
+
+def test_point_cloud_spheres_follow_object_transform(scene):
+    rng = np.random.default_rng(1)
+    pts = rng.uniform(-1, 1, (1000, 3)).astype(np.float32)
+    points_object(scene, "Points", pts, radius=0.02, location=(5, 0, 0), scale=(2, 2, 2))
+    d = export(scene)
+    assert d.sphere_count == 1000
+    assert d.sources == {"Points": 1000}
+    np.testing.assert_allclose(np.sort(d.sphere_centers, axis=0), np.sort(pts * 2 + [5, 0, 0], axis=0), atol=1e-5)
+    np.testing.assert_allclose(d.sphere_radii, 0.04, rtol=1e-6)
+    assert not d.skipped and not d.warnings
+
+
+def test_point_cloud_object_with_material_index(scene):
+    obj = pointcloud_object(scene, "Cloud", [(0, 0, 0), (1, 0, 0), (2, 0, 0)], radius=0.1)
+    pc = obj.data
+    pc.materials.append(material("Red", (1, 0, 0)))
+    pc.materials.append(material("Blue", (0, 0, 1)))
+    d = export(scene)
+    assert d.sphere_count == 3 and {d.materials[m].diffuse for m in d.sphere_materials} == {(1, 0, 0)}
+    index = pc.attributes.new("material_index", "INT", "POINT")
+    index.data.foreach_set("value", np.array([0, 1, 5], np.int32))
+    pc.update_tag()
+    d = export(scene)
+    colors = [d.materials[m].diffuse for m in d.sphere_materials[np.argsort(d.sphere_centers[:, 0])]]
+    assert colors == [(1, 0, 0), (0, 0, 1), (0, 0, 1)]  # an index past the last slot clamps
+    np.testing.assert_allclose(d.sphere_radii, 0.1, rtol=1e-6)
+
+
+def test_million_point_cloud_exports_fast(scene):
+    n = 1_000_000
+    pts = np.random.default_rng(0).uniform(-10, 10, (n, 3)).astype(np.float32)
+    points_object(scene, "Million", pts, radius=0.01, location=(1, 2, 3), scale=(2, 2, 2))
+    dg = bpy.context.evaluated_depsgraph_get()  # evaluation is Blender's time, not the export's
+    best = math.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        d = ex.export_depsgraph(dg)
+        best = min(best, time.perf_counter() - t0)
+    assert d.sphere_count == n
+    assert best <= 0.2, f"exporting {n} spheres took {best:.3f} s"
+
+
+# --- planes ----------------------------------------------------------------------------------------
+
+
+def test_flat_quad_is_bounded_plane(scene):
+    quad(scene, "Floor", location=(0, 0, -1), scale=(3, 2, 1), rotation=(0, 0, 90 * DEG))
+    d = export(scene)
+    assert d.sphere_count == 0 and len(d.planes) == 1
+    p = d.planes[0]
+    np.testing.assert_allclose(p.normal, [0, 0, 1], atol=1e-6)
+    assert p.offset == pytest.approx(-1)
+    corner, e1, e2 = p.bounds
+    np.testing.assert_allclose(corner, [2, -3, -1], atol=1e-5)  # (-1,-1) scaled (3,2), rotated 90°
+    np.testing.assert_allclose(e1, [0, 6, 0], atol=1e-5)
+    np.testing.assert_allclose(e2, [-4, 0, 0], atol=1e-5)
+
+
+def test_plane_normal_follows_face_winding_and_mirroring(scene):
+    quad(scene, "Down", corners=((-1, -1, 0), (-1, 1, 0), (1, 1, 0), (1, -1, 0)))
+    quad(scene, "Mirrored", location=(0, 0, 3), scale=(-1, 1, 1))
+    d = export(scene)
+    normals = {p.name: p.normal for p in d.planes}
+    np.testing.assert_allclose(normals["Down"], [0, 0, -1], atol=1e-6)
+    np.testing.assert_allclose(normals["Mirrored"], [0, 0, 1], atol=1e-6)
+
+
+def test_grid_is_a_plane_and_trapezoid_is_not(scene):
+    grid(scene, "Grid", size=2.0, location=(0, 0, 1))
+    quad(scene, "Trapezoid", corners=((-2, -1, 0), (2, -1, 0), (1, 1, 0), (-1, 1, 0)))
+    d = export(scene)
+    assert [p.name for p in d.planes] == ["Grid"]
+    corner, e1, e2 = d.planes[0].bounds
+    np.testing.assert_allclose(corner, [-2, -2, 1], atol=1e-5)
+    np.testing.assert_allclose(np.cross(e1, e2), [0, 0, 16], atol=1e-4)
+    assert d.skipped == {"mesh (not a sphere or flat quad)": 1}
+
+
+def test_infinite_plane_setting(scene):
+    obj = quad(scene, "Ground", location=(0, 0, 2))
+    obj.durer.infinite_plane = True
+    d = export(scene)
+    assert d.planes[0].bounds is None
+    assert d.planes[0].offset == pytest.approx(2)
+
+
+# --- the per-object override -----------------------------------------------------------------------
+
+
+def test_override_ignore_sphere_plane(scene):
+    uv_sphere(scene, "Hidden").durer.primitive = "IGNORE"
+    c = cube(scene, "CubeBall", size=2.0, location=(5, 0, 0))
+    c.durer.primitive = "SPHERE"
+    flat = cube(scene, "Slab", location=(0, 0, -3), scale=(4, 4, 0.01))
+    flat.durer.primitive = "PLANE"
+    pc = points_object(scene, "Ignored Points", [(0, 0, 0)])
+    pc.durer.primitive = "IGNORE"
+    ico_sphere(scene, "Icosahedron", subdivisions=1, location=(0, 5, 0)).durer.primitive = "SPHERE"
+    d = export(scene)
+    assert d.sources == {"CubeBall": 1, "Slab": 1, "Icosahedron": 1}
+    assert not d.skipped
+    centers = {tuple(np.round(c, 6)) for c in d.sphere_centers}
+    assert centers == {(5.0, 0.0, 0.0), (0.0, 5.0, 0.0)}
+    np.testing.assert_allclose(sorted(d.sphere_radii), [1.0, 1.0], rtol=1e-5)
+    p = d.planes[0]
+    assert p.offset == pytest.approx(-3) and p.normal[2] == pytest.approx(1)
+    np.testing.assert_allclose(np.cross(p.bounds[1], p.bounds[2]), [0, 0, 64], atol=1e-4)
+
+
+def test_override_sphere_on_text(scene):
+    curve = bpy.data.curves.new("Text", "FONT")
+    curve.body = "O"
+    obj = link(scene, bpy.data.objects.new("Text", curve))
+    assert export(scene).skipped == {"font": 1}
+    obj.durer.primitive = "SPHERE"
+    d = export(scene)
+    assert d.sphere_count == 1 and not d.skipped
+
+
+# --- materials, world, lights ----------------------------------------------------------------------
+
+
+def test_material_colours(scene):
+    s1 = uv_sphere(scene, "Principled")
+    s1.data.materials.append(material("Red", (0.9, 0.1, 0.1)))
+    s2 = uv_sphere(scene, "Glow", location=(3, 0, 0))
+    s2.data.materials.append(material("Glow", emission=((1.0, 0.5, 0.0), 4.0)))
+    s3 = uv_sphere(scene, "ObjectColour", location=(6, 0, 0))
+    s3.color = (0.1, 0.2, 0.3, 1)
+    s4 = uv_sphere(scene, "Textured", location=(9, 0, 0))
+    tex = material("Textured", (0.5, 0.5, 0.5))
+    tex.diffuse_color = (0.25, 0.5, 0.75, 1)
+    noise = tex.node_tree.nodes.new("ShaderNodeTexNoise")
+    tex.node_tree.links.new(noise.outputs["Color"], tex.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+    s4.data.materials.append(tex)
+    s5 = uv_sphere(scene, "SameRed", location=(12, 0, 0))
+    s5.data.materials.append(material("Red2", (0.9, 0.1, 0.1)))
+    d = export(scene)
+    by_x = {round(c[0]): d.materials[m] for c, m in zip(d.sphere_centers, d.sphere_materials)}
+    assert by_x[0].diffuse == pytest.approx((0.9, 0.1, 0.1))
+    assert by_x[3].diffuse == (0, 0, 0) and by_x[3].emission == pytest.approx((4, 2, 0))
+    assert by_x[6].diffuse == pytest.approx((0.1, 0.2, 0.3))
+    assert by_x[9].diffuse == pytest.approx((0.25, 0.5, 0.75))
+    assert len(d.materials) == 4  # identical colours share a material
+
+
+def test_world_background_and_transparent_film(scene):
+    world(scene, (0.2, 0.4, 0.6), strength=0.5)
+    d = export(scene)
+    assert d.background == pytest.approx((0.1, 0.2, 0.3, 1.0))
+    assert d.ambient == pytest.approx((0.1, 0.2, 0.3))
+    scene.render.film_transparent = True
+    scene.durer.use_world_lighting = False
+    d = export(scene)
+    assert d.background == (0, 0, 0, 0)
+    assert d.ambient == (0, 0, 0)
+
+
+def test_lights_are_radiometric_like_cycles(scene):
+    light(scene, "SUN", energy=3.0, color=(1, 0.5, 0.25), rotation=(0, 90 * DEG, 0))
+    light(scene, "POINT", energy=100.0, location=(1, 2, 3))
+    light(scene, "SPOT", energy=50.0, location=(0, 0, 4), spot_size=60 * DEG, spot_blend=0.25)
+    d = export(scene)
+    sun, point, spot = sorted(d.lights, key=lambda l: ["sun", "point", "spot"].index(l.kind))
+    np.testing.assert_allclose(sun.color, np.array([1, 0.5, 0.25]) * 3 / math.pi)
+    np.testing.assert_allclose(sun.direction, [-1, 0, 0], atol=1e-6)  # -Z rotated 90° about Y
+    np.testing.assert_allclose(point.color, [100 / (4 * math.pi**2)] * 3)
+    np.testing.assert_allclose(point.position, [1, 2, 3])
+    assert point.falloff == "inverse_square"
+    assert spot.spot_half_angle == pytest.approx(30 * DEG)
+    assert spot.spot_blend == pytest.approx(0.25)
+    np.testing.assert_allclose(spot.direction, [0, 0, -1], atol=1e-6)
+
+
+# --- camera ----------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("projection", ["ORTHO", "PERSP"])
+@pytest.mark.parametrize("fit", ["AUTO", "HORIZONTAL", "VERTICAL"])
+@pytest.mark.parametrize(
+    "res, pct, aspect",
+    [((64, 48), 100, (1, 1)), ((30, 80), 50, (1, 1)), ((64, 48), 100, (2, 1)), ((40, 40), 25, (1, 3))],
+)
+def test_camera_view_plane_matches_blender_view_frame(scene, projection, fit, res, pct, aspect):
+    cam_obj = scene.camera
+    cam = cam_obj.data
+    cam.type = projection
+    cam.sensor_fit = fit
+    cam.lens, cam.sensor_width, cam.sensor_height = 35.0, 36.0, 20.0
+    cam.ortho_scale = 7.0
+    cam.shift_x, cam.shift_y = 0.1, -0.2
+    scene.render.resolution_x, scene.render.resolution_y = res
+    scene.render.resolution_percentage = pct
+    scene.render.pixel_aspect_x, scene.render.pixel_aspect_y = aspect
+    cam_obj.location = (1, 2, 3)
+    cam_obj.rotation_euler = (60 * DEG, 0, 30 * DEG)
+    c = export(scene).camera
+    assert (c.width, c.height) == (res[0] * pct // 100, res[1] * pct // 100)
+    assert c.pixel_aspect == aspect[1] / aspect[0]
+    frame = np.array([v[:] for v in cam.view_frame(scene=scene)])  # camera space
+    if projection == "PERSP":
+        frame = frame[:, :2] / -frame[:, 2:3]
+    else:
+        frame = frame[:, :2]
+    left, right, bottom, top = c.view_plane()
+    np.testing.assert_allclose([frame[:, 0].min(), frame[:, 0].max()], [left, right], rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose([frame[:, 1].min(), frame[:, 1].max()], [bottom, top], rtol=1e-5, atol=1e-6)
+    m = np.array(cam_obj.matrix_world)
+    np.testing.assert_allclose(c.center, [1, 2, 3], atol=1e-6)
+    np.testing.assert_allclose(c.direction, -m[:3, 2], atol=1e-6)
+    np.testing.assert_allclose(c.up, m[:3, 1], atol=1e-6)
