@@ -2,27 +2,25 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from durer import numerics
 
 
 def test_sweep_shows_robust_exact_and_textbook_breaking_down():
     rows = numerics.sweep(ratios=(10.0, 1e5, 1e9))
     by = {(r.method, r.precision, r.ratio): r for r in rows}
-    for ratio in (10.0, 1e5, 1e9):
-        robust = by["robust", "double", ratio]
-        assert robust.false_hits == robust.false_misses == 0
-        assert robust.max_error < 4e-15
-    for precision in ("float", "double"):
-        assert all(by["robust", precision, ratio].false_hits == 0 for ratio in (10.0, 1e5, 1e9))
+    # The robust method is right about every ray and within about one rounding of t, at any distance.
+    for precision, bound in (("double", 4e-16), ("float", 2.4e-7)):
+        for ratio in (10.0, 1e5, 1e9):
+            robust = by["robust", precision, ratio]
+            assert robust.false_hits == robust.false_misses == 0
+            assert robust.max_error < bound
     # The lecture's formulas lose the sphere far away: wrong hits and misses in double at 1e9 radii.
     for method in ("algebraic", "geometric"):
         textbook = by[method, "double", 1e9]
         assert textbook.false_hits + textbook.false_misses > 10
-    # In float a sphere 1e9 radii away cannot be resolved: the robust method reports misses only.
-    far = by["robust", "float", 1e9]
-    assert far.false_hits == 0 and np.isnan(far.max_error)
+    for method in ("algebraic", "geometric"):
+        textbook = by[method, "float", 1e5]
+        assert textbook.false_hits + textbook.false_misses > 10
 
 
 def test_update_doc_keeps_the_prose(tmp_path):

@@ -3,6 +3,8 @@ Dürer it is exactly durer.showcase_scene()."""
 
 from __future__ import annotations
 
+import importlib.util
+
 import subprocess
 import sys
 from pathlib import Path
@@ -63,8 +65,9 @@ def test_make_showcase_regenerates_the_file(tmp_path):
 
 
 def test_bench_compares_engines_in_one_run():
-    from durer.blender import bench
-
-    out = bench.compare_engines(SCENES / "showcase.blend", 64, 36, samples=1)
+    spec = importlib.util.spec_from_file_location("showcase_vs_cycles", SCENES.parent / "bench" / "showcase_vs_cycles.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    out = bench.compare_engines(SCENES / "showcase.blend", 64, 36, samples=1, repeats=1)
     assert out["durer"]["spheres"] == 65 and out["durer"]["seconds"] > 0
     assert out["cycles"]["seconds"] > 0 and out["speedup"] > 0

@@ -1,5 +1,7 @@
 #pragma once
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "durer/Hit.h"
@@ -97,7 +99,10 @@ class PlaneSet {
       const Real denominator = nrm.x * dx[k] + nrm.y * dy[k] + nrm.z * dz[k];
       const Real t = (nrm.x * (pl.point.x - ox[k]) + nrm.y * (pl.point.y - oy[k]) + nrm.z * (pl.point.z - oz[k])) /
                      denominator;
-      bool closer = (t >= tMin) & (t < tHit[k]);
+      // A finite n·d (an infinite direction would give t = ±0) and t > -inf (a parallel ray gives
+      // ±inf, which tMin = -inf would accept).
+      constexpr Real inf = std::numeric_limits<Real>::infinity();
+      bool closer = (t >= tMin) & (t < tHit[k]) & (t > -inf) & (std::fabs(denominator) < inf);
       if constexpr (Bounded) {
         const Real qx = ox[k] + t * dx[k] - pl.corner.x;
         const Real qy = oy[k] + t * dy[k] - pl.corner.y;

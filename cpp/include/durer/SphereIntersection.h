@@ -1,7 +1,7 @@
 #pragma once
 // The three ray/sphere formulas, written on scalars so that the loops over a packet vectorise.
-// Inputs: f = origin - centre, d = ray direction (any non-zero length), r = radius, and the
-// per-ray terms of d (sphereRayTerms).
+// Inputs: the ray origin o and direction d (any non-zero length), the centre c and radius r, and
+// the per-ray terms of d (sphereRayTerms); f = o - c.
 // Output: both roots in units of d, near <= far; NaN roots mean a miss (a NaN never compares as a hit).
 #include <cmath>
 #include <cstdint>
@@ -10,6 +10,7 @@
 
 #include "durer/RayPacket.h"
 #include "durer/SphereMethod.h"
+#include "durer/Vec.h"
 
 namespace durer {
 
@@ -96,6 +97,33 @@ inline Real differenceOfProducts(Real a, Real b, Real c, Real d) {
   return std::fma(a, b, -cd) + error;
 }
 
+// The exact rounding error of a - b given its rounded result (Knuth's TwoSum, branch-free): with
+// diff = fl(a - b), a - b = diff + twoDiffError(a, b, diff) exactly (no fused multiply-adds allowed:
+// the core is built with -ffp-contract=off).
+template <typename Real>
+inline Real twoDiffError(Real a, Real b, Real diff) {
+  const Real bVirtual = a - diff;
+  const Real aVirtual = diff + bVirtual;
+  return (a - aVirtual) + (bVirtual - b);
+}
+
+// x² + y² + z² - r² with about one rounding of the result instead of one of the largest term
+// (products split exactly by fma, sums compensated: Ogita, Rump & Oishi's Dot2).
+template <typename Real>
+inline Real sumOfSquaresMinus(Real x, Real y, Real z, Real r) {
+  Real sum = x * x;
+  Real error = std::fma(x, x, -sum);
+  const Real terms[3] = {y * y, z * z, -(r * r)};
+  const Real termErrors[3] = {std::fma(y, y, -terms[0]), std::fma(z, z, -terms[1]), -std::fma(r, r, terms[2])};
+  for (int i = 0; i < 3; ++i) {
+    const Real next = sum + terms[i];
+    const Real virtualTerm = next - sum;
+    error += (sum - (next - virtualTerm)) + (terms[i] - virtualTerm) + termErrors[i];
+    sum = next;
+  }
+  return sum + error;
+}
+
 // Squared distance from the centre to the ray's line, |f × s|² / (s·s): each component of the cross
 // product nearly exact, so it keeps its digits when |f| is many orders above the radius.
 template <typename Real>
@@ -106,26 +134,22 @@ inline Real lineDistanceSq(Real fx, Real fy, Real fz, const SphereRayTerms<Real>
   return (cx * cx + cy * cy + cz * cz) * t.invA;
 }
 
-// The robust method reports a hit only where it is sure of it: where the line passes within
-//   rEff = r - epsilon·|f|
-// of the centre, with a margin of kGrazingBound·epsilon·(rEff² + lineDistance²) on the squares.
-// epsilon·|f| bounds (twice over) how far the rounding of f = o - c alone can move the line; the
-// margin bounds the rounding of the line distance itself (docs/numerics.md). Rays that graze within
-// that band, and spheres so far away that rEff <= 0, are reported as misses, never as false hits.
+// The robust method reports a hit only where the discriminant r² - p² exceeds a bound on its
+// rounding error, kGrazingBound·epsilon·(r² + p²) (about twice the error the cross products,
+// squares and division can make: docs/numerics.md). Rays that graze within it miss: never a false hit.
 constexpr int kGrazingBound = 8;
 
 template <typename Real>
-inline bool robustMeets(Real r, Real lineDistance2, Real centerDistance) {
-  constexpr Real epsilon = std::numeric_limits<Real>::epsilon();
-  const Real rEff = r - epsilon * centerDistance;
-  const Real rEff2 = rEff * rEff;
-  return rEff > 0 && rEff2 - lineDistance2 > kGrazingBound * epsilon * (rEff2 + lineDistance2);
+inline bool robustMeets(Real r2, Real lineDistance2) {
+  return r2 - lineDistance2 > kGrazingBound * std::numeric_limits<Real>::epsilon() * (r2 + lineDistance2);
 }
 
-// A necessary condition for robustMeets (rEff <= r) that needs no |f|: the per-packet prefilter.
+// The per-packet prefilter: implied by robustMeets on the exact f = fh + fe, from fh alone. The line
+// moves by at most |fe| <= u·|fh|₁ when the error of fh is added back, so r is widened by epsilon·|fh|₁.
 template <typename Real>
-inline bool robustMayMeet(Real r2, Real lineDistance2) {
-  return r2 - lineDistance2 > kGrazingBound * std::numeric_limits<Real>::epsilon() * (r2 + lineDistance2);
+inline bool robustMayMeet(Real r, Real lineDistance2, Real fhL1) {
+  const Real wide = r + std::numeric_limits<Real>::epsilon() * fhL1;
+  return robustMeets(wide * wide, lineDistance2);
 }
 
 template <typename Real>
@@ -154,19 +178,28 @@ inline SphereRoots<Real> sphereGeometric(Real fx, Real fy, Real fz, Real dx, Rea
   return {(tp - tq) * invLength, (tp + tq) * invLength};
 }
 
-// With s the exactly scaled direction: b = f·s, the discriminant a·(r² - |f × s|²/a) with no
-// b² - ac cancellation (Ray Tracing Gems ch. 7), the root pair q/a and c/q with q of the sign of -b
-// (no -b ± sqrt cancellation), and c = (|f| - r)(|f| + r), accurate when the origin is near the
-// surface. Rays grazing within rounding miss (robustMeets).
+// The robust test. f = o - c is carried exactly as fh + fe (fh rounded, fe its rounding error), so
+// nothing below depends on how far the sphere is from the origin. With s the exactly scaled
+// direction: the discriminant a·(r² - p²), p² = |f × s|²/a the squared line distance (no b² - ac
+// cancellation: Ray Tracing Gems ch. 7), each cross component by difference of products; the roots
+// q/a and c/q with q of the sign of -b (no -b ± sqrt cancellation); c = |f|² - r² by a compensated
+// sum, accurate when the origin is near the surface (a ground sphere seen from just above it).
 template <typename Real>
-inline SphereRoots<Real> sphereRobust(Real fx, Real fy, Real fz, const SphereRayTerms<Real>& t, Real r) {
-  const Real lineDistance2 = lineDistanceSq(fx, fy, fz, t);
-  const Real distance = std::sqrt(fx * fx + fy * fy + fz * fz);
+inline SphereRoots<Real> sphereRobust(Real ox, Real oy, Real oz, const Vec3<Real>& center,
+                                      const SphereRayTerms<Real>& t, Real r) {
+  const Real fx = ox - center.x, fy = oy - center.y, fz = oz - center.z;
+  const Real ex = twoDiffError(ox, center.x, fx), ey = twoDiffError(oy, center.y, fy);
+  const Real ez = twoDiffError(oz, center.z, fz);
+  const Real cx = differenceOfProducts(fy, t.sz, fz, t.sy) + (ey * t.sz - ez * t.sy);
+  const Real cy = differenceOfProducts(fz, t.sx, fx, t.sz) + (ez * t.sx - ex * t.sz);
+  const Real cz = differenceOfProducts(fx, t.sy, fy, t.sx) + (ex * t.sy - ey * t.sx);
+  const Real lineDistance2 = (cx * cx + cy * cy + cz * cz) * t.invA;
+  const Real r2 = r * r;
   const Real nan = std::numeric_limits<Real>::quiet_NaN();
-  const Real root = robustMeets(r, lineDistance2, distance) ? std::sqrt(t.a * (r * r - lineDistance2)) : nan;
-  const Real b = fx * t.sx + fy * t.sy + fz * t.sz;
+  const Real root = robustMeets(r2, lineDistance2) ? std::sqrt(t.a * (r2 - lineDistance2)) : nan;
+  const Real b = (fx * t.sx + fy * t.sy + fz * t.sz) + (ex * t.sx + ey * t.sy + ez * t.sz);
   const Real q = -(b + std::copysign(root, b));
-  const Real c = (distance - r) * (distance + r);
+  const Real c = sumOfSquaresMinus(fx, fy, fz, r) + (2 * (fx * ex + fy * ey + fz * ez) + (ex * ex + ey * ey + ez * ez));
   const Real t0 = q * t.invA * t.scale;
   const Real t1 = c / q * t.scale;
   const bool ordered = t0 <= t1;
@@ -200,14 +233,14 @@ struct PacketRayTerms {
 };
 
 template <SphereMethod M, typename Real>
-inline SphereRoots<Real> sphereRoots(Real fx, Real fy, Real fz, Real dx, Real dy, Real dz,
-                                     SphereRayTerms<Real> terms, Real r, Real tMin) {
+inline SphereRoots<Real> sphereRoots(Real ox, Real oy, Real oz, const Vec3<Real>& center, Real dx, Real dy, Real dz,
+                                     const SphereRayTerms<Real>& terms, Real r, Real tMin) {
   if constexpr (M == SphereMethod::Algebraic) {
-    return sphereAlgebraic(fx, fy, fz, dx, dy, dz, terms, r);
+    return sphereAlgebraic(ox - center.x, oy - center.y, oz - center.z, dx, dy, dz, terms, r);
   } else if constexpr (M == SphereMethod::Geometric) {
-    return sphereGeometric(fx, fy, fz, dx, dy, dz, terms, r, tMin);
+    return sphereGeometric(ox - center.x, oy - center.y, oz - center.z, dx, dy, dz, terms, r, tMin);
   } else {
-    return sphereRobust(fx, fy, fz, terms, r);
+    return sphereRobust(ox, oy, oz, center, terms, r);
   }
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 #include <algorithm>
 #include <atomic>
+#include <limits>
 #include <cstdint>
 #include <vector>
 
@@ -124,23 +125,24 @@ class SphereSet {
     int32_t* __restrict prim = packet.prim;
     for (int k = 0; k < n; ++k) {
       const SphereRoots<Real> roots =
-          sphereRoots<M>(ox[k] - c.x, oy[k] - c.y, oz[k] - c.z, dx[k], dy[k], dz[k], terms[k], r, tMin);
+          sphereRoots<M>(ox[k], oy[k], oz[k], c, dx[k], dy[k], dz[k], terms[k], r, tMin);
       const Real t = firstRootFrom(roots, tMin);
-      const bool closer = (t >= tMin) & (t < tHit[k]);  // false for NaN: NaN never hits
+      // False for NaN, and -inf (an overflowed root) never hits even when tMin is -inf.
+      const bool closer = (t >= tMin) & (t < tHit[k]) & (t > -std::numeric_limits<Real>::infinity());
       tHit[k] = closer ? t : tHit[k];
       prim[k] = closer ? id : prim[k];
     }
   }
 
-  // Whether the robust test may find a hit for any ray (robustMayMeet, implied by robustMeets).
+  // Whether the robust test may find a hit for any ray (robustMayMeet, implied by the full test).
   // Most spheres miss most packets; this skips their square roots and divisions.
   static bool anyRayMayMeet(const RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, const Vec3<Real>& c,
                             Real r) {
     int meeting = 0;  // an integer count, not a bool: the reduction then vectorises
-    const Real r2 = r * r;
     for (int k = 0; k < packet.count; ++k) {
       const Real fx = packet.ox[k] - c.x, fy = packet.oy[k] - c.y, fz = packet.oz[k] - c.z;
-      meeting += robustMayMeet(r2, lineDistanceSq(fx, fy, fz, terms[k])) ? 1 : 0;
+      const Real fL1 = std::fabs(fx) + std::fabs(fy) + std::fabs(fz);
+      meeting += robustMayMeet(r, lineDistanceSq(fx, fy, fz, terms[k]), fL1) ? 1 : 0;
     }
     return meeting > 0;
   }
