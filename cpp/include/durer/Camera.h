@@ -60,6 +60,7 @@ inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX,
   packet.count = count;
   packet.tMin = m_tMin;
   packet.tMax = m_tMax;
+  packet.commonOrigin = m_perspective;
   // Plain component arithmetic so that the loop vectorises.
   const Vec3<Real> c = m_center, f = m_forward, h = m_horizontal, u = m_up;
   if (m_perspective) {

@@ -15,6 +15,7 @@ struct RayPacket {
   int count = 0;                       // rays in use, <= kPacketSize
   Real tMin = 0;                       // hits with t in [tMin, tMax) count
   Real tMax = 0;
+  bool commonOrigin = false;           // every ray starts at ox[0], oy[0], oz[0] (a perspective camera's)
   alignas(64) Real ox[kPacketSize];    // origin, world space
   alignas(64) Real oy[kPacketSize];
   alignas(64) Real oz[kPacketSize];

@@ -184,26 +184,47 @@ inline SphereRoots<Real> sphereGeometric(Real fx, Real fy, Real fz, Real dx, Rea
 // cancellation: Ray Tracing Gems ch. 7), each cross component by difference of products; the roots
 // q/a and c/q with q of the sign of -b (no -b ± sqrt cancellation); c = |f|² - r² by a compensated
 // sum, accurate when the origin is near the surface (a ground sphere seen from just above it).
+// The ray origin's part of the robust test, shared by every ray from that origin (a perspective
+// camera's packet): f = o - centre as fh + fe, and c = |f|² - r².
 template <typename Real>
-inline SphereRoots<Real> sphereRobust(Real ox, Real oy, Real oz, const Vec3<Real>& center,
-                                      const SphereRayTerms<Real>& t, Real r) {
-  const Real fx = ox - center.x, fy = oy - center.y, fz = oz - center.z;
-  const Real ex = twoDiffError(ox, center.x, fx), ey = twoDiffError(oy, center.y, fy);
-  const Real ez = twoDiffError(oz, center.z, fz);
-  const Real cx = differenceOfProducts(fy, t.sz, fz, t.sy) + (ey * t.sz - ez * t.sy);
-  const Real cy = differenceOfProducts(fz, t.sx, fx, t.sz) + (ez * t.sx - ex * t.sz);
-  const Real cz = differenceOfProducts(fx, t.sy, fy, t.sx) + (ex * t.sy - ey * t.sx);
+struct RobustOrigin {
+  Real fx, fy, fz;  // fh = fl(o - centre)
+  Real ex, ey, ez;  // fe: o - centre - fh, exactly
+  Real c;           // |f|² - r²
+};
+
+template <typename Real>
+inline RobustOrigin<Real> robustOrigin(Real ox, Real oy, Real oz, const Vec3<Real>& center, Real r) {
+  RobustOrigin<Real> o;
+  o.fx = ox - center.x, o.fy = oy - center.y, o.fz = oz - center.z;
+  o.ex = twoDiffError(ox, center.x, o.fx), o.ey = twoDiffError(oy, center.y, o.fy);
+  o.ez = twoDiffError(oz, center.z, o.fz);
+  o.c = sumOfSquaresMinus(o.fx, o.fy, o.fz, r) +
+        (2 * (o.fx * o.ex + o.fy * o.ey + o.fz * o.ez) + (o.ex * o.ex + o.ey * o.ey + o.ez * o.ez));
+  return o;
+}
+
+template <typename Real>
+inline SphereRoots<Real> robustRoots(const RobustOrigin<Real>& f, const SphereRayTerms<Real>& t, Real r) {
+  const Real cx = differenceOfProducts(f.fy, t.sz, f.fz, t.sy) + (f.ey * t.sz - f.ez * t.sy);
+  const Real cy = differenceOfProducts(f.fz, t.sx, f.fx, t.sz) + (f.ez * t.sx - f.ex * t.sz);
+  const Real cz = differenceOfProducts(f.fx, t.sy, f.fy, t.sx) + (f.ex * t.sy - f.ey * t.sx);
   const Real lineDistance2 = (cx * cx + cy * cy + cz * cz) * t.invA;
   const Real r2 = r * r;
   const Real nan = std::numeric_limits<Real>::quiet_NaN();
   const Real root = robustMeets(r2, lineDistance2) ? std::sqrt(t.a * (r2 - lineDistance2)) : nan;
-  const Real b = (fx * t.sx + fy * t.sy + fz * t.sz) + (ex * t.sx + ey * t.sy + ez * t.sz);
+  const Real b = (f.fx * t.sx + f.fy * t.sy + f.fz * t.sz) + (f.ex * t.sx + f.ey * t.sy + f.ez * t.sz);
   const Real q = -(b + std::copysign(root, b));
-  const Real c = sumOfSquaresMinus(fx, fy, fz, r) + (2 * (fx * ex + fy * ey + fz * ez) + (ex * ex + ey * ey + ez * ez));
   const Real t0 = q * t.invA * t.scale;
-  const Real t1 = c / q * t.scale;
+  const Real t1 = f.c / q * t.scale;
   const bool ordered = t0 <= t1;
   return {ordered ? t0 : t1, ordered ? t1 : t0};
+}
+
+template <typename Real>
+inline SphereRoots<Real> sphereRobust(Real ox, Real oy, Real oz, const Vec3<Real>& center,
+                                      const SphereRayTerms<Real>& t, Real r) {
+  return robustRoots(robustOrigin(ox, oy, oz, center, r), t, r);
 }
 
 // The per-ray terms of a whole packet, structure-of-arrays (an array of SphereRayTerms structs

@@ -121,17 +121,25 @@ class SphereSet {
     const Real* __restrict dx = packet.dx;
     const Real* __restrict dy = packet.dy;
     const Real* __restrict dz = packet.dz;
-    Real* __restrict tHit = packet.tHit;
-    int32_t* __restrict prim = packet.prim;
-    for (int k = 0; k < n; ++k) {
-      const SphereRoots<Real> roots =
-          sphereRoots<M>(ox[k], oy[k], oz[k], c, dx[k], dy[k], dz[k], terms[k], r, tMin);
-      const Real t = firstRootFrom(roots, tMin);
-      // False for NaN, and -inf (an overflowed root) never hits even when tMin is -inf.
-      const bool closer = (t >= tMin) & (t < tHit[k]) & (t > -std::numeric_limits<Real>::infinity());
-      tHit[k] = closer ? t : tHit[k];
-      prim[k] = closer ? id : prim[k];
+    if constexpr (M == SphereMethod::Robust) {
+      if (packet.commonOrigin) {  // the origin's part once per sphere, not once per ray
+        const RobustOrigin<Real> origin = robustOrigin(ox[0], oy[0], oz[0], c, r);
+        for (int k = 0; k < n; ++k) record(firstRootFrom(robustRoots(origin, terms[k], r), tMin), k, id, packet);
+        return;
+      }
     }
+    for (int k = 0; k < n; ++k) {
+      const SphereRoots<Real> roots = sphereRoots<M>(ox[k], oy[k], oz[k], c, dx[k], dy[k], dz[k], terms[k], r, tMin);
+      record(firstRootFrom(roots, tMin), k, id, packet);
+    }
+  }
+
+  // Lowers ray k's tHit to t if t is a hit in [tMin, tHit): false for NaN, and -inf (an overflowed
+  // root) never hits even when tMin is -inf.
+  static void record(Real t, int k, int32_t id, RayPacket<Real>& packet) {
+    const bool closer = (t >= packet.tMin) & (t < packet.tHit[k]) & (t > -std::numeric_limits<Real>::infinity());
+    packet.tHit[k] = closer ? t : packet.tHit[k];
+    packet.prim[k] = closer ? id : packet.prim[k];
   }
 
   // Whether the robust test may find a hit for any ray (robustMayMeet, implied by the full test).
