@@ -276,13 +276,22 @@ RenderStats renderWith(const Scene& scene, const CameraSpec& spec, const RenderS
   const TileRenderer<Real, M> tiles(scene, group, spec, settings, targets, control.cancel);
   RenderStats stats;
   stats.threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
+  // A work item is a strip of kStripTiles tiles along a row: threads then rarely write to the same
+  // cache line of the outputs, and the shared counters see one update per strip, not per tile.
+  constexpr int64_t kStripTiles = 8;
+  const int64_t tileCount = tiles.tileCount();
   std::atomic<int64_t> cameraRays{0}, shadowRays{0};
   runParallel(
-      tiles.tileCount(), stats.threads, control,
-      [&](int64_t tile) {
-        const auto rays = tiles.render(tile);
-        cameraRays.fetch_add(rays.camera, std::memory_order_relaxed);
-        shadowRays.fetch_add(rays.shadow, std::memory_order_relaxed);
+      (tileCount + kStripTiles - 1) / kStripTiles, stats.threads, control,
+      [&](int64_t strip) {
+        int64_t camera = 0, shadow = 0;
+        for (int64_t tile = strip * kStripTiles; tile < std::min(tileCount, (strip + 1) * kStripTiles); ++tile) {
+          const auto rays = tiles.render(tile);
+          camera += rays.camera;
+          shadow += rays.shadow;
+        }
+        cameraRays.fetch_add(camera, std::memory_order_relaxed);
+        shadowRays.fetch_add(shadow, std::memory_order_relaxed);
       },
       poll);
   stats.cameraRays = cameraRays.load();
