@@ -129,13 +129,7 @@ class TileRenderer {
     }
     if (!m_shading.lit()) {  // the normal pass without lighting: normals only, no hit points
       accumulateFlat(packet, acc);
-      for (int k = 0; k < packet.count; ++k) {
-        if (packet.prim[k] == kNoPrimitive) continue;
-        const Vec3<Real> n = m_group.normal(packet, k);
-        acc.nx[k] += n.x;
-        acc.ny[k] += n.y;
-        acc.nz[k] += n.z;
-      }
+      accumulateNormals(packet, acc);
       return 0;
     }
     alignas(64) Hit<Real> hits[kPacketSize];
@@ -200,6 +194,36 @@ class TileRenderer {
     }
     for (int k = 0; k < count; ++k) addColor(acc, k, r[k], g[k], b[k], hits[k].isHit() ? Real(1) : m_flat.a.back());
     return shadowRays;
+  }
+
+  // Normals of the packet's hits, branch-free over the spheres (so the loop vectorises, gathers and
+  // all), then the few plane hits.
+  void accumulateNormals(const RayPacket<Real>& packet, Accumulator& acc) const {
+    const SphereSet<Real>& spheres = m_group.spheres();
+    const int32_t sphereCount = static_cast<int32_t>(spheres.size());
+    if (sphereCount > 0) {
+      const Sphere<Real>* sphere = &spheres.sphere(0);
+      for (int k = 0; k < packet.count; ++k) {
+        const int32_t prim = packet.prim[k];
+        const bool isSphere = (prim >= 0) & (prim < sphereCount);
+        const Sphere<Real>& s = sphere[isSphere ? prim : 0];
+        const Real t = isSphere ? packet.tHit[k] : Real(0);  // a miss's t is tMax, maybe inf
+        const Real vx = packet.ox[k] + t * packet.dx[k] - s.center.x;
+        const Real vy = packet.oy[k] + t * packet.dy[k] - s.center.y;
+        const Real vz = packet.oz[k] + t * packet.dz[k] - s.center.z;
+        const Real scale = isSphere ? 1 / std::sqrt(vx * vx + vy * vy + vz * vz) : Real(0);
+        acc.nx[k] += vx * scale;
+        acc.ny[k] += vy * scale;
+        acc.nz[k] += vz * scale;
+      }
+    }
+    for (int k = 0; k < packet.count; ++k) {
+      if (packet.prim[k] < sphereCount) continue;
+      const Vec3<Real> n = m_group.planes().plane(static_cast<size_t>(packet.prim[k] - sphereCount)).normal;
+      acc.nx[k] += n.x;
+      acc.ny[k] += n.y;
+      acc.nz[k] += n.z;
+    }
   }
 
   // Unlit colour and depth need no hit record: a branch-free table lookup per ray.
