@@ -30,8 +30,12 @@ class RenderResult:
                       nearest sample hit; +inf where every sample missed.
     normal (H, W, 3): unit world-space normal, the normalised mean over the pixel's hit samples;
                       0 where every sample missed.
-    stats:            rays, intersection_tests, milliseconds, mrays_per_s, threads, width, height,
-                      spp, precision, sphere_method, passes, cancelled.
+    stats:            effects (the effect set simulated: "flat" or "diffuse", "specular", "shadows",
+                      "reflection", "refraction"); rays (camera), shadow_rays, reflection_rays,
+                      refraction_rays, shading_evaluations, bounces_cut_by_depth,
+                      bounces_cut_by_weight, total_internal_reflections, intersection_tests
+                      (ray-primitive tests made); milliseconds, mrays_per_s (camera rays), threads,
+                      width, height, spp, precision, sphere_method, passes, cancelled.
     """
 
     color: np.ndarray | None
@@ -90,6 +94,9 @@ def render(
     progress: Callable[[float], Any] | None = None,
     cancel: Callable[[], bool] | _Flag | None = None,
     out: RenderResult | None = None,
+    shade_back: bool = False,
+    max_bounces: int = 4,
+    min_weight: float = 0.01,
 ) -> RenderResult:
     """Render `scene` through `camera` at width x height pixels.
 
@@ -102,6 +109,11 @@ def render(
     RenderCancelled with the partial result. `out`, an earlier RenderResult of the same size and
     passes, has its arrays overwritten instead of new ones being allocated (saves the page faults of
     fresh memory when rendering frame after frame).
+
+    Effects are simulated only where the scene calls for them (stats["effects"]): lights, Phong
+    highlights, shadows, and mirror and refracted rays up to `max_bounces` deep (0: none), a ray
+    not spawned when its weight in the pixel would fall below `min_weight`. With `shade_back`, back
+    faces are shaded (and reported in the Normal pass) with the flipped normal, as 6.837's -shade_back.
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a durer.Scene, got {type(scene).__name__}")
@@ -114,13 +126,19 @@ def render(
     _checks.choice(precision, "precision", PRECISIONS)
     _checks.choice(sphere_method, "sphere_method", SPHERE_METHODS)
     wanted = _pass_set(passes)
+    shade_back = _checks.boolean(shade_back, "shade_back")
+    max_bounces = _checks.integer(max_bounces, "max_bounces", 0, 1000)
+    min_weight = _checks.finite_real(min_weight, "min_weight")
+    if min_weight < 0:
+        raise ValueError(f"min_weight must be >= 0, got {min_weight}")
     poll = poll_function(progress, cancel)
     if out is not None and not isinstance(out, RenderResult):
         raise TypeError(f"out must be a RenderResult or None, got {type(out).__name__}")
     buffers = {} if out is None else {"color": out.color, "depth": out.depth, "normal": out.normal}
     out = _core.render(
         scene._core, camera._spec, width, height, spp, seed, precision, sphere_method,
-        "color" in wanted, "depth" in wanted, "normal" in wanted, threads_argument(threads), poll, buffers,
+        "color" in wanted, "depth" in wanted, "normal" in wanted, threads_argument(threads), shade_back, max_bounces,
+        min_weight, poll, buffers,
     )
     stats = dict(out["stats"])
     seconds = stats["milliseconds"] / 1000

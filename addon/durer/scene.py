@@ -24,11 +24,37 @@ class Scene:
         self._core = _core.Scene()
 
     # --- materials and objects -------------------------------------------------------------------
-    def add_material(self, diffuse: ArrayLike = (0.8, 0.8, 0.8), *, emission: ArrayLike = (0.0, 0.0, 0.0)) -> int:
-        """Add a material; returns its id. `diffuse` is kd, linear RGB >= 0: the flat colour without
-        lights and the diffuse colour with them. `emission` (linear RGB >= 0) is added unlit, as
-        a light source seen directly (Blender's Emission shader)."""
-        return self._core.add_material(_checks.color(diffuse, "diffuse"), _checks.color(emission, "emission"))
+    def add_material(
+        self,
+        diffuse: ArrayLike = (0.8, 0.8, 0.8),
+        *,
+        emission: ArrayLike = (0.0, 0.0, 0.0),
+        specular: ArrayLike = (0.0, 0.0, 0.0),
+        exponent: float = 1.0,
+        reflective: ArrayLike = (0.0, 0.0, 0.0),
+        transparent: ArrayLike = (0.0, 0.0, 0.0),
+        ior: float = 1.0,
+    ) -> int:
+        """Add a material; returns its id. Colours are linear RGB >= 0 (6.837 assignments 2-4):
+
+        diffuse (kd): the flat colour without lights, the diffuse albedo with them;
+        emission: added unlit (a light source seen directly; Blender's Emission);
+        specular (ks) and exponent: the Phong highlight ks·light·max(N·H, 0)^exponent, lit scenes only;
+        reflective: weight of what the mirror ray sees; transparent: weight of what the refracted ray
+        sees, bent by Snell's law with index of refraction `ior` (> 0) inside the object.
+        Only the effects some material calls for are simulated (see `render`'s stats["effects"]).
+        """
+        exponent_value = _checks.finite_real(exponent, "exponent")
+        if exponent_value < 0:
+            raise ValueError(f"exponent must be >= 0, got {exponent_value}")
+        ior_value = _checks.finite_real(ior, "ior")
+        if ior_value <= 0:
+            raise ValueError(f"ior must be > 0, got {ior_value}")
+        return self._core.add_material(
+            _checks.color(diffuse, "diffuse"), _checks.color(emission, "emission"), _checks.color(specular, "specular"),
+            exponent_value, _checks.color(reflective, "reflective"), _checks.color(transparent, "transparent"),
+            ior_value,
+        )
 
     def add_spheres(self, centers: ArrayLike, radii: ArrayLike, material: ArrayLike = 0) -> np.ndarray:
         """Add N spheres. `centers` (N, 3); `radii` (N,) or one radius for all, each finite and > 0;

@@ -105,7 +105,8 @@ float* target(const py::dict& out, const char* name, bool wanted, std::vector<py
 
 py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int height, int spp, uint64_t seed,
                   const std::string& precision, const std::string& method, bool color, bool depth, bool normal,
-                  int threads, const py::function& poll, const py::dict& out) {
+                  int threads, bool shadeBack, int maxBounces, double minWeight, const py::function& poll,
+                  const py::dict& out) {
   RenderSettings settings;
   settings.width = width;
   settings.height = height;
@@ -115,6 +116,9 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
   settings.sphereMethod = methodNamed(method);
   settings.passes = (color ? kPassColor : 0u) | (depth ? kPassDepth : 0u) | (normal ? kPassNormal : 0u);
   settings.threads = threads;
+  settings.shadeBack = shadeBack;
+  settings.maxBounces = maxBounces;
+  settings.minWeight = minWeight;
   validate(settings);
   const py::ssize_t h = height, w = width;
   py::dict result;
@@ -126,13 +130,29 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
   const RenderStats stats = withoutGil(control, poll, [&](const std::function<void()>& p) {
     return render(scene, camera, settings, targets, control, p);
   });
+  const RayCounters& c = stats.counters;
   py::dict s;
-  s["rays"] = stats.cameraRays;
-  s["shadow_rays"] = stats.shadowRays;
-  s["intersection_tests"] = stats.intersectionTests;
+  s["rays"] = c.camera;
+  s["shadow_rays"] = c.shadow;
+  s["reflection_rays"] = c.reflection;
+  s["refraction_rays"] = c.refraction;
+  s["shading_evaluations"] = c.shadingEvaluations;
+  s["bounces_cut_by_depth"] = c.cutByDepth;
+  s["bounces_cut_by_weight"] = c.cutByWeight;
+  s["total_internal_reflections"] = c.totalInternalReflections;
+  s["intersection_tests"] = c.intersectionTests;
   s["milliseconds"] = stats.milliseconds;
   s["threads"] = stats.threads;
   s["cancelled"] = stats.cancelled;
+  const EffectSet& e = stats.effects;
+  py::list effects;
+  if (color) effects.append(e.lit ? "diffuse" : "flat");
+  if (e.reflection) effects.append("reflection");
+  if (e.refraction) effects.append("refraction");
+  if (e.shadows) effects.append("shadows");
+  if (e.specular) effects.append("specular");
+  effects.attr("sort")();
+  s["effects"] = py::tuple(effects);
   result["stats"] = s;
   return result;
 }
@@ -223,10 +243,13 @@ PYBIND11_MODULE(_core, m) {
   py::class_<Scene>(m, "Scene")
       .def(py::init<>())
       .def("add_material",
-           [](Scene& s, const Triple& diffuse, const Triple& emission) {
-             return s.addMaterial(Material{vec(diffuse), vec(emission)});
+           [](Scene& s, const Triple& diffuse, const Triple& emission, const Triple& specular, double exponent,
+              const Triple& reflective, const Triple& transparent, double ior) {
+             return s.addMaterial(Material{vec(diffuse), vec(emission), vec(specular), exponent, vec(reflective),
+                                           vec(transparent), ior});
            },
-           py::arg("diffuse"), py::arg("emission"))
+           py::arg("diffuse"), py::arg("emission"), py::arg("specular"), py::arg("exponent"), py::arg("reflective"),
+           py::arg("transparent"), py::arg("ior"))
       .def(
           "add_spheres",
           [](Scene& s, const DoubleArray& centers, const DoubleArray& radii, const IdArray& materials) {
@@ -289,7 +312,8 @@ PYBIND11_MODULE(_core, m) {
 
   m.def("render", &renderPy, py::arg("scene"), py::arg("camera"), py::arg("width"), py::arg("height"),
         py::arg("spp"), py::arg("seed"), py::arg("precision"), py::arg("sphere_method"), py::arg("color"),
-        py::arg("depth"), py::arg("normal"), py::arg("threads"), py::arg("poll"), py::arg("out"));
+        py::arg("depth"), py::arg("normal"), py::arg("threads"), py::arg("shade_back"), py::arg("max_bounces"),
+        py::arg("min_weight"), py::arg("poll"), py::arg("out"));
   m.def("cast", &castPy, py::arg("scene"), py::arg("origins"), py::arg("directions"), py::arg("t_min"),
         py::arg("t_max"), py::arg("precision"), py::arg("sphere_method"), py::arg("threads"), py::arg("poll"));
   m.def("camera_rays", &cameraRaysPy, py::arg("camera"), py::arg("width"), py::arg("height"),

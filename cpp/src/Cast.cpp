@@ -13,11 +13,13 @@ namespace {
 
 constexpr int64_t kRaysPerItem = 16 * kPacketSize;  // enough work per queue item to hide its cost
 
+// Casts one work item's rays; returns the ray-primitive tests made.
 template <typename Real, SphereMethod M>
-DURER_HOT_KERNEL void castItem(const Group<Real>& group, const CastInput& in, const CastOutput<Real>& out, int64_t item,
-              const std::atomic<bool>& cancel) {
+DURER_HOT_KERNEL int64_t castItem(const Group<Real>& group, const CastInput& in, const CastOutput<Real>& out,
+                                  int64_t item, const std::atomic<bool>& cancel) {
   const size_t begin = static_cast<size_t>(item * kRaysPerItem);
   const size_t end = std::min(in.count, begin + kRaysPerItem);
+  int64_t tests = 0;
   RayPacket<Real> packet;
   packet.tMin = static_cast<Real>(in.tMin);
   packet.tMax = static_cast<Real>(in.tMax);
@@ -33,8 +35,8 @@ DURER_HOT_KERNEL void castItem(const Group<Real>& group, const CastInput& in, co
       packet.dy[k] = static_cast<Real>(d[1]);
       packet.dz[k] = static_cast<Real>(d[2]);
     }
-    group.template intersect<M>(packet, &cancel);
-    if (cancel.load(std::memory_order_relaxed)) return;
+    tests += group.template intersect<M>(packet, &cancel);
+    if (cancel.load(std::memory_order_relaxed)) return tests;
     for (int k = 0; k < packet.count; ++k) {
       const size_t i = first + k;
       const Hit<Real> hit = group.hit(packet, k);
@@ -44,6 +46,7 @@ DURER_HOT_KERNEL void castItem(const Group<Real>& group, const CastInput& in, co
       out.materialId[i] = hit.materialId;
     }
   }
+  return tests;
 }
 
 template <typename Real, SphereMethod M>
@@ -53,10 +56,12 @@ CastStats castWith(const Scene& scene, const CastInput& in, const CastOutput<Rea
   const Group<Real>& group = *prepared;
   const int64_t items = (static_cast<int64_t>(in.count) + kRaysPerItem - 1) / kRaysPerItem;
   const int threads = in.threads > 0 ? in.threads : defaultThreadCount();
+  std::atomic<int64_t> tests{0};
   runParallel(
-      items, threads, control, [&](int64_t item) { castItem<Real, M>(group, in, out, item, control.cancel); }, poll);
+      items, threads, control,
+      [&](int64_t item) { tests.fetch_add(castItem<Real, M>(group, in, out, item, control.cancel)); }, poll);
   CastStats stats;
-  stats.intersectionTests = static_cast<int64_t>(in.count) * group.primitiveCount();
+  stats.intersectionTests = tests.load();
   return stats;
 }
 

@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <limits>
+#include <mutex>
 #include <vector>
 
 #include "durer/HotKernel.h"
+#include "durer/PacketShader.h"
 #include "durer/PixelSampler.h"
 #include "durer/Shading.h"
 #include "durer/Validate.h"
@@ -18,6 +21,8 @@ void validate(const RenderSettings& s) {
   if (s.samplesPerPixel < 1) fail("spp must be >= 1, got " + std::to_string(s.samplesPerPixel));
   if (s.threads < 0) fail("threads must be >= 1, got " + std::to_string(s.threads));
   if (s.passes == 0 || (s.passes & ~(kPassColor | kPassDepth | kPassNormal)) != 0) fail("passes: none requested");
+  if (s.maxBounces < 0) fail("max_bounces must be >= 0, got " + std::to_string(s.maxBounces));
+  if (!(std::isfinite(s.minWeight) && s.minWeight >= 0)) fail("min_weight must be finite and >= 0");
 }
 
 namespace {
@@ -29,7 +34,7 @@ template <typename Real, SphereMethod M>
 class TileRenderer {
  public:
   TileRenderer(const Scene& scene, const Group<Real>& group, const CameraSpec& spec, const RenderSettings& settings,
-               const RenderTargets& targets, const std::atomic<bool>& cancel)
+               const RenderTargets& targets, const EffectSet& effects, const std::atomic<bool>& cancel)
       : m_group(group),
         m_camera(spec, settings.width, settings.height),
         m_shading(scene),
@@ -38,20 +43,18 @@ class TileRenderer {
         m_targets(targets),
         m_cancel(cancel),
         m_flat(scene, group),
-        m_needNormal(targets.normal != nullptr || (targets.color != nullptr && m_shading.lit())),
+        m_shader(group, m_shading, effects, BounceLimits{settings.maxBounces, settings.minWeight, settings.shadeBack},
+                 toReal<Real>(Vec3d(scene.background())), cancel),
+        m_needHits(targets.color != nullptr && (effects.lit || effects.bounces())),
+        m_shadeBack(settings.shadeBack),
         m_tilesX((settings.width + kTileSize - 1) / kTileSize) {}
 
   int64_t tileCount() const {
     return static_cast<int64_t>(m_tilesX) * ((m_settings.height + kTileSize - 1) / kTileSize);
   }
 
-  struct RayCounts {
-    int64_t camera = 0;
-    int64_t shadow = 0;
-  };
-
-  // Renders one tile; returns the rays it traced (none if cancelled before the tile finished).
-  DURER_HOT_KERNEL RayCounts render(int64_t tile) const {
+  // Renders one tile; returns what it traced (nothing if cancelled before the tile finished).
+  DURER_HOT_KERNEL RayCounters render(int64_t tile) const {
     const int x0 = static_cast<int>(tile % m_tilesX) * kTileSize;
     const int y0 = static_cast<int>(tile / m_tilesX) * kTileSize;
     const int w = std::min(kTileSize, m_settings.width - x0);
@@ -59,7 +62,7 @@ class TileRenderer {
     const int count = w * h;
     Accumulator acc;
     acc.clear(count);
-    RayCounts rays;
+    RayCounters counters;
     RayPacket<Real> packet;
     alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
     for (int s = 0; s < m_sampler.samplesPerPixel(); ++s) {
@@ -73,14 +76,14 @@ class TileRenderer {
         }
       }
       m_camera.generate(packet, sampleX, sampleY, count);
-      m_group.template intersect<M>(packet, &m_cancel);
+      counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
       if (m_cancel.load(std::memory_order_relaxed)) return {};
-      rays.shadow += accumulate(packet, acc);
-      rays.camera += count;
+      accumulate(packet, acc, counters);
+      counters.camera += count;
     }
     if (m_cancel.load(std::memory_order_relaxed)) return {};
     write(acc, x0, y0, w, h);
-    return rays;
+    return counters;
   }
 
  private:
@@ -121,79 +124,30 @@ class TileRenderer {
     }
   };
 
-  // Adds one sample per ray of the packet to the tile's sums; returns the shadow rays it cast.
-  int64_t accumulate(const RayPacket<Real>& packet, Accumulator& acc) const {
-    if (!m_needNormal) {
+  // Adds one sample per ray of the packet to the tile's sums.
+  void accumulate(const RayPacket<Real>& packet, Accumulator& acc, RayCounters& counters) const {
+    if (!m_needHits) {  // flat colours, depth and normals: no hit records
       accumulateFlat(packet, acc);
-      return 0;
-    }
-    if (!m_shading.lit()) {  // the normal pass without lighting: normals only, no hit points
-      accumulateFlat(packet, acc);
-      accumulateNormals(packet, acc);
-      return 0;
+      if (m_targets.normal) accumulateNormals(packet, acc);
+      return;
     }
     alignas(64) Hit<Real> hits[kPacketSize];
     for (int k = 0; k < packet.count; ++k) {
       hits[k] = m_group.hit(packet, k);
       if (!hits[k].isHit()) continue;
       acc.depth[k] = std::min(acc.depth[k], hits[k].t);
-      acc.nx[k] += hits[k].normal.x;
-      acc.ny[k] += hits[k].normal.y;
-      acc.nz[k] += hits[k].normal.z;
+      const Vec3<Real> n = m_shader.shadingNormal(hits[k], Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]));
+      acc.nx[k] += n.x;
+      acc.ny[k] += n.y;
+      acc.nz[k] += n.z;
     }
-    if (!m_targets.color) return 0;
-    return shadeLit(packet.count, hits, acc);
-  }
-
-  // emission + ambient·kd + Σ max(N·L, 0)·light·kd, one light at a time so that the shadow rays toward a light
-  // are traced together as one packet.
-  int64_t shadeLit(int count, const Hit<Real>* hits, Accumulator& acc) const {
-    alignas(64) Real r[kPacketSize], g[kPacketSize], b[kPacketSize];
-    for (int k = 0; k < count; ++k) {
-      const int32_t m = hits[k].materialId;
-      const Vec3<Real> rgb = hits[k].isHit() ? m_shading.emission(m) + m_shading.ambient() * m_shading.diffuse(m)
-                                             : Vec3<Real>(m_flat.r.back(), m_flat.g.back(), m_flat.b.back());
-      r[k] = rgb.r, g[k] = rgb.g, b[k] = rgb.b;
+    alignas(64) Vec3<Real> rgb[kPacketSize];
+    alignas(64) Real weights[kPacketSize];
+    std::fill(weights, weights + packet.count, Real(1));
+    m_shader.shade(packet, hits, weights, 0, rgb, counters);
+    for (int k = 0; k < packet.count; ++k) {
+      addColor(acc, k, rgb[k].r, rgb[k].g, rgb[k].b, hits[k].isHit() ? Real(1) : m_flat.a.back());
     }
-    int64_t shadowRays = 0;
-    RayPacket<Real> shadow;
-    alignas(64) int pixelOf[kPacketSize];
-    alignas(64) Vec3<Real> term[kPacketSize];
-    for (const ShadingLight<Real>& light : m_shading.lights()) {
-      shadow.count = 0;
-      for (int k = 0; k < count; ++k) {
-        if (!hits[k].isHit()) continue;
-        const Hit<Real>& h = hits[k];
-        const Vec3<Real> toLight = light.toLight(h.point);
-        const Real cosine = glm::dot(h.normal, toLight);
-        if (!(cosine > 0)) continue;
-        const Vec3<Real> contribution = cosine * light.arriving(h.point, toLight) * m_shading.diffuse(h.materialId);
-        if (!light.shadows) {
-          r[k] += contribution.r, g[k] += contribution.g, b[k] += contribution.b;
-          continue;
-        }
-        const int j = shadow.count++;
-        const Vec3<Real> origin = offsetRayOrigin(h.point, h.normal, h.pointError, toLight);
-        const Vec3<Real> direction = light.shadowDirection(origin);
-        shadow.ox[j] = origin.x, shadow.oy[j] = origin.y, shadow.oz[j] = origin.z;
-        shadow.dx[j] = direction.x, shadow.dy[j] = direction.y, shadow.dz[j] = direction.z;
-        pixelOf[j] = k;
-        term[j] = contribution;
-      }
-      if (shadow.count == 0) continue;
-      // t > 0: an offset of a few ulps of a number near 0 can underflow to t = -0 in the plane test.
-      shadow.tMin = std::numeric_limits<Real>::denorm_min();
-      shadow.tMax = light.shadowTMax();
-      m_group.template intersect<M>(shadow, &m_cancel);
-      shadowRays += shadow.count;
-      for (int j = 0; j < shadow.count; ++j) {
-        if (shadow.prim[j] != kNoPrimitive) continue;
-        const int k = pixelOf[j];
-        r[k] += term[j].r, g[k] += term[j].g, b[k] += term[j].b;
-      }
-    }
-    for (int k = 0; k < count; ++k) addColor(acc, k, r[k], g[k], b[k], hits[k].isHit() ? Real(1) : m_flat.a.back());
-    return shadowRays;
   }
 
   // Normals of the packet's hits, branch-free over the spheres (so the loop vectorises, gathers and
@@ -211,7 +165,10 @@ class TileRenderer {
         const Real vx = packet.ox[k] + t * packet.dx[k] - s.center.x;
         const Real vy = packet.oy[k] + t * packet.dy[k] - s.center.y;
         const Real vz = packet.oz[k] + t * packet.dz[k] - s.center.z;
-        const Real scale = isSphere ? 1 / std::sqrt(vx * vx + vy * vy + vz * vz) : Real(0);
+        // shade_back: flipped where the ray meets the outside of the sphere from within.
+        const bool back = m_shadeBack && (vx * packet.dx[k] + vy * packet.dy[k] + vz * packet.dz[k]) > 0;
+        const Real length = std::sqrt(vx * vx + vy * vy + vz * vz);
+        const Real scale = isSphere ? (back ? -1 : 1) / length : Real(0);
         acc.nx[k] += vx * scale;
         acc.ny[k] += vy * scale;
         acc.nz[k] += vz * scale;
@@ -219,7 +176,8 @@ class TileRenderer {
     }
     for (int k = 0; k < packet.count; ++k) {
       if (packet.prim[k] < sphereCount) continue;
-      const Vec3<Real> n = m_group.planes().plane(static_cast<size_t>(packet.prim[k] - sphereCount)).normal;
+      Vec3<Real> n = m_group.planes().plane(static_cast<size_t>(packet.prim[k] - sphereCount)).normal;
+      if (m_shadeBack && glm::dot(n, Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k])) > 0) n = -n;
       acc.nx[k] += n.x;
       acc.ny[k] += n.y;
       acc.nz[k] += n.z;
@@ -288,39 +246,62 @@ class TileRenderer {
   RenderTargets m_targets;
   const std::atomic<bool>& m_cancel;
   FlatTable m_flat;
-  bool m_needNormal;
+  PacketShader<Real, M> m_shader;
+  bool m_needHits;   // colour needs hit records: lights or secondary rays
+  bool m_shadeBack;
   int m_tilesX;
 };
+
+// What the scene calls for, given what is asked: decided once, before rendering.
+EffectSet effectsFor(const Scene& scene, const RenderSettings& settings, const RenderTargets& targets) {
+  EffectSet e;
+  if (!targets.color) return e;  // depth and normals need no shading at all
+  const auto any = [&](auto field) {
+    return std::any_of(scene.materials().begin(), scene.materials().end(), [&](const Material& m) {
+      const Vec3d v = m.*field;
+      return v.x > 0 || v.y > 0 || v.z > 0;
+    });
+  };
+  const bool shadowing = std::any_of(scene.directionalLights().begin(), scene.directionalLights().end(),
+                                     [](const auto& l) { return l.shadows; }) ||
+                         std::any_of(scene.pointLights().begin(), scene.pointLights().end(),
+                                     [](const auto& l) { return l.shadows; }) ||
+                         std::any_of(scene.spotLights().begin(), scene.spotLights().end(),
+                                     [](const auto& l) { return l.shadows; });
+  e.lit = scene.lit();
+  e.specular = e.lit && any(&Material::specular);
+  e.shadows = e.lit && shadowing;
+  e.reflection = settings.maxBounces > 0 && any(&Material::reflective);
+  e.refraction = settings.maxBounces > 0 && any(&Material::transparent);
+  return e;
+}
 
 template <typename Real, SphereMethod M>
 RenderStats renderWith(const Scene& scene, const CameraSpec& spec, const RenderSettings& settings,
                        const RenderTargets& targets, JobControl& control, const std::function<void()>& poll) {
   const std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>();
   const Group<Real>& group = *prepared;
-  const TileRenderer<Real, M> tiles(scene, group, spec, settings, targets, control.cancel);
+  const EffectSet effects = effectsFor(scene, settings, targets);
+  const TileRenderer<Real, M> tiles(scene, group, spec, settings, targets, effects, control.cancel);
   RenderStats stats;
+  stats.effects = effects;
   stats.threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
   // A work item is a strip of kStripTiles tiles along a row: threads then rarely write to the same
-  // cache line of the outputs, and the shared counters see one update per strip, not per tile.
+  // cache line of the outputs, and the shared totals see one update per strip, not per tile.
   constexpr int64_t kStripTiles = 8;
   const int64_t tileCount = tiles.tileCount();
-  std::atomic<int64_t> cameraRays{0}, shadowRays{0};
+  std::mutex totalsMutex;
   runParallel(
       (tileCount + kStripTiles - 1) / kStripTiles, stats.threads, control,
       [&](int64_t strip) {
-        int64_t camera = 0, shadow = 0;
+        RayCounters counters;
         for (int64_t tile = strip * kStripTiles; tile < std::min(tileCount, (strip + 1) * kStripTiles); ++tile) {
-          const auto rays = tiles.render(tile);
-          camera += rays.camera;
-          shadow += rays.shadow;
+          counters += tiles.render(tile);
         }
-        cameraRays.fetch_add(camera, std::memory_order_relaxed);
-        shadowRays.fetch_add(shadow, std::memory_order_relaxed);
+        const std::lock_guard<std::mutex> lock(totalsMutex);
+        stats.counters += counters;
       },
       poll);
-  stats.cameraRays = cameraRays.load();
-  stats.shadowRays = shadowRays.load();
-  stats.intersectionTests = (stats.cameraRays + stats.shadowRays) * group.primitiveCount();
   stats.cancelled = control.cancel.load();
   return stats;
 }

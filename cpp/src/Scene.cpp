@@ -65,6 +65,11 @@ int32_t Scene::takeObjectIds(size_t count) {
 int32_t Scene::addMaterial(const Material& material) {
   requireNonNegativeColor(material.diffuse, "diffuse");
   requireNonNegativeColor(material.emission, "emission");
+  requireNonNegativeColor(material.specular, "specular");
+  requireNonNegativeColor(material.reflective, "reflective");
+  requireNonNegativeColor(material.transparent, "transparent");
+  if (!(std::isfinite(material.exponent) && material.exponent >= 0)) fail("exponent must be finite and >= 0");
+  requirePositive(material.ior, "ior");
   if (m_materials.size() >= static_cast<size_t>(std::numeric_limits<int32_t>::max())) fail("too many materials");
   m_materials.push_back(material);
   return static_cast<int32_t>(m_materials.size() - 1);

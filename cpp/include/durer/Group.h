@@ -22,12 +22,12 @@ class Group {
   const PlaneSet<Real>& planes() const { return m_planes; }
   int64_t primitiveCount() const { return static_cast<int64_t>(m_spheres.size() + m_planes.size()); }
 
-  // The cheap t-only search for each ray's closest primitive.
+  // The cheap t-only search for each ray's closest primitive; returns the ray-primitive tests made.
   template <SphereMethod M>
-  void intersect(RayPacket<Real>& packet, const std::atomic<bool>* cancel) const {
+  int64_t intersect(RayPacket<Real>& packet, const std::atomic<bool>* cancel) const {
     packet.resetHits();
-    m_spheres.template intersect<M>(packet, 0, cancel);
-    m_planes.intersect(packet, static_cast<int32_t>(m_spheres.size()));
+    return m_spheres.template intersect<M>(packet, 0, cancel) +
+           m_planes.intersect(packet, static_cast<int32_t>(m_spheres.size()));
   }
 
   // Just the unit normal at ray k's hit (which must be a hit).

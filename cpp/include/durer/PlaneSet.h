@@ -53,7 +53,8 @@ class PlaneSet {
 
   // Lowers each ray's tHit to its closest plane hit in [tMin, tHit). A ray parallel to a plane gets
   // t = ±inf or NaN (lying in it: 0/0), neither of which passes the range test.
-  void intersect(RayPacket<Real>& packet, int32_t primBase) const {
+  // Returns the ray-plane tests made.
+  int64_t intersect(RayPacket<Real>& packet, int32_t primBase) const {
     for (size_t i = 0; i < m_planes.size(); ++i) {
       const int32_t id = primBase + static_cast<int32_t>(i);
       if (m_planes[i].bounded) {
@@ -62,6 +63,7 @@ class PlaneSet {
         intersectOne<false>(packet, m_planes[i], id);
       }
     }
+    return static_cast<int64_t>(m_planes.size()) * packet.count;
   }
 
   Hit<Real> hit(const RayPacket<Real>& packet, int k, size_t index) const {

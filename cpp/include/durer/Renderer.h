@@ -3,6 +3,8 @@
 #include <functional>
 
 #include "durer/Camera.h"
+#include "durer/PacketShader.h"
+#include "durer/RayCounters.h"
 #include "durer/Scene.h"
 #include "durer/SphereMethod.h"
 #include "durer/WorkQueue.h"
@@ -24,6 +26,9 @@ struct RenderSettings {
   SphereMethod sphereMethod = SphereMethod::Robust;
   unsigned passes = kPassColor | kPassDepth | kPassNormal;
   int threads = 0;                   // 0: all hardware threads
+  bool shadeBack = false;            // shade back faces with the flipped normal (6.837 -shade_back)
+  int maxBounces = 4;                // deepest secondary ray (reflection, refraction); 0: none
+  double minWeight = 0.01;           // secondary rays that would weigh less are not spawned
 };
 
 // Output buffers, row-major, top row first, float32; null for a pass not requested.
@@ -34,10 +39,9 @@ struct RenderTargets {
 };
 
 struct RenderStats {
-  int64_t cameraRays = 0;         // rays traced (fewer than width·height·spp when cancelled)
-  int64_t shadowRays = 0;         // toward lights that cast shadows, from lit points facing them
-  int64_t intersectionTests = 0;  // ray-primitive tests
-  double milliseconds = 0;        // wall time of the render
+  RayCounters counters;  // rays by kind and what was cut (fewer than width·height·spp camera rays when cancelled)
+  EffectSet effects;     // what the scene called for
+  double milliseconds = 0;  // wall time of the render
   int threads = 0;
   bool cancelled = false;
 };

@@ -48,6 +48,15 @@ struct ShadingLight {
   Real shadowTMax() const { return kind == Kind::Directional ? std::numeric_limits<Real>::infinity() : Real(1); }
 };
 
+// A material in the render's precision (Material.h says what each field means).
+template <typename Real>
+struct ShadingMaterial {
+  Vec3<Real> diffuse, emission, specular;
+  Real exponent;
+  Vec3<Real> reflective, transparent;
+  Real ior;
+};
+
 // The 6.837 assignment-2 shading, in the render's precision, plus emission:
 //   flat (no lights, by default): diffuse + emission;
 //   lit:  emission + ambient·kd + Σ max(N·L, 0)·light·kd over the lights, a light's term dropped
@@ -58,8 +67,9 @@ class Shading {
   explicit Shading(const Scene& scene) : m_ambient(toReal<Real>(scene.ambient())), m_lit(scene.lit()) {
     using Kind = typename ShadingLight<Real>::Kind;
     for (const Material& m : scene.materials()) {
-      m_diffuse.push_back(toReal<Real>(m.diffuse));
-      m_emission.push_back(toReal<Real>(m.emission));
+      m_materials.push_back({toReal<Real>(m.diffuse), toReal<Real>(m.emission), toReal<Real>(m.specular),
+                             static_cast<Real>(m.exponent), toReal<Real>(m.reflective), toReal<Real>(m.transparent),
+                             static_cast<Real>(m.ior)});
     }
     const Vec3<Real> none(0);
     for (const DirectionalLight& l : scene.directionalLights()) {
@@ -78,14 +88,13 @@ class Shading {
   }
 
   bool lit() const { return m_lit; }  // whether shading needs hit records and lights
-  const Vec3<Real>& diffuse(int32_t material) const { return m_diffuse[static_cast<size_t>(material)]; }
-  const Vec3<Real>& emission(int32_t material) const { return m_emission[static_cast<size_t>(material)]; }
+  const ShadingMaterial<Real>& material(int32_t id) const { return m_materials[static_cast<size_t>(id)]; }
+  const std::vector<ShadingMaterial<Real>>& materials() const { return m_materials; }
   const Vec3<Real>& ambient() const { return m_ambient; }
   const std::vector<ShadingLight<Real>>& lights() const { return m_lights; }
 
  private:
-  std::vector<Vec3<Real>> m_diffuse;   // by material id
-  std::vector<Vec3<Real>> m_emission;  // by material id
+  std::vector<ShadingMaterial<Real>> m_materials;  // by material id
   Vec3<Real> m_ambient;
   bool m_lit;
   std::vector<ShadingLight<Real>> m_lights;

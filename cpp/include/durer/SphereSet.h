@@ -66,17 +66,20 @@ class SphereSet {
   // Lowers each ray's tHit to its closest sphere hit in [tMin, tHit); sphere i is recorded as
   // primBase + i. Gives up if *cancel is set (checked every few thousand sphere or node visits;
   // the packet is then garbage).
+  // Returns the ray-sphere tests made (packet rays × spheres visited).
   template <SphereMethod M>
-  void intersect(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
-    if (m_spheres.empty()) return;
+  int64_t intersect(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
+    if (m_spheres.empty()) return 0;
+    int64_t visited = 0;
     PacketRayTerms<Real> terms;
     terms.template compute<M>(packet.dx, packet.dy, packet.dz, packet.count);
     if (m_bvh.empty()) {
       for (size_t i = 0; i < m_spheres.size(); ++i) {
-        if ((i & kCancelStride) == kCancelStride && cancel && cancel->load(std::memory_order_relaxed)) return;
+        if ((i & kCancelStride) == kCancelStride && cancel && cancel->load(std::memory_order_relaxed)) break;
         intersectOne<M>(packet, terms, i, primBase);
+        ++visited;
       }
-      return;
+      return visited * packet.count;
     }
     alignas(64) Real invX[kPacketSize], invY[kPacketSize], invZ[kPacketSize];
     for (int k = 0; k < packet.count; ++k) {
@@ -86,7 +89,7 @@ class SphereSet {
     int top = 0;
     stack[top++] = 0;
     for (size_t visits = 1; top > 0; ++visits) {
-      if ((visits & kCancelStride) == 0 && cancel && cancel->load(std::memory_order_relaxed)) return;
+      if ((visits & kCancelStride) == 0 && cancel && cancel->load(std::memory_order_relaxed)) break;
       const int32_t index = stack[--top];
       const BvhNode<Real>& node = m_bvh.node(index);
       if (!SphereBvh<Real>::anyRayEnters(packet, invX, invY, invZ, node)) continue;
@@ -94,6 +97,7 @@ class SphereSet {
         for (int32_t i = node.first; i < node.first + node.count; ++i) {
           intersectOne<M>(packet, terms, static_cast<size_t>(i), primBase);
         }
+        visited += node.count;
         continue;
       }
       // Near child first (judged by the first ray), so tHit shrinks early and prunes the far one.
@@ -102,6 +106,7 @@ class SphereSet {
       stack[top++] = along > 0 ? second : first;
       stack[top++] = along > 0 ? first : second;
     }
+    return visited * packet.count;
   }
 
   // One sphere against every ray of the packet: the vectorised inner loop.

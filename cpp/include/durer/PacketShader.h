@@ -1,0 +1,221 @@
+#pragma once
+// The colour of a packet's hits: emission, the lights' diffuse and Phong terms (with shadow rays
+// toward lights that cast them), and the mirror and refracted rays, traced as packets of their own,
+// bounce after bounce (6.837 assignments 2-4). What a scene does not call for is never run: the
+// EffectSet says which parts apply, decided once per render (Renderer.cpp), so an absent effect costs
+// at most a test per packet, never per ray.
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+
+#include "durer/Group.h"
+#include "durer/RayCounters.h"
+#include "durer/RayOffset.h"
+#include "durer/RayPacket.h"
+#include "durer/Shading.h"
+
+namespace durer {
+
+struct EffectSet {
+  bool lit = false;         // lights (or scene shading "lit"): else flat colours
+  bool specular = false;    // lit, and some material has a Phong highlight
+  bool shadows = false;     // lit, and some light casts shadows
+  bool reflection = false;  // some material is reflective and maxBounces > 0
+  bool refraction = false;  // some material is transparent and maxBounces > 0
+  bool bounces() const { return reflection || refraction; }
+};
+
+struct BounceLimits {
+  int maxBounces = 4;      // the deepest secondary ray (a camera ray's children are at depth 1)
+  double minWeight = 0.01; // rays whose weight would fall below this are not spawned
+  bool shadeBack = false;  // shade back faces with the flipped normal (6.837 -shade_back)
+};
+
+template <typename Real, SphereMethod M>
+class PacketShader {
+ public:
+  PacketShader(const Group<Real>& group, const Shading<Real>& shading, const EffectSet& effects,
+               const BounceLimits& limits, const Vec3<Real>& background, const std::atomic<bool>& cancel)
+      : m_group(group), m_shading(shading), m_effects(effects), m_limits(limits), m_background(background),
+        m_cancel(cancel), m_minWeight(static_cast<Real>(limits.minWeight)) {}
+
+  // The shading normal: as stored, or flipped toward the ray where shade_back asks for it.
+  Vec3<Real> shadingNormal(const Hit<Real>& hit, const Vec3<Real>& direction) const {
+    return m_limits.shadeBack && glm::dot(direction, hit.normal) > 0 ? -hit.normal : hit.normal;
+  }
+
+  // rgb[k] = the colour ray k of `packet` sees (its search done, hits[k] its hit records); depth:
+  // 0 for camera rays; weights: each ray's weight in the pixel (secondary rays below minWeight are
+  // never spawned).
+  void shade(const RayPacket<Real>& packet, const Hit<Real>* hits, const Real* weights, int depth, Vec3<Real>* rgb,
+             RayCounters& counters) const {
+    for (int k = 0; k < packet.count; ++k) {
+      if (!hits[k].isHit()) {
+        rgb[k] = m_background;
+        continue;
+      }
+      const ShadingMaterial<Real>& m = m_shading.material(hits[k].materialId);
+      rgb[k] = m.emission + (m_effects.lit ? m_shading.ambient() * m.diffuse : m.diffuse);
+    }
+    if (m_effects.lit) addLights(packet, hits, rgb, counters);
+    if (m_effects.bounces()) addBounces(packet, hits, weights, depth, rgb, counters);
+  }
+
+ private:
+  static Vec3<Real> direction(const RayPacket<Real>& p, int k) { return Vec3<Real>(p.dx[k], p.dy[k], p.dz[k]); }
+
+  // Σ over lights of max(N·L, 0)·light·kd (+ ks·light·max(N·H, 0)^exponent where N·L > 0), a light's
+  // term dropped where the shadow ray toward it is blocked. One light at a time, so that the shadow
+  // rays toward it go as one packet.
+  void addLights(const RayPacket<Real>& packet, const Hit<Real>* hits, Vec3<Real>* rgb, RayCounters& counters) const {
+    alignas(64) Vec3<Real> normal[kPacketSize], toViewer[kPacketSize];
+    for (int k = 0; k < packet.count; ++k) {
+      if (!hits[k].isHit()) continue;
+      ++counters.shadingEvaluations;
+      const Vec3<Real> d = direction(packet, k);
+      normal[k] = shadingNormal(hits[k], d);
+      toViewer[k] = -glm::normalize(d);
+    }
+    RayPacket<Real> shadow;
+    alignas(64) int pixelOf[kPacketSize];
+    alignas(64) Vec3<Real> term[kPacketSize];
+    for (const ShadingLight<Real>& light : m_shading.lights()) {
+      shadow.count = 0;
+      for (int k = 0; k < packet.count; ++k) {
+        if (!hits[k].isHit()) continue;
+        const Hit<Real>& h = hits[k];
+        const Vec3<Real> toLight = light.toLight(h.point);
+        const Real cosine = glm::dot(normal[k], toLight);
+        if (!(cosine > 0)) continue;
+        const ShadingMaterial<Real>& m = m_shading.material(h.materialId);
+        const Vec3<Real> arriving = light.arriving(h.point, toLight);
+        Vec3<Real> contribution = cosine * arriving * m.diffuse;
+        if (m_effects.specular) {
+          const Real highlight = std::max(glm::dot(normal[k], glm::normalize(toLight + toViewer[k])), Real(0));
+          contribution += std::pow(highlight, m.exponent) * arriving * m.specular;
+        }
+        if (!(m_effects.shadows && light.shadows)) {
+          rgb[k] += contribution;
+          continue;
+        }
+        const int j = shadow.count++;
+        const Vec3<Real> origin = offsetRayOrigin(h.point, h.normal, h.pointError, toLight);
+        const Vec3<Real> toward = light.shadowDirection(origin);
+        shadow.ox[j] = origin.x, shadow.oy[j] = origin.y, shadow.oz[j] = origin.z;
+        shadow.dx[j] = toward.x, shadow.dy[j] = toward.y, shadow.dz[j] = toward.z;
+        pixelOf[j] = k;
+        term[j] = contribution;
+      }
+      if (shadow.count == 0) continue;
+      // t > 0: an offset of a few ulps of a number near 0 can underflow to t = -0 in the plane test.
+      shadow.tMin = std::numeric_limits<Real>::denorm_min();
+      shadow.tMax = light.shadowTMax();
+      counters.intersectionTests += m_group.template intersect<M>(shadow, &m_cancel);
+      counters.shadow += shadow.count;
+      for (int j = 0; j < shadow.count; ++j) {
+        if (shadow.prim[j] == kNoPrimitive) rgb[pixelOf[j]] += term[j];
+      }
+    }
+  }
+
+  // A secondary ray waiting to be traced: where it starts and goes, whose colour it adds to, how much.
+  struct Child {
+    Vec3<Real> origin, direction;
+    int parent;
+    Vec3<Real> factor;  // the reflective or transparent colour it is seen through
+    Real weight;
+  };
+
+  void addBounces(const RayPacket<Real>& packet, const Hit<Real>* hits, const Real* weights, int depth,
+                  Vec3<Real>* rgb, RayCounters& counters) const {
+    Child children[2 * kPacketSize];
+    int count = 0;
+    for (int k = 0; k < packet.count; ++k) {
+      if (!hits[k].isHit()) continue;
+      const ShadingMaterial<Real>& m = m_shading.material(hits[k].materialId);
+      const Vec3<Real> d = glm::normalize(direction(packet, k));
+      const Vec3<Real>& n = hits[k].normal;
+      const bool reflective = m_effects.reflection && maxComponent(m.reflective) > 0;
+      const bool transparent = m_effects.refraction && maxComponent(m.transparent) > 0;
+      if (reflective && spawnable(weights[k] * maxComponent(m.reflective), depth, counters)) {
+        const Vec3<Real> r = glm::reflect(d, n);  // the same for n and -n
+        children[count++] = {offsetRayOrigin(hits[k].point, n, hits[k].pointError, r), r, k, m.reflective,
+                             weights[k] * maxComponent(m.reflective)};
+        ++counters.reflection;
+      }
+      if (transparent && spawnable(weights[k] * maxComponent(m.transparent), depth, counters)) {
+        Vec3<Real> t;
+        if (!refract(d, n, m.ior, t)) {
+          t = glm::reflect(d, n);
+          ++counters.totalInternalReflections;
+        }
+        children[count++] = {offsetRayOrigin(hits[k].point, n, hits[k].pointError, t), t, k, m.transparent,
+                             weights[k] * maxComponent(m.transparent)};
+        ++counters.refraction;
+      }
+    }
+    for (int first = 0; first < count; first += kPacketSize) {
+      traceChildren(children + first, std::min(kPacketSize, count - first), depth + 1, rgb, counters);
+    }
+  }
+
+  void traceChildren(const Child* children, int count, int depth, Vec3<Real>* rgb, RayCounters& counters) const {
+    RayPacket<Real> packet;
+    packet.count = count;
+    packet.tMin = std::numeric_limits<Real>::denorm_min();  // t > 0, as for shadow rays
+    packet.tMax = std::numeric_limits<Real>::infinity();
+    alignas(64) Real weights[kPacketSize];
+    for (int j = 0; j < count; ++j) {
+      const Child& c = children[j];
+      packet.ox[j] = c.origin.x, packet.oy[j] = c.origin.y, packet.oz[j] = c.origin.z;
+      packet.dx[j] = c.direction.x, packet.dy[j] = c.direction.y, packet.dz[j] = c.direction.z;
+      weights[j] = c.weight;
+    }
+    counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
+    if (m_cancel.load(std::memory_order_relaxed)) return;
+    alignas(64) Hit<Real> hits[kPacketSize];
+    for (int j = 0; j < count; ++j) hits[j] = m_group.hit(packet, j);
+    alignas(64) Vec3<Real> seen[kPacketSize];
+    shade(packet, hits, weights, depth, seen, counters);
+    for (int j = 0; j < count; ++j) rgb[children[j].parent] += children[j].factor * seen[j];
+  }
+
+  // Whether a child of this weight at depth + 1 is traced; counts why not.
+  bool spawnable(Real weight, int depth, RayCounters& counters) const {
+    if (depth + 1 > m_limits.maxBounces) {
+      ++counters.cutByDepth;
+      return false;
+    }
+    if (!(weight >= m_minWeight)) {
+      ++counters.cutByWeight;
+      return false;
+    }
+    return true;
+  }
+
+  // Snell's law through the surface of normal n (outward) for unit d: entering when d·n < 0
+  // (η = 1/ior), leaving otherwise (η = ior, normal flipped). False on total internal reflection.
+  static bool refract(const Vec3<Real>& d, const Vec3<Real>& n, Real ior, Vec3<Real>& t) {
+    const bool entering = glm::dot(d, n) < 0;
+    const Vec3<Real> facing = entering ? n : -n;
+    const Real eta = entering ? 1 / ior : ior;
+    const Real cosIn = -glm::dot(d, facing);
+    const Real k = 1 - eta * eta * (1 - cosIn * cosIn);
+    if (k < 0) return false;
+    t = eta * d + (eta * cosIn - std::sqrt(k)) * facing;
+    return true;
+  }
+
+  static Real maxComponent(const Vec3<Real>& v) { return std::max(v.x, std::max(v.y, v.z)); }
+
+  const Group<Real>& m_group;
+  const Shading<Real>& m_shading;
+  EffectSet m_effects;
+  BounceLimits m_limits;
+  Vec3<Real> m_background;  // what a secondary ray that misses sees (RGB)
+  const std::atomic<bool>& m_cancel;
+  Real m_minWeight;
+};
+
+}  // namespace durer
