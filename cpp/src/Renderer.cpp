@@ -186,13 +186,15 @@ class TileRenderer {
 
   // Unlit colour and depth need no hit record: a branch-free table lookup per ray.
   void accumulateFlat(const RayPacket<Real>& packet, Accumulator& acc) const {
-    const int32_t* materialOf = m_flat.primMaterial.data() + 1;  // materialOf[kNoPrimitive]: the background
     const Real inf = std::numeric_limits<Real>::infinity();
     for (int k = 0; k < packet.count; ++k) {
-      const int32_t prim = packet.prim[k];
-      const size_t m = static_cast<size_t>(materialOf[prim]);
+      acc.depth[k] = std::min(acc.depth[k], packet.prim[k] != kNoPrimitive ? packet.tHit[k] : inf);
+    }
+    if (!m_targets.color) return;  // a depth (or normal) render computes t and nothing else
+    const int32_t* materialOf = m_flat.primMaterial.data() + 1;  // materialOf[kNoPrimitive]: the background
+    for (int k = 0; k < packet.count; ++k) {
+      const size_t m = static_cast<size_t>(materialOf[packet.prim[k]]);
       addColor(acc, k, m_flat.r[m], m_flat.g[m], m_flat.b[m], m_flat.a[m]);
-      acc.depth[k] = std::min(acc.depth[k], prim != kNoPrimitive ? packet.tHit[k] : inf);
     }
   }
 
