@@ -39,10 +39,13 @@ def make_camera(cam: CameraData) -> durer.OrthographicCamera | durer.Perspective
 
 
 def make_scene(data: SceneData) -> durer.Scene:
-    """The Dürer scene: materials, spheres, planes (turned towards the camera), lights, world."""
+    """The Dürer scene: materials (with the Phong, mirror and refraction parameters the export
+    mapped from Blender's shaders), spheres, planes (turned towards the camera), lights, world."""
     scene = durer.Scene()
+    # Only the effect parameters a material uses are passed: a diffuse material asks for no effect.
     table = np.array(
-        [scene.add_material(diffuse=m.diffuse, emission=m.emission) for m in data.materials], dtype=np.int32
+        [scene.add_material(diffuse=m.diffuse, emission=m.emission, **m.effects) for m in data.materials],
+        dtype=np.int32,
     )
     if data.sphere_count:
         scene.add_spheres(data.sphere_centers, data.sphere_radii, material=table[data.sphere_materials])

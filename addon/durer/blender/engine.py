@@ -30,6 +30,23 @@ class RenderInfo:
     render_seconds: float = 0.0
     spheres: int = 0
     planes: int = 0
+    #: The last text the engine showed in Blender's stats line.
+    stats_line: str = ""
+
+
+def stats_line(width: int, height: int, samples: int, stats: dict, cancelled: bool = False) -> str:
+    """Blender's stats line after a render: size, samples, the effects Dürer simulated (the core
+    derives them from the scene: flat, diffuse, specular, shadows, reflection, refraction) and speed."""
+    parts = [f"Dürer | {width}x{height} | {samples} spp"]
+    effects = stats.get("effects")
+    if effects is not None:
+        parts.append(" + ".join(effects) if len(effects) else "depth only")
+    mrays = stats.get("mrays_per_s")
+    if isinstance(mrays, (int, float)):
+        parts.append(f"{mrays:.1f} Mrays/s")
+    if cancelled:
+        parts.append("cancelled")
+    return " | ".join(parts)
 
 
 last_render = RenderInfo()
@@ -76,6 +93,10 @@ def render_kwargs(settings, render_func) -> dict:
         "sphere_method": settings.sphere_method.lower(),
         "threads": int(settings.threads) or None,
         "sampler": settings.sampler.lower(),
+        "max_bounces": int(settings.max_bounces),
+        "min_weight": float(settings.min_weight),
+        # Cycles shades back faces with the flipped normal (and refraction needs the inside faces).
+        "shade_back": True,
     }
     return {k: v for k, v in kwargs.items() if not accepted or k in accepted}
 
@@ -159,10 +180,8 @@ class DurerEngineMixin:
             store_image(color)
         else:  # Blender's UI renders in a job thread: create datablocks on the main thread
             bpy.app.timers.register(lambda c=color: (store_image(c), None)[1], first_interval=0.0)
-        mrays = stats.get("mrays_per_s")
-        speed = f" | {mrays:.1f} Mrays/s" if isinstance(mrays, (int, float)) else ""
-        state = " | cancelled" if cancelled else ""
-        self.update_stats("", f"Dürer | {w}x{h} | {info.samples} spp{speed}{state}")
+        info.stats_line = stats_line(w, h, info.samples, stats, cancelled)
+        self.update_stats("", info.stats_line)
 
     def _border(self, scene, w: int, h: int) -> tuple[slice, slice]:
         """Rows and columns (top row first) of the result Blender expects: the whole image, or

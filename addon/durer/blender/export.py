@@ -11,6 +11,9 @@ Conventions (verified against Cycles in bpy 5.0.1, see docs/blender.md):
 * Lights are radiometric as in Cycles: a Sun of strength S gives irradiance S, so its Dürer colour
   (which multiplies kd·max(N·L, 0) with no 1/pi) is colour·S/pi; a Point or Spot light of power P
   has intensity colour·P/(4·pi²) with inverse-square falloff (Cycles' diffuse BRDF is kd/pi).
+* Materials become 6.837 materials (see `material_data`): Principled metallic and specular
+  reflectance make a mirror (roughness <= MIRROR_ROUGHNESS) or a Phong highlight of the same width
+  and peak, transmission makes a transparent colour with the IOR. Light "Cast Shadow" -> shadows.
 * The camera keeps Blender's parameters (fit, shift in units of the fitted extent, clip range,
   pixel aspect) and the resolved image size.
 """
@@ -41,15 +44,46 @@ _CONVERTED_TYPES = {"CURVE", "SURFACE", "FONT", "META"}
 _GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META", "CURVES", "POINTCLOUD", "VOLUME", "GREASEPENCIL"}
 
 
+#: Roughness at or below which a specular lobe is a mirror (reflection rays); above it, the lobe is
+#: a Phong highlight of the lights. At 0.2 the GGX width alpha = roughness² is 0.04, the Phong
+#: exponent of the same width ~1250: reflections in Cycles are still sharp there.
+MIRROR_ROUGHNESS = 0.2
+#: Phong exponents are clamped to [1, MAX_EXPONENT] (roughness 1 gives 2/α² − 2 = 0).
+MAX_EXPONENT = 1.0e4
+
+_BLACK = (0.0, 0.0, 0.0)
+
+
 @dataclass
 class MaterialData:
+    """Dürer's material (the 6.837 model): kd (`diffuse`), emission, Phong ks (`specular`) with
+    `exponent`, mirror `reflective` colour, `transparent` colour with index of refraction `ior`."""
+
     name: str
     diffuse: tuple[float, float, float]
-    emission: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    emission: tuple[float, float, float] = _BLACK
+    specular: tuple[float, float, float] = _BLACK
+    exponent: float = 1.0
+    reflective: tuple[float, float, float] = _BLACK
+    transparent: tuple[float, float, float] = _BLACK
+    ior: float = 1.0
 
     @property
     def key(self) -> tuple:
-        return (self.diffuse, self.emission)
+        return (self.diffuse, self.emission, self.specular, self.exponent, self.reflective, self.transparent, self.ior)
+
+    @property
+    def effects(self) -> dict:
+        """The keyword arguments of Scene.add_material beyond diffuse/emission that differ from
+        their defaults (a plain diffuse material needs none, so it asks for no effect)."""
+        out = {}
+        if any(self.specular):
+            out.update(specular=self.specular, exponent=self.exponent)
+        if any(self.reflective):
+            out["reflective"] = self.reflective
+        if any(self.transparent):
+            out.update(transparent=self.transparent, ior=self.ior)
+        return out
 
 
 @dataclass
@@ -206,12 +240,117 @@ def _rgb(value) -> tuple[float, float, float]:
     return (float(value[0]), float(value[1]), float(value[2]))
 
 
+def _color_input(node, name: str, fallback) -> tuple[float, float, float]:
+    """An unlinked colour socket's value; `fallback` when linked (a texture) or absent."""
+    value, linked = _socket_value(node, name)
+    return _rgb(fallback) if value is None or linked else _rgb(value)
+
+
+def _scalar_input(node, name: str, fallback: float) -> float:
+    """An unlinked value socket's value; `fallback` when linked or absent."""
+    value, linked = _socket_value(node, name)
+    return float(fallback) if value is None or linked else float(value)
+
+
+def _clamp01(x: float) -> float:
+    return min(max(float(x), 0.0), 1.0)
+
+
+def _scale3(c, k) -> tuple[float, float, float]:
+    """c × k, k a number or an RGB triple."""
+    k = (k, k, k) if isinstance(k, (int, float)) else k
+    return (float(c[0] * k[0]), float(c[1] * k[1]), float(c[2] * k[2]))
+
+
+def _add3(a, b) -> tuple[float, float, float]:
+    return (float(a[0] + b[0]), float(a[1] + b[1]), float(a[2] + b[2]))
+
+
+def fresnel_f0(ior: float) -> float:
+    """Reflectance at normal incidence of a dielectric of index `ior` in air: ((n − 1)/(n + 1))²."""
+    n = max(float(ior), 0.0)
+    return ((n - 1.0) / (n + 1.0)) ** 2
+
+
+def conductor_f0(ior, extinction) -> tuple[float, float, float]:
+    """Reflectance at normal incidence of a conductor (complex index n + ik), per channel."""
+    return tuple(float(((n - 1) ** 2 + k * k) / ((n + 1) ** 2 + k * k)) for n, k in zip(ior, extinction))
+
+
+def phong_exponent(roughness: float) -> float:
+    """The Blinn-Phong exponent whose lobe is as wide as a microfacet lobe of Blender's roughness
+    r: α = r² (Blender's GGX/Beckmann width) and n = 2/α² − 2 (Walter et al. 2007), in [1, MAX_EXPONENT]."""
+    alpha = max(float(roughness), 0.0) ** 2
+    if alpha <= 0.0:
+        return MAX_EXPONENT
+    return min(max(2.0 / (alpha * alpha) - 2.0, 1.0), MAX_EXPONENT)
+
+
+def specular_lobe(color, roughness: float) -> dict:
+    """A specular lobe of reflectance `color` (at normal incidence) and Blender roughness:
+    a mirror (``reflective = color``) at roughness <= MIRROR_ROUGHNESS, else a Phong highlight of
+    the same width (``exponent = phong_exponent(roughness)``) and the same peak as a normalised
+    Blinn-Phong BRDF of that reflectance, ``specular = color × (n + 8)/8`` (Dürer's light colours
+    already include Cycles' 1/π)."""
+    if not any(color):
+        return {}
+    if np.float32(roughness) <= np.float32(MIRROR_ROUGHNESS):  # Blender stores float32 roughness
+        return {"reflective": _rgb(color)}
+    n = phong_exponent(roughness)
+    return {"specular": _scale3(color, (n + 8.0) / 8.0), "exponent": n}
+
+
+def _principled(mat, node, viewport) -> MaterialData:
+    """Principled BSDF, with b = Base Color, m = Metallic, t = Transmission Weight, r = Roughness:
+
+    * specular reflectance  s = b·m + F0·(1 − m), with the dielectric F0 = fresnel_f0(IOR) × 2 ×
+      Specular IOR Level × Specular Tint (0.5 is Blender's "no adjustment"), made a mirror or a
+      Phong lobe by `specular_lobe`;
+    * kd = b·(1 − m)·(1 − t)·(1 − F0);  transparent = b·(1 − m)·t·(1 − F0), ior = IOR (any
+      roughness): what the specular layer reflects does not reach the layers below;
+    * Emission Color × Strength as emission. Linked inputs use the material's viewport settings.
+    """
+    base = _color_input(node, "Base Color", viewport)
+    metallic = _clamp01(_scalar_input(node, "Metallic", getattr(mat, "metallic", 0.0)))
+    roughness = _clamp01(_scalar_input(node, "Roughness", getattr(mat, "roughness", 0.5)))
+    ior = max(_scalar_input(node, "IOR", 1.5), 1e-3)
+    level = max(_scalar_input(node, "Specular IOR Level", getattr(mat, "specular_intensity", 0.5)), 0.0)
+    tint = _color_input(node, "Specular Tint", (1.0, 1.0, 1.0))
+    transmission = _clamp01(_scalar_input(node, "Transmission Weight", 0.0))
+    f0 = tuple(min(fresnel_f0(ior) * 2.0 * level * c, 1.0) for c in tint)
+    spec = _add3(_scale3(base, metallic), _scale3(f0, 1.0 - metallic))
+    # What the dielectric specular layer reflects does not reach the diffuse or transmission below.
+    below = tuple(1.0 - x for x in f0)
+    diffuse = _scale3(_scale3(base, (1.0 - metallic) * (1.0 - transmission)), below)
+    transparent = _BLACK
+    if transmission > 0.0 and metallic < 1.0:
+        transparent = _scale3(_scale3(base, (1.0 - metallic) * transmission), below)
+    ecol, elinked = _socket_value(node, "Emission Color")
+    estr, _ = _socket_value(node, "Emission Strength")
+    emission = _BLACK
+    if ecol is not None and estr and not elinked:
+        emission = tuple(c * float(estr) for c in _rgb(ecol))
+    md = MaterialData(mat.name, diffuse, emission, transparent=transparent, ior=ior if any(transparent) else 1.0)
+    return _with_lobe(md, spec, roughness)
+
+
+def _with_lobe(md: MaterialData, spec, roughness: float) -> MaterialData:
+    lobe = specular_lobe(spec, roughness)
+    md.reflective = lobe.get("reflective", _BLACK)
+    md.specular = lobe.get("specular", _BLACK)
+    md.exponent = lobe.get("exponent", 1.0)
+    return md
+
+
 def material_data(mat, obj=None) -> MaterialData:
     """Dürer's material for a Blender material (None: the object's colour).
 
-    Principled BSDF: Base Color (and Emission Color × Strength); Diffuse BSDF: Color; an Emission
-    shader alone: unlit, colour × strength; a linked colour (texture) or another shader: the
-    material's viewport display colour.
+    Principled BSDF: see `_principled`. Diffuse BSDF: Color. Glossy BSDF: a specular lobe of its
+    Color (no diffuse). Metallic BSDF: a specular lobe of its Base Color (F82 Tint) or of the
+    conductor's F0 (Physical Conductor). Glass BSDF: transparent Color·(1 − F0) with its IOR plus a
+    specular lobe of Color·F0. Refraction BSDF: transparent Color with its IOR. An Emission shader
+    alone: unlit, colour × strength. A linked colour (texture) or another shader: the material's
+    viewport display colour.
     """
     if mat is None:
         color = _rgb(obj.color) if obj is not None else (0.8, 0.8, 0.8)
@@ -227,22 +366,34 @@ def material_data(mat, obj=None) -> MaterialData:
     node = output.inputs["Surface"].links[0].from_node
     kind = node.bl_idname
     if kind == "ShaderNodeBsdfPrincipled":
-        base, linked = _socket_value(node, "Base Color")
-        diffuse = viewport if linked else _rgb(base)
-        ecol, elinked = _socket_value(node, "Emission Color")
-        estr, _ = _socket_value(node, "Emission Strength")
-        emission = (0.0, 0.0, 0.0)
-        if ecol is not None and estr and not elinked:
-            emission = tuple(c * float(estr) for c in _rgb(ecol))
-        return MaterialData(mat.name, diffuse, emission)
+        return _principled(mat, node, viewport)
     if kind == "ShaderNodeBsdfDiffuse":
-        col, linked = _socket_value(node, "Color")
-        return MaterialData(mat.name, viewport if linked else _rgb(col))
+        return MaterialData(mat.name, _color_input(node, "Color", viewport))
     if kind == "ShaderNodeEmission":
-        col, linked = _socket_value(node, "Color")
+        col = _color_input(node, "Color", viewport)
         strength, _ = _socket_value(node, "Strength")
-        col = viewport if linked else _rgb(col)
-        return MaterialData(mat.name, (0.0, 0.0, 0.0), tuple(c * float(strength) for c in col))
+        strength = float(strength)
+        return MaterialData(mat.name, _BLACK, tuple(c * strength for c in col))
+    roughness = _clamp01(_scalar_input(node, "Roughness", getattr(mat, "roughness", 0.5)))
+    if kind in {"ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic"}:
+        return _with_lobe(MaterialData(mat.name, _BLACK), _color_input(node, "Color", viewport), roughness)
+    if kind == "ShaderNodeBsdfMetallic":
+        if getattr(node, "fresnel_type", "F82") == "PHYSICAL_CONDUCTOR":
+            n, nl = _socket_value(node, "IOR")
+            k, kl = _socket_value(node, "Extinction")
+            spec = viewport if nl or kl else conductor_f0(n, k)
+        else:
+            spec = _color_input(node, "Base Color", viewport)
+        return _with_lobe(MaterialData(mat.name, _BLACK), spec, roughness)
+    if kind in {"ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction"}:
+        color = _color_input(node, "Color", viewport)
+        ior = max(_scalar_input(node, "IOR", 1.5), 1e-3)
+        if kind == "ShaderNodeBsdfRefraction":
+            return MaterialData(mat.name, _BLACK, transparent=color, ior=ior if any(color) else 1.0)
+        f0 = fresnel_f0(ior)
+        transparent = _scale3(color, 1.0 - f0)
+        md = MaterialData(mat.name, _BLACK, transparent=transparent, ior=ior if any(transparent) else 1.0)
+        return _with_lobe(md, _scale3(color, f0), roughness)
     return MaterialData(mat.name, viewport)
 
 

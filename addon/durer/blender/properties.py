@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, IntProperty, PointerProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
 
 PRIMITIVE_ITEMS = [
     ("AUTO", "Auto", "Detect: sphere meshes, flat quads, point clouds, sphere empties, metaball balls"),
@@ -52,6 +52,25 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
         default="ROBUST",
     )
     threads: IntProperty(name="Threads", description="Render threads (0: all cores)", default=0, min=0, max=1024)
+    max_bounces: IntProperty(
+        name="Max Bounces",
+        description="Reflection and refraction rays followed from a camera ray at most "
+        "(0: direct lighting only). Only mirror-like and transmissive materials spawn them",
+        default=4,
+        min=0,
+        soft_max=16,
+        max=1024,
+    )
+    min_weight: FloatProperty(
+        name="Min Weight",
+        description="A reflection or refraction ray is not traced when its contribution to the pixel "
+        "(the product of reflective/transparent colours along the path, largest channel) is below this",
+        default=0.01,
+        min=0.0,
+        max=1.0,
+        precision=4,
+        step=0.1,
+    )
     use_world_lighting: BoolProperty(
         name="World Lighting",
         description="Light diffuse surfaces with the world colour as ambient light "

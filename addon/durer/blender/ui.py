@@ -32,6 +32,9 @@ class DURER_PT_render(_DurerPanel, bpy.types.Panel):
         col.prop(settings, "precision")
         col.prop(settings, "sphere_method")
         col.prop(settings, "threads")
+        col = layout.column(heading="Light Paths")
+        col.prop(settings, "max_bounces")
+        col.prop(settings, "min_weight")
         layout.prop(settings, "use_world_lighting")
 
 
