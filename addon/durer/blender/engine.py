@@ -94,7 +94,7 @@ def render_kwargs(settings, render_func) -> dict:
         "threads": int(settings.threads) or None,
         "sampler": settings.sampler.lower(),
         "max_bounces": int(settings.max_bounces),
-        "min_weight": float(settings.min_weight),
+        "min_weight": round(float(settings.min_weight), 6),  # the float32 property's 0.01, not 0.0099999998
         # Cycles shades back faces with the flipped normal (and refraction needs the inside faces).
         "shade_back": True,
     }

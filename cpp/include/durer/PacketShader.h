@@ -58,7 +58,15 @@ class PacketShader {
       const ShadingMaterial<Real>& m = m_shading.material(hits[k].materialId);
       rgb[k] = m.emission + (m_effects.lit ? m_shading.ambient() * m.diffuse : m.diffuse);
     }
-    if (m_effects.lit) addLights(packet, hits, rgb, counters);
+    if (m_effects.lit) {  // one instantiation per combination: no per-ray test of what is absent
+      if (m_effects.specular) {
+        m_effects.shadows ? addLights<true, true>(packet, hits, rgb, counters)
+                          : addLights<true, false>(packet, hits, rgb, counters);
+      } else {
+        m_effects.shadows ? addLights<false, true>(packet, hits, rgb, counters)
+                          : addLights<false, false>(packet, hits, rgb, counters);
+      }
+    }
     if (m_effects.bounces()) addBounces(packet, hits, weights, depth, rgb, counters);
   }
 
@@ -68,6 +76,7 @@ class PacketShader {
   // Σ over lights of max(N·L, 0)·light·kd (+ ks·light·max(N·H, 0)^exponent where N·L > 0), a light's
   // term dropped where the shadow ray toward it is blocked. One light at a time, so that the shadow
   // rays toward it go as one packet.
+  template <bool Specular, bool Shadows>
   void addLights(const RayPacket<Real>& packet, const Hit<Real>* hits, Vec3<Real>* rgb, RayCounters& counters) const {
     alignas(64) Vec3<Real> normal[kPacketSize], toViewer[kPacketSize];
     for (int k = 0; k < packet.count; ++k) {
@@ -91,11 +100,11 @@ class PacketShader {
         const ShadingMaterial<Real>& m = m_shading.material(h.materialId);
         const Vec3<Real> arriving = light.arriving(h.point, toLight);
         Vec3<Real> contribution = cosine * arriving * m.diffuse;
-        if (m_effects.specular) {
+        if constexpr (Specular) {
           const Real highlight = std::max(glm::dot(normal[k], glm::normalize(toLight + toViewer[k])), Real(0));
           contribution += std::pow(highlight, m.exponent) * arriving * m.specular;
         }
-        if (!(m_effects.shadows && light.shadows)) {
+        if (!(Shadows && light.shadows)) {
           rgb[k] += contribution;
           continue;
         }
