@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from .camera import OrthographicCamera, PerspectiveCamera
 from .cast import CastResult, cast
+from .presets import PRESETS, preset
 from .render import RenderCancelled, RenderResult, render
 from .scene import Scene
 from .showcase import showcase_scene
@@ -24,6 +25,7 @@ __version__ = "0.1.0"
 __all__ = [
     "CastResult",
     "OrthographicCamera",
+    "PRESETS",
     "PerspectiveCamera",
     "RenderCancelled",
     "RenderResult",
@@ -32,6 +34,7 @@ __all__ = [
     "depth_to_gray",
     "linear_to_srgb",
     "normal_to_rgb",
+    "preset",
     "render",
     "save_image",
     "showcase_scene",

@@ -42,7 +42,8 @@ class Scene:
     def light_count(self) -> int: ...
 
 def render(
-    scene: Scene, camera: CameraSpec, width: int, height: int, spp: int, seed: int, precision: str,
+    scene: Scene, camera: CameraSpec, width: int, height: int, spp: int, seed: int, sampler: str,
+    target_error: float, precision: str,
     sphere_method: str, color: bool, depth: bool, normal: bool, threads: int, shade_back: bool, max_bounces: int,
     min_weight: float, poll: Callable[[float], bool],
     out: dict[str, NDArray[np.float32] | None],

@@ -13,6 +13,7 @@ from .camera import OrthographicCamera, PerspectiveCamera
 from .scene import Scene
 
 PASSES = ("color", "depth", "normal")
+SAMPLERS = ("center", "random", "stratified", "sobol", "adaptive")
 PRECISIONS = ("float", "double")
 SPHERE_METHODS = ("algebraic", "geometric", "robust")
 
@@ -42,6 +43,7 @@ class RenderResult:
     depth: np.ndarray | None
     normal: np.ndarray | None
     stats: dict[str, Any] = field(default_factory=dict)
+    samples: np.ndarray | None = None  # (H, W) int32 samples per pixel, with sampler="adaptive"
 
 
 class RenderCancelled(Exception):
@@ -87,6 +89,8 @@ def render(
     *,
     spp: int = 1,
     seed: int = 0,
+    sampler: str = "stratified",
+    target_error: float = 0.01,
     precision: str = "double",
     sphere_method: str = "robust",
     passes: Iterable[str] = PASSES,
@@ -100,8 +104,12 @@ def render(
 ) -> RenderResult:
     """Render `scene` through `camera` at width x height pixels.
 
-    spp samples per pixel, jittered-stratified and deterministic for a `seed` (1 samples the pixel
-    centre), averaged with a box filter. `precision` "float" or "double" is used for every ray and
+    spp samples per pixel, placed by `sampler` and deterministic for a `seed`, averaged with a box
+    filter: "stratified" (jittered in an nx·ny grid; 1 sample is the pixel centre), "center" (all at
+    the centre: no anti-aliasing), "random" (uniform), "sobol" (Owen-scrambled Sobol points) or
+    "adaptive" (spp is the maximum: min(4, spp) Sobol samples, then rounds of 4 more while the
+    pixel's samples meet different objects or the standard error of its mean luminance exceeds
+    `target_error`; `result.samples` holds the counts). `durer.preset(name)` gives ready settings. `precision` "float" or "double" is used for every ray and
     intersection; `sphere_method` "robust" (default), "algebraic" or "geometric". Only the
     requested `passes` are computed. The GIL is released while rendering on `threads` threads
     (None: all cores); `progress(fraction)` is called from this thread as tiles finish, and the
@@ -122,6 +130,10 @@ def render(
     width = _checks.integer(width, "width", 1, 2**20)
     height = _checks.integer(height, "height", 1, 2**20)
     spp = _checks.integer(spp, "spp", 1, 2**20)
+    _checks.choice(sampler, "sampler", SAMPLERS)
+    target_error = _checks.finite_real(target_error, "target_error")
+    if target_error <= 0:
+        raise ValueError(f"target_error must be > 0, got {target_error}")
     seed = _checks.integer(seed, "seed", 0, 2**64 - 1)
     _checks.choice(precision, "precision", PRECISIONS)
     _checks.choice(sphere_method, "sphere_method", SPHERE_METHODS)
@@ -136,18 +148,19 @@ def render(
         raise TypeError(f"out must be a RenderResult or None, got {type(out).__name__}")
     buffers = {} if out is None else {"color": out.color, "depth": out.depth, "normal": out.normal}
     out = _core.render(
-        scene._core, camera._spec, width, height, spp, seed, precision, sphere_method,
+        scene._core, camera._spec, width, height, spp, seed, sampler, target_error, precision, sphere_method,
         "color" in wanted, "depth" in wanted, "normal" in wanted, threads_argument(threads), shade_back, max_bounces,
         min_weight, poll, buffers,
     )
     stats = dict(out["stats"])
     seconds = stats["milliseconds"] / 1000
     stats.update(
-        width=width, height=height, spp=spp, precision=precision, sphere_method=sphere_method,
+        width=width, height=height, spp=spp, sampler=sampler, samples=stats["rays"], precision=precision,
+        sphere_method=sphere_method,
         passes=tuple(p for p in PASSES if p in wanted), requested_rays=width * height * spp,
         mrays_per_s=stats["rays"] / seconds / 1e6 if seconds > 0 else float("inf"),
     )
-    result = RenderResult(out.get("color"), out.get("depth"), out.get("normal"), stats)
+    result = RenderResult(out.get("color"), out.get("depth"), out.get("normal"), stats, out.get("samples"))
     if stats["cancelled"]:
         raise RenderCancelled(result)
     if progress is not None:

@@ -39,6 +39,15 @@ SphereMethod methodNamed(const std::string& name) {
   throw py::value_error("sphere_method must be 'algebraic', 'geometric' or 'robust', got '" + name + "'");
 }
 
+SamplerKind samplerNamed(const std::string& name) {
+  if (name == "center") return SamplerKind::Center;
+  if (name == "random") return SamplerKind::Random;
+  if (name == "stratified") return SamplerKind::Stratified;
+  if (name == "sobol") return SamplerKind::Sobol;
+  if (name == "adaptive") return SamplerKind::Adaptive;
+  throw py::value_error("sampler must be 'center', 'random', 'stratified', 'sobol' or 'adaptive', got '" + name + "'");
+}
+
 Fit fitNamed(const std::string& name) {
   if (name == "auto") return Fit::Auto;
   if (name == "horizontal") return Fit::Horizontal;
@@ -104,7 +113,8 @@ float* target(const py::dict& out, const char* name, bool wanted, std::vector<py
 }
 
 py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int height, int spp, uint64_t seed,
-                  const std::string& precision, const std::string& method, bool color, bool depth, bool normal,
+                  const std::string& sampler, double targetError, const std::string& precision,
+                  const std::string& method, bool color, bool depth, bool normal,
                   int threads, bool shadeBack, int maxBounces, double minWeight, const py::function& poll,
                   const py::dict& out) {
   RenderSettings settings;
@@ -112,6 +122,8 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
   settings.height = height;
   settings.samplesPerPixel = spp;
   settings.seed = seed;
+  settings.sampler = samplerNamed(sampler);
+  settings.targetError = targetError;
   settings.precision = precisionNamed(precision);
   settings.sphereMethod = methodNamed(method);
   settings.passes = (color ? kPassColor : 0u) | (depth ? kPassDepth : 0u) | (normal ? kPassNormal : 0u);
@@ -126,6 +138,11 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
   targets.color = target(out, "color", color, {h, w, 4}, result);
   targets.depth = target(out, "depth", depth, {h, w}, result);
   targets.normal = target(out, "normal", normal, {h, w, 3}, result);
+  if (settings.sampler == SamplerKind::Adaptive) {
+    py::array_t<int32_t> counts({h, w});
+    targets.samples = counts.mutable_data();
+    result["samples"] = counts;
+  }
   JobControl control;
   const RenderStats stats = withoutGil(control, poll, [&](const std::function<void()>& p) {
     return render(scene, camera, settings, targets, control, p);
@@ -311,7 +328,7 @@ PYBIND11_MODULE(_core, m) {
       });
 
   m.def("render", &renderPy, py::arg("scene"), py::arg("camera"), py::arg("width"), py::arg("height"),
-        py::arg("spp"), py::arg("seed"), py::arg("precision"), py::arg("sphere_method"), py::arg("color"),
+        py::arg("spp"), py::arg("seed"), py::arg("sampler"), py::arg("target_error"), py::arg("precision"), py::arg("sphere_method"), py::arg("color"),
         py::arg("depth"), py::arg("normal"), py::arg("threads"), py::arg("shade_back"), py::arg("max_bounces"),
         py::arg("min_weight"), py::arg("poll"), py::arg("out"));
   m.def("cast", &castPy, py::arg("scene"), py::arg("origins"), py::arg("directions"), py::arg("t_min"),

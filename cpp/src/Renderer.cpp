@@ -21,6 +21,7 @@ void validate(const RenderSettings& s) {
   if (s.samplesPerPixel < 1) fail("spp must be >= 1, got " + std::to_string(s.samplesPerPixel));
   if (s.threads < 0) fail("threads must be >= 1, got " + std::to_string(s.threads));
   if (s.passes == 0 || (s.passes & ~(kPassColor | kPassDepth | kPassNormal)) != 0) fail("passes: none requested");
+  if (!(std::isfinite(s.targetError) && s.targetError > 0)) fail("target_error must be finite and > 0");
   if (s.maxBounces < 0) fail("max_bounces must be >= 0, got " + std::to_string(s.maxBounces));
   if (!(std::isfinite(s.minWeight) && s.minWeight >= 0)) fail("min_weight must be finite and >= 0");
 }
@@ -38,7 +39,7 @@ class TileRenderer {
       : m_group(group),
         m_camera(spec, settings.width, settings.height),
         m_shading(scene),
-        m_sampler(settings.samplesPerPixel, settings.seed),
+        m_sampler(settings.sampler, settings.samplesPerPixel, settings.seed),
         m_settings(settings),
         m_targets(targets),
         m_cancel(cancel),
@@ -63,17 +64,16 @@ class TileRenderer {
     Accumulator acc;
     acc.clear(count);
     RayCounters counters;
+    if (m_sampler.kind() == SamplerKind::Adaptive) {
+      if (!renderAdaptive(x0, y0, w, h, acc, counters)) return {};
+      write(acc, x0, y0, w, h);
+      return counters;
+    }
     RayPacket<Real> packet;
     alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
     for (int s = 0; s < m_sampler.samplesPerPixel(); ++s) {
       for (int row = 0, k = 0; row < h; ++row) {
-        for (int col = 0; col < w; ++col, ++k) {
-          const int x = x0 + col, y = y0 + row;
-          double u, v;
-          m_sampler.offset(static_cast<uint64_t>(y) * m_settings.width + x, s, u, v);
-          sampleX[k] = static_cast<Real>(x + u);
-          sampleY[k] = static_cast<Real>(y + v);
-        }
+        for (int col = 0; col < w; ++col, ++k) samplePosition(x0 + col, y0 + row, s, sampleX[k], sampleY[k]);
       }
       m_camera.generate(packet, sampleX, sampleY, count);
       counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
@@ -82,6 +82,7 @@ class TileRenderer {
       counters.camera += count;
     }
     if (m_cancel.load(std::memory_order_relaxed)) return {};
+    std::fill(acc.samples, acc.samples + count, Real(m_sampler.samplesPerPixel()));
     write(acc, x0, y0, w, h);
     return counters;
   }
@@ -92,11 +93,18 @@ class TileRenderer {
     alignas(64) Real r[kPacketSize], g[kPacketSize], b[kPacketSize], a[kPacketSize];  // colour sums
     alignas(64) Real depth[kPacketSize];                                          // nearest t
     alignas(64) Real nx[kPacketSize], ny[kPacketSize], nz[kPacketSize];           // normal sums
+    alignas(64) Real samples[kPacketSize];                                        // samples taken
     void clear(int count) {
       for (int k = 0; k < count; ++k) {
-        r[k] = g[k] = b[k] = a[k] = nx[k] = ny[k] = nz[k] = 0;
+        r[k] = g[k] = b[k] = a[k] = nx[k] = ny[k] = nz[k] = samples[k] = 0;
         depth[k] = std::numeric_limits<Real>::infinity();
       }
+    }
+    // Adds entry j of `other` (one sample's values) to pixel k.
+    void add(int k, const Accumulator& other, int j) {
+      r[k] += other.r[j], g[k] += other.g[j], b[k] += other.b[j], a[k] += other.a[j];
+      nx[k] += other.nx[j], ny[k] += other.ny[j], nz[k] += other.nz[j];
+      depth[k] = std::min(depth[k], other.depth[j]);
     }
   };
 
@@ -124,6 +132,71 @@ class TileRenderer {
     }
   };
 
+  void samplePosition(int x, int y, int s, Real& sampleX, Real& sampleY) const {
+    double u, v;
+    m_sampler.offset(static_cast<uint64_t>(y) * m_settings.width + x, s, u, v);
+    sampleX = static_cast<Real>(x + u);
+    sampleY = static_cast<Real>(y + v);
+  }
+
+  // Adaptive sampling: every pixel takes min(4, spp) samples, then rounds of 4 more while its samples
+  // meet different primitives or the standard error of their mean luminance exceeds targetError, up
+  // to spp. Samples of the pixels still active are traced together, a packet per sample slot.
+  bool renderAdaptive(int x0, int y0, int w, int h, Accumulator& acc, RayCounters& counters) const {
+    constexpr int kRound = 4;
+    const int count = w * h, spp = m_sampler.samplesPerPixel();
+    const Real target = static_cast<Real>(m_settings.targetError);
+    alignas(64) Real luminance[kPacketSize], luminanceSq[kPacketSize];
+    alignas(64) int32_t firstPrim[kPacketSize];
+    alignas(64) bool mixed[kPacketSize];
+    std::fill(luminance, luminance + count, Real(0));
+    std::fill(luminanceSq, luminanceSq + count, Real(0));
+    std::fill(mixed, mixed + count, false);
+    int active[kPacketSize];
+    int activeCount = count;
+    for (int k = 0; k < count; ++k) active[k] = k;
+    RayPacket<Real> packet;
+    alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
+    for (int done = 0; activeCount > 0; done += done == 0 ? std::min(kRound, spp) : kRound) {
+      const int slots = std::min(kRound, spp - done);
+      for (int slot = 0; slot < slots; ++slot) {
+        for (int j = 0; j < activeCount; ++j) {
+          const int k = active[j];
+          samplePosition(x0 + k % w, y0 + k / w, done + slot, sampleX[j], sampleY[j]);
+        }
+        m_camera.generate(packet, sampleX, sampleY, activeCount);
+        counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
+        if (m_cancel.load(std::memory_order_relaxed)) return false;
+        Accumulator sample;
+        sample.clear(activeCount);
+        accumulate(packet, sample, counters);
+        counters.camera += activeCount;
+        for (int j = 0; j < activeCount; ++j) {
+          const int k = active[j];
+          acc.add(k, sample, j);
+          const Real y = Real(0.2126) * sample.r[j] + Real(0.7152) * sample.g[j] + Real(0.0722) * sample.b[j];
+          luminance[k] += y;
+          luminanceSq[k] += y * y;
+          if (done + slot == 0) firstPrim[k] = packet.prim[j];
+          mixed[k] = mixed[k] || packet.prim[j] != firstPrim[k];
+        }
+      }
+      const int taken = done + slots;
+      int still = 0;
+      for (int j = 0; j < activeCount; ++j) {
+        const int k = active[j];
+        acc.samples[k] = static_cast<Real>(taken);
+        const Real mean = luminance[k] / taken;
+        const Real variance = std::max(luminanceSq[k] / taken - mean * mean, Real(0)) * taken / std::max(taken - 1, 1);
+        const bool uncertain = mixed[k] || std::sqrt(variance / taken) > target;
+        if (taken < spp && uncertain) active[still++] = k;
+      }
+      activeCount = still;
+    }
+    return true;
+  }
+
+ private:
   // Adds one sample per ray of the packet to the tile's sums.
   void accumulate(const RayPacket<Real>& packet, Accumulator& acc, RayCounters& counters) const {
     if (!m_needHits) {  // flat colours, depth and normals: no hit records
@@ -206,15 +279,17 @@ class TileRenderer {
   }
 
   void write(const Accumulator& acc, int x0, int y0, int w, int h) const {
-    const Real invSpp = Real(1) / static_cast<Real>(m_sampler.samplesPerPixel());
-    const bool single = m_sampler.samplesPerPixel() == 1;
     for (int row = 0; row < h; ++row) {
       const size_t first = static_cast<size_t>(y0 + row) * m_settings.width + x0;
       const int k0 = row * w;
+      if (m_targets.samples) {
+        for (int col = 0; col < w; ++col) m_targets.samples[first + col] = static_cast<int32_t>(acc.samples[k0 + col]);
+      }
       if (m_targets.color) {
         float* out = m_targets.color + 4 * first;
         for (int col = 0; col < w; ++col) {
           const int k = k0 + col;
+          const Real invSpp = 1 / acc.samples[k];
           out[4 * col + 0] = static_cast<float>(acc.r[k] * invSpp);
           out[4 * col + 1] = static_cast<float>(acc.g[k] * invSpp);
           out[4 * col + 2] = static_cast<float>(acc.b[k] * invSpp);
@@ -230,7 +305,7 @@ class TileRenderer {
         for (int col = 0; col < w; ++col) {
           const int k = k0 + col;
           // One sample's normal is unit already; a mean of several is renormalised (0 stays 0).
-          const Real length = single ? 1 : std::sqrt(acc.nx[k] * acc.nx[k] + acc.ny[k] * acc.ny[k] + acc.nz[k] * acc.nz[k]);
+          const Real length = acc.samples[k] == 1 ? 1 : std::sqrt(acc.nx[k] * acc.nx[k] + acc.ny[k] * acc.ny[k] + acc.nz[k] * acc.nz[k]);
           const Real scale = length > 0 ? 1 / length : 0;
           out[3 * col + 0] = static_cast<float>(acc.nx[k] * scale);
           out[3 * col + 1] = static_cast<float>(acc.ny[k] * scale);

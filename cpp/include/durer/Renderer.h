@@ -4,6 +4,7 @@
 
 #include "durer/Camera.h"
 #include "durer/PacketShader.h"
+#include "durer/PixelSampler.h"
 #include "durer/RayCounters.h"
 #include "durer/Scene.h"
 #include "durer/SphereMethod.h"
@@ -21,7 +22,9 @@ struct RenderSettings {
   int width = 0;                     // pixels, >= 1
   int height = 0;                    // pixels, >= 1
   int samplesPerPixel = 1;           // >= 1; 1 samples the pixel centre
-  uint64_t seed = 0;                 // jitter seed
+  uint64_t seed = 0;                 // sampler seed
+  SamplerKind sampler = SamplerKind::Stratified;
+  double targetError = 0.01;         // adaptive: stop once the pixel's mean luminance is this sure
   Precision precision = Precision::Double;
   SphereMethod sphereMethod = SphereMethod::Robust;
   unsigned passes = kPassColor | kPassDepth | kPassNormal;
@@ -36,6 +39,7 @@ struct RenderTargets {
   float* color = nullptr;   // height x width x 4
   float* depth = nullptr;   // height x width
   float* normal = nullptr;  // height x width x 3
+  int32_t* samples = nullptr;  // height x width: samples taken per pixel
 };
 
 struct RenderStats {
