@@ -110,3 +110,19 @@ def test_ray_lying_in_a_box_face():
     origins = np.array([[lo, 0.0, 10.0], [-0.5, 0.0, 10.0], [lo, 0.0, -10.0]])
     directions = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, -1.0], [0.0, 0.0, 1.0]])
     assert_same_as_brute_force(centers, radii, origins, directions)
+
+
+def test_rays_parallel_to_box_faces_are_culled():
+    # Orthographic rays with a zero direction component (here x): slab distances are infinite. The
+    # hierarchy must still skip the boxes these rays miss, not visit every node (slack on an
+    # infinite end used to give NaN, which counted as "entering").
+    rng = np.random.default_rng(5)
+    scene = durer.Scene()
+    scene.add_spheres(rng.uniform(-10, 10, (2000, 3)) * [1, 1, 0.1], rng.uniform(0.02, 0.08, 2000))
+    camera = durer.OrthographicCamera((0, 0, 5), (0, -0.4, -1), (0, 1, 0), 20.0)
+    stats = durer.render(scene, camera, 64, 64, passes="depth").stats
+    assert stats["intersection_tests"] < 100 * stats["rays"]  # every node visited: 2000 tests per ray
+    origins, directions = camera.rays(16, 16)  # and the hierarchy still finds what brute force finds
+    centers = rng.uniform(-10, 10, (40, 3)) * [1, 1, 0.1]
+    assert_same_as_brute_force(centers, np.full(40, 0.5), origins.reshape(-1, 3), directions.reshape(-1, 3),
+                               t_min=-math.inf)

@@ -53,7 +53,14 @@ def numerics(argv: Sequence[str]) -> int:
     return sweep.main(argv)
 
 
-COMMANDS = {"demo": demo, "render": render, "extension": extension, "numerics": numerics}
+def accuracy(argv: Sequence[str]) -> int:
+    """Measure what accuracy costs in time: samplers, precision, sphere methods, effects (docs/accuracy.md)."""
+    from durer import accuracy as report
+
+    return report.main(argv)
+
+
+COMMANDS = {"demo": demo, "render": render, "extension": extension, "numerics": numerics, "accuracy": accuracy}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

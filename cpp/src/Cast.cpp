@@ -15,8 +15,8 @@ constexpr int64_t kRaysPerItem = 16 * kPacketSize;  // enough work per queue ite
 
 // Casts one work item's rays; returns the ray-primitive tests made.
 template <typename Real, SphereMethod M>
-DURER_HOT_KERNEL int64_t castItem(const Group<Real>& group, const CastInput& in, const CastOutput<Real>& out,
-                                  int64_t item, const std::atomic<bool>& cancel) {
+int64_t castRays(const Group<Real>& group, const CastInput& in, const CastOutput<Real>& out, int64_t item,
+                 const std::atomic<bool>& cancel) {
   const size_t begin = static_cast<size_t>(item * kRaysPerItem);
   const size_t end = std::min(in.count, begin + kRaysPerItem);
   int64_t tests = 0;
@@ -47,6 +47,29 @@ DURER_HOT_KERNEL int64_t castItem(const Group<Real>& group, const CastInput& in,
     }
   }
   return tests;
+}
+
+template <typename Real, SphereMethod M>
+DURER_HOT_KERNEL int64_t castCloned(const Group<Real>& group, const CastInput& in, const CastOutput<Real>& out,
+                                    int64_t item, const std::atomic<bool>& cancel) {
+  return castRays<Real, M>(group, in, out, item, cancel);
+}
+
+template <typename Real, SphereMethod M>
+DURER_PLAIN_KERNEL int64_t castPlain(const Group<Real>& group, const CastInput& in, const CastOutput<Real>& out,
+                                     int64_t item, const std::atomic<bool>& cancel) {
+  return castRays<Real, M>(group, in, out, item, cancel);
+}
+
+// The default method's rays through the ISA clones, the lecture's methods plain (HotKernel.h).
+template <typename Real, SphereMethod M>
+int64_t castItem(const Group<Real>& group, const CastInput& in, const CastOutput<Real>& out, int64_t item,
+                 const std::atomic<bool>& cancel) {
+  if constexpr (M == SphereMethod::Robust) {
+    return castCloned<Real, M>(group, in, out, item, cancel);
+  } else {
+    return castPlain<Real, M>(group, in, out, item, cancel);
+  }
 }
 
 template <typename Real, SphereMethod M>

@@ -55,7 +55,19 @@ class TileRenderer {
   }
 
   // Renders one tile; returns what it traced (nothing if cancelled before the tile finished).
-  DURER_HOT_KERNEL RayCounters render(int64_t tile) const {
+  RayCounters render(int64_t tile) const {
+    if constexpr (M == SphereMethod::Robust) {
+      return renderCloned(tile);
+    } else {
+      return renderPlain(tile);
+    }
+  }
+
+ private:
+  DURER_HOT_KERNEL RayCounters renderCloned(int64_t tile) const { return renderTile(tile); }
+  DURER_PLAIN_KERNEL RayCounters renderPlain(int64_t tile) const { return renderTile(tile); }
+
+  RayCounters renderTile(int64_t tile) const {
     const int x0 = static_cast<int>(tile % m_tilesX) * kTileSize;
     const int y0 = static_cast<int>(tile / m_tilesX) * kTileSize;
     const int w = std::min(kTileSize, m_settings.width - x0);
@@ -87,7 +99,6 @@ class TileRenderer {
     return counters;
   }
 
- private:
   // Per-pixel sums over the samples of a tile, structure-of-arrays.
   struct Accumulator {
     alignas(64) Real r[kPacketSize], g[kPacketSize], b[kPacketSize], a[kPacketSize];  // colour sums
@@ -182,14 +193,23 @@ class TileRenderer {
         }
       }
       const int taken = done + slots;
-      int still = 0;
+      alignas(64) bool uncertain[kPacketSize] = {};
       for (int j = 0; j < activeCount; ++j) {
         const int k = active[j];
         acc.samples[k] = static_cast<Real>(taken);
         const Real mean = luminance[k] / taken;
         const Real variance = std::max(luminanceSq[k] / taken - mean * mean, Real(0)) * taken / std::max(taken - 1, 1);
-        const bool uncertain = mixed[k] || std::sqrt(variance / taken) > target;
-        if (taken < spp && uncertain) active[still++] = k;
+        uncertain[k] = mixed[k] || std::sqrt(variance / taken) > target;
+      }
+      // An edge that only clips a pixel's corner can hide from its first samples; a neighbour (in
+      // the tile) that saw two objects gives it away, so such a pixel takes one more round to look.
+      const bool firstRound = done == 0;
+      int still = 0;
+      for (int j = 0; j < activeCount; ++j) {
+        const int k = active[j], col = k % w, row = k / w;
+        const bool nearMixed = firstRound && ((col > 0 && mixed[k - 1]) || (col + 1 < w && mixed[k + 1]) ||
+                                              (row > 0 && mixed[k - w]) || (row + 1 < h && mixed[k + w]));
+        if (taken < spp && (uncertain[k] || nearMixed)) active[still++] = k;
       }
       activeCount = still;
     }

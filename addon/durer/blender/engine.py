@@ -32,12 +32,26 @@ class RenderInfo:
     planes: int = 0
     #: The last text the engine showed in Blender's stats line.
     stats_line: str = ""
+    #: Adaptive sampler: the samples each pixel got, (H, W) int32, top row first (the core's
+    #: result.samples over the whole frame); None for the fixed samplers.
+    sample_counts: np.ndarray | None = None
 
 
 def stats_line(width: int, height: int, samples: int, stats: dict, cancelled: bool = False) -> str:
-    """Blender's stats line after a render: size, samples, the effects Dürer simulated (the core
-    derives them from the scene: flat, diffuse, specular, shadows, reflection, refraction) and speed."""
-    parts = [f"Dürer | {width}x{height} | {samples} spp"]
+    """Blender's stats line after a render: size, samples and sampler (for Adaptive, the maximum and
+    the mean a pixel got), the effects Dürer simulated (the core derives them from the scene: flat,
+    diffuse, specular, shadows, reflection, refraction) and speed."""
+    sampler = stats.get("sampler")
+    total = stats.get("samples")
+    if sampler == "adaptive":
+        spp = f"adaptive ≤ {samples} spp"
+        if isinstance(total, int) and width * height > 0:
+            spp += f" (mean {total / (width * height):.1f})"
+    elif sampler:
+        spp = f"{samples} spp {sampler}"
+    else:
+        spp = f"{samples} spp"
+    parts = [f"Dürer | {width}x{height} | {spp}"]
     effects = stats.get("effects")
     if effects is not None:
         parts.append(" + ".join(effects) if len(effects) else "depth only")
@@ -78,6 +92,11 @@ def store_image(pixels_rgba_top_first: np.ndarray, name: str = IMAGE_NAME):
     return image
 
 
+def _float32_decimal(value: float) -> float:
+    """The shortest decimal that reads back as this float32 property value (0.01, not 0.0099999998)."""
+    return float(str(np.float32(value)))
+
+
 def render_kwargs(settings, render_func) -> dict:
     """Keyword arguments for durer.render from scene.durer (only those the core accepts)."""
     import inspect
@@ -93,6 +112,7 @@ def render_kwargs(settings, render_func) -> dict:
         "sphere_method": settings.sphere_method.lower(),
         "threads": int(settings.threads) or None,
         "sampler": settings.sampler.lower(),
+        "target_error": _float32_decimal(settings.target_error),
         "max_bounces": int(settings.max_bounces),
         "min_weight": round(float(settings.min_weight), 6),  # the float32 property's 0.01, not 0.0099999998
         # Cycles shades back faces with the flipped normal (and refraction needs the inside faces).
@@ -159,6 +179,7 @@ class DurerEngineMixin:
             return
         stats = dict(getattr(result, "stats", {}) or {})
         info.stats = stats
+        info.sample_counts = getattr(result, "samples", None)
 
         crop = self._border(scene, w, h)
         rw, rh = crop[1].stop - crop[1].start, crop[0].stop - crop[0].start

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import bpy
+import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
 
 PRIMITIVE_ITEMS = [
@@ -17,20 +18,165 @@ PRIMITIVE_ITEMS = [
 ]
 
 
+SAMPLER_ITEMS = [
+    ("CENTER", "Center", "Every sample at the pixel centre: no anti-aliasing (the baseline)"),
+    ("RANDOM", "Random", "Uniform random positions in the pixel, deterministic for the seed"),
+    (
+        "STRATIFIED",
+        "Stratified",
+        "Jittered-stratified positions, one per cell of an nx by ny grid, deterministic for the seed "
+        "(1 sample: the pixel centre)",
+    ),
+    (
+        "SOBOL",
+        "Sobol",
+        "Owen-scrambled Sobol low-discrepancy points, scrambled per pixel from the seed: "
+        "the error falls fastest with more samples",
+    ),
+    (
+        "ADAPTIVE",
+        "Adaptive",
+        "Sobol points, 4 at first, then 4 more at a time while the pixel's samples hit different "
+        "objects or their luminance's standard error exceeds Target Error, up to Samples",
+    ),
+]
+
+#: Preset identifiers in the Preset menu and the durer.PRESETS names they stand for.
+PRESET_NAMES = {"DRAFT": "draft", "PREVIEW": "preview", "FINAL": "final", "REFERENCE": "reference"}
+
+#: The scene.durer setting each durer.render keyword of a preset sets, and how its value is stored.
+PRESET_FIELDS = {
+    "spp": ("samples", int),
+    "sampler": ("sampler", str.upper),
+    "target_error": ("target_error", float),
+    "precision": ("precision", str.upper),
+    "sphere_method": ("sphere_method", str.upper),
+}
+
+
+def preset_settings(name: str) -> dict:
+    """The scene.durer values of preset `name` (e.g. "FINAL"): durer.preset(...)'s samples, sampler,
+    target error and precision, with durer.render's defaults for what the preset leaves out (so
+    the render equals durer.render(..., **durer.preset(name))). {} for an unknown name or a core
+    without presets."""
+    import inspect
+
+    import durer
+
+    core_name = PRESET_NAMES.get(name)
+    if core_name is None or not hasattr(durer, "preset"):
+        return {}
+    kwargs = dict(durer.preset(core_name))
+    defaults = {
+        key: p.default
+        for key, p in inspect.signature(durer.render).parameters.items()
+        if key in ("spp", "sampler", "target_error", "precision") and p.default is not inspect.Parameter.empty
+    }
+    values = {}
+    for key, value in {**defaults, **kwargs}.items():
+        if key in PRESET_FIELDS:
+            field, convert = PRESET_FIELDS[key]
+            values[field] = convert(value)
+    return values
+
+
+def _describe_preset(name: str, label: str) -> str:
+    """The tooltip, e.g. "Final: Adaptive, up to 64 samples, target error 0.005, double precision"."""
+    try:
+        v = preset_settings(name)
+        parts = [v["sampler"].title()]
+        if v["sampler"] == "ADAPTIVE":
+            parts.append(f"up to {v['samples']} samples, target error {v['target_error']:g}")
+        else:
+            parts.append(f"{v['samples']} sample" + ("s" if v["samples"] != 1 else ""))
+        parts.append({"FLOAT": "single", "DOUBLE": "double"}[v["precision"]] + " precision")
+        return f"{label}: " + ", ".join(parts)
+    except Exception:  # noqa: BLE001 - a tooltip must never break registration
+        return f"{label} quality (durer.PRESETS)"
+
+
+def _preset_items() -> list[tuple[str, str, str]]:
+    items = [("CUSTOM", "Custom", "Samples, sampler, target error and precision as set below")]
+    for name in PRESET_NAMES:
+        label = name.title()
+        items.append((name, label, _describe_preset(name, label)))
+    return items
+
+
+_applying_preset = False
+
+
+def _same(field: str, current, wanted) -> bool:
+    if field == "target_error":  # stored as float32
+        return bool(np.float32(current) == np.float32(wanted))
+    return current == wanted
+
+
+def preset_matches(settings, name: str) -> bool:
+    """Do the settings still hold everything preset `name` sets?"""
+    values = preset_settings(name)
+    return bool(values) and all(_same(f, getattr(settings, f), v) for f, v in values.items())
+
+
+def _apply_preset(settings, _context) -> None:
+    """Preset update: set samples, sampler, target error and precision to the chosen preset's."""
+    global _applying_preset
+    values = preset_settings(settings.preset)
+    if not values:
+        return
+    _applying_preset = True
+    try:
+        for field, value in values.items():
+            setattr(settings, field, value)
+    finally:
+        _applying_preset = False
+
+
+def _setting_changed(settings, _context) -> None:
+    """A setting a preset controls was edited: the preset becomes Custom unless it still holds."""
+    if _applying_preset or settings.preset == "CUSTOM":
+        return
+    if not preset_matches(settings, settings.preset):
+        settings.preset = "CUSTOM"
+
+
 class DurerSceneSettings(bpy.types.PropertyGroup):
-    samples: IntProperty(name="Samples", description="Camera rays per pixel", default=1, min=1, soft_max=64, max=4096)
+    preset: EnumProperty(
+        name="Preset",
+        description="Quality preset (durer.PRESETS): sets Samples, Sampler, Target Error and Precision; "
+        "editing any of them makes it Custom",
+        items=_preset_items(),
+        default="CUSTOM",
+        update=_apply_preset,
+    )
+    samples: IntProperty(
+        name="Samples",
+        description="Camera rays per pixel (Adaptive: the most a pixel gets)",
+        default=1,
+        min=1,
+        soft_max=64,
+        max=4096,
+        update=_setting_changed,
+    )
     seed: IntProperty(name="Seed", description="Seed of the pixel sampler", default=0, min=0)
     sampler: EnumProperty(
         name="Sampler",
         description="Where a pixel's rays go",
-        items=[
-            (
-                "STRATIFIED",
-                "Stratified",
-                "Jittered-stratified positions, deterministic for the seed (1 sample: the pixel centre)",
-            ),
-        ],
+        items=SAMPLER_ITEMS,
         default="STRATIFIED",
+        update=_setting_changed,
+    )
+    target_error: FloatProperty(
+        name="Target Error",
+        description="Adaptive: a pixel gets more samples while its samples hit different objects or the "
+        "standard error of their mean luminance exceeds this",
+        default=0.01,
+        min=1e-5,
+        soft_min=0.001,
+        max=1.0,
+        precision=4,
+        step=0.1,
+        update=_setting_changed,
     )
     precision: EnumProperty(
         name="Precision",
@@ -40,6 +186,7 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
             ("FLOAT", "Single", "32-bit: faster, may show acne on huge or distant spheres"),
         ],
         default="DOUBLE",
+        update=_setting_changed,
     )
     sphere_method: EnumProperty(
         name="Sphere Method",
@@ -50,6 +197,7 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
             ("ALGEBRAIC", "Algebraic", "Textbook quadratic formula (for comparison: loses precision)"),
         ],
         default="ROBUST",
+        update=_setting_changed,
     )
     threads: IntProperty(name="Threads", description="Render threads (0: all cores)", default=0, min=0, max=1024)
     max_bounces: IntProperty(

@@ -15,6 +15,22 @@ class _DurerPanel:
         return context.engine in cls.COMPAT_ENGINES
 
 
+def sampling_rows(settings) -> list[tuple[str, str, bool]]:
+    """The sampling part of the Render panel as (property, label, active) rows: Preset, Samples
+    ("Max Samples" for Adaptive), Sampler, Target Error (Adaptive only), Seed (inactive for Center,
+    which has no randomness)."""
+    adaptive = settings.sampler == "ADAPTIVE"
+    rows = [
+        ("preset", "Preset", True),
+        ("samples", "Max Samples" if adaptive else "Samples", True),
+        ("sampler", "Sampler", True),
+    ]
+    if adaptive:
+        rows.append(("target_error", "Target Error", True))
+    rows.append(("seed", "Seed", settings.sampler != "CENTER"))
+    return rows
+
+
 class DURER_PT_render(_DurerPanel, bpy.types.Panel):
     bl_label = "Dürer"
     bl_context = "render"
@@ -25,9 +41,10 @@ class DURER_PT_render(_DurerPanel, bpy.types.Panel):
         layout.use_property_decorate = False
         settings = context.scene.durer
         col = layout.column()
-        col.prop(settings, "samples")
-        col.prop(settings, "sampler")
-        col.prop(settings, "seed")
+        for name, label, active in sampling_rows(settings):
+            row = col.row()
+            row.active = active
+            row.prop(settings, name, text=label)
         col = layout.column()
         col.prop(settings, "precision")
         col.prop(settings, "sphere_method")

@@ -72,7 +72,7 @@ class SphereBvh {
  private:
   // Narrows [nearT, farT] to one slab, widened by the test's rounding error (two roundings and the
   // reciprocal's: γ₃ each side); a NaN from 0·inf (a ray parallel to the slab, its origin on a
-  // face, so inside it) leaves the range as it was. -inf - slack·inf is -inf, so inf stays inf.
+  // face, so inside it) leaves the range as it was.
   static void slab(Real lo, Real hi, Real o, Real inv, Real& nearT, Real& farT) {
     constexpr Real inf = std::numeric_limits<Real>::infinity();
     const Real t0 = (lo - o) * inv, t1 = (hi - o) * inv;
@@ -80,8 +80,10 @@ class SphereBvh {
     const bool defined = (t0 == t0) & (t1 == t1);
     Real tNear = defined ? (t0 < t1 ? t0 : t1) : -inf;
     Real tFar = defined ? (t0 < t1 ? t1 : t0) : inf;
-    tNear -= slack * std::fabs(tNear);
-    tFar += slack * std::fabs(tFar);
+    // Widen finite ends only: inf - slack·inf would be NaN, and an infinite end needs no slack.
+    const Real widenNear = slack * std::fabs(tNear), widenFar = slack * std::fabs(tFar);
+    tNear -= widenNear < inf ? widenNear : Real(0);
+    tFar += widenFar < inf ? widenFar : Real(0);
     nearT = tNear > nearT ? tNear : nearT;
     farT = tFar < farT ? tFar : farT;
   }

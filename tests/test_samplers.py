@@ -1,0 +1,326 @@
+"""Pixel samplers and quality presets: determinism, sample counts, adaptive sampling where the
+image needs it, convergence to the exact covered fraction of pixels cut by an edge, bad input.
+
+Correctness only, never speed (the accuracy report measures time)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import durer
+
+SAMPLERS = ("center", "random", "stratified", "sobol", "adaptive")
+FIXED = ("center", "random", "stratified", "sobol")
+RANDOMISED = ("random", "stratified", "sobol", "adaptive")
+WHITE_ON_BLACK = (0.0, 0.0, 0.0, 1.0)
+
+
+# --- scenes with exactly known pixel coverage ---------------------------------------------------
+
+
+def half_plane_scene(theta: float, c: float) -> durer.Scene:
+    """A white half-plane {p in z = 0 : cos(theta)·x + sin(theta)·y >= c} on black, flat colours
+    (no lights): a pixel's exact value is the fraction of it the half-plane covers."""
+    scene = durer.Scene()
+    scene.background = WHITE_ON_BLACK
+    white = scene.add_material((1, 1, 1))
+    n = np.array([math.cos(theta), math.sin(theta), 0.0])
+    d = np.array([-math.sin(theta), math.cos(theta), 0.0])
+    big = 1000.0
+    corner = c * n - big * d
+    scene.add_plane((0, 0, 1), 0.0, material=white, bounds=(corner, 2 * big * d, big * n))
+    return scene
+
+
+def pixel_camera(width: int, height: int) -> durer.OrthographicCamera:
+    """Orthographic, looking down -z, one unit per pixel: pixel (i, j) (column i, row j from the
+    top) spans x in i - W/2 + [0, 1], y in H/2 - j - [1, 0]."""
+    return durer.OrthographicCamera((0, 0, 1), (0, 0, -1), (0, 1, 0), float(max(width, height)))
+
+
+def pixel_centres(width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    x = np.arange(width) + 0.5 - width / 2
+    y = height / 2 - np.arange(height) - 0.5
+    return np.meshgrid(x, y)
+
+
+def _ramp_integral(t: np.ndarray) -> np.ndarray:
+    """An antiderivative of clip(t, 0, 1)."""
+    return np.where(t < 0, 0.0, np.where(t <= 1, t * t / 2, t - 0.5))
+
+
+def half_plane_coverage(theta: float, c: float, width: int, height: int) -> np.ndarray:
+    """Exact covered fraction of every pixel (0 < theta < pi/2): for u across the pixel, the covered
+    height is clip(a + b·u, 0, 1), whose integral over u in [-1/2, 1/2] is closed-form."""
+    x, y = pixel_centres(width, height)
+    s, k = math.sin(theta), math.cos(theta)
+    a = 0.5 + y - (c - k * x) / s
+    b = k / s
+    return (_ramp_integral(a + b / 2) - _ramp_integral(a - b / 2)) / b
+
+
+def vertical_edge_coverage(c: float, width: int, height: int) -> np.ndarray:
+    """theta = 0: the half-plane x >= c."""
+    x, _ = pixel_centres(width, height)
+    return np.clip(x + 0.5 - c, 0.0, 1.0)
+
+
+def render_values(scene, width, height, **kwargs) -> np.ndarray:
+    return durer.render(scene, pixel_camera(width, height), width, height, passes="color", **kwargs).color[..., 0]
+
+
+# A tilted edge across a 48 x 48 image: about a hundred pixels with every kind of cut.
+THETA, C, SIZE = 0.6, 0.37, 48
+COVERAGE = half_plane_coverage(THETA, C, SIZE, SIZE)
+COVERAGE[COVERAGE < 1e-9], COVERAGE[COVERAGE > 1 - 1e-9] = 0.0, 1.0  # uncut pixels: exactly 0 or 1
+CUT = (COVERAGE > 0) & (COVERAGE < 1)
+
+
+def test_the_exact_coverage_is_right():
+    # The closed form against brute-force supersampling, and the scene's pixel centres against it.
+    assert CUT.sum() >= 80
+    fine = (np.arange(400) + 0.5) / 400 - 0.5
+    x, y = pixel_centres(SIZE, SIZE)
+    for j, i in np.argwhere(CUT)[::9]:
+        gx, gy = np.meshgrid(x[j, i] + fine, y[j, i] + fine)
+        brute = np.mean(math.cos(THETA) * gx + math.sin(THETA) * gy >= C)
+        assert COVERAGE[j, i] == pytest.approx(brute, abs=2e-3)
+    centre = render_values(half_plane_scene(THETA, C), SIZE, SIZE, spp=1, sampler="center")
+    np.testing.assert_array_equal(centre, math.cos(THETA) * x + math.sin(THETA) * y >= C)
+    np.testing.assert_array_equal(centre[~CUT], np.round(COVERAGE[~CUT]))
+
+
+# --- determinism ----------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("sampler", SAMPLERS)
+def test_same_seed_same_image_on_any_number_of_threads(sampler):
+    scene, camera = durer.showcase_scene(small_spheres=20)
+    spp = 16
+    a = durer.render(scene, camera, 40, 30, spp=spp, seed=5, threads=1, sampler=sampler)
+    b = durer.render(scene, camera, 40, 30, spp=spp, seed=5, threads=2, sampler=sampler)
+    c = durer.render(scene, camera, 40, 30, spp=spp, seed=5, threads=3, sampler=sampler)
+    for other in (b, c):
+        np.testing.assert_array_equal(a.color, other.color)
+        np.testing.assert_array_equal(a.depth, other.depth)
+        np.testing.assert_array_equal(a.normal, other.normal)
+        assert a.stats["samples"] == other.stats["samples"]
+        if sampler == "adaptive":
+            np.testing.assert_array_equal(a.samples, other.samples)
+    again = durer.render(scene, camera, 40, 30, spp=spp, seed=5, sampler=sampler)
+    np.testing.assert_array_equal(a.color, again.color)
+    other_seed = durer.render(scene, camera, 40, 30, spp=spp, seed=6, threads=2, sampler=sampler)
+    if sampler == "center":
+        np.testing.assert_array_equal(a.color, other_seed.color)  # nothing random about it
+    else:
+        assert not np.array_equal(a.color, other_seed.color)
+
+
+# --- sample counts ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("sampler", FIXED)
+@pytest.mark.parametrize("spp", [1, 5, 16])
+def test_fixed_samplers_take_spp_samples_everywhere(sampler, spp):
+    scene, camera = durer.showcase_scene(small_spheres=10)
+    result = durer.render(scene, camera, 13, 7, spp=spp, sampler=sampler)
+    assert result.samples is None
+    assert result.stats["sampler"] == sampler
+    assert result.stats["samples"] == result.stats["rays"] == 13 * 7 * spp
+
+
+def test_the_default_sampler_is_stratified():
+    scene, camera = durer.showcase_scene(small_spheres=10)
+    default = durer.render(scene, camera, 16, 12, spp=4, seed=3)
+    assert default.stats["sampler"] == "stratified" and default.samples is None
+    np.testing.assert_array_equal(default.color, durer.render(scene, camera, 16, 12, spp=4, seed=3,
+                                                               sampler="stratified").color)
+
+
+@pytest.mark.parametrize("spp", [1, 2, 3, 4, 6, 9, 16, 64])
+def test_adaptive_sample_counts(spp):
+    scene, camera = durer.showcase_scene(small_spheres=20)
+    result = durer.render(scene, camera, 40, 30, spp=spp, sampler="adaptive", target_error=0.01)
+    counts = result.samples
+    assert isinstance(counts, np.ndarray) and counts.dtype == np.int32 and counts.shape == (30, 40)
+    first = min(4, spp)
+    assert counts.min() >= first and counts.max() <= spp
+    # The first round, then rounds of 4 more, the last one cut at spp.
+    assert np.all((counts == first) | (counts % 4 == 0) | (counts == spp))
+    assert int(counts.sum()) == result.stats["samples"] == result.stats["rays"]
+    assert result.stats["sampler"] == "adaptive"
+    if spp >= 16:  # the showcase has flat sky and silhouettes: both ends are used
+        assert counts.min() == 4 and counts.max() == spp
+
+
+def test_adaptive_spends_its_samples_on_edges():
+    # A flat-coloured disc (no lights) on black: a pixel entirely inside or outside has identical
+    # samples and stops after the first 4 (or 8: one more round to look for a hidden edge when a
+    # neighbour in its tile saw both); a pixel whose samples see both keeps going to spp.
+    size, spp, radius = 32, 64, 9.3
+    scene = durer.Scene()
+    scene.background = WHITE_ON_BLACK
+    scene.add_spheres([[0.3, -0.2, -50]], [radius], material=scene.add_material((0.9, 0.6, 0.3)))
+    result = durer.render(scene, pixel_camera(size, size), size, size, spp=spp, sampler="adaptive")
+    counts, value = result.samples, result.color[..., 0]
+    x, y = pixel_centres(size, size)
+    distance = np.hypot(x - 0.3, y + 0.2) - radius
+    flat = np.abs(distance) > math.sqrt(0.5) + 1e-6  # the silhouette misses the pixel
+    assert flat.sum() > 900
+    assert set(np.unique(counts[flat])) <= {4, 8} and np.mean(counts[flat] == 4) > 0.85
+    assert set(np.unique(counts)) <= {4, 8, spp}
+    mixed = (value > 1e-4) & (value < 0.9 - 1e-4)  # 0.9: the disc's red
+    np.testing.assert_array_equal(counts[mixed], spp)  # samples that disagree are never cut short
+    np.testing.assert_array_equal(counts == spp, mixed)
+    # Pixels the silhouette crosses near their centre are nearly all refined (4 Sobol points are
+    # one per quadrant of the pixel, so they straddle an edge through the middle).
+    through_middle = np.abs(distance) < 0.2
+    assert through_middle.sum() >= 20
+    assert np.mean(counts[through_middle] == spp) >= 0.9
+    assert counts[~flat].mean() > 4 * counts[flat].mean()
+    assert result.stats["samples"] < 0.2 * size * size * spp
+
+
+def test_a_smaller_target_error_never_takes_fewer_samples():
+    # Same seed, same sample sequence per pixel: a pixel stops at the first round its samples agree
+    # on the object and their standard error is <= target_error, so a smaller target stops later.
+    scene, camera = durer.showcase_scene(small_spheres=20)
+    counts = [durer.render(scene, camera, 48, 27, spp=64, sampler="adaptive", target_error=e, seed=1).samples
+              for e in (0.1, 0.01, 0.001)]
+    assert np.all(counts[0] <= counts[1]) and np.all(counts[1] <= counts[2])
+    assert counts[0].sum() < counts[2].sum()
+
+
+# --- convergence to the exact coverage --------------------------------------------------------
+
+
+# One stratified sample is the pixel centre, all or nothing (test_one_sample): not an estimate.
+@pytest.mark.parametrize(("sampler", "spp"), [(s, n) for s in ("random", "stratified", "sobol") for n in (1, 4, 16)
+                                              if (s, n) != ("stratified", 1)])
+def test_mean_over_seeds_is_the_covered_fraction(sampler, spp):
+    scene = half_plane_scene(THETA, C)
+    errors = np.stack([render_values(scene, SIZE, SIZE, spp=spp, seed=s, sampler=sampler) - COVERAGE
+                       for s in range(16)])
+    np.testing.assert_array_equal(errors[:, ~CUT], 0)  # uncut pixels are exact
+    errors = errors[:, CUT]
+    # Unbiased: the mean error over ~1600 independent estimates is within 4 standard errors of 0.
+    assert abs(errors.mean()) <= 4 * errors.std() / math.sqrt(errors.size)
+    # And per pixel: averaged over the seeds, no pixel is off by more than 5 standard errors.
+    per_pixel = errors.mean(axis=0)
+    bound = math.sqrt(0.25 / spp / errors.shape[0])  # the largest per-sample variance is 1/4
+    assert np.abs(per_pixel).max() <= 5 * bound
+
+
+def test_adaptive_mean_is_the_covered_fraction_where_it_sees_the_edge():
+    # A vertical edge covering 30 % of every pixel of a column: the first 4 Sobol points (one per
+    # quarter-width strip) always straddle it, so every pixel takes all spp samples, and a
+    # scrambled Sobol estimate is unbiased.
+    height, spp = 256, 16
+    scene = half_plane_scene(0.0, 0.2)
+    coverage = vertical_edge_coverage(0.2, 1, height)
+    assert np.all(coverage == pytest.approx(0.3))
+    errors = []
+    for seed in range(4):
+        result = durer.render(scene, pixel_camera(1, height), 1, height, spp=spp, seed=seed, sampler="adaptive",
+                              passes="color")
+        np.testing.assert_array_equal(result.samples, spp)
+        errors.append(result.color[..., 0] - coverage)
+    errors = np.concatenate(errors).ravel()
+    assert abs(errors.mean()) <= 4 * max(errors.std(), 1e-3) / math.sqrt(errors.size)
+    # 16 Sobol points are a (0,4,2)-net: one per 1/16-wide strip, so only the strip the edge crosses
+    # can be wrong.
+    assert np.abs(errors).max() <= 1 / 16 + 1e-6
+
+
+def test_center_is_all_or_nothing_at_any_spp():
+    scene = half_plane_scene(THETA, C)
+    x, y = pixel_centres(SIZE, SIZE)
+    inside = math.cos(THETA) * x + math.sin(THETA) * y >= C
+    images = [render_values(scene, SIZE, SIZE, spp=spp, seed=seed, sampler="center")
+              for spp, seed in ((1, 0), (4, 1), (16, 2), (37, 3))]
+    for image in images:
+        np.testing.assert_array_equal(image, inside)
+
+
+def test_one_sample():
+    # Stratified's single sample is the pixel centre; random's and Sobol's are not.
+    scene = half_plane_scene(THETA, C)
+    centre = render_values(scene, SIZE, SIZE, sampler="center")
+    np.testing.assert_array_equal(render_values(scene, SIZE, SIZE, sampler="stratified", seed=9), centre)
+    np.testing.assert_array_equal(render_values(scene, SIZE, SIZE, sampler="stratified", spp=1, seed=4), centre)
+    for sampler in ("random", "sobol"):
+        values = render_values(scene, SIZE, SIZE, spp=1, sampler=sampler)
+        assert np.isin(values, (0, 1)).all()
+        assert (values != centre).sum() >= 5  # about a quarter of the cut pixels flip
+
+
+@pytest.mark.parametrize("sampler", ["random", "stratified", "sobol"])
+def test_error_falls_with_spp(sampler):
+    scene = half_plane_scene(THETA, C)
+    spps = (4, 16, 64, 256)
+    rmse = np.array([np.sqrt(np.mean((render_values(scene, SIZE, SIZE, spp=spp, sampler=sampler, seed=2)
+                                      - COVERAGE)[CUT] ** 2)) for spp in spps])
+    assert np.all(np.diff(rmse) < 0), rmse
+    slope = np.polyfit(np.log(spps), np.log(rmse), 1)[0]
+    if sampler == "random":
+        assert -0.65 < slope < -0.35, rmse  # Monte Carlo: N^-1/2
+    else:
+        assert slope < -0.6, rmse  # stratified and Sobol on an edge: about N^-3/4
+        assert rmse[-1] < 0.01
+
+
+def test_vertical_edge_pixel_error_falls_with_spp():
+    # The single-pixel case (as in test_render): 30 % of the pixel covered.
+    scene, camera = half_plane_scene(0.0, 0.2), pixel_camera(1, 1)
+    for sampler in ("random", "stratified", "sobol"):
+        rmse = []
+        for spp in (4, 16, 64, 256):
+            values = np.array([durer.render(scene, camera, 1, 1, spp=spp, seed=s, sampler=sampler,
+                                            passes="color").color[0, 0, 0] for s in range(24)])
+            rmse.append(np.sqrt(np.mean((values - 0.3) ** 2)))
+        assert rmse[0] > rmse[1] > rmse[2] > rmse[3], (sampler, rmse)
+        assert rmse[3] < 0.05
+
+
+# --- bad input --------------------------------------------------------------------------------
+
+
+def test_bad_sampler_and_target_error_raise():
+    scene, camera = half_plane_scene(THETA, C), pixel_camera(4, 4)
+    for bad in ("halton", "Sobol", "", "adaptive "):
+        with pytest.raises(ValueError, match="sampler"):
+            durer.render(scene, camera, 4, 4, sampler=bad)
+    with pytest.raises((TypeError, ValueError), match="sampler"):
+        durer.render(scene, camera, 4, 4, sampler=None)
+    for bad in (0.0, -0.01, math.nan, math.inf, -math.inf):
+        with pytest.raises(ValueError, match="target_error"):
+            durer.render(scene, camera, 4, 4, sampler="adaptive", target_error=bad)
+    with pytest.raises((TypeError, ValueError), match="target_error"):
+        durer.render(scene, camera, 4, 4, sampler="adaptive", target_error="0.01")
+
+
+# --- presets ----------------------------------------------------------------------------------
+
+
+def test_presets():
+    names = ("draft", "preview", "final", "reference")
+    assert set(names) <= set(durer.PRESETS)
+    scene, camera = durer.showcase_scene(small_spheres=20)
+    samples = []
+    for name in names:
+        kwargs = durer.preset(name)
+        assert kwargs == durer.PRESETS[name] and kwargs is not durer.PRESETS[name]
+        assert kwargs.get("sampler", "stratified") in SAMPLERS
+        result = durer.render(scene, camera, 24, 16, **kwargs)
+        assert result.stats["sampler"] == kwargs.get("sampler", "stratified")
+        samples.append(result.stats["samples"])
+    assert samples == sorted(samples)  # each preset spends at least what the one before it does
+    copy = durer.preset("final")
+    copy["spp"] = -1
+    assert durer.PRESETS["final"].get("spp") != -1
+    for bad in ("ultra", "Final", ""):
+        with pytest.raises(ValueError, match="preset"):
+            durer.preset(bad)
