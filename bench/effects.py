@@ -2,7 +2,8 @@
 
     python bench/effects.py [--size 1280x720] [--runs 7] [--precision double]
 
-The scene is the showcase (65 spheres and a ground plane). Each row adds one effect to the one
+The scene is the showcase (65 spheres and a ground plane) with the effects switched on row by row
+(`durer.accuracy.effect_scene`, which the accuracy report measures the same way). Each row adds one effect to the one
 above, so its "added" column is that effect's own cost; "vs depth" compares with rendering depth
 only. Figures are medians of --runs rounds, each rendering every row once (so drift of this noisy
 machine hits all rows alike), into the same buffers, after one warm-up, from the core's own timer.
@@ -13,55 +14,16 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import statistics
 import time
 from collections.abc import Callable, Sequence
-from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # numpy's BLAS threads must not spin during timing
 
-import numpy as np  # noqa: E402
-
 import durer  # noqa: E402
-
-
-def showcase(lights: bool, shadows: bool, specular: bool, reflective: bool, transparent: bool) -> durer.Scene:
-    """The showcase geometry with the asked-for effects switched on."""
-    base, _ = durer.showcase_scene()
-    scene = durer.Scene()
-    scene.background = base.background
-    scene.ambient = base.ambient
-    rng = np.random.default_rng(7)
-    palette = [scene.add_material(
-        diffuse=c,
-        specular=(0.5, 0.5, 0.5) if specular else (0, 0, 0), exponent=40.0,
-        reflective=(0.4, 0.4, 0.4) if reflective and i == 0 else (0, 0, 0),
-        transparent=(0.9, 0.9, 0.9) if transparent and i == 1 else (0, 0, 0), ior=1.5,
-    ) for i, c in enumerate(((0.85, 0.2, 0.15), (0.2, 0.45, 0.85), (0.95, 0.75, 0.2), (0.25, 0.7, 0.35)))]
-    scene.add_plane((0, 1, 0), 0.0, material=scene.add_material((0.7, 0.68, 0.62)))
-    centers = np.array([[0.0, 1.5, 0.0], [-2.6, 0.9, 0.8], [2.4, 1.1, -0.6], [-0.9, 0.5, 2.3]])
-    scene.add_spheres(centers, [1.5, 0.9, 1.1, 0.5], material=np.array(palette, dtype=np.int32))
-    angle = rng.uniform(0, 2 * np.pi, 60)
-    distance = rng.uniform(3.0, 5.5, 60)
-    r = rng.uniform(0.08, 0.25, 60)
-    scene.add_spheres(np.stack([distance * np.cos(angle), r, distance * np.sin(angle) * 0.6], 1), r,
-                      material=np.array(palette, dtype=np.int32)[rng.integers(0, 4, 60)])
-    if lights:
-        scene.add_directional_light((-0.5, -1.0, -0.4), (0.95, 0.92, 0.85), shadows=shadows)
-    return scene
-
-
-ROWS: list[tuple[str, dict, tuple[str, ...]]] = [
-    ("depth only", dict(lights=False, shadows=False, specular=False, reflective=False, transparent=False), ("depth",)),
-    ("flat colour (no lights)", dict(lights=False, shadows=False, specular=False, reflective=False, transparent=False),
-     ("color",)),
-    ("+ diffuse light", dict(lights=True, shadows=False, specular=False, reflective=False, transparent=False), ("color",)),
-    ("+ shadows", dict(lights=True, shadows=True, specular=False, reflective=False, transparent=False), ("color",)),
-    ("+ Phong specular", dict(lights=True, shadows=True, specular=True, reflective=False, transparent=False), ("color",)),
-    ("+ reflection", dict(lights=True, shadows=True, specular=True, reflective=True, transparent=False), ("color",)),
-    ("+ refraction", dict(lights=True, shadows=True, specular=True, reflective=True, transparent=True), ("color",)),
-]
+from durer.accuracy import EFFECT_ROWS as ROWS  # noqa: E402
+from durer.accuracy import effect_scene as showcase  # noqa: E402
+from durer.accuracy import machine  # noqa: E402
 
 
 def round_robin(renders: list[Callable[..., durer.RenderResult]], runs: int) -> tuple[list[float], list]:
@@ -74,15 +36,6 @@ def round_robin(renders: list[Callable[..., durer.RenderResult]], runs: int) -> 
             results[i] = render(out=results[i])
             times[i].append(results[i].stats["milliseconds"])
     return [statistics.median(t) for t in times], results
-
-
-def machine() -> str:
-    cpu = "unknown CPU"
-    for line in Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("model name"):
-            cpu = line.split(":", 1)[1].strip()
-            break
-    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, durer {durer.__version__}"
 
 
 def main(argv: Sequence[str] | None = None) -> int:

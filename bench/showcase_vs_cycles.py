@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import statistics
 import sys
 import time
@@ -70,18 +68,6 @@ def compare_engines(
     return out
 
 
-def machine() -> str:
-    cpu = "unknown CPU"
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, {time.strftime('%Y-%m-%d')}"
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python bench/showcase_vs_cycles.py", description=__doc__.split("\n\n")[0])
     p.add_argument("file", nargs="?", default=str(Path(__file__).resolve().parents[1] / "scenes" / "showcase.blend"))
@@ -95,7 +81,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.json:
         print(json.dumps(out, indent=2))
         return 0
-    print(f"{Path(args.file).name} at {w}x{h}, {args.samples} sample(s); median of {args.repeats} runs; {machine()}")
+    from durer.accuracy import machine
+
+    print(f"{Path(args.file).name} at {w}x{h}, {args.samples} sample(s); median of {args.repeats} runs; {machine()}, "
+          f"{time.strftime('%Y-%m-%d')}")
     d, c = out["durer"], out["cycles"]
     print(f"  Dürer:  {d['seconds']:.3f} s end to end (export {d['export_seconds']:.3f} s, render "
           f"{d['render_seconds']:.3f} s, {d['mrays_per_s']:.1f} Mrays/s; {d['spheres']} spheres, {d['planes']} planes)")

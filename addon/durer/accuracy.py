@@ -139,13 +139,13 @@ def edge_scene(spheres: int = 2000, seed: int = 3) -> tuple[Scene, OrthographicC
     centers = np.stack([rng.uniform(-4.4, 4.4, spheres), r, rng.uniform(-2.6, 2.6, spheres)], axis=1)
     scene.add_spheres(centers, r, material=palette[rng.integers(0, palette.size, spheres)])
     scene.add_directional_light((-0.5, -1.0, -0.4), (0.95, 0.92, 0.85))
-    # Not exactly straight down: the hierarchy visits every node for rays with a zero direction component.
+    # Slightly off straight down, so that no ray direction component is exactly 0 (kept for comparable figures).
     camera = OrthographicCamera(center=(0.0, 5.0, 0.0), direction=(0.02, -1.0, -0.05), up=(0.0, 0.0, -1.0), size=8.0)
     return scene, camera
 
 
 def effect_scene(lights: bool, shadows: bool, specular: bool, reflective: bool, transparent: bool) -> Scene:
-    """The showcase's geometry with the asked-for effects switched on (as bench/effects.py)."""
+    """The showcase's geometry with the asked-for effects switched on (also bench/effects.py's scene)."""
     base, _ = showcase_scene()
     scene = Scene()
     scene.background = base.background
