@@ -30,13 +30,6 @@ class Group {
            m_planes.intersect(packet, static_cast<int32_t>(m_spheres.size()));
   }
 
-  // Just the unit normal at ray k's hit (which must be a hit).
-  Vec3<Real> normal(const RayPacket<Real>& packet, int k) const {
-    const size_t index = static_cast<size_t>(packet.prim[k]);
-    if (index < m_spheres.size()) return m_spheres.normal(packet, k, index);
-    return m_planes.plane(index - m_spheres.size()).normal;
-  }
-
   // The full hit record of ray k, once its search is over (a miss gives the default record).
   Hit<Real> hit(const RayPacket<Real>& packet, int k) const {
     const int32_t prim = packet.prim[k];

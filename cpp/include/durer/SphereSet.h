@@ -61,7 +61,6 @@ class SphereSet {
     m_spheres.swap(sorted);
     m_ids.permute(order);
   }
-  bool hasBvh() const { return !m_bvh.empty(); }
 
   // Lowers each ray's tHit to its closest sphere hit in [tMin, tHit); sphere i is recorded as
   // primBase + i. Gives up if *cancel is set (checked every few thousand sphere or node visits;
