@@ -200,3 +200,12 @@ def aim_camera(s, location, target=(0, 0, 0)):
     cam.location = location
     cam.rotation_euler = (Vector(target) - Vector(location)).to_track_quat("-Z", "Y").to_euler()
     return cam
+
+
+def ball_scene(s, width=64, height=48):
+    """A lit red ball on a dark world: flat background, smooth shading, a silhouette."""
+    s.render.resolution_x, s.render.resolution_y = width, height
+    world(s, (0.05, 0.05, 0.05))
+    uv_sphere(s, "Ball", radius=1.0).data.materials.append(material("Red", (0.8, 0.1, 0.1)))
+    light(s, "SUN", energy=3.0, rotation=(40 * DEG, 0, 20 * DEG))
+    aim_camera(s, (0, -6, 0))

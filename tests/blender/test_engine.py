@@ -16,14 +16,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 from blender_helpers import (
-    DEG,
     aim_camera,
+    ball_scene,
     cube,
-    light,
-    material,
     pointcloud_object,
     render_passes,
-    uv_sphere,
     world,
 )
 
@@ -34,14 +31,6 @@ import durer.blender
 from durer.blender import batch, engine, extension
 
 pytestmark = pytest.mark.blender
-
-
-def simple_scene(s, width=64, height=48):
-    s.render.resolution_x, s.render.resolution_y = width, height
-    world(s, (0.05, 0.05, 0.05))
-    uv_sphere(s, "Ball", radius=1.0).data.materials.append(material("Red", (0.8, 0.1, 0.1)))
-    light(s, "SUN", energy=3.0, rotation=(40 * DEG, 0, 20 * DEG))
-    aim_camera(s, (0, -6, 0))
 
 
 def test_register_is_idempotent_and_reversible(scene):
@@ -66,7 +55,7 @@ def test_register_is_idempotent_and_reversible(scene):
 
 
 def test_render_button_fills_image_datablock(scene):
-    simple_scene(scene)
+    ball_scene(scene)
     scene.durer.samples = 2
     assert bpy.ops.render.render() == {"FINISHED"}
     info = engine.last_render
@@ -93,7 +82,7 @@ def test_render_button_fills_image_datablock(scene):
 
 
 def test_write_still_png_and_percentage(scene, tmp_path):
-    simple_scene(scene, 80, 60)
+    ball_scene(scene, 80, 60)
     scene.render.resolution_percentage = 50
     scene.render.image_settings.file_format = "PNG"
     scene.render.filepath = str(tmp_path / "still.png")
@@ -103,7 +92,7 @@ def test_write_still_png_and_percentage(scene, tmp_path):
 
 
 def test_passes_are_registered_and_written(scene, tmp_path):
-    simple_scene(scene)
+    ball_scene(scene)
     out = render_passes(scene, tmp_path / "passes.exr")
     hit = out["depth"] < 1e9
     assert 0.05 < hit.mean() < 0.5
@@ -130,7 +119,7 @@ def test_passes_are_registered_and_written(scene, tmp_path):
 
 
 def test_errors_are_reported_and_blender_stays_usable(scene):
-    simple_scene(scene)
+    ball_scene(scene)
     scene.camera.data.type = "PANO"
     with pytest.raises(RuntimeError, match="Dürer: Camera 'Camera' is pano"):
         bpy.ops.render.render()
@@ -141,7 +130,7 @@ def test_errors_are_reported_and_blender_stays_usable(scene):
 
 
 def test_skipped_geometry_is_reported(scene):
-    simple_scene(scene)
+    ball_scene(scene)
     cube(scene, "Box", location=(3, 0, 0))
     assert bpy.ops.render.render() == {"FINISHED"}
     assert engine.last_render.warnings == [
@@ -150,7 +139,7 @@ def test_skipped_geometry_is_reported(scene):
 
 
 def test_progress_hooks_see_the_render(scene):
-    simple_scene(scene)
+    ball_scene(scene)
     seen = []
     engine.progress_hooks.append(seen.append)
     try:
@@ -215,7 +204,7 @@ def test_escape_cancels_quickly_and_blender_stays_usable(scene):
 
 
 def saved_blend(s, path):
-    simple_scene(s, 40, 30)
+    ball_scene(s, 40, 30)
     s.frame_start, s.frame_end = 1, 3
     ball = bpy.data.objects["Ball"]
     ball.location = (-1, 0, 0)

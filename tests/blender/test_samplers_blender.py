@@ -7,7 +7,7 @@ import inspect
 
 import numpy as np
 import pytest
-from blender_helpers import DEG, aim_camera, light, material, uv_sphere, world
+from blender_helpers import ball_scene
 
 bpy = pytest.importorskip("bpy")
 
@@ -29,15 +29,6 @@ PRESETS = ("DRAFT", "PREVIEW", "FINAL", "REFERENCE")
 
 def enum_ids(settings, name):
     return [item.identifier for item in settings.bl_rna.properties[name].enum_items]
-
-
-def ball_scene(s, width=64, height=48):
-    """A lit red ball on a dark world: flat background, smooth shading, a silhouette."""
-    s.render.resolution_x, s.render.resolution_y = width, height
-    world(s, (0.05, 0.05, 0.05))
-    uv_sphere(s, "Ball", radius=1.0).data.materials.append(material("Red", (0.8, 0.1, 0.1)))
-    light(s, "SUN", energy=3.0, rotation=(40 * DEG, 0, 20 * DEG))
-    aim_camera(s, (0, -6, 0))
 
 
 def direct_render(**kwargs):
