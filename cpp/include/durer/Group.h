@@ -20,7 +20,6 @@ class Group {
   const SphereSet<Real>& spheres() const { return m_spheres; }
   PlaneSet<Real>& planes() { return m_planes; }
   const PlaneSet<Real>& planes() const { return m_planes; }
-  int64_t primitiveCount() const { return static_cast<int64_t>(m_spheres.size() + m_planes.size()); }
 
   // The cheap t-only search for each ray's closest primitive; returns the ray-primitive tests made.
   template <SphereMethod M>

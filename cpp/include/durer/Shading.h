@@ -57,14 +57,12 @@ struct ShadingMaterial {
   Real ior;
 };
 
-// The 6.837 assignment-2 shading, in the render's precision, plus emission:
-//   flat (no lights, by default): diffuse + emission;
-//   lit:  emission + ambient·kd + Σ max(N·L, 0)·light·kd over the lights, a light's term dropped
-//         where a shadow ray toward it is blocked (lights with shadows).
+// What shading reads, in the render's precision: materials by id, lights, ambient. Whether a scene
+// is lit, and which effects apply, is the render's EffectSet; PacketShader.h does the shading.
 template <typename Real>
 class Shading {
  public:
-  explicit Shading(const Scene& scene) : m_ambient(toReal<Real>(scene.ambient())), m_lit(scene.lit()) {
+  explicit Shading(const Scene& scene) : m_ambient(toReal<Real>(scene.ambient())) {
     using Kind = typename ShadingLight<Real>::Kind;
     for (const Material& m : scene.materials()) {
       m_materials.push_back({toReal<Real>(m.diffuse), toReal<Real>(m.emission), toReal<Real>(m.specular),
@@ -87,7 +85,6 @@ class Shading {
     }
   }
 
-  bool lit() const { return m_lit; }  // whether shading needs hit records and lights
   const ShadingMaterial<Real>& material(int32_t id) const { return m_materials[static_cast<size_t>(id)]; }
   const std::vector<ShadingMaterial<Real>>& materials() const { return m_materials; }
   const Vec3<Real>& ambient() const { return m_ambient; }
@@ -96,7 +93,6 @@ class Shading {
  private:
   std::vector<ShadingMaterial<Real>> m_materials;  // by material id
   Vec3<Real> m_ambient;
-  bool m_lit;
   std::vector<ShadingLight<Real>> m_lights;
 };
 
