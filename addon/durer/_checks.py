@@ -90,3 +90,22 @@ def boolean(value: Any, name: str) -> bool:
     if not isinstance(value, (bool, np.bool_)):
         raise TypeError(f"{name} must be True or False, got {type(value).__name__}")
     return bool(value)
+
+
+def transform(value: Any, name: str = "transform") -> np.ndarray | None:
+    """A world-from-object affine matrix, (4, 4) with bottom row (0, 0, 0, 1) or (3, 4), as a
+    C-contiguous (3, 4) float64 array; None stays None (the identity). Invertibility is checked by
+    the core."""
+    if value is None:
+        return None
+    array = _numeric_array(value, name)
+    if array.shape not in ((4, 4), (3, 4)):
+        raise ValueError(f"{name} must have shape (4, 4) or (3, 4), got {array.shape}")
+    array = array.astype(np.float64)
+    if not np.isfinite(array).all():
+        raise ValueError(f"{name} must be finite")
+    if array.shape == (4, 4):
+        if not np.array_equal(array[3], [0.0, 0.0, 0.0, 1.0]):
+            raise ValueError(f"{name} must be affine: its bottom row must be (0, 0, 0, 1), got {tuple(array[3].tolist())}")
+        array = array[:3]
+    return np.ascontiguousarray(array)

@@ -14,10 +14,16 @@ from . import _checks, _core
 class Scene:
     """What Dürer renders.
 
-    Objects get ids in the order they are added (spheres added in bulk get consecutive ids); `render`
-    and `cast` report hits by these ids. Material 0 exists from the start: diffuse 0.8 grey. Every add
-    checks its input and raises ValueError/TypeError naming the argument; an add that raises changes
-    nothing.
+    Objects get ids in the order they are added (objects added in bulk get consecutive ids; a mesh
+    is one object); `render` and `cast` report hits by these ids. Material 0 exists from the start:
+    diffuse 0.8 grey. Every add checks its input and raises ValueError/TypeError naming the argument;
+    an add that raises changes nothing.
+
+    Every geometry add takes `transform`: None (world space) or a world-from-object affine matrix,
+    (4, 4) with bottom row (0, 0, 0, 1) or (3, 4), column vectors (p_world = M @ [p, 1]), invertible.
+    Rays are taken into object space (t stays in world units), normals come back by the inverse
+    transpose: a sphere under a non-uniform scale is an ellipsoid. Objects added with the same
+    matrix share one transformed group (and its hierarchy).
     """
 
     def __init__(self) -> None:
@@ -56,9 +62,12 @@ class Scene:
             ior_value,
         )
 
-    def add_spheres(self, centers: ArrayLike, radii: ArrayLike, material: ArrayLike = 0) -> np.ndarray:
+    def add_spheres(
+        self, centers: ArrayLike, radii: ArrayLike, material: ArrayLike = 0, *, transform: ArrayLike | None = None
+    ) -> np.ndarray:
         """Add N spheres. `centers` (N, 3); `radii` (N,) or one radius for all, each finite and > 0;
-        `material` one id or (N,) ids. Returns the (N,) int32 object ids."""
+        `material` one id or (N,) ids. Returns the (N,) int32 object ids. With `transform` (see the
+        class docstring) a sphere can become an ellipsoid."""
         centers = _checks.float_array(centers, "centers", (None, 3))
         n = centers.shape[0]
         radii_array = _checks._numeric_array(radii, "radii")
@@ -70,9 +79,10 @@ class Scene:
             i = int(np.argmax(bad))
             raise ValueError(f"radii must be finite and > 0, got {radii_array[i]} at index {i}")
         materials = _material_ids(material, n)
+        matrix = _checks.transform(transform)
         if n == 0:
             return np.empty(0, dtype=np.int32)
-        first = self._core.add_spheres(centers, radii_array, materials)
+        first = self._core.add_spheres(centers, radii_array, materials, matrix)
         return np.arange(first, first + n, dtype=np.int32)
 
     def add_plane(
@@ -81,6 +91,8 @@ class Scene:
         offset: float,
         material: int = 0,
         bounds: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
+        *,
+        transform: ArrayLike | None = None,
     ) -> int:
         """Add the plane of points p with normal·p = offset; returns its object id.
 
@@ -97,7 +109,57 @@ class Scene:
             if len(bounds) != 3:
                 raise ValueError("bounds must be (corner, edge1, edge2)")
             corners = tuple(_checks.vector3(v, f"bounds {part}") for v, part in zip(bounds, ("corner", "edge1", "edge2")))
-        return self._core.add_plane(normal3, offset_value, material_id, corners)
+        return self._core.add_plane(normal3, offset_value, material_id, corners, _checks.transform(transform))
+
+    def add_triangles(
+        self, vertices: ArrayLike, material: ArrayLike = 0, *, transform: ArrayLike | None = None
+    ) -> np.ndarray:
+        """Add N triangles, each its own object: `vertices` (N, 3, 3) holds v0, v1, v2 of each.
+        The geometric normal normalize((v1 − v0) × (v2 − v0)) follows the winding. The test is
+        watertight (a ray through an edge or vertex shared by two triangles hits one of them);
+        degenerate triangles are kept and never hit. Returns the (N,) int32 object ids."""
+        vertices = _checks.float_array(vertices, "vertices", (None, 3, 3))
+        n = vertices.shape[0]
+        materials = _material_ids(material, n)
+        matrix = _checks.transform(transform)
+        if n == 0:
+            return np.empty(0, dtype=np.int32)
+        first = self._core.add_triangles(vertices, materials, matrix)
+        return np.arange(first, first + n, dtype=np.int32)
+
+    def add_mesh(
+        self, vertices: ArrayLike, faces: ArrayLike, material: int = 0, *, transform: ArrayLike | None = None
+    ) -> int:
+        """Add a triangle mesh as one object with one material: `vertices` (V, 3), `faces` (F, 3)
+        0-based vertex indices, each face a triangle wound as in add_triangles. Returns its object id."""
+        vertices = _checks.float_array(vertices, "vertices", (None, 3))
+        face_array = _checks._numeric_array(faces, "faces")
+        if face_array.dtype.kind not in "iu":
+            raise TypeError(f"faces must hold integer vertex indices, got dtype {face_array.dtype}")
+        if face_array.ndim != 2 or face_array.shape[1] != 3:
+            raise ValueError(f"faces must have shape (F, 3), got {face_array.shape}")
+        if face_array.size and (face_array.max() > np.iinfo(np.int64).max):
+            raise ValueError("faces must fit in int64")
+        return self._core.add_mesh(
+            vertices, np.ascontiguousarray(face_array, dtype=np.int64), _checks.integer(material, "material"),
+            _checks.transform(transform),
+        )
+
+    def add_boxes(
+        self, lo: ArrayLike, hi: ArrayLike, material: ArrayLike = 0, *, transform: ArrayLike | None = None
+    ) -> np.ndarray:
+        """Add N axis-aligned boxes [lo, hi] (each (N, 3), lo < hi in every axis), each its own object.
+        A ray starting inside a box hits it where it leaves. With `transform` a box can be rotated,
+        sheared or scaled. Returns the (N,) int32 object ids."""
+        lo = _checks.float_array(lo, "lo", (None, 3))
+        hi = _checks.float_array(hi, "hi", (lo.shape[0], 3))
+        n = lo.shape[0]
+        materials = _material_ids(material, n)
+        matrix = _checks.transform(transform)
+        if n == 0:
+            return np.empty(0, dtype=np.int32)
+        first = self._core.add_boxes(lo, hi, materials, matrix)
+        return np.arange(first, first + n, dtype=np.int32)
 
     # --- lights and background ------------------------------------------------------------------
     def add_directional_light(self, direction: ArrayLike, color: ArrayLike, *, shadows: bool = False) -> None:
@@ -192,6 +254,20 @@ class Scene:
         return self._core.plane_count
 
     @property
+    def triangle_count(self) -> int:
+        """Triangles, counting every face of every mesh."""
+        return self._core.triangle_count
+
+    @property
+    def box_count(self) -> int:
+        return self._core.box_count
+
+    @property
+    def transform_count(self) -> int:
+        """Distinct transforms in use (objects added with the same matrix share one)."""
+        return self._core.transform_count
+
+    @property
     def material_count(self) -> int:
         return self._core.material_count
 
@@ -205,7 +281,8 @@ class Scene:
 
     def __repr__(self) -> str:
         return (
-            f"Scene({self.sphere_count} spheres, {self.plane_count} planes, {self.material_count} materials, "
+            f"Scene({self.sphere_count} spheres, {self.plane_count} planes, {self.triangle_count} triangles, "
+            f"{self.box_count} boxes, {self.transform_count} transforms, {self.material_count} materials, "
             f"{self.light_count} lights)"
         )
 

@@ -23,7 +23,30 @@ using Triple = std::array<double, 3>;
 using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
 using IdArray = py::array_t<int32_t, py::array::c_style | py::array::forcecast>;
 
+using IndexArray = py::array_t<int64_t, py::array::c_style | py::array::forcecast>;
+
 Vec3d vec(const Triple& t) { return Vec3d(t[0], t[1], t[2]); }
+
+// A (3, 4) world-from-object matrix (the package checks shapes) as an Affine; none: null.
+struct OptionalAffine {
+  Affined value;
+  bool present = false;
+  explicit OptionalAffine(const std::optional<DoubleArray>& m) {
+    if (!m) return;
+    if (m->ndim() != 2 || m->shape(0) != 3 || m->shape(1) != 4) throw py::value_error("transform must have shape (3, 4)");
+    const auto a = m->unchecked<2>();
+    for (int i = 0; i < 3; ++i) value.row[i] = Vec3d(a(i, 0), a(i, 1), a(i, 2)), value.offset[i] = a(i, 3);
+    present = true;
+  }
+  const Affined* get() const { return present ? &value : nullptr; }
+};
+
+// Whether `materials` holds one id for all n primitives (false) or one each (true).
+bool perPrimitive(const IdArray& materials, size_t n) {
+  if (materials.size() == 1) return false;
+  if (materials.size() != py::ssize_t(n)) throw py::value_error("material must be one id or N ids");
+  return true;
+}
 Triple triple(const Vec3d& v) { return {v.x, v.y, v.z}; }
 
 Precision precisionNamed(const std::string& name) {
@@ -269,23 +292,58 @@ PYBIND11_MODULE(_core, m) {
            py::arg("transparent"), py::arg("ior"))
       .def(
           "add_spheres",
-          [](Scene& s, const DoubleArray& centers, const DoubleArray& radii, const IdArray& materials) {
+          [](Scene& s, const DoubleArray& centers, const DoubleArray& radii, const IdArray& materials,
+             const std::optional<DoubleArray>& transform) {
             const size_t n = static_cast<size_t>(radii.size());
             if (centers.size() != py::ssize_t(3 * n)) throw py::value_error("centers must have shape (N, 3)");
-            const bool perSphere = materials.size() != 1;
-            if (perSphere && materials.size() != py::ssize_t(n)) throw py::value_error("material must be one id or N ids");
-            return s.addSpheres(centers.data(), radii.data(), materials.data(), n, perSphere);
+            const bool each = perPrimitive(materials, n);
+            return s.addSpheres(centers.data(), radii.data(), materials.data(), n, each, OptionalAffine(transform).get());
           },
-          py::arg("centers"), py::arg("radii"), py::arg("materials"))
+          py::arg("centers"), py::arg("radii"), py::arg("materials"), py::arg("transform"))
       .def(
           "add_plane",
           [](Scene& s, const Triple& normal, double offset, int32_t material,
-             const std::optional<std::array<Triple, 3>>& bounds) {
-            if (!bounds) return s.addPlane(vec(normal), offset, material, nullptr);
+             const std::optional<std::array<Triple, 3>>& bounds, const std::optional<DoubleArray>& transform) {
+            const OptionalAffine m(transform);
+            if (!bounds) return s.addPlane(vec(normal), offset, material, nullptr, m.get());
             const PlaneBounds b{vec((*bounds)[0]), vec((*bounds)[1]), vec((*bounds)[2])};
-            return s.addPlane(vec(normal), offset, material, &b);
+            return s.addPlane(vec(normal), offset, material, &b, m.get());
           },
-          py::arg("normal"), py::arg("offset"), py::arg("material"), py::arg("bounds"))
+          py::arg("normal"), py::arg("offset"), py::arg("material"), py::arg("bounds"), py::arg("transform"))
+      .def(
+          "add_triangles",
+          [](Scene& s, const DoubleArray& vertices, const IdArray& materials, const std::optional<DoubleArray>& transform) {
+            if (vertices.ndim() != 3 || vertices.shape(1) != 3 || vertices.shape(2) != 3) {
+              throw py::value_error("vertices must have shape (N, 3, 3)");
+            }
+            const size_t n = static_cast<size_t>(vertices.shape(0));
+            const bool each = perPrimitive(materials, n);
+            return s.addTriangles(vertices.data(), materials.data(), n, each, OptionalAffine(transform).get());
+          },
+          py::arg("vertices"), py::arg("materials"), py::arg("transform"))
+      .def(
+          "add_mesh",
+          [](Scene& s, const DoubleArray& vertices, const IndexArray& faces, int32_t material,
+             const std::optional<DoubleArray>& transform) {
+            if (vertices.ndim() != 2 || vertices.shape(1) != 3) throw py::value_error("vertices must have shape (V, 3)");
+            if (faces.ndim() != 2 || faces.shape(1) != 3) throw py::value_error("faces must have shape (F, 3)");
+            return s.addMesh(vertices.data(), static_cast<size_t>(vertices.shape(0)), faces.data(),
+                             static_cast<size_t>(faces.shape(0)), material, OptionalAffine(transform).get());
+          },
+          py::arg("vertices"), py::arg("faces"), py::arg("material"), py::arg("transform"))
+      .def(
+          "add_boxes",
+          [](Scene& s, const DoubleArray& lo, const DoubleArray& hi, const IdArray& materials,
+             const std::optional<DoubleArray>& transform) {
+            if (lo.ndim() != 2 || lo.shape(1) != 3) throw py::value_error("lo must have shape (N, 3)");
+            if (hi.ndim() != 2 || hi.shape(1) != 3 || hi.shape(0) != lo.shape(0)) {
+              throw py::value_error("hi must have the shape of lo, (N, 3)");
+            }
+            const size_t n = static_cast<size_t>(lo.shape(0));
+            const bool each = perPrimitive(materials, n);
+            return s.addBoxes(lo.data(), hi.data(), materials.data(), n, each, OptionalAffine(transform).get());
+          },
+          py::arg("lo"), py::arg("hi"), py::arg("materials"), py::arg("transform"))
       .def("add_directional_light",
            [](Scene& s, const Triple& d, const Triple& c, bool shadows) { s.addDirectionalLight(vec(d), vec(c), shadows); })
       .def("add_point_light",
@@ -319,8 +377,11 @@ PYBIND11_MODULE(_core, m) {
       .def_property(
           "ambient", [](const Scene& s) { return triple(s.ambient()); },
           [](Scene& s, const Triple& a) { s.setAmbient(vec(a)); })
-      .def_property_readonly("sphere_count", [](const Scene& s) { return s.group().spheres().size(); })
-      .def_property_readonly("plane_count", [](const Scene& s) { return s.group().planes().size(); })
+      .def_property_readonly("sphere_count", [](const Scene& s) { return s.group().counts().spheres; })
+      .def_property_readonly("plane_count", [](const Scene& s) { return s.group().counts().planes; })
+      .def_property_readonly("triangle_count", [](const Scene& s) { return s.group().counts().triangles; })
+      .def_property_readonly("box_count", [](const Scene& s) { return s.group().counts().boxes; })
+      .def_property_readonly("transform_count", [](const Scene& s) { return s.group().counts().instances; })
       .def_property_readonly("material_count", [](const Scene& s) { return s.materials().size(); })
       .def_property_readonly("object_count", &Scene::objectCount)
       .def_property_readonly("light_count", [](const Scene& s) {

@@ -136,10 +136,7 @@ class TileRenderer {
       b.push_back(static_cast<Real>(bg.b));
       a.push_back(static_cast<Real>(bg.a));
       primMaterial.push_back(static_cast<int32_t>(scene.materials().size()));
-      const auto& sm = group.spheres().ids().materials();
-      const auto& pm = group.planes().ids().materials();
-      primMaterial.insert(primMaterial.end(), sm.begin(), sm.end());
-      primMaterial.insert(primMaterial.end(), pm.begin(), pm.end());
+      group.appendMaterials(primMaterial);
     }
   };
 
@@ -243,8 +240,8 @@ class TileRenderer {
     }
   }
 
-  // Normals of the packet's hits, branch-free over the spheres (so the loop vectorises, gathers and
-  // all), then the few plane hits.
+  // Normals of the packet's hits, branch-free over the spheres of the top-level group (so the loop
+  // vectorises, gathers and all), then the other hits through their hit records.
   void accumulateNormals(const RayPacket<Real>& packet, Accumulator& acc) const {
     const SphereSet<Real>& spheres = m_group.spheres();
     const int32_t sphereCount = static_cast<int32_t>(spheres.size());
@@ -269,7 +266,7 @@ class TileRenderer {
     }
     for (int k = 0; k < packet.count; ++k) {
       if (packet.prim[k] < sphereCount) continue;
-      Vec3<Real> n = m_group.planes().plane(static_cast<size_t>(packet.prim[k] - sphereCount)).normal;
+      Vec3<Real> n = m_group.hit(packet, k).normal;
       if (m_shadeBack && glm::dot(n, Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k])) > 0) n = -n;
       acc.nx[k] += n.x;
       acc.ny[k] += n.y;

@@ -1,6 +1,8 @@
 #include "durer/Scene.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <string>
 #include <type_traits>
@@ -35,8 +37,6 @@ std::unique_lock<std::mutex> Scene::changeGeometry() {
 
 template <typename Real>
 std::shared_ptr<const Group<Real>> Scene::prepared() const {
-  // Below this many spheres a packet tests them all faster than it walks a hierarchy.
-  constexpr size_t kBvhMinSpheres = 16;
   std::lock_guard<std::mutex> lock(m_preparedMutex);
   auto& cached = [this]() -> std::shared_ptr<const Group<Real>>& {
     if constexpr (std::is_same_v<Real, float>) return m_preparedFloat;
@@ -44,7 +44,7 @@ std::shared_ptr<const Group<Real>> Scene::prepared() const {
   }();
   if (!cached) {
     auto group = std::make_shared<Group<Real>>(m_group);
-    if (group->spheres().size() >= kBvhMinSpheres) group->spheres().buildBvh();
+    group->prepare();
     cached = std::move(group);
   }
   return cached;
@@ -76,24 +76,21 @@ int32_t Scene::addMaterial(const Material& material) {
 }
 
 int32_t Scene::addSpheres(const double* centers, const double* radii, const int32_t* materials, size_t count,
-                          bool perSphere) {
+                          bool perSphere, const Affined* worldFromObject) {
   // Validate everything before changing anything.
+  requireTransform(worldFromObject);
   for (size_t i = 0; i < count; ++i) {
     const Vec3d c(centers[3 * i], centers[3 * i + 1], centers[3 * i + 2]);
     if (!(std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z))) {
       requireFinite(c, "centers[" + std::to_string(i) + "]");
     }
     if (!(std::isfinite(radii[i]) && radii[i] > 0)) requirePositive(radii[i], "radii[" + std::to_string(i) + "]");
-    if (perSphere || i == 0) {
-      const int32_t m = materials[perSphere ? i : 0];
-      if (m < 0 || static_cast<size_t>(m) >= m_materials.size()) {
-        requireMaterial(m, perSphere ? ("material[" + std::to_string(i) + "]").c_str() : "material");
-      }
-    }
   }
+  requireMaterials(materials, count, perSphere);
+  requirePrimitiveRoom(count);
   const int32_t first = takeObjectIds(count);
   const auto lock = changeGeometry();
-  SphereSet<double>& spheres = m_group.spheres();
+  SphereSet<double>& spheres = groupFor(worldFromObject).spheres();
   spheres.reserve(spheres.size() + count);
   for (size_t i = 0; i < count; ++i) {
     const Vec3d c(centers[3 * i], centers[3 * i + 1], centers[3 * i + 2]);
@@ -102,7 +99,9 @@ int32_t Scene::addSpheres(const double* centers, const double* radii, const int3
   return first;
 }
 
-int32_t Scene::addPlane(const Vec3d& normal, double offset, int32_t material, const PlaneBounds* bounds) {
+int32_t Scene::addPlane(const Vec3d& normal, double offset, int32_t material, const PlaneBounds* bounds,
+                        const Affined* worldFromObject) {
+  requireTransform(worldFromObject);
   requireNonZero(normal, "normal");
   requireFinite(offset, "offset");
   requireMaterial(material, "material");
@@ -135,10 +134,139 @@ int32_t Scene::addPlane(const Vec3d& normal, double offset, int32_t material, co
     requireFinite(plane.dual1, "bounds edge1 (too long or too short)");
     requireFinite(plane.dual2, "bounds edge2 (too long or too short)");
   }
+  requirePrimitiveRoom(1);
   const int32_t id = takeObjectIds(1);
   const auto lock = changeGeometry();
-  m_group.planes().add(plane, material, id);
+  groupFor(worldFromObject).planes().add(plane, material, id);
   return id;
+}
+
+namespace {
+Triangle<double> makeTriangle(const Vec3d& v0, const Vec3d& v1, const Vec3d& v2) {
+  const Vec3d n = glm::cross(v1 - v0, v2 - v0);
+  const double largest = std::fmax(std::fabs(n.x), std::fmax(std::fabs(n.y), std::fabs(n.z)));
+  // A degenerate triangle keeps a zero normal: its test never reports a hit, so it is never read.
+  const Vec3d unit = largest > 0 && std::isfinite(largest) ? safeNormalize(n) : Vec3d(0);
+  return {v0, v1, v2, unit};
+}
+
+Vec3d vec3At(const double* p, size_t i) { return Vec3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]); }
+}  // namespace
+
+int32_t Scene::addTriangles(const double* vertices, const int32_t* materials, size_t count, bool perTriangle,
+                            const Affined* worldFromObject) {
+  requireTransform(worldFromObject);
+  for (size_t i = 0; i < 3 * count; ++i) {
+    const Vec3d v = vec3At(vertices, i);
+    if (!(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z))) {
+      requireFinite(v, "vertices[" + std::to_string(i / 3) + "][" + std::to_string(i % 3) + "]");
+    }
+  }
+  requireMaterials(materials, count, perTriangle);
+  requirePrimitiveRoom(count);
+  const int32_t first = takeObjectIds(count);
+  const auto lock = changeGeometry();
+  TriangleSet<double>& triangles = groupFor(worldFromObject).triangles();
+  triangles.reserve(triangles.size() + count);
+  for (size_t i = 0; i < count; ++i) {
+    triangles.add(makeTriangle(vec3At(vertices, 3 * i), vec3At(vertices, 3 * i + 1), vec3At(vertices, 3 * i + 2)),
+                  materials[perTriangle ? i : 0], first + static_cast<int32_t>(i));
+  }
+  return first;
+}
+
+int32_t Scene::addMesh(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount,
+                       int32_t material, const Affined* worldFromObject) {
+  requireTransform(worldFromObject);
+  for (size_t i = 0; i < vertexCount; ++i) {
+    const Vec3d v = vec3At(vertices, i);
+    if (!(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z))) {
+      requireFinite(v, "vertices[" + std::to_string(i) + "]");
+    }
+  }
+  for (size_t i = 0; i < 3 * faceCount; ++i) {
+    if (faces[i] < 0 || static_cast<uint64_t>(faces[i]) >= vertexCount) {
+      fail("faces[" + std::to_string(i / 3) + "][" + std::to_string(i % 3) + "] = " + std::to_string(faces[i]) +
+           " is not a vertex index (the mesh has " + std::to_string(vertexCount) + " vertices)");
+    }
+  }
+  requireMaterial(material, "material");
+  requirePrimitiveRoom(faceCount);
+  const int32_t id = takeObjectIds(1);
+  const auto lock = changeGeometry();
+  TriangleSet<double>& triangles = groupFor(worldFromObject).triangles();
+  triangles.reserve(triangles.size() + faceCount);
+  for (size_t f = 0; f < faceCount; ++f) {
+    const int64_t* face = faces + 3 * f;
+    triangles.add(makeTriangle(vec3At(vertices, static_cast<size_t>(face[0])), vec3At(vertices, static_cast<size_t>(face[1])),
+                               vec3At(vertices, static_cast<size_t>(face[2]))),
+                  material, id);
+  }
+  return id;
+}
+
+int32_t Scene::addBoxes(const double* lo, const double* hi, const int32_t* materials, size_t count, bool perBox,
+                        const Affined* worldFromObject) {
+  requireTransform(worldFromObject);
+  for (size_t i = 0; i < count; ++i) {
+    const Vec3d a = vec3At(lo, i), b = vec3At(hi, i);
+    requireFinite(a, "lo[" + std::to_string(i) + "]");
+    requireFinite(b, "hi[" + std::to_string(i) + "]");
+    if (!(a.x < b.x && a.y < b.y && a.z < b.z)) {
+      fail("lo[" + std::to_string(i) + "] must be < hi[" + std::to_string(i) + "] in every axis");
+    }
+  }
+  requireMaterials(materials, count, perBox);
+  requirePrimitiveRoom(count);
+  const int32_t first = takeObjectIds(count);
+  const auto lock = changeGeometry();
+  BoxSet<double>& boxes = groupFor(worldFromObject).boxes();
+  for (size_t i = 0; i < count; ++i) {
+    boxes.add({vec3At(lo, i), vec3At(hi, i)}, materials[perBox ? i : 0], first + static_cast<int32_t>(i));
+  }
+  return first;
+}
+
+void Scene::requireMaterials(const int32_t* materials, size_t count, bool perPrimitive) const {
+  for (size_t i = 0; i < (perPrimitive ? count : std::min<size_t>(count, 1)); ++i) {
+    const int32_t m = materials[i];
+    if (m < 0 || static_cast<size_t>(m) >= m_materials.size()) {
+      requireMaterial(m, perPrimitive ? ("material[" + std::to_string(i) + "]").c_str() : "material");
+    }
+  }
+}
+
+void Scene::requirePrimitiveRoom(size_t count) const {
+  // Packed primitive indices are int32 (RayPacket::prim).
+  if (count > static_cast<size_t>(std::numeric_limits<int32_t>::max()) - m_group.primitiveCount()) {
+    fail("the scene cannot hold more than 2^31 - 1 primitives");
+  }
+}
+
+void Scene::requireTransform(const Affined* m) {
+  if (!m) return;
+  for (int i = 0; i < 3; ++i) {
+    const Vec3d row(m->row[i]);
+    if (!(std::isfinite(row.x) && std::isfinite(row.y) && std::isfinite(row.z) && std::isfinite(m->offset[i]))) {
+      fail("transform must be finite");
+    }
+  }
+  // Invertible, judged scale-free: |det| against its Hadamard bound, the product of the row lengths
+  // (their ratio is 1 for any rotation or axis scale, 0 for a singular map).
+  const double bound = glm::length(m->row[0]) * glm::length(m->row[1]) * glm::length(m->row[2]);
+  constexpr double kMinRelativeDeterminant = 1e-12;
+  if (!(std::fabs(m->determinant()) > kMinRelativeDeterminant * bound)) {
+    fail("transform must be invertible (its 3x3 part is singular)");
+  }
+  const Affined inv = inverse(*m);
+  for (int i = 0; i < 3; ++i) {
+    if (!std::isfinite(glm::dot(inv.row[i], Vec3d(1)) + inv.offset[i])) fail("transform's inverse is not finite");
+  }
+}
+
+Group<double>& Scene::groupFor(const Affined* m) {
+  if (!m || m->isIdentity()) return m_group;
+  return m_group.transformed(*m, inverse(*m));
 }
 
 void Scene::addDirectionalLight(const Vec3d& direction, const Vec3d& color, bool shadows) {

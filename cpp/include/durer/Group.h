@@ -1,46 +1,275 @@
 #pragma once
+#include <algorithm>
+#include <array>
 #include <atomic>
 #include <cstdint>
+#include <limits>
+#include <map>
+#include <memory>
+#include <vector>
 
+#include "durer/Affine.h"
+#include "durer/BoxSet.h"
+#include "durer/Bvh.h"
 #include "durer/PlaneSet.h"
 #include "durer/SphereSet.h"
+#include "durer/TriangleSet.h"
 
 namespace durer {
 
-// A group of objects, one contiguous set per primitive kind (no virtual call per primitive per ray).
-// A scene's geometry is a group. Packed primitive index: [0, spheres) spheres, then planes.
+template <typename Real>
+class Group;
+
+// A group seen through an affine map: rays go into object space by objectFromWorld (origin as a
+// point, direction as a vector, not renormalised, so t is the same number in both frames and stays
+// in world units), normals come back by the inverse transpose. A scaled sphere is an ellipsoid.
+template <typename Real>
+struct Instance {
+  Affine<Real> worldFromObject;
+  Affine<Real> objectFromWorld;
+  std::unique_ptr<Group<Real>> child;  // no instances of its own: nested transforms are composed
+  int32_t primBase = 0;                // packed index of the child's first primitive in the parent
+  bool bounded = false;                // whether [lo, hi] holds everything (no infinite plane)
+  Vec3<Real> lo{0}, hi{0};             // world-space bounds, widened for rounding
+
+  // The packet's rays in object space; hits still to beat: the world packet's.
+  void toObject(const RayPacket<Real>& world, RayPacket<Real>& local) const {
+    local.count = world.count;
+    local.tMin = world.tMin;
+    local.tMax = world.tMax;
+    local.commonOrigin = world.commonOrigin;  // the same origin maps to the same point
+    const Affine<Real>& m = objectFromWorld;
+    for (int k = 0; k < world.count; ++k) {
+      const Real ox = world.ox[k], oy = world.oy[k], oz = world.oz[k];
+      const Real dx = world.dx[k], dy = world.dy[k], dz = world.dz[k];
+      local.ox[k] = m.pointX(ox, oy, oz), local.oy[k] = m.pointY(ox, oy, oz), local.oz[k] = m.pointZ(ox, oy, oz);
+      local.dx[k] = m.vectorX(dx, dy, dz), local.dy[k] = m.vectorY(dx, dy, dz), local.dz[k] = m.vectorZ(dx, dy, dz);
+      local.tHit[k] = world.tHit[k];
+      local.prim[k] = kNoPrimitive;
+    }
+  }
+};
+
+struct PrimitiveCounts {
+  size_t spheres = 0, planes = 0, triangles = 0, boxes = 0, instances = 0;
+};
+
+// A group of objects, one contiguous set per primitive kind (no virtual call per primitive per ray),
+// plus transformed groups. A scene's geometry is a group. Packed primitive index: [0, spheres)
+// spheres, then planes, triangles, boxes, then each instance's primitives in turn.
 template <typename Real>
 class Group {
  public:
   Group() = default;
+  Group(const Group& other) { assign(other); }
   template <typename Other>
-  explicit Group(const Group<Other>& other) : m_spheres(other.spheres()), m_planes(other.planes()) {}
+  explicit Group(const Group<Other>& other) {
+    assign(other);
+  }
+  Group& operator=(const Group&) = delete;
 
   SphereSet<Real>& spheres() { return m_spheres; }
   const SphereSet<Real>& spheres() const { return m_spheres; }
   PlaneSet<Real>& planes() { return m_planes; }
   const PlaneSet<Real>& planes() const { return m_planes; }
+  TriangleSet<Real>& triangles() { return m_triangles; }
+  const TriangleSet<Real>& triangles() const { return m_triangles; }
+  BoxSet<Real>& boxes() { return m_boxes; }
+  const BoxSet<Real>& boxes() const { return m_boxes; }
+  const std::vector<Instance<Real>>& instances() const { return m_instances; }
+
+  // The group that objects seen through worldFromObject go into (made on first use; one per map,
+  // so that objects sharing a transform share its hierarchy). objectFromWorld: its inverse.
+  Group& transformed(const Affine<Real>& worldFromObject, const Affine<Real>& objectFromWorld) {
+    const auto key = keyOf(worldFromObject);
+    const auto found = m_instanceOf.find(key);
+    if (found != m_instanceOf.end()) return *m_instances[found->second].child;
+    m_instanceOf.emplace(key, m_instances.size());
+    Instance<Real> instance;
+    instance.worldFromObject = worldFromObject;
+    instance.objectFromWorld = objectFromWorld;
+    instance.child = std::make_unique<Group>();
+    m_instances.push_back(std::move(instance));
+    return *m_instances.back().child;
+  }
+
+  size_t ownPrimitiveCount() const {
+    return m_spheres.size() + m_planes.size() + m_triangles.size() + m_boxes.size();
+  }
+  size_t primitiveCount() const {
+    size_t n = ownPrimitiveCount();
+    for (const Instance<Real>& inst : m_instances) n += inst.child->primitiveCount();
+    return n;
+  }
+  PrimitiveCounts counts() const {
+    PrimitiveCounts c{m_spheres.size(), m_planes.size(), m_triangles.size(), m_boxes.size(), m_instances.size()};
+    for (const Instance<Real>& inst : m_instances) {
+      const PrimitiveCounts d = inst.child->counts();
+      c.spheres += d.spheres, c.planes += d.planes, c.triangles += d.triangles, c.boxes += d.boxes;
+    }
+    return c;
+  }
+
+  // Ready for tracing: hierarchies where they pay, the instances' packed ranges and world bounds.
+  void prepare() {
+    // Below this many primitives a packet tests them all faster than it walks a hierarchy.
+    constexpr size_t kBvhMinPrimitives = 16;
+    if (m_spheres.size() >= kBvhMinPrimitives) m_spheres.buildBvh();
+    if (m_triangles.size() >= kBvhMinPrimitives) m_triangles.buildBvh();
+    if (m_boxes.size() >= kBvhMinPrimitives) m_boxes.buildBvh();
+    size_t base = ownPrimitiveCount();
+    for (Instance<Real>& inst : m_instances) {
+      inst.child->prepare();
+      inst.primBase = static_cast<int32_t>(base);
+      base += inst.child->primitiveCount();
+      inst.bounded = inst.child->worldBounds(inst.worldFromObject, inst.lo, inst.hi);
+    }
+  }
 
   // The cheap t-only search for each ray's closest primitive; returns the ray-primitive tests made.
   template <SphereMethod M>
   int64_t intersect(RayPacket<Real>& packet, const std::atomic<bool>* cancel) const {
     packet.resetHits();
-    return m_spheres.template intersect<M>(packet, 0, cancel) +
-           m_planes.intersect(packet, static_cast<int32_t>(m_spheres.size()));
+    return search<M>(packet, 0, cancel);
+  }
+
+  // Lowers each ray's tHit to its closest hit among this group's primitives, recorded as
+  // primBase + their packed index.
+  template <SphereMethod M>
+  int64_t search(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
+    int32_t base = primBase;
+    int64_t tests = m_spheres.template intersect<M>(packet, base, cancel);
+    base += static_cast<int32_t>(m_spheres.size());
+    tests += m_planes.intersect(packet, base);
+    base += static_cast<int32_t>(m_planes.size());
+    tests += m_triangles.intersect(packet, base, cancel);
+    base += static_cast<int32_t>(m_triangles.size());
+    tests += m_boxes.intersect(packet, base, cancel);
+    if (!m_instances.empty()) tests += searchInstances<M>(packet, primBase, cancel);
+    return tests;
   }
 
   // The full hit record of ray k, once its search is over (a miss gives the default record).
   Hit<Real> hit(const RayPacket<Real>& packet, int k) const {
     const int32_t prim = packet.prim[k];
     if (prim == kNoPrimitive) return Hit<Real>{};
-    const size_t index = static_cast<size_t>(prim);
+    size_t index = static_cast<size_t>(prim);
     if (index < m_spheres.size()) return m_spheres.hit(packet, k, index);
-    return m_planes.hit(packet, k, index - m_spheres.size());
+    index -= m_spheres.size();
+    if (index < m_planes.size()) return m_planes.hit(packet, k, index);
+    index -= m_planes.size();
+    if (index < m_triangles.size()) return m_triangles.hit(packet, k, index);
+    index -= m_triangles.size();
+    if (index < m_boxes.size()) return m_boxes.hit(packet, k, index);
+    const auto after = std::upper_bound(m_instances.begin(), m_instances.end(), prim,
+                                        [](int32_t p, const Instance<Real>& inst) { return p < inst.primBase; });
+    return instanceHit(*(after - 1), packet, k);
+  }
+
+  // Material id of every packed primitive, in packed order.
+  void appendMaterials(std::vector<int32_t>& out) const {
+    for (const PrimitiveIds* ids : {&m_spheres.ids(), &m_planes.ids(), &m_triangles.ids(), &m_boxes.ids()}) {
+      out.insert(out.end(), ids->materials().begin(), ids->materials().end());
+    }
+    for (const Instance<Real>& inst : m_instances) inst.child->appendMaterials(out);
   }
 
  private:
+  template <typename Other>
+  friend class Group;
+
+  template <typename Other>
+  void assign(const Group<Other>& other) {
+    m_spheres = SphereSet<Real>(other.spheres());
+    m_planes = PlaneSet<Real>(other.planes());
+    m_triangles = TriangleSet<Real>(other.triangles());
+    m_boxes = BoxSet<Real>(other.boxes());
+    for (const Instance<Other>& source : other.instances()) {
+      Instance<Real> inst;
+      inst.worldFromObject = Affine<Real>::from(source.worldFromObject);
+      inst.objectFromWorld = Affine<Real>::from(source.objectFromWorld);
+      inst.child = std::make_unique<Group>(*source.child);
+      m_instanceOf.emplace(keyOf(inst.worldFromObject), m_instances.size());
+      m_instances.push_back(std::move(inst));
+    }
+  }
+
+  static std::array<Real, 12> keyOf(const Affine<Real>& m) {
+    std::array<Real, 12> key;
+    for (int i = 0; i < 3; ++i) key[4 * i] = m.row[i].x, key[4 * i + 1] = m.row[i].y, key[4 * i + 2] = m.row[i].z,
+                                key[4 * i + 3] = m.offset[i];
+    return key;
+  }
+
+  template <SphereMethod M>
+  int64_t searchInstances(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
+    const PacketInverse<Real> inv(packet);
+    int64_t tests = 0;
+    RayPacket<Real> local;
+    for (const Instance<Real>& inst : m_instances) {
+      if (inst.bounded && !Bvh<Real>::anyRayEnters(packet, inv, inst.lo, inst.hi)) continue;
+      inst.toObject(packet, local);
+      tests += inst.child->template search<M>(local, primBase + inst.primBase, cancel);
+      for (int k = 0; k < packet.count; ++k) {
+        const bool closer = local.prim[k] != kNoPrimitive;  // the child only records hits closer than tHit
+        packet.tHit[k] = closer ? local.tHit[k] : packet.tHit[k];
+        packet.prim[k] = closer ? local.prim[k] : packet.prim[k];
+      }
+    }
+    return tests;
+  }
+
+  // The child's hit record for ray k, found again in object space (the same map gives the same
+  // object-space ray, bit for bit), then brought back to world space.
+  Hit<Real> instanceHit(const Instance<Real>& inst, const RayPacket<Real>& packet, int k) const {
+    RayPacket<Real> world, local;
+    world.count = 1;
+    world.tMin = packet.tMin;
+    world.tMax = packet.tMax;
+    world.ox[0] = packet.ox[k], world.oy[0] = packet.oy[k], world.oz[0] = packet.oz[k];
+    world.dx[0] = packet.dx[k], world.dy[0] = packet.dy[k], world.dz[0] = packet.dz[k];
+    world.tHit[0] = packet.tHit[k];
+    inst.toObject(world, local);
+    local.tHit[0] = packet.tHit[k];
+    local.prim[0] = packet.prim[k] - inst.primBase;
+    Hit<Real> h = inst.child->hit(local, 0);
+    const Vec3<Real> n = inst.objectFromWorld.transposed(h.normal);
+    h.normal = n / glm::length(n);
+    h.pointError = inst.worldFromObject.pointError(h.point, h.pointError);
+    h.point = inst.worldFromObject.point(h.point);
+    return h;
+  }
+
+  // The world-space box of everything in this group seen through worldFromObject; false (no
+  // culling) if unbounded (an infinite plane), empty or not finite.
+  bool worldBounds(const Affine<Real>& worldFromObject, Vec3<Real>& lo, Vec3<Real>& hi) const {
+    if (m_planes.size() > 0) return false;
+    constexpr Real inf = std::numeric_limits<Real>::infinity();
+    Vec3<Real> objLo(inf), objHi(-inf);
+    m_spheres.bounds(objLo, objHi);
+    m_triangles.bounds(objLo, objHi);
+    m_boxes.bounds(objLo, objHi);
+    if (!(objLo.x <= objHi.x)) return false;
+    lo = Vec3<Real>(inf), hi = Vec3<Real>(-inf);
+    for (int corner = 0; corner < 8; ++corner) {
+      const Vec3<Real> c((corner & 1) ? objHi.x : objLo.x, (corner & 2) ? objHi.y : objLo.y,
+                         (corner & 4) ? objHi.z : objLo.z);
+      const Vec3<Real> p = worldFromObject.point(c);
+      lo = glm::min(lo, p), hi = glm::max(hi, p);
+    }
+    // Generous slack: the box only culls, and the object-space ray carries the map's rounding.
+    const Vec3<Real> widen = Real(1e-3) * (hi - lo) + errorGamma<Real>(32) * (glm::abs(lo) + glm::abs(hi));
+    lo -= widen, hi += widen;
+    roundOutward(lo, hi);
+    return std::isfinite(lo.x + lo.y + lo.z + hi.x + hi.y + hi.z);
+  }
+
   SphereSet<Real> m_spheres;
   PlaneSet<Real> m_planes;
+  TriangleSet<Real> m_triangles;
+  BoxSet<Real> m_boxes;
+  std::vector<Instance<Real>> m_instances;  // sorted by primBase (the order they were made)
+  std::map<std::array<Real, 12>, size_t> m_instanceOf;
 };
 
 }  // namespace durer

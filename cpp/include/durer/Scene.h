@@ -32,11 +32,25 @@ class Scene {
   Scene();  // material 0 is the default material (diffuse 0.8 grey, Blender's default)
 
   int32_t addMaterial(const Material& material);
+
+  // Every geometry add takes worldFromObject: null (or the identity) puts the objects in world space;
+  // an invertible affine map puts them in the transformed group of that map (see Instance in Group.h).
+  // Object ids are returned for the first object; the others follow consecutively.
+
   // centers: count x 3 doubles; radii: count doubles; materials: count ids, or one id if !perSphere.
-  // Returns the object id of the first sphere; the others follow consecutively.
   int32_t addSpheres(const double* centers, const double* radii, const int32_t* materials, size_t count,
-                     bool perSphere);
-  int32_t addPlane(const Vec3d& normal, double offset, int32_t material, const PlaneBounds* bounds);
+                     bool perSphere, const Affined* worldFromObject = nullptr);
+  int32_t addPlane(const Vec3d& normal, double offset, int32_t material, const PlaneBounds* bounds,
+                   const Affined* worldFromObject = nullptr);
+  // vertices: count x 3 x 3 doubles (v0, v1, v2 of each triangle); one object per triangle.
+  int32_t addTriangles(const double* vertices, const int32_t* materials, size_t count, bool perTriangle,
+                       const Affined* worldFromObject = nullptr);
+  // One object: faceCount triangles indexing vertexCount x 3 doubles by 0-based faces (faceCount x 3).
+  int32_t addMesh(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount, int32_t material,
+                  const Affined* worldFromObject = nullptr);
+  // lo, hi: count x 3 doubles, lo < hi in each axis; one object per box.
+  int32_t addBoxes(const double* lo, const double* hi, const int32_t* materials, size_t count, bool perBox,
+                   const Affined* worldFromObject = nullptr);
   void addDirectionalLight(const Vec3d& direction, const Vec3d& color, bool shadows);
   void addPointLight(const PointLight& light);
   void addSpotLight(const SpotLight& light);  // light.direction need not be unit
@@ -63,7 +77,12 @@ class Scene {
 
  private:
   void requireMaterial(int32_t material, const char* field) const;
+  void requireMaterials(const int32_t* materials, size_t count, bool perPrimitive) const;
+  void requirePrimitiveRoom(size_t count) const;
   int32_t takeObjectIds(size_t count);
+  // The group objects seen through worldFromObject go into (validated first); the world if null or identity.
+  Group<double>& groupFor(const Affined* worldFromObject);
+  static void requireTransform(const Affined* worldFromObject);
 
   // Drops the prepared geometry and holds the lock while the caller changes m_group.
   std::unique_lock<std::mutex> changeGeometry();

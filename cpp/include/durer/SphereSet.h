@@ -9,7 +9,7 @@
 #include "durer/PrimitiveIds.h"
 #include "durer/RayOffset.h"
 #include "durer/RayPacket.h"
-#include "durer/SphereBvh.h"
+#include "durer/Bvh.h"
 #include "durer/SphereIntersection.h"
 #include "durer/Vec.h"
 
@@ -52,14 +52,25 @@ class SphereSet {
   // Builds the bounding-volume hierarchy (and reorders the spheres and their ids to its order);
   // worth it above a few dozen spheres, after which intersect() traverses it.
   void buildBvh() {
-    std::vector<Vec3<Real>> centers(m_spheres.size());
-    std::vector<Real> radii(m_spheres.size());
-    for (size_t i = 0; i < m_spheres.size(); ++i) centers[i] = m_spheres[i].center, radii[i] = m_spheres[i].radius;
-    const std::vector<uint32_t> order = m_bvh.build(centers, radii);
+    std::vector<Vec3<Real>> lo(m_spheres.size()), hi(m_spheres.size());
+    for (size_t i = 0; i < m_spheres.size(); ++i) {
+      lo[i] = m_spheres[i].center - m_spheres[i].radius;
+      hi[i] = m_spheres[i].center + m_spheres[i].radius;
+      roundOutward(lo[i], hi[i]);
+    }
+    const std::vector<uint32_t> order = m_bvh.build(std::move(lo), std::move(hi));
     std::vector<Sphere<Real>> sorted(m_spheres.size());
     for (size_t i = 0; i < order.size(); ++i) sorted[i] = m_spheres[order[i]];
     m_spheres.swap(sorted);
     m_ids.permute(order);
+  }
+
+  // Grows [lo, hi] to hold every sphere (the bounds of a transformed group).
+  void bounds(Vec3<Real>& lo, Vec3<Real>& hi) const {
+    for (const Sphere<Real>& s : m_spheres) {
+      lo = glm::min(lo, s.center - s.radius);
+      hi = glm::max(hi, s.center + s.radius);
+    }
   }
 
   // Lowers each ray's tHit to its closest sphere hit in [tMin, tHit); sphere i is recorded as
@@ -80,31 +91,9 @@ class SphereSet {
       }
       return visited * packet.count;
     }
-    alignas(64) Real invX[kPacketSize], invY[kPacketSize], invZ[kPacketSize];
-    for (int k = 0; k < packet.count; ++k) {
-      invX[k] = 1 / packet.dx[k], invY[k] = 1 / packet.dy[k], invZ[k] = 1 / packet.dz[k];
-    }
-    int32_t stack[128];
-    int top = 0;
-    stack[top++] = 0;
-    for (size_t visits = 1; top > 0; ++visits) {
-      if ((visits & kCancelStride) == 0 && cancel && cancel->load(std::memory_order_relaxed)) break;
-      const int32_t index = stack[--top];
-      const BvhNode<Real>& node = m_bvh.node(index);
-      if (!SphereBvh<Real>::anyRayEnters(packet, invX, invY, invZ, node)) continue;
-      if (node.count > 0) {
-        for (int32_t i = node.first; i < node.first + node.count; ++i) {
-          intersectOne<M>(packet, terms, static_cast<size_t>(i), primBase);
-        }
-        visited += node.count;
-        continue;
-      }
-      // Near child first (judged by the first ray), so tHit shrinks early and prunes the far one.
-      const Real along = node.axis == 0 ? packet.dx[0] : node.axis == 1 ? packet.dy[0] : packet.dz[0];
-      const int32_t first = index + 1, second = node.first;
-      stack[top++] = along > 0 ? second : first;
-      stack[top++] = along > 0 ? first : second;
-    }
+    visited = m_bvh.traverse(packet, cancel, [&](int32_t first, int32_t count) {
+      for (int32_t i = first; i < first + count; ++i) intersectOne<M>(packet, terms, static_cast<size_t>(i), primBase);
+    });
     return visited * packet.count;
   }
 
@@ -181,11 +170,11 @@ class SphereSet {
   }
 
  private:
-  static constexpr size_t kCancelStride = 4095;  // a cancel check per 4096 visits: well under a millisecond
+  static constexpr size_t kCancelStride = Bvh<Real>::kCancelStride;
 
   std::vector<Sphere<Real>> m_spheres;
   PrimitiveIds m_ids;
-  SphereBvh<Real> m_bvh;  // empty: brute force
+  Bvh<Real> m_bvh;  // empty: brute force
 };
 
 }  // namespace durer

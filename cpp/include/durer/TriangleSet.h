@@ -1,0 +1,211 @@
+#pragma once
+// Triangles, one contiguous set per group (single triangles and the faces of meshes alike), with the
+// watertight ray-triangle test of Woop, Benthin & Wald (JCGT 2013): each ray is sheared and scaled so
+// that it runs along +z from the origin, and the triangle's 2D edge functions U, V, W decide the hit.
+// An edge shared by two triangles gets exactly opposite edge functions in both (a·b − c·d rounds to
+// the negation of c·d − a·b), and 0 counts as inside, so a ray through a shared edge or vertex hits
+// at least one of them: no cracks. Degenerate triangles (U + V + W = 0) miss; nothing yields NaN.
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <type_traits>
+#include <utility>
+#include <limits>
+#include <vector>
+
+#include "durer/Bvh.h"
+#include "durer/Hit.h"
+#include "durer/PrimitiveIds.h"
+#include "durer/RayOffset.h"
+#include "durer/RayPacket.h"
+#include "durer/Vec.h"
+
+namespace durer {
+
+template <typename Real>
+struct Triangle {
+  Vec3<Real> v0, v1, v2;  // object space (world space outside a transformed group)
+  Vec3<Real> normal;      // unit normalize((v1 − v0) × (v2 − v0)): the winding gives the side; 0 if degenerate
+};
+
+// A ray's shear into the test's frame: z is its largest direction component, x and y follow
+// (swapped when d_z < 0, so that the winding, and so U, V, W's signs, are kept).
+template <typename Real>
+struct RayShear {
+  int kx, ky, kz;
+  Real sx, sy, sz;  // d_kx / d_kz, d_ky / d_kz, 1 / d_kz
+  RayShear() = default;
+  RayShear(Real dx, Real dy, Real dz) {
+    const Real ax = std::fabs(dx), ay = std::fabs(dy), az = std::fabs(dz);
+    kz = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
+    kx = kz == 2 ? 0 : kz + 1;
+    ky = kx == 2 ? 0 : kx + 1;
+    const Real d[3] = {dx, dy, dz};
+    if (d[kz] < 0) std::swap(kx, ky);
+    sx = d[kx] / d[kz];
+    sy = d[ky] / d[kz];
+    sz = 1 / d[kz];
+  }
+};
+
+// The outcome of one ray-triangle test: t = T / det and barycentrics U/det, V/det, W/det of
+// v0, v1, v2 when `hit`.
+template <typename Real>
+struct TriangleHit {
+  bool hit = false;
+  Real t = 0;
+  Real u = 0, v = 0, w = 0, det = 0;
+};
+
+template <typename Calc, typename Real>
+TriangleHit<Calc> watertightTest(const Triangle<Real>& tri, Real ox, Real oy, Real oz, const RayShear<Calc>& s) {
+  const Calc o[3] = {ox, oy, oz};
+  const Calc a[3] = {Calc(tri.v0.x) - o[0], Calc(tri.v0.y) - o[1], Calc(tri.v0.z) - o[2]};
+  const Calc b[3] = {Calc(tri.v1.x) - o[0], Calc(tri.v1.y) - o[1], Calc(tri.v1.z) - o[2]};
+  const Calc c[3] = {Calc(tri.v2.x) - o[0], Calc(tri.v2.y) - o[1], Calc(tri.v2.z) - o[2]};
+  const Calc ax = a[s.kx] - s.sx * a[s.kz], ay = a[s.ky] - s.sy * a[s.kz];
+  const Calc bx = b[s.kx] - s.sx * b[s.kz], by = b[s.ky] - s.sy * b[s.kz];
+  const Calc cx = c[s.kx] - s.sx * c[s.kz], cy = c[s.ky] - s.sy * c[s.kz];
+  TriangleHit<Calc> h;
+  h.u = cx * by - cy * bx;  // edge v1 -> v2: weight of v0
+  h.v = ax * cy - ay * cx;  // edge v2 -> v0: weight of v1
+  h.w = bx * ay - by * ax;  // edge v0 -> v1: weight of v2
+  return h;
+}
+
+template <typename Real>
+class TriangleSet {
+ public:
+  TriangleSet() = default;
+  template <typename Other>
+  explicit TriangleSet(const TriangleSet<Other>& other) {
+    m_triangles.reserve(other.size());
+    for (size_t i = 0; i < other.size(); ++i) {
+      const auto& t = other.triangle(i);
+      m_triangles.push_back({toReal<Real>(t.v0), toReal<Real>(t.v1), toReal<Real>(t.v2), toReal<Real>(t.normal)});
+    }
+    m_ids = other.ids();
+  }
+
+  void add(const Triangle<Real>& triangle, int32_t material, int32_t objectId) {
+    m_triangles.push_back(triangle);
+    m_ids.add(material, objectId);
+  }
+  void reserve(size_t n) {
+    m_triangles.reserve(n);
+    m_ids.reserve(n);
+  }
+
+  size_t size() const { return m_triangles.size(); }
+  const Triangle<Real>& triangle(size_t i) const { return m_triangles[i]; }
+  const PrimitiveIds& ids() const { return m_ids; }
+
+  void buildBvh() {
+    std::vector<Vec3<Real>> lo(m_triangles.size()), hi(m_triangles.size());
+    for (size_t i = 0; i < m_triangles.size(); ++i) {
+      const Triangle<Real>& t = m_triangles[i];
+      lo[i] = glm::min(t.v0, glm::min(t.v1, t.v2));
+      hi[i] = glm::max(t.v0, glm::max(t.v1, t.v2));
+    }
+    const std::vector<uint32_t> order = m_bvh.build(std::move(lo), std::move(hi));
+    std::vector<Triangle<Real>> sorted(m_triangles.size());
+    for (size_t i = 0; i < order.size(); ++i) sorted[i] = m_triangles[order[i]];
+    m_triangles.swap(sorted);
+    m_ids.permute(order);
+  }
+
+  // Grows [lo, hi] to hold every triangle.
+  void bounds(Vec3<Real>& lo, Vec3<Real>& hi) const {
+    for (const Triangle<Real>& t : m_triangles) {
+      lo = glm::min(lo, glm::min(t.v0, glm::min(t.v1, t.v2)));
+      hi = glm::max(hi, glm::max(t.v0, glm::max(t.v1, t.v2)));
+    }
+  }
+
+  // Lowers each ray's tHit to its closest triangle hit in [tMin, tHit); triangle i is recorded as
+  // primBase + i. Returns the ray-triangle tests made.
+  int64_t intersect(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
+    if (m_triangles.empty()) return 0;
+    RayShear<Real> shears[kPacketSize];
+    for (int k = 0; k < packet.count; ++k) shears[k] = RayShear<Real>(packet.dx[k], packet.dy[k], packet.dz[k]);
+    const auto testRange = [&](int32_t first, int32_t count) {
+      for (int32_t i = first; i < first + count; ++i) {
+        const Triangle<Real>& tri = m_triangles[static_cast<size_t>(i)];
+        for (int k = 0; k < packet.count; ++k) {
+          const TriangleHit<Real> h = test(tri, packet.ox[k], packet.oy[k], packet.oz[k], shears[k]);
+          constexpr Real inf = std::numeric_limits<Real>::infinity();
+          const bool closer = h.hit && (h.t >= packet.tMin) & (h.t < packet.tHit[k]) & (h.t > -inf);
+          packet.tHit[k] = closer ? h.t : packet.tHit[k];
+          packet.prim[k] = closer ? primBase + i : packet.prim[k];
+        }
+      }
+    };
+    if (!m_bvh.empty()) return m_bvh.traverse(packet, cancel, testRange) * packet.count;
+    for (size_t first = 0; first < m_triangles.size(); first += kCancelBatch) {
+      if (first && cancel && cancel->load(std::memory_order_relaxed)) break;
+      testRange(static_cast<int32_t>(first), static_cast<int32_t>(std::min(kCancelBatch, m_triangles.size() - first)));
+    }
+    return static_cast<int64_t>(m_triangles.size()) * packet.count;
+  }
+
+  // Full record of ray k's hit on triangle `index` at packet.tHit[k]: the point from the
+  // barycentrics (pbrt-v4), so its error does not depend on t's.
+  Hit<Real> hit(const RayPacket<Real>& packet, int k, size_t index) const {
+    const Triangle<Real>& tri = m_triangles[index];
+    const TriangleHit<Real> h =
+        test(tri, packet.ox[k], packet.oy[k], packet.oz[k], RayShear<Real>(packet.dx[k], packet.dy[k], packet.dz[k]));
+    const Real invDet = 1 / h.det;
+    const Vec3<Real> p0 = (h.u * invDet) * tri.v0, p1 = (h.v * invDet) * tri.v1, p2 = (h.w * invDet) * tri.v2;
+    Hit<Real> out;
+    out.t = packet.tHit[k];
+    out.normal = tri.normal;
+    out.point = p0 + p1 + p2;
+    out.pointError = errorGamma<Real>(7) * (glm::abs(p0) + glm::abs(p1) + glm::abs(p2));
+    out.objectId = m_ids.objectIds()[index];
+    out.materialId = m_ids.materials()[index];
+    return out;
+  }
+
+  // One ray against one triangle. In single precision an edge function of exactly 0 is recomputed
+  // in double (the paper's fallback), so that the sign, the whole watertightness argument, is right.
+  static TriangleHit<Real> test(const Triangle<Real>& tri, Real ox, Real oy, Real oz, const RayShear<Real>& s) {
+    TriangleHit<Real> h = watertightTest<Real>(tri, ox, oy, oz, s);
+    if constexpr (std::is_same_v<Real, float>) {
+      if (h.u == 0 || h.v == 0 || h.w == 0) h = refineInDouble(tri, ox, oy, oz, s);
+    }
+    const bool outside = (h.u < 0 || h.v < 0 || h.w < 0) && (h.u > 0 || h.v > 0 || h.w > 0);
+    h.det = h.u + h.v + h.w;
+    if (outside || h.det == 0 || h.det != h.det) return h;  // h.hit stays false
+    const Real o[3] = {ox, oy, oz};
+    const Real az = s.sz * (tri.v0[s.kz] - o[s.kz]);
+    const Real bz = s.sz * (tri.v1[s.kz] - o[s.kz]);
+    const Real cz = s.sz * (tri.v2[s.kz] - o[s.kz]);
+    h.t = (h.u * az + h.v * bz + h.w * cz) / h.det;
+    h.hit = h.t == h.t;
+    return h;
+  }
+
+ private:
+  static TriangleHit<Real> refineInDouble(const Triangle<Real>& tri, Real ox, Real oy, Real oz,
+                                          const RayShear<Real>& s) {
+    RayShear<double> sd(0, 0, 1);
+    sd.kx = s.kx, sd.ky = s.ky, sd.kz = s.kz;
+    sd.sx = s.sx, sd.sy = s.sy, sd.sz = s.sz;  // the float shear, exactly: the same sheared ray
+    const TriangleHit<double> d = watertightTest<double>(tri, ox, oy, oz, sd);
+    TriangleHit<Real> h;
+    h.u = static_cast<Real>(d.u), h.v = static_cast<Real>(d.v), h.w = static_cast<Real>(d.w);
+    // A double edge function that rounds to 0 in float keeps its sign (the sign is what matters).
+    if (h.u == 0 && d.u != 0) h.u = std::copysign(std::numeric_limits<Real>::denorm_min(), static_cast<Real>(d.u));
+    if (h.v == 0 && d.v != 0) h.v = std::copysign(std::numeric_limits<Real>::denorm_min(), static_cast<Real>(d.v));
+    if (h.w == 0 && d.w != 0) h.w = std::copysign(std::numeric_limits<Real>::denorm_min(), static_cast<Real>(d.w));
+    return h;
+  }
+
+  static constexpr size_t kCancelBatch = 4096;  // triangles between cancel checks without a hierarchy
+
+  std::vector<Triangle<Real>> m_triangles;
+  PrimitiveIds m_ids;
+  Bvh<Real> m_bvh;  // empty: brute force
+};
+
+}  // namespace durer
