@@ -5,6 +5,7 @@
 // An edge shared by two triangles gets exactly opposite edge functions in both (a·b − c·d rounds to
 // the negation of c·d − a·b), and 0 counts as inside, so a ray through a shared edge or vertex hits
 // at least one of them: no cracks. Degenerate triangles (U + V + W = 0) miss; nothing yields NaN.
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
@@ -48,7 +49,7 @@ struct RayShear {
   }
 };
 
-// The outcome of one ray-triangle test: t = T / det and barycentrics U/det, V/det, W/det of
+// The outcome of one ray-triangle test: t = T / det and barycentrics u/det, v/det, w/det of
 // v0, v1, v2 when `hit`.
 template <typename Real>
 struct TriangleHit {
@@ -57,20 +58,24 @@ struct TriangleHit {
   Real u = 0, v = 0, w = 0, det = 0;
 };
 
-template <typename Calc, typename Real>
-TriangleHit<Calc> watertightTest(const Triangle<Real>& tri, Real ox, Real oy, Real oz, const RayShear<Calc>& s) {
-  const Calc o[3] = {ox, oy, oz};
-  const Calc a[3] = {Calc(tri.v0.x) - o[0], Calc(tri.v0.y) - o[1], Calc(tri.v0.z) - o[2]};
-  const Calc b[3] = {Calc(tri.v1.x) - o[0], Calc(tri.v1.y) - o[1], Calc(tri.v1.z) - o[2]};
-  const Calc c[3] = {Calc(tri.v2.x) - o[0], Calc(tri.v2.y) - o[1], Calc(tri.v2.z) - o[2]};
-  const Calc ax = a[s.kx] - s.sx * a[s.kz], ay = a[s.ky] - s.sy * a[s.kz];
-  const Calc bx = b[s.kx] - s.sx * b[s.kz], by = b[s.ky] - s.sy * b[s.kz];
-  const Calc cx = c[s.kx] - s.sx * c[s.kz], cy = c[s.ky] - s.sy * c[s.kz];
-  TriangleHit<Calc> h;
-  h.u = cx * by - cy * bx;  // edge v1 -> v2: weight of v0
-  h.v = ax * cy - ay * cx;  // edge v2 -> v0: weight of v1
-  h.w = bx * ay - by * ax;  // edge v0 -> v1: weight of v2
-  return h;
+// The 2D edge function a.x·b.y − a.y·b.x of two sheared vertices. In single precision a result of
+// exactly 0 is recomputed in double from the same float coordinates (the paper's fallback): their
+// products are exact in double, so its sign is exact; a nonzero float result already has the exact
+// sign (rounding is monotonic). The two triangles at an edge thus agree on its sign.
+template <typename Real>
+Real edgeFunction(Real ax, Real ay, Real bx, Real by) {
+  const Real e = ax * by - ay * bx;
+  if constexpr (std::is_same_v<Real, float>) {
+    if (e == 0) {
+      const double exact = double(ax) * double(by) - double(ay) * double(bx);
+      const float rounded = static_cast<float>(exact);
+      // A nonzero value below the float range keeps its sign: the sign is what decides.
+      if (rounded == 0 && exact != 0) return exact > 0 ? std::numeric_limits<float>::denorm_min()
+                                                       : -std::numeric_limits<float>::denorm_min();
+      return rounded;
+    }
+  }
+  return e;
 }
 
 template <typename Real>
@@ -127,12 +132,15 @@ class TriangleSet {
   int64_t intersect(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
     if (m_triangles.empty()) return 0;
     RayShear<Real> shears[kPacketSize];
+    // Rays that count t > 0 (secondary rays, perspective cameras) must not meet the triangle they
+    // leave: such hits need t conservatively above 0. A camera with t_min = -inf keeps every root.
+    const bool countsFromZero = packet.tMin >= 0;
     for (int k = 0; k < packet.count; ++k) shears[k] = RayShear<Real>(packet.dx[k], packet.dy[k], packet.dz[k]);
     const auto testRange = [&](int32_t first, int32_t count) {
       for (int32_t i = first; i < first + count; ++i) {
         const Triangle<Real>& tri = m_triangles[static_cast<size_t>(i)];
         for (int k = 0; k < packet.count; ++k) {
-          const TriangleHit<Real> h = test(tri, packet.ox[k], packet.oy[k], packet.oz[k], shears[k]);
+          const TriangleHit<Real> h = test(tri, packet.ox[k], packet.oy[k], packet.oz[k], shears[k], countsFromZero);
           constexpr Real inf = std::numeric_limits<Real>::infinity();
           const bool closer = h.hit && (h.t >= packet.tMin) & (h.t < packet.tHit[k]) & (h.t > -inf);
           packet.tHit[k] = closer ? h.t : packet.tHit[k];
@@ -166,41 +174,44 @@ class TriangleSet {
     return out;
   }
 
-  // One ray against one triangle. In single precision an edge function of exactly 0 is recomputed
-  // in double (the paper's fallback), so that the sign, the whole watertightness argument, is right.
-  static TriangleHit<Real> test(const Triangle<Real>& tri, Real ox, Real oy, Real oz, const RayShear<Real>& s) {
-    TriangleHit<Real> h = watertightTest<Real>(tri, ox, oy, oz, s);
-    if constexpr (std::is_same_v<Real, float>) {
-      if (h.u == 0 || h.v == 0 || h.w == 0) h = refineInDouble(tri, ox, oy, oz, s);
-    }
+  // One ray against one triangle (Woop, Benthin & Wald, section 3). With positiveT, a hit must have
+  // t above its own rounding-error bound (pbrt-v4, 4th ed. §6.8.7): a ray leaving a triangle's
+  // surface (its origin a few ulps off it) does not meet it again, however the ray is sheared.
+  static TriangleHit<Real> test(const Triangle<Real>& tri, Real ox, Real oy, Real oz, const RayShear<Real>& s,
+                                bool positiveT = false) {
+    const Real a[3] = {tri.v0.x - ox, tri.v0.y - oy, tri.v0.z - oz};
+    const Real b[3] = {tri.v1.x - ox, tri.v1.y - oy, tri.v1.z - oz};
+    const Real c[3] = {tri.v2.x - ox, tri.v2.y - oy, tri.v2.z - oz};
+    const Real ax = a[s.kx] - s.sx * a[s.kz], ay = a[s.ky] - s.sy * a[s.kz];
+    const Real bx = b[s.kx] - s.sx * b[s.kz], by = b[s.ky] - s.sy * b[s.kz];
+    const Real cx = c[s.kx] - s.sx * c[s.kz], cy = c[s.ky] - s.sy * c[s.kz];
+    TriangleHit<Real> h;
+    h.u = edgeFunction(cx, cy, bx, by);  // edge v1 -> v2: the weight of v0
+    h.v = edgeFunction(ax, ay, cx, cy);  // edge v2 -> v0: the weight of v1
+    h.w = edgeFunction(bx, by, ax, ay);  // edge v0 -> v1: the weight of v2
     const bool outside = (h.u < 0 || h.v < 0 || h.w < 0) && (h.u > 0 || h.v > 0 || h.w > 0);
     h.det = h.u + h.v + h.w;
     if (outside || h.det == 0 || h.det != h.det) return h;  // h.hit stays false
-    const Real o[3] = {ox, oy, oz};
-    const Real az = s.sz * (tri.v0[s.kz] - o[s.kz]);
-    const Real bz = s.sz * (tri.v1[s.kz] - o[s.kz]);
-    const Real cz = s.sz * (tri.v2[s.kz] - o[s.kz]);
+    const Real az = s.sz * a[s.kz], bz = s.sz * b[s.kz], cz = s.sz * c[s.kz];
     h.t = (h.u * az + h.v * bz + h.w * cz) / h.det;
     h.hit = h.t == h.t;
+    if (positiveT && h.hit) h.hit = h.t > tErrorBound(h, ax, ay, bx, by, cx, cy, az, bz, cz);
     return h;
+  }
+
+  // pbrt-v4's bound on the rounding error of t from the sheared coordinates and edge functions.
+  static Real tErrorBound(const TriangleHit<Real>& h, Real ax, Real ay, Real bx, Real by, Real cx, Real cy, Real az,
+                          Real bz, Real cz) {
+    const auto max3 = [](Real p, Real q, Real r) { return std::max(std::fabs(p), std::max(std::fabs(q), std::fabs(r))); };
+    const Real maxX = max3(ax, bx, cx), maxY = max3(ay, by, cy), maxZ = max3(az, bz, cz);
+    const Real deltaZ = errorGamma<Real>(3) * maxZ;
+    const Real deltaX = errorGamma<Real>(5) * (maxX + maxZ), deltaY = errorGamma<Real>(5) * (maxY + maxZ);
+    const Real deltaE = 2 * (errorGamma<Real>(2) * maxX * maxY + deltaY * maxX + deltaX * maxY);
+    const Real maxE = max3(h.u, h.v, h.w);
+    return 3 * (errorGamma<Real>(3) * maxE * maxZ + deltaE * maxZ + deltaZ * maxE) / std::fabs(h.det);
   }
 
  private:
-  static TriangleHit<Real> refineInDouble(const Triangle<Real>& tri, Real ox, Real oy, Real oz,
-                                          const RayShear<Real>& s) {
-    RayShear<double> sd(0, 0, 1);
-    sd.kx = s.kx, sd.ky = s.ky, sd.kz = s.kz;
-    sd.sx = s.sx, sd.sy = s.sy, sd.sz = s.sz;  // the float shear, exactly: the same sheared ray
-    const TriangleHit<double> d = watertightTest<double>(tri, ox, oy, oz, sd);
-    TriangleHit<Real> h;
-    h.u = static_cast<Real>(d.u), h.v = static_cast<Real>(d.v), h.w = static_cast<Real>(d.w);
-    // A double edge function that rounds to 0 in float keeps its sign (the sign is what matters).
-    if (h.u == 0 && d.u != 0) h.u = std::copysign(std::numeric_limits<Real>::denorm_min(), static_cast<Real>(d.u));
-    if (h.v == 0 && d.v != 0) h.v = std::copysign(std::numeric_limits<Real>::denorm_min(), static_cast<Real>(d.v));
-    if (h.w == 0 && d.w != 0) h.w = std::copysign(std::numeric_limits<Real>::denorm_min(), static_cast<Real>(d.w));
-    return h;
-  }
-
   static constexpr size_t kCancelBatch = 4096;  // triangles between cancel checks without a hierarchy
 
   std::vector<Triangle<Real>> m_triangles;

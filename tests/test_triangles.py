@@ -1,0 +1,270 @@
+"""Triangles and meshes: the watertight test (Woop, Benthin & Wald 2013) against analytic answers."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import durer
+
+
+def icosphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
+    """A closed, outward-wound unit icosphere: (V, 3) vertices and (F, 3) faces."""
+    t = (1 + math.sqrt(5)) / 2
+    vertices = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t), (0, 1, -t),
+                (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
+    faces = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4), (11, 10, 2),
+             (10, 7, 6), (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8), (3, 8, 9), (4, 9, 5), (2, 4, 11),
+             (6, 2, 10), (8, 6, 7), (9, 8, 1)]
+    vertices = [np.array(v, float) / np.linalg.norm(v) for v in vertices]
+    for _ in range(subdivisions):
+        middle: dict[tuple[int, int], int] = {}
+
+        def mid(a: int, b: int) -> int:
+            key = (min(a, b), max(a, b))
+            if key not in middle:
+                m = vertices[a] + vertices[b]
+                vertices.append(m / np.linalg.norm(m))
+                middle[key] = len(vertices) - 1
+            return middle[key]
+
+        faces = [f for a, b, c in faces for f in ((a, mid(a, b), mid(c, a)), (b, mid(b, c), mid(a, b)),
+                                                 (c, mid(c, a), mid(b, c)), (mid(a, b), mid(b, c), mid(c, a)))]
+    return np.array(vertices), np.array(faces)
+
+
+def edge_and_vertex_targets(vertices: np.ndarray, faces: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Points exactly at every vertex and on every edge (its midpoint and a random point)."""
+    edges = {tuple(sorted((f[i], f[(i + 1) % 3]))) for f in faces for i in range(3)}
+    a = vertices[[e[0] for e in edges]]
+    b = vertices[[e[1] for e in edges]]
+    s = rng.uniform(0, 1, (len(edges), 1))
+    return np.concatenate([vertices, (a + b) / 2, a + s * (b - a)])
+
+
+@pytest.mark.parametrize("subdivisions", [1, 3])
+def test_rays_at_shared_edges_and_vertices_all_hit(rng, precision, subdivisions):
+    # A closed mesh seen from outside, rays aimed at its vertices and edges from within 20° of the
+    # outward normal there (so every face at the point faces the ray: a tangent ray may rightly pass
+    # a silhouette vertex by a rounding). Each must meet the mesh; a crack would let one through.
+    vertices, faces = icosphere(subdivisions)
+    scene = durer.Scene()
+    scene.add_mesh(vertices, faces)
+    targets = np.repeat(edge_and_vertex_targets(vertices, faces, rng), 4, axis=0)
+    origins = outside_origins(targets, rng)
+    hit = durer.cast(scene, origins, targets - origins, precision=precision)
+    assert len(targets) > 1000
+    assert (hit.object_id == 0).all(), f"{(hit.object_id < 0).sum()} of {len(targets)} rays slipped through"
+    np.testing.assert_allclose(hit.t, 1.0, rtol=1e-5 if precision == "float" else 1e-12)
+
+
+def outside_origins(targets: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Origins 2 to 50 units out from points of a unit icosphere, within 20° of its outward normal."""
+    normal = targets / np.linalg.norm(targets, axis=1, keepdims=True)
+    tilt = rng.normal(size=targets.shape)
+    tilt -= np.einsum("ij,ij->i", tilt, normal)[:, None] * normal
+    tilt *= np.tan(np.radians(rng.uniform(0, 20, (len(targets), 1)))) / np.linalg.norm(tilt, axis=1, keepdims=True)
+    away = normal + tilt
+    return targets + away / np.linalg.norm(away, axis=1, keepdims=True) * rng.uniform(2, 50, (len(targets), 1))
+
+
+def grid_mesh(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A flat n x n grid of right triangles (spacing 0.1) in z = 0 wound toward +z, and the points
+    exactly at its inner vertices and at the midpoints of its edges."""
+    xs, ys = np.meshgrid(np.arange(n + 1) * 0.1, np.arange(n + 1) * 0.1, indexing="ij")
+    vertices = np.column_stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)])
+    index = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
+    a, b, c, d = index[:-1, :-1].ravel(), index[1:, :-1].ravel(), index[:-1, 1:].ravel(), index[1:, 1:].ravel()
+    faces = np.concatenate([np.column_stack([a, b, d]), np.column_stack([a, d, c])])
+    edges = np.concatenate([(vertices[a] + vertices[b]) / 2, (vertices[a] + vertices[d]) / 2,
+                            (vertices[a] + vertices[c]) / 2])
+    inner = index[1:-1, 1:-1].ravel()
+    return vertices, faces, np.concatenate([vertices[inner], edges])
+
+
+def test_rays_through_a_grid_of_shared_vertices_hit(precision):
+    # Straight down through every inner vertex and edge midpoint: each ray hits at exactly t = 1.
+    vertices, faces, targets = grid_mesh(40)
+    scene = durer.Scene()
+    scene.add_mesh(vertices, faces)
+    hit = durer.cast(scene, targets + [0.0, 0.0, 1.0], np.tile([0.0, 0.0, -1.0], (len(targets), 1)), precision=precision)
+    assert (hit.object_id == 0).all()
+    np.testing.assert_array_equal(hit.t, 1.0)
+    np.testing.assert_array_equal(hit.normal, np.tile([0.0, 0.0, 1.0], (len(targets), 1)))
+
+
+def test_textbook_float_test_leaks_where_the_watertight_one_does_not(rng):
+    # The control for the tests above: strict-inequality Möller–Trumbore in float32 lets rays through
+    # the grid's shared vertices and edges slip between its triangles, so those tests can fail.
+    vertices, faces, targets = grid_mesh(10)
+    origins = targets + rng.normal(scale=0.2, size=targets.shape) * [1, 1, 0] + [0, 0, 1]
+    directions = targets - origins
+    f32 = np.float32
+    v0, v1, v2 = (vertices[faces[:, i]].astype(f32) for i in range(3))
+    e1, e2 = v1 - v0, v2 - v0
+    leaks = 0
+    for o, d in zip(origins.astype(f32), directions.astype(f32)):
+        p = np.cross(d, e2)
+        inv = f32(1) / np.einsum("ij,ij->i", e1, p)
+        s = o - v0
+        u = np.einsum("ij,ij->i", s, p) * inv
+        q = np.cross(s, e1)
+        v = (q @ d) * inv
+        leaks += not ((u > 0) & (v > 0) & (u + v < 1) & (np.einsum("ij,ij->i", e2, q) * inv > 0)).any()
+    assert leaks > 10
+    scene = durer.Scene()
+    scene.add_mesh(vertices, faces)
+    assert (durer.cast(scene, origins, directions, precision="float").object_id == 0).all()
+
+
+def reference_hits(v0, v1, v2, origins, directions):
+    """Closest hit per ray by solving o + t·d = v0 + β·e1 + γ·e2 in double (numpy), with each
+    ray's smallest barycentric margin (how far from an edge it passes, relative)."""
+    best_t = np.full(len(origins), np.inf)
+    best = np.full(len(origins), -1)
+    margin = np.full(len(origins), np.inf)
+    for i, (a, b, c) in enumerate(zip(v0, v1, v2)):
+        m = np.stack([np.broadcast_to(b - a, directions.shape), np.broadcast_to(c - a, directions.shape), -directions], -1)
+        with np.errstate(all="ignore"):
+            beta, gamma, t = np.linalg.solve(m, (origins - a)[..., None])[..., 0].T
+        bary = np.minimum(np.minimum(beta, gamma), 1 - beta - gamma)
+        inside = bary >= 0
+        closer = inside & (t >= 0) & (t < best_t)
+        best_t[closer], best[closer] = t[closer], i
+        margin = np.minimum(margin, np.abs(bary))
+    return best_t, best, margin
+
+
+def test_random_triangles_match_the_analytic_solution(rng, precision):
+    # 200 random triangles (a hierarchy: more than 16), 3000 random rays: the closest triangle and t
+    # agree with the exact linear solve wherever a ray passes clear of every edge.
+    v0 = rng.uniform(-5, 5, (200, 3))
+    v1 = v0 + rng.normal(size=(200, 3))
+    v2 = v0 + rng.normal(size=(200, 3))
+    origins = rng.uniform(-8, 8, (3000, 3))
+    directions = rng.normal(size=(3000, 3))
+    scene = durer.Scene()
+    ids = scene.add_triangles(np.stack([v0, v1, v2], 1))
+    hit = durer.cast(scene, origins, directions, precision=precision)
+    t, best, margin = reference_hits(v0, v1, v2, origins, directions)
+    clear = margin > (1e-4 if precision == "float" else 1e-10)
+    assert clear.sum() > 2500 and 300 < (best[clear] >= 0).sum()
+    np.testing.assert_array_equal(hit.object_id[clear], np.where(best[clear] >= 0, ids[best[clear]], -1))
+    hits = clear & (best >= 0)
+    np.testing.assert_allclose(hit.t[hits], t[hits], rtol=1e-4 if precision == "float" else 1e-12)
+    normals = np.cross(v1 - v0, v2 - v0)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    np.testing.assert_allclose(hit.normal[hits], normals[best[hits]], atol=1e-6 if precision == "float" else 1e-14)
+
+
+def test_winding_gives_the_normal_and_back_faces_still_hit():
+    scene = durer.Scene()
+    scene.add_triangles([[[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 0, -1], [0, 1, -1], [1, 0, -1]]])
+    hit = durer.cast(scene, [[0.2, 0.2, 5], [0.2, 0.2, -5]], [[0, 0, -1], [0, 0, 1]])
+    np.testing.assert_array_equal(hit.object_id, [0, 1])
+    np.testing.assert_array_equal(hit.t, [5.0, 4.0])
+    np.testing.assert_array_equal(hit.normal, [[0, 0, 1], [0, 0, -1]])  # as wound, not toward the ray
+
+
+def test_degenerate_triangles_miss_without_nan(precision):
+    # Collinear, repeated and zero-size triangles beside a real one: rays at them miss, nothing is NaN.
+    scene = durer.Scene()
+    ids = scene.add_triangles([
+        [[0, 0, 0], [1, 0, 0], [2, 0, 0]],      # collinear
+        [[0, 1, 0], [0, 1, 0], [1, 1, 0]],      # a repeated vertex
+        [[3, 3, 0], [3, 3, 0], [3, 3, 0]],      # a point
+        [[10, 0, 0], [11, 0, 0], [10, 1, 0]],   # a real one
+    ])
+    origins = np.array([[1, 0, 1], [0.5, 1, 1], [3, 3, 1], [1, 0, 0], [10.2, 0.2, 1], [0.5, 1, 0]])
+    directions = np.array([[0, 0, -1], [0, 0, -1], [0, 0, -1], [1, 0, 0], [0, 0, -1], [1, 0, 0]], float)
+    hit = durer.cast(scene, origins, directions, precision=precision, t_min=-math.inf)
+    np.testing.assert_array_equal(hit.object_id, [-1, -1, -1, -1, ids[3], -1])
+    assert not np.isnan(hit.t).any() and not np.isnan(hit.normal).any()
+
+
+def test_ray_in_the_plane_of_a_triangle_misses():
+    scene = durer.Scene()
+    scene.add_triangles([[[0, 0, 0], [1, 0, 0], [0, 1, 0]]])
+    hit = durer.cast(scene, [[-1, 0.2, 0], [0.2, -1, 0]], [[1, 0, 0], [0, 1, 0]], t_min=-math.inf)
+    np.testing.assert_array_equal(hit.object_id, [-1, -1])
+
+
+def test_mesh_is_one_object_with_one_material():
+    vertices, faces = icosphere(1)
+    scene = durer.Scene()
+    red = scene.add_material((1, 0, 0))
+    first = scene.add_spheres([[5, 0, 0]], 0.5)[0]
+    mesh = scene.add_mesh(vertices, faces, red)
+    assert (first, mesh) == (0, 1) and scene.triangle_count == len(faces) and scene.object_count == 2
+    hit = durer.cast(scene, [[0, 0, 5], [0, 5, 0], [0.3, 0.1, -5]], [[0, 0, -1], [0, -1, 0], [0, 0, 1]])
+    np.testing.assert_array_equal(hit.object_id, [mesh] * 3)
+    np.testing.assert_array_equal(hit.material_id, [red] * 3)
+
+
+def test_orthographic_render_of_a_cube_mesh_is_an_exact_square():
+    # The unit cube seen along -z through a 2x2 window: pixel centres inside |x|, |y| < 1 see its
+    # front face at depth 5 - 1 = 4, the rest see nothing.
+    corners = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], float)
+    faces = np.array([[0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4],
+                      [2, 6, 3], [3, 6, 7], [0, 4, 2], [2, 4, 6], [1, 3, 5], [3, 7, 5]])
+    scene = durer.Scene()
+    scene.add_mesh(corners, faces)
+    camera = durer.OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0), size=4.0)
+    result = durer.render(scene, camera, 40, 40, passes=("depth", "normal"))
+    centres = (np.arange(40) + 0.5) / 40 * 4 - 2
+    inside = (np.abs(centres)[:, None] < 1) & (np.abs(centres)[None, :] < 1)
+    np.testing.assert_array_equal(result.depth, np.where(inside, 4.0, np.inf).astype(np.float32))
+    np.testing.assert_array_equal(result.normal[inside], np.tile([0, 0, 1], (inside.sum(), 1)))
+
+
+def test_bad_meshes_and_triangles_name_the_argument():
+    scene = durer.Scene()
+    with pytest.raises(ValueError, match=r"faces\[1\]\[2\] = 3 is not a vertex index"):
+        scene.add_mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2], [0, 1, 3]])
+    with pytest.raises(ValueError, match=r"faces\[0\]\[0\] = -1"):
+        scene.add_mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[-1, 1, 2]])
+    with pytest.raises(TypeError, match="faces must hold integer"):
+        scene.add_mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0.0, 1.0, 2.0]])
+    with pytest.raises(ValueError, match=r"faces must have shape \(F, 3\)"):
+        scene.add_mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [0, 1, 2])
+    with pytest.raises(ValueError, match=r"vertices must have shape \(N, 3\)"):
+        scene.add_mesh([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]])
+    with pytest.raises(ValueError, match="vertices must be finite"):
+        scene.add_triangles([[[0, 0, 0], [1, np.nan, 0], [0, 1, 0]]])
+    with pytest.raises(ValueError, match=r"vertices must have shape \(N, 3, 3\)"):
+        scene.add_triangles([[0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    with pytest.raises(ValueError, match="material 7 is not a material id"):
+        scene.add_mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], 7)
+    assert scene.triangle_count == 0 and scene.object_count == 0  # a failed add changes nothing
+
+
+@pytest.mark.parametrize("as_mesh", [False, True])
+def test_secondary_rays_never_meet_the_triangle_they_leave(precision, as_mesh):
+    # A floor of two triangles in y = 0 (no transform): its hit points have no rounding error across
+    # the plane, so their shadow and mirror rays start one ulp above it, while the sheared test's t
+    # carries ~1e-15 of cancellation. Without a conservative t > 0 these rays met their own triangle:
+    # speckled shadows and a mirror that saw itself.
+    floor = np.array([[-4, 0, -4], [4, 0, -4], [4, 0, 4], [-4, 0, 4]], float)
+    faces = np.array([[0, 2, 1], [0, 3, 2]])  # wound so that the normal is +y
+    scene = durer.Scene()
+    grey = scene.add_material((0.5, 0.5, 0.5))
+    mirror = scene.add_material((0, 0, 0), reflective=(1, 1, 1))
+    for material, shift in ((grey, -4.0), (mirror, 4.0)):
+        moved = floor * [0.5, 1, 1] + [shift, 0, 0]
+        if as_mesh:
+            scene.add_mesh(moved, faces, material)
+        else:
+            scene.add_triangles(moved[faces], material)
+    scene.add_directional_light((0.3, -1, 0.2), (1, 1, 1), shadows=True)
+    scene.background = (0, 0, 1)
+    camera = durer.PerspectiveCamera((0, 6, 9), (0, -0.6, -1), (0, 1, 0), fov_degrees=50)
+    result = durer.render(scene, camera, 96, 96, precision=precision, max_bounces=1)
+    grey_pixels = (result.depth < np.inf) & (result.color[..., 2] < 0.9)
+    mirror_pixels = (result.depth < np.inf) & ~grey_pixels
+    assert grey_pixels.sum() > 1000 and mirror_pixels.sum() > 1000
+    cosine = 1 / np.linalg.norm([0.3, -1, 0.2])
+    np.testing.assert_allclose(result.color[grey_pixels][:, :3], 0.5 * cosine, rtol=1e-5)  # never shadowed
+    np.testing.assert_array_equal(result.color[mirror_pixels][:, :3], [[0, 0, 1]] * mirror_pixels.sum())
+    assert result.stats["shadow_rays"] > 1000 and result.stats["reflection_rays"] > 1000
