@@ -60,7 +60,22 @@ def accuracy(argv: Sequence[str]) -> int:
     return report.main(argv)
 
 
-COMMANDS = {"demo": demo, "render": render, "extension": extension, "numerics": numerics, "accuracy": accuracy}
+def raytracer(argv: Sequence[str]) -> int:
+    """Render an MIT 6.837 scene file with the course's options (-input, -size, -output, ...; docs/6837.md)."""
+    from durer import raytracer as command
+
+    return command.main(argv)
+
+
+def gallery(argv: Sequence[str]) -> int:
+    """Render the 6.837 corpus with its official command lines into docs/gallery.md."""
+    from durer import gallery as report
+
+    return report.main(argv)
+
+
+COMMANDS = {"demo": demo, "render": render, "extension": extension, "numerics": numerics, "accuracy": accuracy,
+            "raytracer": raytracer, "gallery": gallery}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -1,0 +1,174 @@
+"""The 6.837 gallery: every official command line of the course corpus, rendered and tabulated.
+
+`python -m durer gallery [--only PATTERN] [--size N] [--output-dir docs/gallery] [--page docs/gallery.md]`
+runs each line of scenes/6837/commands.txt through the `raytracer` command in this process (inputs
+relative to the commands file, outputs as PNG thumbnails in the output folder) and writes a Markdown
+page: scene, command line, the images it writes, render time and the effect set the core chose.
+"""
+
+from __future__ import annotations
+
+import argparse
+import fnmatch
+import os
+import shlex
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from .accuracy import machine
+from .raytracer import RaytracerOptions, parse_arguments, run
+from .scene_file import SceneFileError
+
+COMMANDS = Path("scenes/6837/commands.txt")
+
+
+@dataclass
+class GalleryRow:
+    scene: str
+    command: str
+    images: list[Path] = field(default_factory=list)
+    milliseconds: float = 0.0
+    effects: tuple[str, ...] = ()
+    error: str | None = None
+
+
+class CommandLineError(ValueError):
+    """A line of the commands file that is not a valid raytracer command."""
+
+
+def command_lines(path: Path) -> list[tuple[int, str]]:
+    """(line number, text) of the commands; blank lines and `#` comments skipped."""
+    lines = []
+    for number, line in enumerate(path.read_text().splitlines(), 1):
+        if line.strip() and not line.lstrip().startswith("#"):
+            lines.append((number, line.strip()))
+    return lines
+
+
+def gallery_options(line: str, source: str, scene_folder: Path, output_dir: Path, size: int | None) -> RaytracerOptions:
+    """The raytracer options of a command line, redirected: input from the scene folder, every image
+    a PNG in `output_dir`, and an optional N×N size for quick runs."""
+    words = shlex.split(line)
+    if not words or words[0] != "raytracer":
+        raise CommandLineError(f"{source}: expected a line starting with 'raytracer', got {line!r}")
+    try:
+        options = parse_arguments(words[1:])
+    except SystemExit:  # argparse has printed the usage error
+        raise CommandLineError(f"{source}: not a valid raytracer command: {line!r}") from None
+
+    def png(path: Path) -> Path:
+        return output_dir / f"{path.stem}.png"
+
+    options = replace(options, input=scene_folder / options.input, output=png(options.output),
+                      normals=None if options.normals is None else png(options.normals),
+                      depth=None if options.depth is None else (*options.depth[:2], png(options.depth[2])))
+    if size is not None:
+        options = replace(options, width=size, height=size)
+    return options
+
+
+def render_gallery(commands: Path, output_dir: Path, only: str | None = None, size: int | None = None,
+                   log: Callable[[str], Any] = print) -> list[GalleryRow]:
+    """Run every command (whose scene name matches the glob `only`); a failing command is reported
+    in its row and the others still run."""
+    rows = []
+    for number, line in command_lines(commands):
+        options = gallery_options(line, f"{commands}:{number}", commands.parent, output_dir, size)
+        scene = options.input.stem
+        if only is not None and not fnmatch.fnmatchcase(scene, only):
+            continue
+        row = GalleryRow(scene, line)
+        try:
+            outcome = run(options, log=lambda _message: None)
+        except (SceneFileError, OSError, ValueError) as error:
+            row.error = str(error)
+            log(f"{scene}: error: {error}")
+        else:
+            row.images = outcome.images
+            row.milliseconds = outcome.result.stats["milliseconds"]
+            row.effects = tuple(outcome.result.stats["effects"])
+            log(f"{scene}: {row.milliseconds:.1f} ms, {', '.join(row.effects)}: "
+                f"{', '.join(p.name for p in row.images)}")
+        rows.append(row)
+    return rows
+
+
+def markdown(rows: list[GalleryRow], page: Path, commands: Path, command: str, seconds: float) -> str:
+    total = sum(r.milliseconds for r in rows)
+    sizes = ", ".join(sorted({_size(r) for r in rows if not r.error}))
+    parts = [
+        "# The 6.837 gallery",
+        "",
+        "Every official command line of the MIT 6.837 (Fall 2004) ray-casting assignments 1–4, as listed in "
+        f"[`{commands.as_posix()}`]({_relative(commands, page)}), run through `python -m durer raytracer` "
+        f"([docs/6837.md]({_relative(Path('docs/6837.md'), page)})). Images are written as PNG instead of the "
+        "course's TGA; the render time is the core's own timer (building the scene and writing the images not "
+        "included); *effects* is the effect set the core derived from the scene and the options "
+        "(`stats[\"effects\"]`).",
+        "",
+        "Generated by `python -m durer gallery` (`addon/durer/gallery.py`); rerun it to regenerate this page and its "
+        "images — do not edit by hand.",
+        "",
+        f"- **Machine:** {machine()}",
+        f"- **Date:** {time.strftime('%Y-%m-%d %H:%M %Z')}",
+        f"- **Command:** `{command}` ({len(rows)} command lines, image sizes {sizes or '-'}; {total:.0f} ms of "
+        f"rendering, {seconds:.1f} s in all)",
+        "",
+        "| scene | command line | images | ms | effects |",
+        "| --- | --- | --- | ---: | --- |",
+    ]
+    for row in rows:
+        arguments = row.command.removeprefix("raytracer ").replace("|", "\\|")
+        if row.error:
+            cells = f"**error:** {row.error}", "", ""
+        else:
+            thumbnails = " ".join(f'<img src="{_relative(p, page)}" alt="{p.name}" width="128">' for p in row.images)
+            cells = thumbnails, f"{row.milliseconds:.1f}", ", ".join(row.effects)
+        parts.append(f"| {row.scene} | `{arguments}` | {' | '.join(cells)} |")
+    return "\n".join(parts) + "\n"
+
+
+def _size(row: GalleryRow) -> str:
+    from PIL import Image
+
+    with Image.open(row.images[0]) as image:
+        return f"{image.width}×{image.height}"
+
+
+def _relative(path: Path, page: Path) -> str:
+    return Path(os.path.relpath(path.resolve(), page.resolve().parent)).as_posix()
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = argparse.ArgumentParser(prog="python -m durer gallery", description=__doc__.splitlines()[0])
+    parser.add_argument("--commands", type=Path, default=COMMANDS, help="the command lines (default %(default)s)")
+    parser.add_argument("--output-dir", type=Path, default=Path("docs/gallery"),
+                        help="where the images go (default %(default)s)")
+    parser.add_argument("--page", type=Path, default=Path("docs/gallery.md"),
+                        help="the Markdown page to write (default %(default)s)")
+    parser.add_argument("--only", metavar="PATTERN", help="only scenes whose name matches this glob, e.g. 'scene2_*'")
+    parser.add_argument("--size", type=int, metavar="N", help="render N×N instead of each command's -size")
+    args = parser.parse_args(argv)
+    if args.size is not None and args.size < 1:
+        parser.error(f"--size must be >= 1, got {args.size}")
+    start = time.perf_counter()
+    try:
+        rows = render_gallery(args.commands, args.output_dir, args.only, args.size)
+    except (CommandLineError, OSError) as error:
+        print(f"gallery: error: {error}", file=sys.stderr)
+        return 1
+    if not rows:
+        print(f"gallery: no command matches --only {args.only!r}", file=sys.stderr)
+        return 1
+    seconds = time.perf_counter() - start
+    args.page.parent.mkdir(parents=True, exist_ok=True)
+    command = " ".join(["python -m durer gallery", *argv])
+    args.page.write_text(markdown(rows, args.page, args.commands, command, seconds))
+    failed = sum(r.error is not None for r in rows)
+    print(f"wrote {args.page} ({len(rows)} commands, {failed} failed) in {seconds:.1f} s")
+    return 1 if failed else 0

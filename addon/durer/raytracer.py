@@ -1,0 +1,240 @@
+"""The 6.837 `raytracer` command: render a course scene file with the course's options.
+
+    python -m durer raytracer -input scene.txt -size 200 200 -output out.tga
+        [-depth MIN MAX depth.tga] [-normals normals.tga] [-shade_back] [-shadows]
+        [-bounces N] [-weight W] [-spp N] [-precision float|double]
+
+Images are written as the course writes them (image.C): linear colour, int(c·255) truncated and
+clamped to [0, 255], as 24-bit PNG or uncompressed TGA by the file's extension. See docs/6837.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import re
+import sys
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .render import RenderResult, render
+from .scene_file import SceneFile, SceneFileError, read_scene_file
+from .visualize import depth_to_gray, normal_to_rgb
+
+IMAGE_FORMATS = {".png": "PNG", ".tga": "TGA"}
+_NEGATIVE_NUMBER = re.compile(r"-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+
+
+@dataclass(frozen=True)
+class RaytracerOptions:
+    """A parsed command line. `depth` is (near, far, image path)."""
+
+    input: Path
+    width: int
+    height: int
+    output: Path
+    depth: tuple[float, float, Path] | None = None
+    normals: Path | None = None
+    shade_back: bool = False
+    shadows: bool = False
+    bounces: int = 0
+    weight: float = 0.0
+    spp: int = 1
+    precision: str = "double"
+    ignored: tuple[str, ...] = ()
+
+    @property
+    def passes(self) -> tuple[str, ...]:
+        """Only what the written images need."""
+        return ("color",) + (("depth",) if self.depth else ()) + (("normal",) if self.normals else ())
+
+
+@dataclass
+class RaytracerRun:
+    """What `run` did: the render, the images written (in the order of the command line) and the
+    wall time of parsing the scene, rendering and writing."""
+
+    result: RenderResult
+    images: list[Path] = field(default_factory=list)
+    seconds: float = 0.0
+
+
+def render_scene_file(
+    scene_file: SceneFile | str | os.PathLike,
+    width: int,
+    height: int,
+    *,
+    shade_back: bool = False,
+    shadows: bool = False,
+    bounces: int = 0,
+    weight: float = 0.0,
+    spp: int = 1,
+    precision: str = "double",
+    passes: Iterable[str] = ("color", "depth", "normal"),
+) -> RenderResult:
+    """Render a 6.837 scene (a SceneFile or its path) through its own camera, with the course's
+    defaults: one sample at each pixel centre, no bounces. Raises SceneFileError for a malformed
+    file and ValueError for a scene without a camera."""
+    if not isinstance(scene_file, SceneFile):
+        scene_file = read_scene_file(scene_file)
+    if scene_file.camera is None:
+        raise ValueError(f"{scene_file.path}: the scene has no camera (an OrthographicCamera or PerspectiveCamera "
+                         "block)")
+    return render(scene_file.to_scene(shadows=shadows), scene_file.camera.to_durer(), width, height, spp=spp,
+                  precision=precision, passes=tuple(passes), shade_back=shade_back, max_bounces=bounces,
+                  min_weight=weight)
+
+
+def to_bytes(values: np.ndarray) -> np.ndarray:
+    """Floats in [0, 1] to 8-bit as image.C does: int(c·255), truncated, then clamped to [0, 255]."""
+    scaled = np.trunc(np.asarray(values, dtype=np.float64) * 255)
+    return np.clip(np.nan_to_num(scaled, nan=0.0), 0, 255).astype(np.uint8)
+
+
+def write_image(path: Path, rgb: np.ndarray) -> Path:
+    """Write (H, W, 3) uint8, top row first, as PNG or 24-bit uncompressed TGA (top-left origin,
+    like the course's SaveTGA)."""
+    from PIL import Image
+
+    path = Path(path)
+    image_format = IMAGE_FORMATS.get(path.suffix.lower())
+    if image_format is None:
+        raise ValueError(f"{path}: the image must end in .png or .tga")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    image = Image.fromarray(np.ascontiguousarray(rgb), mode="RGB")
+    if image_format == "TGA":
+        image.save(path, format="TGA", rle=False, orientation=1)
+    else:
+        image.save(path, format="PNG")
+    return path
+
+
+def images(result: RenderResult, options: RaytracerOptions) -> list[tuple[Path, np.ndarray]]:
+    """The (path, RGB bytes) of every image the options ask for."""
+    out = [(options.output, to_bytes(result.color[..., :3]))]
+    if options.depth is not None:
+        near, far, path = options.depth
+        grey = to_bytes(depth_to_gray(result.depth, near, far))
+        out.append((path, np.repeat(grey[..., None], 3, axis=2)))
+    if options.normals is not None:
+        out.append((options.normals, to_bytes(normal_to_rgb(result.normal))))
+    return out
+
+
+def run(options: RaytracerOptions, log: Callable[[str], Any] = print) -> RaytracerRun:
+    """Read, render and write what `options` say; `log` gets one line per image and the timing."""
+    start = time.perf_counter()
+    if options.ignored:
+        log(f"note: ignoring {', '.join(options.ignored)} (options of the course's OpenGL preview)")
+    scene_file = read_scene_file(options.input)
+    result = render_scene_file(scene_file, options.width, options.height, shade_back=options.shade_back,
+                               shadows=options.shadows, bounces=options.bounces, weight=options.weight,
+                               spp=options.spp, precision=options.precision, passes=options.passes)
+    outcome = RaytracerRun(result)
+    for path, rgb in images(result, options):
+        outcome.images.append(write_image(path, rgb))
+        log(str(path))
+    outcome.seconds = time.perf_counter() - start
+    stats = result.stats
+    log(f"rendered {options.width}x{options.height}, {options.spp} spp in {stats['milliseconds']:.1f} ms "
+        f"({outcome.seconds * 1000:.0f} ms with reading and writing); effects: {', '.join(stats['effects'])}")
+    return outcome
+
+
+def argument_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m durer raytracer", allow_abbrev=False,
+        description="Render an MIT 6.837 scene file with the course's command-line options (docs/6837.md).",
+        epilog="-gui, -tessellation THETA PHI and -gouraud are accepted and ignored (the course's OpenGL preview).")
+    actions = [
+        parser.add_argument("-input", required=True, metavar="FILE", help="the scene file"),
+        parser.add_argument("-size", required=True, nargs=2, type=int, metavar=("WIDTH", "HEIGHT")),
+        parser.add_argument("-output", required=True, metavar="IMAGE", help="colour image, .png or .tga"),
+        parser.add_argument("-depth", nargs=3, metavar=("MIN", "MAX", "IMAGE"),
+                            help="depth image: t from MIN (white) to MAX (black), clamped; misses black"),
+        parser.add_argument("-normals", metavar="IMAGE", help="normal image: |n| per component; misses black"),
+        parser.add_argument("-shade_back", action="store_true", help="shade back faces with the flipped normal"),
+        parser.add_argument("-shadows", action="store_true", help="every light casts shadows"),
+        parser.add_argument("-bounces", type=int, default=0, metavar="N",
+                            help="reflection/refraction depth (default 0)"),
+        parser.add_argument("-weight", type=float, default=0.0, metavar="W",
+                            help="skip secondary rays whose weight in the pixel falls below W (default 0)"),
+        parser.add_argument("-spp", type=int, default=1, metavar="N",
+                            help="samples per pixel (ours; default 1: the pixel centre, as the course)"),
+        parser.add_argument("-precision", choices=("float", "double"), default="double",
+                            help="(ours; default double)"),
+        parser.add_argument("-gui", action="store_true", help=argparse.SUPPRESS),
+        parser.add_argument("-tessellation", nargs=2, metavar=("THETA", "PHI"), help=argparse.SUPPRESS),
+        parser.add_argument("-gouraud", action="store_true", help=argparse.SUPPRESS),
+    ]
+    # Python 3.11's argparse matches single-dash abbreviations ("-inp" for "-input") despite
+    # allow_abbrev=False; parse_arguments refuses any option not spelled out.
+    parser.set_defaults(_options=frozenset(["-h", "--help", *(s for a in actions for s in a.option_strings)]))
+    return parser
+
+
+def parse_arguments(argv: Sequence[str], parser: argparse.ArgumentParser | None = None) -> RaytracerOptions:
+    """The options of a command line (without the program name); a usage error exits with code 2."""
+    parser = parser or argument_parser()
+    argv = list(argv)
+    known = parser.get_default("_options")
+    for word in argv:
+        if word.startswith("-") and word not in known and not _NEGATIVE_NUMBER.fullmatch(word):
+            parser.error(f"unrecognized option: {word}")
+    args = parser.parse_args(argv)
+    width, height = args.size
+    if width < 1 or height < 1:
+        parser.error(f"-size needs positive integers, got {width} {height}")
+    depth = None
+    if args.depth is not None:
+        near, far = _real(parser, "-depth MIN", args.depth[0]), _real(parser, "-depth MAX", args.depth[1])
+        if not near < far:
+            parser.error(f"-depth needs MIN < MAX, got {args.depth[0]} {args.depth[1]}")
+        depth = (near, far, _image_path(parser, "-depth", args.depth[2]))
+    if args.bounces < 0:
+        parser.error(f"-bounces must be >= 0, got {args.bounces}")
+    if not (math.isfinite(args.weight) and args.weight >= 0):
+        parser.error(f"-weight must be a finite number >= 0, got {args.weight}")
+    if args.spp < 1:
+        parser.error(f"-spp must be >= 1, got {args.spp}")
+    ignored = tuple(name for name, given in (("-gui", args.gui), ("-tessellation", args.tessellation is not None),
+                                             ("-gouraud", args.gouraud)) if given)
+    return RaytracerOptions(
+        input=Path(args.input), width=width, height=height, output=_image_path(parser, "-output", args.output),
+        depth=depth, normals=None if args.normals is None else _image_path(parser, "-normals", args.normals),
+        shade_back=args.shade_back, shadows=args.shadows, bounces=args.bounces, weight=args.weight, spp=args.spp,
+        precision=args.precision, ignored=ignored)
+
+
+def _real(parser: argparse.ArgumentParser, name: str, text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        parser.error(f"{name} must be a number, got {text!r}")
+    if not math.isfinite(value):
+        parser.error(f"{name} must be finite, got {text!r}")
+    return value
+
+
+def _image_path(parser: argparse.ArgumentParser, option: str, text: str) -> Path:
+    path = Path(text)
+    if path.suffix.lower() not in IMAGE_FORMATS:
+        parser.error(f"{option} {text}: the image must end in .png or .tga")
+    return path
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    options = parse_arguments(argv)
+    try:
+        run(options)
+    except (SceneFileError, OSError, ValueError) as error:
+        print(f"raytracer: error: {error}", file=sys.stderr)
+        return 1
+    return 0
