@@ -19,6 +19,7 @@ from blender_helpers import (
     aim_camera,
     ball_scene,
     cube,
+    link,
     pointcloud_object,
     render_passes,
     world,
@@ -131,11 +132,11 @@ def test_errors_are_reported_and_blender_stays_usable(scene):
 
 def test_skipped_geometry_is_reported(scene):
     ball_scene(scene)
-    cube(scene, "Box", location=(3, 0, 0))
+    cube(scene, "Box", location=(3, 0, 0))  # rendered, as triangles
+    link(scene, bpy.data.objects.new("Fog", bpy.data.volumes.new("Fog")))
     assert bpy.ops.render.render() == {"FINISHED"}
-    assert engine.last_render.warnings == [
-        "Dürer skipped geometry it cannot render yet: 1 mesh (not a sphere or flat quad)"
-    ]
+    assert engine.last_render.warnings == ["Dürer skipped geometry it cannot render: 1 volume"]
+    assert engine.last_render.triangles == 12
 
 
 def test_progress_hooks_see_the_render(scene):

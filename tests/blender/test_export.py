@@ -59,12 +59,14 @@ def test_rotated_scaled_parented_sphere(scene):
     np.testing.assert_allclose(d.sphere_radii[0], 0.75, rtol=1e-5)
 
 
-def test_nonuniform_scale_warns_and_uses_mean_scale(scene):
-    uv_sphere(scene, "Squashed", radius=1.0, scale=(1, 1, 8))
+def test_nonuniform_scale_keeps_the_sphere_and_its_matrix(scene):
+    uv_sphere(scene, "Squashed", radius=1.0, scale=(1, 1, 8), location=(0, 2, 0))
     d = export(scene)
-    assert d.nonuniform == ["Squashed"]
-    np.testing.assert_allclose(d.sphere_radii, [2.0], rtol=1e-5)  # (1·1·8)^(1/3)
-    assert any("Non-uniform scale on Squashed" in w for w in d.warnings)
+    assert d.sphere_count == 0 and d.ellipsoid_count == 1 and not d.warnings
+    (g,) = d.transformed_spheres
+    np.testing.assert_allclose(g.centers, [[0, 0, 0]], atol=1e-6)
+    np.testing.assert_allclose(g.radii, [1.0], rtol=1e-6)
+    np.testing.assert_allclose(g.matrix, [[1, 0, 0, 0], [0, 1, 0, 2], [0, 0, 8, 0], [0, 0, 0, 1]], atol=1e-6)
 
 
 def test_shapes_with_equidistant_corners_are_not_spheres(scene):
@@ -77,24 +79,27 @@ def test_shapes_with_equidistant_corners_are_not_spheres(scene):
     mesh_object(scene, "Circle", lambda bm: bmesh.ops.create_circle(bm, cap_ends=True, segments=32, radius=1))
     ico_sphere(scene, "Icosahedron", subdivisions=1)
     d = export(scene)
-    assert d.sphere_count == 0 and not d.planes
-    assert d.skipped == {"mesh (not a sphere or flat quad)": 4}
-    assert d.warnings == ["Dürer skipped geometry it cannot render yet: 4 mesh (not a sphere or flat quad)"]
+    assert d.sphere_count == 0 and not d.planes and not d.skipped and not d.warnings
+    # They render as their triangles: 6 quads, 32 side quads + two 32-gons, one 32-gon, 20 faces.
+    counts = {m.name: len(m.faces) for m in d.meshes}
+    assert counts == {"Cube": 12, "Cylinder": 64 + 2 * 30, "Circle": 30, "Icosahedron": 20}
 
 
 def test_skipped_geometry_is_counted_by_kind(scene):
     cube(scene, "A")
-    cube(scene, "B")
     curve = bpy.data.curves.new("Curve", "CURVE")
-    curve.splines.new("POLY").points.add(2)
+    spline = curve.splines.new("POLY")
+    spline.points.add(2)
+    spline.points.foreach_set("co", [0, 0, 0, 1, 1, 0, 0, 1, 1, 1, 0, 1])
     curve.bevel_depth = 0.1
-    link(scene, bpy.data.objects.new("Curve", curve))
+    link(scene, bpy.data.objects.new("Curve", curve))  # beveled: triangles
+    link(scene, bpy.data.objects.new("Fog", bpy.data.volumes.new("Fog")))
+    link(scene, bpy.data.objects.new("Fog 2", bpy.data.volumes.new("Fog 2")))
     light(scene, "AREA")
     d = export(scene)
-    assert d.skipped == {"mesh (not a sphere or flat quad)": 2, "curve": 1, "area light": 1}
-    assert d.warnings[0] == (
-        "Dürer skipped geometry it cannot render yet: 1 area light, 1 curve, 2 mesh (not a sphere or flat quad)"
-    )
+    assert d.skipped == {"volume": 2, "area light": 1}
+    assert d.warnings[0] == "Dürer skipped geometry it cannot render: 1 area light, 2 volume"
+    assert sorted(m.name for m in d.meshes) == ["A", "Curve"]
 
 
 def test_empty_displayed_as_sphere(scene):
@@ -229,7 +234,7 @@ def test_grid_is_a_plane_and_trapezoid_is_not(scene):
     corner, e1, e2 = d.planes[0].bounds
     np.testing.assert_allclose(corner, [-2, -2, 1], atol=1e-5)
     np.testing.assert_allclose(np.cross(e1, e2), [0, 0, 16], atol=1e-4)
-    assert d.skipped == {"mesh (not a sphere or flat quad)": 1}
+    assert [(m.name, len(m.faces)) for m in d.meshes] == [("Trapezoid", 2)]
 
 
 def test_infinite_plane_setting(scene):
@@ -267,10 +272,11 @@ def test_override_sphere_on_text(scene):
     curve = bpy.data.curves.new("Text", "FONT")
     curve.body = "O"
     obj = link(scene, bpy.data.objects.new("Text", curve))
-    assert export(scene).skipped == {"font": 1}
+    d = export(scene)
+    assert not d.skipped and [m.name for m in d.meshes] == ["Text"] and d.triangle_count > 10
     obj.durer.primitive = "SPHERE"
     d = export(scene)
-    assert d.sphere_count == 1 and not d.skipped
+    assert d.sphere_count == 1 and not d.skipped and not d.meshes
 
 
 # --- materials, world, lights ----------------------------------------------------------------------

@@ -10,8 +10,9 @@ In a ``bpy`` script::
     bpy.ops.render.render(write_still=True)
 
 Installed as a Blender extension, Blender calls `register` / `unregister` itself. The modules
-that define Blender classes (engine, properties, ui) import bpy; importing this package alone
-does not, so `durer.blender.extension` (which builds the extension zip) works without Blender.
+that define Blender classes (engine, properties, ui, import_6837) import bpy; importing this
+package alone does not, so `durer.blender.extension` (which builds the extension zip) works
+without Blender.
 """
 
 from __future__ import annotations
@@ -20,16 +21,18 @@ _registered = False
 
 
 def register() -> None:
-    """Register the Dürer engine ("DURER"), its settings (scene.durer, object.durer) and its
-    panels. Calling it again while registered does nothing."""
+    """Register the Dürer engine ("DURER"), its settings (scene.durer, object.durer, material.durer,
+    light.durer), its panels and File > Import > 6.837 scene (.txt). Calling it again while
+    registered does nothing."""
     global _registered
     if _registered:
         return
-    from . import engine, properties, ui
+    from . import engine, import_6837, properties, ui
 
     properties.register()
     engine.register()
     ui.register()
+    import_6837.register()
     _registered = True
 
 
@@ -38,8 +41,9 @@ def unregister() -> None:
     global _registered
     if not _registered:
         return
-    from . import engine, properties, ui
+    from . import engine, import_6837, properties, ui
 
+    import_6837.unregister()
     ui.unregister()
     engine.unregister()
     properties.unregister()

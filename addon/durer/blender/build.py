@@ -16,8 +16,6 @@ from .export import CameraData, SceneData
 
 #: Blender's Depth pass holds this where no object is hit (Cycles writes 1e10).
 DEPTH_MISS = 1.0e10
-#: Dürer's attenuation (c0, c1, c2) for Cycles' physical inverse-square falloff.
-INVERSE_SQUARE = (0.0, 0.0, 1.0)
 
 
 def make_camera(cam: CameraData) -> durer.OrthographicCamera | durer.PerspectiveCamera:
@@ -38,9 +36,11 @@ def make_camera(cam: CameraData) -> durer.OrthographicCamera | durer.Perspective
     return durer.PerspectiveCamera(center, direction, up, fov_degrees=cam.fov_degrees, **common)
 
 
-def make_scene(data: SceneData) -> durer.Scene:
+def make_scene(data: SceneData, *, shade_back: bool = True) -> durer.Scene:
     """The Dürer scene: materials (with the Phong, mirror and refraction parameters the export
-    mapped from Blender's shaders), spheres, planes (turned towards the camera), lights, world."""
+    mapped from Blender's shaders), spheres, ellipsoids, planes (turned towards the camera when
+    back faces are shaded, as Cycles does), triangle meshes, lights, world. `shade_back` False
+    keeps every plane's normal as Blender's winding gives it (6.837 without -shade_back)."""
     scene = durer.Scene()
     # Only the effect parameters a material uses are passed: a diffuse material asks for no effect.
     table = np.array(
@@ -49,11 +49,15 @@ def make_scene(data: SceneData) -> durer.Scene:
     )
     if data.sphere_count:
         scene.add_spheres(data.sphere_centers, data.sphere_radii, material=table[data.sphere_materials])
+    for g in data.transformed_spheres:
+        scene.add_spheres(g.centers, g.radii, material=table[g.materials], transform=g.matrix)
     for p in data.planes:
-        normal, offset = facing_camera(p.normal, p.offset, data.camera)
+        normal, offset = facing_camera(p.normal, p.offset, data.camera) if shade_back else (p.normal, p.offset)
         scene.add_plane(normal, offset, material=int(table[p.material]), bounds=p.bounds)
+    for mesh in data.meshes:
+        scene.add_mesh(mesh.vertices, mesh.faces, material=int(table[mesh.material]), transform=mesh.transform)
     for light in data.lights:
-        attenuation = INVERSE_SQUARE if light.falloff == "inverse_square" else (1.0, 0.0, 0.0)
+        attenuation = light.attenuation
         if light.kind == "sun":
             scene.add_directional_light(light.direction, light.color, shadows=light.shadows)
         elif light.kind == "spot":

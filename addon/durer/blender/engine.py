@@ -28,8 +28,9 @@ class RenderInfo:
     cancelled: bool = False
     export_seconds: float = 0.0
     render_seconds: float = 0.0
-    spheres: int = 0
+    spheres: int = 0  # world-space spheres and ellipsoids
     planes: int = 0
+    triangles: int = 0
     #: The last text the engine showed in Blender's stats line.
     stats_line: str = ""
     #: Adaptive sampler: the samples each pixel got, (H, W) int32, top row first (the core's
@@ -115,8 +116,9 @@ def render_kwargs(settings, render_func) -> dict:
         "target_error": _float32_decimal(settings.target_error),
         "max_bounces": int(settings.max_bounces),
         "min_weight": round(float(settings.min_weight), 6),  # the float32 property's 0.01, not 0.0099999998
-        # Cycles shades back faces with the flipped normal (and refraction needs the inside faces).
-        "shade_back": True,
+        # On by default: Cycles shades back faces with the flipped normal (and refraction needs the
+        # inside faces); off renders 6.837's default (a 6.837 import without -shade_back).
+        "shade_back": bool(settings.shade_back),
     }
     return {k: v for k, v in kwargs.items() if not accepted or k in accepted}
 
@@ -156,11 +158,12 @@ class DurerEngineMixin:
             raise ValueError("The scene has no camera")
         cam_data = data.camera
         w, h = cam_data.width, cam_data.height
-        core_scene = build.make_scene(data)
+        core_scene = build.make_scene(data, shade_back=bool(settings.shade_back))
         camera = build.make_camera(cam_data)
         info.export_seconds = time.perf_counter() - t0
         info.width, info.height, info.samples = w, h, int(settings.samples)
-        info.spheres, info.planes = data.sphere_count, len(data.planes)
+        info.spheres, info.planes = data.sphere_count + data.ellipsoid_count, len(data.planes)
+        info.triangles = data.triangle_count
         info.warnings = data.warnings
         for message in info.warnings:
             self.report({"WARNING"}, message)

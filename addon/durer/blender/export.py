@@ -6,12 +6,20 @@ Conventions (verified against Cycles in bpy 5.0.1, see docs/blender.md):
 * Geometry comes from ``depsgraph.object_instances`` (geometry-nodes and collection instances
   count). Point clouds become one sphere per point (bulk ``foreach_get``, no per-point Python);
   meshes whose vertices all lie on one sphere become that sphere; empties displayed as spheres and
-  metaball balls become spheres; flat quad meshes become bounded planes. ``object.durer.primitive``
-  overrides the detection (Auto / Sphere / Plane / Ignore); anything else is skipped and counted.
+  metaball balls become spheres; flat quad meshes become bounded planes; every other mesh, curve,
+  text and surface becomes triangles (its loop triangles, one Dürer mesh per material slot used,
+  in object space with the object's matrix). ``object.durer.primitive`` overrides the detection
+  (Auto / Sphere / Plane / Mesh / Ignore); what Dürer cannot render (volumes, hair curves, grease
+  pencil, metaball capsules, area lights) is skipped and counted.
+* Spheres under a uniform scale are exported in world space; under a non-uniform scale or a
+  shear they keep their object-space centre and radius with the object's matrix, which the core
+  renders exactly as an ellipsoid.
 * Lights are radiometric as in Cycles: a Sun of strength S gives irradiance S, so its Dürer colour
   (which multiplies kd·max(N·L, 0) with no 1/pi) is colour·S/pi; a Point or Spot light of power P
-  has intensity colour·P/(4·pi²) with inverse-square falloff (Cycles' diffuse BRDF is kd/pi).
-* Materials become 6.837 materials (see `material_data`): Principled metallic and specular
+  has intensity colour·P/(4·pi²) with inverse-square falloff (Cycles' diffuse BRDF is kd/pi), or
+  with the falloff ``light.durer`` states (6.837's c0 + c1·d + c2·d²).
+* Materials become 6.837 materials (see `material_data`): ``material.durer`` states one exactly;
+  else Principled metallic and specular
   reflectance make a mirror (roughness <= MIRROR_ROUGHNESS) or a Phong highlight of the same width
   and peak, transmission makes a transparent colour with the IOR. Light "Cast Shadow" -> shadows.
 * The camera keeps Blender's parameters (fit, shift in units of the fitted extent, clip range,
@@ -25,6 +33,8 @@ from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from .triangles import TrianglePart, triangle_parts
 
 #: Relative tolerance for "all vertices at the same distance from the centroid".
 SPHERE_TOLERANCE = 1e-3
@@ -42,6 +52,8 @@ SCALE_TOLERANCE = 1e-4
 _CONVERTED_TYPES = {"CURVE", "SURFACE", "FONT", "META"}
 # Object types that carry geometry: when Dürer cannot render one, it is listed in the warning.
 _GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META", "CURVES", "POINTCLOUD", "VOLUME", "GREASEPENCIL"}
+# Object types that Auto renders as the triangles of their evaluated mesh.
+_TRIANGULATED_TYPES = {"CURVE", "SURFACE", "FONT"}
 
 
 #: Roughness at or below which a specular lobe is a mirror (reflection rays); above it, the lobe is
@@ -52,6 +64,10 @@ MIRROR_ROUGHNESS = 0.2
 MAX_EXPONENT = 1.0e4
 
 _BLACK = (0.0, 0.0, 0.0)
+_IDENTITY = np.eye(4)
+#: Dürer's attenuation (c0, c1, c2) for no falloff (6.837's default) and for Cycles' inverse square.
+NO_FALLOFF = (1.0, 0.0, 0.0)
+INVERSE_SQUARE = (0.0, 0.0, 1.0)
 
 
 @dataclass
@@ -96,13 +112,43 @@ class PlaneData:
 
 
 @dataclass
+class TransformedSpheres:
+    """Spheres in an object's space under its world matrix: a non-uniform scale or a shear makes
+    them ellipsoids (the core intersects them exactly in object space)."""
+
+    name: str
+    centers: np.ndarray  # (N, 3) object space
+    radii: np.ndarray  # (N,) object space
+    materials: np.ndarray  # (N,) int32 indices into SceneData.materials
+    matrix: np.ndarray  # (4, 4) world-from-object
+
+
+@dataclass
+class MeshData:
+    """One material's triangles of an object, in object space (Blender's float32 coordinates, so
+    instances of one mesh share the arrays), and the object's world matrix."""
+
+    name: str
+    vertices: np.ndarray  # (V, 3) float32 (float64 in world space when the matrix is singular)
+    faces: np.ndarray  # (F, 3) int32
+    material: int  # index into SceneData.materials
+    matrix: np.ndarray  # (4, 4) world-from-object
+
+    @property
+    def transform(self) -> np.ndarray | None:
+        """The matrix for Scene.add_mesh's `transform` (None for the identity: nothing to apply)."""
+        return None if np.array_equal(self.matrix, _IDENTITY) else self.matrix
+
+
+@dataclass
 class LightData:
     kind: str  # "sun", "point" or "spot"
     name: str
     color: np.ndarray  # (3,) Dürer colour: already includes strength and the radiometric factors
     direction: np.ndarray | None = None  # the way the light travels (sun, spot axis)
     position: np.ndarray | None = None  # point, spot
-    falloff: str = "none"  # "none" (sun) or "inverse_square" (point, spot)
+    falloff: str = "none"  # "none" (sun), "inverse_square" (point, spot) or "custom" (light.durer)
+    attenuation: tuple[float, float, float] = NO_FALLOFF  # (c0, c1, c2): colour / (c0 + c1·d + c2·d²)
     spot_half_angle: float = math.pi  # radians
     spot_blend: float = 0.0  # Blender's spot_blend: smoothstep over (1 - cos half angle)·blend in cos
     shadows: bool = True  # Blender's light.use_shadow ("Cast Shadow")
@@ -151,24 +197,35 @@ class SceneData:
     sphere_centers: np.ndarray = field(default_factory=lambda: np.empty((0, 3)))
     sphere_radii: np.ndarray = field(default_factory=lambda: np.empty(0))
     sphere_materials: np.ndarray = field(default_factory=lambda: np.empty(0, np.int32))
+    #: Spheres under a non-uniform scale or shear (ellipsoids), per object.
+    transformed_spheres: list[TransformedSpheres] = field(default_factory=list)
     planes: list[PlaneData] = field(default_factory=list)
+    #: Triangle meshes, one per object and material slot used.
+    meshes: list[MeshData] = field(default_factory=list)
     materials: list[MaterialData] = field(default_factory=list)
     lights: list[LightData] = field(default_factory=list)
     camera: CameraData | None = None
     background: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
     ambient: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    #: Number of spheres / planes each object contributed, by object name.
+    #: Number of Dürer objects (spheres, planes, meshes) each Blender object contributed, by name.
     sources: Counter = field(default_factory=Counter)
-    #: Geometry Dürer cannot render yet, counted by a short description ("mesh", "curve", ...).
+    #: Geometry Dürer cannot render, counted by a short description ("volume", "area light", ...).
     skipped: Counter = field(default_factory=Counter)
-    #: Object names with a non-uniform scale (their spheres use the mean scale).
-    nonuniform: list[str] = field(default_factory=list)
     #: Other messages for the user (unsupported world or light settings, ...).
     notes: list[str] = field(default_factory=list)
 
     @property
     def sphere_count(self) -> int:
+        """World-space spheres (`sphere_centers`); `transformed_spheres` are counted apart."""
         return len(self.sphere_radii)
+
+    @property
+    def ellipsoid_count(self) -> int:
+        return sum(len(g.radii) for g in self.transformed_spheres)
+
+    @property
+    def triangle_count(self) -> int:
+        return sum(len(m.faces) for m in self.meshes)
 
     @property
     def warnings(self) -> list[str]:
@@ -176,14 +233,7 @@ class SceneData:
         out = []
         if self.skipped:
             listed = ", ".join(f"{n} {kind}" for kind, n in sorted(self.skipped.items()))
-            out.append(f"Dürer skipped geometry it cannot render yet: {listed}")
-        if self.nonuniform:
-            names = ", ".join(sorted(set(self.nonuniform))[:5])
-            more = len(set(self.nonuniform)) - 5
-            out.append(
-                f"Non-uniform scale on {names}{f' and {more} more' if more > 0 else ''}: "
-                "Dürer renders their spheres with the mean scale"
-            )
+            out.append(f"Dürer skipped geometry it cannot render: {listed}")
         out.extend(self.notes)
         return out
 
@@ -210,6 +260,11 @@ def _scale(m: np.ndarray) -> tuple[float, bool]:
         np.ptp(norms) <= SCALE_TOLERANCE * norms.max()
     )
     return s, uniform
+
+
+def _invertible(m: np.ndarray) -> bool:
+    """Can the core take `m` as a transform (it maps rays into object space with the inverse)?"""
+    return bool(np.linalg.cond(m[:3, :3]) < 1e12)
 
 
 def _transform_points(m: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -350,11 +405,15 @@ def material_data(mat, obj=None) -> MaterialData:
     conductor's F0 (Physical Conductor). Glass BSDF: transparent Color·(1 − F0) with its IOR plus a
     specular lobe of Color·F0. Refraction BSDF: transparent Color with its IOR. An Emission shader
     alone: unlit, colour × strength. A linked colour (texture) or another shader: the material's
-    viewport display colour.
+    viewport display colour. ``material.durer`` with its override on comes first: the 6.837
+    material it states, as is.
     """
     if mat is None:
         color = _rgb(obj.color) if obj is not None else (0.8, 0.8, 0.8)
         return MaterialData("(object colour)", color)
+    override = getattr(getattr(mat, "original", None) or mat, "durer", None)
+    if override is not None and override.use_override:
+        return override_material(mat.name, override)
     viewport = _rgb(mat.diffuse_color)
     tree = mat.node_tree
     if tree is None:
@@ -395,6 +454,20 @@ def material_data(mat, obj=None) -> MaterialData:
         md = MaterialData(mat.name, _BLACK, transparent=transparent, ior=ior if any(transparent) else 1.0)
         return _with_lobe(md, _scale3(color, f0), roughness)
     return MaterialData(mat.name, viewport)
+
+
+def override_material(name: str, settings) -> MaterialData:
+    """The 6.837 material a ``material.durer`` override states (no emission: 6.837 has none)."""
+    transparent = _rgb(settings.transparent)
+    return MaterialData(
+        name,
+        _rgb(settings.diffuse),
+        specular=_rgb(settings.specular),
+        exponent=float(settings.exponent),
+        reflective=_rgb(settings.reflective),
+        transparent=transparent,
+        ior=float(settings.ior) if any(transparent) else 1.0,
+    )
 
 
 def _object_materials(obj) -> list:
@@ -481,12 +554,13 @@ def camera_data(scene, cam_obj) -> CameraData:
 
 @dataclass
 class _MeshShape:
-    kind: str  # "sphere", "plane" or "none"
+    kind: str  # "sphere", "plane", "triangles" or "empty"
     center: np.ndarray | None = None
     radius: float = 0.0
     corner: np.ndarray | None = None  # plane: local corner, edges and normal direction
     edge1: np.ndarray | None = None
     edge2: np.ndarray | None = None
+    parts: list[TrianglePart] = field(default_factory=list)  # triangles: one part per material slot
 
 
 def _mesh_arrays(me) -> tuple[np.ndarray, int]:
@@ -558,7 +632,8 @@ def _detect_plane(me, co: np.ndarray) -> _MeshShape | None:
     npoly = len(me.polygons)
     if npoly == 0:
         return None
-    size = float(np.ptp(co, axis=0).max())
+    ext = co.max(axis=0) - co.min(axis=0)
+    size = float(ext.max())
     if size <= 0:
         return None
     if npoly == 1 and len(co) == 4 and len(me.loops) == 4:
@@ -570,7 +645,6 @@ def _detect_plane(me, co: np.ndarray) -> _MeshShape | None:
                 return _MeshShape("plane", corner=v[0], edge1=e1, edge2=e2)
         return None
     # Grids and subdivided planes: flat along a local axis and covering their bounding rectangle.
-    ext = np.ptp(co, axis=0)
     axis = int(np.argmin(ext))
     if ext[axis] > PLANE_TOLERANCE * size:
         return None
@@ -587,9 +661,17 @@ def _bbox_sphere(co: np.ndarray) -> _MeshShape:
     return _MeshShape("sphere", center=(lo + hi) / 2.0, radius=float(np.mean((hi - lo) / 2.0)))
 
 
+def _triangles(me) -> _MeshShape:
+    """The mesh's triangles, one part per material slot used ("empty" without faces: loose
+    vertices and edges, like a curve without bevel, render as nothing in Cycles either)."""
+    parts = triangle_parts(me, len(me.materials))
+    return _MeshShape("triangles", parts=parts) if parts else _MeshShape("empty")
+
+
 def mesh_shape(me, mode: str = "AUTO", axis_scale=(1.0, 1.0, 1.0)) -> _MeshShape:
-    """What a mesh (in its local coordinates) is for Dürer under the override `mode`.
-    `axis_scale`: the object's scale along the local axes (picks a forced plane's normal)."""
+    """What a mesh (in its local coordinates) is for Dürer under the override `mode`: a sphere, a
+    plane, or its triangles (Auto, when it is neither, and Mesh). `axis_scale`: the object's scale
+    along the local axes (picks a forced plane's normal)."""
     co, _ = _mesh_arrays(me)
     if len(co) == 0:
         return _MeshShape("empty")
@@ -597,7 +679,9 @@ def mesh_shape(me, mode: str = "AUTO", axis_scale=(1.0, 1.0, 1.0)) -> _MeshShape
         return _detect_sphere(me, co, strict=False) or _bbox_sphere(co)
     if mode == "PLANE":
         return _detect_plane(me, co) or _bbox_plane(me, co, axis_scale)
-    return _detect_plane(me, co) or _detect_sphere(me, co) or _MeshShape("none")
+    if mode == "MESH":
+        return _triangles(me)
+    return _detect_plane(me, co) or _detect_sphere(me, co) or _triangles(me)
 
 
 def metaball_iso_radius(radius: float, stiffness: float, threshold: float) -> float:
@@ -647,11 +731,36 @@ class _Builder:
         self.data.sources[name] += n
 
     def sphere(self, name: str, m: np.ndarray, center, radius: float, material: int) -> None:
+        """A sphere in object space: a world-space sphere under a uniform scale, else an ellipsoid."""
+        center = np.asarray(center, dtype=np.float64).reshape(1, 3)
         s, uniform = _scale(m)
-        if not uniform:
-            self.data.nonuniform.append(name)
-        c = _transform_points(m, np.asarray(center, dtype=np.float64).reshape(1, 3))
-        self.spheres(name, c, np.array([radius * s]), material)
+        if s == 0.0:  # flattened to nothing: no surface to see
+            return
+        if uniform:
+            self.spheres(name, _transform_points(m, center), np.array([radius * s]), material)
+        else:
+            self.transformed_spheres(name, m, center, np.array([float(radius)]), material)
+
+    def transformed_spheres(self, name: str, m: np.ndarray, centers, radii, materials) -> None:
+        n = len(radii)
+        if n == 0:
+            return
+        materials = np.broadcast_to(np.asarray(materials, dtype=np.int32), (n,))
+        group = TransformedSpheres(name, np.asarray(centers, np.float64), np.asarray(radii, np.float64), materials, m)
+        self.data.transformed_spheres.append(group)
+        self.data.sources[name] += n
+
+    def triangles(self, obj, m: np.ndarray, parts: list[TrianglePart]) -> None:
+        """A mesh's triangles in object space, one Dürer mesh per material slot used."""
+        mats = _object_materials(obj)
+        flat = not _invertible(m)
+        for part in parts:
+            mat = mats[min(part.slot, len(mats) - 1)] if mats else None
+            vertices, matrix = part.vertices, m
+            if flat:  # the core needs an invertible transform: a mesh scaled flat goes in world space
+                vertices, matrix = _transform_points(m, vertices.astype(np.float64)), _IDENTITY
+            self.data.meshes.append(MeshData(obj.name, vertices, part.faces, self.material(mat, obj), matrix))
+            self.data.sources[obj.name] += 1
 
     def plane(self, name: str, m: np.ndarray, shape: _MeshShape, material: int, infinite: bool) -> None:
         corner = _transform_points(m, shape.corner.reshape(1, 3))[0]
@@ -698,9 +807,6 @@ def _pointcloud(b: _Builder, obj, m: np.ndarray) -> None:
         radius_attr.data.foreach_get("value", radii)
     else:
         radii = np.full(n, 0.01, np.float32)  # Blender's default point radius
-    s, uniform = _scale(m)
-    if not uniform:
-        b.data.nonuniform.append(obj.name)
     mats = _object_materials(obj)
     index_attr = attrs.get("material_index")
     if index_attr is not None and len(mats) > 1:
@@ -710,18 +816,24 @@ def _pointcloud(b: _Builder, obj, m: np.ndarray) -> None:
         materials = table[np.clip(idx, 0, len(mats) - 1)]
     else:
         materials = b.material(mats[0] if mats else None, obj)
+    keep = radii > 0
+    if not keep.all():
+        pos, radii = pos[keep], radii[keep]
+        if not np.isscalar(materials):
+            materials = materials[keep]
+    s, uniform = _scale(m)
+    if s == 0.0:  # flattened to nothing
+        return
+    if not uniform:  # ellipsoids: the points stay in object space under the object's matrix
+        b.transformed_spheres(obj.name, m, pos, radii, materials)
+        return
     # Transform in double precision (Blender stores float32 positions; Dürer intersects in double).
-    if np.array_equal(m, np.eye(4)):
+    if np.array_equal(m, _IDENTITY):
         centers = pos
     else:
         centers = pos.astype(np.float64) @ m[:3, :3].T
         centers += m[:3, 3]
     radii = radii * s if s != 1.0 else radii
-    keep = radii > 0
-    if not keep.all():
-        centers, radii = centers[keep], radii[keep]
-        if not np.isscalar(materials):
-            materials = materials[keep]
     b.spheres(obj.name, centers, radii, materials)
 
 
@@ -732,39 +844,37 @@ def _mesh(b: _Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
     shape = b.shape_cache.get(key)
     if shape is None:
         shape = b.shape_cache[key] = mesh_shape(me, mode, axis_scale or (1.0, 1.0, 1.0))
-    if shape.kind == "empty":
-        return
-    if shape.kind == "none":
-        b.data.skipped["mesh (not a sphere or flat quad)"] += 1
-        return
     _add_shape(b, obj, m, shape, infinite)
 
 
 def _add_shape(b: _Builder, obj, m: np.ndarray, shape: _MeshShape, infinite: bool) -> None:
-    """A detected sphere or plane of `obj` (world matrix m), with the object's material."""
-    material = b.object_material(obj)
-    if shape.kind == "sphere":
-        b.sphere(obj.name, m, shape.center, shape.radius, material)
-    else:
-        b.plane(obj.name, m, shape, material, infinite)
+    """A detected sphere or plane of `obj` (world matrix m) with the object's material, or its
+    triangles with their slots' materials; nothing for an empty shape."""
+    if shape.kind == "triangles":
+        b.triangles(obj, m, shape.parts)
+    elif shape.kind == "sphere":
+        b.sphere(obj.name, m, shape.center, shape.radius, b.object_material(obj))
+    elif shape.kind == "plane":
+        b.plane(obj.name, m, shape, b.object_material(obj), infinite)
 
 
 def _converted(b: _Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
-    """Curves, text, surfaces, metaballs... forced to a sphere or plane: use their evaluated mesh."""
+    """Curves, text, surfaces, metaballs...: their evaluated mesh as triangles (Auto, Mesh) or
+    forced to a sphere or plane. A type with no mesh (volumes, hair curves) is skipped; a
+    curve without faces renders as nothing, as in Cycles."""
     try:
         me = obj.to_mesh()
     except RuntimeError:
         me = None
+    if me is None:
+        b.data.skipped[obj.type.lower()] += 1
+        return
     try:
         axis_scale = np.linalg.norm(m[:3, :3], axis=0)
-        shape = mesh_shape(me, mode, axis_scale) if me is not None else _MeshShape("empty")
-        if shape.kind in {"empty", "none"}:
-            b.data.skipped[obj.type.lower()] += 1
-            return
-        _add_shape(b, obj, m, shape, infinite)
+        # The arrays are copies (foreach_get), so they outlive the temporary mesh.
+        _add_shape(b, obj, m, mesh_shape(me, mode, axis_scale), infinite)
     finally:
-        if me is not None:
-            obj.to_mesh_clear()
+        obj.to_mesh_clear()
 
 
 def _metaball(b: _Builder, obj, m: np.ndarray) -> None:
@@ -791,13 +901,25 @@ def _light(b: _Builder, obj, m: np.ndarray) -> None:
     axis = -lin[:, 2] / np.linalg.norm(lin[:, 2])
     position = m[:3, 3].copy()
     shadows = bool(getattr(light, "use_shadow", True))
+    settings = getattr(getattr(light, "original", None) or light, "durer", None)
+    custom = settings is not None and settings.use_attenuation
+    falloff = "custom" if custom else "inverse_square"
+    attenuation = tuple(float(c) for c in settings.attenuation) if custom else INVERSE_SQUARE
     if light.type == "SUN":
         b.data.lights.append(LightData("sun", obj.name, color * power / math.pi, direction=axis, shadows=shadows))
     elif light.type in {"POINT", "SPOT"}:
         intensity = color * power / (4.0 * math.pi**2)
         if light.type == "POINT":
             b.data.lights.append(
-                LightData("point", obj.name, intensity, position=position, falloff="inverse_square", shadows=shadows)
+                LightData(
+                    "point",
+                    obj.name,
+                    intensity,
+                    position=position,
+                    falloff=falloff,
+                    attenuation=attenuation,
+                    shadows=shadows,
+                )
             )
         else:
             b.data.lights.append(
@@ -807,7 +929,8 @@ def _light(b: _Builder, obj, m: np.ndarray) -> None:
                     intensity,
                     direction=axis,
                     position=position,
-                    falloff="inverse_square",
+                    falloff=falloff,
+                    attenuation=attenuation,
                     spot_half_angle=float(light.spot_size) / 2.0,
                     spot_blend=float(light.spot_blend),
                     shadows=shadows,
@@ -850,7 +973,7 @@ def export_depsgraph(depsgraph, camera=None) -> SceneData:
             _mesh(b, obj, m, mode, infinite)
         elif kind == "META" and mode == "AUTO":
             _metaball(b, obj, m)
-        elif kind in _GEOMETRY_TYPES and mode in {"SPHERE", "PLANE"}:
+        elif kind in _GEOMETRY_TYPES and (mode != "AUTO" or kind in _TRIANGULATED_TYPES):
             _converted(b, obj, m, mode, infinite)
         elif kind in _GEOMETRY_TYPES:
             b.data.skipped[kind.lower()] += 1
@@ -870,6 +993,8 @@ def export_depsgraph(depsgraph, camera=None) -> SceneData:
     alpha = 0.0 if scene.render.film_transparent else 1.0
     data.background = ((0.0, 0.0, 0.0) if alpha == 0.0 else world_rgb) + (alpha,)
     settings = getattr(scene, "durer", None)
-    if settings is None or settings.use_world_lighting:
+    if settings is not None and settings.use_custom_ambient:
+        data.ambient = _rgb(settings.ambient)
+    elif settings is None or settings.use_world_lighting:
         data.ambient = world_rgb
     return data

@@ -1,19 +1,26 @@
-"""Dürer's settings in Blender: ``scene.durer`` (render settings) and ``object.durer``."""
+"""Dürer's settings in Blender: ``scene.durer`` (render settings), ``object.durer`` (primitive),
+``material.durer`` (a 6.837 material override) and ``light.durer`` (a falloff override)."""
 
 from __future__ import annotations
 
 import bpy
 import numpy as np
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, PointerProperty
 
 PRIMITIVE_ITEMS = [
-    ("AUTO", "Auto", "Detect: sphere meshes, flat quads, point clouds, sphere empties, metaball balls"),
+    (
+        "AUTO",
+        "Auto",
+        "Detect sphere meshes, flat quads, point clouds, sphere empties and metaball balls; "
+        "other meshes, curves and text render as triangles",
+    ),
     (
         "SPHERE",
         "Sphere",
         "Render as a sphere: through the vertices if they are equidistant from their centroid, else the sphere fitting the bounding box",
     ),
     ("PLANE", "Plane", "Render as the flat rectangle of the object's bounding box (thinnest axis is the normal)"),
+    ("MESH", "Mesh", "Render the faces as triangles, as they are (no sphere or plane detection)"),
     ("IGNORE", "Ignore", "Do not render this object"),
 ]
 
@@ -225,6 +232,27 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
         "(like Cycles' uniform world, without occlusion)",
         default=True,
     )
+    use_custom_ambient: BoolProperty(
+        name="Custom Ambient",
+        description="Use the Ambient colour below as ambient light instead of the world colour "
+        "(6.837 scenes set background and ambient light separately)",
+        default=False,
+    )
+    ambient: FloatVectorProperty(
+        name="Ambient",
+        description="Ambient light (linear RGB) when Custom Ambient is on: adds ambient × diffuse colour",
+        subtype="COLOR",
+        size=3,
+        default=(0.0, 0.0, 0.0),
+        min=0.0,
+        soft_max=1.0,
+    )
+    shade_back: BoolProperty(
+        name="Shade Back Faces",
+        description="Shade back faces with the flipped normal, as Cycles does (6.837's -shade_back); "
+        "off: with the normal as stored, so a back face gets no direct light",
+        default=True,
+    )
 
 
 class DurerObjectSettings(bpy.types.PropertyGroup):
@@ -241,7 +269,72 @@ class DurerObjectSettings(bpy.types.PropertyGroup):
     )
 
 
-CLASSES = (DurerSceneSettings, DurerObjectSettings)
+class DurerMaterialSettings(bpy.types.PropertyGroup):
+    """A 6.837 material stated directly, for what the shader nodes cannot express exactly
+    (independent diffuse, Phong, mirror and transparent colours); the 6.837 importer sets it."""
+
+    use_override: BoolProperty(
+        name="6.837 Material",
+        description="Dürer renders this material with the values below instead of converting its shader "
+        "(Cycles and EEVEE still use the shader)",
+        default=False,
+    )
+    diffuse: FloatVectorProperty(
+        name="Diffuse", description="kd", subtype="COLOR", size=3, default=(0.8, 0.8, 0.8), min=0.0, soft_max=1.0
+    )
+    specular: FloatVectorProperty(
+        name="Specular",
+        description="ks of the Phong highlight ks·light·max(N·H, 0)^exponent",
+        subtype="COLOR",
+        size=3,
+        default=(0.0, 0.0, 0.0),
+        min=0.0,
+        soft_max=1.0,
+    )
+    exponent: FloatProperty(name="Exponent", description="Phong exponent", default=1.0, min=0.0, soft_max=1000.0)
+    reflective: FloatVectorProperty(
+        name="Reflective",
+        description="Weight of the mirror ray",
+        subtype="COLOR",
+        size=3,
+        default=(0.0, 0.0, 0.0),
+        min=0.0,
+        soft_max=1.0,
+    )
+    transparent: FloatVectorProperty(
+        name="Transparent",
+        description="Weight of the refracted ray",
+        subtype="COLOR",
+        size=3,
+        default=(0.0, 0.0, 0.0),
+        min=0.0,
+        soft_max=1.0,
+    )
+    ior: FloatProperty(
+        name="IOR", description="Index of refraction inside the object", default=1.0, min=1e-3, soft_max=3.0
+    )
+
+
+class DurerLightSettings(bpy.types.PropertyGroup):
+    """A point or spot light's falloff for Dürer, where Blender's physical inverse square is not
+    wanted (6.837 point lights: colour / (c0 + c1·d + c2·d²), by default no falloff at all)."""
+
+    use_attenuation: BoolProperty(
+        name="Custom Falloff",
+        description="Dürer divides the light by c0 + c1·d + c2·d² (the Attenuation below) instead of "
+        "Cycles' inverse square d²; the light's colour × power / (4π²) is what arrives where that is 1",
+        default=False,
+    )
+    attenuation: FloatVectorProperty(
+        name="Attenuation",
+        description="(c0, c1, c2): constant, linear and quadratic falloff; (1, 0, 0) is none",
+        size=3,
+        default=(1.0, 0.0, 0.0),
+        min=0.0,
+    )
+
+
+CLASSES = (DurerSceneSettings, DurerObjectSettings, DurerMaterialSettings, DurerLightSettings)
 
 
 def register() -> None:
@@ -249,9 +342,13 @@ def register() -> None:
         bpy.utils.register_class(cls)
     bpy.types.Scene.durer = PointerProperty(type=DurerSceneSettings, name="Dürer")
     bpy.types.Object.durer = PointerProperty(type=DurerObjectSettings, name="Dürer")
+    bpy.types.Material.durer = PointerProperty(type=DurerMaterialSettings, name="Dürer")
+    bpy.types.Light.durer = PointerProperty(type=DurerLightSettings, name="Dürer")
 
 
 def unregister() -> None:
+    del bpy.types.Light.durer
+    del bpy.types.Material.durer
     del bpy.types.Object.durer
     del bpy.types.Scene.durer
     for cls in reversed(CLASSES):

@@ -1,4 +1,5 @@
-"""Dürer's panels: Render Properties (scene.durer) and Object Properties (object.durer)."""
+"""Dürer's panels: Render Properties (scene.durer), Object Properties (object.durer), Material
+Properties (material.durer, the 6.837 material override) and Light Properties (light.durer)."""
 
 from __future__ import annotations
 
@@ -52,7 +53,15 @@ class DURER_PT_render(_DurerPanel, bpy.types.Panel):
         col = layout.column(heading="Light Paths")
         col.prop(settings, "max_bounces")
         col.prop(settings, "min_weight")
-        layout.prop(settings, "use_world_lighting")
+        layout.prop(settings, "shade_back")
+        col = layout.column(heading="Ambient")
+        row = col.row()
+        row.active = not settings.use_custom_ambient
+        row.prop(settings, "use_world_lighting")
+        col.prop(settings, "use_custom_ambient")
+        row = col.row()
+        row.active = settings.use_custom_ambient
+        row.prop(settings, "ambient")
 
 
 class DURER_PT_object(_DurerPanel, bpy.types.Panel):
@@ -74,7 +83,49 @@ class DURER_PT_object(_DurerPanel, bpy.types.Panel):
         row.prop(settings, "infinite_plane")
 
 
-CLASSES = (DURER_PT_render, DURER_PT_object)
+class DURER_PT_material(_DurerPanel, bpy.types.Panel):
+    bl_label = "Dürer"
+    bl_context = "material"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and getattr(context, "material", None) is not None
+
+    def draw_header(self, context):
+        self.layout.prop(context.material.durer, "use_override", text="")
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = context.material.durer
+        col = layout.column()
+        col.active = settings.use_override
+        for name in ("diffuse", "specular", "exponent", "reflective", "transparent", "ior"):
+            col.prop(settings, name)
+
+
+class DURER_PT_light(_DurerPanel, bpy.types.Panel):
+    bl_label = "Dürer"
+    bl_context = "data"
+
+    @classmethod
+    def poll(cls, context):
+        light = getattr(context, "light", None)
+        return super().poll(context) and light is not None and light.type in {"POINT", "SPOT"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = context.light.durer
+        layout.prop(settings, "use_attenuation")
+        row = layout.row()
+        row.active = settings.use_attenuation
+        row.prop(settings, "attenuation")
+
+
+CLASSES = (DURER_PT_render, DURER_PT_object, DURER_PT_material, DURER_PT_light)
 
 
 def register() -> None:

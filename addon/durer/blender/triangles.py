@@ -1,0 +1,87 @@
+"""A Blender mesh as triangles: its loop triangles in bulk numpy arrays, one part per material slot.
+
+Dürer gives a whole mesh one material (``Scene.add_mesh``), so a mesh whose faces use several
+material slots becomes one Dürer mesh per slot used. Everything goes through ``foreach_get``: no
+Python loop over vertices or faces, whatever the mesh's size.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class TrianglePart:
+    """The triangles of one material slot, in the mesh's object space."""
+
+    slot: int  # material slot index (0 when the object has no slots)
+    vertices: np.ndarray  # (V, 3) float32, as Blender stores them
+    faces: np.ndarray  # (F, 3) int32 indices into `vertices`
+
+
+def mesh_triangles(me) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(vertices (V, 3) float32, faces (T, 3) int32, material slot of each face (T,) int32) of a
+    mesh's loop triangles (Blender's own triangulation of its polygons, n-gons included).
+
+    Read through the attribute arrays and the triangles' corner and polygon indices, which
+    ``foreach_get`` copies as raw memory; the triangles' ``vertices`` and ``material_index`` are
+    computed per item and cost twice as much."""
+    vertices = _attribute(me, "position", "vector", len(me.vertices), 3, np.float32)
+    if vertices is None:
+        vertices = np.empty(len(me.vertices) * 3, np.float32)
+        me.vertices.foreach_get("co", vertices)
+    corner_verts = _attribute(me, ".corner_vert", "value", len(me.loops), 1, np.int32)
+    if corner_verts is None:
+        corner_verts = np.empty(len(me.loops), np.int32)
+        me.loops.foreach_get("vertex_index", corner_verts)
+    tris = me.loop_triangles
+    t = len(tris)
+    corners = np.empty(t * 3, np.int32)
+    tris.foreach_get("loops", corners)
+    slots = np.zeros(t, np.int32)
+    face_slots = _attribute(me, "material_index", "value", len(me.polygons), 1, np.int32)
+    if face_slots is not None:
+        polygons = np.empty(t, np.int32)
+        me.loop_triangle_polygons.foreach_get("value", polygons)
+        slots = face_slots[polygons]
+    return vertices.reshape(-1, 3), corner_verts[corners].reshape(t, 3), slots
+
+
+def _attribute(me, name: str, field: str, n: int, width: int, dtype) -> np.ndarray | None:
+    """A mesh attribute's values (None if the mesh has no such attribute, e.g. no material_index
+    when every face uses slot 0)."""
+    attribute = me.attributes.get(name)
+    if attribute is None or len(attribute.data) != n:
+        return None
+    values = np.empty(n * width, dtype)
+    attribute.data.foreach_get(field, values)
+    return values
+
+
+def split_by_slot(vertices: np.ndarray, faces: np.ndarray, slots: np.ndarray, slot_count: int) -> list[TrianglePart]:
+    """One part per material slot the faces use, in slot order. Indices past the last slot use the
+    last one and negative ones the first, as Blender renders them; without slots everything is
+    slot 0. A part of a split mesh keeps only the vertices its faces use."""
+    if len(faces) == 0:
+        return []
+    slots = np.clip(slots, 0, max(slot_count - 1, 0))
+    used = np.flatnonzero(np.bincount(slots))  # linear in the face count, unlike np.unique's sort
+    if len(used) == 1:
+        return [TrianglePart(int(used[0]), vertices, faces)]
+    parts = []
+    for slot in used:
+        part = faces[slots == slot]
+        # Renumber the vertices the part uses in their original order: a mask and a running count,
+        # linear in the mesh's size (no sort).
+        uses = np.zeros(len(vertices), bool)
+        uses[part] = True
+        number = np.cumsum(uses, dtype=np.int32) - 1
+        parts.append(TrianglePart(int(slot), vertices[uses], number[part]))
+    return parts
+
+
+def triangle_parts(me, slot_count: int) -> list[TrianglePart]:
+    """`split_by_slot` of `mesh_triangles(me)`: [] for a mesh without faces."""
+    return split_by_slot(*mesh_triangles(me), slot_count)
