@@ -133,18 +133,11 @@ class Group {
     return search<M>(packet, 0, cancel);
   }
 
-  // Lowers each ray's tHit to its closest hit among this group's primitives, recorded as
-  // primBase + their packed index.
+  // Lowers each ray's tHit to its closest hit among this group's primitives (its transformed
+  // groups' included), recorded as primBase + their packed index.
   template <SphereMethod M>
   int64_t search(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
-    int32_t base = primBase;
-    int64_t tests = m_spheres.template intersect<M>(packet, base, cancel);
-    base += static_cast<int32_t>(m_spheres.size());
-    tests += m_planes.intersect(packet, base);
-    base += static_cast<int32_t>(m_planes.size());
-    tests += m_triangles.intersect(packet, base, cancel);
-    base += static_cast<int32_t>(m_triangles.size());
-    tests += m_boxes.intersect(packet, base, cancel);
+    int64_t tests = searchOwn<M>(packet, primBase, cancel);
     if (!m_instances.empty()) tests += searchInstances<M>(packet, primBase, cancel);
     return tests;
   }
@@ -152,15 +145,7 @@ class Group {
   // The full hit record of ray k, once its search is over (a miss gives the default record).
   Hit<Real> hit(const RayPacket<Real>& packet, int k) const {
     const int32_t prim = packet.prim[k];
-    if (prim == kNoPrimitive) return Hit<Real>{};
-    size_t index = static_cast<size_t>(prim);
-    if (index < m_spheres.size()) return m_spheres.hit(packet, k, index);
-    index -= m_spheres.size();
-    if (index < m_planes.size()) return m_planes.hit(packet, k, index);
-    index -= m_planes.size();
-    if (index < m_triangles.size()) return m_triangles.hit(packet, k, index);
-    index -= m_triangles.size();
-    if (index < m_boxes.size()) return m_boxes.hit(packet, k, index);
+    if (prim == kNoPrimitive || static_cast<size_t>(prim) < ownPrimitiveCount()) return hitOwn(packet, k);
     const auto after = std::upper_bound(m_instances.begin(), m_instances.end(), prim,
                                         [](int32_t p, const Instance<Real>& inst) { return p < inst.primBase; });
     return instanceHit(*(after - 1), packet, k);
@@ -201,6 +186,34 @@ class Group {
     return key;
   }
 
+  // The search and hit record over this group's own primitives. A transformed group's child has no
+  // instances, and calling these (not search/hit) on it keeps the hot path free of recursion, which
+  // the render kernels' flatten attribute could not inline (HotKernel.h).
+  template <SphereMethod M>
+  int64_t searchOwn(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
+    int32_t base = primBase;
+    int64_t tests = m_spheres.template intersect<M>(packet, base, cancel);
+    base += static_cast<int32_t>(m_spheres.size());
+    tests += m_planes.intersect(packet, base);
+    base += static_cast<int32_t>(m_planes.size());
+    tests += m_triangles.intersect(packet, base, cancel);
+    base += static_cast<int32_t>(m_triangles.size());
+    tests += m_boxes.intersect(packet, base, cancel);
+    return tests;
+  }
+
+  Hit<Real> hitOwn(const RayPacket<Real>& packet, int k) const {
+    const int32_t prim = packet.prim[k];
+    if (prim == kNoPrimitive) return Hit<Real>{};
+    size_t index = static_cast<size_t>(prim);
+    if (index < m_spheres.size()) return m_spheres.hit(packet, k, index);
+    index -= m_spheres.size();
+    if (index < m_planes.size()) return m_planes.hit(packet, k, index);
+    index -= m_planes.size();
+    if (index < m_triangles.size()) return m_triangles.hit(packet, k, index);
+    return m_boxes.hit(packet, k, index - m_triangles.size());
+  }
+
   template <SphereMethod M>
   int64_t searchInstances(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
     const PacketInverse<Real> inv(packet);
@@ -209,7 +222,7 @@ class Group {
     for (const Instance<Real>& inst : m_instances) {
       if (inst.bounded && !Bvh<Real>::anyRayEnters(packet, inv, inst.lo, inst.hi)) continue;
       inst.toObject(packet, local);
-      tests += inst.child->template search<M>(local, primBase + inst.primBase, cancel);
+      tests += inst.child->template searchOwn<M>(local, primBase + inst.primBase, cancel);
       for (int k = 0; k < packet.count; ++k) {
         const bool closer = local.prim[k] != kNoPrimitive;  // the child only records hits closer than tHit
         packet.tHit[k] = closer ? local.tHit[k] : packet.tHit[k];
@@ -232,7 +245,7 @@ class Group {
     inst.toObject(world, local);
     local.tHit[0] = packet.tHit[k];
     local.prim[0] = packet.prim[k] - inst.primBase;
-    Hit<Real> h = inst.child->hit(local, 0);
+    Hit<Real> h = inst.child->hitOwn(local, 0);
     const Vec3<Real> n = inst.objectFromWorld.transposed(h.normal);
     h.normal = n / glm::length(n);
     h.pointError = inst.worldFromObject.pointError(h.point, h.pointError);
