@@ -85,14 +85,7 @@ class TileRenderer {
     alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
     for (int s = 0; s < m_sampler.samplesPerPixel(); ++s) {
       for (int row = 0, k = 0; row < h; ++row) {
-        for (int col = 0; col < w; ++col, ++k) {
-          if (m_sampler.centred()) {
-            sampleX[k] = static_cast<Real>((x0 + col) + 0.5);  // as samplePosition computes it
-            sampleY[k] = static_cast<Real>((y0 + row) + 0.5);
-          } else {
-            samplePosition(x0 + col, y0 + row, s, sampleX[k], sampleY[k]);
-          }
-        }
+        for (int col = 0; col < w; ++col, ++k) samplePosition(x0 + col, y0 + row, s, sampleX[k], sampleY[k]);
       }
       m_camera.generate(packet, sampleX, sampleY, count);
       counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);

@@ -28,8 +28,8 @@ class PixelSampler {
 
   SamplerKind kind() const { return m_kind; }
   int samplesPerPixel() const { return m_spp; }
-  // Whether every sample sits at its pixel's centre (render kernels then skip offset(): at ~10 ns a
-  // ray for a primary-ray render, hashing per pixel would cost as much as tracing).
+  // Whether every sample sits at its pixel's centre; offset() then skips the per-pixel hash, which
+  // at ~10 ns a primary ray would cost as much as the tracing.
   bool centred() const { return m_kind == SamplerKind::Center || (m_kind == SamplerKind::Stratified && m_spp == 1); }
 
   // Offset in [0, 1)^2 of sample s of the pixel with linear index `pixel`.
@@ -87,36 +87,28 @@ inline uint32_t PixelSampler::nestedUniformScramble(uint32_t x, uint32_t seed) {
 inline void PixelSampler::offset(uint64_t pixel, int s, double& u, double& v) const {
   constexpr double k53 = 1.0 / 9007199254740992.0;  // 2^-53: 53 random bits -> [0, 1)
   constexpr double k32 = 1.0 / 4294967296.0;        // 2^-32
-  if (centred()) {
+  if (centred()) {  // Center, and Stratified with one stratum: no hash
     u = v = 0.5;
     return;
   }
   const uint64_t pixelSeed = mixBits(m_seed + pixel * 0x2545f4914f6cdd1dull);
-  switch (m_kind) {
-    case SamplerKind::Center:
-      return;  // centred() above
-    case SamplerKind::Random:
-    case SamplerKind::Stratified: {
-      const uint64_t key = mixBits(pixelSeed + static_cast<uint64_t>(s));
-      const uint64_t other = mixBits(key + 0x9e3779b97f4a7c15ull);
-      const double ju = static_cast<double>(key >> 11) * k53, jv = static_cast<double>(other >> 11) * k53;
-      if (m_kind == SamplerKind::Random) {
-        u = ju, v = jv;
-      } else {
-        u = (s % m_nx + ju) / m_nx;
-        v = (s / m_nx + jv) / m_ny;
-      }
-      return;
-    }
-    case SamplerKind::Sobol:
-    case SamplerKind::Adaptive: {
-      const uint32_t seed = static_cast<uint32_t>(pixelSeed), seedX = static_cast<uint32_t>(pixelSeed >> 32);
-      const uint32_t index = nestedUniformScramble(static_cast<uint32_t>(s), seed);  // shuffled order
-      const uint32_t x = nestedUniformScramble(reverseBits(index), seedX);
-      const uint32_t y = nestedUniformScramble(sobolSecondDimension(index), seedX ^ 0x5bd1e995u);
-      u = x * k32, v = y * k32;
-      return;
-    }
+  if (m_kind == SamplerKind::Sobol || m_kind == SamplerKind::Adaptive) {
+    const uint32_t seed = static_cast<uint32_t>(pixelSeed), seedX = static_cast<uint32_t>(pixelSeed >> 32);
+    const uint32_t index = nestedUniformScramble(static_cast<uint32_t>(s), seed);  // shuffled order
+    const uint32_t x = nestedUniformScramble(reverseBits(index), seedX);
+    const uint32_t y = nestedUniformScramble(sobolSecondDimension(index), seedX ^ 0x5bd1e995u);
+    u = x * k32, v = y * k32;
+    return;
+  }
+  // Random, or Stratified with several strata.
+  const uint64_t key = mixBits(pixelSeed + static_cast<uint64_t>(s));
+  const uint64_t other = mixBits(key + 0x9e3779b97f4a7c15ull);
+  const double ju = static_cast<double>(key >> 11) * k53, jv = static_cast<double>(other >> 11) * k53;
+  if (m_kind == SamplerKind::Random) {
+    u = ju, v = jv;
+  } else {
+    u = (s % m_nx + ju) / m_nx;
+    v = (s / m_nx + jv) / m_ny;
   }
 }
 
