@@ -3,7 +3,7 @@
     python bench/effects.py [--size 1280x720] [--runs 7] [--precision double]
 
 The scene is the showcase (65 spheres and a ground plane) with the effects switched on row by row
-(`durer.accuracy.effect_scene`, which the accuracy report measures the same way). Each row adds one effect to the one
+(`durer.reports.scenes.effect_scene`, which the accuracy report measures the same way). Each row adds one effect to the one
 above, so its "added" column is that effect's own cost; "vs depth" compares with rendering depth
 only. Figures are medians of --runs rounds, each rendering every row once (so drift of this noisy
 machine hits all rows alike), into the same buffers, after one warm-up, from the core's own timer.
@@ -21,9 +21,9 @@ from collections.abc import Callable, Sequence
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # numpy's BLAS threads must not spin during timing
 
 import durer  # noqa: E402
-from durer.accuracy import EFFECT_ROWS as ROWS  # noqa: E402
-from durer.accuracy import effect_scene as showcase  # noqa: E402
-from durer.accuracy import machine  # noqa: E402
+from durer.reports.machine import machine  # noqa: E402
+from durer.reports.scenes import EFFECT_ROWS as ROWS  # noqa: E402
+from durer.reports.scenes import effect_scene as showcase  # noqa: E402
 
 
 def round_robin(renders: list[Callable[..., durer.RenderResult]], runs: int) -> tuple[list[float], list]:

@@ -81,7 +81,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.json:
         print(json.dumps(out, indent=2))
         return 0
-    from durer.accuracy import machine
+    from durer.reports.machine import machine
 
     print(f"{Path(args.file).name} at {w}x{h}, {args.samples} sample(s); median of {args.repeats} runs; {machine()}, "
           f"{time.strftime('%Y-%m-%d')}")

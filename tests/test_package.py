@@ -26,3 +26,16 @@ def test_public_api():
     for name in ("Scene", "OrthographicCamera", "PerspectiveCamera", "render", "cast", "RenderResult",
                  "CastResult", "RenderCancelled", "depth_to_gray", "normal_to_rgb", "save_image"):
         assert name in durer.__all__ and getattr(durer, name).__doc__, name
+
+
+def test_the_library_does_not_import_the_reports():
+    # The reports (durer.reports) measure the library; the library, its Blender side and the 6.837
+    # reader and raytracer must work without them.
+    code = ("import sys, durer, durer.blender, durer.blender.export, durer.blender.build, durer.course.raytracer; "
+            "print(sorted(m for m in sys.modules if m == 'durer.reports' or m.startswith('durer.reports.')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+    # The check can fail: the gallery (a report generator) does import them.
+    code = "import sys, durer.course.gallery; print('durer.reports' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "True"

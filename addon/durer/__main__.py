@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
-from pathlib import Path
 
 
 def demo(argv: Sequence[str]) -> int:
@@ -48,28 +47,28 @@ def extension(argv: Sequence[str]) -> int:
 
 def numerics(argv: Sequence[str]) -> int:
     """Sweep t's error by sphere method and precision as distance/radius grows (docs/numerics.md)."""
-    from durer import numerics as sweep
+    from durer.reports import numerics as sweep
 
     return sweep.main(argv)
 
 
 def accuracy(argv: Sequence[str]) -> int:
     """Measure what accuracy costs in time: samplers, precision, sphere methods, effects (docs/accuracy.md)."""
-    from durer import accuracy as report
+    from durer.reports.accuracy import cli
 
-    return report.main(argv)
+    return cli.main(argv)
 
 
 def raytracer(argv: Sequence[str]) -> int:
     """Render an MIT 6.837 scene file with the course's options (-input, -size, -output, ...; docs/6837.md)."""
-    from durer import raytracer as command
+    from durer.course import raytracer as command
 
     return command.main(argv)
 
 
 def gallery(argv: Sequence[str]) -> int:
     """Render the 6.837 corpus with its official command lines into docs/gallery.md."""
-    from durer import gallery as report
+    from durer.course import gallery as report
 
     return report.main(argv)
 

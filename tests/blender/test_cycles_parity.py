@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from blender_helpers import (
+from helpers.blender import (
     aim_camera,
     light,
     material,
@@ -270,7 +270,7 @@ def test_pixel_aspect_like_cycles(scene, tmp_path, projection, fit, aspect):
         scene.render.filepath = str(tmp_path / f"{engine_name}.exr")
         scene.render.use_file_extension = False
         assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
-        from blender_exr import read_exr
+        from helpers.exr import read_exr
 
         ch = read_exr(tmp_path / f"{engine_name}.exr")
         images[engine_name] = np.stack([ch[k] for k in "RGBA"], axis=-1)

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from blender_helpers import (
+from helpers.blender import (
     DEG,
     aim_camera,
     export,

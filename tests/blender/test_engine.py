@@ -15,14 +15,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from blender_helpers import (
+from helpers.blender import (
     aim_camera,
     ball_scene,
     cube,
     link,
     pointcloud_object,
     render_passes,
-    world,
 )
 
 bpy = pytest.importorskip("bpy")

@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 import pytest
-from blender_helpers import (
+from helpers.blender import (
     DEG,
     cube,
     export,

@@ -4,14 +4,11 @@ same flags; a malformed file is an ERROR report that creates nothing."""
 
 from __future__ import annotations
 
-import math
 import shlex
-import time
-from pathlib import Path
 
 import numpy as np
 import pytest
-from blender_helpers import export
+from helpers.blender import export
 
 bpy = pytest.importorskip("bpy")
 
@@ -19,11 +16,11 @@ import durer
 import durer.blender
 from durer.blender import engine
 from durer.blender import import_6837 as imp
-from durer.scene_file import read_scene_file
+from durer.course.scene_file import read_scene_file
+from helpers import CORPUS
 
 pytestmark = pytest.mark.blender
 
-CORPUS = Path(__file__).resolve().parents[2] / "scenes" / "6837"
 SCENES = sorted(CORPUS.glob("scene*.txt"))
 SIZE = 200
 #: The import must match the raytracer on this fraction of pixels, within 1/255 on linear colour.
@@ -246,7 +243,7 @@ def test_a_missing_file_is_an_error_report(empty, tmp_path):
 def test_import_renders_like_the_raytracer(empty, run):
     """Every official command line: import with its flags, render with Dürer through F12, compare
     with render_scene_file's image (>= 99.5 % of pixels within 1/255 on every linear channel)."""
-    from durer.raytracer import render_scene_file
+    from durer.course.raytracer import render_scene_file
 
     name, flags = run
     assert import_file(CORPUS / name, **flags) == {"FINISHED"}
@@ -260,8 +257,8 @@ def test_import_renders_like_the_raytracer(empty, run):
 def test_orthographic_camera_behind_the_spheres_sees_what_6837_sees(empty, tmp_path):
     """scene1_07's camera sits inside its spheres (6.837 counts hits from t = -inf): the moved-back
     camera gives the same image, and its Depth pass is 6.837's t plus the recorded offset."""
-    from blender_helpers import render_passes
-    from durer.raytracer import render_scene_file
+    from helpers.blender import render_passes
+    from durer.course.raytracer import render_scene_file
 
     path = CORPUS / "scene1_07.txt"
     import_file(path)
@@ -309,7 +306,7 @@ def test_sheared_and_mirrored_transforms_render_like_the_raytracer(empty, tmp_pa
     without it, a sheared mesh gets the rotation Blender cannot hold baked into its vertices, and
     a mirror stays in the object's scale so that the triangles keep their normals. Every pixel
     matches the raytracer, lit from both sides or only from the front."""
-    from durer.raytracer import render_scene_file
+    from durer.course.raytracer import render_scene_file
 
     path = tmp_path / "sheared.txt"
     path.write_text(SHEARED)

@@ -7,12 +7,12 @@ import inspect
 
 import numpy as np
 import pytest
-from blender_helpers import ball_scene
+from helpers.blender import ball_scene
 
 bpy = pytest.importorskip("bpy")
 
 import durer
-from durer.blender import engine, properties, ui
+from durer.blender import engine, ui
 
 pytestmark = pytest.mark.blender
 

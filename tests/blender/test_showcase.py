@@ -7,7 +7,6 @@ import importlib.util
 
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,10 +16,10 @@ bpy = pytest.importorskip("bpy")
 import durer
 import durer.blender
 from durer.blender import batch, engine
+from helpers import SCENES
 
 pytestmark = pytest.mark.blender
 
-SCENES = Path(__file__).resolve().parents[2] / "scenes"
 
 
 def image_pixels(name=engine.IMAGE_NAME):

@@ -1,7 +1,7 @@
 """File › Import › 6.837 scene (.txt): an MIT 6.837 scene file as Blender objects that Dürer renders
-exactly as the ``raytracer`` command does (`durer.raytracer.render_scene_file` with the same flags).
+exactly as the ``raytracer`` command does (`durer.course.raytracer.render_scene_file` with the same flags).
 
-What becomes what (``durer.scene_file`` reads the file; every object goes into a new collection
+What becomes what (``durer.course.scene_file`` reads the file; every object goes into a new collection
 named after it):
 
 * Sphere: a smooth UV-sphere mesh of radius 1 (one mesh shared by all), ``object.durer.primitive``
@@ -49,7 +49,7 @@ from bpy.props import BoolProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ImportHelper
 from mathutils import Matrix
 
-from durer.scene_file import SceneCamera, SceneFile, SceneFileError, SceneMaterial, ScenePrimitive, read_scene_file
+from durer.course.scene_file import SceneCamera, SceneFile, SceneFileError, SceneMaterial, ScenePrimitive, read_scene_file
 
 #: Segments of the UV sphere that stands for every 6.837 sphere in the viewport and in Cycles.
 SPHERE_SEGMENTS = (32, 16)

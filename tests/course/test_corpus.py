@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 import durer
-from durer.gallery import command_lines
-from durer.raytracer import parse_arguments, render_scene_file, to_bytes
-from durer.scene_file import SceneCamera, read_scene_file
+from durer.course.gallery import command_lines
+from durer.course.raytracer import parse_arguments, render_scene_file, to_bytes
+from durer.course.scene_file import SceneCamera, read_scene_file
+from helpers import CORPUS
 
-CORPUS = Path(__file__).resolve().parents[1] / "scenes" / "6837"
 SCENES = sorted(p for p in CORPUS.glob("scene*.txt"))
 A1 = [p for p in SCENES if p.name.startswith("scene1_")]
 N = 200

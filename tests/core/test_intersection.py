@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import durer
-from core_helpers import cast_one, tolerance, unit_sphere_scene
+from helpers.core import cast_one, tolerance, unit_sphere_scene
 
 
 @pytest.mark.parametrize(

@@ -169,7 +169,7 @@ def render_passes(s, path, depth=True, normal=True):
     """Render the scene with its engine through bpy.ops.render.render(write_still=True) into an
     uncompressed 32-bit multilayer EXR; return {"color": (H,W,4), "depth": (H,W), "normal":
     (H,W,3)} (top row first), read back from the file."""
-    from blender_exr import read_exr
+    from helpers.exr import read_exr
 
     layer = s.view_layers[0]
     layer.use_pass_z = depth

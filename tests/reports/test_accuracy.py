@@ -1,4 +1,4 @@
-"""The `python -m durer accuracy` report: its error measures, slope fit, page and plots, and the quick run."""
+"""The `python -m durer accuracy` report (durer.reports): its error measures, slope fit, page and plots, and the quick run."""
 
 from __future__ import annotations
 
@@ -8,8 +8,24 @@ import numpy as np
 import pytest
 
 import durer
-from durer import accuracy, numerics
-from durer.accuracy import AAPoint, AntiAliasing, Config, EffectRow, PresetRow, Report, Timing
+from durer.render import SAMPLERS
+from durer.reports import numerics
+from durer.reports.accuracy.cli import main, write_report
+from durer.reports.accuracy.measure import (
+    AAPoint,
+    AntiAliasing,
+    Config,
+    EffectRow,
+    PresetRow,
+    Report,
+    Timing,
+    measure_antialiasing,
+    measure_effects,
+    measure_timings,
+)
+from durer.reports.accuracy.targets import targets
+from durer.reports.errors import depth_differences, fit_slope, pixel_errors, rmse, worst_pixel
+from durer.reports.scenes import EFFECT_ROWS, FLAT_ROW, edge_scene
 
 
 # --- error measures -------------------------------------------------------------------------------
@@ -20,38 +36,38 @@ def test_rmse_and_worst_pixel_by_hand():
     image[0, 0, :3] = 1.0                   # pixel error 1
     image[1, 1, :3] = (2.0, -2.0, 2.0)      # pixel error 2 (sign does not matter)
     image[0, 1, 3] = 5.0                    # alpha is not colour: ignored
-    assert accuracy.pixel_errors(image, reference) == pytest.approx(np.array([[1.0, 0.0], [0.0, 2.0]]))
-    assert accuracy.rmse(image, reference) == pytest.approx(math.sqrt((1 + 4) / 4))
-    assert accuracy.worst_pixel(image, reference) == pytest.approx(2.0)
+    assert pixel_errors(image, reference) == pytest.approx(np.array([[1.0, 0.0], [0.0, 2.0]]))
+    assert rmse(image, reference) == pytest.approx(math.sqrt((1 + 4) / 4))
+    assert worst_pixel(image, reference) == pytest.approx(2.0)
     # One channel off by 3 in one of 3 pixels: per-pixel RMS sqrt(9/3), image RMSE sqrt(3/3).
     rgb = np.zeros((1, 3, 3))
     rgb[0, 2, 1] = 3.0
-    assert accuracy.worst_pixel(rgb, np.zeros_like(rgb)) == pytest.approx(math.sqrt(3))
-    assert accuracy.rmse(rgb, np.zeros_like(rgb)) == pytest.approx(1.0)
+    assert worst_pixel(rgb, np.zeros_like(rgb)) == pytest.approx(math.sqrt(3))
+    assert rmse(rgb, np.zeros_like(rgb)) == pytest.approx(1.0)
     # Single-channel images (a depth pass) are compared value by value.
-    assert accuracy.rmse(np.array([[3.0, 4.0]]), np.zeros((1, 2))) == pytest.approx(math.sqrt(12.5))
-    assert accuracy.rmse(image, image) == 0.0
+    assert rmse(np.array([[3.0, 4.0]]), np.zeros((1, 2))) == pytest.approx(math.sqrt(12.5))
+    assert rmse(image, image) == 0.0
     with pytest.raises(ValueError, match="shapes differ"):
-        accuracy.rmse(image, reference[:1])
+        rmse(image, reference[:1])
 
 
 def test_depth_differences_by_hand():
     reference = np.array([[1.0, 2.0, np.inf, 4.0]])
     depth = np.array([[1.5, 2.0, 3.0, np.inf]])
-    absolute, relative, disagree = accuracy.depth_differences(depth, reference)
+    absolute, relative, disagree = depth_differences(depth, reference)
     assert absolute == pytest.approx(0.5) and relative == pytest.approx(0.5) and disagree == 2
 
 
 def test_fit_slope_recovers_known_slopes():
     spp = np.array([1, 4, 16, 64, 256])
     for slope in (-0.5, -0.75, -1.0, 0.0):
-        assert accuracy.fit_slope(spp, 0.3 * spp**slope) == pytest.approx(slope, abs=1e-12)
+        assert fit_slope(spp, 0.3 * spp**slope) == pytest.approx(slope, abs=1e-12)
     noisy = 0.3 * spp**-0.75 * np.exp(np.random.default_rng(5).normal(0, 0.02, spp.size))
-    assert accuracy.fit_slope(spp, noisy) == pytest.approx(-0.75, abs=0.03)
+    assert fit_slope(spp, noisy) == pytest.approx(-0.75, abs=0.03)
     # Zeros and non-finite points are left out; too few points or no spread give nan.
-    assert accuracy.fit_slope([1, 4, 16, 64], [1.0, 0.5, 0.0, np.nan]) == pytest.approx(-0.5)
-    assert math.isnan(accuracy.fit_slope([4], [0.5]))
-    assert math.isnan(accuracy.fit_slope([4, 4], [0.5, 0.4]))
+    assert fit_slope([1, 4, 16, 64], [1.0, 0.5, 0.0, np.nan]) == pytest.approx(-0.5)
+    assert math.isnan(fit_slope([4], [0.5]))
+    assert math.isnan(fit_slope([4, 4], [0.5, 0.4]))
 
 
 def test_configs():
@@ -64,7 +80,7 @@ def test_configs():
 
 
 def test_edge_scene_is_many_small_spheres():
-    scene, camera = accuracy.edge_scene(spheres=300)
+    scene, camera = edge_scene(spheres=300)
     assert scene.sphere_count == 300 and scene.plane_count == 1 and scene.light_count == 1
     assert all(component != 0 for component in camera.direction)
 
@@ -91,7 +107,7 @@ def synthetic_report(config: Config) -> Report:
                       0.0, 0.0, 0) for scene in ("showcase", "edges") for p in ("float", "double")
                for m in ("algebraic", "geometric", "robust")]
     sweep = numerics.sweep(ratios=numerics.RATIOS[:2])
-    effects = [EffectRow(name, 1.0 + i, ("flat",), 0) for i, (name, _, _) in enumerate(accuracy.EFFECT_ROWS)]
+    effects = [EffectRow(name, 1.0 + i, ("flat",), 0) for i, (name, _, _) in enumerate(EFFECT_ROWS)]
     presets = [PresetRow("draft", {"spp": 1, "sampler": "center"}, 0.5, 1.0, 0.04, 0.3),
                PresetRow("final", {"spp": 64, "sampler": "adaptive"}, 5.0, 20.0, 0.004, 0.03)]
     return Report(config, "test machine", "2026-01-01 00:00 UTC", "python -m durer accuracy --test", 2,
@@ -100,7 +116,7 @@ def synthetic_report(config: Config) -> Report:
 
 def test_targets_from_measurements():
     report = synthetic_report(Config.full())
-    adaptive, slope = accuracy.targets(report)
+    adaptive, slope = targets(report)
     assert adaptive.met is True and "0.25 x the time" in adaptive.figure
     assert slope.met is True and "sobol -1.00, random -0.50" in slope.figure
     # Adaptive never as good as the baseline, sobol no steeper than random: not met.
@@ -111,7 +127,7 @@ def test_targets_from_measurements():
         for p in aa.points:
             if p.sampler == "sobol":
                 p.rmse = 0.1 * p.spp**-0.4
-    adaptive, slope = accuracy.targets(report)
+    adaptive, slope = targets(report)
     assert adaptive.met is False and "no adaptive setting" in adaptive.figure
     assert slope.met is False
 
@@ -119,7 +135,7 @@ def test_targets_from_measurements():
 def test_report_writes_sections_tables_and_plots(tmp_path):
     report = synthetic_report(Config.full())
     output = tmp_path / "docs" / "accuracy.md"
-    written = accuracy.write_report(report, output)
+    written = write_report(report, output)
     names = {p.name for p in written}
     assert names == {"accuracy.md", "accuracy-aa-showcase.png", "accuracy-aa-edges.png",
                      "accuracy-sphere-methods.png", "accuracy-presets.png"}
@@ -151,19 +167,21 @@ def test_report_writes_sections_tables_and_plots(tmp_path):
 def test_report_without_presets(tmp_path):
     report = synthetic_report(Config.quick_config())
     report.presets = []
-    written = accuracy.write_report(report, tmp_path / "accuracy.md")
+    written = write_report(report, tmp_path / "accuracy.md")
     assert "accuracy-presets.png" not in {p.name for p in written}
     text = (tmp_path / "accuracy.md").read_text()
-    assert "no presets measured" in text and "quick mode" in text
+    assert "quick mode" in text and "](accuracy-presets.png)" not in text
+    presets = text.split("## Presets", 1)[1]
+    assert "| preset | settings |" in presets and "| draft |" not in presets
 
 
 # --- measurements on tiny images ------------------------------------------------------------------
 
 def test_antialiasing_measurement_on_a_tiny_image():
     scene, camera = durer.showcase_scene()
-    aa = accuracy.measure_antialiasing("showcase", "the showcase", scene, camera, 32, 18, (1, 16), 64, runs=1,
+    aa = measure_antialiasing("showcase", "the showcase", scene, camera, 32, 18, (1, 16), 64, runs=1,
                                        target_errors=(0.02,), adaptive_max_spp=16)
-    assert [(p.sampler, p.spp) for p in aa.points] == [(s, n) for s in accuracy.SAMPLERS for n in (1, 16)]
+    assert [(p.sampler, p.spp) for p in aa.points] == [(s, n) for s in SAMPLERS for n in (1, 16)]
     assert len(aa.sweep) == 1 and aa.sweep[0].target_error == 0.02 and aa.sweep[0].spp == 16
     assert aa.reference.shape == (18, 32, 4)
     by = {(p.sampler, p.spp): p for p in aa.points}
@@ -179,8 +197,8 @@ def test_antialiasing_measurement_on_a_tiny_image():
 
 def test_timings_and_effects_on_tiny_images():
     scene, camera = durer.showcase_scene()
-    edges, edges_camera = accuracy.edge_scene(spheres=200)
-    rows = accuracy.measure_timings([("showcase", scene, camera), ("edges", edges, edges_camera)], 24, 16, 1, runs=1)
+    edges, edges_camera = edge_scene(spheres=200)
+    rows = measure_timings([("showcase", scene, camera), ("edges", edges, edges_camera)], 24, 16, 1, runs=1)
     assert len(rows) == 2 * 2 * 3
     for row in rows:
         assert row.rays == 24 * 16 and row.ns_per_ray > 0
@@ -188,15 +206,15 @@ def test_timings_and_effects_on_tiny_images():
             assert row.rmse_vs_double_robust == 0 and row.max_depth_difference == 0 and row.hit_disagreements == 0
     float_robust = next(r for r in rows if r.scene == "showcase" and r.precision == "float" and r.method == "robust")
     assert float_robust.rmse_vs_double_robust < 1e-4 and float_robust.max_relative_depth_difference < 1e-5
-    effects = accuracy.measure_effects(camera, 24, 16, runs=1)
-    assert [r.name for r in effects] == [name for name, _, _ in accuracy.EFFECT_ROWS]
-    assert effects[accuracy.FLAT_ROW].effects == ("flat",) and effects[accuracy.FLAT_ROW].secondary_rays == 0
+    effects = measure_effects(camera, 24, 16, runs=1)
+    assert [r.name for r in effects] == [name for name, _, _ in EFFECT_ROWS]
+    assert effects[FLAT_ROW].effects == ("flat",) and effects[FLAT_ROW].secondary_rays == 0
     assert "refraction" in effects[-1].effects and effects[-1].secondary_rays > 0
 
 
 def test_quick_command(tmp_path, capsys):
     output = tmp_path / "accuracy.md"
-    assert accuracy.main(["--quick", "--output", str(output)]) == 0
+    assert main(["--quick", "--output", str(output)]) == 0
     text = output.read_text()
     assert "quick mode" in text and "| stratified | 16 | 16.0 |" in text
     for name in ("aa-showcase", "aa-edges", "sphere-methods"):

@@ -11,11 +11,11 @@ import pytest
 from PIL import Image
 
 import durer
-from durer import gallery, raytracer
-from durer.raytracer import RaytracerOptions, parse_arguments, render_scene_file, to_bytes, write_image
-from durer.scene_file import read_scene_file
+from durer.course import gallery, raytracer
+from durer.course.raytracer import RaytracerOptions, parse_arguments, render_scene_file, to_bytes, write_image
+from durer.course.scene_file import read_scene_file
+from helpers import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 CORPUS = ROOT / "scenes" / "6837"
 
 

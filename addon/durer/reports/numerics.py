@@ -14,9 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .cast import cast
-from .render import PRECISIONS, SPHERE_METHODS
-from .scene import Scene
+from ..cast import cast
+from ..render import PRECISIONS, SPHERE_METHODS
+from ..scene import Scene
+from .plotting import pyplot
 
 RATIOS = tuple(10.0**k for k in range(1, 10))  # distance / radius
 DIRECTION = np.array([0.36, -0.48, 0.8])        # oblique, so no coordinate is trivially exact
@@ -135,11 +136,7 @@ def _cell(value: float, row: SweepRow | None = None) -> str:
 
 
 def plot(rows: list[SweepRow], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 4.2))
     for precision, style in (("float", "--"), ("double", "-")):
         for method, color in zip(SPHERE_METHODS, ("tab:red", "tab:orange", "tab:blue")):

@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from durer.scene_file import SceneFileError, SceneMaterial, read_obj, read_scene_file
+from durer.course.scene_file import SceneFileError, SceneMaterial, read_obj, read_scene_file
+from helpers import CORPUS
 
-CORPUS = Path(__file__).resolve().parents[1] / "scenes" / "6837"
 CORPUS_FILES = sorted(CORPUS.glob("*.txt"))
 CORPUS_FILES = [p for p in CORPUS_FILES if p.name != "commands.txt"]
 

@@ -23,9 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from .render import RenderResult, render
+from ..render import RenderResult, render
+from ..visualize import depth_to_gray, normal_to_rgb
 from .scene_file import SceneFile, SceneFileError, read_scene_file
-from .visualize import depth_to_gray, normal_to_rgb
 
 IMAGE_FORMATS = {".png": "PNG", ".tga": "TGA"}
 _NEGATIVE_NUMBER = re.compile(r"-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")

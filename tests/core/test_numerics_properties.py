@@ -31,12 +31,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import durer
-from test_numerics import (
+from durer.render import PRECISIONS
+from helpers.exact import (
     GRAZING_POSITION,
     MP,
     PLANE,
     PLANE_DIVISION,
-    PRECISIONS,
     Plane,
     Sphere,
     build_scene,

@@ -1,4 +1,4 @@
-"""Small helpers shared by the core tests (import as `from core_helpers import ...`)."""
+"""Small helpers shared by the core tests."""
 
 from __future__ import annotations
 

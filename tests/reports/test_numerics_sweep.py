@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from durer import numerics
+from durer.reports import numerics
 
 
 def test_sweep_shows_robust_exact_and_textbook_breaking_down():

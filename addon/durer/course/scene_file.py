@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .camera import OrthographicCamera, PerspectiveCamera
-from .scene import Scene
+from ..camera import OrthographicCamera, PerspectiveCamera
+from ..scene import Scene
 
 Vec3 = tuple[float, float, float]
 

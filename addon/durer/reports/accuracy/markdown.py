@@ -1,0 +1,230 @@
+"""The accuracy report as a Markdown page, and as a few lines for the terminal."""
+
+from __future__ import annotations
+
+import math
+
+from ...render import PRECISIONS, SPHERE_METHODS
+from .. import numerics
+from ..scenes import FLAT_ROW
+from .measure import REFERENCE_SAMPLER, SEED, AAPoint, AntiAliasing, EffectRow, PresetRow, Report
+from .targets import targets
+
+
+def _fmt(value: float, digits: int = 2) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "—"
+    if value == 0:
+        return "0"
+    return f"{value:.{digits}e}"
+
+
+def _yes(met: bool | None) -> str:
+    return {True: "**yes**", False: "no", None: "—"}[met]
+
+
+def aa_tables(aa: AntiAliasing) -> str:
+    """The scene's slope table and its long table of points."""
+    samplers = list(dict.fromkeys(p.sampler for p in aa.points))
+    stratified = {p.spp: p for p in aa.points if p.sampler == "stratified"}
+    lines = ["| sampler | fitted slope of log RMSE vs log spp | RMSE at the most samples | worst pixel there |",
+             "| --- | --- | --- | --- |"]
+    for s in samplers:
+        last = max((p for p in aa.points if p.sampler == s), key=lambda p: p.spp)
+        slope = aa.slope(s)
+        note = " (vs samples taken)" if s == "adaptive" else ""
+        lines.append(f"| {s} | {slope:+.2f}{note} | {_fmt(last.rmse)} | {_fmt(last.worst)} |" if not math.isnan(slope)
+                     else f"| {s} | — | {_fmt(last.rmse)} | {_fmt(last.worst)} |")
+    lines += ["", "| sampler | spp | samples/pixel | RMSE | worst pixel | ms | ms / stratified same spp |",
+              "| --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for p in aa.points:
+        base = stratified.get(p.spp)
+        ratio = f"{p.ms / base.ms:.2f}" if base and base.ms > 0 else "—"
+        lines.append(f"| {p.sampler} | {p.spp} | {p.samples_per_pixel:.1f} | {_fmt(p.rmse)} | {_fmt(p.worst)} | "
+                     f"{p.ms:.1f} | {ratio} |")
+    return "\n".join(lines)
+
+
+def sweep_table(aa: AntiAliasing, baseline: AAPoint | None) -> str:
+    lines = ["| target_error | max spp | samples/pixel | RMSE | worst pixel | ms | time / stratified baseline |",
+             "| ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for p in aa.sweep:
+        ratio = f"{p.ms / baseline.ms:.2f}" if baseline and baseline.ms > 0 else "—"
+        lines.append(f"| {p.target_error:g} | {p.spp} | {p.samples_per_pixel:.1f} | {_fmt(p.rmse)} | {_fmt(p.worst)} | "
+                     f"{p.ms:.1f} | {ratio} |")
+    return "\n".join(lines)
+
+
+def precision_tables(report: Report) -> str:
+    rows = [t for t in report.timings if t.method == "robust"]
+    by = {(t.scene, t.precision): t for t in rows}
+    lines = ["| scene | double ns/ray | float ns/ray | float / double time | colour RMSE float vs double | "
+             "worst pixel | max abs depth difference | max relative depth difference | pixels hit in one only |",
+             "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for scene in dict.fromkeys(t.scene for t in rows):
+        d, f = by[scene, "double"], by[scene, "float"]
+        lines.append(f"| {scene} | {d.ns_per_ray:.1f} | {f.ns_per_ray:.1f} | {f.ms / d.ms:.3f} | "
+                     f"{_fmt(f.rmse_vs_double_robust)} | {_fmt(f.worst_vs_double_robust)} | "
+                     f"{_fmt(f.max_depth_difference)} | {_fmt(f.max_relative_depth_difference)} | "
+                     f"{f.hit_disagreements} |")
+    lines += ["", "On the hard-case sweep (`durer.reports.numerics.sweep()`: a unit sphere at distance/radius 10…10⁹, "
+              f"{numerics.RAYS_PER_RATIO} rays per distance, exact t from mpmath), over every distance:", "",
+              "| precision | method | worst relative error of t | worst error along the ray (radii) | false hits | "
+              "false misses |", "| --- | --- | ---: | ---: | ---: | ---: |"]
+    for precision in PRECISIONS:
+        for method in SPHERE_METHODS:
+            sel = [r for r in report.sweep if r.precision == precision and r.method == method]
+            if not sel:
+                continue
+            worst = max((r.max_error for r in sel if not math.isnan(r.max_error)), default=float("nan"))
+            radii = max((r.max_error_radii for r in sel if not math.isnan(r.max_error_radii)), default=float("nan"))
+            lines.append(f"| {precision} | {method} | {_fmt(worst, 1)} | {_fmt(radii, 1)} | "
+                         f"{sum(r.false_hits for r in sel)} | {sum(r.false_misses for r in sel)} |")
+    return "\n".join(lines)
+
+
+def method_tables(report: Report) -> str:
+    by = {(t.scene, t.precision, t.method): t for t in report.timings}
+    lines = ["| scene | precision | method | ns/ray | time / robust | colour RMSE vs robust double | "
+             "pixels hit in one only |", "| --- | --- | --- | ---: | ---: | ---: | ---: |"]
+    for t in report.timings:
+        robust = by[t.scene, t.precision, "robust"]
+        lines.append(f"| {t.scene} | {t.precision} | {t.method} | {t.ns_per_ray:.1f} | {t.ms / robust.ms:.3f} | "
+                     f"{_fmt(t.rmse_vs_double_robust)} | {t.hit_disagreements} |")
+    return "\n".join(lines)
+
+
+def effects_table(rows: list[EffectRow]) -> str:
+    flat = rows[FLAT_ROW].ms if len(rows) > FLAT_ROW else rows[0].ms
+    lines = ["| render | ms | added ms | time / flat | effects simulated | secondary rays |",
+             "| --- | ---: | ---: | ---: | --- | ---: |"]
+    for i, r in enumerate(rows):
+        added = "" if i == 0 else f"{r.ms - rows[i - 1].ms:+.1f}"
+        lines.append(f"| {r.name} | {r.ms:.1f} | {added} | {r.ms / flat:.2f} | {', '.join(r.effects) or '—'} | "
+                     f"{r.secondary_rays} |")
+    return "\n".join(lines)
+
+
+def presets_table(rows: list[PresetRow]) -> str:
+    lines = ["| preset | settings | samples/pixel | RMSE | worst pixel | ms |", "| --- | --- | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        settings = ", ".join(f"{k}={v!r}" for k, v in r.settings.items())
+        lines.append(f"| {r.name} | `{settings}` | {r.samples_per_pixel:.1f} | {_fmt(r.rmse)} | {_fmt(r.worst)} | "
+                     f"{r.ms:.1f} |")
+    return "\n".join(lines)
+
+
+def markdown(report: Report, plots: dict[str, str]) -> str:
+    c = report.config
+    width, height = c.aa_size
+    mode = "quick mode: small images, fewer samples, single timings; a smoke run, not the page's figures" \
+        if c.quick else "full run"
+    parts = [
+        "# Accuracy and what it costs",
+        "",
+        "Generated by `python -m durer accuracy` (`addon/durer/reports/accuracy/`); rerun it to regenerate this page and "
+        "its plots from scratch — do not edit by hand.",
+        "",
+        f"- **Machine:** {report.machine}; the core rendered on {report.threads} threads",
+        f"- **Date:** {report.date}",
+        f"- **Command:** `{report.command}` ({mode}; {report.seconds:.0f} s)",
+        f"- **Method:** every comparison is measured in this one run. Times are the core's own timer, the median of "
+        f"{c.runs} (anti-aliasing, presets) or {c.timing_runs} (precision, sphere method, effects) rounds that each "
+        "render every configuration of the table once, after a warm-up round. Errors are deterministic "
+        f"(seed {SEED}).",
+        "",
+        "## Targets",
+        "",
+        "| target | measured | met |",
+        "| --- | --- | --- |",
+    ]
+    parts += [f"| {t.name} | {t.figure} | {_yes(t.met)} |" for t in targets(report)]
+    parts += [
+        "",
+        "## Anti-aliasing",
+        "",
+        f"RMSE and worst-pixel error of the colour (linear RGB, per-pixel RMS over the channels) against a "
+        f"{c.reference_spp}-spp {REFERENCE_SAMPLER} double-precision reference (another seed) at {width}×{height}, "
+        f"for spp {', '.join(map(str, c.spps))} and every sampler. *center* puts every sample at the pixel centre, "
+        "*random* is uniform, *stratified* jittered stratified (the default), *sobol* Owen-scrambled Sobol' (0,2) "
+        "points; *adaptive* treats spp as the maximum: it starts with min(4, spp) Sobol' samples and adds rounds "
+        "of 4 while a pixel's samples hit different objects or the standard error of its mean luminance exceeds "
+        "`target_error` (default 0.01), so its samples/pixel column is what it actually took. The slopes are "
+        "least-squares fits of log RMSE against log spp (adaptive: against the samples it took); plain Monte "
+        "Carlo converges as spp^-0.5. The reference's own error puts a floor under the curves at the highest spp.",
+    ]
+    for a in report.antialiasing:
+        parts += ["", f"### {a.scene.capitalize()}", "",
+                  f"{a.description[0].upper()}{a.description[1:]}; reference rendered in {a.reference_ms:.0f} ms.", "",
+                  aa_tables(a)]
+        if a.scene in plots:
+            parts += ["", f"![RMSE vs samples and time, {a.scene}]({plots[a.scene]})"]
+        if a.sweep:
+            baseline = a.point("stratified", c.baseline_spp)
+            parts += ["", f"Adaptive sampling's knob: `target_error` swept with spp (the maximum) = "
+                      f"{c.adaptive_max_spp}; the time is compared with {c.baseline_spp}-spp stratified.", "",
+                      sweep_table(a, baseline)]
+    tw, th = c.timing_size
+    parts += [
+        "",
+        "## Precision: float vs double",
+        "",
+        f"Renders at {tw}×{th}, {c.timing_spp} spp, robust sphere method; time per camera ray (the render's time "
+        "divided by its camera rays, shading included) and the float render's difference from the double one.",
+        "",
+        precision_tables(report),
+        "",
+        "## Sphere method: algebraic vs geometric vs robust",
+        "",
+        f"Time per camera ray on the same renders (the edge-heavy scene has {c.edge_spheres} spheres), and each "
+        "render's difference from the double-precision robust one:",
+        "",
+        method_tables(report),
+        "",
+        "Error as distance/radius grows (`durer.reports.numerics.sweep()`, the same sweep as [numerics.md](numerics.md)):",
+        "",
+        numerics.markdown_table(report.sweep),
+    ]
+    if "sphere-methods" in plots:
+        parts += ["", f"![t error vs distance/radius]({plots['sphere-methods']})"]
+    ew, eh = c.effects_size
+    parts += [
+        "",
+        "## Effects: what each adds in time",
+        "",
+        f"The showcase geometry at {ew}×{eh}, 1 spp, double, each row adding one effect to the row above (as "
+        "`bench/effects.py`): *added ms* is that effect's own cost, *time / flat* the ratio to the unlit render.",
+        "",
+        effects_table(report.effects),
+        "",
+        "## Presets",
+        "",
+        f"`durer.PRESETS` (also `durer.preset(name)`) on the showcase at {width}×{height}, against the same reference:",
+        "",
+        presets_table(report.presets),
+    ]
+    if "presets" in plots:
+        parts += ["", f"![presets: time vs RMSE]({plots['presets']})"]
+    return "\n".join(parts) + "\n"
+
+
+def summary(report: Report) -> str:
+    """A few lines for the terminal."""
+    lines = []
+    for aa in report.antialiasing:
+        slopes = ", ".join(f"{s} {aa.slope(s):+.2f}" for s in dict.fromkeys(p.sampler for p in aa.points)
+                           if not math.isnan(aa.slope(s)))
+        lines.append(f"{aa.scene}: fitted slopes {slopes}")
+    by = {(t.scene, t.precision, t.method): t for t in report.timings}
+    for scene in dict.fromkeys(t.scene for t in report.timings):
+        d, f = by[scene, "double", "robust"], by[scene, "float", "robust"]
+        methods = ", ".join(f"{m} {by[scene, 'double', m].ns_per_ray:.0f}" for m in SPHERE_METHODS)
+        lines.append(f"{scene}: float/double time {f.ms / d.ms:.2f}; ns/ray (double) {methods}")
+    if report.effects:
+        flat = report.effects[FLAT_ROW].ms
+        lines.append("effects vs flat: " + ", ".join(f"{r.name} {r.ms / flat:.2f}" for r in report.effects))
+    for r in report.presets:
+        lines.append(f"preset {r.name}: {r.ms:.1f} ms, RMSE {r.rmse:.2e}, {r.samples_per_pixel:.1f} samples/pixel")
+    for t in targets(report):
+        lines.append(f"target: {t.name}: {t.figure} -> {_yes(t.met).strip('*')}")
+    return "\n".join(lines)

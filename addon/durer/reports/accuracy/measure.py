@@ -1,0 +1,280 @@
+"""The accuracy report's measurements: what it renders and times, and the figures it keeps."""
+
+from __future__ import annotations
+
+import statistics
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ...presets import PRESETS
+from ...render import PRECISIONS, SAMPLERS, SPHERE_METHODS, RenderResult, render
+from ...scene import Scene
+from ...showcase import showcase_scene
+from .. import numerics
+from ..errors import depth_differences, fit_slope, rmse, worst_pixel
+from ..machine import machine
+from ..scenes import EFFECT_ROWS, edge_scene, effect_scene
+
+REFERENCE_SAMPLER = "stratified"
+REFERENCE_SEED = 90210          # not the measured renders' seed: the reference's noise is independent of theirs
+SEED = 0
+
+
+@dataclass(frozen=True)
+class Config:
+    """How much to measure. `full()` is the page in docs/, `quick_config()` a smoke run in seconds."""
+
+    quick: bool
+    aa_size: tuple[int, int]                 # anti-aliasing and presets image (width, height)
+    spps: tuple[int, ...]                    # samples per pixel swept (adaptive: the maximum)
+    reference_spp: int
+    runs: int                                # timed rounds per point (median); one warm-up before
+    target_errors: tuple[float, ...]         # adaptive's knob, swept on the showcase
+    timing_size: tuple[int, int]             # precision and sphere-method timings
+    timing_spp: int
+    timing_runs: int
+    effects_size: tuple[int, int]
+    edge_spheres: int = 2000
+    samplers: tuple[str, ...] = SAMPLERS
+
+    @classmethod
+    def full(cls) -> Config:
+        return cls(quick=False, aa_size=(160, 90), spps=(1, 4, 16, 64, 256), reference_spp=4096, runs=3,
+                   target_errors=(0.08, 0.04, 0.02, 0.01, 0.005, 0.0025), timing_size=(480, 270), timing_spp=4,
+                   timing_runs=5, effects_size=(640, 360))
+
+    @classmethod
+    def quick_config(cls) -> Config:
+        return cls(quick=True, aa_size=(80, 45), spps=(1, 4, 16), reference_spp=256, runs=1,
+                   target_errors=(0.04, 0.01), timing_size=(160, 90), timing_spp=4, timing_runs=3,
+                   effects_size=(480, 270))
+
+    @property
+    def baseline_spp(self) -> int:
+        """The stratified spp the adaptive target compares with: 64, or the largest measured below it."""
+        return max([s for s in self.spps if s <= 64] or [min(self.spps)])
+
+    @property
+    def adaptive_max_spp(self) -> int:
+        """The maximum spp of the target_error sweep: 4 x the baseline, so adaptive is not capped by it."""
+        return 4 * self.baseline_spp
+
+
+# --- timing ---------------------------------------------------------------------------------------
+
+def timed(renders: Sequence[Callable[..., RenderResult]], runs: int, reuse: bool = False
+          ) -> tuple[list[float], list[RenderResult]]:
+    """Median milliseconds (the core's timer) of each render over `runs` rounds that each render
+    every one once, after one warm-up round whose results are returned (renders are deterministic).
+    With `reuse`, timed renders write into the warm-up's buffers (`out=`): no page faults timed."""
+    results = [r(out=None) for r in renders]
+    times: list[list[float]] = [[] for _ in renders]
+    for _ in range(runs):
+        for i, r in enumerate(renders):
+            times[i].append(r(out=results[i] if reuse else None).stats["milliseconds"])
+    return [statistics.median(t) if t else results[i].stats["milliseconds"] for i, t in enumerate(times)], results
+
+
+def samples_per_pixel(result: RenderResult) -> float:
+    """Mean camera samples per pixel actually taken (adaptive: fewer than its spp maximum)."""
+    stats = result.stats
+    return stats["samples"] / (stats["width"] * stats["height"])
+
+
+# --- measurements ---------------------------------------------------------------------------------
+
+@dataclass
+class AAPoint:
+    sampler: str
+    spp: int                   # the spp argument (adaptive: the maximum)
+    samples_per_pixel: float   # taken, on average
+    rmse: float
+    worst: float
+    ms: float
+    target_error: float | None = None  # adaptive only
+
+
+@dataclass
+class AntiAliasing:
+    scene: str
+    description: str
+    width: int
+    height: int
+    reference_spp: int
+    reference_ms: float
+    points: list[AAPoint]
+    sweep: list[AAPoint] = field(default_factory=list)  # adaptive's target_error sweep (showcase)
+    reference: np.ndarray | None = field(default=None, repr=False)  # the reference's colour
+
+    def slope(self, sampler: str) -> float:
+        """Fitted log RMSE / log spp of a sampler's points (adaptive: against the samples it took)."""
+        sel = [p for p in self.points if p.sampler == sampler]
+        return fit_slope([p.samples_per_pixel if sampler == "adaptive" else p.spp for p in sel], [p.rmse for p in sel])
+
+    def point(self, sampler: str, spp: int) -> AAPoint | None:
+        return next((p for p in self.points if p.sampler == sampler and p.spp == spp), None)
+
+
+def measure_antialiasing(name: str, description: str, scene: Scene, camera: Any, width: int, height: int,
+                         spps: Sequence[int], reference_spp: int, runs: int, samplers: Sequence[str] = SAMPLERS,
+                         target_errors: Sequence[float] = (), adaptive_max_spp: int = 256) -> AntiAliasing:
+    """Every sampler at every spp against a `reference_spp` stratified double render."""
+    start = time.perf_counter()
+    reference = render(scene, camera, width, height, spp=reference_spp, seed=REFERENCE_SEED,
+                       sampler=REFERENCE_SAMPLER, precision="double", passes=("color",))
+    reference_ms = (time.perf_counter() - start) * 1000
+    configs = [(s, n, None) for s in samplers for n in spps]
+    configs += [("adaptive", adaptive_max_spp, e) for e in target_errors]
+
+    def renderer(sampler: str, spp: int, target_error: float | None) -> Callable[..., RenderResult]:
+        extra = {} if target_error is None else {"target_error": target_error}
+        return lambda out: render(scene, camera, width, height, spp=spp, seed=SEED, sampler=sampler,
+                                  passes=("color",), **extra)
+
+    medians, results = timed([renderer(*c) for c in configs], runs)
+    points = [AAPoint(s, n, samples_per_pixel(r), rmse(r.color, reference.color), worst_pixel(r.color, reference.color),
+                      ms, e) for (s, n, e), ms, r in zip(configs, medians, results)]
+    main_points = [p for p in points if p.target_error is None]
+    sweep = [p for p in points if p.target_error is not None]
+    return AntiAliasing(name, description, width, height, reference_spp, reference_ms, main_points, sweep,
+                        reference.color)
+
+
+@dataclass
+class Timing:
+    """One (scene, precision, method) render: its time and its difference from the double-robust one."""
+
+    scene: str
+    precision: str
+    method: str
+    ms: float
+    rays: int
+    rmse_vs_double_robust: float
+    worst_vs_double_robust: float
+    max_depth_difference: float        # over pixels both renders hit
+    max_relative_depth_difference: float
+    hit_disagreements: int             # pixels hit in one render and missed in the other
+
+    @property
+    def ns_per_ray(self) -> float:
+        return self.ms * 1e6 / self.rays if self.rays else float("nan")
+
+
+def measure_timings(scenes: Sequence[tuple[str, Scene, Any]], width: int, height: int, spp: int, runs: int
+                    ) -> list[Timing]:
+    """Each scene in both precisions with each sphere method, all in the same rounds."""
+    configs = [(name, scene, camera, p, m) for name, scene, camera in scenes for p in PRECISIONS for m in SPHERE_METHODS]
+    renders = [lambda out, s=s, c=c, p=p, m=m: render(s, c, width, height, spp=spp, seed=SEED, precision=p,
+                                                      sphere_method=m, passes=("color", "depth"), out=out)
+               for _, s, c, p, m in configs]
+    medians, results = timed(renders, runs, reuse=True)
+    exact = {name: results[i] for i, (name, _, _, p, m) in enumerate(configs) if p == "double" and m == "robust"}
+    rows = []
+    for (name, _, _, p, m), ms, r in zip(configs, medians, results):
+        ref = exact[name]
+        depth, relative, disagree = depth_differences(r.depth, ref.depth)
+        rows.append(Timing(name, p, m, ms, int(r.stats["rays"]), rmse(r.color, ref.color),
+                           worst_pixel(r.color, ref.color), depth, relative, disagree))
+    return rows
+
+
+@dataclass
+class EffectRow:
+    name: str
+    ms: float
+    effects: tuple[str, ...]
+    secondary_rays: int   # shadow + reflection + refraction rays
+
+
+def measure_effects(camera: Any, width: int, height: int, runs: int) -> list[EffectRow]:
+    """Each row of EFFECT_ROWS adds one effect to the one above, 1 spp, in the same rounds."""
+    renders = []
+    for _, flags, passes in EFFECT_ROWS:
+        scene = effect_scene(**flags)
+        renders.append(lambda out, scene=scene, passes=passes: render(
+            scene, camera, width, height, passes=passes, seed=SEED, out=out, shade_back=True))
+    medians, results = timed(renders, runs, reuse=True)
+    rows = []
+    for (name, _, _), ms, r in zip(EFFECT_ROWS, medians, results):
+        s = r.stats
+        secondary = sum(int(s[k]) for k in ("shadow_rays", "reflection_rays", "refraction_rays"))
+        rows.append(EffectRow(name, ms, tuple(s["effects"]), secondary))
+    return rows
+
+
+@dataclass
+class PresetRow:
+    name: str
+    settings: dict[str, Any]
+    ms: float
+    samples_per_pixel: float
+    rmse: float
+    worst: float
+
+
+def measure_presets(scene: Scene, camera: Any, width: int, height: int, reference: np.ndarray, runs: int,
+                    presets: dict[str, dict[str, Any]]) -> list[PresetRow]:
+    names = list(presets)
+    settings = [{"passes": ("color",), **presets[n]} for n in names]  # colour only, as the anti-aliasing renders
+    renders = [lambda out, kw=kw: render(scene, camera, width, height, **kw) for kw in settings]
+    medians, results = timed(renders, runs)
+    return [PresetRow(n, dict(presets[n]), ms, samples_per_pixel(r), rmse(r.color, reference), worst_pixel(r.color, reference))
+            for n, ms, r in zip(names, medians, results)]
+
+
+# --- the whole report -----------------------------------------------------------------------------
+
+@dataclass
+class Report:
+    config: Config
+    machine: str
+    date: str
+    command: str
+    threads: int
+    antialiasing: list[AntiAliasing]
+    timings: list[Timing]
+    sweep: list[numerics.SweepRow]
+    effects: list[EffectRow]
+    presets: list[PresetRow]
+    seconds: float = 0.0
+
+
+def measure(config: Config, command: str = "python -m durer accuracy", log: Callable[[str], Any] = print) -> Report:
+    """Everything the page shows, measured now."""
+    start = time.perf_counter()
+    width, height = config.aa_size
+    showcase, showcase_camera = showcase_scene()
+    edges, edges_camera = edge_scene(config.edge_spheres)
+    threads = int(render(showcase, showcase_camera, 8, 8).stats["threads"])
+
+    log(f"anti-aliasing: showcase, {width}x{height}, reference {config.reference_spp} spp ...")
+    aa_showcase = measure_antialiasing(
+        "showcase", f"the showcase scene ({showcase.sphere_count} spheres, a ground plane, a sun)", showcase,
+        showcase_camera, width, height, config.spps, config.reference_spp, config.runs, config.samplers,
+        config.target_errors if "adaptive" in config.samplers else (), config.adaptive_max_spp)
+    log(f"anti-aliasing: edges ({config.edge_spheres} small spheres) ...")
+    aa_edges = measure_antialiasing(
+        "edges", f"the edge-heavy scene ({config.edge_spheres} spheres of radius 0.02-0.08 on a plane, seen from "
+        "above, one sun without shadows)", edges, edges_camera, width, height, config.spps, config.reference_spp,
+        config.runs, config.samplers)
+
+    tw, th = config.timing_size
+    log(f"precision and sphere method: {tw}x{th}, {config.timing_spp} spp ...")
+    timings = measure_timings([("showcase", showcase, showcase_camera), ("edges", edges, edges_camera)],
+                              tw, th, config.timing_spp, config.timing_runs)
+    log("hard-case sweep (durer.reports.numerics) ...")
+    sweep = numerics.sweep()
+    ew, eh = config.effects_size
+    log(f"effects: {ew}x{eh}, 1 spp ...")
+    effects = measure_effects(showcase_camera, ew, eh, config.timing_runs)
+
+    log(f"presets: {', '.join(PRESETS)} ...")
+    preset_rows = measure_presets(showcase, showcase_camera, width, height, aa_showcase.reference, config.runs, PRESETS)
+    report = Report(config, machine(), time.strftime("%Y-%m-%d %H:%M %Z"), command, threads,
+                    [aa_showcase, aa_edges], timings, sweep, effects, preset_rows)
+    report.seconds = time.perf_counter() - start
+    return report
