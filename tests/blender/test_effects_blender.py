@@ -26,7 +26,7 @@ bpy = pytest.importorskip("bpy")
 
 import durer
 from durer.blender import engine
-from durer.blender import export as ex
+from durer.blender.export import materials
 
 pytestmark = pytest.mark.blender
 
@@ -139,11 +139,11 @@ def test_specular_level_zero_and_roughness_one(scene):
 
 
 def test_mirror_roughness_threshold(scene):
-    at = exported_material(scene, principled("At", Metallic=1.0, Roughness=ex.MIRROR_ROUGHNESS))
-    above = exported_material(scene, principled("Above", Metallic=1.0, Roughness=ex.MIRROR_ROUGHNESS + 0.01))
+    at = exported_material(scene, principled("At", Metallic=1.0, Roughness=materials.MIRROR_ROUGHNESS))
+    above = exported_material(scene, principled("Above", Metallic=1.0, Roughness=materials.MIRROR_ROUGHNESS + 0.01))
     assert any(at.reflective) and not any(at.specular)
     assert not any(above.reflective) and any(above.specular)
-    assert above.exponent == pytest.approx(2.0 / f32(ex.MIRROR_ROUGHNESS + 0.01) ** 4 - 2.0, rel=1e-5)
+    assert above.exponent == pytest.approx(2.0 / f32(materials.MIRROR_ROUGHNESS + 0.01) ** 4 - 2.0, rel=1e-5)
 
 
 def test_transmission_is_refraction_with_the_ior(scene):
@@ -220,11 +220,11 @@ def test_materials_differing_only_in_effects_stay_apart(scene):
 
 
 def test_phong_exponent_and_lobe_helpers():
-    assert ex.phong_exponent(0.5) == 30.0
-    assert ex.phong_exponent(1.0) == 1.0 and ex.phong_exponent(0.0) == ex.MAX_EXPONENT
-    assert ex.fresnel_f0(1.5) == pytest.approx(0.04) and ex.fresnel_f0(1.0) == 0.0
-    assert ex.specular_lobe((0, 0, 0), 0.0) == {}
-    assert ex.specular_lobe((0.5, 0.5, 0.5), 0.0) == {"reflective": (0.5, 0.5, 0.5)}
+    assert materials.phong_exponent(0.5) == 30.0
+    assert materials.phong_exponent(1.0) == 1.0 and materials.phong_exponent(0.0) == materials.MAX_EXPONENT
+    assert materials.fresnel_f0(1.5) == pytest.approx(0.04) and materials.fresnel_f0(1.0) == 0.0
+    assert materials.specular_lobe((0, 0, 0), 0.0) == {}
+    assert materials.specular_lobe((0.5, 0.5, 0.5), 0.0) == {"reflective": (0.5, 0.5, 0.5)}
 
 
 # --- settings and stats line -----------------------------------------------------------------------

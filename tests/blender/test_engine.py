@@ -73,7 +73,7 @@ def test_render_button_fills_image_datablock(scene):
     np.testing.assert_allclose(pixels[0, 0, :3], 0.05, rtol=1e-6)  # the world colour
     # The same as the core renders the exported scene.
     from durer.blender import build
-    from durer.blender.export import export_depsgraph
+    from durer.blender.export.depsgraph import export_depsgraph
 
     data = export_depsgraph(bpy.context.evaluated_depsgraph_get())
     sc = build.make_scene(data)

@@ -34,7 +34,7 @@ def enum_ids(settings, name):
 def direct_render(**kwargs):
     """The core's render of the exported scene (what the engine should have produced)."""
     from durer.blender import build
-    from durer.blender.export import export_depsgraph
+    from durer.blender.export.depsgraph import export_depsgraph
 
     data = export_depsgraph(bpy.context.evaluated_depsgraph_get())
     cam = data.camera

@@ -270,7 +270,7 @@ def test_million_triangle_mesh_exports_fast(scene):
     me.update(calc_edges=True)
     link(scene, bpy.data.objects.new("Terrain", me))
     dg = bpy.context.evaluated_depsgraph_get()
-    from durer.blender.export import export_depsgraph
+    from durer.blender.export.depsgraph import export_depsgraph
 
     best = np.inf
     for _ in range(3):

@@ -125,7 +125,7 @@ def light(s, kind, name=None, energy=1.0, location=(0, 0, 0), rotation=(0, 0, 0)
 
 
 def export(s):
-    from durer.blender.export import export_depsgraph
+    from durer.blender.export.depsgraph import export_depsgraph
 
     return export_depsgraph(bpy.context.evaluated_depsgraph_get())
 

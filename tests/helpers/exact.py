@@ -5,6 +5,7 @@ in tests/core/test_numerics.py's docstring; tests/core/test_numerics*.py use the
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 

@@ -1,0 +1,57 @@
+"""Blender's evaluated depsgraph -> plain numpy data (`SceneData`) that Dürer can render.
+
+Nothing here calls the renderer, so tests can inspect exactly what a Blender scene turns into.
+Conventions (verified against Cycles in bpy 5.0.1, see docs/blender.md):
+
+* Geometry comes from ``depsgraph.object_instances`` (geometry-nodes and collection instances
+  count). Point clouds become one sphere per point (bulk ``foreach_get``, no per-point Python);
+  meshes whose vertices all lie on one sphere become that sphere; empties displayed as spheres and
+  metaball balls become spheres; flat quad meshes become bounded planes; every other mesh, curve,
+  text and surface becomes triangles (its loop triangles, one Dürer mesh per material slot used,
+  in object space with the object's matrix). ``object.durer.primitive`` overrides the detection
+  (Auto / Sphere / Plane / Mesh / Ignore); what Dürer cannot render (volumes, hair curves, grease
+  pencil, metaball capsules, area lights) is skipped and counted.
+* Spheres under a uniform scale are exported in world space; under a non-uniform scale or a
+  shear they keep their object-space centre and radius with the object's matrix, which the core
+  renders exactly as an ellipsoid.
+* Lights are radiometric as in Cycles: a Sun of strength S gives irradiance S, so its Dürer colour
+  (which multiplies kd·max(N·L, 0) with no 1/pi) is colour·S/pi; a Point or Spot light of power P
+  has intensity colour·P/(4·pi²) with inverse-square falloff (Cycles' diffuse BRDF is kd/pi), or
+  with the falloff ``light.durer`` states (6.837's c0 + c1·d + c2·d²).
+* Materials become 6.837 materials (see `material_data`): ``material.durer`` states one exactly;
+  else Principled metallic and specular
+  reflectance make a mirror (roughness <= MIRROR_ROUGHNESS) or a Phong highlight of the same width
+  and peak, transmission makes a transparent colour with the IOR. Light "Cast Shadow" -> shadows.
+* The camera keeps Blender's parameters (fit, shift in units of the fitted extent, clip range,
+  pixel aspect) and the resolved image size.
+"""
+
+from __future__ import annotations
+
+from .camera import camera_data
+from .data import (
+    CameraData,
+    LightData,
+    MaterialData,
+    MeshData,
+    PlaneData,
+    SceneData,
+    TransformedSpheres,
+)
+from .depsgraph import export_depsgraph
+from .materials import material_data
+from .world import world_colors
+
+__all__ = [
+    "CameraData",
+    "LightData",
+    "MaterialData",
+    "MeshData",
+    "PlaneData",
+    "SceneData",
+    "TransformedSpheres",
+    "camera_data",
+    "export_depsgraph",
+    "material_data",
+    "world_colors",
+]

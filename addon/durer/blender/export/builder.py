@@ -1,0 +1,113 @@
+"""`Builder`: collects what the depsgraph walk finds into a `SceneData` (spheres joined into one
+array, materials deduplicated, meshes kept in object space)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .data import IDENTITY, MeshData, PlaneData, SceneData, TransformedSpheres
+from .materials import material_data, object_materials
+from .matrices import is_invertible, transform_points, uniform_scale
+from .shapes import MeshShape
+from .triangles import TrianglePart
+
+
+class Builder:
+    def __init__(self) -> None:
+        self.data = SceneData()
+        self.centers: list[np.ndarray] = []
+        self.radii: list[np.ndarray] = []
+        self.mats: list[np.ndarray] = []
+        self.material_ids: dict[tuple, int] = {}
+        self.blender_materials: dict[int, int] = {}
+        self.shape_cache: dict[tuple, MeshShape] = {}
+
+    # materials
+    def material(self, mat, obj) -> int:
+        key_ptr = mat.as_pointer() if mat is not None else None
+        if key_ptr is not None and key_ptr in self.blender_materials:
+            return self.blender_materials[key_ptr]
+        md = material_data(mat, obj)
+        mid = self.material_ids.get(md.key)
+        if mid is None:
+            mid = len(self.data.materials)
+            self.material_ids[md.key] = mid
+            self.data.materials.append(md)
+        if key_ptr is not None:
+            self.blender_materials[key_ptr] = mid
+        return mid
+
+    def object_material(self, obj) -> int:
+        mats = object_materials(obj)
+        return self.material(mats[0] if mats else None, obj)
+
+    # geometry
+    def spheres(self, name: str, centers: np.ndarray, radii: np.ndarray, materials) -> None:
+        n = len(radii)
+        if n == 0:
+            return
+        self.centers.append(np.asarray(centers).reshape(n, 3))
+        self.radii.append(np.asarray(radii).reshape(n))
+        self.mats.append(np.broadcast_to(np.asarray(materials, dtype=np.int32), (n,)))
+        self.data.sources[name] += n
+
+    def sphere(self, name: str, m: np.ndarray, center, radius: float, material: int) -> None:
+        """A sphere in object space: a world-space sphere under a uniform scale, else an ellipsoid."""
+        center = np.asarray(center, dtype=np.float64).reshape(1, 3)
+        s, uniform = uniform_scale(m)
+        if s == 0.0:  # flattened to nothing: no surface to see
+            return
+        if uniform:
+            self.spheres(name, transform_points(m, center), np.array([radius * s]), material)
+        else:
+            self.transformed_spheres(name, m, center, np.array([float(radius)]), material)
+
+    def transformed_spheres(self, name: str, m: np.ndarray, centers, radii, materials) -> None:
+        n = len(radii)
+        if n == 0:
+            return
+        materials = np.broadcast_to(np.asarray(materials, dtype=np.int32), (n,))
+        group = TransformedSpheres(name, np.asarray(centers, np.float64), np.asarray(radii, np.float64), materials, m)
+        self.data.transformed_spheres.append(group)
+        self.data.sources[name] += n
+
+    def triangles(self, obj, m: np.ndarray, parts: list[TrianglePart]) -> None:
+        """A mesh's triangles in object space, one Dürer mesh per material slot used."""
+        mats = object_materials(obj)
+        flat = not is_invertible(m)
+        for part in parts:
+            mat = mats[min(part.slot, len(mats) - 1)] if mats else None
+            vertices, matrix = part.vertices, m
+            if flat:  # the core needs an invertible transform: a mesh scaled flat goes in world space
+                vertices, matrix = transform_points(m, vertices.astype(np.float64)), IDENTITY
+            self.data.meshes.append(MeshData(obj.name, vertices, part.faces, self.material(mat, obj), matrix))
+            self.data.sources[obj.name] += 1
+
+    def plane(self, name: str, m: np.ndarray, shape: MeshShape, material: int, infinite: bool) -> None:
+        corner = transform_points(m, shape.corner.reshape(1, 3))[0]
+        e1 = m[:3, :3] @ shape.edge1
+        e2 = m[:3, :3] @ shape.edge2
+        normal = np.cross(e1, e2)
+        length = float(np.linalg.norm(normal))
+        if length == 0:
+            return
+        normal /= length
+        if np.linalg.det(m[:3, :3]) < 0:
+            normal = -normal
+        bounds = None if infinite else (corner, e1, e2)
+        self.data.planes.append(PlaneData(name, normal, float(normal @ corner), material, bounds))
+        self.data.sources[name] += 1
+
+    def finish(self) -> SceneData:
+        d = self.data
+        if self.centers:  # at most one copy into float64, however many objects contributed
+            d.sphere_centers = _join(self.centers, np.float64)
+            d.sphere_radii = _join(self.radii, np.float64)
+            d.sphere_materials = _join(self.mats, np.int32)
+        return d
+
+
+def _join(chunks: list[np.ndarray], dtype) -> np.ndarray:
+    if len(chunks) == 1:
+        return np.ascontiguousarray(chunks[0], dtype=dtype)
+    return np.concatenate(chunks, dtype=dtype)

@@ -1,0 +1,183 @@
+"""The export's plain data: what a Blender scene turns into, before any core object is made."""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass, field
+
+import numpy as np
+
+BLACK = (0.0, 0.0, 0.0)
+IDENTITY = np.eye(4)
+#: Dürer's attenuation (c0, c1, c2) for no falloff (6.837's default) and for Cycles' inverse square.
+NO_FALLOFF = (1.0, 0.0, 0.0)
+INVERSE_SQUARE = (0.0, 0.0, 1.0)
+
+
+@dataclass
+class MaterialData:
+    """Dürer's material (the 6.837 model): kd (`diffuse`), emission, Phong ks (`specular`) with
+    `exponent`, mirror `reflective` colour, `transparent` colour with index of refraction `ior`."""
+
+    name: str
+    diffuse: tuple[float, float, float]
+    emission: tuple[float, float, float] = BLACK
+    specular: tuple[float, float, float] = BLACK
+    exponent: float = 1.0
+    reflective: tuple[float, float, float] = BLACK
+    transparent: tuple[float, float, float] = BLACK
+    ior: float = 1.0
+
+    @property
+    def key(self) -> tuple:
+        return (self.diffuse, self.emission, self.specular, self.exponent, self.reflective, self.transparent, self.ior)
+
+    @property
+    def effects(self) -> dict:
+        """The keyword arguments of Scene.add_material beyond diffuse/emission that differ from
+        their defaults (a plain diffuse material needs none, so it asks for no effect)."""
+        out = {}
+        if any(self.specular):
+            out.update(specular=self.specular, exponent=self.exponent)
+        if any(self.reflective):
+            out["reflective"] = self.reflective
+        if any(self.transparent):
+            out.update(transparent=self.transparent, ior=self.ior)
+        return out
+
+
+@dataclass
+class PlaneData:
+    name: str
+    normal: np.ndarray  # (3,) unit, the face normal (Blender's winding)
+    offset: float  # normal · p for points p on the plane
+    material: int
+    bounds: tuple[np.ndarray, np.ndarray, np.ndarray] | None  # (corner, edge1, edge2) or None: infinite
+
+
+@dataclass
+class TransformedSpheres:
+    """Spheres in an object's space under its world matrix: a non-uniform scale or a shear makes
+    them ellipsoids (the core intersects them exactly in object space)."""
+
+    name: str
+    centers: np.ndarray  # (N, 3) object space
+    radii: np.ndarray  # (N,) object space
+    materials: np.ndarray  # (N,) int32 indices into SceneData.materials
+    matrix: np.ndarray  # (4, 4) world-from-object
+
+
+@dataclass
+class MeshData:
+    """One material's triangles of an object, in object space (Blender's float32 coordinates, so
+    instances of one mesh share the arrays), and the object's world matrix."""
+
+    name: str
+    vertices: np.ndarray  # (V, 3) float32 (float64 in world space when the matrix is singular)
+    faces: np.ndarray  # (F, 3) int32
+    material: int  # index into SceneData.materials
+    matrix: np.ndarray  # (4, 4) world-from-object
+
+    @property
+    def transform(self) -> np.ndarray | None:
+        """The matrix for Scene.add_mesh's `transform` (None for the identity: nothing to apply)."""
+        return None if np.array_equal(self.matrix, IDENTITY) else self.matrix
+
+
+@dataclass
+class LightData:
+    kind: str  # "sun", "point" or "spot"
+    name: str
+    color: np.ndarray  # (3,) Dürer colour: already includes strength and the radiometric factors
+    direction: np.ndarray | None = None  # the way the light travels (sun, spot axis)
+    position: np.ndarray | None = None  # point, spot
+    falloff: str = "none"  # "none" (sun), "inverse_square" (point, spot) or "custom" (light.durer)
+    attenuation: tuple[float, float, float] = NO_FALLOFF  # (c0, c1, c2): colour / (c0 + c1·d + c2·d²)
+    spot_half_angle: float = math.pi  # radians
+    spot_blend: float = 0.0  # Blender's spot_blend: smoothstep over (1 - cos half angle)·blend in cos
+    shadows: bool = True  # Blender's light.use_shadow ("Cast Shadow")
+
+
+@dataclass
+class CameraData:
+    name: str
+    projection: str  # "orthographic" or "perspective"
+    center: np.ndarray
+    direction: np.ndarray  # unit view axis (the camera's -Z)
+    up: np.ndarray  # unit (the camera's +Y)
+    size: float  # orthographic: ortho_scale; perspective: unused (see fov_degrees)
+    fov_degrees: float  # perspective: the angle the fitted extent spans
+    fit: str  # resolved: "horizontal" or "vertical" (Blender's AUTO resolved like Blender does)
+    sensor_fit: str  # Blender's setting: "AUTO", "HORIZONTAL" or "VERTICAL"
+    shift: tuple[float, float]  # in units of the fitted extent (Blender's shift_x, shift_y)
+    clip_start: float
+    clip_end: float
+    width: int  # pixels, after resolution percentage
+    height: int
+    pixel_aspect: float  # pixel height / pixel width (Blender's pixel_aspect_y / pixel_aspect_x)
+
+    @property
+    def extent(self) -> float:
+        """Fitted image-plane extent: world units (orthographic) or at unit distance (perspective)."""
+        if self.projection == "orthographic":
+            return self.size
+        return 2.0 * math.tan(math.radians(self.fov_degrees) / 2.0)
+
+    def view_plane(self) -> tuple[float, float, float, float]:
+        """(left, right, bottom, top) of the image window in camera units, shift included:
+        world units for orthographic, at unit distance for perspective (Blender's view frame)."""
+        extent = self.extent
+        aspect_h = self.height * self.pixel_aspect
+        if self.fit == "horizontal":
+            w, h = extent, extent * aspect_h / self.width
+        else:
+            w, h = extent * self.width / aspect_h, extent
+        sx, sy = self.shift[0] * extent, self.shift[1] * extent
+        return (-w / 2 + sx, w / 2 + sx, -h / 2 + sy, h / 2 + sy)
+
+
+@dataclass
+class SceneData:
+    sphere_centers: np.ndarray = field(default_factory=lambda: np.empty((0, 3)))
+    sphere_radii: np.ndarray = field(default_factory=lambda: np.empty(0))
+    sphere_materials: np.ndarray = field(default_factory=lambda: np.empty(0, np.int32))
+    #: Spheres under a non-uniform scale or shear (ellipsoids), per object.
+    transformed_spheres: list[TransformedSpheres] = field(default_factory=list)
+    planes: list[PlaneData] = field(default_factory=list)
+    #: Triangle meshes, one per object and material slot used.
+    meshes: list[MeshData] = field(default_factory=list)
+    materials: list[MaterialData] = field(default_factory=list)
+    lights: list[LightData] = field(default_factory=list)
+    camera: CameraData | None = None
+    background: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
+    ambient: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    #: Number of Dürer objects (spheres, planes, meshes) each Blender object contributed, by name.
+    sources: Counter = field(default_factory=Counter)
+    #: Geometry Dürer cannot render, counted by a short description ("volume", "area light", ...).
+    skipped: Counter = field(default_factory=Counter)
+    #: Other messages for the user (unsupported world or light settings, ...).
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def sphere_count(self) -> int:
+        """World-space spheres (`sphere_centers`); `transformed_spheres` are counted apart."""
+        return len(self.sphere_radii)
+
+    @property
+    def ellipsoid_count(self) -> int:
+        return sum(len(g.radii) for g in self.transformed_spheres)
+
+    @property
+    def triangle_count(self) -> int:
+        return sum(len(m.faces) for m in self.meshes)
+
+    @property
+    def warnings(self) -> list[str]:
+        """Messages to show the user once per export (the engine reports them as warnings)."""
+        out = []
+        if self.skipped:
+            listed = ", ".join(f"{n} {kind}" for kind, n in sorted(self.skipped.items()))
+            out.append(f"Dürer skipped geometry it cannot render: {listed}")
+        out.extend(self.notes)
+        return out

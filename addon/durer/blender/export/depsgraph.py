@@ -1,0 +1,216 @@
+"""The depsgraph walk: every object instance to the builder, through a converter per object type."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .builder import Builder
+from .camera import camera_data
+from .data import IDENTITY, SceneData
+from .lights import light_data
+from .materials import object_materials
+from .matrices import uniform_scale, world_matrix
+from .nodes import rgb
+from .shapes import MeshShape, mesh_shape, metaball_iso_radius
+from .world import world_colors
+
+# Object types whose evaluated mesh also appears among the depsgraph's instances.
+_CONVERTED_TYPES = {"CURVE", "SURFACE", "FONT", "META"}
+# Object types that neither carry geometry nor light the scene.
+_NOT_RENDERED = {"CAMERA", "ARMATURE", "LATTICE", "SPEAKER", "LIGHT_PROBE"}
+
+
+def _durer_settings(obj):
+    """object.durer of the original object (evaluated copies can hold stale values; geometry
+    instances made by geometry nodes report their instancer as original)."""
+    return getattr(obj.original or obj, "durer", None)
+
+
+def _pointcloud(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
+    pc = obj.data
+    n = len(pc.points)
+    if n == 0:
+        return
+    attrs = pc.attributes
+    pos = np.empty(n * 3, np.float32)
+    attrs["position"].data.foreach_get("vector", pos)
+    pos = pos.reshape(n, 3)
+    radius_attr = attrs.get("radius")
+    if radius_attr is not None:
+        radii = np.empty(n, np.float32)
+        radius_attr.data.foreach_get("value", radii)
+    else:
+        radii = np.full(n, 0.01, np.float32)  # Blender's default point radius
+    mats = object_materials(obj)
+    index_attr = attrs.get("material_index")
+    if index_attr is not None and len(mats) > 1:
+        idx = np.empty(n, np.int32)
+        index_attr.data.foreach_get("value", idx)
+        table = np.array([b.material(mt, obj) for mt in mats], dtype=np.int32)
+        materials = table[np.clip(idx, 0, len(mats) - 1)]
+    else:
+        materials = b.material(mats[0] if mats else None, obj)
+    keep = radii > 0
+    if not keep.all():
+        pos, radii = pos[keep], radii[keep]
+        if not np.isscalar(materials):
+            materials = materials[keep]
+    s, uniform = uniform_scale(m)
+    if s == 0.0:  # flattened to nothing
+        return
+    if not uniform:  # ellipsoids: the points stay in object space under the object's matrix
+        b.transformed_spheres(obj.name, m, pos, radii, materials)
+        return
+    # Transform in double precision (Blender stores float32 positions; Dürer intersects in double).
+    if np.array_equal(m, IDENTITY):
+        centers = pos
+    else:
+        centers = pos.astype(np.float64) @ m[:3, :3].T
+        centers += m[:3, 3]
+    radii = radii * s if s != 1.0 else radii
+    b.spheres(obj.name, centers, radii, materials)
+
+
+def _mesh(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
+    me = obj.data
+    axis_scale = tuple(np.round(np.linalg.norm(m[:3, :3], axis=0), 9)) if mode == "PLANE" else None
+    key = (me.as_pointer(), len(me.vertices), len(me.polygons), mode, axis_scale)
+    shape = b.shape_cache.get(key)
+    if shape is None:
+        shape = b.shape_cache[key] = mesh_shape(me, mode, axis_scale or (1.0, 1.0, 1.0))
+    _add_shape(b, obj, m, shape, infinite)
+
+
+def _add_shape(b: Builder, obj, m: np.ndarray, shape: MeshShape, infinite: bool) -> None:
+    """A detected sphere or plane of `obj` (world matrix m) with the object's material, or its
+    triangles with their slots' materials; nothing for an empty shape."""
+    if shape.kind == "triangles":
+        b.triangles(obj, m, shape.parts)
+    elif shape.kind == "sphere":
+        b.sphere(obj.name, m, shape.center, shape.radius, b.object_material(obj))
+    elif shape.kind == "plane":
+        b.plane(obj.name, m, shape, b.object_material(obj), infinite)
+
+
+def _converted(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
+    """Curves, text, surfaces, metaballs...: their evaluated mesh as triangles (Auto, Mesh) or
+    forced to a sphere or plane. A type with no mesh (volumes, hair curves) is skipped; a
+    curve without faces renders as nothing, as in Cycles."""
+    try:
+        me = obj.to_mesh()
+    except RuntimeError:
+        me = None
+    if me is None:
+        b.data.skipped[obj.type.lower()] += 1
+        return
+    try:
+        axis_scale = np.linalg.norm(m[:3, :3], axis=0)
+        # The arrays are copies (foreach_get), so they outlive the temporary mesh.
+        _add_shape(b, obj, m, mesh_shape(me, mode, axis_scale), infinite)
+    finally:
+        obj.to_mesh_clear()
+
+
+def _metaball(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
+    """Auto: each ball a sphere (capsules and negative elements are skipped); another mode: the
+    evaluated mesh, as `_converted`."""
+    if mode != "AUTO":
+        _converted(b, obj, m, mode, infinite)
+        return
+    mb = obj.data
+    material = b.object_material(obj)
+    for el in mb.elements:
+        if el.hide:
+            continue
+        if el.type != "BALL" or el.use_negative:
+            b.data.skipped[f"metaball {el.type.lower()}{' (negative)' if el.use_negative else ''}"] += 1
+            continue
+        r = metaball_iso_radius(el.radius, el.stiffness, mb.threshold)
+        if r > 0:
+            b.sphere(obj.name, m, np.array(el.co), r, material)
+
+
+def _light(b: Builder, obj, m: np.ndarray) -> None:
+    light = light_data(obj, m)
+    if light is None:
+        b.data.skipped[f"{obj.data.type.lower()} light"] += 1
+    else:
+        b.data.lights.append(light)
+
+
+def _empty(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
+    """An empty displayed as a sphere is a sphere of its display size (not a collection instancer)."""
+    if obj.empty_display_type == "SPHERE" and mode in {"AUTO", "SPHERE"} and obj.instance_type != "COLLECTION":
+        b.sphere(obj.name, m, np.zeros(3), float(obj.empty_display_size), b.object_material(obj))
+
+
+def _mesh_or_skip(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
+    """Hair curves, volumes and grease pencil: skipped (and counted) under Auto; a forced primitive
+    uses their evaluated mesh, if they have one."""
+    if mode == "AUTO":
+        b.data.skipped[obj.type.lower()] += 1
+    else:
+        _converted(b, obj, m, mode, infinite)
+
+
+#: Object type -> its converter (builder, evaluated object, world matrix, object.durer's primitive
+#: mode, infinite plane?). Types not listed here, lights apart, are not rendered.
+CONVERTERS = {
+    "MESH": _mesh,
+    "POINTCLOUD": _pointcloud,
+    "EMPTY": _empty,
+    "META": _metaball,
+    "CURVE": _converted,
+    "SURFACE": _converted,
+    "FONT": _converted,
+    "CURVES": _mesh_or_skip,
+    "VOLUME": _mesh_or_skip,
+    "GREASEPENCIL": _mesh_or_skip,
+}
+
+
+def export_depsgraph(depsgraph, camera=None) -> SceneData:
+    """Everything Dürer renders, from an evaluated depsgraph (render or viewport).
+
+    `camera`: the camera object (default: the scene's camera).
+    """
+    scene = depsgraph.scene_eval
+    b = Builder()
+    for inst in depsgraph.object_instances:
+        obj = inst.object
+        if obj.type in _NOT_RENDERED:
+            continue
+        m = world_matrix(inst.matrix_world)
+        if obj.type == "LIGHT":
+            _light(b, obj, m)
+            continue
+        settings = _durer_settings(obj)
+        mode = settings.primitive if settings is not None else "AUTO"
+        infinite = bool(settings.infinite_plane) if settings is not None else False
+        if mode == "IGNORE":
+            continue
+        if obj.type == "MESH" and obj.original is not None and obj.original.type in _CONVERTED_TYPES:
+            continue  # the mesh Blender made of a curve, text, surface or metaball: handled as that
+        convert = CONVERTERS.get(obj.type)
+        if convert is not None:
+            convert(b, obj, m, mode, infinite)
+    data = b.finish()
+    cam_obj = camera if camera is not None else scene.camera
+    if cam_obj is not None:
+        try:
+            cam_obj = cam_obj.evaluated_get(depsgraph)
+        except (RuntimeError, TypeError):
+            pass
+        data.camera = camera_data(scene, cam_obj)
+
+    world_rgb, note = world_colors(scene.world)
+    if note:
+        data.notes.append(note)
+    alpha = 0.0 if scene.render.film_transparent else 1.0
+    data.background = ((0.0, 0.0, 0.0) if alpha == 0.0 else world_rgb) + (alpha,)
+    settings = getattr(scene, "durer", None)
+    if settings is not None and settings.use_custom_ambient:
+        data.ambient = rgb(settings.ambient)
+    elif settings is None or settings.use_world_lighting:
+        data.ambient = world_rgb
+    return data

@@ -1,0 +1,66 @@
+"""Blender lights -> `LightData`, radiometric as in Cycles: a Sun of strength S gives irradiance S, so
+its Dürer colour (which multiplies kd·max(N·L, 0) with no 1/π) is colour·S/π; a Point or Spot light
+of power P has intensity colour·P/(4·π²) with inverse-square falloff (Cycles' diffuse BRDF is kd/π),
+or the falloff ``light.durer`` states (6.837's c0 + c1·d + c2·d²)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from .data import INVERSE_SQUARE, LightData
+from .nodes import rgb
+
+
+def light_data(obj, m: np.ndarray) -> LightData | None:
+    """The Dürer light of a light object with world matrix `m`; None for a type Dürer cannot
+    render (area lights)."""
+    convert = CONVERTERS.get(obj.data.type)
+    return None if convert is None else convert(obj, m)
+
+
+def _color_power(light) -> np.ndarray:
+    color = np.array(rgb(light.color), dtype=np.float64)
+    if light.use_temperature:
+        color = color * np.array(rgb(light.temperature_color))
+    power = float(light.energy) * 2.0 ** float(light.exposure)
+    return color * power
+
+
+def _axis(m: np.ndarray) -> np.ndarray:
+    """The way the light points: its object's -Z."""
+    return -m[:3, 2] / np.linalg.norm(m[:3, 2])
+
+
+def _falloff(light) -> dict:
+    settings = getattr(light.original or light, "durer", None)
+    if settings is not None and settings.use_attenuation:
+        return {"falloff": "custom", "attenuation": tuple(float(c) for c in settings.attenuation)}
+    return {"falloff": "inverse_square", "attenuation": INVERSE_SQUARE}
+
+
+def _sun(obj, m: np.ndarray) -> LightData:
+    light = obj.data
+    color = _color_power(light) / math.pi
+    return LightData("sun", obj.name, color, direction=_axis(m), shadows=bool(light.use_shadow))
+
+
+def _point(obj, m: np.ndarray) -> LightData:
+    light = obj.data
+    intensity = _color_power(light) / (4.0 * math.pi**2)
+    return LightData("point", obj.name, intensity, position=m[:3, 3].copy(), shadows=bool(light.use_shadow),
+                     **_falloff(light))
+
+
+def _spot(obj, m: np.ndarray) -> LightData:
+    light = obj.data
+    intensity = _color_power(light) / (4.0 * math.pi**2)
+    return LightData("spot", obj.name, intensity, direction=_axis(m), position=m[:3, 3].copy(),
+                     spot_half_angle=float(light.spot_size) / 2.0, spot_blend=float(light.spot_blend),
+                     shadows=bool(light.use_shadow), **_falloff(light))
+
+
+#: Blender light type -> its converter.
+CONVERTERS: dict[str, Callable[..., LightData]] = {"SUN": _sun, "POINT": _point, "SPOT": _spot}

@@ -1,0 +1,222 @@
+"""Blender materials -> Dürer's 6.837 materials (`MaterialData`): Principled BSDF -> Phong, mirror and
+refraction parameters, the other BSDFs through `CONVERTERS`, and ``material.durer`` overrides."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .data import BLACK, MaterialData
+from .nodes import color_input, rgb, scalar_input, socket_value
+
+#: Roughness at or below which a specular lobe is a mirror (reflection rays); above it, the lobe is
+#: a Phong highlight of the lights. At 0.2 the GGX width alpha = roughness² is 0.04, the Phong
+#: exponent of the same width ~1250: reflections in Cycles are still sharp there.
+MIRROR_ROUGHNESS = 0.2
+#: Phong exponents are clamped to [1, MAX_EXPONENT] (roughness 1 gives 2/α² − 2 = 0).
+MAX_EXPONENT = 1.0e4
+
+
+def _clamp01(x: float) -> float:
+    return min(max(float(x), 0.0), 1.0)
+
+
+def _scale3(c, k) -> tuple[float, float, float]:
+    """c × k, k a number or an RGB triple."""
+    k = (k, k, k) if isinstance(k, (int, float)) else k
+    return (float(c[0] * k[0]), float(c[1] * k[1]), float(c[2] * k[2]))
+
+
+def _add3(a, b) -> tuple[float, float, float]:
+    return (float(a[0] + b[0]), float(a[1] + b[1]), float(a[2] + b[2]))
+
+
+def fresnel_f0(ior: float) -> float:
+    """Reflectance at normal incidence of a dielectric of index `ior` in air: ((n − 1)/(n + 1))²."""
+    n = max(float(ior), 0.0)
+    return ((n - 1.0) / (n + 1.0)) ** 2
+
+
+def conductor_f0(ior, extinction) -> tuple[float, float, float]:
+    """Reflectance at normal incidence of a conductor (complex index n + ik), per channel."""
+    return tuple(float(((n - 1) ** 2 + k * k) / ((n + 1) ** 2 + k * k)) for n, k in zip(ior, extinction))
+
+
+def phong_exponent(roughness: float) -> float:
+    """The Blinn-Phong exponent whose lobe is as wide as a microfacet lobe of Blender's roughness
+    r: α = r² (Blender's GGX/Beckmann width) and n = 2/α² − 2 (Walter et al. 2007), in [1, MAX_EXPONENT]."""
+    alpha = max(float(roughness), 0.0) ** 2
+    if alpha <= 0.0:
+        return MAX_EXPONENT
+    return min(max(2.0 / (alpha * alpha) - 2.0, 1.0), MAX_EXPONENT)
+
+
+def specular_lobe(color, roughness: float) -> dict:
+    """A specular lobe of reflectance `color` (at normal incidence) and Blender roughness:
+    a mirror (``reflective = color``) at roughness <= MIRROR_ROUGHNESS, else a Phong highlight of
+    the same width (``exponent = phong_exponent(roughness)``) and the same peak as a normalised
+    Blinn-Phong BRDF of that reflectance, ``specular = color × (n + 8)/8`` (Dürer's light colours
+    already include Cycles' 1/π)."""
+    if not any(color):
+        return {}
+    if np.float32(roughness) <= np.float32(MIRROR_ROUGHNESS):  # Blender stores float32 roughness
+        return {"reflective": rgb(color)}
+    n = phong_exponent(roughness)
+    return {"specular": _scale3(color, (n + 8.0) / 8.0), "exponent": n}
+
+
+def _principled(mat, node, viewport) -> MaterialData:
+    """Principled BSDF, with b = Base Color, m = Metallic, t = Transmission Weight, r = Roughness:
+
+    * specular reflectance  s = b·m + F0·(1 − m), with the dielectric F0 = fresnel_f0(IOR) × 2 ×
+      Specular IOR Level × Specular Tint (0.5 is Blender's "no adjustment"), made a mirror or a
+      Phong lobe by `specular_lobe`;
+    * kd = b·(1 − m)·(1 − t)·(1 − F0);  transparent = b·(1 − m)·t·(1 − F0), ior = IOR (any
+      roughness): what the specular layer reflects does not reach the layers below;
+    * Emission Color × Strength as emission. Linked inputs use the material's viewport settings.
+    """
+    base = color_input(node, "Base Color", viewport)
+    metallic = _clamp01(scalar_input(node, "Metallic", mat.metallic))
+    roughness = _clamp01(scalar_input(node, "Roughness", mat.roughness))
+    ior = max(scalar_input(node, "IOR", 1.5), 1e-3)
+    level = max(scalar_input(node, "Specular IOR Level", mat.specular_intensity), 0.0)
+    tint = color_input(node, "Specular Tint", (1.0, 1.0, 1.0))
+    transmission = _clamp01(scalar_input(node, "Transmission Weight", 0.0))
+    f0 = tuple(min(fresnel_f0(ior) * 2.0 * level * c, 1.0) for c in tint)
+    spec = _add3(_scale3(base, metallic), _scale3(f0, 1.0 - metallic))
+    # What the dielectric specular layer reflects does not reach the diffuse or transmission below.
+    below = tuple(1.0 - x for x in f0)
+    diffuse = _scale3(_scale3(base, (1.0 - metallic) * (1.0 - transmission)), below)
+    transparent = BLACK
+    if transmission > 0.0 and metallic < 1.0:
+        transparent = _scale3(_scale3(base, (1.0 - metallic) * transmission), below)
+    ecol, elinked = socket_value(node, "Emission Color")
+    estr, _ = socket_value(node, "Emission Strength")
+    emission = BLACK
+    if ecol is not None and estr and not elinked:
+        emission = tuple(c * float(estr) for c in rgb(ecol))
+    md = MaterialData(mat.name, diffuse, emission, transparent=transparent, ior=ior if any(transparent) else 1.0)
+    return _with_lobe(md, spec, roughness)
+
+
+def _with_lobe(md: MaterialData, spec, roughness: float) -> MaterialData:
+    lobe = specular_lobe(spec, roughness)
+    md.reflective = lobe.get("reflective", BLACK)
+    md.specular = lobe.get("specular", BLACK)
+    md.exponent = lobe.get("exponent", 1.0)
+    return md
+
+
+def _diffuse(mat, node, viewport) -> MaterialData:
+    return MaterialData(mat.name, color_input(node, "Color", viewport))
+
+
+def _emission(mat, node, viewport) -> MaterialData:
+    """Unlit: colour × strength."""
+    col = color_input(node, "Color", viewport)
+    strength, _ = socket_value(node, "Strength")
+    strength = float(strength)
+    return MaterialData(mat.name, BLACK, tuple(c * strength for c in col))
+
+
+def _roughness(mat, node) -> float:
+    return _clamp01(scalar_input(node, "Roughness", mat.roughness))
+
+
+def _glossy(mat, node, viewport) -> MaterialData:
+    """A specular lobe of its Color (no diffuse)."""
+    return _with_lobe(MaterialData(mat.name, BLACK), color_input(node, "Color", viewport), _roughness(mat, node))
+
+
+def _metallic(mat, node, viewport) -> MaterialData:
+    """A specular lobe of its Base Color (F82 Tint) or of the conductor's F0 (Physical Conductor)."""
+    if node.fresnel_type == "PHYSICAL_CONDUCTOR":
+        n, nl = socket_value(node, "IOR")
+        k, kl = socket_value(node, "Extinction")
+        spec = viewport if nl or kl else conductor_f0(n, k)
+    else:
+        spec = color_input(node, "Base Color", viewport)
+    return _with_lobe(MaterialData(mat.name, BLACK), spec, _roughness(mat, node))
+
+
+def _glass(mat, node, viewport) -> MaterialData:
+    """Transparent Color·(1 − F0) with its IOR plus a specular lobe of Color·F0."""
+    color = color_input(node, "Color", viewport)
+    ior = max(scalar_input(node, "IOR", 1.5), 1e-3)
+    f0 = fresnel_f0(ior)
+    transparent = _scale3(color, 1.0 - f0)
+    md = MaterialData(mat.name, BLACK, transparent=transparent, ior=ior if any(transparent) else 1.0)
+    return _with_lobe(md, _scale3(color, f0), _roughness(mat, node))
+
+
+def _refraction(mat, node, viewport) -> MaterialData:
+    """Transparent Color with its IOR."""
+    color = color_input(node, "Color", viewport)
+    ior = max(scalar_input(node, "IOR", 1.5), 1e-3)
+    return MaterialData(mat.name, BLACK, transparent=color, ior=ior if any(color) else 1.0)
+
+
+#: The surface shader node's bl_idname -> its converter (material, node, viewport colour).
+CONVERTERS = {
+    "ShaderNodeBsdfPrincipled": _principled,
+    "ShaderNodeBsdfDiffuse": _diffuse,
+    "ShaderNodeEmission": _emission,
+    "ShaderNodeBsdfGlossy": _glossy,
+    "ShaderNodeBsdfAnisotropic": _glossy,
+    "ShaderNodeBsdfMetallic": _metallic,
+    "ShaderNodeBsdfGlass": _glass,
+    "ShaderNodeBsdfRefraction": _refraction,
+}
+
+
+def material_data(mat, obj=None) -> MaterialData:
+    """Dürer's material for a Blender material (None: the object's colour).
+
+    ``material.durer`` with its override on comes first: the 6.837 material it states, as is. Else
+    the shader linked to the active Material Output's Surface, by its converter in `CONVERTERS`
+    (Principled BSDF: see `_principled`). A linked colour (texture) or another shader: the
+    material's viewport display colour.
+    """
+    if mat is None:
+        color = rgb(obj.color) if obj is not None else (0.8, 0.8, 0.8)
+        return MaterialData("(object colour)", color)
+    override = getattr(mat.original or mat, "durer", None)
+    if override is not None and override.use_override:
+        return override_material(mat.name, override)
+    viewport = rgb(mat.diffuse_color)
+    node = _surface_shader(mat.node_tree)
+    convert = CONVERTERS.get(node.bl_idname) if node is not None else None
+    return MaterialData(mat.name, viewport) if convert is None else convert(mat, node, viewport)
+
+
+def _surface_shader(tree):
+    """The node linked to the active Material Output's Surface (None without one)."""
+    if tree is None:
+        return None
+    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    if output is None or not output.inputs["Surface"].is_linked:
+        return None
+    return output.inputs["Surface"].links[0].from_node
+
+
+def override_material(name: str, settings) -> MaterialData:
+    """The 6.837 material a ``material.durer`` override states (no emission: 6.837 has none)."""
+    transparent = rgb(settings.transparent)
+    return MaterialData(
+        name,
+        rgb(settings.diffuse),
+        specular=rgb(settings.specular),
+        exponent=float(settings.exponent),
+        reflective=rgb(settings.reflective),
+        transparent=transparent,
+        ior=float(settings.ior) if any(transparent) else 1.0,
+    )
+
+
+def object_materials(obj) -> list:
+    slots = getattr(obj, "material_slots", None)
+    if slots is not None and len(slots):
+        return [slot.material for slot in slots]
+    data = getattr(obj, "data", None)
+    mats = getattr(data, "materials", None)
+    return list(mats) if mats is not None else []
