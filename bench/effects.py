@@ -21,6 +21,7 @@ from collections.abc import Callable, Sequence
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # numpy's BLAS threads must not spin during timing
 
 import durer  # noqa: E402
+from durer.render import PRECISIONS  # noqa: E402
 from durer.reports.machine import machine  # noqa: E402
 from durer.reports.scenes import EFFECT_ROWS as ROWS  # noqa: E402
 from durer.reports.scenes import effect_scene as showcase  # noqa: E402
@@ -42,7 +43,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", default="1280x720")
     parser.add_argument("--runs", type=int, default=7)
-    parser.add_argument("--precision", choices=("float", "double"), default="double")
+    parser.add_argument("--precision", choices=PRECISIONS, default="double")
     args = parser.parse_args(argv)
     width, height = (int(v) for v in args.size.split("x"))
     _, camera = durer.showcase_scene()

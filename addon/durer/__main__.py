@@ -10,13 +10,14 @@ from collections.abc import Sequence
 def demo(argv: Sequence[str]) -> int:
     """Render the built-in showcase scene with the core (no Blender needed)."""
     import durer
+    from durer.render import PRECISIONS
 
     parser = argparse.ArgumentParser(prog="python -m durer demo", description=demo.__doc__)
     parser.add_argument("--output", default="out/showcase.png", help="image file (PNG, JPEG, ...); default %(default)s")
     parser.add_argument("--width", type=int, default=960)
     parser.add_argument("--height", type=int, default=540)
     parser.add_argument("--spp", type=int, default=16, help="samples per pixel (default %(default)s)")
-    parser.add_argument("--precision", choices=("float", "double"), default="double")
+    parser.add_argument("--precision", choices=PRECISIONS, default="double")
     args = parser.parse_args(argv)
     scene, camera = durer.showcase_scene()
     try:

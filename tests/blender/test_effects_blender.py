@@ -4,7 +4,6 @@ the stats line; mirror, glass and Phong pixels through bpy.ops.render.render."""
 
 from __future__ import annotations
 
-import inspect
 import math
 
 import numpy as np
@@ -30,11 +29,6 @@ from durer.blender.export import materials
 
 pytestmark = pytest.mark.blender
 
-_RENDER_ARGS = set(inspect.signature(durer.render).parameters)
-needs_effects_core = pytest.mark.skipif(
-    not {"max_bounces", "min_weight", "shade_back"} <= _RENDER_ARGS,
-    reason="durer.render has no max_bounces/min_weight/shade_back yet (rebuild the core)",
-)
 
 
 def principled(name, base=(0.8, 0.8, 0.8), **inputs):
@@ -235,14 +229,11 @@ def test_light_paths_settings_defaults_and_kwargs(scene):
     assert settings.max_bounces == 4 and settings.min_weight == pytest.approx(0.01)
     for name in ("max_bounces", "min_weight"):  # shown in Render Properties > Dürer > Light Paths
         assert settings.bl_rna.properties[name].name in {"Max Bounces", "Min Weight"}
-    assert engine.render_kwargs(settings, durer.render).get("min_weight", 0.01) == 0.01
+    assert engine.render_kwargs(settings)["min_weight"] == 0.01
     settings.max_bounces, settings.min_weight = 2, 0.25
-    kwargs = engine.render_kwargs(settings, durer.render)
+    kwargs = engine.render_kwargs(settings)
     for key, value in {"max_bounces": 2, "min_weight": 0.25, "shade_back": True}.items():
-        if key in _RENDER_ARGS:
-            assert kwargs[key] == value
-        else:
-            assert key not in kwargs  # an older core: only what it accepts
+        assert kwargs[key] == value
 
 
 def test_stats_line_shows_the_effect_set():
@@ -297,7 +288,6 @@ def hand_built_mirror_scene():
     return sc, cam
 
 
-@needs_effects_core
 def test_mirror_ball_reflects_the_panel_and_the_world(scene, tmp_path):
     mirror_ball_scene(scene)
     out = render_passes(scene, tmp_path / "mirror.exr", normal=False)
@@ -321,7 +311,6 @@ def test_mirror_ball_reflects_the_panel_and_the_world(scene, tmp_path):
     np.testing.assert_allclose(out["color"], ref, atol=1e-6)
 
 
-@needs_effects_core
 def test_mirror_ball_centre_like_cycles(scene, tmp_path):
     """Cycles' metal at normal incidence reflects its base colour: the same centre pixel."""
     mirror_ball_scene(scene)
@@ -331,7 +320,6 @@ def test_mirror_ball_centre_like_cycles(scene, tmp_path):
     np.testing.assert_allclose(cycles[H // 2, W // 2, :3], np.multiply(BASE, EMISSION), rtol=2e-3)
 
 
-@needs_effects_core
 def test_max_bounces_and_min_weight_reach_the_render(scene):
     mirror_ball_scene(scene)
     scene.durer.max_bounces = 0
@@ -354,7 +342,6 @@ def test_max_bounces_and_min_weight_reach_the_render(scene):
     assert stats["reflection_rays"] > 0 and stats["bounces_cut_by_weight"] == 0
 
 
-@needs_effects_core
 def test_glass_ball_lets_the_centre_ray_through(scene, tmp_path):
     """A clear Refraction BSDF ball (IOR 1.5) in front of an emitting panel: the axial ray crosses
     both faces undeviated and sees the panel; with one bounce it is cut inside the ball."""
@@ -380,7 +367,6 @@ def test_glass_ball_lets_the_centre_ray_through(scene, tmp_path):
     assert stats["bounces_cut_by_depth"] == stats["refraction_rays"] > 0
 
 
-@needs_effects_core
 def test_default_material_gets_a_phong_highlight(scene, tmp_path):
     """Blender's default Principled under a Sun shining along the view: at the centre N = L = H,
     so the pixel is (kd + ks)·S/π = (0.8·0.96 + 0.19)/π."""
@@ -396,7 +382,6 @@ def test_default_material_gets_a_phong_highlight(scene, tmp_path):
     assert "specular" in effects and "reflection" not in effects
 
 
-@needs_effects_core
 def test_cast_shadow_switches_the_shadows_effect(scene):
     world(scene, (0, 0, 0))
     uv_sphere(scene, "Ball").data.materials.append(material("Matte", (0.5, 0.5, 0.5)))
@@ -415,7 +400,6 @@ def test_cast_shadow_switches_the_shadows_effect(scene):
     assert set(stats["effects"]) == {"diffuse"} and "reflection_rays" in stats
 
 
-@needs_effects_core
 def test_back_faces_are_shaded_like_cycles(scene, tmp_path):
     """Inside a diffuse ball lit by a point light at its centre, the camera sees back faces: Blender
     passes shade_back, so they are lit with the flipped normal (a·P/(4π²r²) at normal incidence)."""

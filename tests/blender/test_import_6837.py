@@ -26,10 +26,6 @@ SIZE = 200
 #: The import must match the raytracer on this fraction of pixels, within 1/255 on linear colour.
 MATCH = 0.995
 
-needs_mesh_core = pytest.mark.skipif(
-    not hasattr(durer.Scene(), "add_mesh"), reason="the core has no Scene.add_mesh / transform= yet (rebuild it)"
-)
-
 
 def official_runs() -> list[tuple[str, dict]]:
     """(scene file name, flags) of every distinct official command line in scenes/6837/commands.txt
@@ -164,7 +160,7 @@ def test_options_reach_the_render_settings(empty):
     assert (s.shade_back, s.max_bounces, s.samples, s.sampler, s.precision) == (True, 3, 1, "CENTER", "DOUBLE")
     assert s.min_weight == pytest.approx(0.05) and empty.render.engine == "DURER"
     assert all(light.use_shadow for light in bpy.data.lights)
-    kwargs = engine.render_kwargs(s, durer.render)
+    kwargs = engine.render_kwargs(s)
     assert kwargs["shade_back"] is True and kwargs["min_weight"] == 0.05 and kwargs["max_bounces"] == 3
 
 
@@ -234,7 +230,6 @@ def test_a_missing_file_is_an_error_report(empty, tmp_path):
 # --- renders ---------------------------------------------------------------------------------------
 
 
-@needs_mesh_core
 @pytest.mark.parametrize(
     "run",
     RUNS,
@@ -253,7 +248,6 @@ def test_import_renders_like_the_raytracer(empty, run):
     assert fraction >= MATCH, f"{run_id(run)}: {fraction:.2%} of pixels match"
 
 
-@needs_mesh_core
 def test_orthographic_camera_behind_the_spheres_sees_what_6837_sees(empty, tmp_path):
     """scene1_07's camera sits inside its spheres (6.837 counts hits from t = -inf): the moved-back
     camera gives the same image, and its Depth pass is 6.837's t plus the recorded offset."""
@@ -299,7 +293,6 @@ Group {
 """
 
 
-@needs_mesh_core
 @pytest.mark.parametrize("shade_back", [False, True])
 def test_sheared_and_mirrored_transforms_render_like_the_raytracer(empty, tmp_path, shade_back):
     """Blender objects hold no shear: a sphere under a sheared matrix becomes the same ellipsoid

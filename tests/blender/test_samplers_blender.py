@@ -12,19 +12,12 @@ from helpers.blender import ball_scene
 bpy = pytest.importorskip("bpy")
 
 import durer
-from durer.blender import engine, ui
+from durer.blender import engine, properties, ui
+from durer.render import PRECISIONS, SAMPLERS, SPHERE_METHODS
 
 pytestmark = pytest.mark.blender
 
-_RENDER_ARGS = set(inspect.signature(durer.render).parameters)
-needs_sampler_core = pytest.mark.skipif(
-    not {"sampler", "target_error"} <= _RENDER_ARGS,
-    reason="durer.render has no sampler/target_error yet (rebuild the core)",
-)
-needs_presets = pytest.mark.skipif(not hasattr(durer, "PRESETS"), reason="durer.PRESETS not there yet")
-
-SAMPLERS = ("CENTER", "RANDOM", "STRATIFIED", "SOBOL", "ADAPTIVE")
-PRESETS = ("DRAFT", "PREVIEW", "FINAL", "REFERENCE")
+PRESETS = tuple(name.upper() for name in durer.PRESETS)
 
 
 def enum_ids(settings, name):
@@ -54,13 +47,13 @@ def image_pixels(width, height):
 
 def test_sampler_target_error_and_preset_settings(scene):
     settings = scene.durer
-    assert enum_ids(settings, "sampler") == list(SAMPLERS)
+    assert sorted(enum_ids(settings, "sampler")) == sorted(name.upper() for name in SAMPLERS)
     assert enum_ids(settings, "preset") == ["CUSTOM", *PRESETS]
     assert settings.sampler == "STRATIFIED" and settings.preset == "CUSTOM"
     assert settings.target_error == pytest.approx(0.01)
-    if "target_error" in _RENDER_ARGS:  # Blender's defaults are the core's
-        assert engine.render_kwargs(settings, durer.render)["target_error"] == _default("target_error")
-        assert settings.sampler.lower() == _default("sampler")
+    # Blender's defaults are the core's.
+    assert engine.render_kwargs(settings)["target_error"] == _default("target_error")
+    assert settings.sampler.lower() == _default("sampler")
     with pytest.raises(TypeError):
         settings.sampler = "HALTON"
     settings.target_error = 0.0  # clamped to the property's minimum: the core needs > 0
@@ -75,22 +68,30 @@ def test_render_kwargs_pass_sampler_and_target_error(scene):
     settings = scene.durer
     settings.target_error = 0.005
     for sampler in SAMPLERS:
-        settings.sampler = sampler
-        kwargs = engine.render_kwargs(settings, durer.render)
-        if "sampler" in _RENDER_ARGS:
-            assert kwargs["sampler"] == sampler.lower()
-            assert kwargs["target_error"] == 0.005  # the decimal, not float32's 0.004999999888
-        else:
-            assert "sampler" not in kwargs and "target_error" not in kwargs
-
-    def older_core(scene, camera, width, height, *, spp=1, seed=0, precision="double"):
-        """A render function of a core without samplers."""
-
-    kwargs = engine.render_kwargs(settings, older_core)
-    assert set(kwargs) == {"spp", "seed", "precision"}
+        settings.sampler = sampler.upper()
+        kwargs = engine.render_kwargs(settings)
+        assert kwargs["sampler"] == sampler
+        assert kwargs["target_error"] == 0.005  # the decimal, not float32's 0.004999999888
+    # Every setting is a keyword durer.render takes.
+    assert set(kwargs) <= set(inspect.signature(durer.render).parameters)
 
 
-@needs_presets
+@pytest.mark.parametrize(("names", "text", "setting"), [
+    (SAMPLERS, properties.SAMPLER_TEXT, "sampler"),
+    (PRECISIONS, properties.PRECISION_TEXT, "precision"),
+    (SPHERE_METHODS, properties.SPHERE_METHOD_TEXT, "sphere_method"),
+])
+def test_option_menus_are_the_core_names(scene, names, text, setting):
+    # Every core name has a label and a tooltip, and no label names an option the core lacks.
+    assert set(text) == set(names)
+    items = scene.durer.bl_rna.properties[setting].enum_items
+    assert {item.identifier.lower() for item in items} == set(names)
+    for item in items:
+        assert (item.name, item.description) == text[item.identifier.lower()]
+    with pytest.raises(ValueError, match="no label for halton"):
+        properties.enum_items((*names, "halton"), text)
+
+
 def test_presets_set_samples_sampler_target_error_and_precision(scene):
     settings = scene.durer
     settings.sphere_method = "GEOMETRIC"
@@ -107,7 +108,7 @@ def test_presets_set_samples_sampler_target_error_and_precision(scene):
         if "sphere_method" not in preset:
             assert settings.sphere_method == "GEOMETRIC"
         # Blender then renders exactly what durer.render(..., **durer.preset(name)) renders.
-        kwargs = engine.render_kwargs(settings, durer.render)
+        kwargs = engine.render_kwargs(settings)
         for key, value in preset.items():
             if key in kwargs:
                 assert kwargs[key] == value, (name, key)
@@ -116,7 +117,6 @@ def test_presets_set_samples_sampler_target_error_and_precision(scene):
         assert str(preset["spp"]) in item.description
 
 
-@needs_presets
 def test_editing_a_preset_setting_makes_it_custom(scene):
     settings = scene.durer
     for field in ("samples", "sampler", "target_error", "precision"):
@@ -150,7 +150,7 @@ def test_editing_a_preset_setting_makes_it_custom(scene):
 
 def test_render_panel_rows(scene):
     settings = scene.durer
-    for sampler in SAMPLERS:
+    for sampler in (name.upper() for name in SAMPLERS):
         settings.sampler = sampler
         rows = {name: (label, active) for name, label, active in ui.sampling_rows(settings)}
         assert list(rows)[:3] == ["preset", "samples", "sampler"]
@@ -185,7 +185,6 @@ def test_settings_survive_save_and_reload(scene, tmp_path):
 # --- through the Render button ----------------------------------------------------------------
 
 
-@needs_sampler_core
 def test_adaptive_render_through_the_render_button(scene):
     ball_scene(scene)
     settings = scene.durer
@@ -208,28 +207,25 @@ def test_adaptive_render_through_the_render_button(scene):
     np.testing.assert_allclose(image_pixels(64, 48), direct.color, atol=1e-6)
 
 
-@needs_sampler_core
 def test_every_sampler_reaches_the_core(scene):
     ball_scene(scene, 24, 16)
     scene.durer.samples = 4
     images = {}
     for sampler in SAMPLERS:
-        scene.durer.sampler = sampler
+        scene.durer.sampler = sampler.upper()
         assert bpy.ops.render.render() == {"FINISHED"}
         info = engine.last_render
         assert info.error is None, info.error
-        assert info.stats["sampler"] == sampler.lower()
-        assert (info.sample_counts is not None) == (sampler == "ADAPTIVE")
-        if sampler != "ADAPTIVE":
+        assert info.stats["sampler"] == sampler
+        assert (info.sample_counts is not None) == (sampler == "adaptive")
+        if sampler != "adaptive":
             assert info.stats["samples"] == 24 * 16 * 4
         images[sampler] = image_pixels(24, 16).copy()
-        np.testing.assert_allclose(images[sampler], direct_render(spp=4, sampler=sampler.lower()).color, atol=1e-6)
-    assert not np.array_equal(images["CENTER"], images["STRATIFIED"])
-    assert not np.array_equal(images["RANDOM"], images["SOBOL"])
+        np.testing.assert_allclose(images[sampler], direct_render(spp=4, sampler=sampler).color, atol=1e-6)
+    assert not np.array_equal(images["center"], images["stratified"])
+    assert not np.array_equal(images["random"], images["sobol"])
 
 
-@needs_sampler_core
-@needs_presets
 def test_a_preset_reaches_the_core(scene):
     ball_scene(scene, 24, 16)
     for name in ("DRAFT", "FINAL"):

@@ -26,14 +26,9 @@ from helpers.blender import (
 bpy = pytest.importorskip("bpy")
 bmesh = pytest.importorskip("bmesh")
 
-import durer
 from durer.blender import build, engine
 
 pytestmark = pytest.mark.blender
-
-needs_mesh_core = pytest.mark.skipif(
-    not hasattr(durer.Scene(), "add_mesh"), reason="the core has no Scene.add_mesh / transform= yet (rebuild it)"
-)
 
 
 def suzanne(s, name="Suzanne", **kw):
@@ -158,7 +153,6 @@ def pixel_centres(size=N, scale=2.0):
     return np.meshgrid(c, c[::-1])
 
 
-@needs_mesh_core
 def test_cube_silhouette_and_depth_are_exact(scene, tmp_path):
     world(scene, (0, 0, 0))
     cube(scene, "Box", size=1.0)
@@ -174,7 +168,6 @@ def test_cube_silhouette_and_depth_are_exact(scene, tmp_path):
     assert engine.last_render.triangles == 12
 
 
-@needs_mesh_core
 def test_rotated_cube_depth_is_exact(scene, tmp_path):
     """Turned 45° about Z, the unit cube shows an edge: depth 5 − √½ + |x| over |x| < √½."""
     world(scene, (0, 0, 0))
@@ -189,7 +182,6 @@ def test_rotated_cube_depth_is_exact(scene, tmp_path):
     np.testing.assert_allclose(out["depth"][hit], (5 - half + np.abs(x))[hit], rtol=1e-6)
 
 
-@needs_mesh_core
 def test_multi_material_cube_renders_each_slot_colour(scene, tmp_path):
     """No lights: a white world lights the faces with kd (ambient 1), so each pixel is its face's colour."""
     world(scene, (1, 1, 1))
@@ -207,7 +199,6 @@ def test_multi_material_cube_renders_each_slot_colour(scene, tmp_path):
     np.testing.assert_allclose(color[0, 0], [1, 1, 1])  # the world
 
 
-@needs_mesh_core
 def test_nonuniformly_scaled_sphere_is_an_exact_ellipsoid(scene, tmp_path):
     """A UV sphere scaled (1, 3, 0.5), seen along +Y from 5 away: the centre pixel's depth is
     5 − 3 = 2, and every pixel's depth is the distance along its camera ray to the ellipsoid (the
@@ -239,7 +230,6 @@ def test_nonuniformly_scaled_sphere_is_an_exact_ellipsoid(scene, tmp_path):
     np.testing.assert_allclose(out["normal"][hit], grad / np.linalg.norm(grad, axis=-1, keepdims=True), atol=1e-5)
 
 
-@needs_mesh_core
 def test_suzanne_silhouette_matches_cycles(scene, tmp_path):
     world(scene, (0, 0, 0))
     suzanne(scene, rotation=(0, 0, 20 * DEG))

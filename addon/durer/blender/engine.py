@@ -98,15 +98,9 @@ def _float32_decimal(value: float) -> float:
     return float(str(np.float32(value)))
 
 
-def render_kwargs(settings, render_func) -> dict:
-    """Keyword arguments for durer.render from scene.durer (only those the core accepts)."""
-    import inspect
-
-    try:
-        accepted = set(inspect.signature(render_func).parameters)
-    except (TypeError, ValueError):
-        accepted = set()
-    kwargs = {
+def render_kwargs(settings) -> dict:
+    """Keyword arguments for durer.render from scene.durer."""
+    return {
         "spp": int(settings.samples),
         "seed": int(settings.seed),
         "precision": settings.precision.lower(),
@@ -120,7 +114,6 @@ def render_kwargs(settings, render_func) -> dict:
         # inside faces); off renders 6.837's default (a 6.837 import without -shade_back).
         "shade_back": bool(settings.shade_back),
     }
-    return {k: v for k, v in kwargs.items() if not accepted or k in accepted}
 
 
 class DurerEngineMixin:
@@ -173,16 +166,16 @@ class DurerEngineMixin:
             passes.append("depth")
         if layer.use_pass_normal:
             passes.append("normal")
-        kwargs = render_kwargs(settings, durer.render)
+        kwargs = render_kwargs(settings)
         self.update_stats("", f"Dürer | {w}x{h} | {info.samples} spp | rendering")
         result, cancelled = self._run(durer, core_scene, camera, w, h, passes, kwargs)
         info.render_seconds = time.perf_counter() - t0 - info.export_seconds
         info.cancelled = cancelled
         if result is None:
             return
-        stats = dict(getattr(result, "stats", {}) or {})
+        stats = dict(result.stats)
         info.stats = stats
-        info.sample_counts = getattr(result, "samples", None)
+        info.sample_counts = result.samples
 
         crop = self._border(scene, w, h)
         rw, rh = crop[1].stop - crop[1].start, crop[0].stop - crop[0].start
@@ -191,10 +184,10 @@ class DurerEngineMixin:
             rl = rr.layers[0]
             color = np.asarray(result.color, dtype=np.float32)
             rl.passes["Combined"].rect.foreach_set(_flip(color[crop]).ravel())
-            if "Depth" in rl.passes and getattr(result, "depth", None) is not None:
+            if "Depth" in rl.passes and result.depth is not None:
                 depth = build.view_depth(result.depth, camera, cam_data)
                 rl.passes["Depth"].rect.foreach_set(_flip(depth[crop]).ravel())
-            if "Normal" in rl.passes and getattr(result, "normal", None) is not None:
+            if "Normal" in rl.passes and result.normal is not None:
                 normal = np.asarray(result.normal, np.float32)
                 rl.passes["Normal"].rect.foreach_set(_flip(normal[crop]).ravel())
         finally:
@@ -264,9 +257,8 @@ class DurerEngineMixin:
                 for hook in progress_hooks:
                     hook(shown)
         error = out.get("error")
-        cancelled_type = getattr(durer, "RenderCancelled", None)
-        if error is not None and cancelled_type is not None and isinstance(error, cancelled_type):
-            return getattr(error, "result", None), True
+        if isinstance(error, durer.RenderCancelled):
+            return error.result, True
         if error is not None:
             raise error
         self.update_progress(1.0)

@@ -3,9 +3,15 @@
 
 from __future__ import annotations
 
+import inspect
+
 import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, PointerProperty
+
+import durer
+from durer.presets import PRESETS
+from durer.render import PRECISIONS, SAMPLERS, SPHERE_METHODS
 
 PRIMITIVE_ITEMS = [
     (
@@ -25,31 +31,56 @@ PRIMITIVE_ITEMS = [
 ]
 
 
-SAMPLER_ITEMS = [
-    ("CENTER", "Center", "Every sample at the pixel centre: no anti-aliasing (the baseline)"),
-    ("RANDOM", "Random", "Uniform random positions in the pixel, deterministic for the seed"),
-    (
-        "STRATIFIED",
+#: Label and tooltip of each sampler (durer.render.SAMPLERS), in the order the menu shows them.
+SAMPLER_TEXT = {
+    "center": ("Center", "Every sample at the pixel centre: no anti-aliasing (the baseline)"),
+    "random": ("Random", "Uniform random positions in the pixel, deterministic for the seed"),
+    "stratified": (
         "Stratified",
         "Jittered-stratified positions, one per cell of an nx by ny grid, deterministic for the seed "
         "(1 sample: the pixel centre)",
     ),
-    (
-        "SOBOL",
+    "sobol": (
         "Sobol",
         "Owen-scrambled Sobol low-discrepancy points, scrambled per pixel from the seed: "
         "the error falls fastest with more samples",
     ),
-    (
-        "ADAPTIVE",
+    "adaptive": (
         "Adaptive",
         "Sobol points, 4 at first, then 4 more at a time while the pixel's samples hit different "
         "objects or their luminance's standard error exceeds Target Error, up to Samples",
     ),
-]
+}
+#: Label and tooltip of each precision (durer.render.PRECISIONS).
+PRECISION_TEXT = {
+    "double": ("Double", "64-bit: exact for large or far-away scenes"),
+    "float": ("Single", "32-bit: faster, may show acne on huge or distant spheres"),
+}
+#: Label and tooltip of each sphere method (durer.render.SPHERE_METHODS).
+SPHERE_METHOD_TEXT = {
+    "robust": ("Robust", "Numerically careful quadratic (no cancellation, exact far from the origin)"),
+    "geometric": ("Geometric", "Geometric (projection) solution"),
+    "algebraic": ("Algebraic", "Textbook quadratic formula (for comparison: loses precision)"),
+}
+
+
+def enum_items(names: tuple[str, ...], text: dict[str, tuple[str, str]]) -> list[tuple[str, str, str]]:
+    """EnumProperty items for the core's option `names`: identifier NAME (upper case), label and
+    tooltip from `text`. Items keep the order of `text`, because a .blend file stores an enum
+    setting as its item's index; a name without text is an error (tests/blender check both ways)."""
+    missing = [name for name in names if name not in text]
+    if missing:
+        raise ValueError(f"no label for {', '.join(missing)}")
+    order = list(text)
+    return [(name.upper(), *text[name]) for name in sorted(names, key=order.index)]
+
+
+SAMPLER_ITEMS = enum_items(SAMPLERS, SAMPLER_TEXT)
+PRECISION_ITEMS = enum_items(PRECISIONS, PRECISION_TEXT)
+SPHERE_METHOD_ITEMS = enum_items(SPHERE_METHODS, SPHERE_METHOD_TEXT)
 
 #: Preset identifiers in the Preset menu and the durer.PRESETS names they stand for.
-PRESET_NAMES = {"DRAFT": "draft", "PREVIEW": "preview", "FINAL": "final", "REFERENCE": "reference"}
+PRESET_NAMES = {name.upper(): name for name in PRESETS}
 
 #: The scene.durer setting each durer.render keyword of a preset sets, and how its value is stored.
 PRESET_FIELDS = {
@@ -64,20 +95,15 @@ PRESET_FIELDS = {
 def preset_settings(name: str) -> dict:
     """The scene.durer values of preset `name` (e.g. "FINAL"): durer.preset(...)'s samples, sampler,
     target error and precision, with durer.render's defaults for what the preset leaves out (so
-    the render equals durer.render(..., **durer.preset(name))). {} for an unknown name or a core
-    without presets."""
-    import inspect
-
-    import durer
-
+    the render equals durer.render(..., **durer.preset(name))). {} for "CUSTOM"."""
     core_name = PRESET_NAMES.get(name)
-    if core_name is None or not hasattr(durer, "preset"):
+    if core_name is None:
         return {}
-    kwargs = dict(durer.preset(core_name))
+    kwargs = durer.preset(core_name)
     defaults = {
         key: p.default
         for key, p in inspect.signature(durer.render).parameters.items()
-        if key in ("spp", "sampler", "target_error", "precision") and p.default is not inspect.Parameter.empty
+        if key in ("spp", "sampler", "target_error", "precision")
     }
     values = {}
     for key, value in {**defaults, **kwargs}.items():
@@ -89,17 +115,14 @@ def preset_settings(name: str) -> dict:
 
 def _describe_preset(name: str, label: str) -> str:
     """The tooltip, e.g. "Final: Adaptive, up to 64 samples, target error 0.005, double precision"."""
-    try:
-        v = preset_settings(name)
-        parts = [v["sampler"].title()]
-        if v["sampler"] == "ADAPTIVE":
-            parts.append(f"up to {v['samples']} samples, target error {v['target_error']:g}")
-        else:
-            parts.append(f"{v['samples']} sample" + ("s" if v["samples"] != 1 else ""))
-        parts.append({"FLOAT": "single", "DOUBLE": "double"}[v["precision"]] + " precision")
-        return f"{label}: " + ", ".join(parts)
-    except Exception:  # noqa: BLE001 - a tooltip must never break registration
-        return f"{label} quality (durer.PRESETS)"
+    v = preset_settings(name)
+    parts = [v["sampler"].title()]
+    if v["sampler"] == "ADAPTIVE":
+        parts.append(f"up to {v['samples']} samples, target error {v['target_error']:g}")
+    else:
+        parts.append(f"{v['samples']} sample" + ("s" if v["samples"] != 1 else ""))
+    parts.append(f"{PRECISION_TEXT[v['precision'].lower()][0].lower()} precision")
+    return f"{label}: " + ", ".join(parts)
 
 
 def _preset_items() -> list[tuple[str, str, str]]:
@@ -188,21 +211,14 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
     precision: EnumProperty(
         name="Precision",
         description="Floating-point precision of the intersection arithmetic",
-        items=[
-            ("DOUBLE", "Double", "64-bit: exact for large or far-away scenes"),
-            ("FLOAT", "Single", "32-bit: faster, may show acne on huge or distant spheres"),
-        ],
+        items=PRECISION_ITEMS,
         default="DOUBLE",
         update=_setting_changed,
     )
     sphere_method: EnumProperty(
         name="Sphere Method",
         description="How ray-sphere intersections are solved",
-        items=[
-            ("ROBUST", "Robust", "Numerically careful quadratic (no cancellation, exact far from the origin)"),
-            ("GEOMETRIC", "Geometric", "Geometric (projection) solution"),
-            ("ALGEBRAIC", "Algebraic", "Textbook quadratic formula (for comparison: loses precision)"),
-        ],
+        items=SPHERE_METHOD_ITEMS,
         default="ROBUST",
         update=_setting_changed,
     )

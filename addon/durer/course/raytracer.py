@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ..render import RenderResult, render
+from ..render import PASSES, PRECISIONS, RenderResult, render
 from ..visualize import depth_to_gray, normal_to_rgb
 from .scene_file import SceneFile, SceneFileError, read_scene_file
 
@@ -76,7 +76,7 @@ def render_scene_file(
     weight: float = 0.0,
     spp: int = 1,
     precision: str = "double",
-    passes: Iterable[str] = ("color", "depth", "normal"),
+    passes: Iterable[str] = PASSES,
 ) -> RenderResult:
     """Render a 6.837 scene (a SceneFile or its path) through its own camera, with the course's
     defaults: one sample at each pixel centre, no bounces. Raises SceneFileError for a malformed
@@ -167,7 +167,7 @@ def argument_parser() -> argparse.ArgumentParser:
                             help="skip secondary rays whose weight in the pixel falls below W (default 0)"),
         parser.add_argument("-spp", type=int, default=1, metavar="N",
                             help="samples per pixel (ours; default 1: the pixel centre, as the course)"),
-        parser.add_argument("-precision", choices=("float", "double"), default="double",
+        parser.add_argument("-precision", choices=PRECISIONS, default="double",
                             help="(ours; default double)"),
         parser.add_argument("-gui", action="store_true", help=argparse.SUPPRESS),
         parser.add_argument("-tessellation", nargs=2, metavar=("THETA", "PHI"), help=argparse.SUPPRESS),
