@@ -50,6 +50,7 @@ from bpy_extras.io_utils import ImportHelper
 from mathutils import Matrix
 
 from durer.course.scene_file import SceneCamera, SceneFile, SceneFileError, SceneMaterial, ScenePrimitive, read_scene_file
+from durer.material import COURSE_FIELDS
 
 #: Segments of the UV sphere that stands for every 6.837 sphere in the viewport and in Cycles.
 SPHERE_SEGMENTS = (32, 16)
@@ -392,8 +393,8 @@ class _Builder:
             inputs["IOR"].default_value = m.ior
         settings = mat.durer
         settings.use_override = True
-        settings.diffuse, settings.specular, settings.exponent = m.diffuse, m.specular, m.exponent
-        settings.reflective, settings.transparent, settings.ior = m.reflective, m.transparent, m.ior
+        for field in COURSE_FIELDS:
+            setattr(settings, field.name, getattr(m, field.name))
         return mat
 
     def light(self, index: int, light, shadows: bool) -> None:

@@ -10,6 +10,7 @@ import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, PointerProperty
 
 import durer
+from durer.material import COURSE_FIELDS, MaterialField
 from durer.presets import PRESETS
 from durer.render import PRECISIONS, SAMPLERS, SPHERE_METHODS
 
@@ -285,9 +286,33 @@ class DurerObjectSettings(bpy.types.PropertyGroup):
     )
 
 
+#: Label and tooltip of each field of a material override (durer.material.COURSE_FIELDS).
+MATERIAL_TEXT = {
+    "diffuse": ("Diffuse", "kd"),
+    "specular": ("Specular", "ks of the Phong highlight ks·light·max(N·H, 0)^exponent"),
+    "exponent": ("Exponent", "Phong exponent"),
+    "reflective": ("Reflective", "Weight of the mirror ray"),
+    "transparent": ("Transparent", "Weight of the refracted ray"),
+    "ior": ("IOR", "Index of refraction inside the object"),
+}
+#: (min, soft max) of the scalar fields; colours are >= 0, up to 1 on the slider.
+MATERIAL_SCALAR_LIMITS = {"exponent": (0.0, 1000.0), "ior": (1e-3, 3.0)}
+
+
+def material_property(f: MaterialField):
+    """The bpy property of a material field: a colour (FloatVectorProperty) or a number."""
+    label, description = MATERIAL_TEXT[f.name]
+    if f.components == 3:
+        return FloatVectorProperty(name=label, description=description, subtype="COLOR", size=3, default=f.default,
+                                   min=0.0, soft_max=1.0)
+    low, soft_high = MATERIAL_SCALAR_LIMITS[f.name]
+    return FloatProperty(name=label, description=description, default=f.default, min=low, soft_max=soft_high)
+
+
 class DurerMaterialSettings(bpy.types.PropertyGroup):
     """A 6.837 material stated directly, for what the shader nodes cannot express exactly
-    (independent diffuse, Phong, mirror and transparent colours); the 6.837 importer sets it."""
+    (independent diffuse, Phong, mirror and transparent colours); the 6.837 importer sets it.
+    Its fields are durer.material.COURSE_FIELDS, with Dürer's defaults."""
 
     use_override: BoolProperty(
         name="6.837 Material",
@@ -295,40 +320,9 @@ class DurerMaterialSettings(bpy.types.PropertyGroup):
         "(Cycles and EEVEE still use the shader)",
         default=False,
     )
-    diffuse: FloatVectorProperty(
-        name="Diffuse", description="kd", subtype="COLOR", size=3, default=(0.8, 0.8, 0.8), min=0.0, soft_max=1.0
-    )
-    specular: FloatVectorProperty(
-        name="Specular",
-        description="ks of the Phong highlight ks·light·max(N·H, 0)^exponent",
-        subtype="COLOR",
-        size=3,
-        default=(0.0, 0.0, 0.0),
-        min=0.0,
-        soft_max=1.0,
-    )
-    exponent: FloatProperty(name="Exponent", description="Phong exponent", default=1.0, min=0.0, soft_max=1000.0)
-    reflective: FloatVectorProperty(
-        name="Reflective",
-        description="Weight of the mirror ray",
-        subtype="COLOR",
-        size=3,
-        default=(0.0, 0.0, 0.0),
-        min=0.0,
-        soft_max=1.0,
-    )
-    transparent: FloatVectorProperty(
-        name="Transparent",
-        description="Weight of the refracted ray",
-        subtype="COLOR",
-        size=3,
-        default=(0.0, 0.0, 0.0),
-        min=0.0,
-        soft_max=1.0,
-    )
-    ior: FloatProperty(
-        name="IOR", description="Index of refraction inside the object", default=1.0, min=1e-3, soft_max=3.0
-    )
+
+
+DurerMaterialSettings.__annotations__.update({f.name: material_property(f) for f in COURSE_FIELDS})
 
 
 class DurerLightSettings(bpy.types.PropertyGroup):

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import bpy
 
+from durer.material import COURSE_FIELDS
+
 
 class _DurerPanel:
     bl_space_type = "PROPERTIES"
@@ -101,8 +103,8 @@ class DURER_PT_material(_DurerPanel, bpy.types.Panel):
         settings = context.material.durer
         col = layout.column()
         col.active = settings.use_override
-        for name in ("diffuse", "specular", "exponent", "reflective", "transparent", "ior"):
-            col.prop(settings, name)
+        for field in COURSE_FIELDS:
+            col.prop(settings, field.name)
 
 
 class DURER_PT_light(_DurerPanel, bpy.types.Panel):

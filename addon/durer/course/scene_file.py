@@ -9,6 +9,7 @@ the line and what was expected; the reader never returns half a scene.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import re
@@ -19,9 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from ..camera import OrthographicCamera, PerspectiveCamera
+from ..material import COURSE_FIELDS, Vec3, material_dataclass
 from ..scene import Scene
 
-Vec3 = tuple[float, float, float]
 
 # `%f` accepts these forms (`-.16`, `.4`, `1e-3`); we refuse inf/nan and Python-only forms like `1_0`.
 _NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
@@ -35,15 +36,16 @@ _OBJECTS = ("Group", "Sphere", "Plane", "Triangle", "TriangleMesh", "Transform")
 _OPS = ("Scale", "UniformScale", "Translate", "XRotate", "YRotate", "ZRotate", "Rotate", "Matrix")
 _LIGHTS = ("DirectionalLight", "PointLight")
 _MATERIALS = ("Material", "PhongMaterial")
-# field name in the file -> (SceneMaterial attribute, number of values)
+# field name in the file -> SceneMaterial attribute
 _MATERIAL_FIELDS = {
-    "diffuseColor": ("diffuse", 3),
-    "specularColor": ("specular", 3),
-    "exponent": ("exponent", 1),
-    "reflectiveColor": ("reflective", 3),
-    "transparentColor": ("transparent", 3),
-    "indexOfRefraction": ("ior", 1),
+    "diffuseColor": "diffuse",
+    "specularColor": "specular",
+    "exponent": "exponent",
+    "reflectiveColor": "reflective",
+    "transparentColor": "transparent",
+    "indexOfRefraction": "ior",
 }
+_MATERIAL_SIZES = {f.name: f.components for f in COURSE_FIELDS}
 # A matrix whose smallest singular value is below this fraction of its largest cannot be inverted
 # to working precision: rays taken into its object space would be noise.
 _SINGULAR = 1e-12
@@ -89,16 +91,11 @@ class SceneLight:
     attenuation: Vec3 = (1.0, 0.0, 0.0)
 
 
-@dataclass(frozen=True)
-class SceneMaterial:
-    """The fields of `Material`/`PhongMaterial`, with the course parser's defaults."""
-
-    diffuse: Vec3 = (1.0, 1.0, 1.0)
-    specular: Vec3 = (0.0, 0.0, 0.0)
-    exponent: float = 1.0
-    reflective: Vec3 = (0.0, 0.0, 0.0)
-    transparent: Vec3 = (0.0, 0.0, 0.0)
-    ior: float = 1.0
+#: The fields of `Material`/`PhongMaterial` (durer.material's, without emission), with the course
+#: parser's defaults: they are Dürer's but for the diffuse colour, white in the course.
+SceneMaterial = material_dataclass(
+    "SceneMaterial", COURSE_FIELDS, defaults={"diffuse": (1.0, 1.0, 1.0)}, frozen=True, module=__name__,
+    namespace={"__doc__": "The fields of `Material`/`PhongMaterial`, with the course parser's defaults."})
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,9 +152,7 @@ class SceneFile:
             else:
                 scene.add_point_light(light.position, light.color, attenuation=light.attenuation, shadows=shadows)
         # Dürer's material 0 is its built-in default, so file material i gets whatever id comes back.
-        ids = np.array([scene.add_material(m.diffuse, specular=m.specular, exponent=m.exponent,
-                                           reflective=m.reflective, transparent=m.transparent, ior=m.ior)
-                        for m in self.materials], dtype=np.int32)
+        ids = np.array([scene.add_material(**dataclasses.asdict(m)) for m in self.materials], dtype=np.int32)
         batches: dict[tuple[str, bytes], list[ScenePrimitive]] = {}
         for primitive in self.primitives:
             if primitive.kind == "mesh":
@@ -502,8 +497,8 @@ class _Parser:
             if token.text not in _MATERIAL_FIELDS:
                 raise self.error(token.line, f"expected {_one_of((*_MATERIAL_FIELDS, '}'))} in {keyword.text}, "
                                              f"got '{token.text}'")
-            name, size = _MATERIAL_FIELDS[token.text]
-            if size == 3:
+            name = _MATERIAL_FIELDS[token.text]
+            if _MATERIAL_SIZES[name] == 3:
                 self.pos -= 1
                 values[name] = self.vector_field(token.text, _non_negative)
                 continue
@@ -522,7 +517,7 @@ class _Parser:
         count_token = self.expect("numObjects")
         count = self.integer("numObjects", 0)
         found = 0
-        while (token := self.next(f"an object, 'MaterialIndex' or '}}'")).text != "}":
+        while (token := self.next("an object, 'MaterialIndex' or '}'")).text != "}":
             if token.text == "MaterialIndex":
                 index = self.integer("MaterialIndex")
                 self.current_material = index

@@ -8,6 +8,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ...material import MATERIAL_FIELDS, material_dataclass
+
 BLACK = (0.0, 0.0, 0.0)
 IDENTITY = np.eye(4)
 #: Dürer's attenuation (c0, c1, c2) for no falloff (6.837's default) and for Cycles' inverse square.
@@ -15,36 +17,33 @@ NO_FALLOFF = (1.0, 0.0, 0.0)
 INVERSE_SQUARE = (0.0, 0.0, 1.0)
 
 
-@dataclass
-class MaterialData:
-    """Dürer's material (the 6.837 model): kd (`diffuse`), emission, Phong ks (`specular`) with
-    `exponent`, mirror `reflective` colour, `transparent` colour with index of refraction `ior`."""
+def _material_key(self) -> tuple:
+    """Every field but the name: materials with equal keys render alike."""
+    return tuple(getattr(self, f.name) for f in MATERIAL_FIELDS)
 
-    name: str
-    diffuse: tuple[float, float, float]
-    emission: tuple[float, float, float] = BLACK
-    specular: tuple[float, float, float] = BLACK
-    exponent: float = 1.0
-    reflective: tuple[float, float, float] = BLACK
-    transparent: tuple[float, float, float] = BLACK
-    ior: float = 1.0
 
-    @property
-    def key(self) -> tuple:
-        return (self.diffuse, self.emission, self.specular, self.exponent, self.reflective, self.transparent, self.ior)
+def _material_effects(self) -> dict:
+    """The keyword arguments of Scene.add_material beyond diffuse/emission that differ from
+    their defaults (a plain diffuse material needs none, so it asks for no effect)."""
+    out = {}
+    if any(self.specular):
+        out.update(specular=self.specular, exponent=self.exponent)
+    if any(self.reflective):
+        out["reflective"] = self.reflective
+    if any(self.transparent):
+        out.update(transparent=self.transparent, ior=self.ior)
+    return out
 
-    @property
-    def effects(self) -> dict:
-        """The keyword arguments of Scene.add_material beyond diffuse/emission that differ from
-        their defaults (a plain diffuse material needs none, so it asks for no effect)."""
-        out = {}
-        if any(self.specular):
-            out.update(specular=self.specular, exponent=self.exponent)
-        if any(self.reflective):
-            out["reflective"] = self.reflective
-        if any(self.transparent):
-            out.update(transparent=self.transparent, ior=self.ior)
-        return out
+
+#: Dürer's material (the 6.837 model, durer.material's fields) of a Blender material `name`.
+MaterialData = material_dataclass(
+    "MaterialData", leading=(("name", str),), module=__name__,
+    namespace={
+        "__doc__": "Dürer's material of a Blender material: its `name`, then durer.material's fields.",
+        "key": property(_material_key),
+        "effects": property(_material_effects),
+    },
+)
 
 
 @dataclass

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...material import COURSE_FIELDS
 from .data import BLACK, MaterialData
 from .nodes import color_input, rgb, scalar_input, socket_value
 
@@ -177,8 +178,7 @@ def material_data(mat, obj=None) -> MaterialData:
     material's viewport display colour.
     """
     if mat is None:
-        color = rgb(obj.color) if obj is not None else (0.8, 0.8, 0.8)
-        return MaterialData("(object colour)", color)
+        return MaterialData("(object colour)") if obj is None else MaterialData("(object colour)", rgb(obj.color))
     override = getattr(mat.original or mat, "durer", None)
     if override is not None and override.use_override:
         return override_material(mat.name, override)
@@ -201,16 +201,11 @@ def _surface_shader(tree):
 
 def override_material(name: str, settings) -> MaterialData:
     """The 6.837 material a ``material.durer`` override states (no emission: 6.837 has none)."""
-    transparent = rgb(settings.transparent)
-    return MaterialData(
-        name,
-        rgb(settings.diffuse),
-        specular=rgb(settings.specular),
-        exponent=float(settings.exponent),
-        reflective=rgb(settings.reflective),
-        transparent=transparent,
-        ior=float(settings.ior) if any(transparent) else 1.0,
-    )
+    values = {f.name: rgb(getattr(settings, f.name)) if f.components == 3 else float(getattr(settings, f.name))
+              for f in COURSE_FIELDS}
+    if not any(values["transparent"]):
+        values["ior"] = 1.0
+    return MaterialData(name, **values)
 
 
 def object_materials(obj) -> list:
