@@ -80,6 +80,13 @@ SAMPLER_ITEMS = enum_items(SAMPLERS, SAMPLER_TEXT)
 PRECISION_ITEMS = enum_items(PRECISIONS, PRECISION_TEXT)
 SPHERE_METHOD_ITEMS = enum_items(SPHERE_METHODS, SPHERE_METHOD_TEXT)
 
+#: durer.render's defaults: the settings start where durer.render does.
+RENDER_DEFAULTS = {
+    name: p.default
+    for name, p in inspect.signature(durer.render).parameters.items()
+    if p.default is not inspect.Parameter.empty
+}
+
 #: Preset identifiers in the Preset menu and the durer.PRESETS names they stand for.
 PRESET_NAMES = {name.upper(): name for name in PRESETS}
 
@@ -100,14 +107,9 @@ def preset_settings(name: str) -> dict:
     core_name = PRESET_NAMES.get(name)
     if core_name is None:
         return {}
-    kwargs = durer.preset(core_name)
-    defaults = {
-        key: p.default
-        for key, p in inspect.signature(durer.render).parameters.items()
-        if key in ("spp", "sampler", "target_error", "precision")
-    }
+    defaults = {key: RENDER_DEFAULTS[key] for key in ("spp", "sampler", "target_error", "precision")}
     values = {}
-    for key, value in {**defaults, **kwargs}.items():
+    for key, value in {**defaults, **durer.preset(core_name)}.items():
         if key in PRESET_FIELDS:
             field, convert = PRESET_FIELDS[key]
             values[field] = convert(value)
@@ -183,25 +185,25 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
     samples: IntProperty(
         name="Samples",
         description="Camera rays per pixel (Adaptive: the most a pixel gets)",
-        default=1,
+        default=RENDER_DEFAULTS["spp"],
         min=1,
         soft_max=64,
         max=4096,
         update=_setting_changed,
     )
-    seed: IntProperty(name="Seed", description="Seed of the pixel sampler", default=0, min=0)
+    seed: IntProperty(name="Seed", description="Seed of the pixel sampler", default=RENDER_DEFAULTS["seed"], min=0)
     sampler: EnumProperty(
         name="Sampler",
         description="Where a pixel's rays go",
         items=SAMPLER_ITEMS,
-        default="STRATIFIED",
+        default=RENDER_DEFAULTS["sampler"].upper(),
         update=_setting_changed,
     )
     target_error: FloatProperty(
         name="Target Error",
         description="Adaptive: a pixel gets more samples while its samples hit different objects or the "
         "standard error of their mean luminance exceeds this",
-        default=0.01,
+        default=RENDER_DEFAULTS["target_error"],
         min=1e-5,
         soft_min=0.001,
         max=1.0,
@@ -213,14 +215,14 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
         name="Precision",
         description="Floating-point precision of the intersection arithmetic",
         items=PRECISION_ITEMS,
-        default="DOUBLE",
+        default=RENDER_DEFAULTS["precision"].upper(),
         update=_setting_changed,
     )
     sphere_method: EnumProperty(
         name="Sphere Method",
         description="How ray-sphere intersections are solved",
         items=SPHERE_METHOD_ITEMS,
-        default="ROBUST",
+        default=RENDER_DEFAULTS["sphere_method"].upper(),
         update=_setting_changed,
     )
     threads: IntProperty(name="Threads", description="Render threads (0: all cores)", default=0, min=0, max=1024)
@@ -228,7 +230,7 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
         name="Max Bounces",
         description="Reflection and refraction rays followed from a camera ray at most "
         "(0: direct lighting only). Only mirror-like and transmissive materials spawn them",
-        default=4,
+        default=RENDER_DEFAULTS["max_bounces"],
         min=0,
         soft_max=16,
         max=1024,
@@ -237,7 +239,7 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
         name="Min Weight",
         description="A reflection or refraction ray is not traced when its contribution to the pixel "
         "(the product of reflective/transparent colours along the path, largest channel) is below this",
-        default=0.01,
+        default=RENDER_DEFAULTS["min_weight"],
         min=0.0,
         max=1.0,
         precision=4,
