@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import durer
+from durer.render import SPHERE_METHODS
 from helpers.core import cast_one, tolerance, unit_sphere_scene
 
 
@@ -80,8 +81,7 @@ def test_methods_agree_on_random_ordinary_rays(rng, precision):
     scene.add_spheres(centers, rng.uniform(0.2, 1.5, 50))
     origins = rng.uniform(-10, 10, (2000, 3))
     directions = rng.normal(size=(2000, 3)) * rng.uniform(0.1, 10, (2000, 1))
-    results = {m: durer.cast(scene, origins, directions, sphere_method=m, precision=precision) for m in
-               ("algebraic", "geometric", "robust")}
+    results = {m: durer.cast(scene, origins, directions, sphere_method=m, precision=precision) for m in SPHERE_METHODS}
     base = results["robust"]
     assert 100 < np.isfinite(base.t).sum() < 2000  # a real mix of hits and misses
     for name, r in results.items():

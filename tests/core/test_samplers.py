@@ -11,10 +11,9 @@ import numpy as np
 import pytest
 
 import durer
+from durer.render import SAMPLERS
 
-SAMPLERS = ("center", "random", "stratified", "sobol", "adaptive")
-FIXED = ("center", "random", "stratified", "sobol")
-RANDOMISED = ("random", "stratified", "sobol", "adaptive")
+FIXED = tuple(s for s in SAMPLERS if s != "adaptive")  # a fixed number of samples per pixel
 WHITE_ON_BLACK = (0.0, 0.0, 0.0, 1.0)
 
 

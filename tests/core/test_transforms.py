@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import durer
+from durer.render import PRECISIONS
 
 
 def rotation(axis, degrees: float) -> np.ndarray:
@@ -167,7 +168,7 @@ def test_render_of_a_lit_shadowed_ellipsoid_has_no_acne():
     scene.add_directional_light(light, (1, 1, 1), shadows=True)
     scene.ambient = (0.1, 0.1, 0.1)
     camera = durer.PerspectiveCamera((0, 0, 8), (0, 0, -1), (0, 1, 0), fov_degrees=40)
-    for precision in ("float", "double"):
+    for precision in PRECISIONS:
         result = durer.render(scene, camera, 64, 64, precision=precision)
         hits = np.isfinite(result.depth)
         assert hits.sum() > 500

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import durer
-from durer.render import SAMPLERS
+from durer.render import PRECISIONS, SAMPLERS, SPHERE_METHODS
 from durer.reports import numerics
 from durer.reports.accuracy.cli import main, write_report
 from durer.reports.accuracy.measure import (
@@ -76,7 +76,7 @@ def test_configs():
     assert quick.runs == 1 and quick.baseline_spp == 16
     assert full.spps == (1, 4, 16, 64, 256) and full.reference_spp == 4096 and full.runs == 3
     assert full.baseline_spp == 64 and full.adaptive_max_spp == 256
-    assert set(full.samplers) == {"center", "random", "stratified", "sobol", "adaptive"}
+    assert full.samplers == SAMPLERS
 
 
 def test_edge_scene_is_many_small_spheres():
@@ -104,8 +104,8 @@ def synthetic_report(config: Config) -> Report:
                       AAPoint("adaptive", 256, 5.0, 0.05, 0.3, 0.5, 0.04)]
     edges = synthetic_aa("edges", slopes)
     timings = [Timing(scene, p, m, 10.0 if p == "double" else 7.0, 1_000_000, 0.0 if p == "double" else 1e-6, 0.0,
-                      0.0, 0.0, 0) for scene in ("showcase", "edges") for p in ("float", "double")
-               for m in ("algebraic", "geometric", "robust")]
+                      0.0, 0.0, 0) for scene in ("showcase", "edges") for p in PRECISIONS
+               for m in SPHERE_METHODS]
     sweep = numerics.sweep(ratios=numerics.RATIOS[:2])
     effects = [EffectRow(name, 1.0 + i, ("flat",), 0) for i, (name, _, _) in enumerate(EFFECT_ROWS)]
     presets = [PresetRow("draft", {"spp": 1, "sampler": "center"}, 0.5, 1.0, 0.04, 0.3),
