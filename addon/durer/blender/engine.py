@@ -9,6 +9,11 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
+import durer
+
+from . import build
+from .export.depsgraph import export_depsgraph
+
 #: Name of the float Image datablock that holds the Combined pixels after every render.
 IMAGE_NAME = "Dürer Render"
 #: How often the engine polls Blender's cancel flag (Esc) while Dürer renders, in seconds.
@@ -138,15 +143,11 @@ class DurerEngineMixin:
             self.update_stats("", f"Dürer | error: {exc}")
 
     def _render(self, depsgraph, info: RenderInfo) -> None:
-        import durer
-
-        from . import build, export
-
         scene = depsgraph.scene
         settings = scene.durer
         layer = depsgraph.view_layer
         t0 = time.perf_counter()
-        data = export.export_depsgraph(depsgraph, camera=self.camera_override)
+        data = export_depsgraph(depsgraph, camera=self.camera_override)
         if data.camera is None:
             raise ValueError("The scene has no camera")
         cam_data = data.camera
@@ -168,7 +169,7 @@ class DurerEngineMixin:
             passes.append("normal")
         kwargs = render_kwargs(settings)
         self.update_stats("", f"Dürer | {w}x{h} | {info.samples} spp | rendering")
-        result, cancelled = self._run(durer, core_scene, camera, w, h, passes, kwargs)
+        result, cancelled = self._run(core_scene, camera, w, h, passes, kwargs)
         info.render_seconds = time.perf_counter() - t0 - info.export_seconds
         info.cancelled = cancelled
         if result is None:
@@ -222,7 +223,7 @@ class DurerEngineMixin:
         press Esc, which the bpy module has no keyboard for.)"""
         return bool(self.test_break())
 
-    def _run(self, durer, core_scene, camera, w, h, passes, kwargs):
+    def _run(self, core_scene, camera, w, h, passes, kwargs):
         """Render in a worker thread while this thread polls Esc (test_break) and shows progress,
         so every Blender call happens on the thread Blender called us on."""
         cancel = threading.Event()
