@@ -3,7 +3,6 @@ spheres under a non-uniform scale render as exact ellipsoids."""
 
 from __future__ import annotations
 
-import time
 
 import numpy as np
 import pytest
@@ -242,9 +241,9 @@ def test_suzanne_silhouette_matches_cycles(scene, tmp_path):
     assert (durer_hit != cycles_hit).sum() <= 2  # only where a pixel centre grazes an edge
 
 
-def test_million_triangle_mesh_exports_fast(scene):
-    """Bulk foreach_get only: a 1M-triangle mesh (a wavy 709 × 709 grid of quads) exports in a
-    fraction of a second."""
+def test_million_triangle_mesh_exports_every_triangle(scene):
+    """A 1M-triangle mesh (a wavy 709 × 709 grid of quads) exports whole, its vertices as stored.
+    Its speed is measured by bench/blender_export.py."""
     n = 709
     x, y = np.meshgrid(np.linspace(-1, 1, n), np.linspace(-1, 1, n))
     co = np.stack([x, y, 0.1 * np.sin(8 * x) * np.cos(8 * y)], axis=-1).astype(np.float32).reshape(-1, 3)
@@ -262,10 +261,8 @@ def test_million_triangle_mesh_exports_fast(scene):
     dg = bpy.context.evaluated_depsgraph_get()
     from durer.blender.export.depsgraph import export_depsgraph
 
-    best = np.inf
-    for _ in range(3):
-        t0 = time.perf_counter()
-        d = export_depsgraph(dg)
-        best = min(best, time.perf_counter() - t0)
+    d = export_depsgraph(dg)
     assert d.triangle_count == 2 * (n - 1) ** 2 > 1_000_000
-    assert best <= 0.4, f"exporting {d.triangle_count} triangles took {best:.3f} s"
+    (mesh,) = d.meshes
+    np.testing.assert_array_equal(mesh.vertices, co)
+    assert mesh.faces.min() == 0 and mesh.faces.max() == n * n - 1

@@ -1,0 +1,99 @@
+"""How long the Blender export takes on big inputs (bulk foreach_get only, no per-element Python).
+
+    python bench/blender_export.py [--points 1000000] [--grid 709] [--runs 3]
+
+Times `export_depsgraph` alone (Blender's own depsgraph evaluation is done before timing) on a point
+cloud of --points spheres made by a "Mesh to Points" geometry-nodes modifier, and on a wavy grid of
+--grid × --grid vertices (2·(grid − 1)² triangles: about a million at 709). Prints the best of --runs
+and the targets: ≤ 0.2 s for a million spheres, ≤ 0.4 s for a million triangles.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+SPHERE_TARGET = 0.2  # seconds for 1,000,000 point-cloud spheres
+TRIANGLE_TARGET = 0.4  # seconds for about 1,000,000 triangles
+
+
+def point_cloud(bpy, scene, n: int) -> None:
+    """n points as a mesh's vertices turned into a point cloud by geometry nodes."""
+    positions = np.random.default_rng(0).uniform(-10, 10, (n, 3)).astype(np.float32)
+    me = bpy.data.meshes.new("Points")
+    me.vertices.add(n)
+    me.vertices.foreach_set("co", positions.ravel())
+    obj = bpy.data.objects.new("Points", me)
+    obj.location, obj.scale = (1, 2, 3), (2, 2, 2)
+    scene.collection.objects.link(obj)
+    ng = bpy.data.node_groups.new("Mesh to Points", "GeometryNodeTree")
+    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    group_in, group_out = ng.nodes.new("NodeGroupInput"), ng.nodes.new("NodeGroupOutput")
+    to_points = ng.nodes.new("GeometryNodeMeshToPoints")
+    to_points.inputs["Radius"].default_value = 0.01
+    ng.links.new(group_in.outputs[0], to_points.inputs["Mesh"])
+    ng.links.new(to_points.outputs[0], group_out.inputs[0])
+    obj.modifiers.new("Points", "NODES").node_group = ng
+
+
+def wavy_grid(bpy, scene, n: int) -> None:
+    """An n × n grid of quads on a wavy surface (Blender triangulates each quad in two)."""
+    x, y = np.meshgrid(np.linspace(-1, 1, n), np.linspace(-1, 1, n))
+    co = np.stack([x, y, 0.1 * np.sin(8 * x) * np.cos(8 * y)], axis=-1).astype(np.float32).reshape(-1, 3)
+    i = np.arange(n * n).reshape(n, n)[:-1, :-1].ravel()
+    quads = np.stack([i, i + 1, i + n + 1, i + n], axis=-1).astype(np.int32)
+    me = bpy.data.meshes.new("Terrain")
+    me.vertices.add(len(co))
+    me.vertices.foreach_set("co", co.ravel())
+    me.loops.add(quads.size)
+    me.loops.foreach_set("vertex_index", quads.ravel())
+    me.polygons.add(len(quads))
+    me.polygons.foreach_set("loop_start", np.arange(0, quads.size, 4, dtype=np.int32))
+    me.update(calc_edges=True)
+    scene.collection.objects.link(bpy.data.objects.new("Terrain", me))
+
+
+def best_export(bpy, build: Callable, size: int, runs: int):
+    """(best seconds of `runs` exports, the SceneData) of an empty scene filled by `build`."""
+    from durer.blender.export.depsgraph import export_depsgraph
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    build(bpy, scene, size)
+    depsgraph = bpy.context.evaluated_depsgraph_get()  # evaluation is Blender's time, not the export's
+    best, data = float("inf"), None
+    for _ in range(runs):
+        start = time.perf_counter()
+        data = export_depsgraph(depsgraph)
+        best = min(best, time.perf_counter() - start)
+    return best, data
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python bench/blender_export.py", description=__doc__.splitlines()[0])
+    parser.add_argument("--points", type=int, default=1_000_000)
+    parser.add_argument("--grid", type=int, default=709)
+    parser.add_argument("--runs", type=int, default=3)
+    args = parser.parse_args(argv)
+    import bpy
+
+    from durer.reports.machine import machine
+
+    print(f"{machine()}, bpy {bpy.app.version_string}; best of {args.runs} exports")
+    seconds, data = best_export(bpy, point_cloud, args.points, args.runs)
+    per_million = seconds / data.sphere_count * 1e6
+    print(f"  point cloud: {data.sphere_count} spheres in {seconds:.3f} s ({per_million:.3f} s per million; "
+          f"target <= {SPHERE_TARGET} s: {'met' if per_million <= SPHERE_TARGET else 'NOT met'})")
+    seconds, data = best_export(bpy, wavy_grid, args.grid, args.runs)
+    per_million = seconds / data.triangle_count * 1e6
+    print(f"  mesh: {data.triangle_count} triangles in {seconds:.3f} s ({per_million:.3f} s per million; "
+          f"target <= {TRIANGLE_TARGET} s: {'met' if per_million <= TRIANGLE_TARGET else 'NOT met'})")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
