@@ -209,9 +209,7 @@ def override_material(name: str, settings) -> MaterialData:
 
 
 def object_materials(obj) -> list:
-    slots = getattr(obj, "material_slots", None)
-    if slots is not None and len(slots):
-        return [slot.material for slot in slots]
-    data = getattr(obj, "data", None)
-    mats = getattr(data, "materials", None)
-    return list(mats) if mats is not None else []
+    """The materials of the object's slots, else of its data (none for data without materials)."""
+    if len(obj.material_slots):
+        return [slot.material for slot in obj.material_slots]
+    return list(getattr(obj.data, "materials", ()))
