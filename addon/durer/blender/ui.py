@@ -17,6 +17,13 @@ class _DurerPanel:
     def poll(cls, context):
         return context.engine in cls.COMPAT_ENGINES
 
+    def split_layout(self):
+        """The panel's layout with labels in a column of their own, as Blender's property panels."""
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        return layout
+
 
 def sampling_rows(settings) -> list[tuple[str, str, bool]]:
     """The sampling part of the Render panel as (property, label, active) rows: Preset, Samples
@@ -39,9 +46,7 @@ class DURER_PT_render(_DurerPanel, bpy.types.Panel):
     bl_context = "render"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = self.split_layout()
         settings = context.scene.durer
         col = layout.column()
         for name, label, active in sampling_rows(settings):
@@ -75,9 +80,7 @@ class DURER_PT_object(_DurerPanel, bpy.types.Panel):
         return super().poll(context) and context.object is not None
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = self.split_layout()
         settings = context.object.durer
         layout.prop(settings, "primitive")
         row = layout.row()
@@ -97,9 +100,7 @@ class DURER_PT_material(_DurerPanel, bpy.types.Panel):
         self.layout.prop(context.material.durer, "use_override", text="")
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = self.split_layout()
         settings = context.material.durer
         col = layout.column()
         col.active = settings.use_override
@@ -117,9 +118,7 @@ class DURER_PT_light(_DurerPanel, bpy.types.Panel):
         return super().poll(context) and light is not None and light.type in {"POINT", "SPOT"}
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = self.split_layout()
         settings = context.light.durer
         layout.prop(settings, "use_attenuation")
         row = layout.row()
