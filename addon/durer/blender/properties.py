@@ -173,6 +173,18 @@ def _setting_changed(settings, _context) -> None:
         settings.preset = "CUSTOM"
 
 
+def _option_setting(label: str, description: str, items: list, keyword: str):
+    """A menu over one of durer.render's options (`keyword`), starting at its default; editing it
+    makes the preset Custom."""
+    return EnumProperty(
+        name=label,
+        description=description,
+        items=items,
+        default=RENDER_DEFAULTS[keyword].upper(),
+        update=_setting_changed,
+    )
+
+
 class DurerSceneSettings(bpy.types.PropertyGroup):
     preset: EnumProperty(
         name="Preset",
@@ -192,13 +204,7 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
         update=_setting_changed,
     )
     seed: IntProperty(name="Seed", description="Seed of the pixel sampler", default=RENDER_DEFAULTS["seed"], min=0)
-    sampler: EnumProperty(
-        name="Sampler",
-        description="Where a pixel's rays go",
-        items=SAMPLER_ITEMS,
-        default=RENDER_DEFAULTS["sampler"].upper(),
-        update=_setting_changed,
-    )
+    sampler: _option_setting("Sampler", "Where a pixel's rays go", SAMPLER_ITEMS, "sampler")
     target_error: FloatProperty(
         name="Target Error",
         description="Adaptive: a pixel gets more samples while its samples hit different objects or the "
@@ -211,19 +217,11 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
         step=0.1,
         update=_setting_changed,
     )
-    precision: EnumProperty(
-        name="Precision",
-        description="Floating-point precision of the intersection arithmetic",
-        items=PRECISION_ITEMS,
-        default=RENDER_DEFAULTS["precision"].upper(),
-        update=_setting_changed,
+    precision: _option_setting(
+        "Precision", "Floating-point precision of the intersection arithmetic", PRECISION_ITEMS, "precision"
     )
-    sphere_method: EnumProperty(
-        name="Sphere Method",
-        description="How ray-sphere intersections are solved",
-        items=SPHERE_METHOD_ITEMS,
-        default=RENDER_DEFAULTS["sphere_method"].upper(),
-        update=_setting_changed,
+    sphere_method: _option_setting(
+        "Sphere Method", "How ray-sphere intersections are solved", SPHERE_METHOD_ITEMS, "sphere_method"
     )
     threads: IntProperty(name="Threads", description="Render threads (0: all cores)", default=0, min=0, max=1024)
     max_bounces: IntProperty(
