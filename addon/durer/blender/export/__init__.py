@@ -14,16 +14,18 @@ Conventions (verified against Cycles in bpy 5.0.1, see docs/blender.md):
 * Spheres under a uniform scale are exported in world space; under a non-uniform scale or a
   shear they keep their object-space centre and radius with the object's matrix, which the core
   renders exactly as an ellipsoid.
-* Lights are radiometric as in Cycles: a Sun of strength S gives irradiance S, so its Dürer colour
-  (which multiplies kd·max(N·L, 0) with no 1/pi) is colour·S/pi; a Point or Spot light of power P
-  has intensity colour·P/(4·pi²) with inverse-square falloff (Cycles' diffuse BRDF is kd/pi), or
-  with the falloff ``light.durer`` states (6.837's c0 + c1·d + c2·d²).
-* Materials become 6.837 materials (see `material_data`): ``material.durer`` states one exactly;
-  else Principled metallic and specular
-  reflectance make a mirror (roughness <= MIRROR_ROUGHNESS) or a Phong highlight of the same width
-  and peak, transmission makes a transparent colour with the IOR. Light "Cast Shadow" -> shadows.
+* Lights are radiometric as in Cycles (see `lights`). Materials become 6.837 materials (see
+  `materials.material_data`): ``material.durer`` states one exactly; else Principled metallic and
+  specular reflectance make a mirror (roughness <= MIRROR_ROUGHNESS) or a Phong highlight of the
+  same width and peak, transmission makes a transparent colour with the IOR. Light "Cast Shadow"
+  -> shadows.
 * The camera keeps Blender's parameters (fit, shift in units of the fitted extent, clip range,
   pixel aspect) and the resolved image size.
+
+Modules: `depsgraph` (the walk; a converter per object type), `builder` (collects a `SceneData`),
+`data` (the plain data classes), `shapes` (sphere and plane detection), `triangles` (a mesh's
+loop triangles per material slot), `materials` (a converter per shader node), `lights` (one per
+light type), `world`, `camera`, `matrices` and `nodes` (socket values).
 """
 
 from __future__ import annotations

@@ -13,6 +13,9 @@ from .triangles import TrianglePart
 
 
 class Builder:
+    """One export's state: the `SceneData` being filled, sphere chunks to join at the end, the
+    material ids given out (by Blender material and by value) and the shapes of meshes seen."""
+
     def __init__(self) -> None:
         self.data = SceneData()
         self.centers: list[np.ndarray] = []
