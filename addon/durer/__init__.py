@@ -7,7 +7,10 @@
     camera = durer.OrthographicCamera(center=(0, 0, 10), direction=(0, 0, -1), up=(0, 1, 0), size=3)
     image = durer.render(scene, camera, 64, 64).color   # (64, 64, 4) float32, top row first
 
-The Blender render engine lives in `durer.blender` (imported only on demand: it needs bpy).
+The Blender render engine lives in `durer.blender` (imported only on demand: it needs bpy), the
+MIT 6.837 scene-file reader and `raytracer` command in `durer.course`, and the generators of the
+measured pages in docs/ in `durer.reports` (which nothing here imports). docs/architecture.md
+maps the layers.
 """
 
 from __future__ import annotations
