@@ -80,7 +80,7 @@ def test_render_kwargs_pass_sampler_and_target_error(scene):
     (SAMPLERS, properties.SAMPLER_TEXT, "sampler"),
     (PRECISIONS, properties.PRECISION_TEXT, "precision"),
     (SPHERE_METHODS, properties.SPHERE_METHOD_TEXT, "sphere_method"),
-])
+], ids=["sampler", "precision", "sphere_method"])
 def test_option_menus_are_the_core_names(scene, names, text, setting):
     # Every core name has a label and a tooltip, and no label names an option the core lacks.
     assert set(text) == set(names)
