@@ -51,8 +51,8 @@ def external_scheduler(tmp_path):
             p.terminate()
         for p in processes:
             try:
-                p.wait(timeout=30)
-            except subprocess.TimeoutExpired:
+                p.wait(timeout=10)
+            except subprocess.TimeoutExpired:  # a graceful close can hang on a busy worker
                 p.kill()
                 p.wait(timeout=30)
         log.close()

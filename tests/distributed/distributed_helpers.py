@@ -56,3 +56,31 @@ def assert_same_image(a: durer.RenderResult, b: durer.RenderResult) -> None:
         if x is not None:
             assert x.shape == y.shape and x.dtype == y.dtype, name
             assert np.array_equal(x.view(np.uint8), y.view(np.uint8)), f"{name} differs"
+
+
+#: Blender's metadata stamps that name the .blend's path (a worker renders a copy elsewhere) or the
+#: time: they differ between any two runs.
+VOLATILE_STAMPS = {"File", "Date", "Time", "RenderTime"}
+
+
+def assert_same_image_file(a, b) -> None:
+    """Two image files hold the same pixels (and passes) bit for bit and the same metadata stamps
+    but for VOLATILE_STAMPS."""
+    import sys
+    from pathlib import Path
+
+    from PIL import Image
+
+    if Path(a).suffix == ".exr":
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "blender"))
+        from blender_exr import read_exr
+
+        x, y = read_exr(a), read_exr(b)
+        assert x.keys() == y.keys() and len(x) > 4, sorted(x)
+        for name in x:
+            assert np.array_equal(x[name].view(np.uint8), y[name].view(np.uint8)), name
+        return
+    with Image.open(a) as x, Image.open(b) as y:
+        assert np.array_equal(np.asarray(x), np.asarray(y)), f"{a} and {b} differ"
+        assert {k: v for k, v in x.info.items() if k not in VOLATILE_STAMPS | {"exif"}} == \
+            {k: v for k, v in y.info.items() if k not in VOLATILE_STAMPS | {"exif"}}

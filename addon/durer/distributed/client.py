@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import sys
 from collections.abc import Iterator
@@ -51,7 +52,7 @@ def cluster(
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
     local = distributed.LocalCluster(
         n_workers=count, threads_per_worker=1, processes=True, host="127.0.0.1",
-        dashboard_address="127.0.0.1:0" if _has_dashboard() else None, silence_logs=40,
+        dashboard_address="127.0.0.1:0", silence_logs=40,
     )
     try:
         client = distributed.Client(local, timeout=CONNECT_TIMEOUT)
@@ -65,11 +66,9 @@ def cluster(
 
 
 def _has_dashboard() -> bool:
-    try:
-        import bokeh  # noqa: F401  (the dashboard needs it; dask[distributed] does not bring it)
-    except ImportError:
-        return False
-    return True
+    """Whether this process can serve Dask's dashboard: it needs bokeh, which dask[distributed] does
+    not bring (without it the scheduler's web server has no /status page)."""
+    return importlib.util.find_spec("bokeh") is not None
 
 
 def _announce(client: Any, log: TextIO | None) -> None:
@@ -77,7 +76,7 @@ def _announce(client: Any, log: TextIO | None) -> None:
         return
     threads = client.nthreads()
     print(f"dask: {client.scheduler.address}, {len(threads)} workers, {sum(threads.values())} threads", file=log)
-    if "dashboard" in client.scheduler_info().get("services", {}):
+    if "dashboard" in client.scheduler_info().get("services", {}) and client.run_on_scheduler(_has_dashboard):
         print(f"dask dashboard: {client.dashboard_link}", file=log)
 
 
