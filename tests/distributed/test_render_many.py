@@ -58,7 +58,7 @@ def test_a_scene_is_unpickled_once_per_worker_not_per_task(client):
     cameras = orbit_cameras(20)
     assert len(list(durer.render_many(SCENE, cameras, 8, 8, client=client))) == 20
     counts = client.run(_unpickled)
-    assert len(counts) == 2 and all(0 <= c <= 1 for c in counts.values()) and sum(counts.values()) >= 1
+    assert len(counts) == 2 and all(0 <= c <= 1 for c in counts.values()) and sum(counts.values()) >= 1, counts
 
 
 def test_many_scenes_with_one_camera_locally_and_on_the_cluster(client):

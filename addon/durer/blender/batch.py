@@ -236,7 +236,7 @@ def build_parser(prog: str = "python -m durer render") -> argparse.ArgumentParse
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bars")
     cluster = p.add_argument_group("distributed (Dask; docs/distributed.md)")
     cluster.add_argument("--workers", "-w", type=int, nargs="?", const=0, metavar="N",
-                         help="render on a local Dask cluster of N worker processes (N omitted: one per core; "
+                         help="render on a local Dask cluster of N worker processes (N omitted or 0: one per core; "
                               "1: this process, as without the option)")
     cluster.add_argument("--scheduler", metavar="ADDRESS", help="render on an existing Dask cluster (tcp://host:8786)")
     cluster.add_argument("--threads", type=int, metavar="T", help="render threads per frame on a worker (default 1)")
@@ -257,6 +257,9 @@ def _main_distributed(args: argparse.Namespace, prog: str) -> int:
             raise ValueError(f"--workers must be >= 1, got {args.workers}")
         if args.threads is not None and args.threads < 1:
             raise ValueError(f"--threads must be >= 1, got {args.threads}")
+        parse_frames(args.frames)  # bad input is reported before a cluster starts
+        if not Path(args.file).is_file():
+            raise FileNotFoundError(f"No such .blend file: {Path(args.file).resolve()}")
         with cluster(args.scheduler, args.workers or None) as client:
             report = render_frames(
                 args.file, frames=args.frames, output=args.output, samples=args.samples, client=client,

@@ -95,11 +95,11 @@ def run_renders(
             scene = scenes[i]
             if id(scene) not in sent:  # sent with its first task, not all up front
                 sent[id(scene)] = client.scatter(scene, hash=False)
-            return client.submit(render_task, sent[id(scene)], threads=threads or 1, pure=False, **jobs[i])
+            return client.submit(_remote_render, sent[id(scene)], threads=threads or 1, pure=False, **jobs[i])
 
         uses = Counter(id(scene) for scene in scenes)
         for i, future in stream(client, len(jobs), submit, ordered=ordered):
-            result = future.result()
+            result = RenderResult(**future.result())
             uses[id(scenes[i])] -= 1
             if not uses[id(scenes[i])]:  # its last task is done: the cluster may forget it
                 del sent[id(scenes[i])]
@@ -116,6 +116,12 @@ def render_task(scene: Scene, *, threads: int | None, **job: Any) -> RenderResul
     result = render(scene, threads=threads, **job)
     result.stats["worker"] = worker_name()
     return result
+
+
+def _remote_render(scene: Scene, **job: Any) -> dict[str, Any]:
+    """`render_task` on a worker: the result travels as a dict of its fields, which Dask sends with
+    its arrays out of band (a RenderResult itself would be pickled with copies: twice the time)."""
+    return vars(render_task(scene, **job))
 
 
 def stream(

@@ -40,29 +40,18 @@ def cluster(
     if scheduler is not None:
         if not isinstance(scheduler, str) or not scheduler:
             raise ValueError(f"scheduler must be an address such as tcp://host:8786, got {scheduler!r}")
-        client = distributed.Client(scheduler, timeout=CONNECT_TIMEOUT)
-        try:
+        with distributed.Client(scheduler, timeout=CONNECT_TIMEOUT) as client:
             _announce(client, log)
             yield client
-        finally:
-            client.close()
         return
     count = default_worker_count() if workers is None else workers
     if isinstance(count, bool) or not isinstance(count, int) or count < 1:
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
-    local = distributed.LocalCluster(
-        n_workers=count, threads_per_worker=1, processes=True, host="127.0.0.1",
-        dashboard_address="127.0.0.1:0", silence_logs=40,
-    )
-    try:
-        client = distributed.Client(local, timeout=CONNECT_TIMEOUT)
-        try:
-            _announce(client, log)
-            yield client
-        finally:
-            client.close()
-    finally:
-        local.close()
+    with distributed.LocalCluster(n_workers=count, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address="127.0.0.1:0", silence_logs=40) as local, \
+            distributed.Client(local, timeout=CONNECT_TIMEOUT) as client:
+        _announce(client, log)
+        yield client
 
 
 def _has_dashboard() -> bool:

@@ -53,7 +53,8 @@ def render_frames(
     """Render frames of a .blend file on the cluster of `client` (a `distributed.Client`).
 
     frames, output, samples and scene as in `durer.blender.batch.render_file`; every format it
-    writes (PNG, EXR with the view layer's passes, ...) comes out byte for byte the same. `resume`
+    writes (PNG, EXR with the view layer's passes, ...) comes out with the same pixels and passes,
+    bit for bit (Blender's File metadata stamp names the worker's copy of the .blend). `resume`
     skips frames whose output exists and is complete (`output.is_complete`). Each frame renders on
     `threads` threads (None: 1 per task). A frame that fails is reported in `failed` with its error
     (and on `log`) and the others go on; a worker that dies has its frame re-run on another. One
