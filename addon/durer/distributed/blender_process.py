@@ -11,6 +11,7 @@ the frame it is rendering.
 
 from __future__ import annotations
 
+import signal
 import socket
 import subprocess
 import sys
@@ -83,6 +84,7 @@ _REQUESTS = {"open": _open, "render": _render}
 
 
 def main(fd: int) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the client's to handle; EOF ends this process
     connection = Connection(fd)
     while True:
         try:

@@ -48,7 +48,8 @@ def cluster(
     if isinstance(count, bool) or not isinstance(count, int) or count < 1:
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
     with distributed.LocalCluster(n_workers=count, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                  dashboard_address="127.0.0.1:0", silence_logs=40) as local, \
+                                  dashboard_address="127.0.0.1:0", silence_logs=40,
+                                  preload=["durer.distributed.worker_setup"]) as local, \
             distributed.Client(local, timeout=CONNECT_TIMEOUT) as client:
         _announce(client, log)
         yield client
