@@ -20,7 +20,7 @@ from blend_helpers import animated_blend, bpy
 import psutil
 
 from durer.blender import batch
-from durer.distributed.frames import render_frames
+from durer.distributed.frames import _self_contained_copy, render_frames
 from durer.distributed.output import TEMP_SUFFIX, is_complete
 
 from distributed_helpers import TIMEOUT, assert_same_image_file
@@ -201,3 +201,32 @@ def test_sequential_resume_skips_complete_frames_only(animation, tmp_path):
     assert (tmp_path / "f_0001.png").stat().st_mtime_ns == stamp
     for frame in (3, 4):
         assert_same_image_file(tmp_path / f"f_{frame:04d}.png", sequential[frame])
+
+
+def test_linked_library_data_travels_with_the_file(client, tmp_path):
+    """A ball linked from another .blend by a relative path, which the workers' copy could not follow."""
+    (tmp_path / "lib").mkdir()
+    library = animated_blend(tmp_path / "lib" / "library.blend", frames=2)
+    main = animated_blend(tmp_path / "main.blend", frames=2)
+    bpy.ops.wm.open_mainfile(filepath=str(main))
+    bpy.data.objects.remove(bpy.data.objects["Red"])
+    bpy.ops.wm.save_mainfile()
+    without = batch.render_file(main, frames="1", output=tmp_path / "without.png")[0]
+    bpy.ops.wm.open_mainfile(filepath=str(main))
+    with bpy.data.libraries.load(str(library), link=True, relative=True) as (source, target):
+        target.objects = ["Red"]
+    bpy.context.scene.collection.objects.link(target.objects[0])
+    assert target.objects[0].library is not None
+    bpy.ops.wm.save_mainfile()
+    sequential = batch.render_file(main, frames="1-2", output=tmp_path / "seq" / "f_#.png")
+    assert not np.array_equal(np.asarray(Image.open(sequential[0])), np.asarray(Image.open(without)))
+    report = render_frames(main, "1-2", tmp_path / "dask" / "f_#.png", client=client, progress=False, log=None)
+    assert sorted(report.written) == [1, 2] and not report.failed
+    for f in sequential:
+        assert_same_image_file(tmp_path / "dask" / f.name, f)
+    bpy.ops.wm.open_mainfile(filepath=str(main))  # what went to the workers holds the ball itself
+    (tmp_path / "shipped.blend").write_bytes(_self_contained_copy())
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "shipped.blend"))
+    linked = [block.name for name in dir(bpy.data) if isinstance(getattr(bpy.data, name), bpy.types.bpy_prop_collection)
+              for block in getattr(bpy.data, name) if getattr(block, "library", None) is not None]
+    assert "Red" in bpy.data.objects and not linked and not list(bpy.data.libraries)

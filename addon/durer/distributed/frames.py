@@ -124,17 +124,32 @@ def _self_contained_copy() -> bytes:
     """The open file with its external data packed and linked data made local, as .blend bytes."""
     import bpy
 
-    for collection in (getattr(bpy.data, name) for name in dir(bpy.data)):
-        if isinstance(collection, bpy.types.bpy_prop_collection):
-            for block in list(collection):
-                if getattr(block, "library", None) is not None:
-                    block.make_local()
+    from ..blender.batch import BatchRenderError
+
+    linked = _linked_blocks()
+    while linked:  # a block still used by linked blocks stays linked: users first, then their data
+        for block in linked:
+            block.make_local()
+        remaining = _linked_blocks()
+        if len(remaining) >= len(linked):
+            raise BatchRenderError(f"Cannot make linked data local: {', '.join(b.name for b in remaining)}")
+        linked = remaining
+    for library in list(bpy.data.libraries):
+        bpy.data.libraries.remove(library)
     if any(image.source == "FILE" and image.packed_file is None for image in bpy.data.images):
         bpy.ops.file.pack_all()
     with tempfile.TemporaryDirectory(prefix="durer-ship-") as folder:
         copy = Path(folder) / "scene.blend"
         bpy.ops.wm.save_as_mainfile(filepath=str(copy), copy=True, compress=False)
         return copy.read_bytes()
+
+
+def _linked_blocks() -> list[Any]:
+    import bpy
+
+    collections = (getattr(bpy.data, name) for name in dir(bpy.data))
+    return [block for collection in collections if isinstance(collection, bpy.types.bpy_prop_collection)
+            for block in collection if getattr(block, "library", None) is not None]
 
 
 #: Per worker thread: {"process": its BlenderProcess, "folder": the temporary directory of the copy}.
