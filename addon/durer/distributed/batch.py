@@ -37,23 +37,23 @@ def render_many(
 
     Without `client` the renders run one after another in this process, each on `threads` threads
     (None: all cores). With a `distributed.Client` each render is a task on the cluster: every
-    distinct scene is sent to the cluster once (a worker unpickles it once and keeps it while the
-    batch runs, whatever the number of tasks), cameras go with their tasks, and each task renders
+    distinct scene is sent to the cluster with its first task (a worker unpickles it once, whatever
+    the number of tasks, and it is dropped after its last), cameras go with their tasks, and each task renders
     on `threads` threads (None: 1, Dask's threads being the parallelism; start workers with
     ``--nthreads`` = cores). `ordered=True` yields in index order, False as renders complete; at
     most a few tasks per worker thread are in flight (results wait on the workers, not in memory
     here). `progress=True` draws one bar over all renders (stderr). `options` are `durer.render`'s
     (spp, seed, sampler, precision, passes, ...); results equal `durer.render`'s bit for bit and
     `result.stats["worker"]` names the worker ("local" without a client). A failing render raises
-    its error here after the remaining tasks are cancelled.
+    its error here after the remaining tasks are cancelled; bad arguments raise at the call.
     """
     scenes, camera_list = _pairs(scene, cameras)
     unknown = set(options) - _RENDER_OPTIONS
     if unknown:
         raise TypeError(f"render_many got unexpected options: {', '.join(sorted(unknown))}")
     jobs = [dict(options, camera=c, width=width, height=height) for c in camera_list]
-    yield from run_renders(scenes, jobs, client=client, ordered=ordered, progress=progress, threads=threads,
-                           unit="render")
+    return run_renders(scenes, jobs, client=client, ordered=ordered, progress=progress, threads=threads,
+                       unit="render")
 
 
 def _pairs(scene: Any, cameras: Any) -> tuple[list[Scene], list[Camera]]:
@@ -95,7 +95,8 @@ def run_renders(
             scene = scenes[i]
             if id(scene) not in sent:  # sent with its first task, not all up front
                 sent[id(scene)] = client.scatter(scene, hash=False)
-            return client.submit(_remote_render, sent[id(scene)], threads=threads or 1, pure=False, **jobs[i])
+            return client.submit(_remote_render, sent[id(scene)], threads=1 if threads is None else threads,
+                                 pure=False, **jobs[i])
 
         uses = Counter(id(scene) for scene in scenes)
         for i, future in stream(client, len(jobs), submit, ordered=ordered):

@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
+from .. import _checks
+from .batch import stream
 from .blender_process import BlenderProcess
 from .client import worker_name
 from .output import is_complete, write_atomic
@@ -62,6 +64,8 @@ def render_frames(
     """
     from ..blender import batch
 
+    if threads is not None:
+        threads = _checks.integer(threads, "threads", 1)
     blend = Path(path).expanduser().resolve()
     frame_list = batch.parse_frames(frames)
     sc = batch.open_blend(blend, scene, samples)
@@ -79,10 +83,8 @@ def render_frames(
             report.skipped[frame] = target
         else:
             todo.append(frame)
-    tally = Tally("frame", len(targets), skipped=len(report.skipped))
+    tally = Tally("frame", len(targets), skipped=len(report.skipped), failed=report.failed)
     bar = progress_bar(progress, len(todo), "frame", log)
-    from .batch import stream
-
     try:
         if todo:
             shared = client.scatter(payload, hash=False)
@@ -95,7 +97,7 @@ def render_frames(
                 frame = todo[i]
                 if future.status == "error":
                     error = future.exception()
-                    report.failed[frame] = tally.failed[frame] = f"{type(error).__name__}: {error}"
+                    report.failed[frame] = f"{type(error).__name__}: {error}"
                     _say(bar, log, f"frame {frame} failed: {report.failed[frame]}")
                 else:
                     data, worker = future.result()
