@@ -158,7 +158,8 @@ def blender_frames(args: argparse.Namespace, width: int, height: int) -> None:
     print(f"  --workers {args.workers} (1 thread each):        {args.frames / distributed:.2f} frames/s "
           f"({sequential / distributed:.2f}x)")
     print(f"  a frame (export + render + PNG) on one thread alone: {one_thread * 1000:.0f} ms; distributed overhead:")
-    print(f"    task round trip {trip * 1000:.1f} ms + image back ({size / 1e6:.2f} MB) {(image_trip - trip) * 1000:.1f} ms"
+    print(f"    task round trip {trip * 1000:.1f} ms + image back ({size / 1e6:.2f} MB) "
+          f"{(image_trip - trip) * 1000:.1f} ms"
           f" + atomic write {write * 1000:.1f} ms = {overhead * 1000:.1f} ms = {overhead / one_thread * 100:.1f} % "
           f"of a frame; the .blend ({blend_size / 1e6:.1f} MB) goes to the workers once: "
           f"{ship * 1000:.0f} ms")
@@ -219,7 +220,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f"distributed, {args.workers} workers x 1 thread:  {args.frames / distributed:.2f} frames/s "
           f"(median render on a worker, all busy: {statistics.median(worker_ms):.0f} ms a frame); "
           f"{sequential / distributed:.2f}x the sequential rate")
-    print(f"a frame on one thread of an otherwise idle worker: {alone_ms:.0f} ms; its overhead on the distributed path:")
+    print(f"a frame on one thread of an otherwise idle worker: {alone_ms:.0f} ms; "
+          "its overhead on the distributed path:")
     print(f"  task round trip (empty task):          {trip * 1000:6.1f} ms")
     print(f"  scene transfer ({len(pickle.dumps(scenes[1])) / 1e6:.1f} MB pickled, unpickled): "
           f"{(scene_trip - trip) * 1000:6.1f} ms")

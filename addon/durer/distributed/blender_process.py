@@ -43,7 +43,8 @@ class BlenderProcess:
         except (EOFError, OSError):
             from ..blender.batch import BatchRenderError
 
-            raise BatchRenderError(f"Blender's process exited (code {self.process.wait()}) during {request[0]}") from None
+            code = self.process.wait()
+            raise BatchRenderError(f"Blender's process exited (code {code}) during {request[0]}") from None
         if not ok:
             raise value
         return value

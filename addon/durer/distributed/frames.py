@@ -158,7 +158,9 @@ def _linked_blocks() -> list[Any]:
 _local = threading.local()
 
 
-def render_frame_task(payload: bytes, frame: int, suffix: str, *, digest: str, scene: str, blend_name: str) -> tuple[bytes, str]:
+def render_frame_task(
+    payload: bytes, frame: int, suffix: str, *, digest: str, scene: str, blend_name: str
+) -> tuple[bytes, str]:
     """A Dask task: render `frame` of the shipped .blend through the sequential path in this worker
     thread's bpy process (which opens the file on its first task and keeps it open); returns the
     image file's bytes and the worker's name."""
