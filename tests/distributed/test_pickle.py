@@ -83,3 +83,13 @@ def test_cameras_pickle_to_equal_cameras_with_the_same_rays(camera):
     assert copy == camera and type(copy) is type(camera)
     for a, b in zip(camera.rays(7, 5), copy.rays(7, 5)):
         assert np.array_equal(a, b)
+
+
+def test_empty_scene_and_settings_alone_pickle():
+    scene = durer.Scene()
+    scene.background = (0.2, 0.3, 0.4, 0.5)
+    scene.shading = "flat"
+    copy = pickle.loads(pickle.dumps(scene))
+    assert (copy.object_count, copy.material_count, copy.background, copy.shading) == (0, 1, scene.background, "flat")
+    camera = durer.OrthographicCamera((0, 0, 1), (0, 0, -1), (0, 1, 0))
+    assert_same_image(durer.render(copy, camera, 4, 3), durer.render(scene, camera, 4, 3))

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import durer
 from durer.distributed import tile_regions
@@ -84,3 +86,15 @@ def test_render_tiles_on_a_cluster_equals_one_render(client):
     assert_same_image(tiled, whole)
     assert sum(tiled.stats["workers"].values()) == 20 and "local" not in tiled.stats["workers"]
     assert tiled.stats["intersection_tests"] == whole.stats["intersection_tests"]
+
+
+@settings(max_examples=40, deadline=None)
+@given(x=st.integers(0, W - 1), y=st.integers(0, H - 1), data=st.data(),
+       sampler=st.sampled_from(["stratified", "random", "sobol", "center"]), spp=st.integers(1, 6),
+       seed=st.integers(0, 2**64 - 1), precision=st.sampled_from(["float", "double"]))
+def test_random_regions_equal_the_whole_render(x, y, data, sampler, spp, seed, precision):
+    w = data.draw(st.integers(1, W - x))
+    h = data.draw(st.integers(1, H - y))
+    options = dict(spp=spp, seed=seed, sampler=sampler, precision=precision)
+    whole = durer.render(SCENE, CAMERA, W, H, **options)
+    assert_same_image(durer.render(SCENE, CAMERA, W, H, region=(x, y, w, h), **options), crop(whole, x, y, w, h))
