@@ -265,7 +265,7 @@ def _main_distributed(args: argparse.Namespace, prog: str) -> int:
                 args.file, frames=args.frames, output=args.output, samples=args.samples, client=client,
                 scene=args.scene, resume=args.resume is not False, threads=args.threads, progress=not args.quiet,
             )
-    except (FileNotFoundError, ValueError, ImportError) as exc:
+    except (OSError, ValueError, ImportError) as exc:  # OSError: a missing file, an unreachable scheduler
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
     except BatchRenderError as exc:
