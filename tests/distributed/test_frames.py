@@ -229,3 +229,16 @@ def test_linked_library_data_travels_with_the_file(client, tmp_path):
     linked = [block.name for name in dir(bpy.data) if isinstance(getattr(bpy.data, name), bpy.types.bpy_prop_collection)
               for block in getattr(bpy.data, name) if getattr(block, "library", None) is not None]
     assert "Red" in bpy.data.objects and not linked and not list(bpy.data.libraries)
+
+
+def test_a_finished_run_resumes_to_nothing_and_no_resume_renders_again(animation, client, tmp_path):
+    blend, sequential = animation
+    first = render_frames(blend, "1-3", tmp_path / "f_####.png", client=client, progress=False, log=None)
+    again = render_frames(blend, "1-3", tmp_path / "f_####.png", client=client, progress=False, log=None)
+    assert sorted(first.written) == [1, 2, 3] and not again.written and sorted(again.skipped) == [1, 2, 3]
+    assert again.summary.startswith("3 frames: 0 rendered, 3 skipped (complete), 0 failed in ")
+    forced = render_frames(blend, "1-3", tmp_path / "f_####.png", client=client, resume=False, progress=False,
+                           log=None)
+    assert sorted(forced.written) == [1, 2, 3] and not forced.skipped
+    for frame in (1, 2, 3):
+        assert_same_image_file(tmp_path / f"f_{frame:04d}.png", sequential[frame])
