@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import logging
 import os
 import sys
 from collections.abc import Iterator
@@ -47,8 +48,10 @@ def cluster(
     count = default_worker_count() if workers is None else workers
     if isinstance(count, bool) or not isinstance(count, int) or count < 1:
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    # Dask's own log lines stay quiet (failures reach the caller through the tasks' futures); its
+    # shutdown after Ctrl-C would otherwise print the workers' lost-heartbeat tracebacks.
     with distributed.LocalCluster(n_workers=count, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                  dashboard_address="127.0.0.1:0", silence_logs=40,
+                                  dashboard_address="127.0.0.1:0", silence_logs=logging.CRITICAL,
                                   preload=["durer.distributed.worker_setup"]) as local, \
             distributed.Client(local, timeout=CONNECT_TIMEOUT) as client:
         _announce(client, log)
