@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from .camera import OrthographicCamera, PerspectiveCamera
 from .cast import CastResult, cast
+from .distributed import render_many, render_tiles
 from .presets import PRESETS, preset
 from .render import RenderCancelled, RenderResult, render
 from .scene import Scene
@@ -39,6 +40,8 @@ __all__ = [
     "normal_to_rgb",
     "preset",
     "render",
+    "render_many",
+    "render_tiles",
     "save_image",
     "showcase_scene",
 ]

@@ -69,7 +69,7 @@ def render(
     target_error: float, precision: str,
     sphere_method: str, color: bool, depth: bool, normal: bool, threads: int, shade_back: bool, max_bounces: int,
     min_weight: float, poll: Callable[[float], bool],
-    out: dict[str, NDArray[np.float32] | None],
+    out: dict[str, NDArray[np.float32] | None], region: tuple[int, int, int, int],
 ) -> dict[str, object]: ...
 def cast(
     scene: Scene, origins: NDArray[np.float64], directions: NDArray[np.float64], t_min: float, t_max: float,

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import ClassVar
+from dataclasses import dataclass, field, fields
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -45,6 +45,10 @@ class _Camera:
         spec = _core.CameraSpec(self._projection, self.center, self.direction, self.up, size, fit, sx, sy, aspect,
                                 t_min, t_max)
         set_(self, "_spec", spec)
+
+    def __reduce__(self) -> tuple[type, tuple[Any, ...]]:
+        # The core's CameraSpec does not pickle: a camera pickles as its constructor arguments.
+        return type(self), tuple(getattr(self, f.name) for f in fields(self) if f.init)
 
     def rays(self, width: int, height: int, precision: str = "double") -> tuple[np.ndarray, np.ndarray]:
         """The pixel-centre rays: origins and unit directions, each (height, width, 3), top row

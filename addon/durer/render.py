@@ -101,6 +101,7 @@ def render(
     shade_back: bool = False,
     max_bounces: int = 4,
     min_weight: float = 0.01,
+    region: tuple[int, int, int, int] | None = None,
 ) -> RenderResult:
     """Render `scene` through `camera` at width x height pixels.
 
@@ -122,6 +123,12 @@ def render(
     highlights, shadows, and mirror and refracted rays up to `max_bounces` deep (0: none), a ray
     not spawned when its weight in the pixel would fall below `min_weight`. With `shade_back`, back
     faces are shaded (and reported in the Normal pass) with the flipped normal, as 6.837's -shade_back.
+
+    `region=(x, y, w, h)` renders only pixels [x, x + w) x [y, y + h) of the width x height image
+    (x right, y down from the top row), into (h, w) arrays equal bit for bit to that part of the
+    whole render: positions and seeds are the whole image's. With sampler="adaptive" its edges must
+    lie on the core's 8-pixel tile grid or the image's edges (a pixel's neighbours in its tile steer
+    its sampling).
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a durer.Scene, got {type(scene).__name__}")
@@ -143,6 +150,7 @@ def render(
     min_weight = _checks.finite_real(min_weight, "min_weight")
     if min_weight < 0:
         raise ValueError(f"min_weight must be >= 0, got {min_weight}")
+    box = region_argument(region, width, height, sampler)
     poll = poll_function(progress, cancel)
     if out is not None and not isinstance(out, RenderResult):
         raise TypeError(f"out must be a RenderResult or None, got {type(out).__name__}")
@@ -150,14 +158,15 @@ def render(
     out = _core.render(
         scene._core, camera._spec, width, height, spp, seed, sampler, target_error, precision, sphere_method,
         "color" in wanted, "depth" in wanted, "normal" in wanted, threads_argument(threads), shade_back, max_bounces,
-        min_weight, poll, buffers,
+        min_weight, poll, buffers, box,
     )
     stats = dict(out["stats"])
     seconds = stats["milliseconds"] / 1000
     stats.update(
         width=width, height=height, spp=spp, sampler=sampler, samples=stats["rays"], precision=precision,
         sphere_method=sphere_method,
-        passes=tuple(p for p in PASSES if p in wanted), requested_rays=width * height * spp,
+        passes=tuple(p for p in PASSES if p in wanted), region=box if box[2] else None,
+        requested_rays=(box[2] * box[3] if box[2] else width * height) * spp,
         mrays_per_s=stats["rays"] / seconds / 1e6 if seconds > 0 else float("inf"),
     )
     result = RenderResult(out.get("color"), out.get("depth"), out.get("normal"), stats, out.get("samples"))
@@ -166,6 +175,30 @@ def render(
     if progress is not None:
         progress(1.0)
     return result
+
+
+#: The core's tile edge in pixels: adaptive sampling looks at a pixel's neighbours within its tile.
+TILE_GRID = 8
+
+
+def region_argument(
+    region: tuple[int, int, int, int] | None, width: int, height: int, sampler: str
+) -> tuple[int, int, int, int]:
+    """The core's region: (x, y, w, h) inside the image, or (0, 0, 0, 0) for the whole image."""
+    if region is None:
+        return (0, 0, 0, 0)
+    try:
+        x, y, w, h = region
+    except (TypeError, ValueError):
+        raise ValueError(f"region must be (x, y, width, height), got {region!r}") from None
+    x, y = _checks.integer(x, "region x", 0, width - 1), _checks.integer(y, "region y", 0, height - 1)
+    w, h = _checks.integer(w, "region width", 1, width - x), _checks.integer(h, "region height", 1, height - y)
+    if sampler == "adaptive":
+        for name, start, end, size in (("x", x, x + w, width), ("y", y, y + h, height)):
+            if start % TILE_GRID or (end % TILE_GRID and end != size):
+                raise ValueError(f"region {name} edges must be multiples of {TILE_GRID} (or the image edge) with "
+                                 f"sampler='adaptive', got {start}..{end}")
+    return (x, y, w, h)
 
 
 def _pass_set(passes: Iterable[str]) -> set[str]:

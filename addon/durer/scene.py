@@ -24,10 +24,31 @@ class Scene:
     Rays are taken into object space (t stays in world units), normals come back by the inverse
     transpose: a sphere under a non-uniform scale is an ellipsoid. Objects added with the same
     matrix share one transformed group (and its hierarchy).
+
+    A scene pickles (for Dask workers and multiprocessing): it keeps the validated arguments of
+    every add, read-only and without copying arrays it made itself, and an unpickled scene replays
+    them into a new core scene, so it has the same object ids and renders the same images.
     """
 
     def __init__(self) -> None:
         self._core = _core.Scene()
+        self._adds: list[tuple[str, tuple[Any, ...]]] = []  # (core method, validated arguments), in order
+
+    def _add(self, method: str, *args: Any) -> Any:
+        """Calls the core's add method and records it for pickling once it has succeeded."""
+        result = getattr(self._core, method)(*args)
+        self._adds.append((method, args))
+        return result
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {"adds": self._adds, "shading": self.shading, "background": self.background, "ambient": self.ambient}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__init__()
+        for method, args in state["adds"]:
+            self._add(method, *args)
+        self._core.shading, self._core.background, self._core.ambient = (
+            state["shading"], state["background"], state["ambient"])
 
     # --- materials and objects -------------------------------------------------------------------
     def add_material(
@@ -56,8 +77,8 @@ class Scene:
         ior_value = _checks.finite_real(ior, "ior")
         if ior_value <= 0:
             raise ValueError(f"ior must be > 0, got {ior_value}")
-        return self._core.add_material(
-            _checks.color(diffuse, "diffuse"), _checks.color(emission, "emission"), _checks.color(specular, "specular"),
+        return self._add(
+            "add_material", _checks.color(diffuse, "diffuse"), _checks.color(emission, "emission"), _checks.color(specular, "specular"),
             exponent_value, _checks.color(reflective, "reflective"), _checks.color(transparent, "transparent"),
             ior_value,
         )
@@ -68,6 +89,7 @@ class Scene:
         """Add N spheres. `centers` (N, 3); `radii` (N,) or one radius for all, each finite and > 0;
         `material` one id or (N,) ids. Returns the (N,) int32 object ids. With `transform` (see the
         class docstring) a sphere can become an ellipsoid."""
+        given = centers
         centers = _checks.float_array(centers, "centers", (None, 3))
         n = centers.shape[0]
         radii_array = _checks._numeric_array(radii, "radii")
@@ -79,10 +101,11 @@ class Scene:
             i = int(np.argmax(bad))
             raise ValueError(f"radii must be finite and > 0, got {radii_array[i]} at index {i}")
         materials = _material_ids(material, n)
-        matrix = _checks.transform(transform)
+        matrix = _owned(_checks.transform(transform), transform)
         if n == 0:
             return np.empty(0, dtype=np.int32)
-        first = self._core.add_spheres(centers, radii_array, materials, matrix)
+        first = self._add("add_spheres", _owned(centers, given), _owned(radii_array, radii), _owned(materials, material),
+                          matrix)
         return np.arange(first, first + n, dtype=np.int32)
 
     def add_plane(
@@ -109,7 +132,7 @@ class Scene:
             if len(bounds) != 3:
                 raise ValueError("bounds must be (corner, edge1, edge2)")
             corners = tuple(_checks.vector3(v, f"bounds {part}") for v, part in zip(bounds, ("corner", "edge1", "edge2")))
-        return self._core.add_plane(normal3, offset_value, material_id, corners, _checks.transform(transform))
+        return self._add("add_plane", normal3, offset_value, material_id, corners, _owned(_checks.transform(transform), transform))
 
     def add_triangles(
         self, vertices: ArrayLike, material: ArrayLike = 0, *, transform: ArrayLike | None = None
@@ -118,13 +141,14 @@ class Scene:
         The geometric normal normalize((v1 − v0) × (v2 − v0)) follows the winding. The test is
         watertight (a ray through an edge or vertex shared by two triangles hits one of them);
         degenerate triangles are kept and never hit. Returns the (N,) int32 object ids."""
+        given = vertices
         vertices = _checks.float_array(vertices, "vertices", (None, 3, 3))
         n = vertices.shape[0]
         materials = _material_ids(material, n)
-        matrix = _checks.transform(transform)
+        matrix = _owned(_checks.transform(transform), transform)
         if n == 0:
             return np.empty(0, dtype=np.int32)
-        first = self._core.add_triangles(vertices, materials, matrix)
+        first = self._add("add_triangles", _owned(vertices, given), _owned(materials, material), matrix)
         return np.arange(first, first + n, dtype=np.int32)
 
     def add_mesh(
@@ -132,6 +156,7 @@ class Scene:
     ) -> int:
         """Add a triangle mesh as one object with one material: `vertices` (V, 3), `faces` (F, 3)
         0-based vertex indices, each face a triangle wound as in add_triangles. Returns its object id."""
+        given = vertices
         vertices = _checks.float_array(vertices, "vertices", (None, 3))
         face_array = _checks._numeric_array(faces, "faces")
         if face_array.dtype.kind not in "iu":
@@ -140,9 +165,9 @@ class Scene:
             raise ValueError(f"faces must have shape (F, 3), got {face_array.shape}")
         if face_array.size and (face_array.max() > np.iinfo(np.int64).max):
             raise ValueError("faces must fit in int64")
-        return self._core.add_mesh(
-            vertices, np.ascontiguousarray(face_array, dtype=np.int64), _checks.integer(material, "material"),
-            _checks.transform(transform),
+        return self._add(
+            "add_mesh", _owned(vertices, given), _owned(np.ascontiguousarray(face_array, dtype=np.int64), faces),
+            _checks.integer(material, "material"), _owned(_checks.transform(transform), transform),
         )
 
     def add_boxes(
@@ -151,14 +176,15 @@ class Scene:
         """Add N axis-aligned boxes [lo, hi] (each (N, 3), lo < hi in every axis), each its own object.
         A ray starting inside a box hits it where it leaves. With `transform` a box can be rotated,
         sheared or scaled. Returns the (N,) int32 object ids."""
+        given_lo, given_hi = lo, hi
         lo = _checks.float_array(lo, "lo", (None, 3))
         hi = _checks.float_array(hi, "hi", (lo.shape[0], 3))
         n = lo.shape[0]
         materials = _material_ids(material, n)
-        matrix = _checks.transform(transform)
+        matrix = _owned(_checks.transform(transform), transform)
         if n == 0:
             return np.empty(0, dtype=np.int32)
-        first = self._core.add_boxes(lo, hi, materials, matrix)
+        first = self._add("add_boxes", _owned(lo, given_lo), _owned(hi, given_hi), _owned(materials, material), matrix)
         return np.arange(first, first + n, dtype=np.int32)
 
     # --- lights and background ------------------------------------------------------------------
@@ -166,8 +192,8 @@ class Scene:
         """A light infinitely far away. `direction` is the way the light travels (surfaces facing
         -direction are lit); `color` is linear RGB >= 0 and does not fall off. With shadows=True,
         occluders between a point and the light block it (a shadow ray per lit point)."""
-        self._core.add_directional_light(
-            _checks.nonzero_vector3(direction, "direction"), _checks.color(color, "color"), _checks.boolean(shadows, "shadows")
+        self._add(
+            "add_directional_light", _checks.nonzero_vector3(direction, "direction"), _checks.color(color, "color"), _checks.boolean(shadows, "shadows")
         )
 
     def add_point_light(
@@ -182,8 +208,8 @@ class Scene:
         color / (c0 + c1·d + c2·d²) with attenuation = (c0, c1, c2): (1, 0, 0), the default, is the
         6.837 light without falloff; (0, 0, 1) the physical inverse square of Cycles. With
         shadows=True, occluders strictly between a point and the light block it."""
-        self._core.add_point_light(
-            _checks.vector3(position, "position"), _checks.color(color, "color"),
+        self._add(
+            "add_point_light", _checks.vector3(position, "position"), _checks.color(color, "color"),
             _checks.color(attenuation, "attenuation"), _checks.boolean(shadows, "shadows"),
         )
 
@@ -205,8 +231,8 @@ class Scene:
         half = _checks.finite_real(half_angle_degrees, "half_angle_degrees")
         if not 0 < half < 180:
             raise ValueError(f"half_angle_degrees must be in (0, 180), got {half}")
-        self._core.add_spot_light(
-            _checks.vector3(position, "position"), _checks.nonzero_vector3(direction, "direction"),
+        self._add(
+            "add_spot_light", _checks.vector3(position, "position"), _checks.nonzero_vector3(direction, "direction"),
             _checks.color(color, "color"), _checks.color(attenuation, "attenuation"),
             math.cos(math.radians(half)), _checks.finite_real(blend, "blend"), _checks.boolean(shadows, "shadows"),
         )
@@ -285,6 +311,17 @@ class Scene:
             f"{self.box_count} boxes, {self.transform_count} transforms, {self.material_count} materials, "
             f"{self.light_count} lights)"
         )
+
+
+def _owned(array: np.ndarray | None, given: Any) -> np.ndarray | None:
+    """`array` (validated from `given`) as the scene's own read-only record: copied only when it
+    shares memory with what the caller passed (and may change later)."""
+    if array is None:
+        return None
+    if isinstance(given, np.ndarray) and np.may_share_memory(array, given):
+        array = array.copy()
+    array.flags.writeable = False
+    return array
 
 
 def _material_ids(material: Any, n: int) -> np.ndarray:

@@ -139,7 +139,7 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
                   const std::string& sampler, double targetError, const std::string& precision,
                   const std::string& method, bool color, bool depth, bool normal,
                   int threads, bool shadeBack, int maxBounces, double minWeight, const py::function& poll,
-                  const py::dict& out) {
+                  const py::dict& out, const std::array<int, 4>& region) {
   RenderSettings settings;
   settings.width = width;
   settings.height = height;
@@ -154,8 +154,9 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
   settings.shadeBack = shadeBack;
   settings.maxBounces = maxBounces;
   settings.minWeight = minWeight;
+  settings.region = {region[0], region[1], region[2], region[3]};
   validate(settings);
-  const py::ssize_t h = height, w = width;
+  const py::ssize_t h = region[2] != 0 ? region[3] : height, w = region[2] != 0 ? region[2] : width;
   py::dict result;
   RenderTargets targets;
   targets.color = target(out, "color", color, {h, w, 4}, result);
@@ -391,7 +392,7 @@ PYBIND11_MODULE(_core, m) {
   m.def("render", &renderPy, py::arg("scene"), py::arg("camera"), py::arg("width"), py::arg("height"),
         py::arg("spp"), py::arg("seed"), py::arg("sampler"), py::arg("target_error"), py::arg("precision"), py::arg("sphere_method"), py::arg("color"),
         py::arg("depth"), py::arg("normal"), py::arg("threads"), py::arg("shade_back"), py::arg("max_bounces"),
-        py::arg("min_weight"), py::arg("poll"), py::arg("out"));
+        py::arg("min_weight"), py::arg("poll"), py::arg("out"), py::arg("region"));
   m.def("cast", &castPy, py::arg("scene"), py::arg("origins"), py::arg("directions"), py::arg("t_min"),
         py::arg("t_max"), py::arg("precision"), py::arg("sphere_method"), py::arg("threads"), py::arg("poll"));
   m.def("camera_rays", &cameraRaysPy, py::arg("camera"), py::arg("width"), py::arg("height"),

@@ -24,12 +24,21 @@ void validate(const RenderSettings& s) {
   if (!(std::isfinite(s.targetError) && s.targetError > 0)) fail("target_error must be finite and > 0");
   if (s.maxBounces < 0) fail("max_bounces must be >= 0, got " + std::to_string(s.maxBounces));
   if (!(std::isfinite(s.minWeight) && s.minWeight >= 0)) fail("min_weight must be finite and >= 0");
+  const RenderSettings::Region& r = s.region;
+  if (r.width != 0 && !(r.x >= 0 && r.y >= 0 && r.width >= 1 && r.height >= 1 && r.x <= s.width - r.width &&
+                        r.y <= s.height - r.height)) {
+    fail("region must lie inside the " + std::to_string(s.width) + "x" + std::to_string(s.height) + " image");
+  }
 }
 
 namespace {
 
 constexpr int kTileSize = 8;  // 8x8 pixels = one packet of kPacketSize rays per sample
 static_assert(kTileSize * kTileSize == kPacketSize, "a tile is one packet");
+
+RenderSettings::Region regionOf(const RenderSettings& s) {
+  return s.region.width != 0 ? s.region : RenderSettings::Region{0, 0, s.width, s.height};
+}
 
 template <typename Real, SphereMethod M>
 class TileRenderer {
@@ -48,10 +57,15 @@ class TileRenderer {
                  toReal<Real>(Vec3d(scene.background())), cancel),
         m_needHits(targets.color != nullptr && (effects.lit || effects.bounces())),
         m_shadeBack(settings.shadeBack),
-        m_tilesX((settings.width + kTileSize - 1) / kTileSize) {}
+        m_region(regionOf(settings)),
+        m_firstTileX(m_region.x / kTileSize),
+        m_firstTileY(m_region.y / kTileSize),
+        m_tilesX((m_region.x + m_region.width + kTileSize - 1) / kTileSize - m_firstTileX) {}
 
+  // The whole image's tiles that meet the region (a region's tiles are the image's, clipped).
   int64_t tileCount() const {
-    return static_cast<int64_t>(m_tilesX) * ((m_settings.height + kTileSize - 1) / kTileSize);
+    const int tilesY = (m_region.y + m_region.height + kTileSize - 1) / kTileSize - m_firstTileY;
+    return static_cast<int64_t>(m_tilesX) * tilesY;
   }
 
   // Renders one tile; returns what it traced (nothing if cancelled before the tile finished).
@@ -68,10 +82,11 @@ class TileRenderer {
   DURER_PLAIN_KERNEL RayCounters renderPlain(int64_t tile) const { return renderTile(tile); }
 
   RayCounters renderTile(int64_t tile) const {
-    const int x0 = static_cast<int>(tile % m_tilesX) * kTileSize;
-    const int y0 = static_cast<int>(tile / m_tilesX) * kTileSize;
-    const int w = std::min(kTileSize, m_settings.width - x0);
-    const int h = std::min(kTileSize, m_settings.height - y0);
+    const int tileX = (m_firstTileX + static_cast<int>(tile % m_tilesX)) * kTileSize;
+    const int tileY = (m_firstTileY + static_cast<int>(tile / m_tilesX)) * kTileSize;
+    const int x0 = std::max(tileX, m_region.x), y0 = std::max(tileY, m_region.y);
+    const int w = std::min(tileX + kTileSize, m_region.x + m_region.width) - x0;
+    const int h = std::min(tileY + kTileSize, m_region.y + m_region.height) - y0;
     const int count = w * h;
     Accumulator acc;
     acc.clear(count);
@@ -297,7 +312,7 @@ class TileRenderer {
 
   void write(const Accumulator& acc, int x0, int y0, int w, int h) const {
     for (int row = 0; row < h; ++row) {
-      const size_t first = static_cast<size_t>(y0 + row) * m_settings.width + x0;
+      const size_t first = static_cast<size_t>(y0 + row - m_region.y) * m_region.width + (x0 - m_region.x);
       const int k0 = row * w;
       if (m_targets.samples) {
         for (int col = 0; col < w; ++col) m_targets.samples[first + col] = static_cast<int32_t>(acc.samples[k0 + col]);
@@ -343,6 +358,8 @@ class TileRenderer {
   PacketShader<Real, M> m_shader;
   bool m_needHits;   // colour needs hit records: lights or secondary rays
   bool m_shadeBack;
+  RenderSettings::Region m_region;
+  int m_firstTileX, m_firstTileY;
   int m_tilesX;
 };
 

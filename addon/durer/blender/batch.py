@@ -13,6 +13,8 @@ import sys
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
+from ..distributed.output import is_complete
+
 #: Image formats chosen from the output file's extension.
 FORMATS = {
     ".png": "PNG",
@@ -87,6 +89,7 @@ def render_file(
     *,
     progress: bool | Callable[[int, float], object] = False,
     scene: str | None = None,
+    resume: bool = False,
 ) -> list[Path]:
     """Render frames of a .blend file with Dürer and write them; returns the written files.
 
@@ -98,17 +101,50 @@ def render_file(
     samples: overrides scene.durer.samples.
     progress: True draws a progress bar per frame (stderr); a callable gets (frame, fraction).
     scene:   the scene to render (default: the file's active scene).
+    resume:  skip frames whose output file exists and is complete (not in the returned list).
 
     Raises FileNotFoundError for a missing file and BatchRenderError when a frame fails.
     """
     import bpy
 
-    from . import engine, register
+    from . import engine
 
     blend = Path(path).expanduser().resolve()
+    frame_list = parse_frames(frames)
+    sc = open_blend(blend, scene, samples)
+    if frame_list is None:
+        frame_list = [sc.frame_current]
+    explicit = configure_output(sc, output, len(frame_list))
+
+    written: list[Path] = []
+    pattern, use_extension = sc.render.filepath, sc.render.use_file_extension
+    try:
+        for i, frame in enumerate(frame_list):
+            target = frame_target(sc, explicit, frame)
+            if resume and is_complete(target):
+                continue
+            target.parent.mkdir(parents=True, exist_ok=True)
+            sc.frame_set(frame)
+            sc.render.filepath, sc.render.use_file_extension = str(target), False
+            _render_frame(bpy, engine, sc, blend, frame, len(frame_list) - i, progress)
+            sc.render.filepath, sc.render.use_file_extension = pattern, use_extension
+            if not target.is_file():
+                raise BatchRenderError(f"Frame {frame} of {blend} rendered but {target} was not written")
+            written.append(target)
+    finally:
+        sc.render.filepath, sc.render.use_file_extension = pattern, use_extension
+    return written
+
+
+def open_blend(blend: Path, scene: str | None = None, samples: int | None = None):
+    """Open `blend` (an absolute path) in bpy with Dürer registered and return the scene to render
+    (`scene` or the active one) with the DURER engine and `samples`, if given, set."""
+    import bpy
+
+    from . import register
+
     if not blend.is_file():
         raise FileNotFoundError(f"No such .blend file: {blend}")
-    frame_list = parse_frames(frames)
     if samples is not None and int(samples) < 1:
         raise ValueError(f"samples must be >= 1, got {samples}")
     register()
@@ -126,47 +162,39 @@ def render_file(
         sc.durer.samples = int(samples)
     if sc.camera is None:
         raise BatchRenderError(f"Scene '{sc.name}' in {blend} has no camera")
-    if frame_list is None:
-        frame_list = [sc.frame_current]
+    return sc
 
-    explicit = None  # an output path with a known image extension: "#" -> frame number, as given
-    if output is not None:
-        out = str(Path(output).expanduser().resolve()) if not str(output).startswith("//") else str(output)
-        ext = Path(out).suffix.lower()
-        if ext in FORMATS:
-            sc.render.image_settings.file_format = FORMATS[ext]
-            if FORMATS[ext] == "OPEN_EXR":
-                sc.render.image_settings.color_depth = "32"
-        elif ext:
-            raise ValueError(f"Unknown image extension {ext!r}: use one of {', '.join(sorted(FORMATS))}")
-        if len(frame_list) > 1 and "#" not in Path(out).name:
-            stem = Path(out)
-            out = str(stem.with_name(stem.stem + "_####" + stem.suffix))
-        sc.render.filepath = out
-        sc.render.use_file_extension = True
-        if ext in FORMATS:
-            explicit = out
 
-    written: list[Path] = []
-    pattern, use_extension = sc.render.filepath, sc.render.use_file_extension
-    try:
-        for i, frame in enumerate(frame_list):
-            sc.frame_set(frame)
-            # write_still does not number stills: resolve "#" and the extension per frame ourselves.
-            if explicit is not None:
-                target = Path(bpy.path.abspath(re.sub(r"#+", lambda m, f=frame: f"{f:0{len(m.group())}d}", explicit)))
-            else:
-                target = Path(bpy.path.abspath(sc.render.frame_path(frame=frame)))
-            target.parent.mkdir(parents=True, exist_ok=True)
-            sc.render.filepath, sc.render.use_file_extension = str(target), False
-            _render_frame(bpy, engine, sc, blend, frame, len(frame_list) - i, progress)
-            sc.render.filepath, sc.render.use_file_extension = pattern, use_extension
-            if not target.is_file():
-                raise BatchRenderError(f"Frame {frame} of {blend} rendered but {target} was not written")
-            written.append(target)
-    finally:
-        sc.render.filepath, sc.render.use_file_extension = pattern, use_extension
-    return written
+def configure_output(sc, output: str | os.PathLike | None, frame_count: int) -> str | None:
+    """Set the scene's output path and format from `output` (see `render_file`); returns the output
+    pattern when it has a known image extension ("#" runs become the frame), else None (Blender's
+    own frame_path numbering and extension apply)."""
+    if output is None:
+        return None
+    out = str(Path(output).expanduser().resolve()) if not str(output).startswith("//") else str(output)
+    ext = Path(out).suffix.lower()
+    if ext in FORMATS:
+        sc.render.image_settings.file_format = FORMATS[ext]
+        if FORMATS[ext] == "OPEN_EXR":
+            sc.render.image_settings.color_depth = "32"
+    elif ext:
+        raise ValueError(f"Unknown image extension {ext!r}: use one of {', '.join(sorted(FORMATS))}")
+    if frame_count > 1 and "#" not in Path(out).name:
+        stem = Path(out)
+        out = str(stem.with_name(stem.stem + "_####" + stem.suffix))
+    sc.render.filepath = out
+    sc.render.use_file_extension = True
+    return out if ext in FORMATS else None
+
+
+def frame_target(sc, explicit: str | None, frame: int) -> Path:
+    """The file frame `frame` is written to."""
+    import bpy
+
+    # write_still does not number stills: resolve "#" and the extension per frame ourselves.
+    if explicit is not None:
+        return Path(bpy.path.abspath(re.sub(r"#+", lambda m: f"{frame:0{len(m.group())}d}", explicit)))
+    return Path(bpy.path.abspath(sc.render.frame_path(frame=frame)))
 
 
 def _render_frame(bpy, engine, sc, blend: Path, frame: int, left: int, progress) -> None:
@@ -206,7 +234,51 @@ def build_parser(prog: str = "python -m durer render") -> argparse.ArgumentParse
     p.add_argument("--samples", "-s", type=int, help="samples per pixel (default: the file's Dürer setting)")
     p.add_argument("--scene", help="scene to render (default: the active scene)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bars")
+    cluster = p.add_argument_group("distributed (Dask; docs/distributed.md)")
+    cluster.add_argument("--workers", "-w", type=int, nargs="?", const=0, metavar="N",
+                         help="render on a local Dask cluster of N worker processes (N omitted or 0: one per core; "
+                              "1: this process, as without the option)")
+    cluster.add_argument("--scheduler", metavar="ADDRESS", help="render on an existing Dask cluster (tcp://host:8786)")
+    cluster.add_argument("--threads", type=int, metavar="T", help="render threads per frame on a worker (default 1)")
+    cluster.add_argument("--resume", action=argparse.BooleanOptionalAction, default=None,
+                         help="skip frames whose output exists and is complete (default on a cluster; "
+                              "--no-resume renders them again)")
     return p
+
+
+def _main_distributed(args: argparse.Namespace, prog: str) -> int:
+    """--workers / --scheduler: the frames as Dask tasks (durer.distributed.frames)."""
+    try:
+        from ..distributed.client import cluster, require_distributed
+        from ..distributed.frames import render_frames
+
+        require_distributed()
+        if args.workers is not None and args.workers < 0:
+            raise ValueError(f"--workers must be >= 1, got {args.workers}")
+        if args.threads is not None and args.threads < 1:
+            raise ValueError(f"--threads must be >= 1, got {args.threads}")
+        parse_frames(args.frames)  # bad input is reported before a cluster starts
+        if not Path(args.file).is_file():
+            raise FileNotFoundError(f"No such .blend file: {Path(args.file).resolve()}")
+        with cluster(args.scheduler, args.workers or None) as client:
+            report = render_frames(
+                args.file, frames=args.frames, output=args.output, samples=args.samples, client=client,
+                scene=args.scene, resume=args.resume is not False, threads=args.threads, progress=not args.quiet,
+            )
+    except (OSError, ValueError, ImportError) as exc:  # OSError: a missing file, an unreachable scheduler
+        print(f"{prog}: error: {exc}", file=sys.stderr)
+        return 2
+    except BatchRenderError as exc:
+        print(f"{prog}: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted: the frames written so far are complete; run again to resume", file=sys.stderr)
+        return 130
+    if report.failed:
+        frames = ",".join(str(f) for f in sorted(report.failed))
+        print(f"{prog}: error: {len(report.failed)} frames failed: {frames}", file=sys.stderr)
+        return 1
+    return 0
 
 
 def main(argv: Sequence[str] | None = None, prog: str = "python -m durer render") -> int:
@@ -219,6 +291,8 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m durer render"
             f"{prog}: error: rendering .blend files needs Blender's bpy module: pip install bpy==5.0.1", file=sys.stderr
         )
         return 2
+    if args.scheduler is not None or (args.workers is not None and args.workers != 1):
+        return _main_distributed(args, prog)
     try:
         files = render_file(
             args.file,
@@ -227,6 +301,7 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m durer render"
             samples=args.samples,
             progress=not args.quiet,
             scene=args.scene,
+            resume=bool(args.resume),
         )
     except (FileNotFoundError, ValueError) as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)

@@ -32,6 +32,11 @@ struct RenderSettings {
   bool shadeBack = false;            // shade back faces with the flipped normal (6.837 -shade_back)
   int maxBounces = 4;                // deepest secondary ray (reflection, refraction); 0: none
   double minWeight = 0.01;           // secondary rays that would weigh less are not spawned
+  // The part of the image rendered: pixels [x, x + width) x [y, y + height), sampled and seeded as in
+  // the whole image, written to targets of region.width x region.height. Width 0: the whole image.
+  struct Region {
+    int x = 0, y = 0, width = 0, height = 0;
+  } region;
 };
 
 // Output buffers, row-major, top row first, float32; null for a pass not requested.

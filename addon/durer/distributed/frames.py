@@ -1,0 +1,178 @@
+"""Frames of a .blend file rendered as Dask tasks (``python -m durer render FILE --workers N``).
+
+The client opens the file, applies the command's settings (engine, samples, output format,
+threads), packs external data and saves a self-contained copy, which goes to the cluster once. A
+worker thread writes that copy to a temporary directory and has its bpy process
+(`blender_process`) open it on its first task and keep it open: each task sets the frame and
+renders it through the sequential path (`durer.blender.batch`) to a file there, and returns the
+file's bytes. The client writes them atomically, so an output file is
+either absent or whole, and a resumed run skips every output that is complete.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+import sys
+import tempfile
+import threading
+import weakref
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TextIO
+
+from .. import _checks
+from .batch import stream
+from .blender_process import BlenderProcess
+from .client import worker_name
+from .output import is_complete, write_atomic
+from .progress import Tally, progress_bar
+
+
+@dataclass
+class FramesReport:
+    """What `render_frames` did: files written and skipped, failed frames with their errors."""
+
+    written: dict[int, Path] = field(default_factory=dict)
+    skipped: dict[int, Path] = field(default_factory=dict)
+    failed: dict[int, str] = field(default_factory=dict)
+    summary: str = ""
+
+
+def render_frames(
+    path: str | Path,
+    frames: Any = None,
+    output: str | Path | None = None,
+    samples: int | None = None,
+    *,
+    client: Any,
+    scene: str | None = None,
+    resume: bool = True,
+    threads: int | None = None,
+    progress: bool = True,
+    log: TextIO | None = sys.stderr,
+) -> FramesReport:
+    """Render frames of a .blend file on the cluster of `client` (a `distributed.Client`).
+
+    frames, output, samples and scene as in `durer.blender.batch.render_file`; every format it
+    writes (PNG, EXR with the view layer's passes, ...) comes out with the same pixels and passes,
+    bit for bit (Blender's File metadata stamp names the worker's copy of the .blend). `resume`
+    skips frames whose output exists and is complete (`output.is_complete`). Each frame renders on
+    `threads` threads (None: 1 per task). A frame that fails is reported in `failed` with its error
+    (and on `log`) and the others go on; a worker that dies has its frame re-run on another. One
+    progress bar counts frames (rate and ETA); `summary` is the closing line, also written to `log`.
+    """
+    from ..blender import batch
+
+    if threads is not None:
+        threads = _checks.integer(threads, "threads", 1)
+    blend = Path(path).expanduser().resolve()
+    frame_list = batch.parse_frames(frames)
+    sc = batch.open_blend(blend, scene, samples)
+    if frame_list is None:
+        frame_list = [sc.frame_current]
+    explicit = batch.configure_output(sc, output, len(frame_list))
+    targets = {frame: batch.frame_target(sc, explicit, frame) for frame in dict.fromkeys(frame_list)}
+    sc.durer.threads = 1 if threads is None else threads
+    payload = _self_contained_copy()
+
+    report = FramesReport()
+    todo = []
+    for frame, target in targets.items():
+        if resume and is_complete(target):
+            report.skipped[frame] = target
+        else:
+            todo.append(frame)
+    tally = Tally("frame", len(targets), skipped=len(report.skipped), failed=report.failed)
+    bar = progress_bar(progress, len(todo), "frame", log)
+    try:
+        if todo:
+            shared = client.scatter(payload, hash=False)
+            job = dict(digest=hashlib.sha256(payload).hexdigest(), scene=sc.name, blend_name=blend.name)
+
+            def submit(i: int) -> Any:
+                return client.submit(render_frame_task, shared, todo[i], targets[todo[i]].suffix, pure=False, **job)
+
+            for i, future in stream(client, len(todo), submit, ordered=False):
+                frame = todo[i]
+                if future.status == "error":
+                    error = future.exception()
+                    report.failed[frame] = f"{type(error).__name__}: {error}"
+                    _say(bar, log, f"frame {frame} failed: {report.failed[frame]}")
+                else:
+                    data, worker = future.result()
+                    write_atomic(targets[frame], data)
+                    report.written[frame] = targets[frame]
+                    tally.done_by[worker] += 1
+                if bar is not None:
+                    bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+    report.summary = tally.summary()
+    if log is not None:
+        print(report.summary, file=log)
+    return report
+
+
+def _say(bar: Any, log: TextIO | None, message: str) -> None:
+    if bar is not None:
+        bar.write(message, file=log)
+    elif log is not None:
+        print(message, file=log)
+
+
+def _self_contained_copy() -> bytes:
+    """The open file with its external data packed and linked data made local, as .blend bytes."""
+    import bpy
+
+    from ..blender.batch import BatchRenderError
+
+    linked = _linked_blocks()
+    while linked:  # a block still used by linked blocks stays linked: users first, then their data
+        for block in linked:
+            block.make_local()
+        remaining = _linked_blocks()
+        if len(remaining) >= len(linked):
+            raise BatchRenderError(f"Cannot make linked data local: {', '.join(b.name for b in remaining)}")
+        linked = remaining
+    for library in list(bpy.data.libraries):
+        bpy.data.libraries.remove(library)
+    if any(image.source == "FILE" and image.packed_file is None for image in bpy.data.images):
+        bpy.ops.file.pack_all()
+    with tempfile.TemporaryDirectory(prefix="durer-ship-") as folder:
+        copy = Path(folder) / "scene.blend"
+        bpy.ops.wm.save_as_mainfile(filepath=str(copy), copy=True, compress=False)
+        return copy.read_bytes()
+
+
+def _linked_blocks() -> list[Any]:
+    import bpy
+
+    collections = (getattr(bpy.data, name) for name in dir(bpy.data))
+    return [block for collection in collections if isinstance(collection, bpy.types.bpy_prop_collection)
+            for block in collection if getattr(block, "library", None) is not None]
+
+
+#: Per worker thread: {"process": its BlenderProcess, "folder": the temporary directory of the copy}.
+_local = threading.local()
+
+
+def render_frame_task(
+    payload: bytes, frame: int, suffix: str, *, digest: str, scene: str, blend_name: str
+) -> tuple[bytes, str]:
+    """A Dask task: render `frame` of the shipped .blend through the sequential path in this worker
+    thread's bpy process (which opens the file on its first task and keeps it open); returns the
+    image file's bytes and the worker's name."""
+    process = getattr(_local, "process", None)
+    if process is None or not process.alive():
+        process = _local.process = BlenderProcess()
+        _local.folder = Path(tempfile.mkdtemp(prefix="durer-worker-"))
+        weakref.finalize(process, shutil.rmtree, _local.folder, True)
+    if process.opened != digest:
+        blend = _local.folder / blend_name
+        blend.write_bytes(payload)
+        process.call("open", str(blend), scene)
+        process.opened = digest
+    data = process.call("render", scene, frame, str(_local.folder / f"frame_{frame}{suffix}"), blend_name)
+    return data, worker_name()

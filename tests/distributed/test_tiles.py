@@ -1,0 +1,100 @@
+"""Regions and tiles: parts of an image render bit for bit as in the whole image."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import durer
+from durer.distributed import tile_regions
+
+from helpers.distributed import assert_same_image, every_kind_scene, orbit_cameras
+
+SCENE = every_kind_scene()
+CAMERA = orbit_cameras(5)[2]
+W, H = 45, 37  # not multiples of the core's 8-pixel tiles
+
+
+def crop(result, x, y, w, h):
+    return durer.RenderResult(*(None if a is None else a[y : y + h, x : x + w]
+                                for a in (result.color, result.depth, result.normal)), {},
+                              None if result.samples is None else result.samples[y : y + h, x : x + w])
+
+
+@pytest.mark.parametrize("options", [
+    {"spp": 4}, {"spp": 3, "sampler": "random"}, {"spp": 8, "sampler": "sobol", "precision": "float"},
+    {"spp": 1, "sampler": "center", "passes": ("depth",)},
+])
+def test_any_region_equals_that_part_of_the_whole_render(options):
+    whole = durer.render(SCENE, CAMERA, W, H, **options)
+    assert len(np.unique(whole.depth)) > 100  # a busy image
+    for region in ((0, 0, W, H), (3, 5, 13, 7), (40, 30, 5, 7), (9, 0, 1, 37), (0, 36, 45, 1)):
+        part = durer.render(SCENE, CAMERA, W, H, region=region, **options)
+        assert part.stats["region"] == (region if region != (0, 0, W, H) else region)
+        assert part.stats["rays"] == region[2] * region[3] * options["spp"]
+        assert_same_image(part, crop(whole, *region))
+
+
+def test_adaptive_regions_on_the_tile_grid_match_and_others_are_refused():
+    options = {"spp": 16, "sampler": "adaptive", "target_error": 0.002}
+    whole = durer.render(SCENE, CAMERA, W, H, **options)
+    assert len(np.unique(whole.samples)) > 2  # the sampler did adapt
+    for region in ((8, 16, 16, 8), (40, 32, 5, 5), (0, 0, 45, 37)):
+        assert_same_image(durer.render(SCENE, CAMERA, W, H, region=region, **options), crop(whole, *region))
+    with pytest.raises(ValueError, match="region x edges must be multiples of 8"):
+        durer.render(SCENE, CAMERA, W, H, region=(3, 0, 8, 8), **options)
+    with pytest.raises(ValueError, match="region y edges"):
+        durer.render(SCENE, CAMERA, W, H, region=(0, 8, 8, 9), **options)
+
+
+@pytest.mark.parametrize("region, message", [
+    ((0, 0, 46, 1), "region width must be <= 45"), ((45, 0, 1, 1), "region x must be <= 44"),
+    ((0, -1, 1, 1), "region y must be >= 0"), ((0, 0, 0, 1), "region width must be >= 1"),
+    ((0, 0, 1), "region must be"), ((0, 0, 1.5, 1), "region width must be an integer"),
+])
+def test_bad_regions_name_the_field(region, message):
+    with pytest.raises((ValueError, TypeError), match=message):
+        durer.render(SCENE, CAMERA, W, H, region=region)
+
+
+def test_tile_regions_cover_the_image_once():
+    regions = tile_regions(45, 37, 16)
+    assert regions[0] == (0, 0, 16, 16) and regions[-1] == (32, 32, 13, 5) and len(regions) == 9
+    covered = np.zeros((37, 45), int)
+    for x, y, w, h in regions:
+        covered[y : y + h, x : x + w] += 1
+    assert (covered == 1).all()
+    with pytest.raises(ValueError, match="tile must be a multiple of 8"):
+        tile_regions(45, 37, 12)
+
+
+@pytest.mark.parametrize("options", [{"spp": 4}, {"spp": 16, "sampler": "adaptive", "target_error": 0.002}])
+def test_render_tiles_locally_equals_one_render(options):
+    whole = durer.render(SCENE, CAMERA, W, H, **options)
+    tiled = durer.render_tiles(SCENE, CAMERA, W, H, tile=16, **options)
+    assert_same_image(tiled, whole)
+    assert tiled.stats["tiles"] == 9 and tiled.stats["rays"] == whole.stats["rays"]
+    assert tiled.stats["workers"] == {"local": 9}
+
+
+def test_render_tiles_on_a_cluster_equals_one_render(client):
+    options = {"spp": 16, "sampler": "adaptive", "target_error": 0.002}
+    whole = durer.render(SCENE, CAMERA, 100, 75, **options)
+    tiled = durer.render_tiles(SCENE, CAMERA, 100, 75, tile=24, client=client, **options)
+    assert_same_image(tiled, whole)
+    assert sum(tiled.stats["workers"].values()) == 20 and "local" not in tiled.stats["workers"]
+    assert tiled.stats["intersection_tests"] == whole.stats["intersection_tests"]
+
+
+@settings(max_examples=40, deadline=None)
+@given(x=st.integers(0, W - 1), y=st.integers(0, H - 1), data=st.data(),
+       sampler=st.sampled_from(["stratified", "random", "sobol", "center"]), spp=st.integers(1, 6),
+       seed=st.integers(0, 2**64 - 1), precision=st.sampled_from(["float", "double"]))
+def test_random_regions_equal_the_whole_render(x, y, data, sampler, spp, seed, precision):
+    w = data.draw(st.integers(1, W - x))
+    h = data.draw(st.integers(1, H - y))
+    options = dict(spp=spp, seed=seed, sampler=sampler, precision=precision)
+    whole = durer.render(SCENE, CAMERA, W, H, **options)
+    assert_same_image(durer.render(SCENE, CAMERA, W, H, region=(x, y, w, h), **options), crop(whole, x, y, w, h))

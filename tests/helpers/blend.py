@@ -1,0 +1,58 @@
+"""A keyframed .blend for the frame tests, built with the real bpy (Blender 5.0 from PyPI)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+bpy = pytest.importorskip("bpy")
+bmesh = pytest.importorskip("bmesh")
+
+import durer.blender
+
+
+def _ball(s, name, radius, color, location):
+    bm = bmesh.new()
+    bmesh.ops.create_uvsphere(bm, u_segments=24, v_segments=12, radius=radius)
+    mesh = bpy.data.meshes.new(name)
+    bm.to_mesh(mesh)
+    bm.free()
+    mat = bpy.data.materials.new(name)
+    mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (*color, 1.0)
+    mesh.materials.append(mat)
+    obj = bpy.data.objects.new(name, mesh)
+    obj.location = location
+    s.collection.objects.link(obj)
+    return obj
+
+
+def animated_blend(path: Path, frames: int = 12, width: int = 32, height: int = 24, samples: int = 4) -> Path:
+    """Two balls and a camera, all keyframed over frames 1..`frames`, lit by a sun: each frame differs."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    durer.blender.register()
+    s = bpy.context.scene
+    s.render.engine = "DURER"
+    s.render.resolution_x, s.render.resolution_y, s.render.resolution_percentage = width, height, 100
+    s.durer.samples = samples
+    s.frame_start, s.frame_end = 1, frames
+    world = bpy.data.worlds.new("World")
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.05, 0.05, 0.08, 1.0)
+    s.world = world
+    red = _ball(s, "Red", 1.0, (0.8, 0.1, 0.1), (-1.5, 0, 0))
+    blue = _ball(s, "Blue", 0.6, (0.1, 0.2, 0.8), (1.5, 0, 0))
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.rotation_euler = (0.6, 0.2, 0.3)
+    s.collection.objects.link(sun)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    s.collection.objects.link(camera)
+    s.camera = camera
+    camera.rotation_euler = (1.5708, 0, 0)
+    for frame, t in ((1, 0.0), (frames, 1.0)):
+        red.location = (-1.5 + 2 * t, 0, 0.5 * t)
+        blue.location = (1.5, 0, -1 + 2 * t)
+        camera.location = (t, -8 + t, 0)
+        for obj in (red, blue, camera):
+            obj.keyframe_insert("location", frame=frame)
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return path
