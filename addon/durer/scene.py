@@ -50,17 +50,14 @@ class Scene:
         sees, bent by Snell's law with index of refraction `ior` (> 0) inside the object.
         Only the effects some material calls for are simulated (see `render`'s stats["effects"]).
         """
-        exponent_value = _checks.finite_real(exponent, "exponent")
-        if exponent_value < 0:
-            raise ValueError(f"exponent must be >= 0, got {exponent_value}")
-        ior_value = _checks.finite_real(ior, "ior")
-        if ior_value <= 0:
-            raise ValueError(f"ior must be > 0, got {ior_value}")
-        return self._core.add_material(
-            _checks.color(diffuse, "diffuse"), _checks.color(emission, "emission"), _checks.color(specular, "specular"),
-            exponent_value, _checks.color(reflective, "reflective"), _checks.color(transparent, "transparent"),
-            ior_value,
-        )
+        given = {
+            "diffuse": diffuse, "emission": emission, "specular": specular, "exponent": exponent,
+            "reflective": reflective, "transparent": transparent, "ior": ior,
+        }
+        # The core owns the fields (durer._core.MATERIAL_FIELDS) and checks their values.
+        return self._core.add_material(**{
+            name: _checks.components(given[name], name, components) for name, components, _ in _core.MATERIAL_FIELDS
+        })
 
     def add_spheres(
         self, centers: ArrayLike, radii: ArrayLike, material: ArrayLike = 0, *, transform: ArrayLike | None = None
@@ -219,7 +216,7 @@ class Scene:
 
     @shading.setter
     def shading(self, mode: str) -> None:
-        self._core.shading = _checks.choice(mode, "shading", ("auto", "flat", "lit"))
+        self._core.shading = _checks.string(mode, "shading")
 
     @property
     def background(self) -> tuple[float, float, float, float]:

@@ -5,19 +5,19 @@
 #include <cstdint>
 #include <vector>
 
-#include "durer/Hit.h"
-#include "durer/PrimitiveIds.h"
-#include "durer/RayOffset.h"
-#include "durer/RayPacket.h"
-#include "durer/Bvh.h"
-#include "durer/SphereIntersection.h"
-#include "durer/Vec.h"
+#include "durer/geometry/Hit.h"
+#include "durer/accel/PrimitiveIds.h"
+#include "durer/geometry/RayOffset.h"
+#include "durer/geometry/RayPacket.h"
+#include "durer/accel/Bvh.h"
+#include "durer/geometry/SphereIntersection.h"
+#include "durer/math/Vec.h"
 
 namespace durer {
 
 template <typename Real>
 struct Sphere {
-  Vec3<Real> center;  // world space
+  Vec3<Real> center;  // object space (world space outside a transformed group)
   Real radius;        // > 0
 };
 

@@ -8,12 +8,12 @@
 #include <memory>
 #include <vector>
 
-#include "durer/Affine.h"
-#include "durer/BoxSet.h"
-#include "durer/Bvh.h"
-#include "durer/PlaneSet.h"
-#include "durer/SphereSet.h"
-#include "durer/TriangleSet.h"
+#include "durer/math/Affine.h"
+#include "durer/accel/BoxSet.h"
+#include "durer/accel/Bvh.h"
+#include "durer/accel/PlaneSet.h"
+#include "durer/accel/SphereSet.h"
+#include "durer/accel/TriangleSet.h"
 
 namespace durer {
 

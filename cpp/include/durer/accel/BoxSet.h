@@ -7,12 +7,14 @@
 #include <limits>
 #include <vector>
 
-#include "durer/Bvh.h"
-#include "durer/Hit.h"
-#include "durer/PrimitiveIds.h"
-#include "durer/RayOffset.h"
-#include "durer/RayPacket.h"
-#include "durer/Vec.h"
+#include "durer/accel/Bvh.h"
+#include "durer/geometry/Slab.h"
+#include "durer/math/Float.h"
+#include "durer/geometry/Hit.h"
+#include "durer/accel/PrimitiveIds.h"
+#include "durer/geometry/RayOffset.h"
+#include "durer/geometry/RayPacket.h"
+#include "durer/math/Vec.h"
 
 namespace durer {
 
@@ -30,10 +32,10 @@ class BoxSet {
     m_boxes.reserve(other.size());
     for (size_t i = 0; i < other.size(); ++i) {
       // Rounded outward, so that the box in float still holds the box as given.
-      Vec3<Real> lo = toReal<Real>(other.box(i).lo), hi = toReal<Real>(other.box(i).hi);
+      Vec3<Real> lo, hi;
       for (int a = 0; a < 3; ++a) {
-        if (static_cast<Other>(lo[a]) > other.box(i).lo[a]) lo[a] = std::nextafter(lo[a], -std::numeric_limits<Real>::infinity());
-        if (static_cast<Other>(hi[a]) < other.box(i).hi[a]) hi[a] = std::nextafter(hi[a], std::numeric_limits<Real>::infinity());
+        lo[a] = toRealDown<Real>(other.box(i).lo[a]);
+        hi[a] = toRealUp<Real>(other.box(i).hi[a]);
       }
       m_boxes.push_back({lo, hi});
     }
@@ -117,15 +119,6 @@ class BoxSet {
       packet.tHit[k] = closer ? t : packet.tHit[k];
       packet.prim[k] = closer ? id : packet.prim[k];
     }
-  }
-
-  // Narrows [nearT, farT] to one slab. A ray parallel to the slab gives ±inf (inside or outside
-  // it) or, with its origin exactly on a face, 0·inf = NaN: such a grazing ray counts as inside.
-  static void slab(Real lo, Real hi, Real o, Real inv, Real& nearT, Real& farT) {
-    const Real t0 = (lo - o) * inv, t1 = (hi - o) * inv;
-    if (t0 != t0 || t1 != t1) return;
-    nearT = std::fmax(nearT, std::fmin(t0, t1));
-    farT = std::fmin(farT, std::fmax(t0, t1));
   }
 
   std::vector<Box<Real>> m_boxes;

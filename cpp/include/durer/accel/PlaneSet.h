@@ -4,11 +4,11 @@
 #include <limits>
 #include <vector>
 
-#include "durer/Hit.h"
-#include "durer/PrimitiveIds.h"
-#include "durer/RayOffset.h"
-#include "durer/RayPacket.h"
-#include "durer/Vec.h"
+#include "durer/geometry/Hit.h"
+#include "durer/accel/PrimitiveIds.h"
+#include "durer/geometry/RayOffset.h"
+#include "durer/geometry/RayPacket.h"
+#include "durer/math/Vec.h"
 
 namespace durer {
 

@@ -14,12 +14,12 @@
 #include <limits>
 #include <vector>
 
-#include "durer/Bvh.h"
-#include "durer/Hit.h"
-#include "durer/PrimitiveIds.h"
-#include "durer/RayOffset.h"
-#include "durer/RayPacket.h"
-#include "durer/Vec.h"
+#include "durer/accel/Bvh.h"
+#include "durer/geometry/Hit.h"
+#include "durer/accel/PrimitiveIds.h"
+#include "durer/geometry/RayOffset.h"
+#include "durer/geometry/RayPacket.h"
+#include "durer/math/Vec.h"
 
 namespace durer {
 
