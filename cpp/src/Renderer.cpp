@@ -245,7 +245,7 @@ class TileRenderer {
     const SphereSet<Real>& spheres = m_group.spheres();
     const int32_t sphereCount = static_cast<int32_t>(spheres.size());
     if (sphereCount > 0) {
-      const Sphere<Real>* sphere = &spheres.sphere(0);
+      const Sphere<Real>* sphere = &spheres.primitive(0);
       for (int k = 0; k < packet.count; ++k) {
         const int32_t prim = packet.prim[k];
         const bool isSphere = (prim >= 0) & (prim < sphereCount);

@@ -26,8 +26,10 @@ Real facingSign(Real directionDotNormal, bool shadeBack) {
   return shadeBack && directionDotNormal > 0 ? Real(-1) : Real(1);
 }
 
+// The normal a hit is shaded with, by facingSign's rule (the dot product only where it matters).
 template <typename Real>
 Vec3<Real> shadingNormal(const Vec3<Real>& normal, const Vec3<Real>& direction, bool shadeBack) {
+  if (!shadeBack) return normal;
   return facingSign(glm::dot(direction, normal), shadeBack) < 0 ? -normal : normal;
 }
 
