@@ -38,26 +38,18 @@ def float_array(value: Any, name: str, shape: tuple[int | None, ...], *, finite:
 
 
 def vector3(value: Any, name: str) -> tuple[float, float, float]:
-    x, y, z = float_array(value, name, (3,))
+    """Three real numbers (finiteness, non-zero length and the like are the core's to check)."""
+    x, y, z = float_array(value, name, (3,), finite=False)
     return float(x), float(y), float(z)
 
 
-def nonzero_vector3(value: Any, name: str) -> tuple[float, float, float]:
-    v = vector3(value, name)
-    if not any(v):
-        raise ValueError(f"{name} must not be the zero vector")
-    return v
-
-
 def color(value: Any, name: str, channels: tuple[int, ...] = (3,)) -> tuple[float, ...]:
+    """A colour of one of `channels` real components (the core checks that they are finite, >= 0)."""
     array = _numeric_array(value, name)
     if array.ndim != 1 or array.shape[0] not in channels:
         wanted = " or ".join(f"({c},)" for c in channels)
         raise ValueError(f"{name} must have shape {wanted}, got {array.shape}")
-    array = array.astype(np.float64)
-    if not np.isfinite(array).all() or (array < 0).any():
-        raise ValueError(f"{name} must be finite and >= 0, got {tuple(array.tolist())}")
-    return tuple(float(c) for c in array)
+    return tuple(float(c) for c in array.astype(np.float64))
 
 
 def components(value: Any, name: str, count: int) -> float | tuple[float, ...]:

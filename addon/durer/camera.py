@@ -34,11 +34,11 @@ class _Camera:
     def _build(self, size: float, fit: str, shift: ArrayLike, pixel_aspect: float, t_min: float, t_max: float) -> None:
         set_ = object.__setattr__
         set_(self, "center", _checks.vector3(self.center, "center"))
-        set_(self, "direction", _checks.nonzero_vector3(self.direction, "direction"))
-        set_(self, "up", _checks.nonzero_vector3(self.up, "up"))
+        set_(self, "direction", _checks.vector3(self.direction, "direction"))
+        set_(self, "up", _checks.vector3(self.up, "up"))
         size = _checks.real(size, self._size_name)
         _checks.string(fit, "fit")
-        sx, sy = _checks.float_array(shift, "shift", (2,))
+        sx, sy = _checks.float_array(shift, "shift", (2,), finite=False)
         set_(self, "shift", (float(sx), float(sy)))
         t_min, t_max = _checks.real(t_min, "t_min"), _checks.real(t_max, "t_max")
         aspect = _checks.real(pixel_aspect, "pixel_aspect")

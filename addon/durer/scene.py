@@ -70,11 +70,7 @@ class Scene:
         radii_array = _checks._numeric_array(radii, "radii")
         if radii_array.ndim == 0:
             radii_array = np.full(n, radii_array, dtype=np.float64)
-        radii_array = _checks.float_array(radii_array, "radii", (n,), finite=False)
-        bad = ~(np.isfinite(radii_array) & (radii_array > 0))
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise ValueError(f"radii must be finite and > 0, got {radii_array[i]} at index {i}")
+        radii_array = _checks.float_array(radii_array, "radii", (n,), finite=False)  # the core checks > 0
         materials = _material_ids(material, n)
         matrix = _checks.transform(transform)
         if n == 0:
@@ -98,8 +94,8 @@ class Scene:
         [0, 1], is there; the corner must lie on the plane and the edges in it. The normal is the
         shading normal as given: it is not flipped toward the viewer.
         """
-        normal3 = _checks.nonzero_vector3(normal, "normal")
-        offset_value = _checks.finite_real(offset, "offset")
+        normal3 = _checks.vector3(normal, "normal")
+        offset_value = _checks.real(offset, "offset")
         material_id = _checks.integer(material, "material")
         corners = None
         if bounds is not None:
@@ -164,7 +160,7 @@ class Scene:
         -direction are lit); `color` is linear RGB >= 0 and does not fall off. With shadows=True,
         occluders between a point and the light block it (a shadow ray per lit point)."""
         self._core.add_directional_light(
-            _checks.nonzero_vector3(direction, "direction"), _checks.color(color, "color"), _checks.boolean(shadows, "shadows")
+            _checks.vector3(direction, "direction"), _checks.color(color, "color"), _checks.boolean(shadows, "shadows")
         )
 
     def add_point_light(
@@ -203,9 +199,9 @@ class Scene:
         if not 0 < half < 180:
             raise ValueError(f"half_angle_degrees must be in (0, 180), got {half}")
         self._core.add_spot_light(
-            _checks.vector3(position, "position"), _checks.nonzero_vector3(direction, "direction"),
+            _checks.vector3(position, "position"), _checks.vector3(direction, "direction"),
             _checks.color(color, "color"), _checks.color(attenuation, "attenuation"),
-            math.cos(math.radians(half)), _checks.finite_real(blend, "blend"), _checks.boolean(shadows, "shadows"),
+            math.cos(math.radians(half)), _checks.real(blend, "blend"), _checks.boolean(shadows, "shadows"),
         )
 
     @property
@@ -226,11 +222,7 @@ class Scene:
     @background.setter
     def background(self, value: ArrayLike) -> None:
         rgba = _checks.color(value, "background", (3, 4))
-        if len(rgba) == 3:
-            rgba = (*rgba, 1.0)
-        if rgba[3] > 1:
-            raise ValueError(f"background alpha must be in [0, 1], got {rgba[3]}")
-        self._core.background = rgba
+        self._core.background = rgba if len(rgba) == 4 else (*rgba, 1.0)
 
     @property
     def ambient(self) -> tuple[float, float, float]:
