@@ -1,4 +1,8 @@
-"""Argument checks shared by the public API: each error names the argument it is about."""
+"""Argument checks shared by the public API: each error names the argument it is about.
+
+The boundary between Python and the core: Python checks types, shapes and dtypes (and that a
+number fits the C type it is passed as); the core checks values (ranges, finiteness, option names,
+invertibility) and its std::invalid_argument arrives as a ValueError naming the argument."""
 
 from __future__ import annotations
 
@@ -6,6 +10,8 @@ import numbers
 from typing import Any
 
 import numpy as np
+
+from . import _core
 
 
 def _numeric_array(value: Any, name: str) -> np.ndarray:
@@ -32,26 +38,26 @@ def float_array(value: Any, name: str, shape: tuple[int | None, ...], *, finite:
 
 
 def vector3(value: Any, name: str) -> tuple[float, float, float]:
-    x, y, z = float_array(value, name, (3,))
+    """Three real numbers (finiteness, non-zero length and the like are the core's to check)."""
+    x, y, z = float_array(value, name, (3,), finite=False)
     return float(x), float(y), float(z)
 
 
-def nonzero_vector3(value: Any, name: str) -> tuple[float, float, float]:
-    v = vector3(value, name)
-    if not any(v):
-        raise ValueError(f"{name} must not be the zero vector")
-    return v
-
-
 def color(value: Any, name: str, channels: tuple[int, ...] = (3,)) -> tuple[float, ...]:
+    """A colour of one of `channels` real components (the core checks that they are finite, >= 0)."""
     array = _numeric_array(value, name)
     if array.ndim != 1 or array.shape[0] not in channels:
         wanted = " or ".join(f"({c},)" for c in channels)
         raise ValueError(f"{name} must have shape {wanted}, got {array.shape}")
-    array = array.astype(np.float64)
-    if not np.isfinite(array).all() or (array < 0).any():
-        raise ValueError(f"{name} must be finite and >= 0, got {tuple(array.tolist())}")
-    return tuple(float(c) for c in array)
+    return tuple(float(c) for c in array.astype(np.float64))
+
+
+def components(value: Any, name: str, count: int) -> float | tuple[float, ...]:
+    """`count` real numbers: a float for 1, else a tuple of `count` floats (their values are the
+    core's to check)."""
+    if count == 1:
+        return real(value, name)
+    return tuple(float(c) for c in float_array(value, name, (count,), finite=False))
 
 
 def real(value: Any, name: str) -> float:
@@ -78,6 +84,18 @@ def integer(value: Any, name: str, minimum: int | None = None, maximum: int | No
     return n
 
 
+def c_int(value: Any, name: str) -> int:
+    """An integer that fits the core's C int (its range is the core's to check)."""
+    return integer(value, name, -(2**31), 2**31 - 1)
+
+
+def string(value: Any, name: str) -> str:
+    """An option name (which names are valid is the core's to check: durer._core's tuples)."""
+    if not isinstance(value, str):
+        raise TypeError(f"{name} must be a string, got {type(value).__name__}")
+    return value
+
+
 def choice(value: Any, name: str, options: tuple[str, ...]) -> str:
     if not isinstance(value, str):
         raise TypeError(f"{name} must be a string, one of {', '.join(options)}; got {type(value).__name__}")
@@ -94,8 +112,8 @@ def boolean(value: Any, name: str) -> bool:
 
 def transform(value: Any, name: str = "transform") -> np.ndarray | None:
     """A world-from-object affine matrix, (4, 4) with bottom row (0, 0, 0, 1) or (3, 4), as a
-    C-contiguous (3, 4) float64 array; None stays None (the identity). Invertibility is checked by
-    the core."""
+    C-contiguous (3, 4) float64 array; None stays None (the identity). It must be invertible by the
+    core's one rule (`is_invertible`)."""
     if value is None:
         return None
     array = _numeric_array(value, name)
@@ -108,4 +126,14 @@ def transform(value: Any, name: str = "transform") -> np.ndarray | None:
         if not np.array_equal(array[3], [0.0, 0.0, 0.0, 1.0]):
             raise ValueError(f"{name} must be affine: its bottom row must be (0, 0, 0, 1), got {tuple(array[3].tolist())}")
         array = array[:3]
-    return np.ascontiguousarray(array)
+    array = np.ascontiguousarray(array)
+    if not _core.is_invertible(array):
+        raise ValueError(f"{name} must be invertible (it is singular, or its inverse overflows)")
+    return array
+
+
+def is_invertible(matrix: Any) -> bool:
+    """Whether a (4, 4) or (3, 4) affine matrix is finite and invertible by the core's rule (the one
+    every transform passed to a Scene must meet)."""
+    array = np.asarray(matrix, dtype=np.float64)
+    return bool(np.isfinite(array).all()) and _core.is_invertible(np.ascontiguousarray(array[:3]))

@@ -7,6 +7,19 @@ from numpy.typing import NDArray
 
 _Triple = tuple[float, float, float]
 
+# Option names, in the core's order (cpp/include/durer/Options.h).
+PRECISIONS: tuple[str, ...]  # ("float", "double")
+SPHERE_METHODS: tuple[str, ...]  # ("algebraic", "geometric", "robust")
+SAMPLERS: tuple[str, ...]  # ("center", "random", "stratified", "sobol", "adaptive")
+PASSES: tuple[str, ...]  # ("color", "depth", "normal")
+DEPTHS: tuple[str, ...]  # ("ray", "planar")
+PROJECTIONS: tuple[str, ...]  # ("orthographic", "perspective")
+FITS: tuple[str, ...]  # ("auto", "horizontal", "vertical")
+SHADING_MODES: tuple[str, ...]  # ("auto", "flat", "lit")
+# (name, components, default) per field of Material, in its order (cpp/include/durer/Material.h):
+# default is a tuple of floats for a colour (3 components), a float for a scalar (1).
+MATERIAL_FIELDS: tuple[tuple[str, int, tuple[float, float, float] | float], ...]
+
 class CameraSpec:
     def __init__(
         self, projection: str, center: _Triple, direction: _Triple, up: _Triple, size: float, fit: str,
@@ -15,10 +28,7 @@ class CameraSpec:
 
 class Scene:
     def __init__(self) -> None: ...
-    def add_material(
-        self, diffuse: _Triple, emission: _Triple, specular: _Triple, exponent: float, reflective: _Triple,
-        transparent: _Triple, ior: float,
-    ) -> int: ...
+    def add_material(self, **fields: _Triple | float) -> int: ...  # named as MATERIAL_FIELDS; others default
     def add_spheres(
         self, centers: NDArray[np.float64], radii: NDArray[np.float64], materials: NDArray[np.int32],
         transform: NDArray[np.float64] | None,
@@ -67,7 +77,7 @@ class Scene:
 def render(
     scene: Scene, camera: CameraSpec, width: int, height: int, spp: int, seed: int, sampler: str,
     target_error: float, precision: str,
-    sphere_method: str, color: bool, depth: bool, normal: bool, threads: int, shade_back: bool, max_bounces: int,
+    sphere_method: str, passes: Sequence[str], depth: str, threads: int, shade_back: bool, max_bounces: int,
     min_weight: float, poll: Callable[[float], bool],
     out: dict[str, NDArray[np.float32] | None], region: tuple[int, int, int, int],
 ) -> dict[str, object]: ...
@@ -77,3 +87,4 @@ def cast(
 ) -> dict[str, object]: ...
 def camera_rays(camera: CameraSpec, width: int, height: int, precision: str) -> tuple[NDArray[np.floating], NDArray[np.floating]]: ...
 def default_thread_count() -> int: ...
+def is_invertible(matrix: NDArray[np.float64]) -> bool: ...  # a (3, 4) affine matrix, by the core's one rule

@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike
 
 from . import _checks, _core
 
-FITS = ("auto", "horizontal", "vertical")
+FITS: tuple[str, ...] = _core.FITS  # owned by the core (Options.h)
 
 
 @dataclass(frozen=True)
@@ -34,11 +34,11 @@ class _Camera:
     def _build(self, size: float, fit: str, shift: ArrayLike, pixel_aspect: float, t_min: float, t_max: float) -> None:
         set_ = object.__setattr__
         set_(self, "center", _checks.vector3(self.center, "center"))
-        set_(self, "direction", _checks.nonzero_vector3(self.direction, "direction"))
-        set_(self, "up", _checks.nonzero_vector3(self.up, "up"))
+        set_(self, "direction", _checks.vector3(self.direction, "direction"))
+        set_(self, "up", _checks.vector3(self.up, "up"))
         size = _checks.real(size, self._size_name)
-        _checks.choice(fit, "fit", FITS)
-        sx, sy = _checks.float_array(shift, "shift", (2,))
+        _checks.string(fit, "fit")
+        sx, sy = _checks.float_array(shift, "shift", (2,), finite=False)
         set_(self, "shift", (float(sx), float(sy)))
         t_min, t_max = _checks.real(t_min, "t_min"), _checks.real(t_max, "t_max")
         aspect = _checks.real(pixel_aspect, "pixel_aspect")
@@ -53,9 +53,9 @@ class _Camera:
     def rays(self, width: int, height: int, precision: str = "double") -> tuple[np.ndarray, np.ndarray]:
         """The pixel-centre rays: origins and unit directions, each (height, width, 3), top row
         first, exactly as `render` generates them with spp=1."""
-        width = _checks.integer(width, "width", 1)
-        height = _checks.integer(height, "height", 1)
-        _checks.choice(precision, "precision", ("float", "double"))
+        width = _checks.c_int(width, "width")
+        height = _checks.c_int(height, "height")
+        _checks.string(precision, "precision")
         return _core.camera_rays(self._spec, width, height, precision)
 
 

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from . import _checks, _core
-from .render import PRECISIONS, SPHERE_METHODS, poll_function, threads_argument
+from .render import poll_function, threads_argument
 from .scene import Scene
 
 
@@ -54,8 +54,8 @@ def cast(
         if zero.any():
             raise ValueError(f"directions[{int(np.argmax(zero))}] must not be the zero vector")
     t_min, t_max = _checks.real(t_min, "t_min"), _checks.real(t_max, "t_max")
-    _checks.choice(precision, "precision", PRECISIONS)
-    _checks.choice(sphere_method, "sphere_method", SPHERE_METHODS)
+    _checks.string(precision, "precision")
+    _checks.string(sphere_method, "sphere_method")
     out = _core.cast(
         scene._core, origins, directions, t_min, t_max, precision, sphere_method,
         threads_argument(threads), poll_function(None, cancel),

@@ -12,6 +12,8 @@ from __future__ import annotations
 import dataclasses
 from typing import Any, NamedTuple
 
+from . import _core
+
 Vec3 = tuple[float, float, float]
 
 
@@ -21,15 +23,8 @@ class MaterialField(NamedTuple):
     default: tuple[float, ...] | float
 
 
-MATERIAL_FIELDS: tuple[MaterialField, ...] = (
-    MaterialField("diffuse", 3, (0.8, 0.8, 0.8)),
-    MaterialField("emission", 3, (0.0, 0.0, 0.0)),
-    MaterialField("specular", 3, (0.0, 0.0, 0.0)),
-    MaterialField("exponent", 1, 1.0),
-    MaterialField("reflective", 3, (0.0, 0.0, 0.0)),
-    MaterialField("transparent", 3, (0.0, 0.0, 0.0)),
-    MaterialField("ior", 1, 1.0),
-)
+#: The core's description of `Material` (cpp/include/durer/scene/Material.h), read from the binding.
+MATERIAL_FIELDS: tuple[MaterialField, ...] = tuple(MaterialField(*field) for field in _core.MATERIAL_FIELDS)
 #: The fields a 6.837 material has (the course's materials do not emit).
 COURSE_FIELDS: tuple[MaterialField, ...] = tuple(f for f in MATERIAL_FIELDS if f.name != "emission")
 

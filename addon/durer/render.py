@@ -12,10 +12,12 @@ from . import _checks, _core
 from .camera import OrthographicCamera, PerspectiveCamera
 from .scene import Scene
 
-PASSES = ("color", "depth", "normal")
-SAMPLERS = ("center", "random", "stratified", "sobol", "adaptive")
-PRECISIONS = ("float", "double")
-SPHERE_METHODS = ("algebraic", "geometric", "robust")
+# The option names, owned by the core (cpp/include/durer/Options.h), in its order.
+PASSES: tuple[str, ...] = _core.PASSES
+SAMPLERS: tuple[str, ...] = _core.SAMPLERS
+PRECISIONS: tuple[str, ...] = _core.PRECISIONS
+SPHERE_METHODS: tuple[str, ...] = _core.SPHERE_METHODS
+DEPTHS: tuple[str, ...] = _core.DEPTHS
 
 
 class _Flag(Protocol):
@@ -27,8 +29,9 @@ class RenderResult:
     """Float32 arrays, top row first (numpy convention); a pass not requested is None.
 
     color  (H, W, 4): linear RGBA; the box-filtered mean of the pixel's samples.
-    depth  (H, W):    t along the unit camera ray (distance from the ray origin) of the pixel's
-                      nearest sample hit; +inf where every sample missed.
+    depth  (H, W):    the pixel's nearest sample hit: with depth="ray" its t along the unit camera
+                      ray (the distance from the ray origin), with depth="planar" its distance
+                      along the camera's view axis (Blender's Depth); +inf where every sample missed.
     normal (H, W, 3): unit world-space normal, the normalised mean over the pixel's hit samples;
                       0 where every sample missed.
     stats:            effects (the effect set simulated: "flat" or "diffuse", "specular", "shadows",
@@ -101,6 +104,7 @@ def render(
     shade_back: bool = False,
     max_bounces: int = 4,
     min_weight: float = 0.01,
+    depth: str = "ray",
     region: tuple[int, int, int, int] | None = None,
 ) -> RenderResult:
     """Render `scene` through `camera` at width x height pixels.
@@ -123,33 +127,33 @@ def render(
     highlights, shadows, and mirror and refracted rays up to `max_bounces` deep (0: none), a ray
     not spawned when its weight in the pixel would fall below `min_weight`. With `shade_back`, back
     faces are shaded (and reported in the Normal pass) with the flipped normal, as 6.837's -shade_back.
+    `depth` says what the depth pass measures: "ray" (t along the unit camera ray) or "planar" (the
+    distance along the camera's view axis, as Blender's and Cycles' Depth pass).
 
     `region=(x, y, w, h)` renders only pixels [x, x + w) x [y, y + h) of the width x height image
     (x right, y down from the top row), into (h, w) arrays equal bit for bit to that part of the
     whole render: positions and seeds are the whole image's. With sampler="adaptive" its edges must
     lie on the core's 8-pixel tile grid or the image's edges (a pixel's neighbours in its tile steer
     its sampling).
+
+    Types and shapes are checked here, values (ranges, option names) by the core: either way the
+    ValueError or TypeError names the argument.
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a durer.Scene, got {type(scene).__name__}")
     if not isinstance(camera, (OrthographicCamera, PerspectiveCamera)):
         raise TypeError(f"camera must be an OrthographicCamera or PerspectiveCamera, got {type(camera).__name__}")
-    width = _checks.integer(width, "width", 1, 2**20)
-    height = _checks.integer(height, "height", 1, 2**20)
-    spp = _checks.integer(spp, "spp", 1, 2**20)
-    _checks.choice(sampler, "sampler", SAMPLERS)
-    target_error = _checks.finite_real(target_error, "target_error")
-    if target_error <= 0:
-        raise ValueError(f"target_error must be > 0, got {target_error}")
+    width = _checks.c_int(width, "width")
+    height = _checks.c_int(height, "height")
+    spp = _checks.c_int(spp, "spp")
     seed = _checks.integer(seed, "seed", 0, 2**64 - 1)
-    _checks.choice(precision, "precision", PRECISIONS)
-    _checks.choice(sphere_method, "sphere_method", SPHERE_METHODS)
-    wanted = _pass_set(passes)
+    for value, name in ((sampler, "sampler"), (precision, "precision"), (sphere_method, "sphere_method"), (depth, "depth")):
+        _checks.string(value, name)
+    target_error = _checks.real(target_error, "target_error")
+    wanted = _pass_names(passes)
     shade_back = _checks.boolean(shade_back, "shade_back")
-    max_bounces = _checks.integer(max_bounces, "max_bounces", 0, 1000)
-    min_weight = _checks.finite_real(min_weight, "min_weight")
-    if min_weight < 0:
-        raise ValueError(f"min_weight must be >= 0, got {min_weight}")
+    max_bounces = _checks.c_int(max_bounces, "max_bounces")
+    min_weight = _checks.real(min_weight, "min_weight")
     box = region_argument(region, width, height, sampler)
     poll = poll_function(progress, cancel)
     if out is not None and not isinstance(out, RenderResult):
@@ -157,14 +161,13 @@ def render(
     buffers = {} if out is None else {"color": out.color, "depth": out.depth, "normal": out.normal}
     out = _core.render(
         scene._core, camera._spec, width, height, spp, seed, sampler, target_error, precision, sphere_method,
-        "color" in wanted, "depth" in wanted, "normal" in wanted, threads_argument(threads), shade_back, max_bounces,
-        min_weight, poll, buffers, box,
+        wanted, depth, threads_argument(threads), shade_back, max_bounces, min_weight, poll, buffers, box,
     )
     stats = dict(out["stats"])
     seconds = stats["milliseconds"] / 1000
     stats.update(
         width=width, height=height, spp=spp, sampler=sampler, samples=stats["rays"], precision=precision,
-        sphere_method=sphere_method,
+        sphere_method=sphere_method, depth=depth,
         passes=tuple(p for p in PASSES if p in wanted), region=box if box[2] else None,
         requested_rays=(box[2] * box[3] if box[2] else width * height) * spp,
         mrays_per_s=stats["rays"] / seconds / 1e6 if seconds > 0 else float("inf"),
@@ -201,15 +204,13 @@ def region_argument(
     return (x, y, w, h)
 
 
-def _pass_set(passes: Iterable[str]) -> set[str]:
+def _pass_names(passes: Iterable[str]) -> tuple[str, ...]:
     if isinstance(passes, str):
         passes = (passes,)
     try:
-        names = list(passes)
+        names = tuple(passes)
     except TypeError:
         raise TypeError("passes must be a collection of pass names") from None
     for name in names:
-        _checks.choice(name, "passes", PASSES)
-    if not names:
-        raise ValueError(f"passes must name at least one of {', '.join(PASSES)}")
-    return set(names)
+        _checks.string(name, "passes")
+    return names

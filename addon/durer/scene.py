@@ -32,12 +32,13 @@ class Scene:
 
     def __init__(self) -> None:
         self._core = _core.Scene()
-        self._adds: list[tuple[str, tuple[Any, ...]]] = []  # (core method, validated arguments), in order
+        # (core method, validated arguments, validated keyword arguments), in order
+        self._adds: list[tuple[str, tuple[Any, ...], dict[str, Any]]] = []
 
-    def _add(self, method: str, *args: Any) -> Any:
+    def _add(self, method: str, *args: Any, **kwargs: Any) -> Any:
         """Calls the core's add method and records it for pickling once it has succeeded."""
-        result = getattr(self._core, method)(*args)
-        self._adds.append((method, args))
+        result = getattr(self._core, method)(*args, **kwargs)
+        self._adds.append((method, args, kwargs))
         return result
 
     def __getstate__(self) -> dict[str, Any]:
@@ -45,8 +46,8 @@ class Scene:
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__init__()
-        for method, args in state["adds"]:
-            self._add(method, *args)
+        for method, args, kwargs in state["adds"]:
+            self._add(method, *args, **kwargs)
         self._core.shading, self._core.background, self._core.ambient = (
             state["shading"], state["background"], state["ambient"])
 
@@ -71,17 +72,14 @@ class Scene:
         sees, bent by Snell's law with index of refraction `ior` (> 0) inside the object.
         Only the effects some material calls for are simulated (see `render`'s stats["effects"]).
         """
-        exponent_value = _checks.finite_real(exponent, "exponent")
-        if exponent_value < 0:
-            raise ValueError(f"exponent must be >= 0, got {exponent_value}")
-        ior_value = _checks.finite_real(ior, "ior")
-        if ior_value <= 0:
-            raise ValueError(f"ior must be > 0, got {ior_value}")
-        return self._add(
-            "add_material", _checks.color(diffuse, "diffuse"), _checks.color(emission, "emission"), _checks.color(specular, "specular"),
-            exponent_value, _checks.color(reflective, "reflective"), _checks.color(transparent, "transparent"),
-            ior_value,
-        )
+        given = {
+            "diffuse": diffuse, "emission": emission, "specular": specular, "exponent": exponent,
+            "reflective": reflective, "transparent": transparent, "ior": ior,
+        }
+        # The core owns the fields (durer._core.MATERIAL_FIELDS) and checks their values.
+        return self._add("add_material", **{
+            name: _checks.components(given[name], name, components) for name, components, _ in _core.MATERIAL_FIELDS
+        })
 
     def add_spheres(
         self, centers: ArrayLike, radii: ArrayLike, material: ArrayLike = 0, *, transform: ArrayLike | None = None
@@ -95,11 +93,7 @@ class Scene:
         radii_array = _checks._numeric_array(radii, "radii")
         if radii_array.ndim == 0:
             radii_array = np.full(n, radii_array, dtype=np.float64)
-        radii_array = _checks.float_array(radii_array, "radii", (n,), finite=False)
-        bad = ~(np.isfinite(radii_array) & (radii_array > 0))
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise ValueError(f"radii must be finite and > 0, got {radii_array[i]} at index {i}")
+        radii_array = _checks.float_array(radii_array, "radii", (n,), finite=False)  # the core checks > 0
         materials = _material_ids(material, n)
         matrix = _owned(_checks.transform(transform), transform)
         if n == 0:
@@ -124,8 +118,8 @@ class Scene:
         [0, 1], is there; the corner must lie on the plane and the edges in it. The normal is the
         shading normal as given: it is not flipped toward the viewer.
         """
-        normal3 = _checks.nonzero_vector3(normal, "normal")
-        offset_value = _checks.finite_real(offset, "offset")
+        normal3 = _checks.vector3(normal, "normal")
+        offset_value = _checks.real(offset, "offset")
         material_id = _checks.integer(material, "material")
         corners = None
         if bounds is not None:
@@ -193,7 +187,8 @@ class Scene:
         -direction are lit); `color` is linear RGB >= 0 and does not fall off. With shadows=True,
         occluders between a point and the light block it (a shadow ray per lit point)."""
         self._add(
-            "add_directional_light", _checks.nonzero_vector3(direction, "direction"), _checks.color(color, "color"), _checks.boolean(shadows, "shadows")
+            "add_directional_light",
+            _checks.vector3(direction, "direction"), _checks.color(color, "color"), _checks.boolean(shadows, "shadows")
         )
 
     def add_point_light(
@@ -232,9 +227,10 @@ class Scene:
         if not 0 < half < 180:
             raise ValueError(f"half_angle_degrees must be in (0, 180), got {half}")
         self._add(
-            "add_spot_light", _checks.vector3(position, "position"), _checks.nonzero_vector3(direction, "direction"),
+            "add_spot_light",
+            _checks.vector3(position, "position"), _checks.vector3(direction, "direction"),
             _checks.color(color, "color"), _checks.color(attenuation, "attenuation"),
-            math.cos(math.radians(half)), _checks.finite_real(blend, "blend"), _checks.boolean(shadows, "shadows"),
+            math.cos(math.radians(half)), _checks.real(blend, "blend"), _checks.boolean(shadows, "shadows"),
         )
 
     @property
@@ -245,7 +241,7 @@ class Scene:
 
     @shading.setter
     def shading(self, mode: str) -> None:
-        self._core.shading = _checks.choice(mode, "shading", ("auto", "flat", "lit"))
+        self._core.shading = _checks.string(mode, "shading")
 
     @property
     def background(self) -> tuple[float, float, float, float]:
@@ -255,11 +251,7 @@ class Scene:
     @background.setter
     def background(self, value: ArrayLike) -> None:
         rgba = _checks.color(value, "background", (3, 4))
-        if len(rgba) == 3:
-            rgba = (*rgba, 1.0)
-        if rgba[3] > 1:
-            raise ValueError(f"background alpha must be in [0, 1], got {rgba[3]}")
-        self._core.background = rgba
+        self._core.background = rgba if len(rgba) == 4 else (*rgba, 1.0)
 
     @property
     def ambient(self) -> tuple[float, float, float]:

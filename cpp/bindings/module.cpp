@@ -1,18 +1,22 @@
-// durer._core: a thin binding. Shapes and dtypes are checked by the Python package (durer/*.py);
-// values are checked by the core, whose std::invalid_argument becomes ValueError.
+// durer._core: a thin binding. Types, shapes and dtypes are checked by the Python package
+// (durer/*.py); values (ranges, finiteness, names of options) by the core, whose
+// std::invalid_argument becomes ValueError naming the argument. The binding itself only checks
+// what keeps it memory-safe when called directly: array shapes, by requireShape.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
 #include <algorithm>
 #include <array>
+#include <initializer_list>
 #include <optional>
 #include <string>
 
-#include "durer/Camera.h"
-#include "durer/Cast.h"
-#include "durer/Renderer.h"
-#include "durer/Scene.h"
+#include "durer/render/Camera.h"
+#include "durer/render/Cast.h"
+#include "durer/render/Renderer.h"
+#include "durer/Options.h"
+#include "durer/scene/Scene.h"
 
 namespace py = pybind11;
 using namespace durer;
@@ -27,13 +31,67 @@ using IndexArray = py::array_t<int64_t, py::array::c_style | py::array::forcecas
 
 Vec3d vec(const Triple& t) { return Vec3d(t[0], t[1], t[2]); }
 
+// The array has `shape` (kAny: any length in that axis), else ValueError naming it. Every array
+// the binding reads goes through here, so a direct call with a wrong shape cannot read out of bounds.
+constexpr py::ssize_t kAny = -1;
+void requireShape(const py::array& a, const char* name, std::initializer_list<py::ssize_t> shape) {
+  bool same = a.ndim() == static_cast<py::ssize_t>(shape.size());
+  std::string wanted = "(";
+  py::ssize_t axis = 0;
+  for (const py::ssize_t n : shape) {
+    if (same && n != kAny && a.shape(axis) != n) same = false;
+    wanted += (axis++ ? ", " : "") + (n == kAny ? std::string("N") : std::to_string(n));
+  }
+  if (!same) throw py::value_error(std::string(name) + " must have shape " + wanted + (shape.size() == 1 ? ",)" : ")"));
+}
+
+// An option table's names, in its order (Options.h).
+template <typename Enum, size_t N>
+py::tuple names(const OptionName<Enum> (&table)[N]) {
+  py::tuple t(N);
+  for (size_t i = 0; i < N; ++i) t[i] = table[i].name;
+  return t;
+}
+
+// MATERIAL_FIELDS: (name, components, default) per field of Material, in the struct's order.
+py::tuple materialFields() {
+  const Material defaults;
+  py::list fields;
+  for (const MaterialField& f : kMaterialFields) {
+    py::object value = f.color ? py::object(py::make_tuple((defaults.*f.color).x, (defaults.*f.color).y,
+                                                              (defaults.*f.color).z))
+                               : py::object(py::float_(defaults.*f.scalar));
+    fields.append(py::make_tuple(f.name, f.components(), value));
+  }
+  return py::tuple(fields);
+}
+
+// A material from keyword arguments named as its fields; a field not given keeps its default.
+Material materialFrom(const py::kwargs& given) {
+  Material m;
+  for (const auto& item : given) {
+    const std::string name = py::str(item.first);
+    const MaterialField* field = nullptr;
+    for (const MaterialField& f : kMaterialFields) {
+      if (name == f.name) field = &f;
+    }
+    if (!field) throw py::type_error("add_material got an unexpected field '" + name + "'");
+    if (field->color) {
+      m.*field->color = vec(item.second.cast<Triple>());
+    } else {
+      m.*field->scalar = item.second.cast<double>();
+    }
+  }
+  return m;
+}
+
 // A (3, 4) world-from-object matrix (the package checks shapes) as an Affine; none: null.
 struct OptionalAffine {
   Affined value;
   bool present = false;
   explicit OptionalAffine(const std::optional<DoubleArray>& m) {
     if (!m) return;
-    if (m->ndim() != 2 || m->shape(0) != 3 || m->shape(1) != 4) throw py::value_error("transform must have shape (3, 4)");
+    requireShape(*m, "transform", {3, 4});
     const auto a = m->unchecked<2>();
     for (int i = 0; i < 3; ++i) value.row[i] = Vec3d(a(i, 0), a(i, 1), a(i, 2)), value.offset[i] = a(i, 3);
     present = true;
@@ -43,57 +101,22 @@ struct OptionalAffine {
 
 // Whether `materials` holds one id for all n primitives (false) or one each (true).
 bool perPrimitive(const IdArray& materials, size_t n) {
-  if (materials.size() == 1) return false;
-  if (materials.size() != py::ssize_t(n)) throw py::value_error("material must be one id or N ids");
+  if (materials.ndim() == 1 && materials.shape(0) == 1) return false;
+  requireShape(materials, "material", {static_cast<py::ssize_t>(n)});
   return true;
 }
 Triple triple(const Vec3d& v) { return {v.x, v.y, v.z}; }
-
-Precision precisionNamed(const std::string& name) {
-  if (name == "float") return Precision::Float;
-  if (name == "double") return Precision::Double;
-  throw py::value_error("precision must be 'float' or 'double', got '" + name + "'");
-}
-
-SphereMethod methodNamed(const std::string& name) {
-  if (name == "algebraic") return SphereMethod::Algebraic;
-  if (name == "geometric") return SphereMethod::Geometric;
-  if (name == "robust") return SphereMethod::Robust;
-  throw py::value_error("sphere_method must be 'algebraic', 'geometric' or 'robust', got '" + name + "'");
-}
-
-SamplerKind samplerNamed(const std::string& name) {
-  if (name == "center") return SamplerKind::Center;
-  if (name == "random") return SamplerKind::Random;
-  if (name == "stratified") return SamplerKind::Stratified;
-  if (name == "sobol") return SamplerKind::Sobol;
-  if (name == "adaptive") return SamplerKind::Adaptive;
-  throw py::value_error("sampler must be 'center', 'random', 'stratified', 'sobol' or 'adaptive', got '" + name + "'");
-}
-
-Fit fitNamed(const std::string& name) {
-  if (name == "auto") return Fit::Auto;
-  if (name == "horizontal") return Fit::Horizontal;
-  if (name == "vertical") return Fit::Vertical;
-  throw py::value_error("fit must be 'auto', 'horizontal' or 'vertical', got '" + name + "'");
-}
 
 CameraSpec cameraSpec(const std::string& projection, const Triple& center, const Triple& direction,
                       const Triple& up, double size, const std::string& fit, double shiftX, double shiftY,
                       double pixelAspect, double tMin, double tMax) {
   CameraSpec spec;
-  if (projection == "orthographic") {
-    spec.projection = Projection::Orthographic;
-  } else if (projection == "perspective") {
-    spec.projection = Projection::Perspective;
-  } else {
-    throw py::value_error("projection must be 'orthographic' or 'perspective', got '" + projection + "'");
-  }
+  spec.projection = optionNamed(kProjectionNames, projection, "projection");
   spec.center = vec(center);
   spec.direction = vec(direction);
   spec.up = vec(up);
   spec.size = size;
-  spec.fit = fitNamed(fit);
+  spec.fit = optionNamed(kFitNames, fit, "fit");
   spec.shiftX = shiftX;
   spec.shiftY = shiftY;
   spec.pixelAspect = pixelAspect;
@@ -137,7 +160,7 @@ float* target(const py::dict& out, const char* name, bool wanted, std::vector<py
 
 py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int height, int spp, uint64_t seed,
                   const std::string& sampler, double targetError, const std::string& precision,
-                  const std::string& method, bool color, bool depth, bool normal,
+                  const std::string& method, const std::vector<std::string>& passes, const std::string& depthKind,
                   int threads, bool shadeBack, int maxBounces, double minWeight, const py::function& poll,
                   const py::dict& out, const std::array<int, 4>& region) {
   RenderSettings settings;
@@ -145,23 +168,26 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
   settings.height = height;
   settings.samplesPerPixel = spp;
   settings.seed = seed;
-  settings.sampler = samplerNamed(sampler);
+  settings.sampler = optionNamed(kSamplerNames, sampler, "sampler");
   settings.targetError = targetError;
-  settings.precision = precisionNamed(precision);
-  settings.sphereMethod = methodNamed(method);
-  settings.passes = (color ? kPassColor : 0u) | (depth ? kPassDepth : 0u) | (normal ? kPassNormal : 0u);
+  settings.precision = optionNamed(kPrecisionNames, precision, "precision");
+  settings.sphereMethod = optionNamed(kSphereMethodNames, method, "sphere_method");
+  settings.passes = 0;
+  for (const std::string& name : passes) settings.passes |= optionNamed(kPassNames, name, "passes");
+  settings.depth = optionNamed(kDepthNames, depthKind, "depth");
   settings.threads = threads;
   settings.shadeBack = shadeBack;
   settings.maxBounces = maxBounces;
   settings.minWeight = minWeight;
   settings.region = {region[0], region[1], region[2], region[3]};
   validate(settings);
+  const bool color = settings.passes & kPassColor;
   const py::ssize_t h = region[2] != 0 ? region[3] : height, w = region[2] != 0 ? region[2] : width;
   py::dict result;
   RenderTargets targets;
   targets.color = target(out, "color", color, {h, w, 4}, result);
-  targets.depth = target(out, "depth", depth, {h, w}, result);
-  targets.normal = target(out, "normal", normal, {h, w, 3}, result);
+  targets.depth = target(out, "depth", settings.passes & kPassDepth, {h, w}, result);
+  targets.normal = target(out, "normal", settings.passes & kPassNormal, {h, w, 3}, result);
   if (settings.sampler == SamplerKind::Adaptive) {
     py::array_t<int32_t> counts({h, w});
     targets.samples = counts.mutable_data();
@@ -222,19 +248,17 @@ py::dict castIn(const Scene& scene, const CastInput& input, const py::function& 
 py::dict castPy(const Scene& scene, const DoubleArray& origins, const DoubleArray& directions, double tMin,
                 double tMax, const std::string& precision, const std::string& method, int threads,
                 const py::function& poll) {
-  if (origins.ndim() != 2 || origins.shape(1) != 3) throw py::value_error("origins must have shape (N, 3)");
-  if (directions.ndim() != 2 || directions.shape(1) != 3 || directions.shape(0) != origins.shape(0)) {
-    throw py::value_error("directions must have the shape of origins, (N, 3)");
-  }
+  requireShape(origins, "origins", {kAny, 3});
+  requireShape(directions, "directions", {origins.shape(0), 3});
   CastInput input;
   input.origins = origins.data();
   input.directions = directions.data();
   input.count = static_cast<size_t>(origins.shape(0));
   input.tMin = tMin;
   input.tMax = tMax;
-  input.sphereMethod = methodNamed(method);
+  input.sphereMethod = optionNamed(kSphereMethodNames, method, "sphere_method");
   input.threads = threads;
-  return precisionNamed(precision) == Precision::Float ? castIn<float>(scene, input, poll)
+  return optionNamed(kPrecisionNames, precision, "precision") == Precision::Float ? castIn<float>(scene, input, poll)
                                                        : castIn<double>(scene, input, poll);
 }
 
@@ -267,7 +291,7 @@ py::tuple cameraRaysIn(const CameraSpec& spec, int width, int height) {
 py::tuple cameraRaysPy(const CameraSpec& spec, int width, int height, const std::string& precision) {
   if (width < 1) throw py::value_error("width must be >= 1");
   if (height < 1) throw py::value_error("height must be >= 1");
-  return precisionNamed(precision) == Precision::Float ? cameraRaysIn<float>(spec, width, height)
+  return optionNamed(kPrecisionNames, precision, "precision") == Precision::Float ? cameraRaysIn<float>(spec, width, height)
                                                        : cameraRaysIn<double>(spec, width, height);
 }
 
@@ -283,20 +307,14 @@ PYBIND11_MODULE(_core, m) {
 
   py::class_<Scene>(m, "Scene")
       .def(py::init<>())
-      .def("add_material",
-           [](Scene& s, const Triple& diffuse, const Triple& emission, const Triple& specular, double exponent,
-              const Triple& reflective, const Triple& transparent, double ior) {
-             return s.addMaterial(Material{vec(diffuse), vec(emission), vec(specular), exponent, vec(reflective),
-                                           vec(transparent), ior});
-           },
-           py::arg("diffuse"), py::arg("emission"), py::arg("specular"), py::arg("exponent"), py::arg("reflective"),
-           py::arg("transparent"), py::arg("ior"))
+      .def("add_material", [](Scene& s, const py::kwargs& fields) { return s.addMaterial(materialFrom(fields)); })
       .def(
           "add_spheres",
           [](Scene& s, const DoubleArray& centers, const DoubleArray& radii, const IdArray& materials,
              const std::optional<DoubleArray>& transform) {
-            const size_t n = static_cast<size_t>(radii.size());
-            if (centers.size() != py::ssize_t(3 * n)) throw py::value_error("centers must have shape (N, 3)");
+            requireShape(radii, "radii", {kAny});
+            requireShape(centers, "centers", {radii.shape(0), 3});
+            const size_t n = static_cast<size_t>(radii.shape(0));
             const bool each = perPrimitive(materials, n);
             return s.addSpheres(centers.data(), radii.data(), materials.data(), n, each, OptionalAffine(transform).get());
           },
@@ -314,9 +332,7 @@ PYBIND11_MODULE(_core, m) {
       .def(
           "add_triangles",
           [](Scene& s, const DoubleArray& vertices, const IdArray& materials, const std::optional<DoubleArray>& transform) {
-            if (vertices.ndim() != 3 || vertices.shape(1) != 3 || vertices.shape(2) != 3) {
-              throw py::value_error("vertices must have shape (N, 3, 3)");
-            }
+            requireShape(vertices, "vertices", {kAny, 3, 3});
             const size_t n = static_cast<size_t>(vertices.shape(0));
             const bool each = perPrimitive(materials, n);
             return s.addTriangles(vertices.data(), materials.data(), n, each, OptionalAffine(transform).get());
@@ -326,8 +342,8 @@ PYBIND11_MODULE(_core, m) {
           "add_mesh",
           [](Scene& s, const DoubleArray& vertices, const IndexArray& faces, int32_t material,
              const std::optional<DoubleArray>& transform) {
-            if (vertices.ndim() != 2 || vertices.shape(1) != 3) throw py::value_error("vertices must have shape (V, 3)");
-            if (faces.ndim() != 2 || faces.shape(1) != 3) throw py::value_error("faces must have shape (F, 3)");
+            requireShape(vertices, "vertices", {kAny, 3});
+            requireShape(faces, "faces", {kAny, 3});
             return s.addMesh(vertices.data(), static_cast<size_t>(vertices.shape(0)), faces.data(),
                              static_cast<size_t>(faces.shape(0)), material, OptionalAffine(transform).get());
           },
@@ -336,10 +352,8 @@ PYBIND11_MODULE(_core, m) {
           "add_boxes",
           [](Scene& s, const DoubleArray& lo, const DoubleArray& hi, const IdArray& materials,
              const std::optional<DoubleArray>& transform) {
-            if (lo.ndim() != 2 || lo.shape(1) != 3) throw py::value_error("lo must have shape (N, 3)");
-            if (hi.ndim() != 2 || hi.shape(1) != 3 || hi.shape(0) != lo.shape(0)) {
-              throw py::value_error("hi must have the shape of lo, (N, 3)");
-            }
+            requireShape(lo, "lo", {kAny, 3});
+            requireShape(hi, "hi", {lo.shape(0), 3});
             const size_t n = static_cast<size_t>(lo.shape(0));
             const bool each = perPrimitive(materials, n);
             return s.addBoxes(lo.data(), hi.data(), materials.data(), n, each, OptionalAffine(transform).get());
@@ -357,17 +371,8 @@ PYBIND11_MODULE(_core, m) {
              s.addSpotLight(SpotLight{vec(p), vec(d), vec(c), vec(attenuation), cosHalfAngle, blend, shadows});
            })
       .def_property(
-          "shading",
-          [](const Scene& s) {
-            const ShadingMode m = s.shadingMode();
-            return std::string(m == ShadingMode::Flat ? "flat" : m == ShadingMode::Lit ? "lit" : "auto");
-          },
-          [](Scene& s, const std::string& mode) {
-            if (mode == "auto") s.setShading(ShadingMode::Auto);
-            else if (mode == "flat") s.setShading(ShadingMode::Flat);
-            else if (mode == "lit") s.setShading(ShadingMode::Lit);
-            else throw py::value_error("shading must be 'auto', 'flat' or 'lit', got '" + mode + "'");
-          })
+          "shading", [](const Scene& s) { return optionName(kShadingModeNames, s.shadingMode()); },
+          [](Scene& s, const std::string& mode) { s.setShading(optionNamed(kShadingModeNames, mode, "shading")); })
       .def_property(
           "background",
           [](const Scene& s) {
@@ -390,12 +395,23 @@ PYBIND11_MODULE(_core, m) {
       });
 
   m.def("render", &renderPy, py::arg("scene"), py::arg("camera"), py::arg("width"), py::arg("height"),
-        py::arg("spp"), py::arg("seed"), py::arg("sampler"), py::arg("target_error"), py::arg("precision"), py::arg("sphere_method"), py::arg("color"),
-        py::arg("depth"), py::arg("normal"), py::arg("threads"), py::arg("shade_back"), py::arg("max_bounces"),
+        py::arg("spp"), py::arg("seed"), py::arg("sampler"), py::arg("target_error"), py::arg("precision"), py::arg("sphere_method"), py::arg("passes"),
+        py::arg("depth"), py::arg("threads"), py::arg("shade_back"), py::arg("max_bounces"),
         py::arg("min_weight"), py::arg("poll"), py::arg("out"), py::arg("region"));
   m.def("cast", &castPy, py::arg("scene"), py::arg("origins"), py::arg("directions"), py::arg("t_min"),
         py::arg("t_max"), py::arg("precision"), py::arg("sphere_method"), py::arg("threads"), py::arg("poll"));
   m.def("camera_rays", &cameraRaysPy, py::arg("camera"), py::arg("width"), py::arg("height"),
         py::arg("precision"));
   m.def("default_thread_count", &defaultThreadCount);
+  m.def("is_invertible", [](const DoubleArray& m) { return isInvertible(OptionalAffine(m).value); }, py::arg("matrix"));
+
+  m.attr("PRECISIONS") = names(kPrecisionNames);
+  m.attr("SPHERE_METHODS") = names(kSphereMethodNames);
+  m.attr("SAMPLERS") = names(kSamplerNames);
+  m.attr("PASSES") = names(kPassNames);
+  m.attr("DEPTHS") = names(kDepthNames);
+  m.attr("PROJECTIONS") = names(kProjectionNames);
+  m.attr("FITS") = names(kFitNames);
+  m.attr("SHADING_MODES") = names(kShadingModeNames);
+  m.attr("MATERIAL_FIELDS") = materialFields();
 }

@@ -1,8 +1,9 @@
-#include "durer/Camera.h"
+#include "durer/render/Camera.h"
 
 #include <cmath>
 
-#include "durer/Validate.h"
+#include "durer/math/Float.h"
+#include "durer/scene/Validate.h"
 
 namespace durer {
 
@@ -10,18 +11,13 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 // sin of the smallest angle between direction and up that still gives a trustworthy frame.
 constexpr double kMinSinUpAngle = 1e-9;
-
-Vec3d unit(const Vec3d& v) {
-  const double largest = std::fmax(std::fabs(v.x), std::fmax(std::fabs(v.y), std::fabs(v.z)));
-  return glm::normalize(v / largest);
-}
 }  // namespace
 
 void validate(const CameraSpec& spec) {
   requireFinite(spec.center, "center");
   requireNonZero(spec.direction, "direction");
   requireNonZero(spec.up, "up");
-  if (glm::length(glm::cross(unit(spec.direction), unit(spec.up))) < kMinSinUpAngle) {
+  if (glm::length(glm::cross(safeNormalize(spec.direction), safeNormalize(spec.up))) < kMinSinUpAngle) {
     fail("up must not be parallel to direction");
   }
   if (spec.projection == Projection::Orthographic) {
@@ -40,8 +36,8 @@ Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
     : m_perspective(spec.projection == Projection::Perspective),
       m_tMin(static_cast<Real>(spec.tMin)),
       m_tMax(static_cast<Real>(spec.tMax)) {
-  const Vec3d forward = unit(spec.direction);
-  const Vec3d horizontal = glm::normalize(glm::cross(forward, unit(spec.up)));
+  const Vec3d forward = safeNormalize(spec.direction);
+  const Vec3d horizontal = glm::normalize(glm::cross(forward, safeNormalize(spec.up)));
   const Vec3d up = glm::cross(horizontal, forward);
   const double extent = m_perspective ? 2 * std::tan(spec.size * kPi / 360) : spec.size;
   // The fitted dimension's span in pixel widths: a row is `width` of them, a column height·aspect.

@@ -1,11 +1,11 @@
-#include "durer/Cast.h"
+#include "durer/render/Cast.h"
 
 #include <algorithm>
 #include <chrono>
 
-#include "durer/HotKernel.h"
-#include "durer/RayPacket.h"
-#include "durer/Validate.h"
+#include "durer/render/HotKernel.h"
+#include "durer/geometry/RayPacket.h"
+#include "durer/scene/Validate.h"
 
 namespace durer {
 
@@ -50,29 +50,6 @@ int64_t castRays(const Group<Real>& group, const CastInput& in, const CastOutput
 }
 
 template <typename Real, SphereMethod M>
-DURER_HOT_KERNEL int64_t castCloned(const Group<Real>& group, const CastInput& in, const CastOutput<Real>& out,
-                                    int64_t item, const std::atomic<bool>& cancel) {
-  return castRays<Real, M>(group, in, out, item, cancel);
-}
-
-template <typename Real, SphereMethod M>
-DURER_PLAIN_KERNEL int64_t castPlain(const Group<Real>& group, const CastInput& in, const CastOutput<Real>& out,
-                                     int64_t item, const std::atomic<bool>& cancel) {
-  return castRays<Real, M>(group, in, out, item, cancel);
-}
-
-// The default method's rays through the ISA clones, the lecture's methods plain (HotKernel.h).
-template <typename Real, SphereMethod M>
-int64_t castItem(const Group<Real>& group, const CastInput& in, const CastOutput<Real>& out, int64_t item,
-                 const std::atomic<bool>& cancel) {
-  if constexpr (M == SphereMethod::Robust) {
-    return castCloned<Real, M>(group, in, out, item, cancel);
-  } else {
-    return castPlain<Real, M>(group, in, out, item, cancel);
-  }
-}
-
-template <typename Real, SphereMethod M>
 CastStats castWith(const Scene& scene, const CastInput& in, const CastOutput<Real>& out, JobControl& control,
                    const std::function<void()>& poll) {
   const std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>();
@@ -82,7 +59,10 @@ CastStats castWith(const Scene& scene, const CastInput& in, const CastOutput<Rea
   std::atomic<int64_t> tests{0};
   runParallel(
       items, threads, control,
-      [&](int64_t item) { tests.fetch_add(castItem<Real, M>(group, in, out, item, control.cancel)); }, poll);
+      [&](int64_t item) {
+        tests.fetch_add(runKernel<M>([&] { return castRays<Real, M>(group, in, out, item, control.cancel); }));
+      },
+      poll);
   CastStats stats;
   stats.intersectionTests = tests.load();
   return stats;
@@ -94,20 +74,11 @@ template <typename Real>
 CastStats cast(const Scene& scene, const CastInput& input, const CastOutput<Real>& output, JobControl& control,
                const std::function<void()>& poll) {
   requireRange(input.tMin, input.tMax, "t_min", "t_max");
-  if (input.threads < 0) fail("threads must be >= 1, got " + std::to_string(input.threads));
+  if (input.threads < 0) fail("threads must be >= 0 (0: all cores), got " + std::to_string(input.threads));
   const auto start = std::chrono::steady_clock::now();
-  CastStats stats;
-  switch (input.sphereMethod) {
-    case SphereMethod::Algebraic:
-      stats = castWith<Real, SphereMethod::Algebraic>(scene, input, output, control, poll);
-      break;
-    case SphereMethod::Geometric:
-      stats = castWith<Real, SphereMethod::Geometric>(scene, input, output, control, poll);
-      break;
-    case SphereMethod::Robust:
-      stats = castWith<Real, SphereMethod::Robust>(scene, input, output, control, poll);
-      break;
-  }
+  CastStats stats = withSphereMethod(input.sphereMethod, [&](auto method) {
+    return castWith<Real, decltype(method)::value>(scene, input, output, control, poll);
+  });
   stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return stats;
 }

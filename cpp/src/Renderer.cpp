@@ -1,4 +1,4 @@
-#include "durer/Renderer.h"
+#include "durer/render/Renderer.h"
 
 #include <algorithm>
 #include <chrono>
@@ -7,23 +7,29 @@
 #include <mutex>
 #include <vector>
 
-#include "durer/HotKernel.h"
-#include "durer/PacketShader.h"
-#include "durer/PixelSampler.h"
-#include "durer/Shading.h"
-#include "durer/Validate.h"
+#include "durer/render/HotKernel.h"
+#include "durer/render/PacketShader.h"
+#include "durer/render/PixelSampler.h"
+#include "durer/render/Shading.h"
+#include "durer/scene/Validate.h"
 
 namespace durer {
 
 void validate(const RenderSettings& s) {
-  if (s.width < 1) fail("width must be >= 1, got " + std::to_string(s.width));
-  if (s.height < 1) fail("height must be >= 1, got " + std::to_string(s.height));
-  if (s.samplesPerPixel < 1) fail("spp must be >= 1, got " + std::to_string(s.samplesPerPixel));
-  if (s.threads < 0) fail("threads must be >= 1, got " + std::to_string(s.threads));
-  if (s.passes == 0 || (s.passes & ~(kPassColor | kPassDepth | kPassNormal)) != 0) fail("passes: none requested");
-  if (!(std::isfinite(s.targetError) && s.targetError > 0)) fail("target_error must be finite and > 0");
-  if (s.maxBounces < 0) fail("max_bounces must be >= 0, got " + std::to_string(s.maxBounces));
-  if (!(std::isfinite(s.minWeight) && s.minWeight >= 0)) fail("min_weight must be finite and >= 0");
+  constexpr int kMaxSide = 1 << 20;  // pixels or samples: keeps width·height·spp well inside int64
+  const auto requireCount = [](int value, const char* field) {
+    if (value < 1 || value > kMaxSide) {
+      fail(std::string(field) + " must be in [1, " + std::to_string(kMaxSide) + "], got " + std::to_string(value));
+    }
+  };
+  requireCount(s.width, "width");
+  requireCount(s.height, "height");
+  requireCount(s.samplesPerPixel, "spp");
+  if (s.threads < 0) fail("threads must be >= 0 (0: all cores), got " + std::to_string(s.threads));
+  if (s.passes == 0 || (s.passes & ~(kPassColor | kPassDepth | kPassNormal)) != 0) fail("passes must name at least one of color, depth, normal");
+  if (!(std::isfinite(s.targetError) && s.targetError > 0)) fail("target_error must be finite and > 0, got " + std::to_string(s.targetError));
+  if (s.maxBounces < 0 || s.maxBounces > 1000) fail("max_bounces must be in [0, 1000], got " + std::to_string(s.maxBounces));
+  if (!(std::isfinite(s.minWeight) && s.minWeight >= 0)) fail("min_weight must be finite and >= 0, got " + std::to_string(s.minWeight));
   const RenderSettings::Region& r = s.region;
   if (r.width != 0 && !(r.x >= 0 && r.y >= 0 && r.width >= 1 && r.height >= 1 && r.x <= s.width - r.width &&
                         r.y <= s.height - r.height)) {
@@ -57,6 +63,7 @@ class TileRenderer {
                  toReal<Real>(Vec3d(scene.background())), cancel),
         m_needHits(targets.color != nullptr && (effects.lit || effects.bounces())),
         m_shadeBack(settings.shadeBack),
+        m_planarDepth(settings.depth == DepthKind::Planar),
         m_region(regionOf(settings)),
         m_firstTileX(m_region.x / kTileSize),
         m_firstTileY(m_region.y / kTileSize),
@@ -70,17 +77,10 @@ class TileRenderer {
 
   // Renders one tile; returns what it traced (nothing if cancelled before the tile finished).
   RayCounters render(int64_t tile) const {
-    if constexpr (M == SphereMethod::Robust) {
-      return renderCloned(tile);
-    } else {
-      return renderPlain(tile);
-    }
+    return runKernel<M>([&] { return renderTile(tile); });
   }
 
  private:
-  DURER_HOT_KERNEL RayCounters renderCloned(int64_t tile) const { return renderTile(tile); }
-  DURER_PLAIN_KERNEL RayCounters renderPlain(int64_t tile) const { return renderTile(tile); }
-
   RayCounters renderTile(int64_t tile) const {
     const int tileX = (m_firstTileX + static_cast<int>(tile % m_tilesX)) * kTileSize;
     const int tileY = (m_firstTileY + static_cast<int>(tile / m_tilesX)) * kTileSize;
@@ -228,7 +228,6 @@ class TileRenderer {
     return true;
   }
 
- private:
   // Adds one sample per ray of the packet to the tile's sums.
   void accumulate(const RayPacket<Real>& packet, Accumulator& acc, RayCounters& counters) const {
     if (!m_needHits) {  // flat colours, depth and normals: no hit records
@@ -240,7 +239,7 @@ class TileRenderer {
     for (int k = 0; k < packet.count; ++k) {
       hits[k] = m_group.hit(packet, k);
       if (!hits[k].isHit()) continue;
-      acc.depth[k] = std::min(acc.depth[k], hits[k].t);
+      acc.depth[k] = std::min(acc.depth[k], m_planarDepth ? hits[k].t * planarScale(packet, k) : hits[k].t);
       const Vec3<Real> n = m_shader.shadingNormal(hits[k], Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]));
       acc.nx[k] += n.x;
       acc.ny[k] += n.y;
@@ -261,7 +260,7 @@ class TileRenderer {
     const SphereSet<Real>& spheres = m_group.spheres();
     const int32_t sphereCount = static_cast<int32_t>(spheres.size());
     if (sphereCount > 0) {
-      const Sphere<Real>* sphere = &spheres.sphere(0);
+      const Sphere<Real>* sphere = &spheres.primitive(0);
       for (int k = 0; k < packet.count; ++k) {
         const int32_t prim = packet.prim[k];
         const bool isSphere = (prim >= 0) & (prim < sphereCount);
@@ -270,10 +269,9 @@ class TileRenderer {
         const Real vx = packet.ox[k] + t * packet.dx[k] - s.center.x;
         const Real vy = packet.oy[k] + t * packet.dy[k] - s.center.y;
         const Real vz = packet.oz[k] + t * packet.dz[k] - s.center.z;
-        // shade_back: flipped where the ray meets the outside of the sphere from within.
-        const bool back = m_shadeBack && (vx * packet.dx[k] + vy * packet.dy[k] + vz * packet.dz[k]) > 0;
+        const Real side = facingSign(vx * packet.dx[k] + vy * packet.dy[k] + vz * packet.dz[k], m_shadeBack);
         const Real length = std::sqrt(vx * vx + vy * vy + vz * vz);
-        const Real scale = isSphere ? (back ? -1 : 1) / length : Real(0);
+        const Real scale = isSphere ? side / length : Real(0);
         acc.nx[k] += vx * scale;
         acc.ny[k] += vy * scale;
         acc.nz[k] += vz * scale;
@@ -281,8 +279,8 @@ class TileRenderer {
     }
     for (int k = 0; k < packet.count; ++k) {
       if (packet.prim[k] < sphereCount) continue;
-      Vec3<Real> n = m_group.hit(packet, k).normal;
-      if (m_shadeBack && glm::dot(n, Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k])) > 0) n = -n;
+      const Vec3<Real> n =
+          shadingNormal(m_group.hit(packet, k).normal, Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]), m_shadeBack);
       acc.nx[k] += n.x;
       acc.ny[k] += n.y;
       acc.nz[k] += n.z;
@@ -292,8 +290,15 @@ class TileRenderer {
   // Unlit colour and depth need no hit record: a branch-free table lookup per ray.
   void accumulateFlat(const RayPacket<Real>& packet, Accumulator& acc) const {
     const Real inf = std::numeric_limits<Real>::infinity();
-    for (int k = 0; k < packet.count; ++k) {
-      acc.depth[k] = std::min(acc.depth[k], packet.prim[k] != kNoPrimitive ? packet.tHit[k] : inf);
+    if (m_planarDepth) {
+      for (int k = 0; k < packet.count; ++k) {
+        const Real t = packet.tHit[k] * planarScale(packet, k);
+        acc.depth[k] = std::min(acc.depth[k], packet.prim[k] != kNoPrimitive ? t : inf);
+      }
+    } else {
+      for (int k = 0; k < packet.count; ++k) {
+        acc.depth[k] = std::min(acc.depth[k], packet.prim[k] != kNoPrimitive ? packet.tHit[k] : inf);
+      }
     }
     if (!m_targets.color) return;  // a depth (or normal) render computes t and nothing else
     const int32_t* materialOf = m_flat.primMaterial.data() + 1;  // materialOf[kNoPrimitive]: the background
@@ -301,6 +306,10 @@ class TileRenderer {
       const size_t m = static_cast<size_t>(materialOf[packet.prim[k]]);
       addColor(acc, k, m_flat.r[m], m_flat.g[m], m_flat.b[m], m_flat.a[m]);
     }
+  }
+
+  Real planarScale(const RayPacket<Real>& packet, int k) const {
+    return m_camera.planarScale(packet.dx[k], packet.dy[k], packet.dz[k]);
   }
 
   static void addColor(Accumulator& acc, int k, Real r, Real g, Real b, Real a) {
@@ -358,6 +367,7 @@ class TileRenderer {
   PacketShader<Real, M> m_shader;
   bool m_needHits;   // colour needs hit records: lights or secondary rays
   bool m_shadeBack;
+  bool m_planarDepth;  // depth along the view axis, not along the ray
   RenderSettings::Region m_region;
   int m_firstTileX, m_firstTileY;
   int m_tilesX;
@@ -417,20 +427,6 @@ RenderStats renderWith(const Scene& scene, const CameraSpec& spec, const RenderS
   return stats;
 }
 
-template <typename Real>
-RenderStats renderIn(const Scene& scene, const CameraSpec& spec, const RenderSettings& settings,
-                     const RenderTargets& targets, JobControl& control, const std::function<void()>& poll) {
-  switch (settings.sphereMethod) {
-    case SphereMethod::Algebraic:
-      return renderWith<Real, SphereMethod::Algebraic>(scene, spec, settings, targets, control, poll);
-    case SphereMethod::Geometric:
-      return renderWith<Real, SphereMethod::Geometric>(scene, spec, settings, targets, control, poll);
-    case SphereMethod::Robust:
-      break;
-  }
-  return renderWith<Real, SphereMethod::Robust>(scene, spec, settings, targets, control, poll);
-}
-
 }  // namespace
 
 RenderStats render(const Scene& scene, const CameraSpec& camera, const RenderSettings& settings,
@@ -438,9 +434,11 @@ RenderStats render(const Scene& scene, const CameraSpec& camera, const RenderSet
   validate(camera);
   validate(settings);
   const auto start = std::chrono::steady_clock::now();
-  RenderStats stats = settings.precision == Precision::Float
-                          ? renderIn<float>(scene, camera, settings, targets, control, poll)
-                          : renderIn<double>(scene, camera, settings, targets, control, poll);
+  RenderStats stats = withSphereMethod(settings.sphereMethod, [&](auto method) {
+    return settings.precision == Precision::Float
+               ? renderWith<float, decltype(method)::value>(scene, camera, settings, targets, control, poll)
+               : renderWith<double, decltype(method)::value>(scene, camera, settings, targets, control, poll);
+  });
   stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return stats;
 }

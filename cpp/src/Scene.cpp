@@ -1,21 +1,35 @@
-#include "durer/Scene.h"
+#include "durer/scene/Scene.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <sstream>
 #include <string>
 #include <type_traits>
 
-#include "durer/Validate.h"
+#include "durer/math/Float.h"
+#include "durer/scene/Validate.h"
 
 namespace durer {
 
 namespace {
-// Unit vector without overflow or underflow for any finite non-zero input.
-Vec3d safeNormalize(const Vec3d& v) {
-  const double largest = std::fmax(std::fabs(v.x), std::fmax(std::fabs(v.y), std::fabs(v.z)));
-  return glm::normalize(v / largest);
+
+// One field of a material within its bound (MaterialField), finite; else an error naming the field.
+void requireWithinBound(const MaterialField& field, const Material& material) {
+  const bool positive = field.bound == MaterialField::Bound::Positive;
+  const Vec3d value = field.color ? material.*field.color : Vec3d(material.*field.scalar);
+  for (int i = 0; i < field.components(); ++i) {
+    if (std::isfinite(value[i]) && (positive ? value[i] > 0 : value[i] >= 0)) continue;
+    std::ostringstream message;
+    message << field.name << " must be finite and " << (positive ? "> 0" : ">= 0");
+    if (field.color) {
+      message << " in each channel, got (" << value.x << ", " << value.y << ", " << value.z << ")";
+    } else {
+      message << ", got " << value.x;
+    }
+    fail(message.str());
+  }
 }
 }  // namespace
 
@@ -63,13 +77,7 @@ int32_t Scene::takeObjectIds(size_t count) {
 }
 
 int32_t Scene::addMaterial(const Material& material) {
-  requireNonNegativeColor(material.diffuse, "diffuse");
-  requireNonNegativeColor(material.emission, "emission");
-  requireNonNegativeColor(material.specular, "specular");
-  requireNonNegativeColor(material.reflective, "reflective");
-  requireNonNegativeColor(material.transparent, "transparent");
-  if (!(std::isfinite(material.exponent) && material.exponent >= 0)) fail("exponent must be finite and >= 0");
-  requirePositive(material.ior, "ior");
+  for (const MaterialField& field : kMaterialFields) requireWithinBound(field, material);
   if (m_materials.size() >= static_cast<size_t>(std::numeric_limits<int32_t>::max())) fail("too many materials");
   m_materials.push_back(material);
   return static_cast<int32_t>(m_materials.size() - 1);
@@ -251,17 +259,7 @@ void Scene::requireTransform(const Affined* m) {
       fail("transform must be finite");
     }
   }
-  // Invertible, judged scale-free: |det| against its Hadamard bound, the product of the row lengths
-  // (their ratio is 1 for any rotation or axis scale, 0 for a singular map).
-  const double bound = glm::length(m->row[0]) * glm::length(m->row[1]) * glm::length(m->row[2]);
-  constexpr double kMinRelativeDeterminant = 1e-12;
-  if (!(std::fabs(m->determinant()) > kMinRelativeDeterminant * bound)) {
-    fail("transform must be invertible (its 3x3 part is singular)");
-  }
-  const Affined inv = inverse(*m);
-  for (int i = 0; i < 3; ++i) {
-    if (!std::isfinite(glm::dot(inv.row[i], Vec3d(1)) + inv.offset[i])) fail("transform's inverse is not finite");
-  }
+  if (!isInvertible(*m)) fail("transform must be invertible (it is singular, or its inverse overflows)");
 }
 
 Group<double>& Scene::groupFor(const Affined* m) {

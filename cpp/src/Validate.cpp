@@ -1,4 +1,4 @@
-#include "durer/Validate.h"
+#include "durer/scene/Validate.h"
 
 #include <cmath>
 #include <sstream>

@@ -1,4 +1,4 @@
-#include "durer/WorkQueue.h"
+#include "durer/render/WorkQueue.h"
 
 #include <algorithm>
 #include <chrono>

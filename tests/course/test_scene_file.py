@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from durer.course.scene_file import SceneFileError, SceneMaterial, read_obj, read_scene_file
+import durer
+from durer.course.scene_file import SceneFileError, SceneMaterial, read_obj, read_scene_file, rodrigues_matrix
 from helpers import CORPUS
 
 CORPUS_FILES = sorted(CORPUS.glob("*.txt"))
@@ -520,10 +521,6 @@ EXPECTED_IN_TRANSFORM = ("expected a transform op ('Scale', 'UniformScale', 'Tra
     (f"Transform {{ Matrix {{ 1 0 0 0 0 1 0 0 0 0 0 0 0 0 0 1 }} {SPHERE} }}", 3,
      "Matrix is not invertible: expected a non-singular transform"),
     (f"Transform {{ Rotate {{\n0 0 0 30 }} {SPHERE} }}", 4, "the Rotate axis must not be the zero vector"),
-    # The course does not normalise the axis: about (0, 0, 1/√2) by 180°, the z diagonal entry
-    # c + (1 − c)·a² is 0.
-    (f"Transform {{ Rotate {{ 0 0 0.7071067811865476 180 }} {SPHERE} }}", 3,
-     "Rotate is not invertible: expected a non-singular transform"),
     ("Transform { Translate 1 0 0 }", 3, f"{EXPECTED_IN_TRANSFORM}, got '}}'"),
     (f"Transform {{ {SPHERE}\n{SPHERE} }}", 4, "expected '}' in Transform, got 'Sphere'"),
     (f"Transform {{ Translate 1 0 0\nMaterialIndex 0 {SPHERE} }}", 4, f"{EXPECTED_IN_TRANSFORM}, got 'MaterialIndex'"),
@@ -535,6 +532,30 @@ def test_malformed_objects(tmp_path, body, line, message):
     with pytest.raises(SceneFileError) as info:
         read_scene_file(path)
     assert (info.value.line, info.value.message) == (line, message)
+
+
+@pytest.mark.parametrize("op, matrix", [
+    ("Scale 1 0 1", np.diag([1.0, 0.0, 1.0, 1.0])),
+    ("Scale 1 1 1e-13", np.diag([1.0, 1.0, 1e-13, 1.0])),
+    ("Matrix { 1 0 0 0 1 1e-13 0 0 0 0 1 0 0 0 0 1 }", np.array([[1, 0, 0, 0], [1, 1e-13, 0, 0], [0, 0, 1, 0],
+                                                                [0, 0, 0, 1.0]])),
+    # The course does not normalise the axis: about (0, 0, 1/√2) by 180°, the z diagonal entry
+    # c + (1 − c)·a² is 0 but for rounding: a tiny axis scale, not a singular map.
+    ("Rotate { 0 0 0.7071067811865476 180 }", rodrigues_matrix((0, 0, 0.7071067811865476), 180)),
+])
+def test_the_reader_refuses_exactly_the_transforms_the_core_refuses(tmp_path, op, matrix):
+    path = write(tmp_path, one_primitive(f"Transform {{ {op} {SPHERE} }}"))
+    try:
+        durer.Scene().add_spheres([[0.0, 0.0, 0.0]], [1.0], transform=matrix)
+    except ValueError:
+        with pytest.raises(SceneFileError) as info:
+            read_scene_file(path)
+        assert (info.value.line, info.value.message) == (3, f"{op.split()[0]} is not invertible: expected a "
+                                                            "non-singular transform")
+    else:
+        scene = read_scene_file(path)
+        np.testing.assert_array_equal(scene.primitives[0].matrix, matrix)
+        assert scene.to_scene().transform_count == 1
 
 
 def test_degenerate_triangle_is_legal(tmp_path):

@@ -36,11 +36,11 @@ def make_camera(cam: CameraData) -> durer.OrthographicCamera | durer.Perspective
     return durer.PerspectiveCamera(center, direction, up, fov_degrees=cam.fov_degrees, **common)
 
 
-def make_scene(data: SceneData, *, shade_back: bool = True) -> durer.Scene:
+def make_scene(data: SceneData) -> durer.Scene:
     """The Dürer scene: materials (with the Phong, mirror and refraction parameters the export
-    mapped from Blender's shaders), spheres, ellipsoids, planes (turned towards the camera when
-    back faces are shaded, as Cycles does), triangle meshes, lights, world. `shade_back` False
-    keeps every plane's normal as Blender's winding gives it (6.837 without -shade_back)."""
+    mapped from Blender's shaders), spheres, ellipsoids, planes (normals as Blender's winding gives
+    them), triangle meshes, lights, world. Which side of a surface is shaded is the render's
+    `shade_back` setting (the core flips the normal toward the ray, as Cycles does)."""
     scene = durer.Scene()
     # Only the effect parameters a material uses are passed: a diffuse material asks for no effect.
     table = np.array(
@@ -52,8 +52,7 @@ def make_scene(data: SceneData, *, shade_back: bool = True) -> durer.Scene:
     for g in data.transformed_spheres:
         scene.add_spheres(g.centers, g.radii, material=table[g.materials], transform=g.matrix)
     for p in data.planes:
-        normal, offset = facing_camera(p.normal, p.offset, data.camera) if shade_back else (p.normal, p.offset)
-        scene.add_plane(normal, offset, material=int(table[p.material]), bounds=p.bounds)
+        scene.add_plane(p.normal, p.offset, material=int(table[p.material]), bounds=p.bounds)
     for mesh in data.meshes:
         scene.add_mesh(mesh.vertices, mesh.faces, material=int(table[mesh.material]), transform=mesh.transform)
     for light in data.lights:
@@ -78,25 +77,8 @@ def make_scene(data: SceneData, *, shade_back: bool = True) -> durer.Scene:
     return scene
 
 
-def facing_camera(normal, offset: float, cam: CameraData | None):
-    """Cycles shades the side of a surface the ray arrives on (back faces with the flipped normal)
-    and writes that normal to the Normal pass. The camera sees one side of a plane only, so turning
-    the plane's normal towards the camera does the same."""
-    if cam is None:
-        return normal, offset
-    if cam.projection == "orthographic":
-        back = float(np.dot(normal, cam.direction)) > 0.0
-    else:
-        back = float(np.dot(normal, cam.center)) < offset
-    return (-normal, -offset) if back else (normal, offset)
-
-
-def view_depth(depth: np.ndarray, camera, cam: CameraData) -> np.ndarray:
-    """Dürer's depth (distance along each unit ray from its origin) -> Blender's Depth pass
-    (distance along the camera's view axis; DEPTH_MISS on misses), top row first."""
+def view_depth(depth: np.ndarray) -> np.ndarray:
+    """Dürer's planar depth pass (`durer.render(..., depth="planar")`: the distance along the view
+    axis, as Cycles) -> Blender's Depth pass: DEPTH_MISS where no object is hit, top row first."""
     depth = np.asarray(depth, dtype=np.float32)
-    if cam.projection == "perspective":
-        _, dirs = camera.rays(cam.width, cam.height)
-        cos = np.asarray(dirs, dtype=np.float64) @ np.asarray(cam.direction, dtype=np.float64)
-        depth = (depth * cos).astype(np.float32)
     return np.where(np.isfinite(depth), depth, np.float32(DEPTH_MISS)).astype(np.float32)

@@ -118,6 +118,7 @@ def render_kwargs(settings) -> dict:
         # On by default: Cycles shades back faces with the flipped normal (and refraction needs the
         # inside faces); off renders 6.837's default (a 6.837 import without -shade_back).
         "shade_back": bool(settings.shade_back),
+        "depth": "planar",  # Blender's Depth pass: the distance along the view axis
     }
 
 
@@ -152,7 +153,7 @@ class DurerEngineMixin:
             raise ValueError("The scene has no camera")
         cam_data = data.camera
         w, h = cam_data.width, cam_data.height
-        core_scene = build.make_scene(data, shade_back=bool(settings.shade_back))
+        core_scene = build.make_scene(data)
         camera = build.make_camera(cam_data)
         info.export_seconds = time.perf_counter() - t0
         info.width, info.height, info.samples = w, h, int(settings.samples)
@@ -186,7 +187,7 @@ class DurerEngineMixin:
             color = np.asarray(result.color, dtype=np.float32)
             rl.passes["Combined"].rect.foreach_set(_flip(color[crop]).ravel())
             if "Depth" in rl.passes and result.depth is not None:
-                depth = build.view_depth(result.depth, camera, cam_data)
+                depth = build.view_depth(result.depth)
                 rl.passes["Depth"].rect.foreach_set(_flip(depth[crop]).ravel())
             if "Normal" in rl.passes and result.normal is not None:
                 normal = np.asarray(result.normal, np.float32)

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _checks
 from ..camera import OrthographicCamera, PerspectiveCamera
 from ..material import COURSE_FIELDS, Vec3, material_dataclass
 from ..scene import Scene
@@ -46,9 +47,6 @@ _MATERIAL_FIELDS = {
     "indexOfRefraction": "ior",
 }
 _MATERIAL_SIZES = {f.name: f.components for f in COURSE_FIELDS}
-# A matrix whose smallest singular value is below this fraction of its largest cannot be inverted
-# to working precision: rays taken into its object space would be noise.
-_SINGULAR = 1e-12
 
 
 class SceneFileError(ValueError):
@@ -216,11 +214,12 @@ def rodrigues_matrix(axis: Vec3, degrees: float) -> np.ndarray:
 
 
 def is_invertible(matrix: np.ndarray) -> bool:
-    """Finite, with an invertible linear part to working precision."""
-    if not np.isfinite(matrix).all():
+    """Does the core take `matrix` as a transform (durer._checks.transform: the core's one rule)?"""
+    try:
+        _checks.transform(matrix, "transform")
+    except ValueError:
         return False
-    singular = np.linalg.svd(matrix[:3, :3], compute_uv=False)
-    return bool(singular[-1] > _SINGULAR * singular[0])
+    return True
 
 
 def _transform_argument(matrix: np.ndarray) -> np.ndarray | None:

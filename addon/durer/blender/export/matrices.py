@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ... import _checks
+
 #: Relative spread of an object's axis scales above which its scale counts as non-uniform.
 SCALE_TOLERANCE = 1e-4
 
@@ -29,8 +31,13 @@ def uniform_scale(m: np.ndarray) -> tuple[float, bool]:
 
 
 def is_invertible(m: np.ndarray) -> bool:
-    """Can the core take `m` as a transform (it maps rays into object space with the inverse)?"""
-    return bool(np.linalg.cond(m[:3, :3]) < 1e12)
+    """Can the core take `m` as a transform (durer._checks.transform: the core's one rule)? The
+    export puts a mesh it cannot take in world space instead."""
+    try:
+        _checks.transform(m, "matrix_world")
+    except ValueError:
+        return False
+    return True
 
 
 def transform_points(m: np.ndarray, p: np.ndarray) -> np.ndarray:

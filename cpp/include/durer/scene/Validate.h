@@ -3,7 +3,7 @@
 // so that nothing downstream sees NaN, a zero vector or an empty range.
 #include <string>
 
-#include "durer/Vec.h"
+#include "durer/math/Vec.h"
 
 namespace durer {
 

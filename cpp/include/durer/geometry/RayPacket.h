@@ -7,7 +7,7 @@ namespace durer {
 // 64 rays (an 8x8 pixel tile) keep every array of a packet in L1 while a primitive list streams by.
 constexpr int kPacketSize = 64;
 
-// Packed index of a primitive during the search: spheres first, then planes (see Group).
+// Packed index of a primitive during the search (Group packs every primitive set's indices into one range).
 constexpr int32_t kNoPrimitive = -1;
 
 template <typename Real>
@@ -16,10 +16,10 @@ struct RayPacket {
   Real tMin = 0;                       // hits with t in [tMin, tMax) count
   Real tMax = 0;
   bool commonOrigin = false;           // every ray starts at ox[0], oy[0], oz[0] (a perspective camera's)
-  alignas(64) Real ox[kPacketSize];    // origin, world space
+  alignas(64) Real ox[kPacketSize];    // origin, in the frame of the group searched
   alignas(64) Real oy[kPacketSize];
   alignas(64) Real oz[kPacketSize];
-  alignas(64) Real dx[kPacketSize];    // direction, world space, non-zero (any length)
+  alignas(64) Real dx[kPacketSize];    // direction, same frame, non-zero (any length)
   alignas(64) Real dy[kPacketSize];
   alignas(64) Real dz[kPacketSize];
   alignas(64) Real tHit[kPacketSize];  // in/out: closest t so far; starts at tMax

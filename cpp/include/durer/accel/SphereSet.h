@@ -5,69 +5,49 @@
 #include <cstdint>
 #include <vector>
 
-#include "durer/Hit.h"
-#include "durer/PrimitiveIds.h"
-#include "durer/RayOffset.h"
-#include "durer/RayPacket.h"
-#include "durer/Bvh.h"
-#include "durer/SphereIntersection.h"
-#include "durer/Vec.h"
+#include "durer/geometry/Hit.h"
+#include "durer/accel/PrimitiveSet.h"
+#include "durer/geometry/RayOffset.h"
+#include "durer/geometry/RayPacket.h"
+#include "durer/accel/Bvh.h"
+#include "durer/geometry/SphereIntersection.h"
+#include "durer/math/Vec.h"
 
 namespace durer {
 
 template <typename Real>
 struct Sphere {
-  Vec3<Real> center;  // world space
+  Vec3<Real> center;  // object space (world space outside a transformed group)
   Real radius;        // > 0
 };
 
 // All spheres of a group, contiguous. The search is t-only; the hit record is built once per ray.
 template <typename Real>
-class SphereSet {
+class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
  public:
   SphereSet() = default;
   template <typename Other>
   explicit SphereSet(const SphereSet<Other>& other) {
-    m_spheres.reserve(other.size());
-    for (size_t i = 0; i < other.size(); ++i) {
-      const auto& s = other.sphere(i);
-      m_spheres.push_back({toReal<Real>(s.center), static_cast<Real>(s.radius)});
-    }
-    m_ids = other.ids();
+    this->convertFrom(other, [](const Sphere<Other>& s) {
+      return Sphere<Real>{toReal<Real>(s.center), static_cast<Real>(s.radius)};
+    });
   }
-
-  void add(const Sphere<Real>& sphere, int32_t material, int32_t objectId) {
-    m_spheres.push_back(sphere);
-    m_ids.add(material, objectId);
-  }
-  void reserve(size_t n) {
-    m_spheres.reserve(n);
-    m_ids.reserve(n);
-  }
-
-  size_t size() const { return m_spheres.size(); }
-  const Sphere<Real>& sphere(size_t i) const { return m_spheres[i]; }
-  const PrimitiveIds& ids() const { return m_ids; }
 
   // Builds the bounding-volume hierarchy (and reorders the spheres and their ids to its order);
   // worth it above a few dozen spheres, after which intersect() traverses it.
   void buildBvh() {
-    std::vector<Vec3<Real>> lo(m_spheres.size()), hi(m_spheres.size());
-    for (size_t i = 0; i < m_spheres.size(); ++i) {
-      lo[i] = m_spheres[i].center - m_spheres[i].radius;
-      hi[i] = m_spheres[i].center + m_spheres[i].radius;
+    std::vector<Vec3<Real>> lo(this->m_primitives.size()), hi(this->m_primitives.size());
+    for (size_t i = 0; i < this->m_primitives.size(); ++i) {
+      lo[i] = this->m_primitives[i].center - this->m_primitives[i].radius;
+      hi[i] = this->m_primitives[i].center + this->m_primitives[i].radius;
       roundOutward(lo[i], hi[i]);
     }
-    const std::vector<uint32_t> order = m_bvh.build(std::move(lo), std::move(hi));
-    std::vector<Sphere<Real>> sorted(m_spheres.size());
-    for (size_t i = 0; i < order.size(); ++i) sorted[i] = m_spheres[order[i]];
-    m_spheres.swap(sorted);
-    m_ids.permute(order);
+    Base::buildBvh(std::move(lo), std::move(hi));
   }
 
   // Grows [lo, hi] to hold every sphere (the bounds of a transformed group).
   void bounds(Vec3<Real>& lo, Vec3<Real>& hi) const {
-    for (const Sphere<Real>& s : m_spheres) {
+    for (const Sphere<Real>& s : this->m_primitives) {
       lo = glm::min(lo, s.center - s.radius);
       hi = glm::max(hi, s.center + s.radius);
     }
@@ -79,29 +59,19 @@ class SphereSet {
   // Returns the ray-sphere tests made (packet rays × spheres visited).
   template <SphereMethod M>
   int64_t intersect(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
-    if (m_spheres.empty()) return 0;
-    int64_t visited = 0;
+    if (this->m_primitives.empty()) return 0;
     PacketRayTerms<Real> terms;
     terms.template compute<M>(packet.dx, packet.dy, packet.dz, packet.count);
-    if (m_bvh.empty()) {
-      for (size_t i = 0; i < m_spheres.size(); ++i) {
-        if ((i & kCancelStride) == kCancelStride && cancel && cancel->load(std::memory_order_relaxed)) break;
-        intersectOne<M>(packet, terms, i, primBase);
-        ++visited;
-      }
-      return visited * packet.count;
-    }
-    visited = m_bvh.traverse(packet, cancel, [&](int32_t first, int32_t count) {
+    return this->search(packet, cancel, [&](int32_t first, int32_t count) {
       for (int32_t i = first; i < first + count; ++i) intersectOne<M>(packet, terms, static_cast<size_t>(i), primBase);
     });
-    return visited * packet.count;
   }
 
   // One sphere against every ray of the packet: the vectorised inner loop.
   template <SphereMethod M>
   void intersectOne(RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, size_t i, int32_t primBase) const {
-    const Vec3<Real> c = m_spheres[i].center;
-    const Real r = m_spheres[i].radius;
+    const Vec3<Real> c = this->m_primitives[i].center;
+    const Real r = this->m_primitives[i].radius;
     if constexpr (M == SphereMethod::Robust) {
       if (!anyRayMayMeet(packet, terms, c, r)) return;
     }
@@ -117,22 +87,14 @@ class SphereSet {
     if constexpr (M == SphereMethod::Robust) {
       if (packet.commonOrigin) {  // the origin's part once per sphere, not once per ray
         const RobustOrigin<Real> origin = robustOrigin(ox[0], oy[0], oz[0], c, r);
-        for (int k = 0; k < n; ++k) record(firstRootFrom(robustRoots(origin, terms[k], r), tMin), k, id, packet);
+        for (int k = 0; k < n; ++k) recordHit(packet, k, firstRootFrom(robustRoots(origin, terms[k], r), tMin), id);
         return;
       }
     }
     for (int k = 0; k < n; ++k) {
       const SphereRoots<Real> roots = sphereRoots<M>(ox[k], oy[k], oz[k], c, dx[k], dy[k], dz[k], terms[k], r, tMin);
-      record(firstRootFrom(roots, tMin), k, id, packet);
+      recordHit(packet, k, firstRootFrom(roots, tMin), id);
     }
-  }
-
-  // Lowers ray k's tHit to t if t is a hit in [tMin, tHit): false for NaN, and -inf (an overflowed
-  // root) never hits even when tMin is -inf.
-  static void record(Real t, int k, int32_t id, RayPacket<Real>& packet) {
-    const bool closer = (t >= packet.tMin) & (t < packet.tHit[k]) & (t > -std::numeric_limits<Real>::infinity());
-    packet.tHit[k] = closer ? t : packet.tHit[k];
-    packet.prim[k] = closer ? id : packet.prim[k];
   }
 
   // Whether the robust test may find a hit for any ray (robustMayMeet, implied by the full test).
@@ -152,29 +114,24 @@ class SphereSet {
     const Real t = packet.tHit[k];
     const Vec3<Real> p(packet.ox[k] + t * packet.dx[k], packet.oy[k] + t * packet.dy[k],
                        packet.oz[k] + t * packet.dz[k]);
-    return glm::normalize(p - m_spheres[index].center);
+    return glm::normalize(p - this->m_primitives[index].center);
   }
 
   // Full record of ray k's hit on sphere `index` at packet.tHit[k].
   Hit<Real> hit(const RayPacket<Real>& packet, int k, size_t index) const {
-    const Vec3<Real> c = m_spheres[index].center;
+    const Vec3<Real> c = this->m_primitives[index].center;
     Hit<Real> h;
     h.t = packet.tHit[k];
     h.normal = normal(packet, k, index);
     // Reprojection onto the sphere (pbrt-v4): the point's error no longer depends on t's error.
-    h.point = c + m_spheres[index].radius * h.normal;
+    h.point = c + this->m_primitives[index].radius * h.normal;
     h.pointError = errorGamma<Real>(6) * (glm::abs(h.point - c) + glm::abs(c));
-    h.objectId = m_ids.objectIds()[index];
-    h.materialId = m_ids.materials()[index];
+    this->recordIds(h, index);
     return h;
   }
 
  private:
-  static constexpr size_t kCancelStride = Bvh<Real>::kCancelStride;
-
-  std::vector<Sphere<Real>> m_spheres;
-  PrimitiveIds m_ids;
-  Bvh<Real> m_bvh;  // empty: brute force
+  using Base = PrimitiveSet<Sphere<Real>, Real>;
 };
 
 }  // namespace durer

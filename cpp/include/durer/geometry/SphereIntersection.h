@@ -8,9 +8,9 @@
 #include <cstring>
 #include <limits>
 
-#include "durer/RayPacket.h"
-#include "durer/SphereMethod.h"
-#include "durer/Vec.h"
+#include "durer/geometry/RayPacket.h"
+#include "durer/Options.h"
+#include "durer/math/Float.h"
 
 namespace durer {
 
@@ -37,36 +37,6 @@ struct SphereRayTerms {
                    // above 2^bias (2^1023, 2^127), inf or NaN: the ray then misses
 };
 
-template <typename Real>
-struct FloatBits;
-template <>
-struct FloatBits<double> {
-  using Bits = uint64_t;
-  static constexpr int kMantissaBits = 52;
-  static constexpr int kBias = 1023;
-};
-template <>
-struct FloatBits<float> {
-  using Bits = uint32_t;
-  static constexpr int kMantissaBits = 23;
-  static constexpr int kBias = 127;
-};
-
-// 2^-floor(log2 x) for x > 0, built from x's exponent bits (no library call, so it vectorises);
-// NaN where the result would not be a normal number: x zero, subnormal, above 2^bias, inf or NaN.
-template <typename Real>
-inline Real inversePowerOfTwo(Real x) {
-  using B = FloatBits<Real>;
-  typename B::Bits bits;
-  std::memcpy(&bits, &x, sizeof x);
-  const int exponent = static_cast<int>((bits >> B::kMantissaBits) & (2 * B::kBias + 1));  // biased
-  const bool usable = exponent >= 1 && exponent <= 2 * B::kBias - 1;
-  const typename B::Bits scaleBits = static_cast<typename B::Bits>(2 * B::kBias - exponent) << B::kMantissaBits;
-  Real scale;
-  std::memcpy(&scale, &scaleBits, sizeof scale);
-  return usable ? scale : std::numeric_limits<Real>::quiet_NaN();
-}
-
 template <SphereMethod M, typename Real>
 inline SphereRayTerms<Real> sphereRayTerms(Real dx, Real dy, Real dz) {
   SphereRayTerms<Real> terms{};
@@ -86,42 +56,6 @@ inline SphereRayTerms<Real> sphereRayTerms(Real dx, Real dy, Real dz) {
     terms.invLength = Real(1) / std::sqrt(terms.lengthSq);
   }
   return terms;
-}
-
-// a·b - c·d with one rounding error instead of a catastrophic cancellation (Kahan; pbrt-v4's
-// DifferenceOfProducts): the fma recovers the rounding error of c·d exactly.
-template <typename Real>
-inline Real differenceOfProducts(Real a, Real b, Real c, Real d) {
-  const Real cd = c * d;
-  const Real error = std::fma(-c, d, cd);
-  return std::fma(a, b, -cd) + error;
-}
-
-// The exact rounding error of a - b given its rounded result (Knuth's TwoSum, branch-free): with
-// diff = fl(a - b), a - b = diff + twoDiffError(a, b, diff) exactly (no fused multiply-adds allowed:
-// the core is built with -ffp-contract=off).
-template <typename Real>
-inline Real twoDiffError(Real a, Real b, Real diff) {
-  const Real bVirtual = a - diff;
-  const Real aVirtual = diff + bVirtual;
-  return (a - aVirtual) + (bVirtual - b);
-}
-
-// x² + y² + z² - r² with about one rounding of the result instead of one of the largest term
-// (products split exactly by fma, sums compensated: Ogita, Rump & Oishi's Dot2).
-template <typename Real>
-inline Real sumOfSquaresMinus(Real x, Real y, Real z, Real r) {
-  Real sum = x * x;
-  Real error = std::fma(x, x, -sum);
-  const Real terms[3] = {y * y, z * z, -(r * r)};
-  const Real termErrors[3] = {std::fma(y, y, -terms[0]), std::fma(z, z, -terms[1]), -std::fma(r, r, terms[2])};
-  for (int i = 0; i < 3; ++i) {
-    const Real next = sum + terms[i];
-    const Real virtualTerm = next - sum;
-    error += (sum - (next - virtualTerm)) + (terms[i] - virtualTerm) + termErrors[i];
-    sum = next;
-  }
-  return sum + error;
 }
 
 // Squared distance from the centre to the ray's line, |f × s|² / (s·s): each component of the cross
@@ -178,12 +112,6 @@ inline SphereRoots<Real> sphereGeometric(Real fx, Real fy, Real fz, Real dx, Rea
   return {(tp - tq) * invLength, (tp + tq) * invLength};
 }
 
-// The robust test. f = o - c is carried exactly as fh + fe (fh rounded, fe its rounding error), so
-// nothing below depends on how far the sphere is from the origin. With s the exactly scaled
-// direction: the discriminant a·(r² - p²), p² = |f × s|²/a the squared line distance (no b² - ac
-// cancellation: Ray Tracing Gems ch. 7), each cross component by difference of products; the roots
-// q/a and c/q with q of the sign of -b (no -b ± sqrt cancellation); c = |f|² - r² by a compensated
-// sum, accurate when the origin is near the surface (a ground sphere seen from just above it).
 // The ray origin's part of the robust test, shared by every ray from that origin (a perspective
 // camera's packet): f = o - centre as fh + fe, and c = |f|² - r².
 template <typename Real>
@@ -204,6 +132,12 @@ inline RobustOrigin<Real> robustOrigin(Real ox, Real oy, Real oz, const Vec3<Rea
   return o;
 }
 
+// The robust test. f = o - c is carried exactly as fh + fe (fh rounded, fe its rounding error), so
+// nothing below depends on how far the sphere is from the origin. With s the exactly scaled
+// direction: the discriminant a·(r² - p²), p² = |f × s|²/a the squared line distance (no b² - ac
+// cancellation: Ray Tracing Gems ch. 7), each cross component by difference of products; the roots
+// q/a and c/q with q of the sign of -b (no -b ± sqrt cancellation); c = |f|² - r² by a compensated
+// sum, accurate when the origin is near the surface (a ground sphere seen from just above it).
 template <typename Real>
 inline SphereRoots<Real> robustRoots(const RobustOrigin<Real>& f, const SphereRayTerms<Real>& t, Real r) {
   const Real cx = differenceOfProducts(f.fy, t.sz, f.fz, t.sy) + (f.ey * t.sz - f.ez * t.sy);

@@ -6,17 +6,9 @@
 #include <cmath>
 #include <limits>
 
-#include "durer/Vec.h"
+#include "durer/math/Float.h"
 
 namespace durer {
-
-// gamma(n) = n·u / (1 - n·u), u the unit roundoff: bounds the relative error of n chained roundings
-// (Higham; pbrt-v4 uses the same bound).
-template <typename Real>
-constexpr Real errorGamma(int n) {
-  constexpr Real u = std::numeric_limits<Real>::epsilon() / 2;
-  return n * u / (1 - n * u);
-}
 
 // The origin of a ray leaving a surface point in direction w (any length): the point pushed along
 // the normal by the error box's extent in that direction, then one more ulp away in every component

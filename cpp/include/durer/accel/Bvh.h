@@ -12,9 +12,9 @@
 #include <numeric>
 #include <vector>
 
-#include "durer/RayOffset.h"
-#include "durer/RayPacket.h"
-#include "durer/Vec.h"
+#include "durer/geometry/RayPacket.h"
+#include "durer/geometry/Slab.h"
+#include "durer/math/Float.h"
 
 namespace durer {
 
@@ -114,8 +114,8 @@ class Bvh {
       slab(lo.x, hi.x, p.ox[k], inv.x[k], nearT, farT);
       slab(lo.y, hi.y, p.oy[k], inv.y[k], nearT, farT);
       slab(lo.z, hi.z, p.oz[k], inv.z[k], nearT, farT);
-      nearT = widenDown(nearT);
-      farT = widenUp(farT);
+      nearT = widenDown(nearT, kWiden);
+      farT = widenUp(farT, kWiden);
       nearT = p.tMin > nearT ? p.tMin : nearT;
       farT = p.tHit[k] < farT ? p.tHit[k] : farT;
       entering += nearT <= farT ? 1 : 0;
@@ -123,27 +123,11 @@ class Bvh {
     return entering > 0;
   }
 
-  // Narrows [nearT, farT] to one slab. A NaN from 0·inf (a ray parallel to the slab, its origin on a
-  // face, so inside it) leaves the range as it was. Kept this small on purpose: GCC (with its default
-  // -ftrapping-math) left the packet loop scalar on ISAs without mask registers (x86-64-v2, AVX2)
-  // while each slab also widened its ends under an inf guard: 3x slower on 1,000 spheres.
-  static void slab(Real lo, Real hi, Real o, Real inv, Real& nearT, Real& farT) {
-    constexpr Real inf = std::numeric_limits<Real>::infinity();
-    const Real t0 = (lo - o) * inv, t1 = (hi - o) * inv;
-    const bool defined = (t0 == t0) & (t1 == t1);
-    const Real tNear = defined ? (t0 < t1 ? t0 : t1) : -inf;
-    const Real tFar = defined ? (t0 < t1 ? t1 : t0) : inf;
-    nearT = tNear > nearT ? tNear : nearT;
-    farT = tFar < farT ? tFar : farT;
-  }
-
   // The slab's t are each within γ₃ of the exact ones (two roundings and the reciprocal's); widening
   // the range's ends by 2γ₃ keeps every ray that truly meets the box. Widening commutes with the max
   // and min over the slabs (it is monotonic), so it is done once, as a product: inf stays inf, no NaN.
   // The factor is 2γ₅: the product and the rounded factor add two roundings of their own.
   static constexpr Real kWiden = 2 * errorGamma<Real>(5);
-  static Real widenDown(Real t) { return t * (t > 0 ? 1 - kWiden : 1 + kWiden); }
-  static Real widenUp(Real t) { return t * (t > 0 ? 1 + kWiden : 1 - kWiden); }
 
   int32_t buildNode(std::vector<uint32_t>& order, size_t begin, size_t end) {
     const int32_t index = static_cast<int32_t>(m_nodes.size());
@@ -182,13 +166,5 @@ class Bvh {
   std::vector<BvhNode<Real>> m_nodes;  // depth-first: an inner node's first child follows it
   std::vector<Vec3<Real>> m_lo, m_hi, m_centroids;  // per-primitive boxes while building
 };
-
-// The box [lo, hi] rounded outward by one ulp per side: a primitive's box computed in Real
-// arithmetic may be a rounding short of the primitive.
-template <typename Real>
-void roundOutward(Vec3<Real>& lo, Vec3<Real>& hi) {
-  constexpr Real inf = std::numeric_limits<Real>::infinity();
-  for (int a = 0; a < 3; ++a) lo[a] = std::nextafter(lo[a], -inf), hi[a] = std::nextafter(hi[a], inf);
-}
 
 }  // namespace durer

@@ -14,12 +14,12 @@
 #include <limits>
 #include <vector>
 
-#include "durer/Bvh.h"
-#include "durer/Hit.h"
-#include "durer/PrimitiveIds.h"
-#include "durer/RayOffset.h"
-#include "durer/RayPacket.h"
-#include "durer/Vec.h"
+#include "durer/accel/Bvh.h"
+#include "durer/geometry/Hit.h"
+#include "durer/accel/PrimitiveSet.h"
+#include "durer/geometry/RayOffset.h"
+#include "durer/geometry/RayPacket.h"
+#include "durer/math/Vec.h"
 
 namespace durer {
 
@@ -79,49 +79,29 @@ Real edgeFunction(Real ax, Real ay, Real bx, Real by) {
 }
 
 template <typename Real>
-class TriangleSet {
+class TriangleSet : public PrimitiveSet<Triangle<Real>, Real> {
  public:
   TriangleSet() = default;
   template <typename Other>
   explicit TriangleSet(const TriangleSet<Other>& other) {
-    m_triangles.reserve(other.size());
-    for (size_t i = 0; i < other.size(); ++i) {
-      const auto& t = other.triangle(i);
-      m_triangles.push_back({toReal<Real>(t.v0), toReal<Real>(t.v1), toReal<Real>(t.v2), toReal<Real>(t.normal)});
-    }
-    m_ids = other.ids();
+    this->convertFrom(other, [](const Triangle<Other>& t) {
+      return Triangle<Real>{toReal<Real>(t.v0), toReal<Real>(t.v1), toReal<Real>(t.v2), toReal<Real>(t.normal)};
+    });
   }
-
-  void add(const Triangle<Real>& triangle, int32_t material, int32_t objectId) {
-    m_triangles.push_back(triangle);
-    m_ids.add(material, objectId);
-  }
-  void reserve(size_t n) {
-    m_triangles.reserve(n);
-    m_ids.reserve(n);
-  }
-
-  size_t size() const { return m_triangles.size(); }
-  const Triangle<Real>& triangle(size_t i) const { return m_triangles[i]; }
-  const PrimitiveIds& ids() const { return m_ids; }
 
   void buildBvh() {
-    std::vector<Vec3<Real>> lo(m_triangles.size()), hi(m_triangles.size());
-    for (size_t i = 0; i < m_triangles.size(); ++i) {
-      const Triangle<Real>& t = m_triangles[i];
+    std::vector<Vec3<Real>> lo(this->m_primitives.size()), hi(this->m_primitives.size());
+    for (size_t i = 0; i < this->m_primitives.size(); ++i) {
+      const Triangle<Real>& t = this->m_primitives[i];
       lo[i] = glm::min(t.v0, glm::min(t.v1, t.v2));
       hi[i] = glm::max(t.v0, glm::max(t.v1, t.v2));
     }
-    const std::vector<uint32_t> order = m_bvh.build(std::move(lo), std::move(hi));
-    std::vector<Triangle<Real>> sorted(m_triangles.size());
-    for (size_t i = 0; i < order.size(); ++i) sorted[i] = m_triangles[order[i]];
-    m_triangles.swap(sorted);
-    m_ids.permute(order);
+    Base::buildBvh(std::move(lo), std::move(hi));
   }
 
   // Grows [lo, hi] to hold every triangle.
   void bounds(Vec3<Real>& lo, Vec3<Real>& hi) const {
-    for (const Triangle<Real>& t : m_triangles) {
+    for (const Triangle<Real>& t : this->m_primitives) {
       lo = glm::min(lo, glm::min(t.v0, glm::min(t.v1, t.v2)));
       hi = glm::max(hi, glm::max(t.v0, glm::max(t.v1, t.v2)));
     }
@@ -130,7 +110,7 @@ class TriangleSet {
   // Lowers each ray's tHit to its closest triangle hit in [tMin, tHit); triangle i is recorded as
   // primBase + i. Returns the ray-triangle tests made.
   int64_t intersect(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
-    if (m_triangles.empty()) return 0;
+    if (this->m_primitives.empty()) return 0;
     RayShear<Real> shears[kPacketSize];
     // Rays that count t > 0 (secondary rays, perspective cameras) must not meet the triangle they
     // leave: such hits need t conservatively above 0. A camera with t_min = -inf keeps every root.
@@ -138,28 +118,20 @@ class TriangleSet {
     for (int k = 0; k < packet.count; ++k) shears[k] = RayShear<Real>(packet.dx[k], packet.dy[k], packet.dz[k]);
     const auto testRange = [&](int32_t first, int32_t count) {
       for (int32_t i = first; i < first + count; ++i) {
-        const Triangle<Real>& tri = m_triangles[static_cast<size_t>(i)];
+        const Triangle<Real>& tri = this->m_primitives[static_cast<size_t>(i)];
         for (int k = 0; k < packet.count; ++k) {
           const TriangleHit<Real> h = test(tri, packet.ox[k], packet.oy[k], packet.oz[k], shears[k], countsFromZero);
-          constexpr Real inf = std::numeric_limits<Real>::infinity();
-          const bool closer = h.hit && (h.t >= packet.tMin) & (h.t < packet.tHit[k]) & (h.t > -inf);
-          packet.tHit[k] = closer ? h.t : packet.tHit[k];
-          packet.prim[k] = closer ? primBase + i : packet.prim[k];
+          recordHit(packet, k, h.t, primBase + i, h.hit);
         }
       }
     };
-    if (!m_bvh.empty()) return m_bvh.traverse(packet, cancel, testRange) * packet.count;
-    for (size_t first = 0; first < m_triangles.size(); first += kCancelBatch) {
-      if (first && cancel && cancel->load(std::memory_order_relaxed)) break;
-      testRange(static_cast<int32_t>(first), static_cast<int32_t>(std::min(kCancelBatch, m_triangles.size() - first)));
-    }
-    return static_cast<int64_t>(m_triangles.size()) * packet.count;
+    return this->search(packet, cancel, testRange);
   }
 
   // Full record of ray k's hit on triangle `index` at packet.tHit[k]: the point from the
   // barycentrics (pbrt-v4), so its error does not depend on t's.
   Hit<Real> hit(const RayPacket<Real>& packet, int k, size_t index) const {
-    const Triangle<Real>& tri = m_triangles[index];
+    const Triangle<Real>& tri = this->m_primitives[index];
     const TriangleHit<Real> h =
         test(tri, packet.ox[k], packet.oy[k], packet.oz[k], RayShear<Real>(packet.dx[k], packet.dy[k], packet.dz[k]));
     const Real invDet = 1 / h.det;
@@ -169,8 +141,7 @@ class TriangleSet {
     out.normal = tri.normal;
     out.point = p0 + p1 + p2;
     out.pointError = errorGamma<Real>(7) * (glm::abs(p0) + glm::abs(p1) + glm::abs(p2));
-    out.objectId = m_ids.objectIds()[index];
-    out.materialId = m_ids.materials()[index];
+    this->recordIds(out, index);
     return out;
   }
 
@@ -212,11 +183,7 @@ class TriangleSet {
   }
 
  private:
-  static constexpr size_t kCancelBatch = 4096;  // triangles between cancel checks without a hierarchy
-
-  std::vector<Triangle<Real>> m_triangles;
-  PrimitiveIds m_ids;
-  Bvh<Real> m_bvh;  // empty: brute force
+  using Base = PrimitiveSet<Triangle<Real>, Real>;
 };
 
 }  // namespace durer

@@ -1,14 +1,15 @@
 #pragma once
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <vector>
 
-#include "durer/Hit.h"
-#include "durer/PrimitiveIds.h"
-#include "durer/RayOffset.h"
-#include "durer/RayPacket.h"
-#include "durer/Vec.h"
+#include "durer/geometry/Hit.h"
+#include "durer/accel/PrimitiveSet.h"
+#include "durer/geometry/RayOffset.h"
+#include "durer/geometry/RayPacket.h"
+#include "durer/math/Vec.h"
 
 namespace durer {
 
@@ -28,46 +29,35 @@ struct Plane {
 };
 
 template <typename Real>
-class PlaneSet {
+class PlaneSet : public PrimitiveSet<Plane<Real>, Real> {
  public:
   PlaneSet() = default;
   template <typename Other>
   explicit PlaneSet(const PlaneSet<Other>& other) {
-    for (size_t i = 0; i < other.size(); ++i) {
-      const auto& p = other.plane(i);
-      m_planes.push_back({toReal<Real>(p.normal), static_cast<Real>(p.offset), toReal<Real>(p.point), p.bounded,
-                          toReal<Real>(p.corner),
-                          toReal<Real>(p.dual1), toReal<Real>(p.dual2)});
-    }
-    m_ids = other.ids();
+    this->convertFrom(other, [](const Plane<Other>& p) {
+      return Plane<Real>{toReal<Real>(p.normal), static_cast<Real>(p.offset), toReal<Real>(p.point), p.bounded,
+                         toReal<Real>(p.corner), toReal<Real>(p.dual1), toReal<Real>(p.dual2)};
+    });
   }
-
-  void add(const Plane<Real>& plane, int32_t material, int32_t objectId) {
-    m_planes.push_back(plane);
-    m_ids.add(material, objectId);
-  }
-
-  size_t size() const { return m_planes.size(); }
-  const Plane<Real>& plane(size_t i) const { return m_planes[i]; }
-  const PrimitiveIds& ids() const { return m_ids; }
 
   // Lowers each ray's tHit to its closest plane hit in [tMin, tHit). A ray parallel to a plane gets
   // t = ±inf or NaN (lying in it: 0/0), neither of which passes the range test.
   // Returns the ray-plane tests made.
-  int64_t intersect(RayPacket<Real>& packet, int32_t primBase) const {
-    for (size_t i = 0; i < m_planes.size(); ++i) {
-      const int32_t id = primBase + static_cast<int32_t>(i);
-      if (m_planes[i].bounded) {
-        intersectOne<true>(packet, m_planes[i], id);
-      } else {
-        intersectOne<false>(packet, m_planes[i], id);
+  int64_t intersect(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
+    return this->search(packet, cancel, [&](int32_t first, int32_t count) {
+      for (int32_t i = first; i < first + count; ++i) {
+        const Plane<Real>& plane = this->m_primitives[static_cast<size_t>(i)];
+        if (plane.bounded) {
+          intersectOne<true>(packet, plane, primBase + i);
+        } else {
+          intersectOne<false>(packet, plane, primBase + i);
+        }
       }
-    }
-    return static_cast<int64_t>(m_planes.size()) * packet.count;
+    });
   }
 
   Hit<Real> hit(const RayPacket<Real>& packet, int k, size_t index) const {
-    const Plane<Real>& pl = m_planes[index];
+    const Plane<Real>& pl = this->m_primitives[index];
     const Real t = packet.tHit[k];
     const Vec3<Real> p(packet.ox[k] + t * packet.dx[k], packet.oy[k] + t * packet.dy[k],
                        packet.oz[k] + t * packet.dz[k]);
@@ -78,8 +68,7 @@ class PlaneSet {
     // roundings of the coordinates' magnitude, whatever t's error was.
     h.point = p - glm::dot(pl.normal, p - pl.point) * pl.normal;
     h.pointError = errorGamma<Real>(8) * (glm::abs(h.point) + glm::abs(pl.point));
-    h.objectId = m_ids.objectIds()[index];
-    h.materialId = m_ids.materials()[index];
+    this->recordIds(h, index);
     return h;
   }
 
@@ -87,39 +76,32 @@ class PlaneSet {
   template <bool Bounded>
   static void intersectOne(RayPacket<Real>& packet, const Plane<Real>& pl, int32_t id) {
     const int n = packet.count;
-    const Real tMin = packet.tMin;
     const Real* __restrict ox = packet.ox;
     const Real* __restrict oy = packet.oy;
     const Real* __restrict oz = packet.oz;
     const Real* __restrict dx = packet.dx;
     const Real* __restrict dy = packet.dy;
     const Real* __restrict dz = packet.dz;
-    Real* __restrict tHit = packet.tHit;
-    int32_t* __restrict prim = packet.prim;
     const Vec3<Real> nrm = pl.normal;
     for (int k = 0; k < n; ++k) {
       const Real denominator = nrm.x * dx[k] + nrm.y * dy[k] + nrm.z * dz[k];
       const Real t = (nrm.x * (pl.point.x - ox[k]) + nrm.y * (pl.point.y - oy[k]) + nrm.z * (pl.point.z - oz[k])) /
                      denominator;
-      // A finite n·d (an infinite direction would give t = ±0) and t > -inf (a parallel ray gives
-      // ±inf, which tMin = -inf would accept).
-      constexpr Real inf = std::numeric_limits<Real>::infinity();
-      bool closer = (t >= tMin) & (t < tHit[k]) & (t > -inf) & (std::fabs(denominator) < inf);
+      // A finite n·d (an infinite direction would give t = ±0); a parallel ray's ±inf or NaN fails
+      // the epilog's range test.
+      bool valid = std::fabs(denominator) < std::numeric_limits<Real>::infinity();
       if constexpr (Bounded) {
         const Real qx = ox[k] + t * dx[k] - pl.corner.x;
         const Real qy = oy[k] + t * dy[k] - pl.corner.y;
         const Real qz = oz[k] + t * dz[k] - pl.corner.z;
         const Real a = qx * pl.dual1.x + qy * pl.dual1.y + qz * pl.dual1.z;
         const Real b = qx * pl.dual2.x + qy * pl.dual2.y + qz * pl.dual2.z;
-        closer = closer & (a >= 0) & (a <= 1) & (b >= 0) & (b <= 1);
+        valid = valid & (a >= 0) & (a <= 1) & (b >= 0) & (b <= 1);
       }
-      tHit[k] = closer ? t : tHit[k];
-      prim[k] = closer ? id : prim[k];
+      recordHit(packet, k, t, id, valid);
     }
   }
 
-  std::vector<Plane<Real>> m_planes;
-  PrimitiveIds m_ids;
 };
 
 }  // namespace durer

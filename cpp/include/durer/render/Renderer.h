@@ -2,21 +2,15 @@
 #include <cstdint>
 #include <functional>
 
-#include "durer/Camera.h"
-#include "durer/PacketShader.h"
-#include "durer/PixelSampler.h"
-#include "durer/RayCounters.h"
-#include "durer/Scene.h"
-#include "durer/SphereMethod.h"
-#include "durer/WorkQueue.h"
+#include "durer/render/Camera.h"
+#include "durer/render/PacketShader.h"
+#include "durer/render/PixelSampler.h"
+#include "durer/render/RayCounters.h"
+#include "durer/scene/Scene.h"
+#include "durer/Options.h"
+#include "durer/render/WorkQueue.h"
 
 namespace durer {
-
-enum PassFlags : unsigned {
-  kPassColor = 1u << 0,   // RGBA, linear
-  kPassDepth = 1u << 1,   // t of the hit along the unit camera ray; the pixel's nearest sample; inf on a miss
-  kPassNormal = 1u << 2,  // unit world-space normal, the normalised mean over the pixel's hit samples; 0 on a miss
-};
 
 struct RenderSettings {
   int width = 0;                     // pixels, >= 1
@@ -27,7 +21,8 @@ struct RenderSettings {
   double targetError = 0.01;         // adaptive: stop once the pixel's mean luminance is this sure
   Precision precision = Precision::Double;
   SphereMethod sphereMethod = SphereMethod::Robust;
-  unsigned passes = kPassColor | kPassDepth | kPassNormal;
+  unsigned passes = kPassColor | kPassDepth | kPassNormal;  // PassFlags
+  DepthKind depth = DepthKind::Ray;  // what the depth pass measures
   int threads = 0;                   // 0: all hardware threads
   bool shadeBack = false;            // shade back faces with the flipped normal (6.837 -shade_back)
   int maxBounces = 4;                // deepest secondary ray (reflection, refraction); 0: none

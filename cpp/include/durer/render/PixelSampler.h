@@ -1,18 +1,12 @@
 #pragma once
 #include <cstdint>
 
+#include "durer/Options.h"
+
 namespace durer {
 
 // Where a pixel's samples go. Every position is a pure function of (seed, pixel, sample index): an
 // image depends on the seed only, never on threads or tiling.
-enum class SamplerKind {
-  Center,      // every sample at the pixel centre (no anti-aliasing: the baseline)
-  Random,      // independent uniform positions
-  Stratified,  // one jittered position per stratum of an nx·ny grid, spp = nx·ny (1 sample: the centre)
-  Sobol,       // Owen-scrambled Sobol (0,2) points, scrambled per pixel (Burley 2020)
-  Adaptive,    // the Sobol points, as many per pixel as its samples disagree (Renderer.cpp)
-};
-
 // SplitMix64's finaliser: a bijective 64-bit mix with full avalanche.
 inline uint64_t mixBits(uint64_t x) {
   x ^= x >> 30;

@@ -4,8 +4,7 @@
 // worldFromObject (pbrt-v4's naming: the map's name says which frame it maps from and to).
 #include <cmath>
 
-#include "durer/RayOffset.h"
-#include "durer/Vec.h"
+#include "durer/math/Float.h"
 
 namespace durer {
 
@@ -69,6 +68,27 @@ inline Affined inverse(const Affined& m) {
               Vec3d(0)};
   inv.offset = -inv.vector(m.offset);
   return inv;
+}
+
+// The one rule for whether a transform can be used (Scene, and through durer._core.is_invertible
+// the Python package): finite, with A invertible judged scale-free (|det A| against its Hadamard
+// bound, the product of the row lengths: 1 for any rotation or axis scale, 0 for a singular map)
+// and a finite inverse.
+inline bool isInvertible(const Affined& m) {
+  constexpr double kMinRelativeDeterminant = 1e-12;
+  for (int i = 0; i < 3; ++i) {
+    const Vec3d& row = m.row[i];
+    if (!(std::isfinite(row.x) && std::isfinite(row.y) && std::isfinite(row.z) && std::isfinite(m.offset[i]))) {
+      return false;
+    }
+  }
+  const double bound = glm::length(m.row[0]) * glm::length(m.row[1]) * glm::length(m.row[2]);
+  if (!(std::fabs(m.determinant()) > kMinRelativeDeterminant * bound)) return false;
+  const Affined inv = inverse(m);
+  for (int i = 0; i < 3; ++i) {
+    if (!std::isfinite(glm::dot(inv.row[i], Vec3d(1)) + inv.offset[i])) return false;
+  }
+  return true;
 }
 
 }  // namespace durer

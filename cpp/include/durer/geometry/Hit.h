@@ -2,7 +2,7 @@
 #include <cstdint>
 #include <limits>
 
-#include "durer/Vec.h"
+#include "durer/math/Vec.h"
 
 namespace durer {
 
@@ -17,5 +17,20 @@ struct Hit {
   int32_t materialId = -1;                         // -1 on a miss
   bool isHit() const { return objectId >= 0; }
 };
+
+// Which side of a surface is shaded, decided here for every pass and every bounce: -1 flips the
+// normal toward the ray where shadeBack asks for it and the ray arrives from behind the surface
+// (direction·normal > 0, normal of any length), else +1 keeps the normal as stored.
+template <typename Real>
+Real facingSign(Real directionDotNormal, bool shadeBack) {
+  return shadeBack && directionDotNormal > 0 ? Real(-1) : Real(1);
+}
+
+// The normal a hit is shaded with, by facingSign's rule (the dot product only where it matters).
+template <typename Real>
+Vec3<Real> shadingNormal(const Vec3<Real>& normal, const Vec3<Real>& direction, bool shadeBack) {
+  if (!shadeBack) return normal;
+  return facingSign(glm::dot(direction, normal), shadeBack) < 0 ? -normal : normal;
+}
 
 }  // namespace durer

@@ -13,9 +13,4 @@ using Vec3 = glm::vec<3, Real, glm::defaultp>;
 using Vec3d = Vec3<double>;
 using Vec4d = glm::dvec4;
 
-template <typename Real, typename Other>
-Vec3<Real> toReal(const Vec3<Other>& v) {
-  return Vec3<Real>(static_cast<Real>(v.x), static_cast<Real>(v.y), static_cast<Real>(v.z));
-}
-
 }  // namespace durer

@@ -3,8 +3,8 @@
 #include <limits>
 #include <vector>
 
-#include "durer/Scene.h"
-#include "durer/Vec.h"
+#include "durer/scene/Scene.h"
+#include "durer/math/Vec.h"
 
 namespace durer {
 

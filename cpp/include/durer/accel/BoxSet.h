@@ -7,12 +7,14 @@
 #include <limits>
 #include <vector>
 
-#include "durer/Bvh.h"
-#include "durer/Hit.h"
-#include "durer/PrimitiveIds.h"
-#include "durer/RayOffset.h"
-#include "durer/RayPacket.h"
-#include "durer/Vec.h"
+#include "durer/accel/Bvh.h"
+#include "durer/geometry/Slab.h"
+#include "durer/math/Float.h"
+#include "durer/geometry/Hit.h"
+#include "durer/accel/PrimitiveSet.h"
+#include "durer/geometry/RayOffset.h"
+#include "durer/geometry/RayPacket.h"
+#include "durer/math/Vec.h"
 
 namespace durer {
 
@@ -22,65 +24,45 @@ struct Box {
 };
 
 template <typename Real>
-class BoxSet {
+class BoxSet : public PrimitiveSet<Box<Real>, Real> {
  public:
   BoxSet() = default;
   template <typename Other>
   explicit BoxSet(const BoxSet<Other>& other) {
-    m_boxes.reserve(other.size());
-    for (size_t i = 0; i < other.size(); ++i) {
-      // Rounded outward, so that the box in float still holds the box as given.
-      Vec3<Real> lo = toReal<Real>(other.box(i).lo), hi = toReal<Real>(other.box(i).hi);
-      for (int a = 0; a < 3; ++a) {
-        if (static_cast<Other>(lo[a]) > other.box(i).lo[a]) lo[a] = std::nextafter(lo[a], -std::numeric_limits<Real>::infinity());
-        if (static_cast<Other>(hi[a]) < other.box(i).hi[a]) hi[a] = std::nextafter(hi[a], std::numeric_limits<Real>::infinity());
-      }
-      m_boxes.push_back({lo, hi});
-    }
-    m_ids = other.ids();
+    // Rounded outward, so that the box in float still holds the box as given.
+    this->convertFrom(other, [](const Box<Other>& b) {
+      Box<Real> out;
+      for (int a = 0; a < 3; ++a) out.lo[a] = toRealDown<Real>(b.lo[a]), out.hi[a] = toRealUp<Real>(b.hi[a]);
+      return out;
+    });
   }
-
-  void add(const Box<Real>& box, int32_t material, int32_t objectId) {
-    m_boxes.push_back(box);
-    m_ids.add(material, objectId);
-  }
-
-  size_t size() const { return m_boxes.size(); }
-  const Box<Real>& box(size_t i) const { return m_boxes[i]; }
-  const PrimitiveIds& ids() const { return m_ids; }
 
   void buildBvh() {
-    std::vector<Vec3<Real>> lo(m_boxes.size()), hi(m_boxes.size());
-    for (size_t i = 0; i < m_boxes.size(); ++i) lo[i] = m_boxes[i].lo, hi[i] = m_boxes[i].hi;
-    const std::vector<uint32_t> order = m_bvh.build(std::move(lo), std::move(hi));
-    std::vector<Box<Real>> sorted(m_boxes.size());
-    for (size_t i = 0; i < order.size(); ++i) sorted[i] = m_boxes[order[i]];
-    m_boxes.swap(sorted);
-    m_ids.permute(order);
+    std::vector<Vec3<Real>> lo(this->m_primitives.size()), hi(this->m_primitives.size());
+    for (size_t i = 0; i < this->m_primitives.size(); ++i) lo[i] = this->m_primitives[i].lo, hi[i] = this->m_primitives[i].hi;
+    Base::buildBvh(std::move(lo), std::move(hi));
   }
 
   // Grows [lo, hi] to hold every box.
   void bounds(Vec3<Real>& lo, Vec3<Real>& hi) const {
-    for (const Box<Real>& b : m_boxes) lo = glm::min(lo, b.lo), hi = glm::max(hi, b.hi);
+    for (const Box<Real>& b : this->m_primitives) lo = glm::min(lo, b.lo), hi = glm::max(hi, b.hi);
   }
 
   // Lowers each ray's tHit to its closest box hit in [tMin, tHit); box i is recorded as
   // primBase + i. Returns the ray-box tests made.
   int64_t intersect(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
-    if (m_boxes.empty()) return 0;
+    if (this->m_primitives.empty()) return 0;
     const PacketInverse<Real> inv(packet);
     const auto testRange = [&](int32_t first, int32_t count) {
-      for (int32_t i = first; i < first + count; ++i) intersectOne(packet, inv, m_boxes[static_cast<size_t>(i)], primBase + i);
+      for (int32_t i = first; i < first + count; ++i) intersectOne(packet, inv, this->m_primitives[static_cast<size_t>(i)], primBase + i);
     };
-    if (!m_bvh.empty()) return m_bvh.traverse(packet, cancel, testRange) * packet.count;
-    testRange(0, static_cast<int32_t>(m_boxes.size()));
-    return static_cast<int64_t>(m_boxes.size()) * packet.count;
+    return this->search(packet, cancel, testRange);
   }
 
   // Full record of ray k's hit on box `index`: the face is the axis along which the hit point is
   // farthest out (relative to the half extent), and the point is put exactly on that face's plane.
   Hit<Real> hit(const RayPacket<Real>& packet, int k, size_t index) const {
-    const Box<Real>& b = m_boxes[index];
+    const Box<Real>& b = this->m_primitives[index];
     const Real t = packet.tHit[k];
     Vec3<Real> p(packet.ox[k] + t * packet.dx[k], packet.oy[k] + t * packet.dy[k], packet.oz[k] + t * packet.dz[k]);
     const Vec3<Real> center = (b.lo + b.hi) * Real(0.5), half = (b.hi - b.lo) * Real(0.5);
@@ -98,8 +80,7 @@ class BoxSet {
     const Vec3<Real> o(packet.ox[k], packet.oy[k], packet.oz[k]), d(packet.dx[k], packet.dy[k], packet.dz[k]);
     h.pointError = errorGamma<Real>(8) * (glm::abs(o) + glm::abs(t * d) + glm::abs(p));
     h.pointError[axis] = 0;
-    h.objectId = m_ids.objectIds()[index];
-    h.materialId = m_ids.materials()[index];
+    this->recordIds(h, index);
     return h;
   }
 
@@ -113,24 +94,11 @@ class BoxSet {
       slab(b.lo.z, b.hi.z, packet.oz[k], inv.z[k], nearT, farT);
       // Entry if it is in range, else the exit (the ray starts inside).
       const Real t = nearT >= packet.tMin ? nearT : farT;
-      const bool closer = (nearT <= farT) & (t >= packet.tMin) & (t < packet.tHit[k]) & (t > -inf) & (t < inf);
-      packet.tHit[k] = closer ? t : packet.tHit[k];
-      packet.prim[k] = closer ? id : packet.prim[k];
+      recordHit(packet, k, t, id, (nearT <= farT) & (t < inf));
     }
   }
 
-  // Narrows [nearT, farT] to one slab. A ray parallel to the slab gives ±inf (inside or outside
-  // it) or, with its origin exactly on a face, 0·inf = NaN: such a grazing ray counts as inside.
-  static void slab(Real lo, Real hi, Real o, Real inv, Real& nearT, Real& farT) {
-    const Real t0 = (lo - o) * inv, t1 = (hi - o) * inv;
-    if (t0 != t0 || t1 != t1) return;
-    nearT = std::fmax(nearT, std::fmin(t0, t1));
-    farT = std::fmin(farT, std::fmax(t0, t1));
-  }
-
-  std::vector<Box<Real>> m_boxes;
-  PrimitiveIds m_ids;
-  Bvh<Real> m_bvh;  // empty: brute force
+  using Base = PrimitiveSet<Box<Real>, Real>;
 };
 
 }  // namespace durer

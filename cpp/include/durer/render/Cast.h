@@ -3,9 +3,9 @@
 #include <cstdint>
 #include <functional>
 
-#include "durer/Scene.h"
-#include "durer/SphereMethod.h"
-#include "durer/WorkQueue.h"
+#include "durer/scene/Scene.h"
+#include "durer/Options.h"
+#include "durer/render/WorkQueue.h"
 
 namespace durer {
 

@@ -1,19 +1,11 @@
 #pragma once
 #include <cmath>
 
-#include "durer/RayPacket.h"
-#include "durer/Vec.h"
+#include "durer/Options.h"
+#include "durer/geometry/RayPacket.h"
+#include "durer/math/Vec.h"
 
 namespace durer {
-
-enum class Projection { Orthographic, Perspective };
-
-// Which image dimension the camera's size or field of view spans.
-enum class Fit {
-  Auto,        // the larger one (the 6.837 rule; Blender's sensor fit "Auto")
-  Horizontal,  // the width
-  Vertical,    // the height
-};
 
 // A camera as the user states it. direction and up need not be unit or orthogonal: the frame is
 // horizontal = normalize(direction × up), up' = horizontal × direction (the 6.837 construction).
@@ -43,8 +35,11 @@ class Camera {
 
   void generate(RayPacket<Real>& packet, const Real* sampleX, const Real* sampleY, int count) const;
 
-  Real tMin() const { return m_tMin; }
-  Real tMax() const { return m_tMax; }
+  // The factor that turns t along a unit camera ray with direction (dx, dy, dz) into the distance
+  // along the view axis: the cosine to it for perspective rays, exactly 1 for orthographic ones.
+  Real planarScale(Real dx, Real dy, Real dz) const {
+    return m_perspective ? dx * m_forward.x + dy * m_forward.y + dz * m_forward.z : Real(1);
+  }
 
  private:
   bool m_perspective;

@@ -9,11 +9,11 @@
 #include <cmath>
 #include <limits>
 
-#include "durer/Group.h"
-#include "durer/RayCounters.h"
-#include "durer/RayOffset.h"
-#include "durer/RayPacket.h"
-#include "durer/Shading.h"
+#include "durer/accel/Group.h"
+#include "durer/render/RayCounters.h"
+#include "durer/geometry/RayOffset.h"
+#include "durer/geometry/RayPacket.h"
+#include "durer/render/Shading.h"
 
 namespace durer {
 
@@ -40,9 +40,9 @@ class PacketShader {
       : m_group(group), m_shading(shading), m_effects(effects), m_limits(limits), m_background(background),
         m_cancel(cancel), m_minWeight(static_cast<Real>(limits.minWeight)) {}
 
-  // The shading normal: as stored, or flipped toward the ray where shade_back asks for it.
+  // The shading normal of a hit (Hit.h decides the side).
   Vec3<Real> shadingNormal(const Hit<Real>& hit, const Vec3<Real>& direction) const {
-    return m_limits.shadeBack && glm::dot(direction, hit.normal) > 0 ? -hit.normal : hit.normal;
+    return durer::shadingNormal(hit.normal, direction, m_limits.shadeBack);
   }
 
   // rgb[k] = the colour ray k of `packet` sees (its search done, hits[k] its hit records); depth:

@@ -1,5 +1,5 @@
 #pragma once
-#include "durer/Vec.h"
+#include "durer/math/Vec.h"
 
 namespace durer {
 

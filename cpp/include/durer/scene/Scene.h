@@ -5,18 +5,13 @@
 #include <mutex>
 #include <vector>
 
-#include "durer/Group.h"
-#include "durer/Light.h"
-#include "durer/Material.h"
-#include "durer/Vec.h"
+#include "durer/accel/Group.h"
+#include "durer/scene/Light.h"
+#include "durer/scene/Material.h"
+#include "durer/Options.h"
+#include "durer/math/Vec.h"
 
 namespace durer {
-
-enum class ShadingMode {
-  Auto,  // lit if the scene has lights, else flat
-  Flat,  // every hit takes its material's diffuse + emission colour
-  Lit,   // emission + ambient·kd + the lights' diffuse terms, even with no lights (ambient only)
-};
 
 struct PlaneBounds {
   Vec3d corner;  // on the plane

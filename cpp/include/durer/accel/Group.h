@@ -8,12 +8,12 @@
 #include <memory>
 #include <vector>
 
-#include "durer/Affine.h"
-#include "durer/BoxSet.h"
-#include "durer/Bvh.h"
-#include "durer/PlaneSet.h"
-#include "durer/SphereSet.h"
-#include "durer/TriangleSet.h"
+#include "durer/math/Affine.h"
+#include "durer/accel/BoxSet.h"
+#include "durer/accel/Bvh.h"
+#include "durer/accel/PlaneSet.h"
+#include "durer/accel/SphereSet.h"
+#include "durer/accel/TriangleSet.h"
 
 namespace durer {
 
@@ -153,8 +153,9 @@ class Group {
 
   // Material id of every packed primitive, in packed order.
   void appendMaterials(std::vector<int32_t>& out) const {
-    for (const PrimitiveIds* ids : {&m_spheres.ids(), &m_planes.ids(), &m_triangles.ids(), &m_boxes.ids()}) {
-      out.insert(out.end(), ids->materials().begin(), ids->materials().end());
+    for (const std::vector<int32_t>* materials :
+         {&m_spheres.materials(), &m_planes.materials(), &m_triangles.materials(), &m_boxes.materials()}) {
+      out.insert(out.end(), materials->begin(), materials->end());
     }
     for (const Instance<Real>& inst : m_instances) inst.child->appendMaterials(out);
   }
@@ -194,7 +195,7 @@ class Group {
     int32_t base = primBase;
     int64_t tests = m_spheres.template intersect<M>(packet, base, cancel);
     base += static_cast<int32_t>(m_spheres.size());
-    tests += m_planes.intersect(packet, base);
+    tests += m_planes.intersect(packet, base, cancel);
     base += static_cast<int32_t>(m_planes.size());
     tests += m_triangles.intersect(packet, base, cancel);
     base += static_cast<int32_t>(m_triangles.size());

@@ -1,0 +1,104 @@
+#pragma once
+// What every primitive set (SphereSet, PlaneSet, TriangleSet, BoxSet) shares, after Embree's
+// intersectors: a kernel finds t, and one epilog records it. Here: the primitives with their ids
+// (ids, not pointers), the reorder to a hierarchy's order, the search over every primitive any ray
+// of a packet may meet with one cancel policy, the closer-hit epilog of the search and the ids of the
+// hit record.
+#include <atomic>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "durer/accel/Bvh.h"
+#include "durer/geometry/Hit.h"
+#include "durer/geometry/RayPacket.h"
+
+namespace durer {
+
+// The epilog of every intersection kernel: ray k's closest hit becomes (t, id) where t is a hit in
+// [tMin, tHit) and `valid` (what the kernel itself decided). NaN never passes, nor -inf (an
+// overflowed root, which tMin = -inf would accept).
+template <typename Real>
+inline void recordHit(RayPacket<Real>& packet, int k, Real t, int32_t id, bool valid = true) {
+  const bool closer = valid & (t >= packet.tMin) & (t < packet.tHit[k]) & (t > -std::numeric_limits<Real>::infinity());
+  packet.tHit[k] = closer ? t : packet.tHit[k];
+  packet.prim[k] = closer ? id : packet.prim[k];
+}
+
+template <typename Prim, typename Real>
+class PrimitiveSet {
+ public:
+  void add(const Prim& primitive, int32_t material, int32_t objectId) {
+    m_primitives.push_back(primitive);
+    m_materials.push_back(material);
+    m_objectIds.push_back(objectId);
+  }
+  void reserve(size_t n) {
+    m_primitives.reserve(n);
+    m_materials.reserve(n);
+    m_objectIds.reserve(n);
+  }
+  size_t size() const { return m_primitives.size(); }
+  const Prim& primitive(size_t i) const { return m_primitives[i]; }
+  const std::vector<int32_t>& materials() const { return m_materials; }  // material id of primitive i
+  const std::vector<int32_t>& objectIds() const { return m_objectIds; }  // scene object id of primitive i
+
+  static constexpr size_t kCancelBatch = 4096;  // primitives between cancel checks without a hierarchy
+
+ protected:
+  // The primitives of `other` (another precision's set) converted one by one, with their ids.
+  template <typename OtherSet, typename Convert>
+  void convertFrom(const OtherSet& other, Convert&& convert) {
+    m_primitives.reserve(other.size());
+    for (size_t i = 0; i < other.size(); ++i) m_primitives.push_back(convert(other.primitive(i)));
+    m_materials = other.materials();
+    m_objectIds = other.objectIds();
+  }
+
+  // Builds the hierarchy over the primitives' boxes [lo[i], hi[i]] and reorders the primitives and
+  // their ids to its order.
+  void buildBvh(std::vector<Vec3<Real>> lo, std::vector<Vec3<Real>> hi) {
+    const std::vector<uint32_t> order = m_bvh.build(std::move(lo), std::move(hi));
+    permute(m_primitives, order);
+    permute(m_materials, order);
+    permute(m_objectIds, order);
+  }
+
+  // Calls testRange(first, count) for the primitives any ray of the packet may meet: the leaves of
+  // the hierarchy, or without one every primitive, kCancelBatch at a time. Gives up once *cancel is
+  // set (the packet is then garbage). Returns the ray-primitive tests made.
+  template <typename TestRange>
+  int64_t search(const RayPacket<Real>& packet, const std::atomic<bool>* cancel, TestRange&& testRange) const {
+    if (!m_bvh.empty()) return m_bvh.traverse(packet, cancel, testRange) * packet.count;
+    int64_t visited = 0;
+    for (size_t first = 0; first < m_primitives.size(); first += kCancelBatch) {
+      if (first && cancel && cancel->load(std::memory_order_relaxed)) break;
+      const size_t count = std::min(kCancelBatch, m_primitives.size() - first);
+      testRange(static_cast<int32_t>(first), static_cast<int32_t>(count));
+      visited += static_cast<int64_t>(count);
+    }
+    return visited * packet.count;
+  }
+
+  // The hit record's epilog: the ids of primitive `index`.
+  void recordIds(Hit<Real>& hit, size_t index) const {
+    hit.objectId = m_objectIds[index];
+    hit.materialId = m_materials[index];
+  }
+
+  std::vector<Prim> m_primitives;
+
+ private:
+  template <typename T>
+  static void permute(std::vector<T>& items, const std::vector<uint32_t>& order) {
+    std::vector<T> sorted(order.size());
+    for (size_t i = 0; i < order.size(); ++i) sorted[i] = items[order[i]];
+    items.swap(sorted);
+  }
+
+  std::vector<int32_t> m_materials;
+  std::vector<int32_t> m_objectIds;
+  Bvh<Real> m_bvh;  // empty: brute force
+};
+
+}  // namespace durer

@@ -1,0 +1,131 @@
+#pragma once
+// Floating-point helpers in one place (pbrt-v4's util/float.h): rounding-error bounds, outward
+// rounding, exact error terms, power-of-two scaling, precision conversion and overflow-safe
+// normalisation. Every routine is a template over Real (float or double).
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+
+#include "durer/math/Vec.h"
+
+namespace durer {
+
+// gamma(n) = n·u / (1 - n·u), u the unit roundoff: bounds the relative error of n chained roundings
+// (Higham; pbrt-v4 uses the same bound).
+template <typename Real>
+constexpr Real errorGamma(int n) {
+  constexpr Real u = std::numeric_limits<Real>::epsilon() / 2;
+  return n * u / (1 - n * u);
+}
+
+// t moved away from zero, or toward it, by the relative amount `factor` (> 0, small): a range
+// [widenDown(a), widenUp(b)] holds [a, b] widened by that much; inf stays inf, and no NaN is made.
+template <typename Real>
+Real widenDown(Real t, Real factor) {
+  return t * (t > 0 ? 1 - factor : 1 + factor);
+}
+template <typename Real>
+Real widenUp(Real t, Real factor) {
+  return t * (t > 0 ? 1 + factor : 1 - factor);
+}
+
+// The box [lo, hi] rounded outward by one ulp per side: a primitive's box computed in Real
+// arithmetic may be a rounding short of the primitive.
+template <typename Real>
+void roundOutward(Vec3<Real>& lo, Vec3<Real>& hi) {
+  constexpr Real inf = std::numeric_limits<Real>::infinity();
+  for (int a = 0; a < 3; ++a) lo[a] = std::nextafter(lo[a], -inf), hi[a] = std::nextafter(hi[a], inf);
+}
+
+// x converted to Real, rounded down (toward -inf) or up (toward +inf) where the conversion is inexact:
+// the converted value then still bounds the given one from that side.
+template <typename Real, typename Other>
+Real toRealDown(Other x) {
+  const Real r = static_cast<Real>(x);
+  return static_cast<Other>(r) > x ? std::nextafter(r, -std::numeric_limits<Real>::infinity()) : r;
+}
+template <typename Real, typename Other>
+Real toRealUp(Other x) {
+  const Real r = static_cast<Real>(x);
+  return static_cast<Other>(r) < x ? std::nextafter(r, std::numeric_limits<Real>::infinity()) : r;
+}
+
+template <typename Real, typename Other>
+Vec3<Real> toReal(const Vec3<Other>& v) {
+  return Vec3<Real>(static_cast<Real>(v.x), static_cast<Real>(v.y), static_cast<Real>(v.z));
+}
+
+template <typename Real>
+struct FloatBits;
+template <>
+struct FloatBits<double> {
+  using Bits = uint64_t;
+  static constexpr int kMantissaBits = 52;
+  static constexpr int kBias = 1023;
+};
+template <>
+struct FloatBits<float> {
+  using Bits = uint32_t;
+  static constexpr int kMantissaBits = 23;
+  static constexpr int kBias = 127;
+};
+
+// 2^-floor(log2 x) for x > 0, built from x's exponent bits (no library call, so it vectorises);
+// NaN where the result would not be a normal number: x zero, subnormal, above 2^bias, inf or NaN.
+template <typename Real>
+inline Real inversePowerOfTwo(Real x) {
+  using B = FloatBits<Real>;
+  typename B::Bits bits;
+  std::memcpy(&bits, &x, sizeof x);
+  const int exponent = static_cast<int>((bits >> B::kMantissaBits) & (2 * B::kBias + 1));  // biased
+  const bool usable = exponent >= 1 && exponent <= 2 * B::kBias - 1;
+  const typename B::Bits scaleBits = static_cast<typename B::Bits>(2 * B::kBias - exponent) << B::kMantissaBits;
+  Real scale;
+  std::memcpy(&scale, &scaleBits, sizeof scale);
+  return usable ? scale : std::numeric_limits<Real>::quiet_NaN();
+}
+
+// a·b - c·d with one rounding error instead of a catastrophic cancellation (Kahan; pbrt-v4's
+// DifferenceOfProducts): the fma recovers the rounding error of c·d exactly.
+template <typename Real>
+inline Real differenceOfProducts(Real a, Real b, Real c, Real d) {
+  const Real cd = c * d;
+  const Real error = std::fma(-c, d, cd);
+  return std::fma(a, b, -cd) + error;
+}
+
+// The exact rounding error of a - b given its rounded result (Knuth's TwoSum, branch-free): with
+// diff = fl(a - b), a - b = diff + twoDiffError(a, b, diff) exactly (no fused multiply-adds allowed:
+// the core is built with -ffp-contract=off).
+template <typename Real>
+inline Real twoDiffError(Real a, Real b, Real diff) {
+  const Real bVirtual = a - diff;
+  const Real aVirtual = diff + bVirtual;
+  return (a - aVirtual) + (bVirtual - b);
+}
+
+// x² + y² + z² - r² with about one rounding of the result instead of one of the largest term
+// (products split exactly by fma, sums compensated: Ogita, Rump & Oishi's Dot2).
+template <typename Real>
+inline Real sumOfSquaresMinus(Real x, Real y, Real z, Real r) {
+  Real sum = x * x;
+  Real error = std::fma(x, x, -sum);
+  const Real terms[3] = {y * y, z * z, -(r * r)};
+  const Real termErrors[3] = {std::fma(y, y, -terms[0]), std::fma(z, z, -terms[1]), -std::fma(r, r, terms[2])};
+  for (int i = 0; i < 3; ++i) {
+    const Real next = sum + terms[i];
+    const Real virtualTerm = next - sum;
+    error += (sum - (next - virtualTerm)) + (terms[i] - virtualTerm) + termErrors[i];
+    sum = next;
+  }
+  return sum + error;
+}
+
+// Unit vector without overflow or underflow for any finite non-zero input.
+inline Vec3d safeNormalize(const Vec3d& v) {
+  const double largest = std::fmax(std::fabs(v.x), std::fmax(std::fabs(v.y), std::fabs(v.z)));
+  return glm::normalize(v / largest);
+}
+
+}  // namespace durer

@@ -1,0 +1,244 @@
+// Unit tests of the core's geometry kernels and float helpers, against closed forms (doctest).
+// Built by -DDURER_BUILD_TESTS=ON as durer_cpp_tests; run by ctest (and by tests/core/test_cpp.py).
+#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "durer/accel/BoxSet.h"
+#include "durer/accel/PlaneSet.h"
+#include "durer/accel/SphereSet.h"
+#include "durer/accel/TriangleSet.h"
+#include "durer/geometry/Hit.h"
+#include "durer/geometry/Slab.h"
+#include "durer/math/Affine.h"
+#include "durer/math/Float.h"
+
+using namespace durer;
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// A packet of one ray, its hits reset, counting t in [tMin, tMax).
+template <typename Real>
+RayPacket<Real> oneRay(Vec3<Real> o, Vec3<Real> d, Real tMin = 0, Real tMax = std::numeric_limits<Real>::infinity()) {
+  RayPacket<Real> p;
+  p.count = 1;
+  p.tMin = tMin;
+  p.tMax = tMax;
+  p.ox[0] = o.x, p.oy[0] = o.y, p.oz[0] = o.z;
+  p.dx[0] = d.x, p.dy[0] = d.y, p.dz[0] = d.z;
+  p.resetHits();
+  return p;
+}
+
+template <typename Real>
+Triangle<Real> triangle(Vec3<Real> a, Vec3<Real> b, Vec3<Real> c) {
+  return {a, b, c, glm::normalize(glm::cross(b - a, c - a))};
+}
+
+}  // namespace
+
+TEST_CASE("errorGamma is n·u / (1 - n·u) and bounds n roundings") {
+  const double u = std::ldexp(1.0, -53);
+  CHECK(errorGamma<double>(1) == u / (1 - u));
+  CHECK(errorGamma<double>(3) == 3 * u / (1 - 3 * u));
+  CHECK(errorGamma<float>(2) == 2 * std::ldexp(1.0f, -24) / (1 - 2 * std::ldexp(1.0f, -24)));
+  // Three chained roundings of 1/3 + 1/3 + 1/3 stay within γ₃ of the exact 1.
+  const double third = 1.0 / 3;
+  CHECK(std::fabs((third + third + third) - 1.0) <= errorGamma<double>(3));
+}
+
+TEST_CASE("outward conversion brackets the value and is exact where it can be") {
+  const float down = toRealDown<float>(0.1), up = toRealUp<float>(0.1);
+  CHECK(double(down) < 0.1);
+  CHECK(double(up) > 0.1);
+  CHECK(std::nextafter(down, 1.0f) == up);
+  CHECK(toRealDown<float>(0.5) == 0.5f);
+  CHECK(toRealUp<float>(0.5) == 0.5f);
+  CHECK(toRealUp<float>(-0.1) == -down);
+  Vec3<float> lo(1, -2, 0), hi(3, 4, 0);
+  roundOutward(lo, hi);
+  CHECK(lo.x == std::nextafter(1.0f, -2.0f));
+  CHECK(hi.y == std::nextafter(4.0f, 5.0f));
+  CHECK(lo.z < 0);
+  CHECK(hi.z > 0);
+}
+
+TEST_CASE("widening keeps the range's ends on their sides, inf stays inf") {
+  const double f = 1e-10;
+  for (double t : {-3.0, -1e-300, 0.5, 7.0}) {
+    CHECK(widenDown(t, f) <= t);
+    CHECK(widenUp(t, f) >= t);
+  }
+  CHECK(widenDown(2.0, f) == 2.0 * (1 - f));
+  CHECK(widenUp(-2.0, f) == -2.0 * (1 - f));
+  CHECK(widenUp(kInf, f) == kInf);
+  CHECK(widenDown(-kInf, f) == -kInf);
+  CHECK(widenDown(0.0, f) == 0.0);
+}
+
+TEST_CASE("inversePowerOfTwo is 2^-floor(log2 x), NaN outside the normal range") {
+  CHECK(inversePowerOfTwo(3.0) == 0.5);
+  CHECK(inversePowerOfTwo(1.0) == 1.0);
+  CHECK(inversePowerOfTwo(0.3) == 4.0);
+  CHECK(inversePowerOfTwo(1024.0f) == std::ldexp(1.0f, -10));
+  CHECK(std::isnan(inversePowerOfTwo(0.0)));
+  CHECK(std::isnan(inversePowerOfTwo(std::numeric_limits<double>::denorm_min())));
+  CHECK(std::isnan(inversePowerOfTwo(kInf)));
+  CHECK(std::isnan(inversePowerOfTwo(std::ldexp(1.0, 1023))));  // 2^-1023 is subnormal
+}
+
+TEST_CASE("error-free transformations recover what plain arithmetic rounds away") {
+  // 1 - 2^-60 rounds to 1; the lost part is exactly -2^-60.
+  CHECK(twoDiffError(1.0, std::ldexp(1.0, -60), 1.0) == -std::ldexp(1.0, -60));
+  // (1 + 2^-27)² - 1·1 = 2^-26 + 2^-54: the naive product loses the 2^-54.
+  const double a = 1 + std::ldexp(1.0, -27);
+  CHECK(a * a - 1.0 == std::ldexp(1.0, -26));
+  CHECK(differenceOfProducts(a, a, 1.0, 1.0) == std::ldexp(1.0, -26) + std::ldexp(1.0, -54));
+  // 3² + 4² + 0² - 5² = 0 exactly, and (1e8 + 1)² - (1e8)² ... = 2e8 + 1.
+  CHECK(sumOfSquaresMinus(3.0, 4.0, 0.0, 5.0) == 0.0);
+  CHECK(sumOfSquaresMinus(1e8 + 1, 0.0, 0.0, 1e8) == 2e8 + 1);
+}
+
+TEST_CASE("safeNormalize neither under- nor overflows") {
+  const Vec3d tiny = safeNormalize(Vec3d(1e-300, 0, 0));
+  CHECK(tiny.x == 1.0);
+  const Vec3d huge = safeNormalize(Vec3d(1e300, 1e300, 0));
+  CHECK(huge.x == doctest::Approx(std::sqrt(0.5)).epsilon(1e-15));
+  CHECK(huge.y == huge.x);
+  CHECK(huge.z == 0.0);
+}
+
+TEST_CASE("slab: entry and exit, parallel rays inside, outside and on a face") {
+  double nearT = -kInf, farT = kInf;
+  // Ray from (-1, 0.5, 0.5) along +x against the unit cube: [1, 2].
+  slab(0.0, 1.0, -1.0, 1.0, nearT, farT);
+  slab(0.0, 1.0, 0.5, 1 / 0.0, nearT, farT);  // parallel, inside: ±inf, no narrowing
+  CHECK(nearT == 1.0);
+  CHECK(farT == 2.0);
+  // Parallel with the origin exactly on a face: 0·inf = NaN counts as inside.
+  slab(0.0, 1.0, 0.0, 1 / 0.0, nearT, farT);
+  slab(0.0, 1.0, 1.0, -1 / 0.0, nearT, farT);
+  CHECK(nearT == 1.0);
+  CHECK(farT == 2.0);
+  // Parallel and outside: the range empties.
+  slab(0.0, 1.0, 2.0, 1 / 0.0, nearT, farT);
+  CHECK_FALSE(nearT <= farT);
+  // A negative direction (-2, from 3) swaps entry and exit: t = (1 - 3) / -2 and (0 - 3) / -2.
+  nearT = -kInf, farT = kInf;
+  slab(0.0, 1.0, 3.0, -0.5, nearT, farT);
+  CHECK(nearT == 1.0);
+  CHECK(farT == 1.5);
+}
+
+TEST_CASE_TEMPLATE("spheres: every method finds the closed-form roots", Real, float, double) {
+  SphereSet<Real> spheres;
+  spheres.add({Vec3<Real>(0, 0, 0), Real(1)}, 3, 7);
+  // From (0.6, 0, -5) along +z (length 2): the chord at x = 0.6 has half-length 0.8, so
+  // t = (5 - 0.8) / 2 in units of the direction.
+  const auto check = [&](auto method) {
+    RayPacket<Real> p = oneRay<Real>({Real(0.6), 0, -5}, {0, 0, 2});
+    spheres.template intersect<decltype(method)::value>(p, 0, nullptr);
+    CHECK(p.prim[0] == 0);
+    CHECK(p.tHit[0] == doctest::Approx(2.1).epsilon(1e-6));
+    const Hit<Real> h = spheres.hit(p, 0, 0);
+    CHECK(h.objectId == 7);
+    CHECK(h.materialId == 3);
+    CHECK(h.normal.x == doctest::Approx(0.6).epsilon(1e-5));
+    CHECK(h.normal.z == doctest::Approx(-0.8).epsilon(1e-5));
+    // From inside, the far root; past the sphere, a miss.
+    RayPacket<Real> inside = oneRay<Real>({0, 0, 0}, {0, 1, 0});
+    spheres.template intersect<decltype(method)::value>(inside, 0, nullptr);
+    CHECK(inside.tHit[0] == doctest::Approx(1).epsilon(1e-6));
+    RayPacket<Real> wide = oneRay<Real>({Real(1.01), 0, -5}, {0, 0, 1});
+    spheres.template intersect<decltype(method)::value>(wide, 0, nullptr);
+    CHECK(wide.prim[0] == kNoPrimitive);
+  };
+  check(std::integral_constant<SphereMethod, SphereMethod::Algebraic>{});
+  check(std::integral_constant<SphereMethod, SphereMethod::Geometric>{});
+  check(std::integral_constant<SphereMethod, SphereMethod::Robust>{});
+}
+
+TEST_CASE_TEMPLATE("triangles: t and the normal from the winding; a shared edge is never missed", Real, float, double) {
+  TriangleSet<Real> lower, upper;
+  lower.add(triangle<Real>({0, 0, 0}, {1, 0, 0}, {1, 1, 0}), 0, 0);
+  upper.add(triangle<Real>({0, 0, 0}, {1, 1, 0}, {0, 1, 0}), 0, 1);
+  RayPacket<Real> p = oneRay<Real>({Real(0.75), Real(0.25), 2}, {0, 0, -4});
+  lower.intersect(p, 0, nullptr);
+  CHECK(p.prim[0] == 0);
+  CHECK(p.tHit[0] == Real(0.5));
+  CHECK(lower.hit(p, 0, 0).normal == Vec3<Real>(0, 0, 1));
+  // Rays through the shared diagonal, and through its end vertices: one of the two is hit.
+  for (Real s : {Real(0), Real(0.1), Real(1) / 3, Real(0.5), Real(0.9), Real(1)}) {
+    RayPacket<Real> a = oneRay<Real>({s, s, 1}, {0, 0, -1}), b = a;
+    lower.intersect(a, 0, nullptr);
+    upper.intersect(b, 0, nullptr);
+    CHECK((a.prim[0] == 0 || b.prim[0] == 0));
+  }
+}
+
+TEST_CASE_TEMPLATE("planes: t = (offset - n·o) / (n·d); parallel rays miss; bounds clip", Real, float, double) {
+  PlaneSet<Real> planes;
+  const Vec3<Real> n(0, 0, 1);
+  planes.add({n, 2, Vec3<Real>(0, 0, 2), false, Vec3<Real>(0), Vec3<Real>(0), Vec3<Real>(0)}, 0, 0);
+  RayPacket<Real> p = oneRay<Real>({0, 0, 0}, {0, 0, 4});
+  planes.intersect(p, 0, nullptr);
+  CHECK(p.tHit[0] == Real(0.5));
+  RayPacket<Real> parallel = oneRay<Real>({0, 0, 0}, {1, 0, 0});
+  planes.intersect(parallel, 0, nullptr);
+  CHECK(parallel.prim[0] == kNoPrimitive);
+  // The unit square at z = 2 (corner at the origin's foot, duals = the edges themselves).
+  PlaneSet<Real> square;
+  square.add({n, 2, Vec3<Real>(0, 0, 2), true, Vec3<Real>(0, 0, 2), Vec3<Real>(1, 0, 0), Vec3<Real>(0, 1, 0)}, 0, 0);
+  RayPacket<Real> in = oneRay<Real>({Real(0.5), Real(0.5), 0}, {0, 0, 1});
+  RayPacket<Real> out = oneRay<Real>({Real(1.5), Real(0.5), 0}, {0, 0, 1});
+  square.intersect(in, 0, nullptr);
+  square.intersect(out, 0, nullptr);
+  CHECK(in.tHit[0] == Real(2));
+  CHECK(out.prim[0] == kNoPrimitive);
+}
+
+TEST_CASE_TEMPLATE("boxes: entry from outside, exit from inside, grazing a face", Real, float, double) {
+  BoxSet<Real> boxes;
+  boxes.add({Vec3<Real>(1, -1, -1), Vec3<Real>(2, 1, 1)}, 0, 0);
+  RayPacket<Real> outside = oneRay<Real>({0, 0, 0}, {1, 0, 0});
+  boxes.intersect(outside, 0, nullptr);
+  CHECK(outside.tHit[0] == Real(1));
+  CHECK(boxes.hit(outside, 0, 0).normal == Vec3<Real>(-1, 0, 0));
+  RayPacket<Real> inside = oneRay<Real>({Real(1.5), 0, 0}, {2, 0, 0});
+  boxes.intersect(inside, 0, nullptr);
+  CHECK(inside.tHit[0] == Real(0.25));
+  // Along the face y = 1 (parallel, on it): inside by the slab rule, so hit.
+  RayPacket<Real> graze = oneRay<Real>({0, 1, 0}, {1, 0, 0});
+  boxes.intersect(graze, 0, nullptr);
+  CHECK(graze.tHit[0] == Real(1));
+  RayPacket<Real> above = oneRay<Real>({0, Real(1.5), 0}, {1, 0, 0});
+  boxes.intersect(above, 0, nullptr);
+  CHECK(above.prim[0] == kNoPrimitive);
+}
+
+TEST_CASE("invertibility: one scale-free rule") {
+  Affined m{{Vec3d(1, 0, 0), Vec3d(0, 1, 0), Vec3d(0, 0, 1)}, Vec3d(5, 6, 7)};
+  CHECK(isInvertible(m));
+  m.row[2] = Vec3d(0, 0, 1e-200);  // a tiny axis scale: scale-free, so invertible
+  CHECK(isInvertible(m));
+  m.row[2] = Vec3d(0, 0, 1e-310);  // subnormal: its inverse overflows
+  CHECK_FALSE(isInvertible(m));
+  m.row[2] = Vec3d(1, 0, 1e-14);  // nearly the first row: |det| / Hadamard bound = 1e-14
+  CHECK_FALSE(isInvertible(m));
+  m.row[2] = Vec3d(1, 0, 1e-11);
+  CHECK(isInvertible(m));
+  m.row[2] = Vec3d(0, 0, std::numeric_limits<double>::quiet_NaN());
+  CHECK_FALSE(isInvertible(m));
+}
+
+TEST_CASE("facing: the shading normal flips only for shadeBack and a ray from behind") {
+  const Vec3d n(0, 0, 1);
+  CHECK(shadingNormal(n, Vec3d(0, 0, -1), true) == n);
+  CHECK(shadingNormal(n, Vec3d(0, 0, 1), true) == -n);
+  CHECK(shadingNormal(n, Vec3d(0, 0, 1), false) == n);
+  CHECK(facingSign(0.0, true) == 1.0);  // grazing: kept
+}
