@@ -80,7 +80,7 @@ def test_bad_arguments_raise_before_any_task_and_task_errors_come_back(client):
         next(durer.render_many([SCENE, SCENE], orbit_cameras(3), 8, 8))
     with pytest.raises(TypeError, match="cameras must be"):
         next(durer.render_many(SCENE, ["camera"], 8, 8))
-    with pytest.raises(ValueError, match="spp must be >= 1"):
+    with pytest.raises(ValueError, match=r"spp must be in \[1, "):
         list(durer.render_many(SCENE, orbit_cameras(3), 8, 8, client=client, spp=0))
     assert pickle.loads(pickle.dumps(camera)) == camera
 

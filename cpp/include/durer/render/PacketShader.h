@@ -55,7 +55,7 @@ class PacketShader {
         rgb[k] = m_background;
         continue;
       }
-      const ShadingMaterial<Real>& m = m_shading.material(hits[k].materialId);
+      const MaterialIn<Real>& m = m_shading.material(hits[k].materialId);
       rgb[k] = m.emission + (m_effects.lit ? m_shading.ambient() * m.diffuse : m.diffuse);
     }
     if (m_effects.lit) {  // one instantiation per combination: no per-ray test of what is absent
@@ -97,7 +97,7 @@ class PacketShader {
         const Vec3<Real> toLight = light.toLight(h.point);
         const Real cosine = glm::dot(normal[k], toLight);
         if (!(cosine > 0)) continue;
-        const ShadingMaterial<Real>& m = m_shading.material(h.materialId);
+        const MaterialIn<Real>& m = m_shading.material(h.materialId);
         const Vec3<Real> arriving = light.arriving(h.point, toLight);
         Vec3<Real> contribution = cosine * arriving * m.diffuse;
         if constexpr (Specular) {
@@ -142,7 +142,7 @@ class PacketShader {
     int count = 0;
     for (int k = 0; k < packet.count; ++k) {
       if (!hits[k].isHit()) continue;
-      const ShadingMaterial<Real>& m = m_shading.material(hits[k].materialId);
+      const MaterialIn<Real>& m = m_shading.material(hits[k].materialId);
       const Vec3<Real> d = glm::normalize(direction(packet, k));
       const Vec3<Real>& n = hits[k].normal;
       const bool reflective = m_effects.reflection && maxComponent(m.reflective) > 0;

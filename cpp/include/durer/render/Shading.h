@@ -48,15 +48,6 @@ struct ShadingLight {
   Real shadowTMax() const { return kind == Kind::Directional ? std::numeric_limits<Real>::infinity() : Real(1); }
 };
 
-// A material in the render's precision (Material.h says what each field means).
-template <typename Real>
-struct ShadingMaterial {
-  Vec3<Real> diffuse, emission, specular;
-  Real exponent;
-  Vec3<Real> reflective, transparent;
-  Real ior;
-};
-
 // What shading reads, in the render's precision: materials by id, lights, ambient. Whether a scene
 // is lit, and which effects apply, is the render's EffectSet; PacketShader.h does the shading.
 template <typename Real>
@@ -64,11 +55,7 @@ class Shading {
  public:
   explicit Shading(const Scene& scene) : m_ambient(toReal<Real>(scene.ambient())) {
     using Kind = typename ShadingLight<Real>::Kind;
-    for (const Material& m : scene.materials()) {
-      m_materials.push_back({toReal<Real>(m.diffuse), toReal<Real>(m.emission), toReal<Real>(m.specular),
-                             static_cast<Real>(m.exponent), toReal<Real>(m.reflective), toReal<Real>(m.transparent),
-                             static_cast<Real>(m.ior)});
-    }
+    for (const Material& m : scene.materials()) m_materials.push_back(MaterialIn<Real>::from(m));
     const Vec3<Real> none(0);
     for (const DirectionalLight& l : scene.directionalLights()) {
       m_lights.push_back({Kind::Directional, toReal<Real>(-l.direction), toReal<Real>(l.color), none, none, 0, 0,
@@ -85,13 +72,13 @@ class Shading {
     }
   }
 
-  const ShadingMaterial<Real>& material(int32_t id) const { return m_materials[static_cast<size_t>(id)]; }
-  const std::vector<ShadingMaterial<Real>>& materials() const { return m_materials; }
+  const MaterialIn<Real>& material(int32_t id) const { return m_materials[static_cast<size_t>(id)]; }
+  const std::vector<MaterialIn<Real>>& materials() const { return m_materials; }
   const Vec3<Real>& ambient() const { return m_ambient; }
   const std::vector<ShadingLight<Real>>& lights() const { return m_lights; }
 
  private:
-  std::vector<ShadingMaterial<Real>> m_materials;  // by material id
+  std::vector<MaterialIn<Real>> m_materials;  // by material id
   Vec3<Real> m_ambient;
   std::vector<ShadingLight<Real>> m_lights;
 };
