@@ -243,6 +243,16 @@ def test_render_file_frames_and_output(scene, tmp_path):
     assert not np.array_equal(first, last)  # the ball moved
 
 
+def test_render_file_into_a_directory(scene, tmp_path):
+    blend = saved_blend(scene, tmp_path / "dir.blend")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    (tmp_path / "existing").mkdir()
+    for output, folder in ((f"{tmp_path / 'new'}{os.sep}", "new"), (tmp_path / "existing", "existing")):
+        files = batch.render_file(blend, frames="2", output=output, samples=1)
+        assert files == [tmp_path / folder / "0002.png"] and files[0].is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dir.blend", "existing", "new"]  # nothing beside
+
+
 def Image_pixels(path):
     img = bpy.data.images.load(str(path))
     px = np.empty(len(img.pixels), np.float32)

@@ -675,3 +675,19 @@ def test_random_token_damage_never_crashes(tmp_path, name):
         except SceneFileError:
             outcomes["error"] += 1
     assert outcomes["error"] > 200  # most damage is detected
+
+
+def test_nesting_is_bounded_with_a_line_number(tmp_path):
+    from durer.course.scene_file import MAX_NESTING
+
+    def nested(depth: int) -> str:
+        body = "Sphere { center 0 0 0 radius 1 }"
+        for _ in range(depth):
+            body = f"Group {{ numObjects 1\n{body}\n}}"
+        return one_primitive(body)
+
+    assert len(read(tmp_path, nested(MAX_NESTING - 2)).primitives) == 1  # the root group and Sphere are blocks too
+    text = nested(2000)  # deeper than Python's recursion limit would allow
+    line = MAX_NESTING + 2  # the Group that opens block MAX_NESTING + 1: lines 1-2 open the file and its root Group
+    with pytest.raises(SceneFileError, match=rf"scene.txt:{line}: 'Group' nested more than {MAX_NESTING}"):
+        read(tmp_path, text)

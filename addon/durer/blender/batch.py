@@ -172,6 +172,9 @@ def configure_output(sc, output: str | os.PathLike | None, frame_count: int) -> 
     if output is None:
         return None
     out = str(Path(output).expanduser().resolve()) if not str(output).startswith("//") else str(output)
+    if str(output).endswith(("/", os.sep)) or Path(out).is_dir():
+        # A directory: frames are numbered inside it, as Blender does for an output path "dir/".
+        out = os.path.join(out, "####")
     ext = Path(out).suffix.lower()
     if ext in FORMATS:
         sc.render.image_settings.file_format = FORMATS[ext]

@@ -32,6 +32,9 @@ _INTEGER_RE = re.compile(r"[+-]?\d+", re.ASCII)
 _OBJ_VERTEX_RE = re.compile(rf"v\s+({_NUMBER})\s+({_NUMBER})\s+({_NUMBER})", re.ASCII)
 _OBJ_FACE_RE = re.compile(r"f\s+(\d+)\s+(\d+)\s+(\d+)", re.ASCII)
 
+#: Blocks (Groups, Transforms, ...) may nest this deep: the reader recurses once per level, and no
+#: course scene nests more than a handful.
+MAX_NESTING = 200
 _BLOCKS = ("OrthographicCamera", "PerspectiveCamera", "Background", "Lights", "Materials", "Group")
 _OBJECTS = ("Group", "Sphere", "Plane", "Triangle", "TriangleMesh", "Transform")
 _OPS = ("Scale", "UniformScale", "Translate", "XRotate", "YRotate", "ZRotate", "Rotate", "Matrix")
@@ -338,6 +341,8 @@ class _Parser:
         token = self.next("'{'")
         if token.text != "{":
             raise self.error(token.line, f"expected '{{' after '{keyword.text}', got '{token.text}'")
+        if len(self.open_blocks) >= MAX_NESTING:
+            raise self.error(keyword.line, f"'{keyword.text}' nested more than {MAX_NESTING} blocks deep")
         self.open_blocks.append(keyword)
 
     def close(self) -> None:
