@@ -691,3 +691,18 @@ def test_nesting_is_bounded_with_a_line_number(tmp_path):
     line = MAX_NESTING + 2  # the Group that opens block MAX_NESTING + 1: lines 1-2 open the file and its root Group
     with pytest.raises(SceneFileError, match=rf"scene.txt:{line}: 'Group' nested more than {MAX_NESTING}"):
         read(tmp_path, text)
+
+
+def test_files_that_are_not_regular_or_names_with_nul_are_errors_with_a_line(tmp_path):
+    with pytest.raises(SceneFileError, match=r"scene.txt:3: cannot read the .obj file '/dev/zero'.*not a regular file"):
+        read(tmp_path, one_primitive("TriangleMesh { obj_file /dev/zero }"))
+    with pytest.raises(SceneFileError, match=r"scene.txt:3: cannot read the .obj file .*contains a NUL byte"):
+        read(tmp_path, one_primitive("TriangleMesh { obj_file a\0b.obj }"))
+    with pytest.raises(OSError, match="not a regular file"):
+        read_scene_file("/dev/zero")
+
+
+def test_integers_with_thousands_of_digits_are_refused_at_their_line(tmp_path):
+    digits = "9" * 5000  # int() would raise its own ValueError past 4,300 digits
+    with pytest.raises(SceneFileError, match=r"scene.txt:1: expected an integer for 'numMaterials' of at most 18"):
+        read(tmp_path, f"Materials {{ numMaterials {digits} }}")

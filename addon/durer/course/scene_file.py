@@ -10,9 +10,11 @@ the line and what was expected; the reader never returns half a scene.
 from __future__ import annotations
 
 import dataclasses
+import errno
 import math
 import os
 import re
+import stat
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,6 +34,7 @@ _INTEGER_RE = re.compile(r"[+-]?\d+", re.ASCII)
 _OBJ_VERTEX_RE = re.compile(rf"v\s+({_NUMBER})\s+({_NUMBER})\s+({_NUMBER})", re.ASCII)
 _OBJ_FACE_RE = re.compile(r"f\s+(\d+)\s+(\d+)\s+(\d+)", re.ASCII)
 
+_MAX_INTEGER_DIGITS = 18  # counts and indices; longer tokens are refused before int() would choke on them
 #: Blocks (Groups, Transforms, ...) may nest this deep: the reader recurses once per level, and no
 #: course scene nests more than a handful.
 MAX_NESTING = 200
@@ -180,8 +183,26 @@ def read_scene_file(path: str | os.PathLike) -> SceneFile:
 
     Raises SceneFileError for anything malformed, OSError if the scene file itself cannot be read."""
     path = Path(path)
-    text = path.read_bytes().decode("utf-8", errors="replace")
-    return _Parser(path, text).parse()
+    return _Parser(path, _read_text(path)).parse()
+
+
+#: The largest scene or .obj file read (a scene file of the course is a few kB, its meshes < 1 MB).
+MAX_FILE_BYTES = 256 * 2**20
+
+
+def _read_text(path: Path) -> str:
+    """A regular file's text, at most MAX_FILE_BYTES; OSError otherwise (a device such as /dev/zero
+    would never end, a FIFO would block)."""
+    if "\0" in str(path):
+        raise OSError(errno.EINVAL, "the file name contains a NUL byte")
+    with open(path, "rb") as file:
+        info = os.fstat(file.fileno())
+        if not stat.S_ISREG(info.st_mode):
+            raise OSError(errno.EINVAL, f"'{path}' is not a regular file")
+        data = file.read(MAX_FILE_BYTES + 1)
+    if len(data) > MAX_FILE_BYTES:
+        raise OSError(errno.EFBIG, f"'{path}' is larger than {MAX_FILE_BYTES // 2**20} MiB")
+    return data.decode("utf-8", errors="replace")
 
 
 # --- transform ops -----------------------------------------------------------------------------
@@ -244,7 +265,7 @@ def read_obj(path: Path) -> tuple[np.ndarray, np.ndarray]:
     it: `v x y z` and `f i j k` lines (1-based indices, triangles only, a face using only vertices
     defined above it). Blank lines and `#` comments are skipped; anything else is an error, since
     the course reader would silently misread `vn`/`vt` lines."""
-    text = path.read_bytes().decode("utf-8", errors="replace")
+    text = _read_text(path)
     vertex_words: list[str] = []
     vertex_lines: list[int] = []
     face_words: list[str] = []
@@ -362,6 +383,9 @@ class _Parser:
         token = self.next(f"an integer for '{name}'")
         if not _INTEGER_RE.fullmatch(token.text):
             raise self.error(token.line, f"expected an integer for '{name}', got '{token.text}'")
+        if len(token.text.lstrip("+-")) > _MAX_INTEGER_DIGITS:
+            raise self.error(token.line, f"expected an integer for '{name}' of at most {_MAX_INTEGER_DIGITS} digits, "
+                                         f"got {len(token.text)} characters")
         value = int(token.text)
         if minimum is not None and value < minimum:
             raise self.error(token.line, f"expected '{name}' >= {minimum}, got {value}")
