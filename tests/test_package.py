@@ -6,6 +6,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 import durer
 
 
@@ -39,3 +41,18 @@ def test_the_library_does_not_import_the_reports():
     code = "import sys, durer.course.gallery; print('durer.reports' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "True"
+
+
+def test_demo_refuses_bad_output_paths_and_sizes_in_one_line(tmp_path, capsys):
+    from durer.__main__ import main
+
+    (tmp_path / "a_file").write_text("")
+    assert main(["demo", "--output", str(tmp_path / "a_file" / "x.png"), "--width", "8", "--height", "8"]) == 1
+    assert capsys.readouterr().err.endswith(f"cannot write {tmp_path / 'a_file' / 'x.png'}: "
+                                            f"'{tmp_path / 'a_file'}' is a file, not a folder\n")
+    for args, message in ((["--output", str(tmp_path / "x.xyz")], "must end in an extension Pillow writes"),
+                          (["--width", "1000000", "--height", "1000000"], "not enough memory for a 1000000x1000000")):
+        with pytest.raises(SystemExit) as exit_info:
+            main(["demo", "--output", str(tmp_path / "x.png"), *args] if "--output" not in args else ["demo", *args])
+        assert exit_info.value.code == 2 and message in capsys.readouterr().err
+    assert not (tmp_path / "x.png").exists() and not (tmp_path / "x.xyz").exists()

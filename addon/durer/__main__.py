@@ -11,6 +11,7 @@ def demo(argv: Sequence[str]) -> int:
     """Render the built-in showcase scene with the core (no Blender needed)."""
     import durer
     from durer.render import PRECISIONS
+    from durer.visualize import image_path
 
     parser = argparse.ArgumentParser(prog="python -m durer demo", description=demo.__doc__)
     parser.add_argument("--output", default="out/showcase.png", help="image file (PNG, JPEG, ...); default %(default)s")
@@ -21,10 +22,17 @@ def demo(argv: Sequence[str]) -> int:
     args = parser.parse_args(argv)
     scene, camera = durer.showcase_scene()
     try:
+        image_path(args.output)
         result = durer.render(scene, camera, args.width, args.height, spp=args.spp, precision=args.precision)
     except (TypeError, ValueError) as error:
         parser.error(str(error))
-    path = durer.save_image(args.output, result.color).resolve()
+    except MemoryError:
+        parser.error(f"not enough memory for a {args.width}x{args.height} image")
+    try:
+        path = durer.save_image(args.output, result.color).resolve()
+    except OSError as error:
+        print(f"python -m durer demo: error: cannot write {args.output}: {error.strerror or error}", file=sys.stderr)
+        return 1
     stats = result.stats
     print(f"rendered {args.width}x{args.height}, {args.spp} spp, {stats['rays'] / 1e6:.1f} Mrays in "
           f"{stats['milliseconds']:.0f} ms ({stats['mrays_per_s']:.1f} Mrays/s, {stats['threads']} threads)")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import errno
+
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +32,30 @@ def linear_to_srgb(linear: ArrayLike) -> np.ndarray:
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
 
 
+def image_path(path: str | Path) -> Path:
+    """`path` as a Path if Pillow writes its extension; ValueError naming the writable ones if not,
+    so a command can refuse a bad output path before it renders."""
+    from PIL import Image
+
+    path = Path(path)
+    writable = {ext for ext, fmt in Image.registered_extensions().items() if fmt in Image.SAVE}
+    if path.suffix.lower() not in writable:
+        shown = ", ".join(sorted(e for e in writable if e in (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")))
+        raise ValueError(f"the image path must end in an extension Pillow writes ({shown}, ...), got '{path}'")
+    return path
+
+
+def make_folder_for(path: Path) -> None:
+    """Create `path`'s folder (and its parents); NotADirectoryError, naming it, where a file stands
+    in the way (mkdir's own error would say only "File exists")."""
+    for folder in path.absolute().parents:  # the nearest existing ancestor must be a folder
+        if folder.exists():
+            if not folder.is_dir():
+                raise NotADirectoryError(errno.ENOTDIR, f"'{folder}' is a file, not a folder")
+            break
+    path.parent.mkdir(parents=True, exist_ok=True)
+
+
 def save_image(path: str | Path, pixels: ArrayLike, *, srgb: bool = True) -> Path:
     """Write a top-row-first image ((H, W), (H, W, 3) or (H, W, 4) floats in [0, 1]) as 8-bit PNG
     (or any format Pillow knows by the extension). Colour channels of linear renders are sRGB
@@ -46,8 +72,8 @@ def save_image(path: str | Path, pixels: ArrayLike, *, srgb: bool = True) -> Pat
         else:
             p[..., :3] = linear_to_srgb(p[..., :3])
     data = np.round(np.clip(p, 0, 1) * 255).astype(np.uint8)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    path = image_path(path)
+    make_folder_for(path)
     image = Image.fromarray(data)
     if path.suffix.lower() in (".jpg", ".jpeg") and image.mode == "RGBA":
         image = image.convert("RGB")

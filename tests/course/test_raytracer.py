@@ -109,6 +109,16 @@ def test_missing_scene_file_exits_with_code_1(tmp_path, capsys):
     assert "No such file or directory" in capsys.readouterr().err
 
 
+def test_output_under_a_file_and_images_too_large_for_memory_exit_with_one_line(tmp_path, capsys):
+    scene = ROOT / "scenes" / "6837" / "scene1_01.txt"
+    (tmp_path / "a_file").write_text("")
+    assert raytracer.main(["-input", str(scene), "-size", "4", "4", "-output", str(tmp_path / "a_file" / "o.png")]) == 1
+    assert capsys.readouterr().err == f"raytracer: error: [Errno 20] '{tmp_path / 'a_file'}' is a file, not a folder\n"
+    # 10^12 pixels: their float32 buffers (16 TB) cannot be allocated on any machine
+    assert raytracer.main(["-input", str(scene), "-size", "1000000", "1000000", "-output", str(tmp_path / "o.png")]) == 1
+    assert capsys.readouterr().err == "raytracer: error: not enough memory for a 1000000x1000000 image\n"
+
+
 def test_a_scene_needs_a_camera(tmp_path):
     path = tmp_path / "s.txt"
     path.write_text("Background { color 1 0 0 }")

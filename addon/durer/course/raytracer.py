@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..render import PASSES, PRECISIONS, RenderResult, render
-from ..visualize import depth_to_gray, normal_to_rgb
+from ..visualize import depth_to_gray, make_folder_for, normal_to_rgb
 from .scene_file import SceneFile, SceneFileError, read_scene_file
 
 IMAGE_FORMATS = {".png": "PNG", ".tga": "TGA"}
@@ -106,7 +106,7 @@ def write_image(path: Path, rgb: np.ndarray) -> Path:
     image_format = IMAGE_FORMATS.get(path.suffix.lower())
     if image_format is None:
         raise ValueError(f"{path}: the image must end in .png or .tga")
-    path.parent.mkdir(parents=True, exist_ok=True)
+    make_folder_for(path)
     image = Image.fromarray(np.ascontiguousarray(rgb), mode="RGB")
     if image_format == "TGA":
         image.save(path, format="TGA", rle=False, orientation=1)
@@ -236,5 +236,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         run(options)
     except (SceneFileError, OSError, ValueError) as error:
         print(f"raytracer: error: {error}", file=sys.stderr)
+        return 1
+    except MemoryError:
+        print(f"raytracer: error: not enough memory for a {options.width}x{options.height} image", file=sys.stderr)
         return 1
     return 0
