@@ -81,7 +81,7 @@ def poll_function(
 
 
 def threads_argument(threads: int | None) -> int:
-    return 0 if threads is None else _checks.integer(threads, "threads", 1)
+    return 0 if threads is None else _checks.integer(threads, "threads", 1, 2**31 - 1)
 
 
 def render(

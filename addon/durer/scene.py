@@ -120,7 +120,7 @@ class Scene:
         """
         normal3 = _checks.vector3(normal, "normal")
         offset_value = _checks.real(offset, "offset")
-        material_id = _checks.integer(material, "material")
+        material_id = _checks.c_int(material, "material")
         corners = None
         if bounds is not None:
             if len(bounds) != 3:
@@ -161,7 +161,7 @@ class Scene:
             raise ValueError("faces must fit in int64")
         return self._add(
             "add_mesh", _owned(vertices, given), _owned(np.ascontiguousarray(face_array, dtype=np.int64), faces),
-            _checks.integer(material, "material"), _owned(_checks.transform(transform), transform),
+            _checks.c_int(material, "material"), _owned(_checks.transform(transform), transform),
         )
 
     def add_boxes(
@@ -321,7 +321,7 @@ def _material_ids(material: Any, n: int) -> np.ndarray:
     if array.dtype.kind not in "iu":
         raise TypeError(f"material must be an integer id or (N,) integer ids, got dtype {array.dtype}")
     if array.ndim == 0:
-        return array.astype(np.int32).reshape(1)
+        return np.array([_checks.c_int(array.item(), "material")], dtype=np.int32)
     if array.shape != (n,):
         raise ValueError(f"material must be one id or have shape ({n},), got {array.shape}")
     if n and (array.min() < np.iinfo(np.int32).min or array.max() > np.iinfo(np.int32).max):

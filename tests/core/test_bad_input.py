@@ -129,3 +129,24 @@ def test_nearly_parallel_up_is_accepted_and_orthonormalised():
     cam = durer.OrthographicCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1e-6, 1), size=2)
     _, d = cam.rays(2, 2)
     np.testing.assert_allclose(d[0, 0], (0, 0, -1))
+
+
+@pytest.mark.parametrize("material", [2**31, 2**32 + 1, np.int64(2**32 + 1), np.uint64(2**63), 2**40, -(2**31) - 1])
+def test_scalar_ids_beyond_int32_are_refused_not_wrapped(material):
+    scene = durer.Scene()
+    scene.add_material((1, 0, 0))  # id 1: what 2**32 + 1 used to wrap to
+    for add in (lambda: scene.add_spheres([[0, 0, 0]], 1.0, material=material),
+                lambda: scene.add_triangles([[[0, 0, 0], [1, 0, 0], [0, 1, 0]]], material),
+                lambda: scene.add_boxes([[0, 0, 0]], [[1, 1, 1]], material),
+                lambda: scene.add_plane((0, 0, 1), 0.0, material=material),
+                lambda: scene.add_mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], material=material)):
+        with pytest.raises(ValueError, match=r"^material must be [<>]= "):
+            add()
+    assert scene.object_count == 0
+
+
+def test_threads_beyond_a_c_int_is_a_value_error_naming_it():
+    scene = durer.Scene()
+    camera = durer.OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0), 2)
+    with pytest.raises(ValueError, match=r"^threads must be <= 2147483647, got 2147483648$"):
+        durer.render(scene, camera, 4, 4, threads=2**31)
