@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import threading
 import time
 
@@ -103,3 +105,30 @@ def test_cast_releases_the_gil_and_can_be_cancelled():
     origins = rng.uniform(-5, 5, (200000, 3))
     with pytest.raises(RuntimeError, match="cancelled"):
         durer.cast(scene, origins, rng.normal(size=(200000, 3)), cancel=lambda: True)
+
+
+LIMITED = """
+import resource, sys
+import numpy as np, durer
+scene = durer.Scene(); scene.add_spheres([[0, 0, 0]], 1.0)
+camera = durer.OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0), 3)
+reference = durer.render(scene, camera, 64, 64, threads=1).color
+used = int(open("/proc/self/statm").read().split()[0]) * resource.getpagesize()
+limit = used + int(sys.argv[1]) * 2**20
+resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+try:
+    print("same" if np.array_equal(durer.render(scene, camera, 64, 64, threads=150).color, reference) else "different")
+except RuntimeError as error:
+    print(f"RuntimeError: {error}")
+"""
+
+
+@pytest.mark.parametrize("headroom_mib, expected", [
+    (1024, "same"),  # room for some of the 150 threads' stacks: a smaller pool renders the same image
+    (8, "RuntimeError: threads: could not start a render thread"),  # room for none: an error, not std::terminate
+])
+def test_threads_that_cannot_be_created_shrink_the_pool_or_raise(headroom_mib, expected):
+    done = subprocess.run([sys.executable, "-c", LIMITED, str(headroom_mib)], capture_output=True, text=True,
+                          timeout=120, check=False)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith(expected)
