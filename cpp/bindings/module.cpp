@@ -14,6 +14,7 @@
 
 #include "durer/render/Camera.h"
 #include "durer/render/Cast.h"
+#include "durer/render/Kernels.h"
 #include "durer/render/Renderer.h"
 #include "durer/Options.h"
 #include "durer/scene/Scene.h"
@@ -405,6 +406,7 @@ PYBIND11_MODULE(_core, m) {
   m.def("default_thread_count", &defaultThreadCount);
   m.def("is_invertible", [](const DoubleArray& m) { return isInvertible(OptionalAffine(m).value); }, py::arg("matrix"));
 
+  m.attr("KERNEL_SET") = kernels().isa;  // the instruction set of the hot kernels this CPU runs
   m.attr("PRECISIONS") = names(kPrecisionNames);
   m.attr("SPHERE_METHODS") = names(kSphereMethodNames);
   m.attr("SAMPLERS") = names(kSamplerNames);

@@ -2,73 +2,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <type_traits>
 
-#include "durer/render/HotKernel.h"
-#include "durer/geometry/RayPacket.h"
+#include "durer/render/Kernels.h"
 #include "durer/scene/Validate.h"
 
 namespace durer {
-
-namespace {
-
-constexpr int64_t kRaysPerItem = 16 * kPacketSize;  // enough work per queue item to hide its cost
-
-// Casts one work item's rays; returns the ray-primitive tests made.
-template <typename Real, SphereMethod M>
-int64_t castRays(const Group<Real>& group, const CastInput& in, const CastOutput<Real>& out, int64_t item,
-                 const std::atomic<bool>& cancel) {
-  const size_t begin = static_cast<size_t>(item * kRaysPerItem);
-  const size_t end = std::min(in.count, begin + kRaysPerItem);
-  int64_t tests = 0;
-  RayPacket<Real> packet;
-  packet.tMin = static_cast<Real>(in.tMin);
-  packet.tMax = static_cast<Real>(in.tMax);
-  for (size_t first = begin; first < end; first += kPacketSize) {
-    packet.count = static_cast<int>(std::min<size_t>(kPacketSize, end - first));
-    for (int k = 0; k < packet.count; ++k) {
-      const double* o = in.origins + 3 * (first + k);
-      const double* d = in.directions + 3 * (first + k);
-      packet.ox[k] = static_cast<Real>(o[0]);
-      packet.oy[k] = static_cast<Real>(o[1]);
-      packet.oz[k] = static_cast<Real>(o[2]);
-      packet.dx[k] = static_cast<Real>(d[0]);
-      packet.dy[k] = static_cast<Real>(d[1]);
-      packet.dz[k] = static_cast<Real>(d[2]);
-    }
-    tests += group.template intersect<M>(packet, &cancel);
-    if (cancel.load(std::memory_order_relaxed)) return tests;
-    for (int k = 0; k < packet.count; ++k) {
-      const size_t i = first + k;
-      const Hit<Real> hit = group.hit(packet, k);
-      out.t[i] = hit.t;
-      for (int c = 0; c < 3; ++c) out.normal[3 * i + c] = hit.normal[c];
-      out.objectId[i] = hit.objectId;
-      out.materialId[i] = hit.materialId;
-    }
-  }
-  return tests;
-}
-
-template <typename Real, SphereMethod M>
-CastStats castWith(const Scene& scene, const CastInput& in, const CastOutput<Real>& out, JobControl& control,
-                   const std::function<void()>& poll) {
-  const std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>();
-  const Group<Real>& group = *prepared;
-  const int64_t items = (static_cast<int64_t>(in.count) + kRaysPerItem - 1) / kRaysPerItem;
-  const int threads = in.threads > 0 ? in.threads : defaultThreadCount();
-  std::atomic<int64_t> tests{0};
-  runParallel(
-      items, threads, control,
-      [&](int64_t item) {
-        tests.fetch_add(runKernel<M>([&] { return castRays<Real, M>(group, in, out, item, control.cancel); }));
-      },
-      poll);
-  CastStats stats;
-  stats.intersectionTests = tests.load();
-  return stats;
-}
-
-}  // namespace
 
 template <typename Real>
 CastStats cast(const Scene& scene, const CastInput& input, const CastOutput<Real>& output, JobControl& control,
@@ -76,9 +15,15 @@ CastStats cast(const Scene& scene, const CastInput& input, const CastOutput<Real
   requireRange(input.tMin, input.tMax, "t_min", "t_max");
   if (input.threads < 0) fail("threads must be >= 0 (0: all cores), got " + std::to_string(input.threads));
   const auto start = std::chrono::steady_clock::now();
-  CastStats stats = withSphereMethod(input.sphereMethod, [&](auto method) {
-    return castWith<Real, decltype(method)::value>(scene, input, output, control, poll);
-  });
+  const CastJob<Real> job{scene, input, output, control, poll};
+  CastStats stats;
+  if (input.sphereMethod != SphereMethod::Robust) {
+    stats = castLecture<Real>(job, input.sphereMethod);
+  } else if constexpr (std::is_same_v<Real, float>) {
+    stats = kernels().castFloat(job);
+  } else {
+    stats = kernels().castDouble(job);
+  }
   stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return stats;
 }

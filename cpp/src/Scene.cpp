@@ -1,5 +1,7 @@
 #include "durer/scene/Scene.h"
 
+#include "durer/render/WorkQueue.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -50,7 +52,7 @@ std::unique_lock<std::mutex> Scene::changeGeometry() {
 }
 
 template <typename Real>
-std::shared_ptr<const Group<Real>> Scene::prepared() const {
+std::shared_ptr<const Group<Real>> Scene::prepared(int threads) const {
   std::lock_guard<std::mutex> lock(m_preparedMutex);
   auto& cached = [this]() -> std::shared_ptr<const Group<Real>>& {
     if constexpr (std::is_same_v<Real, float>) return m_preparedFloat;
@@ -58,14 +60,14 @@ std::shared_ptr<const Group<Real>> Scene::prepared() const {
   }();
   if (!cached) {
     auto group = std::make_shared<Group<Real>>(m_group);
-    group->prepare();
+    group->prepare(threads > 0 ? threads : defaultThreadCount());
     cached = std::move(group);
   }
   return cached;
 }
 
-template std::shared_ptr<const Group<float>> Scene::prepared<float>() const;
-template std::shared_ptr<const Group<double>> Scene::prepared<double>() const;
+template std::shared_ptr<const Group<float>> Scene::prepared<float>(int) const;
+template std::shared_ptr<const Group<double>> Scene::prepared<double>(int) const;
 
 int32_t Scene::takeObjectIds(size_t count) {
   if (count > static_cast<size_t>(std::numeric_limits<int32_t>::max() - m_objectCount)) {

@@ -37,10 +37,10 @@ class BoxSet : public PrimitiveSet<Box<Real>, Real> {
     });
   }
 
-  void buildBvh() {
+  void buildBvh(int threads) {
     std::vector<Vec3<Real>> lo(this->m_primitives.size()), hi(this->m_primitives.size());
     for (size_t i = 0; i < this->m_primitives.size(); ++i) lo[i] = this->m_primitives[i].lo, hi[i] = this->m_primitives[i].hi;
-    Base::buildBvh(std::move(lo), std::move(hi));
+    Base::buildBvh(lo, hi, threads);
   }
 
   // Grows [lo, hi] to hold every box.
@@ -50,13 +50,19 @@ class BoxSet : public PrimitiveSet<Box<Real>, Real> {
 
   // Lowers each ray's tHit to its closest box hit in [tMin, tHit); box i is recorded as
   // primBase + i. Returns the ray-box tests made.
+  template <bool AnyHit = false>
   int64_t intersect(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
     if (this->m_primitives.empty()) return 0;
     const PacketInverse<Real> inv(packet);
     const auto testRange = [&](int32_t first, int32_t count) {
-      for (int32_t i = first; i < first + count; ++i) intersectOne(packet, inv, this->m_primitives[static_cast<size_t>(i)], primBase + i);
+      for (int32_t i = first; i < first + count; ++i) {
+        for (int k = 0; k < packet.count; ++k) intersectRay(packet, inv, k, this->m_primitives[static_cast<size_t>(i)], primBase + i);
+      }
     };
-    return this->search(packet, cancel, testRange);
+    const auto testRay = [&](int32_t first, int32_t count, int k) {
+      for (int32_t i = first; i < first + count; ++i) intersectRay(packet, inv, k, this->m_primitives[static_cast<size_t>(i)], primBase + i);
+    };
+    return this->template search<AnyHit>(packet, cancel, testRange, testRay);
   }
 
   // Full record of ray k's hit on box `index`: the face is the axis along which the hit point is
@@ -85,17 +91,15 @@ class BoxSet : public PrimitiveSet<Box<Real>, Real> {
   }
 
  private:
-  static void intersectOne(RayPacket<Real>& packet, const PacketInverse<Real>& inv, const Box<Real>& b, int32_t id) {
+  static void intersectRay(RayPacket<Real>& packet, const PacketInverse<Real>& inv, int k, const Box<Real>& b, int32_t id) {
     constexpr Real inf = std::numeric_limits<Real>::infinity();
-    for (int k = 0; k < packet.count; ++k) {
-      Real nearT = -inf, farT = inf;
-      slab(b.lo.x, b.hi.x, packet.ox[k], inv.x[k], nearT, farT);
-      slab(b.lo.y, b.hi.y, packet.oy[k], inv.y[k], nearT, farT);
-      slab(b.lo.z, b.hi.z, packet.oz[k], inv.z[k], nearT, farT);
-      // Entry if it is in range, else the exit (the ray starts inside).
-      const Real t = nearT >= packet.tMin ? nearT : farT;
-      recordHit(packet, k, t, id, (nearT <= farT) & (t < inf));
-    }
+    Real nearT = -inf, farT = inf;
+    slab(b.lo.x, b.hi.x, packet.ox[k], inv.x[k], nearT, farT);
+    slab(b.lo.y, b.hi.y, packet.oy[k], inv.y[k], nearT, farT);
+    slab(b.lo.z, b.hi.z, packet.oz[k], inv.z[k], nearT, farT);
+    // Entry if it is in range, else the exit (the ray starts inside).
+    const Real t = nearT >= packet.tMin ? nearT : farT;
+    recordHit(packet, k, t, id, (nearT <= farT) & (t < inf));
   }
 
   using Base = PrimitiveSet<Box<Real>, Real>;

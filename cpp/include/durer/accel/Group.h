@@ -110,16 +110,17 @@ class Group {
     return c;
   }
 
-  // Ready for tracing: hierarchies where they pay, the instances' packed ranges and world bounds.
-  void prepare() {
-    // Below this many primitives a packet tests them all faster than it walks a hierarchy.
+  // Ready for tracing: hierarchies where they pay (built on up to `threads` threads), the instances'
+  // packed ranges and world bounds.
+  void prepare(int threads) {
+    // Below this many primitives a packet tests them all faster than its rays walk a hierarchy.
     constexpr size_t kBvhMinPrimitives = 16;
-    if (m_spheres.size() >= kBvhMinPrimitives) m_spheres.buildBvh();
-    if (m_triangles.size() >= kBvhMinPrimitives) m_triangles.buildBvh();
-    if (m_boxes.size() >= kBvhMinPrimitives) m_boxes.buildBvh();
+    if (m_spheres.size() >= kBvhMinPrimitives) m_spheres.buildBvh(threads);
+    if (m_triangles.size() >= kBvhMinPrimitives) m_triangles.buildBvh(threads);
+    if (m_boxes.size() >= kBvhMinPrimitives) m_boxes.buildBvh(threads);
     size_t base = ownPrimitiveCount();
     for (Instance<Real>& inst : m_instances) {
-      inst.child->prepare();
+      inst.child->prepare(threads);
       inst.primBase = static_cast<int32_t>(base);
       base += inst.child->primitiveCount();
       inst.bounded = inst.child->worldBounds(inst.worldFromObject, inst.lo, inst.hi);
@@ -130,15 +131,23 @@ class Group {
   template <SphereMethod M>
   int64_t intersect(RayPacket<Real>& packet, const std::atomic<bool>* cancel) const {
     packet.resetHits();
-    return search<M>(packet, 0, cancel);
+    return search<M, false>(packet, 0, cancel);
+  }
+
+  // Shadow rays: whether each ray meets anything in [tMin, tMax) (prim != kNoPrimitive), its search
+  // stopped at the first hit found, which need not be the closest.
+  template <SphereMethod M>
+  int64_t occluded(RayPacket<Real>& packet, const std::atomic<bool>* cancel) const {
+    packet.resetHits();
+    return search<M, true>(packet, 0, cancel);
   }
 
   // Lowers each ray's tHit to its closest hit among this group's primitives (its transformed
-  // groups' included), recorded as primBase + their packed index.
-  template <SphereMethod M>
+  // groups' included), recorded as primBase + their packed index; with AnyHit, to any hit.
+  template <SphereMethod M, bool AnyHit>
   int64_t search(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
-    int64_t tests = searchOwn<M>(packet, primBase, cancel);
-    if (!m_instances.empty()) tests += searchInstances<M>(packet, primBase, cancel);
+    int64_t tests = searchOwn<M, AnyHit>(packet, primBase, cancel);
+    if (!m_instances.empty()) tests += searchInstances<M, AnyHit>(packet, primBase, cancel);
     return tests;
   }
 
@@ -189,17 +198,17 @@ class Group {
 
   // The search and hit record over this group's own primitives. A transformed group's child has no
   // instances, and calling these (not search/hit) on it keeps the hot path free of recursion, which
-  // the render kernels' flatten attribute could not inline (HotKernel.h).
-  template <SphereMethod M>
+  // the compiler could not inline.
+  template <SphereMethod M, bool AnyHit>
   int64_t searchOwn(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
     int32_t base = primBase;
-    int64_t tests = m_spheres.template intersect<M>(packet, base, cancel);
+    int64_t tests = m_spheres.template intersect<M, AnyHit>(packet, base, cancel);
     base += static_cast<int32_t>(m_spheres.size());
     tests += m_planes.intersect(packet, base, cancel);
     base += static_cast<int32_t>(m_planes.size());
-    tests += m_triangles.intersect(packet, base, cancel);
+    tests += m_triangles.template intersect<AnyHit>(packet, base, cancel);
     base += static_cast<int32_t>(m_triangles.size());
-    tests += m_boxes.intersect(packet, base, cancel);
+    tests += m_boxes.template intersect<AnyHit>(packet, base, cancel);
     return tests;
   }
 
@@ -215,15 +224,15 @@ class Group {
     return m_boxes.hit(packet, k, index - m_triangles.size());
   }
 
-  template <SphereMethod M>
+  template <SphereMethod M, bool AnyHit>
   int64_t searchInstances(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
     const PacketInverse<Real> inv(packet);
     int64_t tests = 0;
     RayPacket<Real> local;
     for (const Instance<Real>& inst : m_instances) {
-      if (inst.bounded && !Bvh<Real>::anyRayEnters(packet, inv, inst.lo, inst.hi)) continue;
+      if (inst.bounded && !anyRayEnters(packet, inv, inst.lo, inst.hi)) continue;
       inst.toObject(packet, local);
-      tests += inst.child->template searchOwn<M>(local, primBase + inst.primBase, cancel);
+      tests += inst.child->template searchOwn<M, AnyHit>(local, primBase + inst.primBase, cancel);
       for (int k = 0; k < packet.count; ++k) {
         const bool closer = local.prim[k] != kNoPrimitive;  // the child only records hits closer than tHit
         packet.tHit[k] = closer ? local.tHit[k] : packet.tHit[k];

@@ -44,7 +44,7 @@ class PlaneSet : public PrimitiveSet<Plane<Real>, Real> {
   // t = ±inf or NaN (lying in it: 0/0), neither of which passes the range test.
   // Returns the ray-plane tests made.
   int64_t intersect(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
-    return this->search(packet, cancel, [&](int32_t first, int32_t count) {
+    return this->searchAll(packet, cancel, [&](int32_t first, int32_t count) {
       for (int32_t i = first; i < first + count; ++i) {
         const Plane<Real>& plane = this->m_primitives[static_cast<size_t>(i)];
         if (plane.bounded) {

@@ -4,6 +4,7 @@
 // (ids, not pointers), the reorder to a hierarchy's order, the search over every primitive any ray
 // of a packet may meet with one cancel policy, the closer-hit epilog of the search and the ids of the
 // hit record.
+#include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <limits>
@@ -55,21 +56,41 @@ class PrimitiveSet {
     m_objectIds = other.objectIds();
   }
 
-  // Builds the hierarchy over the primitives' boxes [lo[i], hi[i]] and reorders the primitives and
-  // their ids to its order.
-  void buildBvh(std::vector<Vec3<Real>> lo, std::vector<Vec3<Real>> hi) {
-    const std::vector<uint32_t> order = m_bvh.build(std::move(lo), std::move(hi));
+  // Builds the hierarchy over the primitives' boxes [lo[i], hi[i]] on up to `threads` threads and
+  // reorders the primitives and their ids to its order.
+  void buildBvh(const std::vector<Vec3<Real>>& lo, const std::vector<Vec3<Real>>& hi, int threads) {
+    const std::vector<uint32_t> order = m_bvh.build(lo, hi, threads);
     permute(m_primitives, order);
     permute(m_materials, order);
     permute(m_objectIds, order);
   }
 
-  // Calls testRange(first, count) for the primitives any ray of the packet may meet: the leaves of
-  // the hierarchy, or without one every primitive, kCancelBatch at a time. Gives up once *cancel is
-  // set (the packet is then garbage). Returns the ray-primitive tests made.
+  // Finds each ray's hits among the primitives it may meet. With a hierarchy, one ray at a time:
+  // testRay(first, count, k) for ray k and each leaf it may meet before its current hit (with AnyHit,
+  // none after its first hit). Without one, the whole packet against every primitive, kCancelBatch at
+  // a time: testRange(first, count). Gives up once *cancel is set (the packet is then garbage).
+  // Returns the ray-primitive tests made.
+  template <bool AnyHit, typename TestRange, typename TestRay>
+  int64_t search(RayPacket<Real>& packet, const std::atomic<bool>* cancel, TestRange&& testRange,
+                 TestRay&& testRay) const {
+    if (m_bvh.empty()) return searchAll(packet, cancel, testRange);
+    int64_t visited = 0;
+    for (int k = 0; k < packet.count; ++k) {
+      if (cancel && cancel->load(std::memory_order_relaxed)) break;
+      if (AnyHit && packet.prim[k] != kNoPrimitive) continue;
+      const BvhRay<Real> ray(packet.ox[k], packet.oy[k], packet.oz[k], packet.dx[k], packet.dy[k], packet.dz[k],
+                             packet.tMin);
+      visited += m_bvh.traverse(ray, packet.tHit[k], [&](int32_t first, int32_t count) {
+        testRay(first, count, k);
+        return AnyHit && packet.prim[k] != kNoPrimitive;
+      });
+    }
+    return visited;
+  }
+
+  // The whole packet against every primitive (sets without a hierarchy), kCancelBatch at a time.
   template <typename TestRange>
-  int64_t search(const RayPacket<Real>& packet, const std::atomic<bool>* cancel, TestRange&& testRange) const {
-    if (!m_bvh.empty()) return m_bvh.traverse(packet, cancel, testRange) * packet.count;
+  int64_t searchAll(const RayPacket<Real>& packet, const std::atomic<bool>* cancel, TestRange&& testRange) const {
     int64_t visited = 0;
     for (size_t first = 0; first < m_primitives.size(); first += kCancelBatch) {
       if (first && cancel && cancel->load(std::memory_order_relaxed)) break;
@@ -79,6 +100,8 @@ class PrimitiveSet {
     }
     return visited * packet.count;
   }
+
+  size_t bvhBytes() const { return m_bvh.bytes(); }
 
   // The hit record's epilog: the ids of primitive `index`.
   void recordIds(Hit<Real>& hit, size_t index) const {

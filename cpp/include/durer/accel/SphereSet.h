@@ -35,14 +35,14 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
 
   // Builds the bounding-volume hierarchy (and reorders the spheres and their ids to its order);
   // worth it above a few dozen spheres, after which intersect() traverses it.
-  void buildBvh() {
+  void buildBvh(int threads) {
     std::vector<Vec3<Real>> lo(this->m_primitives.size()), hi(this->m_primitives.size());
     for (size_t i = 0; i < this->m_primitives.size(); ++i) {
       lo[i] = this->m_primitives[i].center - this->m_primitives[i].radius;
       hi[i] = this->m_primitives[i].center + this->m_primitives[i].radius;
       roundOutward(lo[i], hi[i]);
     }
-    Base::buildBvh(std::move(lo), std::move(hi));
+    Base::buildBvh(lo, hi, threads);
   }
 
   // Grows [lo, hi] to hold every sphere (the bounds of a transformed group).
@@ -53,18 +53,39 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     }
   }
 
-  // Lowers each ray's tHit to its closest sphere hit in [tMin, tHit); sphere i is recorded as
-  // primBase + i. Gives up if *cancel is set (checked every few thousand sphere or node visits;
-  // the packet is then garbage).
-  // Returns the ray-sphere tests made (packet rays × spheres visited).
-  template <SphereMethod M>
+  // Lowers each ray's tHit to its closest sphere hit in [tMin, tHit) (with AnyHit: to some hit, for
+  // rays without one yet); sphere i is recorded as primBase + i. Gives up if *cancel is set (checked
+  // every ray or every few thousand spheres; the packet is then garbage).
+  // Returns the ray-sphere tests made.
+  template <SphereMethod M, bool AnyHit = false>
   int64_t intersect(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
     if (this->m_primitives.empty()) return 0;
     PacketRayTerms<Real> terms;
     terms.template compute<M>(packet.dx, packet.dy, packet.dz, packet.count);
-    return this->search(packet, cancel, [&](int32_t first, int32_t count) {
-      for (int32_t i = first; i < first + count; ++i) intersectOne<M>(packet, terms, static_cast<size_t>(i), primBase);
-    });
+    return this->template search<AnyHit>(
+        packet, cancel,
+        [&](int32_t first, int32_t count) {
+          for (int32_t i = first; i < first + count; ++i) intersectOne<M>(packet, terms, static_cast<size_t>(i), primBase);
+        },
+        [&](int32_t first, int32_t count, int k) {
+          const SphereRayTerms<Real> rayTerms = terms[k];
+          for (int32_t i = first; i < first + count; ++i) intersectRay<M>(packet, rayTerms, k, static_cast<size_t>(i), primBase);
+        });
+  }
+
+  // One sphere against ray k: the same arithmetic as intersectOne's loop, so the same t.
+  template <SphereMethod M>
+  void intersectRay(RayPacket<Real>& packet, const SphereRayTerms<Real>& terms, int k, size_t i, int32_t primBase) const {
+    const Vec3<Real> c = this->m_primitives[i].center;
+    const Real r = this->m_primitives[i].radius;
+    const Real ox = packet.ox[k], oy = packet.oy[k], oz = packet.oz[k];
+    if constexpr (M == SphereMethod::Robust) {
+      const Real fx = ox - c.x, fy = oy - c.y, fz = oz - c.z;
+      if (!robustMayMeet(r, lineDistanceSq(fx, fy, fz, terms), std::fabs(fx) + std::fabs(fy) + std::fabs(fz))) return;
+    }
+    const SphereRoots<Real> roots =
+        sphereRoots<M>(ox, oy, oz, c, packet.dx[k], packet.dy[k], packet.dz[k], terms, r, packet.tMin);
+    recordHit(packet, k, firstRootFrom(roots, packet.tMin), primBase + static_cast<int32_t>(i));
   }
 
   // One sphere against every ray of the packet: the vectorised inner loop.

@@ -89,14 +89,14 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real> {
     });
   }
 
-  void buildBvh() {
+  void buildBvh(int threads) {
     std::vector<Vec3<Real>> lo(this->m_primitives.size()), hi(this->m_primitives.size());
     for (size_t i = 0; i < this->m_primitives.size(); ++i) {
       const Triangle<Real>& t = this->m_primitives[i];
       lo[i] = glm::min(t.v0, glm::min(t.v1, t.v2));
       hi[i] = glm::max(t.v0, glm::max(t.v1, t.v2));
     }
-    Base::buildBvh(std::move(lo), std::move(hi));
+    Base::buildBvh(lo, hi, threads);
   }
 
   // Grows [lo, hi] to hold every triangle.
@@ -109,6 +109,7 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real> {
 
   // Lowers each ray's tHit to its closest triangle hit in [tMin, tHit); triangle i is recorded as
   // primBase + i. Returns the ray-triangle tests made.
+  template <bool AnyHit = false>
   int64_t intersect(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
     if (this->m_primitives.empty()) return 0;
     RayShear<Real> shears[kPacketSize];
@@ -116,16 +117,19 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real> {
     // leave: such hits need t conservatively above 0. A camera with t_min = -inf keeps every root.
     const bool countsFromZero = packet.tMin >= 0;
     for (int k = 0; k < packet.count; ++k) shears[k] = RayShear<Real>(packet.dx[k], packet.dy[k], packet.dz[k]);
-    const auto testRange = [&](int32_t first, int32_t count) {
+    const auto testRay = [&](int32_t first, int32_t count, int k) {
       for (int32_t i = first; i < first + count; ++i) {
         const Triangle<Real>& tri = this->m_primitives[static_cast<size_t>(i)];
-        for (int k = 0; k < packet.count; ++k) {
-          const TriangleHit<Real> h = test(tri, packet.ox[k], packet.oy[k], packet.oz[k], shears[k], countsFromZero);
-          recordHit(packet, k, h.t, primBase + i, h.hit);
-        }
+        const TriangleHit<Real> h = test(tri, packet.ox[k], packet.oy[k], packet.oz[k], shears[k], countsFromZero);
+        recordHit(packet, k, h.t, primBase + i, h.hit);
       }
     };
-    return this->search(packet, cancel, testRange);
+    const auto testRange = [&](int32_t first, int32_t count) {
+      for (int32_t i = first; i < first + count; ++i) {
+        for (int k = 0; k < packet.count; ++k) testRay(i, 1, k);
+      }
+    };
+    return this->template search<AnyHit>(packet, cancel, testRange, testRay);
   }
 
   // Full record of ray k's hit on triangle `index` at packet.tHit[k]: the point from the

@@ -1,7 +1,11 @@
 #pragma once
 // The slab test of a ray against an axis-aligned box, one axis at a time: the one used by the BVH's
 // node test and by the box primitive (BoxSet), so both agree on every ray.
+#include <algorithm>
 #include <limits>
+
+#include "durer/geometry/RayPacket.h"
+#include "durer/math/Float.h"
 
 namespace durer {
 
@@ -20,6 +24,41 @@ inline void slab(Real lo, Real hi, Real o, Real inv, Real& nearT, Real& farT) {
   const Real tFar = defined ? (t0 < t1 ? t1 : t0) : inf;
   nearT = tNear > nearT ? tNear : nearT;
   farT = tFar < farT ? tFar : farT;
+}
+
+// Each ray's reciprocal direction, for slab tests (computed once per packet).
+template <typename Real>
+struct PacketInverse {
+  alignas(64) Real x[kPacketSize], y[kPacketSize], z[kPacketSize];
+  explicit PacketInverse(const RayPacket<Real>& p) {
+    for (int k = 0; k < p.count; ++k) x[k] = 1 / p.dx[k], y[k] = 1 / p.dy[k], z[k] = 1 / p.dz[k];
+  }
+};
+
+// Whether any ray of the packet may meet the box [lo, hi] (rounded outward) at some t in
+// [tMin, its tHit], the slab's t widened by 2γ₅ for their own rounding (as in Bvh.h). Rays are
+// tested 16 at a time (a vectorised loop each), stopping at the first chunk with a ray that enters.
+template <typename Real>
+bool anyRayEnters(const RayPacket<Real>& p, const PacketInverse<Real>& inv, const Vec3<Real>& lo, const Vec3<Real>& hi) {
+  constexpr Real inf = std::numeric_limits<Real>::infinity();
+  constexpr Real widen = 2 * errorGamma<Real>(5);
+  constexpr int kChunk = 16;
+  for (int first = 0; first < p.count; first += kChunk) {
+    int entering = 0;  // an integer count, not a bool: the reduction then vectorises
+    for (int k = first; k < std::min(first + kChunk, p.count); ++k) {
+      Real nearT = -inf, farT = inf;
+      slab(lo.x, hi.x, p.ox[k], inv.x[k], nearT, farT);
+      slab(lo.y, hi.y, p.oy[k], inv.y[k], nearT, farT);
+      slab(lo.z, hi.z, p.oz[k], inv.z[k], nearT, farT);
+      nearT = widenDown(nearT, widen);
+      farT = widenUp(farT, widen);
+      nearT = p.tMin > nearT ? p.tMin : nearT;
+      farT = p.tHit[k] < farT ? p.tHit[k] : farT;
+      entering += nearT <= farT ? 1 : 0;
+    }
+    if (entering > 0) return true;
+  }
+  return false;
 }
 
 }  // namespace durer

@@ -120,7 +120,7 @@ class PacketShader {
       // t > 0: an offset of a few ulps of a number near 0 can underflow to t = -0 in the plane test.
       shadow.tMin = std::numeric_limits<Real>::denorm_min();
       shadow.tMax = light.shadowTMax();
-      counters.intersectionTests += m_group.template intersect<M>(shadow, &m_cancel);
+      counters.intersectionTests += m_group.template occluded<M>(shadow, &m_cancel);
       counters.shadow += shadow.count;
       for (int j = 0; j < shadow.count; ++j) {
         if (shadow.prim[j] == kNoPrimitive) rgb[pixelOf[j]] += term[j];

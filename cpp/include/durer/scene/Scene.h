@@ -55,9 +55,10 @@ class Scene {
 
   const Group<double>& group() const { return m_group; }
   // The geometry as traced in precision Real: rounded to it, with its acceleration structure. Built
-  // on first use and kept until the scene changes; safe to call from concurrent renders.
+  // on first use (on `threads` threads, 0: all cores) and kept until the scene changes; safe to call
+  // from concurrent renders.
   template <typename Real>
-  std::shared_ptr<const Group<Real>> prepared() const;
+  std::shared_ptr<const Group<Real>> prepared(int threads) const;
   const std::vector<Material>& materials() const { return m_materials; }
   const std::vector<DirectionalLight>& directionalLights() const { return m_directionalLights; }
   const std::vector<PointLight>& pointLights() const { return m_pointLights; }

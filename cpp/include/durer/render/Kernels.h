@@ -1,0 +1,60 @@
+#pragma once
+// The hot kernels' entry points: a render and a cast per precision for the robust sphere test,
+// compiled once per instruction set (src/kernels; CMakeLists.txt keeps each set's inline code to
+// itself), and the lecture's sphere methods, compiled once, for the accuracy comparisons. kernels()
+// picks the set for this CPU when first called: once per process, never per function call.
+#include <functional>
+
+#include "durer/render/Cast.h"
+#include "durer/render/Renderer.h"
+
+namespace durer {
+
+struct RenderJob {
+  const Scene& scene;
+  const CameraSpec& camera;
+  const RenderSettings& settings;
+  const RenderTargets& targets;
+  EffectSet effects;  // decided once per render (Renderer.cpp)
+  JobControl& control;
+  const std::function<void()>& poll;
+};
+
+template <typename Real>
+struct CastJob {
+  const Scene& scene;
+  const CastInput& input;
+  const CastOutput<Real>& output;
+  JobControl& control;
+  const std::function<void()>& poll;
+};
+
+// One instruction set's robust kernels.
+struct KernelSet {
+  const char* isa;  // "x86-64-v2", "x86-64-v3", "native" or "generic"
+  RenderStats (*renderFloat)(const RenderJob&);
+  RenderStats (*renderDouble)(const RenderJob&);
+  CastStats (*castFloat)(const CastJob<float>&);
+  CastStats (*castDouble)(const CastJob<double>&);
+};
+
+// The best kernel set this CPU runs.
+const KernelSet& kernels();
+
+// The lecture's sphere methods (algebraic, geometric), compiled for the baseline instruction set.
+template <typename Real>
+RenderStats renderLecture(const RenderJob& job, SphereMethod method);
+template <typename Real>
+CastStats castLecture(const CastJob<Real>& job, SphereMethod method);
+
+// Each kernel set's entry points, in a namespace of its own (DURER_ISA when a set is compiled); the
+// only symbols of a set that stay global in the library (CMakeLists.txt).
+#define DURER_DECLARE_KERNEL_SET(ns)                              \
+  namespace ns {                                                  \
+  RenderStats renderFloat(const RenderJob& job);                  \
+  RenderStats renderDouble(const RenderJob& job);                 \
+  CastStats castFloat(const CastJob<float>& job);                 \
+  CastStats castDouble(const CastJob<double>& job);               \
+  }
+
+}  // namespace durer

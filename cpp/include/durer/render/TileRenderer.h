@@ -1,0 +1,391 @@
+#pragma once
+// The render kernel: 8x8-pixel tiles traced as packets of camera rays, shaded by PacketShader,
+// accumulated over the samples and written to the targets. Instantiated for one precision and sphere
+// method per kernel translation unit (src/kernels), each compiled once per instruction set.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <mutex>
+#include <vector>
+
+#include "durer/render/Kernels.h"
+#include "durer/render/PacketShader.h"
+#include "durer/render/PixelSampler.h"
+#include "durer/render/Renderer.h"
+#include "durer/render/Shading.h"
+
+namespace durer {
+namespace tiles {
+
+constexpr int kTileSize = 8;  // 8x8 pixels = one packet of kPacketSize rays per sample
+static_assert(kTileSize * kTileSize == kPacketSize, "a tile is one packet");
+
+inline RenderSettings::Region regionOf(const RenderSettings& s) {
+  return s.region.width != 0 ? s.region : RenderSettings::Region{0, 0, s.width, s.height};
+}
+
+template <typename Real, SphereMethod M>
+class TileRenderer {
+ public:
+  TileRenderer(const Scene& scene, const Group<Real>& group, const CameraSpec& spec, const RenderSettings& settings,
+               const RenderTargets& targets, const EffectSet& effects, const std::atomic<bool>& cancel)
+      : m_group(group),
+        m_camera(spec, settings.width, settings.height),
+        m_shading(scene),
+        m_sampler(settings.sampler, settings.samplesPerPixel, settings.seed),
+        m_settings(settings),
+        m_targets(targets),
+        m_cancel(cancel),
+        m_flat(scene, group),
+        m_shader(group, m_shading, effects, BounceLimits{settings.maxBounces, settings.minWeight, settings.shadeBack},
+                 toReal<Real>(Vec3d(scene.background())), cancel),
+        m_needHits(targets.color != nullptr && (effects.lit || effects.bounces())),
+        m_shadeBack(settings.shadeBack),
+        m_planarDepth(settings.depth == DepthKind::Planar),
+        m_region(regionOf(settings)),
+        m_firstTileX(m_region.x / kTileSize),
+        m_firstTileY(m_region.y / kTileSize),
+        m_tilesX((m_region.x + m_region.width + kTileSize - 1) / kTileSize - m_firstTileX) {}
+
+  // The whole image's tiles that meet the region (a region's tiles are the image's, clipped).
+  int64_t tileCount() const {
+    const int tilesY = (m_region.y + m_region.height + kTileSize - 1) / kTileSize - m_firstTileY;
+    return static_cast<int64_t>(m_tilesX) * tilesY;
+  }
+
+  // Renders one tile; returns what it traced (nothing if cancelled before the tile finished).
+  RayCounters render(int64_t tile) const {
+    return renderTile(tile);
+  }
+
+ private:
+  RayCounters renderTile(int64_t tile) const {
+    const int tileX = (m_firstTileX + static_cast<int>(tile % m_tilesX)) * kTileSize;
+    const int tileY = (m_firstTileY + static_cast<int>(tile / m_tilesX)) * kTileSize;
+    const int x0 = std::max(tileX, m_region.x), y0 = std::max(tileY, m_region.y);
+    const int w = std::min(tileX + kTileSize, m_region.x + m_region.width) - x0;
+    const int h = std::min(tileY + kTileSize, m_region.y + m_region.height) - y0;
+    const int count = w * h;
+    Accumulator acc;
+    acc.clear(count);
+    RayCounters counters;
+    if (m_sampler.kind() == SamplerKind::Adaptive) {
+      if (!renderAdaptive(x0, y0, w, h, acc, counters)) return {};
+      write(acc, x0, y0, w, h);
+      return counters;
+    }
+    RayPacket<Real> packet;
+    alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
+    for (int s = 0; s < m_sampler.samplesPerPixel(); ++s) {
+      for (int row = 0, k = 0; row < h; ++row) {
+        for (int col = 0; col < w; ++col, ++k) samplePosition(x0 + col, y0 + row, s, sampleX[k], sampleY[k]);
+      }
+      m_camera.generate(packet, sampleX, sampleY, count);
+      counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
+      if (m_cancel.load(std::memory_order_relaxed)) return {};
+      accumulate(packet, acc, counters);
+      counters.camera += count;
+    }
+    if (m_cancel.load(std::memory_order_relaxed)) return {};
+    std::fill(acc.samples, acc.samples + count, Real(m_sampler.samplesPerPixel()));
+    write(acc, x0, y0, w, h);
+    return counters;
+  }
+
+  // Per-pixel sums over the samples of a tile, structure-of-arrays.
+  struct Accumulator {
+    alignas(64) Real r[kPacketSize], g[kPacketSize], b[kPacketSize], a[kPacketSize];  // colour sums
+    alignas(64) Real depth[kPacketSize];                                          // nearest t
+    alignas(64) Real nx[kPacketSize], ny[kPacketSize], nz[kPacketSize];           // normal sums
+    alignas(64) Real samples[kPacketSize];                                        // samples taken
+    void clear(int count) {
+      for (int k = 0; k < count; ++k) {
+        r[k] = g[k] = b[k] = a[k] = nx[k] = ny[k] = nz[k] = samples[k] = 0;
+        depth[k] = std::numeric_limits<Real>::infinity();
+      }
+    }
+    // Adds entry j of `other` (one sample's values) to pixel k.
+    void add(int k, const Accumulator& other, int j) {
+      r[k] += other.r[j], g[k] += other.g[j], b[k] += other.b[j], a[k] += other.a[j];
+      nx[k] += other.nx[j], ny[k] += other.ny[j], nz[k] += other.nz[j];
+      depth[k] = std::min(depth[k], other.depth[j]);
+    }
+  };
+
+  // Colour of every material without lights, the background last; material of each primitive.
+  struct FlatTable {
+    std::vector<Real> r, g, b, a;       // by material id; index materials: the background
+    std::vector<int32_t> primMaterial;  // by packed primitive index + 1; entry 0 (a miss): the background
+    FlatTable(const Scene& scene, const Group<Real>& group) {
+      for (const Material& m : scene.materials()) {
+        r.push_back(static_cast<Real>(m.diffuse.r + m.emission.r));
+        g.push_back(static_cast<Real>(m.diffuse.g + m.emission.g));
+        b.push_back(static_cast<Real>(m.diffuse.b + m.emission.b));
+        a.push_back(1);
+      }
+      const Vec4d& bg = scene.background();
+      r.push_back(static_cast<Real>(bg.r));
+      g.push_back(static_cast<Real>(bg.g));
+      b.push_back(static_cast<Real>(bg.b));
+      a.push_back(static_cast<Real>(bg.a));
+      primMaterial.push_back(static_cast<int32_t>(scene.materials().size()));
+      group.appendMaterials(primMaterial);
+    }
+  };
+
+  void samplePosition(int x, int y, int s, Real& sampleX, Real& sampleY) const {
+    double u, v;
+    m_sampler.offset(static_cast<uint64_t>(y) * m_settings.width + x, s, u, v);
+    sampleX = static_cast<Real>(x + u);
+    sampleY = static_cast<Real>(y + v);
+  }
+
+  // Adaptive sampling: every pixel takes min(4, spp) samples, then rounds of 4 more while its samples
+  // meet different primitives or the standard error of their mean luminance exceeds targetError, up
+  // to spp. Samples of the pixels still active are traced together, a packet per sample slot.
+  bool renderAdaptive(int x0, int y0, int w, int h, Accumulator& acc, RayCounters& counters) const {
+    constexpr int kRound = 4;
+    const int count = w * h, spp = m_sampler.samplesPerPixel();
+    const Real target = static_cast<Real>(m_settings.targetError);
+    alignas(64) Real luminance[kPacketSize], luminanceSq[kPacketSize];
+    alignas(64) int32_t firstPrim[kPacketSize];
+    alignas(64) bool mixed[kPacketSize];
+    std::fill(luminance, luminance + count, Real(0));
+    std::fill(luminanceSq, luminanceSq + count, Real(0));
+    std::fill(mixed, mixed + count, false);
+    int active[kPacketSize];
+    int activeCount = count;
+    for (int k = 0; k < count; ++k) active[k] = k;
+    RayPacket<Real> packet;
+    alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
+    for (int done = 0; activeCount > 0; done += done == 0 ? std::min(kRound, spp) : kRound) {
+      const int slots = std::min(kRound, spp - done);
+      for (int slot = 0; slot < slots; ++slot) {
+        for (int j = 0; j < activeCount; ++j) {
+          const int k = active[j];
+          samplePosition(x0 + k % w, y0 + k / w, done + slot, sampleX[j], sampleY[j]);
+        }
+        m_camera.generate(packet, sampleX, sampleY, activeCount);
+        counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
+        if (m_cancel.load(std::memory_order_relaxed)) return false;
+        Accumulator sample;
+        sample.clear(activeCount);
+        accumulate(packet, sample, counters);
+        counters.camera += activeCount;
+        for (int j = 0; j < activeCount; ++j) {
+          const int k = active[j];
+          acc.add(k, sample, j);
+          const Real y = Real(0.2126) * sample.r[j] + Real(0.7152) * sample.g[j] + Real(0.0722) * sample.b[j];
+          luminance[k] += y;
+          luminanceSq[k] += y * y;
+          if (done + slot == 0) firstPrim[k] = packet.prim[j];
+          mixed[k] = mixed[k] || packet.prim[j] != firstPrim[k];
+        }
+      }
+      const int taken = done + slots;
+      alignas(64) bool uncertain[kPacketSize] = {};
+      for (int j = 0; j < activeCount; ++j) {
+        const int k = active[j];
+        acc.samples[k] = static_cast<Real>(taken);
+        const Real mean = luminance[k] / taken;
+        const Real variance = std::max(luminanceSq[k] / taken - mean * mean, Real(0)) * taken / std::max(taken - 1, 1);
+        uncertain[k] = mixed[k] || std::sqrt(variance / taken) > target;
+      }
+      // An edge that only clips a pixel's corner can hide from its first samples; a neighbour (in
+      // the tile) that saw two objects gives it away, so such a pixel takes one more round to look.
+      const bool firstRound = done == 0;
+      int still = 0;
+      for (int j = 0; j < activeCount; ++j) {
+        const int k = active[j], col = k % w, row = k / w;
+        const bool nearMixed = firstRound && ((col > 0 && mixed[k - 1]) || (col + 1 < w && mixed[k + 1]) ||
+                                              (row > 0 && mixed[k - w]) || (row + 1 < h && mixed[k + w]));
+        if (taken < spp && (uncertain[k] || nearMixed)) active[still++] = k;
+      }
+      activeCount = still;
+    }
+    return true;
+  }
+
+  // Adds one sample per ray of the packet to the tile's sums.
+  void accumulate(const RayPacket<Real>& packet, Accumulator& acc, RayCounters& counters) const {
+    if (!m_needHits) {  // flat colours, depth and normals: no hit records
+      accumulateFlat(packet, acc);
+      if (m_targets.normal) accumulateNormals(packet, acc);
+      return;
+    }
+    alignas(64) Hit<Real> hits[kPacketSize];
+    for (int k = 0; k < packet.count; ++k) {
+      hits[k] = m_group.hit(packet, k);
+      if (!hits[k].isHit()) continue;
+      acc.depth[k] = std::min(acc.depth[k], m_planarDepth ? hits[k].t * planarScale(packet, k) : hits[k].t);
+      const Vec3<Real> n = m_shader.shadingNormal(hits[k], Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]));
+      acc.nx[k] += n.x;
+      acc.ny[k] += n.y;
+      acc.nz[k] += n.z;
+    }
+    alignas(64) Vec3<Real> rgb[kPacketSize];
+    alignas(64) Real weights[kPacketSize];
+    std::fill(weights, weights + packet.count, Real(1));
+    m_shader.shade(packet, hits, weights, 0, rgb, counters);
+    for (int k = 0; k < packet.count; ++k) {
+      addColor(acc, k, rgb[k].r, rgb[k].g, rgb[k].b, hits[k].isHit() ? Real(1) : m_flat.a.back());
+    }
+  }
+
+  // Normals of the packet's hits, branch-free over the spheres of the top-level group (so the loop
+  // vectorises, gathers and all), then the other hits through their hit records.
+  void accumulateNormals(const RayPacket<Real>& packet, Accumulator& acc) const {
+    const SphereSet<Real>& spheres = m_group.spheres();
+    const int32_t sphereCount = static_cast<int32_t>(spheres.size());
+    if (sphereCount > 0) {
+      const Sphere<Real>* sphere = &spheres.primitive(0);
+      for (int k = 0; k < packet.count; ++k) {
+        const int32_t prim = packet.prim[k];
+        const bool isSphere = (prim >= 0) & (prim < sphereCount);
+        const Sphere<Real>& s = sphere[isSphere ? prim : 0];
+        const Real t = isSphere ? packet.tHit[k] : Real(0);  // a miss's t is tMax, maybe inf
+        const Real vx = packet.ox[k] + t * packet.dx[k] - s.center.x;
+        const Real vy = packet.oy[k] + t * packet.dy[k] - s.center.y;
+        const Real vz = packet.oz[k] + t * packet.dz[k] - s.center.z;
+        const Real side = facingSign(vx * packet.dx[k] + vy * packet.dy[k] + vz * packet.dz[k], m_shadeBack);
+        const Real length = std::sqrt(vx * vx + vy * vy + vz * vz);
+        const Real scale = isSphere ? side / length : Real(0);
+        acc.nx[k] += vx * scale;
+        acc.ny[k] += vy * scale;
+        acc.nz[k] += vz * scale;
+      }
+    }
+    for (int k = 0; k < packet.count; ++k) {
+      if (packet.prim[k] < sphereCount) continue;
+      const Vec3<Real> n =
+          shadingNormal(m_group.hit(packet, k).normal, Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]), m_shadeBack);
+      acc.nx[k] += n.x;
+      acc.ny[k] += n.y;
+      acc.nz[k] += n.z;
+    }
+  }
+
+  // Unlit colour and depth need no hit record: a branch-free table lookup per ray.
+  void accumulateFlat(const RayPacket<Real>& packet, Accumulator& acc) const {
+    const Real inf = std::numeric_limits<Real>::infinity();
+    if (m_planarDepth) {
+      for (int k = 0; k < packet.count; ++k) {
+        const Real t = packet.tHit[k] * planarScale(packet, k);
+        acc.depth[k] = std::min(acc.depth[k], packet.prim[k] != kNoPrimitive ? t : inf);
+      }
+    } else {
+      for (int k = 0; k < packet.count; ++k) {
+        acc.depth[k] = std::min(acc.depth[k], packet.prim[k] != kNoPrimitive ? packet.tHit[k] : inf);
+      }
+    }
+    if (!m_targets.color) return;  // a depth (or normal) render computes t and nothing else
+    const int32_t* materialOf = m_flat.primMaterial.data() + 1;  // materialOf[kNoPrimitive]: the background
+    for (int k = 0; k < packet.count; ++k) {
+      const size_t m = static_cast<size_t>(materialOf[packet.prim[k]]);
+      addColor(acc, k, m_flat.r[m], m_flat.g[m], m_flat.b[m], m_flat.a[m]);
+    }
+  }
+
+  Real planarScale(const RayPacket<Real>& packet, int k) const {
+    return m_camera.planarScale(packet.dx[k], packet.dy[k], packet.dz[k]);
+  }
+
+  static void addColor(Accumulator& acc, int k, Real r, Real g, Real b, Real a) {
+    acc.r[k] += r;
+    acc.g[k] += g;
+    acc.b[k] += b;
+    acc.a[k] += a;
+  }
+
+  void write(const Accumulator& acc, int x0, int y0, int w, int h) const {
+    for (int row = 0; row < h; ++row) {
+      const size_t first = static_cast<size_t>(y0 + row - m_region.y) * m_region.width + (x0 - m_region.x);
+      const int k0 = row * w;
+      if (m_targets.samples) {
+        for (int col = 0; col < w; ++col) m_targets.samples[first + col] = static_cast<int32_t>(acc.samples[k0 + col]);
+      }
+      if (m_targets.color) {
+        float* out = m_targets.color + 4 * first;
+        for (int col = 0; col < w; ++col) {
+          const int k = k0 + col;
+          const Real invSpp = 1 / acc.samples[k];
+          out[4 * col + 0] = static_cast<float>(acc.r[k] * invSpp);
+          out[4 * col + 1] = static_cast<float>(acc.g[k] * invSpp);
+          out[4 * col + 2] = static_cast<float>(acc.b[k] * invSpp);
+          out[4 * col + 3] = static_cast<float>(acc.a[k] * invSpp);
+        }
+      }
+      if (m_targets.depth) {
+        float* out = m_targets.depth + first;
+        for (int col = 0; col < w; ++col) out[col] = static_cast<float>(acc.depth[k0 + col]);
+      }
+      if (m_targets.normal) {
+        float* out = m_targets.normal + 3 * first;
+        for (int col = 0; col < w; ++col) {
+          const int k = k0 + col;
+          // One sample's normal is unit already; a mean of several is renormalised (0 stays 0).
+          const Real length = acc.samples[k] == 1 ? 1 : std::sqrt(acc.nx[k] * acc.nx[k] + acc.ny[k] * acc.ny[k] + acc.nz[k] * acc.nz[k]);
+          const Real scale = length > 0 ? 1 / length : 0;
+          out[3 * col + 0] = static_cast<float>(acc.nx[k] * scale);
+          out[3 * col + 1] = static_cast<float>(acc.ny[k] * scale);
+          out[3 * col + 2] = static_cast<float>(acc.nz[k] * scale);
+        }
+      }
+    }
+  }
+
+  const Group<Real>& m_group;
+  Camera<Real> m_camera;
+  Shading<Real> m_shading;
+  PixelSampler m_sampler;
+  const RenderSettings& m_settings;
+  RenderTargets m_targets;
+  const std::atomic<bool>& m_cancel;
+  FlatTable m_flat;
+  PacketShader<Real, M> m_shader;
+  bool m_needHits;   // colour needs hit records: lights or secondary rays
+  bool m_shadeBack;
+  bool m_planarDepth;  // depth along the view axis, not along the ray
+  RenderSettings::Region m_region;
+  int m_firstTileX, m_firstTileY;
+  int m_tilesX;
+};
+
+}  // namespace tiles
+
+template <typename Real, SphereMethod M>
+RenderStats renderWith(const RenderJob& job) {
+  const Scene& scene = job.scene;
+  const CameraSpec& spec = job.camera;
+  const RenderSettings& settings = job.settings;
+  const RenderTargets& targets = job.targets;
+  JobControl& control = job.control;
+  const std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>(settings.threads);
+  const Group<Real>& group = *prepared;
+  const EffectSet& effects = job.effects;
+  const tiles::TileRenderer<Real, M> tiles(scene, group, spec, settings, targets, effects, control.cancel);
+  RenderStats stats;
+  stats.effects = effects;
+  stats.threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
+  // A work item is a strip of kStripTiles tiles along a row: threads then rarely write to the same
+  // cache line of the outputs, and the shared totals see one update per strip, not per tile.
+  constexpr int64_t kStripTiles = 8;
+  const int64_t tileCount = tiles.tileCount();
+  std::mutex totalsMutex;
+  runParallel(
+      (tileCount + kStripTiles - 1) / kStripTiles, stats.threads, control,
+      [&](int64_t strip) {
+        RayCounters counters;
+        for (int64_t tile = strip * kStripTiles; tile < std::min(tileCount, (strip + 1) * kStripTiles); ++tile) {
+          counters += tiles.render(tile);
+        }
+        const std::lock_guard<std::mutex> lock(totalsMutex);
+        stats.counters += counters;
+      },
+      job.poll);
+  stats.cancelled = control.cancel.load();
+  return stats;
+}
+
+
+}  // namespace durer

@@ -1,0 +1,72 @@
+"""The hot kernels are compiled once per instruction set (CMakeLists.txt, render/Kernels.h): each set
+must keep its inline and template code to itself, or an x86-64-v2 machine could run a copy compiled
+for AVX2. Checked on the objects the installed module was linked from, with binutils."""
+
+from __future__ import annotations
+
+import platform
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+from durer import _core
+
+ROOT = Path(__file__).resolve().parents[2]
+ENTRY_POINTS = {"renderFloat", "renderDouble", "castFloat", "castDouble"}
+# An instruction that only AVX machines run: a VEX-encoded mnemonic (v...) or a 256-bit register.
+AVX_INSTRUCTION = re.compile(r"^\s*[0-9a-f]+:\s+(v[a-z0-9]+\s|.*%ymm)", re.MULTILINE)
+
+
+def _kernel_objects() -> dict[str, Path]:
+    found = {p.stem.removeprefix("durer_kernels_"): p for p in ROOT.glob("build/cp*/durer_kernels_*.o")}
+    assert found, "no kernel set objects under build/: run `bash .ci/setup`"
+    return found
+
+
+def _tool(name: str) -> str:
+    path = shutil.which(name)
+    assert path, f"{name} (binutils) not found"
+    return path
+
+
+def _defined_globals(obj: Path) -> list[str]:
+    out = subprocess.run([_tool("nm"), "--defined-only", "--extern-only", "-C", str(obj)], capture_output=True,
+                         text=True, check=True).stdout
+    return [line.split(" ", 2)[2] for line in out.splitlines() if line.strip()]
+
+
+def test_each_kernel_set_exports_its_entry_points_and_nothing_else():
+    for name, obj in _kernel_objects().items():
+        symbols = _defined_globals(obj)
+        assert {s.split("(")[0].split("::")[-1] for s in symbols} == ENTRY_POINTS, (name, symbols)
+        assert all(s.startswith(f"durer::{name}::") for s in symbols), (name, symbols)
+
+
+@pytest.mark.skipif(platform.machine() != "x86_64", reason="x86-64 builds two kernel sets; others build one")
+def test_the_baseline_set_has_no_avx_instruction_and_the_v3_set_uses_avx2():
+    objects = _kernel_objects()
+    if "native" in objects:
+        pytest.skip("a DURER_NATIVE build has one kernel set, for the build machine")
+    assert set(objects) == {"x86_64_v2", "x86_64_v3"}
+    disassembly = {
+        name: subprocess.run([_tool("objdump"), "-d", "--no-show-raw-insn", str(obj)], capture_output=True, text=True,
+                             check=True).stdout
+        for name, obj in objects.items()
+    }
+    assert AVX_INSTRUCTION.search(disassembly["x86_64_v2"]) is None
+    assert "%ymm" in disassembly["x86_64_v3"]
+
+
+def test_the_module_runs_the_best_set_this_cpu_supports():
+    objects = _kernel_objects()
+    if "native" in objects:
+        assert _core.KERNEL_SET == "native"
+        return
+    flags = set()
+    cpuinfo = Path("/proc/cpuinfo")
+    if cpuinfo.exists():
+        flags = set(re.search(r"^flags\s*:(.*)$", cpuinfo.read_text(), re.MULTILINE).group(1).split())
+    v3 = {"avx2", "fma", "bmi1", "bmi2", "f16c", "abm", "movbe"} <= flags
+    assert _core.KERNEL_SET == ("x86-64-v3" if v3 else "x86-64-v2")
