@@ -4,6 +4,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "durer/accel/BoxSet.h"
@@ -78,6 +79,21 @@ TEST_CASE("widening keeps the range's ends on their sides, inf stays inf") {
   CHECK(widenUp(kInf, f) == kInf);
   CHECK(widenDown(-kInf, f) == -kInf);
   CHECK(widenDown(0.0, f) == 0.0);
+}
+
+TEST_CASE_TEMPLATE("nextUp and nextDown step exactly as std::nextafter toward +inf and -inf", Real, float, double) {
+  constexpr Real inf = std::numeric_limits<Real>::infinity();
+  const Real values[] = {Real(0), -Real(0), Real(1), Real(-1), Real(3.5e-3), Real(-7e12),
+                         std::numeric_limits<Real>::denorm_min(), -std::numeric_limits<Real>::denorm_min(),
+                         std::numeric_limits<Real>::min(), std::numeric_limits<Real>::max(),
+                         -std::numeric_limits<Real>::max(), inf, -inf};
+  for (const Real x : values) {
+    const Real up = nextUp(x), down = nextDown(x), refUp = std::nextafter(x, inf), refDown = std::nextafter(x, -inf);
+    CHECK(std::memcmp(&up, &refUp, sizeof up) == 0);
+    CHECK(std::memcmp(&down, &refDown, sizeof down) == 0);
+  }
+  CHECK(std::isnan(nextUp(std::numeric_limits<Real>::quiet_NaN())));
+  CHECK(std::isnan(nextDown(std::numeric_limits<Real>::quiet_NaN())));
 }
 
 TEST_CASE("inversePowerOfTwo is 2^-floor(log2 x), NaN outside the normal range") {

@@ -38,9 +38,7 @@ class BoxSet : public PrimitiveSet<Box<Real>, Real> {
   }
 
   void buildBvh(int threads) {
-    std::vector<Vec3<Real>> lo(this->m_primitives.size()), hi(this->m_primitives.size());
-    for (size_t i = 0; i < this->m_primitives.size(); ++i) lo[i] = this->m_primitives[i].lo, hi[i] = this->m_primitives[i].hi;
-    Base::buildBvh(lo, hi, threads);
+    Base::buildBvh([](const Box<Real>& b, Vec3<Real>& lo, Vec3<Real>& hi) { lo = b.lo, hi = b.hi; }, threads);
   }
 
   // Grows [lo, hi] to hold every box.

@@ -14,6 +14,7 @@
 #include <limits>
 #include <numeric>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "durer/geometry/Slab.h"
@@ -68,18 +69,18 @@ class Bvh {
   size_t size() const { return m_nodes.size(); }
   size_t bytes() const { return m_nodes.size() * sizeof(BvhNode<Real>); }
 
-  // Builds over primitives with boxes [lo[i], hi[i]] (already rounded outward by the caller) on up to
+  // Builds over `count` primitives with boxes boxOf(i, lo, hi) (rounded outward by boxOf) on up to
   // `threads` threads; returns the order the primitives must be stored in.
-  std::vector<uint32_t> build(const std::vector<Vec3<Real>>& lo, const std::vector<Vec3<Real>>& hi, int threads);
+  template <typename BoxOf>
+  std::vector<uint32_t> build(size_t count, const BoxOf& boxOf, int threads);
 
   // Calls leaf(first, count) for every leaf the ray may meet before tHit (which leaf may lower),
-  // nearest first; stops early when leaf returns true (a shadow ray's any hit). Returns the
-  // primitives visited.
+  // nearest first, from the root or from inner node `node`; stops early when leaf returns true (a
+  // shadow ray's any hit). Returns the primitives visited.
   template <typename Leaf>
-  int64_t traverse(const BvhRay<Real>& ray, const Real& tHit, Leaf&& leaf) const {
+  int64_t traverse(const BvhRay<Real>& ray, const Real& tHit, Leaf&& leaf, int32_t node = 0) const {
     Stack stack;
     int64_t visited = 0;
-    int32_t node = 0;
     for (;;) {
       pushChildren(m_nodes[static_cast<size_t>(node)], ray, tHit, stack);
       for (;;) {
@@ -95,7 +96,54 @@ class Bvh {
       }
     }
   }
-
+  // A coherent packet (a camera tile's rays) walks the tree together while its rays still agree,
+  // and each ray alone below that: a child the packet enters (any of its rays, tested a few rays
+  // at a time with an early exit) is visited by the packet while its box is large next to the
+  // packet's width there (its rays mostly take the same way through it), by each ray on its own
+  // once smaller (they would split between its children, and the packet would visit them all).
+  // Leaves reached together test all rays against their primitives in one vectorised loop:
+  // packetLeaf(first, count); rays alone call rayLeaf(first, count, k). Children go nearest first
+  // along the packet's first ray. Returns the ray-primitive tests made.
+  template <typename PacketLeaf, typename RayLeaf>
+  int64_t traversePacket(const RayPacket<Real>& p, const PacketLeaf& packetLeaf, const RayLeaf& rayLeaf) const {
+    const PacketInverse<Real> inv(p);
+    const PacketWidth width(p);
+    const BvhRay<Real> first(p.ox[0], p.oy[0], p.oz[0], p.dx[0], p.dy[0], p.dz[0], p.tMin);
+    int32_t stack[kStackSize];
+    int top = 0;
+    stack[top++] = 0;
+    int64_t tests = 0;
+    while (top > 0) {
+      const BvhNode<Real>& node = m_nodes[static_cast<size_t>(stack[--top])];
+      Real entry[BvhNode<Real>::kWidth];
+      childEntries(node, first, std::numeric_limits<Real>::infinity(), entry);
+      int order[BvhNode<Real>::kWidth], found = 0;
+      for (int i = 0; i < BvhNode<Real>::kWidth; ++i) {
+        if (node.child[i] < 0) continue;
+        const Vec3<Real> lo(node.bounds[0][0][i], node.bounds[0][1][i], node.bounds[0][2][i]);
+        const Vec3<Real> hi(node.bounds[1][0][i], node.bounds[1][1][i], node.bounds[1][2][i]);
+        if (!anyRayEnters(p, inv, lo, hi)) continue;
+        if (node.count[i] > 0) {
+          packetLeaf(node.child[i], node.count[i]);
+          tests += int64_t(node.count[i]) * p.count;
+        } else if (width.splits(lo, hi, entry[i])) {
+          for (int k = 0; k < p.count; ++k) {
+            const BvhRay<Real> ray(p.ox[k], p.oy[k], p.oz[k], p.dx[k], p.dy[k], p.dz[k], p.tMin);
+            tests += traverse(ray, p.tHit[k], [&](int32_t f, int32_t c) {
+              rayLeaf(f, c, k);
+              return false;
+            }, node.child[i]);
+          }
+        } else {
+          int j = found++;  // farthest first, so that the nearest is popped first
+          for (; j > 0 && entry[order[j - 1]] < entry[i]; --j) order[j] = order[j - 1];
+          order[j] = i;
+        }
+      }
+      for (int j = 0; j < found; ++j) stack[top++] = node.child[order[j]];
+    }
+    return tests;
+  }
 
  private:
   // Binary depth is bounded by the build (kMaxDepth); a 4-wide node pushes at most 3 entries per level.
@@ -126,15 +174,14 @@ class Bvh {
   }
   static Lanes broadcast(Real x) { return Lanes{} + x; }
 
-  // Pushes the children of `node` that the ray enters in [tMin, tHit], farthest first. Each axis'
-  // near and far bound are picked once per ray, so a slab costs a subtraction and a product per
-  // bound and no min/max. A bound minus the origin is moved outward by the least normal number (lo
-  // down, hi up; it rounds back unless the difference is below ~1e-31 or 1e-292), so that a ray
-  // parallel to an axis (inv = ±inf) whose origin lies on a box face gets ∓inf, inside, never
-  // 0·inf = NaN. (Not a subnormal: those cost microcode assists on x86.)
-  static void pushChildren(const BvhNode<Real>& node, const BvhRay<Real>& ray, Real tHit, Stack& stack) {
+  // Each child's entry t along the ray, clamped to [tMin, tHit]; NaN for a child it misses (or an
+  // empty slot), which fails every comparison. Each axis' near and far bound are picked once per ray, so a slab costs a
+  // subtraction and a product per bound and no min/max. A bound minus the origin is moved outward
+  // by the least normal number (lo down, hi up; it rounds back unless the difference is below
+  // ~1e-31 or 1e-292), so that a ray parallel to an axis (inv = ±inf) whose origin lies on a box
+  // face gets ∓inf, inside, never 0·inf = NaN. (Not a subnormal: those cost microcode assists.)
+  static void childEntries(const BvhNode<Real>& node, const BvhRay<Real>& ray, Real tHit, Real* out) {
     constexpr Real tiny = std::numeric_limits<Real>::min();
-    constexpr int W = BvhNode<Real>::kWidth;
     Lanes tn = broadcast(ray.tMin), tf = broadcast(tHit);
     Lanes nearT[3], farT[3];
     for (int a = 0; a < 3; ++a) {
@@ -152,21 +199,46 @@ class Bvh {
     exit *= exit > 0 ? broadcast(1 + kWiden) : broadcast(1 - kWiden);
     tn = tn > entry ? tn : entry;
     tf = tf < exit ? tf : exit;
-    Real near[W], enters[W];
-    std::memcpy(near, &tn, sizeof near);
-    const Lanes entered = tn <= tf ? broadcast(1) : broadcast(0);
-    std::memcpy(enters, &entered, sizeof enters);
+    const Lanes result = tn <= tf ? tn : broadcast(std::numeric_limits<Real>::quiet_NaN());
+    std::memcpy(out, &result, sizeof result);
+  }
+
+  // Pushes the children of `node` that the ray enters in [tMin, tHit], farthest first.
+  static void pushChildren(const BvhNode<Real>& node, const BvhRay<Real>& ray, Real tHit, Stack& stack) {
+    Real entry[BvhNode<Real>::kWidth];
+    childEntries(node, ray, tHit, entry);
     // Insertion by entry t: the nearest child ends on top of the stack.
     const int base = stack.top;
-    for (int i = 0; i < W; ++i) {
-      if (!(enters[i] > 0) || node.child[i] < 0) continue;
+    for (int i = 0; i < BvhNode<Real>::kWidth; ++i) {
+      if (!(entry[i] <= tHit) || node.child[i] < 0) continue;
       int j = stack.top++;
-      for (; j > base && stack.tNear[j - 1] < near[i]; --j) {
+      for (; j > base && stack.tNear[j - 1] < entry[i]; --j) {
         stack.tNear[j] = stack.tNear[j - 1], stack.child[j] = stack.child[j - 1], stack.count[j] = stack.count[j - 1];
       }
-      stack.tNear[j] = near[i], stack.child[j] = node.child[i], stack.count[j] = node.count[i];
+      stack.tNear[j] = entry[i], stack.child[j] = node.child[i], stack.count[j] = node.count[i];
     }
   }
+
+  // How wide a packet's beam is at distance t: the spread of its origins plus t times the spread of
+  // its directions (box diagonals). A node much smaller than that splits the packet's rays.
+  struct PacketWidth {
+    Real origins, directions;
+    explicit PacketWidth(const RayPacket<Real>& p) {
+      Vec3<Real> oLo(p.ox[0], p.oy[0], p.oz[0]), oHi = oLo, dLo(p.dx[0], p.dy[0], p.dz[0]), dHi = dLo;
+      for (int k = 1; k < p.count; ++k) {
+        const Vec3<Real> o(p.ox[k], p.oy[k], p.oz[k]), d(p.dx[k], p.dy[k], p.dz[k]);
+        oLo = glm::min(oLo, o), oHi = glm::max(oHi, o), dLo = glm::min(dLo, d), dHi = glm::max(dHi, d);
+      }
+      origins = glm::length(oHi - oLo);
+      directions = glm::length(dHi - dLo);
+    }
+    // Whether a box of this size, entered at t, is too small to keep the packet together.
+    bool splits(const Vec3<Real>& lo, const Vec3<Real>& hi, Real t) const {
+      constexpr Real kRatio = 16;
+      const Real beam = origins + (t > 0 && t < std::numeric_limits<Real>::infinity() ? t : Real(0)) * directions;
+      return glm::length(hi - lo) < kRatio * beam;
+    }
+  };
 
   struct Builder;
   std::vector<BvhNode<Real>> m_nodes;  // the root first
@@ -177,20 +249,42 @@ class Bvh {
 // opening the largest child until four. Subtrees below the first levels build in parallel.
 template <typename Real>
 struct Bvh<Real>::Builder {
+  // Boxes are binned in single precision whatever Real is (rounded outward, so still bounds): half
+  // the memory traffic of doubles for the passes over large ranges, which are bound by it.
+  using F = float;
   static constexpr int kBins = 16;
   static constexpr uint32_t kParallelMin = 1u << 14;  // smaller subtrees are not worth a thread
 
+  using Lanes = typename NodeLanes<F>::Type;  // x, y, z and a spare lane
+  static Lanes broadcast(F x) { return Lanes{} + x; }
+  static F lane(const Lanes& v, int i) {
+    F out[4];
+    std::memcpy(out, &v, sizeof out);
+    return out[i];
+  }
+
   struct Box {
-    Vec3<Real> lo{std::numeric_limits<Real>::infinity()}, hi{-std::numeric_limits<Real>::infinity()};
-    void grow(const Vec3<Real>& l, const Vec3<Real>& h) { lo = glm::min(lo, l), hi = glm::max(hi, h); }
+    Lanes lo = broadcast(kInf), hi = broadcast(-kInf);  // lanes 0-2; lane 3 is not part of the box
+    void grow(const Lanes& l, const Lanes& h) { lo = l < lo ? l : lo, hi = h > hi ? h : hi; }
     void grow(const Box& b) { grow(b.lo, b.hi); }
-    Real area() const {
-      const Vec3<Real> e = hi - lo;
-      return e.x < 0 ? Real(0) : e.x * e.y + e.y * e.z + e.z * e.x;
+    F lower(int axis) const { return lane(lo, axis); }
+    F upper(int axis) const { return lane(hi, axis); }
+    F area() const {
+      const Lanes e = hi - lo;
+      const F x = lane(e, 0), y = lane(e, 1), z = lane(e, 2);
+      return x < 0 ? F(0) : x * y + y * z + z * x;
     }
   };
+  // A primitive's box and index, moved (not referred to through an index) as ranges are
+  // partitioned, so that every pass over a range streams through memory. The index rides in the
+  // boxes' spare lanes as two exact integers below 2^24 (low and high bits).
+  struct Ref {
+    Box box;
+    Lanes centroid() const { return box.lo + box.hi; }  // twice the centre: only compared
+    uint32_t id() const { return static_cast<uint32_t>(lane(box.lo, 3)) | static_cast<uint32_t>(lane(box.hi, 3)) << 24; }
+  };
   // A binary node: inner (count 0) with children left and right, or a leaf of primitives
-  // order[first, first + count).
+  // refs[first, first + count).
   struct Node {
     Box box;
     int32_t left = -1, right = -1;
@@ -201,17 +295,27 @@ struct Bvh<Real>::Builder {
     std::vector<Node> nodes;
   };
 
-  const std::vector<Vec3<Real>>& lo;
-  const std::vector<Vec3<Real>>& hi;
-  std::vector<Vec3<Real>> centroid;
-  std::vector<uint32_t> order;
+  static constexpr F kInf = std::numeric_limits<Real>::infinity();
+  std::vector<Ref> refs;
   std::vector<Subtree> trees;  // tree 0: the top levels
 
-  Builder(const std::vector<Vec3<Real>>& l, const std::vector<Vec3<Real>>& h) : lo(l), hi(h) {
-    centroid.resize(lo.size());
-    for (size_t i = 0; i < lo.size(); ++i) centroid[i] = (lo[i] + hi[i]) * Real(0.5);
-    order.resize(lo.size());
-    std::iota(order.begin(), order.end(), 0u);
+  template <typename BoxOf>
+  Builder(size_t count, const BoxOf& boxOf) : refs(count) {
+    for (size_t i = 0; i < count; ++i) {
+      Vec3<Real> lo, hi;
+      boxOf(i, lo, hi);
+      const F low = static_cast<Real>(i & 0xFFFFFF), high = static_cast<Real>(i >> 24);
+      const F l[4] = {toRealDown<F>(lo.x), toRealDown<F>(lo.y), toRealDown<F>(lo.z), low};
+      const F h[4] = {toRealUp<F>(hi.x), toRealUp<F>(hi.y), toRealUp<F>(hi.z), high};
+      std::memcpy(&refs[i].box.lo, l, sizeof l);
+      std::memcpy(&refs[i].box.hi, h, sizeof h);
+    }
+  }
+
+  std::vector<uint32_t> order() const {
+    std::vector<uint32_t> out(refs.size());
+    for (size_t i = 0; i < refs.size(); ++i) out[i] = refs[i].id();
+    return out;
   }
 
   // A child reference: >= 0 a node of the same tree; < 0 the root of tree -(ref + 1).
@@ -225,15 +329,16 @@ struct Bvh<Real>::Builder {
     };
     std::vector<Task> tasks;
     // The top levels split serially until there is a subtree per thread and then some (for balance).
-    const uint32_t grain = std::max<uint32_t>(kParallelMin, static_cast<uint32_t>(order.size() / (4 * std::max(threads, 1))));
-    trees.reserve(order.size() / kParallelMin + 2);  // a task per disjoint range of >= kParallelMin: no reallocation
+    const uint32_t n = static_cast<uint32_t>(refs.size());
+    const uint32_t grain = std::max<uint32_t>(kParallelMin, n / (4 * std::max(threads, 1)));
+    trees.reserve(n / kParallelMin + 2);  // a task per disjoint range of >= kParallelMin: no reallocation
     const auto spawn = [&](uint32_t begin, uint32_t end) {
       if (threads <= 1 || end - begin < kParallelMin || end - begin > grain) return false;
       trees.emplace_back();
       tasks.push_back({trees.size() - 1, begin, end});
       return true;
     };
-    buildNode(trees[0].nodes, 0, static_cast<uint32_t>(order.size()), 0, spawn);
+    buildNode(trees[0].nodes, 0, n, 0, spawn);
     std::vector<std::thread> workers;
     std::atomic<size_t> next{0};
     const auto work = [&] {
@@ -252,7 +357,7 @@ struct Bvh<Real>::Builder {
   }
   size_t treeOf(size_t tree, int32_t ref) const { return ref < 0 ? static_cast<size_t>(-ref - 1) : tree; }
 
-  // Builds order[begin, end) into `nodes`, returning its index there (or, when spawn takes the
+  // Builds refs[begin, end) into `nodes`, returning its index there (or, when spawn takes the
   // range, a reference to the subtree that will hold it).
   template <typename Spawn>
   int32_t buildNode(std::vector<Node>& nodes, uint32_t begin, uint32_t end, int depth, const Spawn& spawn) {
@@ -261,8 +366,8 @@ struct Bvh<Real>::Builder {
     nodes.emplace_back();
     Box box, centroids;
     for (uint32_t i = begin; i < end; ++i) {
-      box.grow(lo[order[i]], hi[order[i]]);
-      centroids.grow(centroid[order[i]], centroid[order[i]]);
+      box.grow(refs[i].box);
+      centroids.grow(refs[i].centroid(), refs[i].centroid());
     }
     const uint32_t count = end - begin;
     uint32_t middle = end;  // end: a leaf
@@ -284,54 +389,69 @@ struct Bvh<Real>::Builder {
     return index;
   }
 
-  // Partitions order[begin, end) at the cheapest binned SAH plane; returns the first index of the
-  // right side, or `end` when a leaf is cheaper than any split (only for a few primitives).
+  // Partitions refs[begin, end) at the cheapest binned SAH plane; returns the first index of the
+  // right side, or `end` when a leaf is cheaper than any split (only for a few primitives). Large
+  // ranges are binned along the widest axis of their centres only: a third of the work, and the
+  // same plane in practice.
   uint32_t split(uint32_t begin, uint32_t end, const Box& box, const Box& centroids) {
-    const Vec3<Real> extent = centroids.hi - centroids.lo;
-    Box bins[3][kBins];
-    uint32_t counts[3][kBins] = {};
-    Vec3<Real> scale;
-    for (int a = 0; a < 3; ++a) scale[a] = extent[a] > 0 ? Real(kBins) * (1 - std::numeric_limits<Real>::epsilon()) / extent[a] : 0;
-    for (uint32_t i = begin; i < end; ++i) {
-      const uint32_t p = order[i];
-      for (int a = 0; a < 3; ++a) {
-        const int b = binOf(centroid[p][a], centroids.lo[a], scale[a]);
-        ++counts[a][b];
-        bins[a][b].grow(lo[p], hi[p]);
-      }
-    }
-    Real bestCost = std::numeric_limits<Real>::infinity();
-    int bestAxis = -1, bestBin = 0;
+    constexpr uint32_t kOneAxisMin = 1024;
+    F extent[3], scale[3];
     for (int a = 0; a < 3; ++a) {
+      extent[a] = centroids.upper(a) - centroids.lower(a);
+      scale[a] = extent[a] > 0 ? F(kBins) * (1 - std::numeric_limits<Real>::epsilon()) / extent[a] : 0;
+    }
+    const int widest = extent[0] >= extent[1] && extent[0] >= extent[2] ? 0 : extent[1] >= extent[2] ? 1 : 2;
+    const uint32_t count = end - begin;
+    const int firstAxis = count >= kOneAxisMin ? widest : 0, lastAxis = count >= kOneAxisMin ? widest : 2;
+    F bestCost = kInf;
+    int bestAxis = -1, bestBin = 0;
+    for (int a = firstAxis; a <= lastAxis; ++a) {
       if (!(extent[a] > 0)) continue;
-      Real rightArea[kBins];
+      // Two sets of bins, for even and odd primitives: neighbours (often in the same bin) then do
+      // not wait for each other's update of it.
+      Box bins[kBins], odd[kBins];
+      uint32_t counts[kBins] = {}, oddCounts[kBins] = {};
+      uint32_t i = begin;
+      for (; i + 1 < end; i += 2) {
+        const int b0 = binOf(lane(refs[i].centroid(), a), centroids.lower(a), scale[a]);
+        const int b1 = binOf(lane(refs[i + 1].centroid(), a), centroids.lower(a), scale[a]);
+        ++counts[b0], ++oddCounts[b1];
+        bins[b0].grow(refs[i].box);
+        odd[b1].grow(refs[i + 1].box);
+      }
+      if (i < end) {
+        const int b = binOf(lane(refs[i].centroid(), a), centroids.lower(a), scale[a]);
+        ++counts[b];
+        bins[b].grow(refs[i].box);
+      }
+      for (int b = 0; b < kBins; ++b) bins[b].grow(odd[b]), counts[b] += oddCounts[b];
+      F rightArea[kBins];
       uint32_t rightCount[kBins];
       Box right;
       uint32_t n = 0;
       for (int b = kBins - 1; b > 0; --b) {
-        right.grow(bins[a][b]), n += counts[a][b];
+        right.grow(bins[b]), n += counts[b];
         rightArea[b] = right.area(), rightCount[b] = n;
       }
       Box left;
       n = 0;
       for (int b = 1; b < kBins; ++b) {  // plane between bin b - 1 and bin b
-        left.grow(bins[a][b - 1]), n += counts[a][b - 1];
-        const Real cost = left.area() * Real(n) + rightArea[b] * Real(rightCount[b]);
+        left.grow(bins[b - 1]), n += counts[b - 1];
+        const F cost = left.area() * F(n) + rightArea[b] * F(rightCount[b]);
         if (n > 0 && rightCount[b] > 0 && cost < bestCost) bestCost = cost, bestAxis = a, bestBin = b;
       }
     }
-    const uint32_t count = end - begin;
     // A traversal step costs about one primitive test: split while that is cheaper than testing all.
     if (bestAxis < 0) return end;
-    if (count <= 2 * static_cast<uint32_t>(kMaxLeafSize) && bestCost / box.area() + 1 >= Real(count)) return end;
-    const Real axisLo = centroids.lo[bestAxis], axisScale = scale[bestAxis];
-    const auto mid = std::partition(order.begin() + begin, order.begin() + end, [&](uint32_t p) {
-      return binOf(centroid[p][bestAxis], axisLo, axisScale) < bestBin;
+    if (count <= 2 * static_cast<uint32_t>(kMaxLeafSize) && bestCost / box.area() + 1 >= F(count)) return end;
+    const F axisLo = centroids.lower(bestAxis), axisScale = scale[bestAxis];
+    const auto mid = std::partition(refs.begin() + begin, refs.begin() + end, [&](const Ref& r) {
+      return binOf(lane(r.centroid(), bestAxis), axisLo, axisScale) < bestBin;
     });
-    return static_cast<uint32_t>(mid - order.begin());
+    return static_cast<uint32_t>(mid - refs.begin());
   }
 
-  static int binOf(Real c, Real lo, Real scale) {
+  static int binOf(F c, F lo, F scale) {
     const int b = static_cast<int>((c - lo) * scale);
     return b < 0 ? 0 : b >= kBins ? kBins - 1 : b;
   }
@@ -352,7 +472,7 @@ struct Bvh<Real>::Builder {
     int used = 2;
     while (used < 4) {
       int largest = -1;
-      Real largestArea = -1;
+      F largestArea = -1;
       for (int s = 0; s < used; ++s) {
         const Node& c = node(slots[s].tree, slots[s].ref);
         if (c.count == 0 && c.box.area() > largestArea) largest = s, largestArea = c.box.area();
@@ -368,8 +488,8 @@ struct Bvh<Real>::Builder {
       const bool present = s < used;
       const Node* c = present ? &node(slots[s].tree, slots[s].ref) : nullptr;
       for (int a = 0; a < 3; ++a) {
-        wide.bounds[0][a][s] = present ? c->box.lo[a] : std::numeric_limits<Real>::infinity();
-        wide.bounds[1][a][s] = present ? c->box.hi[a] : -std::numeric_limits<Real>::infinity();
+        wide.bounds[0][a][s] = present ? c->box.lower(a) : kInf;
+        wide.bounds[1][a][s] = present ? c->box.upper(a) : -kInf;
       }
       wide.child[s] = present ? static_cast<int32_t>(c->first) : -1;
       wide.count[s] = present ? static_cast<int32_t>(c->count) : 0;
@@ -384,19 +504,19 @@ struct Bvh<Real>::Builder {
 };
 
 template <typename Real>
-std::vector<uint32_t> Bvh<Real>::build(const std::vector<Vec3<Real>>& lo, const std::vector<Vec3<Real>>& hi,
-                                       int threads) {
+template <typename BoxOf>
+std::vector<uint32_t> Bvh<Real>::build(size_t count, const BoxOf& boxOf, int threads) {
   m_nodes.clear();
-  if (lo.empty()) return {};
-  Builder builder(lo, hi);
+  if (count == 0) return {};
+  Builder builder(count, boxOf);
   builder.run(threads);
   const typename Builder::Node& root = builder.trees[0].nodes[0];
   if (root.count > 0) {  // a single leaf: a root node with one child
     BvhNode<Real> wide;
     for (int s = 0; s < 4; ++s) {
       for (int a = 0; a < 3; ++a) {
-        wide.bounds[0][a][s] = s == 0 ? root.box.lo[a] : std::numeric_limits<Real>::infinity();
-        wide.bounds[1][a][s] = s == 0 ? root.box.hi[a] : -std::numeric_limits<Real>::infinity();
+        wide.bounds[0][a][s] = s == 0 ? root.box.lower(a) : std::numeric_limits<Real>::infinity();
+        wide.bounds[1][a][s] = s == 0 ? root.box.upper(a) : -std::numeric_limits<Real>::infinity();
       }
       wide.child[s] = s == 0 ? 0 : -1;
       wide.count[s] = s == 0 ? static_cast<int32_t>(root.count) : 0;
@@ -408,7 +528,7 @@ std::vector<uint32_t> Bvh<Real>::build(const std::vector<Vec3<Real>>& lo, const 
     m_nodes.reserve(binaryNodes / 2 + 1);
     builder.collapse(0, 0, m_nodes);
   }
-  return std::move(builder.order);
+  return builder.order();
 }
 
 }  // namespace durer

@@ -38,6 +38,7 @@ struct Instance {
     local.tMin = world.tMin;
     local.tMax = world.tMax;
     local.commonOrigin = world.commonOrigin;  // the same origin maps to the same point
+    local.coherent = world.coherent;
     const Affine<Real>& m = objectFromWorld;
     for (int k = 0; k < world.count; ++k) {
       const Real ox = world.ox[k], oy = world.oy[k], oz = world.oz[k];

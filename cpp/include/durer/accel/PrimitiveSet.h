@@ -56,24 +56,32 @@ class PrimitiveSet {
     m_objectIds = other.objectIds();
   }
 
-  // Builds the hierarchy over the primitives' boxes [lo[i], hi[i]] on up to `threads` threads and
-  // reorders the primitives and their ids to its order.
-  void buildBvh(const std::vector<Vec3<Real>>& lo, const std::vector<Vec3<Real>>& hi, int threads) {
-    const std::vector<uint32_t> order = m_bvh.build(lo, hi, threads);
+  // Builds the hierarchy over the primitives' boxes boxOf(primitive, lo, hi) on up to `threads`
+  // threads and reorders the primitives and their ids to its order.
+  template <typename BoxOf>
+  void buildBvh(const BoxOf& boxOf, int threads) {
+    const auto boxOfIndex = [&](size_t i, Vec3<Real>& lo, Vec3<Real>& hi) { boxOf(m_primitives[i], lo, hi); };
+    const std::vector<uint32_t> order = m_bvh.build(m_primitives.size(), boxOfIndex, threads);
     permute(m_primitives, order);
     permute(m_materials, order);
     permute(m_objectIds, order);
   }
 
-  // Finds each ray's hits among the primitives it may meet. With a hierarchy, one ray at a time:
-  // testRay(first, count, k) for ray k and each leaf it may meet before its current hit (with AnyHit,
-  // none after its first hit). Without one, the whole packet against every primitive, kCancelBatch at
-  // a time: testRange(first, count). Gives up once *cancel is set (the packet is then garbage).
+  // Finds each ray's hits among the primitives it may meet. With a hierarchy, a coherent packet
+  // (camera rays) walks it together where its rays agree (Bvh::traversePacket), any other one ray at
+  // a time: testRay(first, count, k) for ray k and each leaf it may meet before its current hit
+  // (with AnyHit, none after its first hit). Without one, the whole packet against every primitive,
+  // kCancelBatch at a time: testRange(first, count). Gives up once *cancel is set (the packet is
+  // then garbage).
   // Returns the ray-primitive tests made.
   template <bool AnyHit, typename TestRange, typename TestRay>
   int64_t search(RayPacket<Real>& packet, const std::atomic<bool>* cancel, TestRange&& testRange,
                  TestRay&& testRay) const {
     if (m_bvh.empty()) return searchAll(packet, cancel, testRange);
+    if (packet.coherent && !AnyHit) {
+      if (cancel && cancel->load(std::memory_order_relaxed)) return 0;
+      return m_bvh.traversePacket(packet, testRange, testRay);
+    }
     int64_t visited = 0;
     for (int k = 0; k < packet.count; ++k) {
       if (cancel && cancel->load(std::memory_order_relaxed)) break;

@@ -36,13 +36,12 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   // Builds the bounding-volume hierarchy (and reorders the spheres and their ids to its order);
   // worth it above a few dozen spheres, after which intersect() traverses it.
   void buildBvh(int threads) {
-    std::vector<Vec3<Real>> lo(this->m_primitives.size()), hi(this->m_primitives.size());
-    for (size_t i = 0; i < this->m_primitives.size(); ++i) {
-      lo[i] = this->m_primitives[i].center - this->m_primitives[i].radius;
-      hi[i] = this->m_primitives[i].center + this->m_primitives[i].radius;
-      roundOutward(lo[i], hi[i]);
-    }
-    Base::buildBvh(lo, hi, threads);
+    Base::buildBvh(
+        [](const Sphere<Real>& s, Vec3<Real>& lo, Vec3<Real>& hi) {
+          lo = s.center - s.radius, hi = s.center + s.radius;
+          roundOutward(lo, hi);
+        },
+        threads);
   }
 
   // Grows [lo, hi] to hold every sphere (the bounds of a transformed group).

@@ -90,13 +90,11 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real> {
   }
 
   void buildBvh(int threads) {
-    std::vector<Vec3<Real>> lo(this->m_primitives.size()), hi(this->m_primitives.size());
-    for (size_t i = 0; i < this->m_primitives.size(); ++i) {
-      const Triangle<Real>& t = this->m_primitives[i];
-      lo[i] = glm::min(t.v0, glm::min(t.v1, t.v2));
-      hi[i] = glm::max(t.v0, glm::max(t.v1, t.v2));
-    }
-    Base::buildBvh(lo, hi, threads);
+    Base::buildBvh(
+        [](const Triangle<Real>& t, Vec3<Real>& lo, Vec3<Real>& hi) {
+          lo = glm::min(t.v0, glm::min(t.v1, t.v2)), hi = glm::max(t.v0, glm::max(t.v1, t.v2));
+        },
+        threads);
   }
 
   // Grows [lo, hi] to hold every triangle.

@@ -16,6 +16,7 @@ struct RayPacket {
   Real tMin = 0;                       // hits with t in [tMin, tMax) count
   Real tMax = 0;
   bool commonOrigin = false;           // every ray starts at ox[0], oy[0], oz[0] (a perspective camera's)
+  bool coherent = false;               // neighbouring rays of one camera tile: worth traversing together
   alignas(64) Real ox[kPacketSize];    // origin, in the frame of the group searched
   alignas(64) Real oy[kPacketSize];
   alignas(64) Real oz[kPacketSize];

@@ -30,13 +30,6 @@ Real widenUp(Real t, Real factor) {
   return t * (t > 0 ? 1 + factor : 1 - factor);
 }
 
-// The box [lo, hi] rounded outward by one ulp per side: a primitive's box computed in Real
-// arithmetic may be a rounding short of the primitive.
-template <typename Real>
-void roundOutward(Vec3<Real>& lo, Vec3<Real>& hi) {
-  constexpr Real inf = std::numeric_limits<Real>::infinity();
-  for (int a = 0; a < 3; ++a) lo[a] = std::nextafter(lo[a], -inf), hi[a] = std::nextafter(hi[a], inf);
-}
 
 // x converted to Real, rounded down (toward -inf) or up (toward +inf) where the conversion is inexact:
 // the converted value then still bounds the given one from that side.
@@ -70,6 +63,31 @@ struct FloatBits<float> {
   static constexpr int kMantissaBits = 23;
   static constexpr int kBias = 127;
 };
+
+// The next Real above (nextUp) or below (nextDown) x, as std::nextafter toward ±inf but inline
+// from the bits (pbrt-v4's NextFloatUp/Down): ±inf and NaN stay, -0 and +0 step to the least subnormal.
+template <typename Real>
+inline Real nextUp(Real x) {
+  using Bits = typename FloatBits<Real>::Bits;
+  if (!(x == x) || (std::isinf(x) && x > 0)) return x;
+  if (x == 0) return std::numeric_limits<Real>::denorm_min();
+  Bits bits;
+  std::memcpy(&bits, &x, sizeof x);
+  bits = x > 0 ? bits + 1 : bits - 1;
+  std::memcpy(&x, &bits, sizeof x);
+  return x;
+}
+template <typename Real>
+inline Real nextDown(Real x) {
+  return -nextUp(-x);
+}
+
+// The box [lo, hi] rounded outward by one ulp per side: a primitive's box computed in Real
+// arithmetic may be a rounding short of the primitive.
+template <typename Real>
+void roundOutward(Vec3<Real>& lo, Vec3<Real>& hi) {
+  for (int a = 0; a < 3; ++a) lo[a] = nextDown(lo[a]), hi[a] = nextUp(hi[a]);
+}
 
 // 2^-floor(log2 x) for x > 0, built from x's exponent bits (no library call, so it vectorises);
 // NaN where the result would not be a normal number: x zero, subnormal, above 2^bias, inf or NaN.

@@ -56,6 +56,7 @@ inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX,
   packet.tMin = m_tMin;
   packet.tMax = m_tMax;
   packet.commonOrigin = m_perspective;
+  packet.coherent = true;
   // Plain component arithmetic so that the loop vectorises.
   const Vec3<Real> c = m_center, f = m_forward, h = m_horizontal, u = m_up;
   if (m_perspective) {
