@@ -1,0 +1,117 @@
+// The hierarchy's three searches against brute force (doctest): camera packets walked together
+// (Bvh::traversePacket), rays alone (Bvh::traverse) and shadow rays' any hit must find exactly what
+// testing every primitive finds: the same nearest t, bit for bit, on the same object. Random
+// scenes (seeded) of spheres, triangles and boxes, with packets tight enough to stay together and
+// wide enough to split, perspective fans and incoherent rays.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+
+#include "durer/accel/BoxSet.h"
+#include "durer/accel/SphereSet.h"
+#include "durer/accel/TriangleSet.h"
+
+using namespace durer;
+
+namespace {
+
+template <typename Real>
+struct Scenes {
+  SphereSet<Real> spheres[2];  // [0]: with a hierarchy, [1]: without (every primitive tested)
+  TriangleSet<Real> triangles[2];
+  BoxSet<Real> boxes[2];
+
+  explicit Scenes(unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(-10, 10), size(0.01, 0.6), unit(-1, 1);
+    for (int32_t i = 0; i < 3000; ++i) {
+      const Vec3d c(u(rng), u(rng), u(rng));
+      const Sphere<Real> s{toReal<Real>(c), static_cast<Real>(size(rng))};
+      const Vec3d e(size(rng), size(rng), size(rng));
+      const Box<Real> b{toReal<Real>(c - e), toReal<Real>(c + e)};
+      const Vec3d a = c + Vec3d(unit(rng), unit(rng), unit(rng)), p = c + Vec3d(unit(rng), unit(rng), unit(rng));
+      const Vec3<Real> v0 = toReal<Real>(c), v1 = toReal<Real>(a), v2 = toReal<Real>(p);
+      const Triangle<Real> t{v0, v1, v2, glm::normalize(glm::cross(v1 - v0, v2 - v0))};
+      for (int k = 0; k < 2; ++k) spheres[k].add(s, 0, i), boxes[k].add(b, 0, i), triangles[k].add(t, 0, i);
+    }
+    spheres[0].buildBvh(2), triangles[0].buildBvh(2), boxes[0].buildBvh(2);
+  }
+};
+
+enum class Rays { TightGrid, WideGrid, Fan, Random };
+
+// A packet of 64 rays of the given kind (camera kinds marked coherent, as Camera makes them).
+template <typename Real>
+RayPacket<Real> packetOf(Rays kind, std::mt19937& rng, Real tMin) {
+  std::uniform_real_distribution<double> u(-12, 12), unit(-1, 1), spacing(0.0005, 0.02);
+  RayPacket<Real> p;
+  p.count = 64;
+  p.tMin = tMin;
+  p.tMax = std::numeric_limits<Real>::infinity();
+  const Vec3d corner(u(rng), u(rng), 15);
+  const Vec3d direction = glm::normalize(Vec3d(unit(rng) * 0.3, unit(rng) * 0.3, -1));
+  const double step = kind == Rays::TightGrid ? spacing(rng) : 0.3;
+  for (int k = 0; k < 64; ++k) {
+    Vec3d o = corner + Vec3d(step * (k % 8), step * (k / 8), 0), d = direction;
+    if (kind == Rays::Fan) o = corner, d = glm::normalize(Vec3d(unit(rng) * 0.05 + direction.x, unit(rng) * 0.05 + direction.y, -1));
+    if (kind == Rays::Random) o = Vec3d(u(rng), u(rng), u(rng)), d = Vec3d(unit(rng), unit(rng), unit(rng));
+    p.ox[k] = Real(o.x), p.oy[k] = Real(o.y), p.oz[k] = Real(o.z);
+    p.dx[k] = Real(d.x), p.dy[k] = Real(d.y), p.dz[k] = Real(d.z);
+  }
+  p.coherent = kind != Rays::Random;
+  p.commonOrigin = kind == Rays::Fan;
+  p.resetHits();
+  return p;
+}
+
+template <typename Real>
+bool sameBits(Real a, Real b) {
+  return std::memcmp(&a, &b, sizeof a) == 0;
+}
+
+// The nearest hits with and without the hierarchy agree bit for bit, on the same objects; any-hit
+// searches agree on whether each ray is blocked.
+template <typename Set, typename Real, typename Search>
+void checkAgainstBruteForce(const Set* sets, const RayPacket<Real>& rays, Search&& search) {
+  RayPacket<Real> fast = rays, slow = rays, shadow = rays;
+  search(sets[0], fast, false);
+  search(sets[1], slow, false);
+  search(sets[0], shadow, true);
+  for (int k = 0; k < rays.count; ++k) {
+    CAPTURE(k);
+    CHECK(sameBits(fast.tHit[k], slow.tHit[k]));
+    REQUIRE((fast.prim[k] == kNoPrimitive) == (slow.prim[k] == kNoPrimitive));
+    if (fast.prim[k] != kNoPrimitive) {
+      CHECK(sets[0].objectIds()[size_t(fast.prim[k])] == sets[1].objectIds()[size_t(slow.prim[k])]);
+    }
+    CHECK((shadow.prim[k] == kNoPrimitive) == (slow.prim[k] == kNoPrimitive));
+  }
+}
+
+}  // namespace
+
+TEST_CASE_TEMPLATE("hierarchy searches find what brute force finds, bit for bit", Real, float, double) {
+  const Scenes<Real> scenes(2024);
+  std::mt19937 rng(7);
+  for (Rays kind : {Rays::TightGrid, Rays::WideGrid, Rays::Fan, Rays::Random}) {
+    for (Real tMin : {-std::numeric_limits<Real>::infinity(), Real(0), std::numeric_limits<Real>::denorm_min()}) {
+      for (int trial = 0; trial < 20; ++trial) {
+        CAPTURE(int(kind));
+        CAPTURE(tMin);
+        const RayPacket<Real> rays = packetOf<Real>(kind, rng, tMin);
+        checkAgainstBruteForce(scenes.spheres, rays, [](const SphereSet<Real>& s, RayPacket<Real>& p, bool anyHit) {
+          anyHit ? s.template intersect<SphereMethod::Robust, true>(p, 0, nullptr)
+                 : s.template intersect<SphereMethod::Robust, false>(p, 0, nullptr);
+        });
+        checkAgainstBruteForce(scenes.triangles, rays, [](const TriangleSet<Real>& s, RayPacket<Real>& p, bool anyHit) {
+          anyHit ? s.template intersect<true>(p, 0, nullptr) : s.template intersect<false>(p, 0, nullptr);
+        });
+        checkAgainstBruteForce(scenes.boxes, rays, [](const BoxSet<Real>& s, RayPacket<Real>& p, bool anyHit) {
+          anyHit ? s.template intersect<true>(p, 0, nullptr) : s.template intersect<false>(p, 0, nullptr);
+        });
+      }
+    }
+  }
+}
