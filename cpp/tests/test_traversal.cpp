@@ -10,6 +10,7 @@
 #include <random>
 
 #include "durer/accel/BoxSet.h"
+#include "durer/accel/Group.h"
 #include "durer/accel/SphereSet.h"
 #include "durer/accel/TriangleSet.h"
 
@@ -111,6 +112,57 @@ TEST_CASE_TEMPLATE("hierarchy searches find what brute force finds, bit for bit"
         checkAgainstBruteForce(scenes.boxes, rays, [](const BoxSet<Real>& s, RayPacket<Real>& p, bool anyHit) {
           anyHit ? s.template intersect<true>(p, 0, nullptr) : s.template intersect<false>(p, 0, nullptr);
         });
+      }
+    }
+  }
+}
+
+TEST_CASE_TEMPLATE("the top-level hierarchy over instances finds the nearest instance's hit, bit for bit", Real, float,
+                   double) {
+  // 60 transformed clusters of spheres in one group (hierarchy over their world boxes), and each
+  // alone in a group of its own (no top-level hierarchy): the nearest of the lone hits is the
+  // group's hit.
+  constexpr int kInstances = 60;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-10, 10), unit(-1, 1), radius(0.05, 0.4);
+  Group<double> all;
+  std::vector<Group<double>> alone(kInstances);
+  for (int i = 0; i < kInstances; ++i) {
+    const double angle = unit(rng) * 3, c = std::cos(angle), s = std::sin(angle), scale = 0.5 + radius(rng);
+    Affined worldFromObject{{Vec3d(c * scale, -s * scale, 0), Vec3d(s * scale, c * scale, 0), Vec3d(0, 0, scale)},
+                            Vec3d(u(rng), u(rng), u(rng))};
+    const Affined objectFromWorld = inverse(worldFromObject);
+    Group<double>& a = all.transformed(worldFromObject, objectFromWorld);
+    Group<double>& b = alone[size_t(i)].transformed(worldFromObject, objectFromWorld);
+    for (int32_t j = 0; j < 20; ++j) {
+      const Sphere<double> sphere{Vec3d(unit(rng), unit(rng), unit(rng)) * 2.0, radius(rng)};
+      a.spheres().add(sphere, 0, i * 20 + j);
+      b.spheres().add(sphere, 0, i * 20 + j);
+    }
+  }
+  Group<Real> world(all);
+  world.prepare(2);
+  std::vector<Group<Real>> lone;
+  lone.reserve(alone.size());  // a copied group is unprepared: no reallocation
+  for (const Group<double>& g : alone) lone.emplace_back(g), lone.back().prepare(1);
+  for (Rays kind : {Rays::TightGrid, Rays::WideGrid, Rays::Fan, Rays::Random}) {
+    for (int trial = 0; trial < 10; ++trial) {
+      CAPTURE(int(kind));
+      RayPacket<Real> rays = packetOf<Real>(kind, rng, Real(0));
+      RayPacket<Real> nearest = rays;
+      std::vector<int32_t> object(64, -1);
+      for (Group<Real>& g : lone) {
+        RayPacket<Real> p = rays;
+        g.template intersect<SphereMethod::Robust>(p, nullptr);
+        for (int k = 0; k < 64; ++k) {
+          if (p.prim[k] != kNoPrimitive && p.tHit[k] < nearest.tHit[k]) nearest.tHit[k] = p.tHit[k], object[size_t(k)] = g.hit(p, k).objectId;
+        }
+      }
+      world.template intersect<SphereMethod::Robust>(rays, nullptr);
+      for (int k = 0; k < 64; ++k) {
+        CAPTURE(k);
+        CHECK(sameBits(rays.tHit[k], nearest.tHit[k]));
+        CHECK((rays.prim[k] == kNoPrimitive ? -1 : world.hit(rays, k).objectId) == object[size_t(k)]);
       }
     }
   }

@@ -106,6 +106,19 @@ class Bvh {
   // along the packet's first ray. Returns the ray-primitive tests made.
   template <typename PacketLeaf, typename RayLeaf>
   int64_t traversePacket(const RayPacket<Real>& p, const PacketLeaf& packetLeaf, const RayLeaf& rayLeaf) const {
+    return walkPacket<true>(p, packetLeaf, rayLeaf);
+  }
+
+  // The packet walks the whole way together: packetLeaf(first, count) for every leaf any of its rays
+  // enters (the top-level hierarchy over instances, whose leaves search the instances as packets).
+  template <typename PacketLeaf>
+  void traverseTogether(const RayPacket<Real>& p, const PacketLeaf& packetLeaf) const {
+    walkPacket<false>(p, packetLeaf, [](int32_t, int32_t, int) {});
+  }
+
+ private:
+  template <bool Split, typename PacketLeaf, typename RayLeaf>
+  int64_t walkPacket(const RayPacket<Real>& p, const PacketLeaf& packetLeaf, const RayLeaf& rayLeaf) const {
     const PacketInverse<Real> inv(p);
     const PacketWidth width(p);
     const BvhRay<Real> first(p.ox[0], p.oy[0], p.oz[0], p.dx[0], p.dy[0], p.dz[0], p.tMin);
@@ -126,7 +139,7 @@ class Bvh {
         if (node.count[i] > 0) {
           packetLeaf(node.child[i], node.count[i]);
           tests += int64_t(node.count[i]) * p.count;
-        } else if (width.splits(lo, hi, entry[i])) {
+        } else if (Split && width.splits(lo, hi, entry[i])) {
           for (int k = 0; k < p.count; ++k) {
             const BvhRay<Real> ray(p.ox[k], p.oy[k], p.oz[k], p.dx[k], p.dy[k], p.dz[k], p.tMin);
             tests += traverse(ray, p.tHit[k], [&](int32_t f, int32_t c) {
@@ -145,7 +158,6 @@ class Bvh {
     return tests;
   }
 
- private:
   // Binary depth is bounded by the build (kMaxDepth); a 4-wide node pushes at most 3 entries per level.
   static constexpr int kMaxDepth = 64;
   static constexpr int kStackSize = 3 * kMaxDepth + 4;

@@ -126,6 +126,7 @@ class Group {
       base += inst.child->primitiveCount();
       inst.bounded = inst.child->worldBounds(inst.worldFromObject, inst.lo, inst.hi);
     }
+    buildInstanceBvh(threads);
   }
 
   // The cheap t-only search for each ray's closest primitive; returns the ray-primitive tests made.
@@ -225,13 +226,31 @@ class Group {
     return m_boxes.hit(packet, k, index - m_triangles.size());
   }
 
+  // The top-level hierarchy over the bounded instances' world boxes, from a few instances on (so
+  // that thousands cost a walk down a tree, not a loop); the unbounded ones (an infinite plane)
+  // are searched by every packet.
+  void buildInstanceBvh(int threads) {
+    constexpr size_t kInstanceBvhMin = 8;
+    std::vector<uint32_t> bounded;
+    m_unboundedInstances.clear();
+    for (size_t i = 0; i < m_instances.size(); ++i) (m_instances[i].bounded ? bounded : m_unboundedInstances).push_back(uint32_t(i));
+    m_boundedInstances = bounded;
+    if (bounded.size() < kInstanceBvhMin) return;
+    const std::vector<uint32_t> order = m_instanceBvh.build(
+        bounded.size(),
+        [&](size_t i, Vec3<Real>& lo, Vec3<Real>& hi) { lo = m_instances[bounded[i]].lo, hi = m_instances[bounded[i]].hi; },
+        threads);
+    for (size_t i = 0; i < order.size(); ++i) m_boundedInstances[i] = bounded[order[i]];
+  }
+
   template <SphereMethod M, bool AnyHit>
   int64_t searchInstances(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
     const PacketInverse<Real> inv(packet);
     int64_t tests = 0;
     RayPacket<Real> local;
-    for (const Instance<Real>& inst : m_instances) {
-      if (inst.bounded && !anyRayEnters(packet, inv, inst.lo, inst.hi)) continue;
+    const auto searchOne = [&](uint32_t index) {
+      const Instance<Real>& inst = m_instances[index];
+      if (inst.bounded && !anyRayEnters(packet, inv, inst.lo, inst.hi)) return;
       inst.toObject(packet, local);
       tests += inst.child->template searchOwn<M, AnyHit>(local, primBase + inst.primBase, cancel);
       for (int k = 0; k < packet.count; ++k) {
@@ -239,6 +258,14 @@ class Group {
         packet.tHit[k] = closer ? local.tHit[k] : packet.tHit[k];
         packet.prim[k] = closer ? local.prim[k] : packet.prim[k];
       }
+    };
+    for (uint32_t index : m_unboundedInstances) searchOne(index);
+    if (m_instanceBvh.empty()) {
+      for (uint32_t index : m_boundedInstances) searchOne(index);
+    } else {
+      m_instanceBvh.traverseTogether(packet, [&](int32_t first, int32_t count) {
+        for (int32_t i = first; i < first + count; ++i) searchOne(m_boundedInstances[static_cast<size_t>(i)]);
+      });
     }
     return tests;
   }
@@ -293,6 +320,9 @@ class Group {
   TriangleSet<Real> m_triangles;
   BoxSet<Real> m_boxes;
   std::vector<Instance<Real>> m_instances;  // sorted by primBase (the order they were made)
+  Bvh<Real> m_instanceBvh;                    // over m_boundedInstances' world boxes; empty below a few
+  std::vector<uint32_t> m_boundedInstances;   // indices into m_instances, in m_instanceBvh's order
+  std::vector<uint32_t> m_unboundedInstances;
   std::map<std::array<Real, 12>, size_t> m_instanceOf;
 };
 
