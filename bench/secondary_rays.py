@@ -9,7 +9,9 @@ perspective camera 15 units in front of the cube looking at it (60° field of vi
 bounces (the render's default). Each precision renders it depth only (camera rays alone) and in
 colour (camera + shadow + reflection rays). Mrays/s counts ALL rays: stats' rays + shadow_rays +
 reflection_rays + refraction_rays over the core's own render time. Tests per ray:
-stats["intersection_tests"] over all rays.
+stats["intersection_tests"] over all rays. CPU/wall: the cores the render really had (~threads when
+the machine is idle); Mrays/CPU-s: all rays per second of that CPU time, which on a shared machine
+(x threads) estimates an idle machine's figure better than the wall-clock one.
 
 Default: 320x180 (today's colour render takes about a second); `--full`: 1920x1080, the issue's
 size (about a minute per colour render before the issue's traversal work). Every figure is the
@@ -86,6 +88,13 @@ class Row:
         return self.rays / ms / 1e3
 
     @property
+    def mrays_per_cpu_second(self) -> float:
+        """Rays per second of CPU time the render really had: on a shared machine, a figure that
+        other processes' load lowers less than wall-clock Mrays/s (x threads ~ an idle machine's)."""
+        return statistics.median(self.rays / (ms / 1000 * cpu) / 1e6
+                                 for ms, cpu in zip(self.milliseconds, self.cpu_use, strict=True))
+
+    @property
     def tests_per_ray(self) -> float:
         return self.counts["intersection_tests"] / self.rays
 
@@ -120,7 +129,8 @@ def measure(scene: durer.Scene, size: tuple[int, int], runs: int, threads: int) 
 
 
 HEADER = ("Render", "Precision", "Camera", "Shadow", "Reflection", "Refraction", "All rays", "Tests",
-          "Tests/ray", "Median ms", "Min ms", "Max ms", "Mrays/s (all)", "CPU/wall")
+          "Tests/ray", "Median ms", "Min ms", "Max ms", "Mrays/s (all)", "CPU/wall",
+          "Mrays/CPU-s")
 
 
 def cells(row: Row) -> tuple[str, ...]:
@@ -129,7 +139,7 @@ def cells(row: Row) -> tuple[str, ...]:
             f"{c['refraction_rays']:,}", f"{row.rays:,}", f"{c['intersection_tests']:,}",
             f"{row.tests_per_ray:.1f}", f"{row.median_ms:.1f}", f"{min(row.milliseconds):.1f}",
             f"{max(row.milliseconds):.1f}", f"{row.mrays_per_s(row.median_ms):.3g}",
-            f"{statistics.median(row.cpu_use):.2f}")
+            f"{statistics.median(row.cpu_use):.2f}", f"{row.mrays_per_cpu_second:.3g}")
 
 
 def text_table(rows: Sequence[Row]) -> str:

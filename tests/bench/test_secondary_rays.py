@@ -39,4 +39,6 @@ def test_rows_sum_the_core_counters(bench):
         secondary = row.rays - row.counts["rays"]
         assert (secondary > 0) == (row.mode == "colour")
         assert row.mrays_per_s(row.median_ms) == pytest.approx(row.rays / (row.median_ms / 1000) / 1e6)
+        cpu_seconds = row.milliseconds[0] / 1000 * row.cpu_use[0]
+        assert row.mrays_per_cpu_second == pytest.approx(row.rays / cpu_seconds / 1e6)
         assert np.isclose(row.tests_per_ray, stats["intersection_tests"] / row.rays)
