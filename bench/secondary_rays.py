@@ -37,7 +37,7 @@ from pathlib import Path  # noqa: E402
 import durer  # noqa: E402
 import numpy as np  # noqa: E402
 from durer.reports.machine import machine  # noqa: E402
-from primary_rays import BUSY_OTHERS, CONTENDED_SHARE, CpuClock  # noqa: E402
+from primary_rays import BUSY_OTHERS, CONTENDED_SHARE, CpuClock, positive_int  # noqa: E402
 
 SPHERES = 200_000
 RADIUS = 0.05
@@ -160,8 +160,8 @@ def summary(rows: Sequence[Row], size: tuple[int, int], others: float | None, th
     for precision in PRECISIONS:
         depth, colour = (next(r for r in rows if r.mode == m and r.precision == precision) for m in MODES)
         secondary = colour.rays - colour.counts["rays"]
-        # The camera rays are the same in both renders, so the colour render's extra tests are the
-        # secondary rays' (the camera rays' shading does no intersection test).
+        # The camera rays make the same tests in both renders and shading makes none itself (it
+        # spawns the secondary rays), so the colour render's extra tests are the secondary rays'.
         extra = colour.counts["intersection_tests"] - depth.counts["intersection_tests"]
         lines.append(f"{precision}: colour {colour.mrays_per_s(colour.median_ms):.3g} Mrays/s counting all "
                      f"{colour.rays:,} rays; {extra / secondary:.0f} tests per secondary ray "
@@ -171,10 +171,11 @@ def summary(rows: Sequence[Row], size: tuple[int, int], others: float | None, th
     lines.append(f"Target (issue 13, not a pass/fail test): >= {TARGET_MRAYS:g} Mrays/s all rays, double, colour, "
                  f"2 threads, 1920x1080; measured here {double.mrays_per_s(double.median_ms):.3g} at "
                  f"{size[0]}x{size[1]} on {threads} threads")
-    if others is not None and others > BUSY_OTHERS or any(
-            statistics.median(r.cpu_use) < CONTENDED_SHARE * threads for r in rows):
-        lines.append(f"WARNING: other processes used the machine meanwhile ({others or 0:.2f} cores on average) "
-                     f"or a row had < {CONTENDED_SHARE} x {threads} cores: figures are low; rerun on an idle machine")
+    starved = sum(statistics.median(r.cpu_use) < CONTENDED_SHARE * threads for r in rows)
+    if starved or (others is not None and others > BUSY_OTHERS):
+        lines.append(f"WARNING: the machine was shared ({starved} of {len(rows)} rows had < {CONTENDED_SHARE} x "
+                     f"{threads} cores; other processes' load is on the second line): figures are low, "
+                     "rerun on an idle machine")
     return lines
 
 
@@ -182,9 +183,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--full", action="store_true", help=f"{FULL_SIZE[0]}x{FULL_SIZE[1]} (default "
                         f"{QUICK_SIZE[0]}x{QUICK_SIZE[1]}), {FULL_RUNS} runs unless --runs")
-    parser.add_argument("--runs", type=int, help=f"timed rounds (default {QUICK_RUNS}, --full {FULL_RUNS})")
-    parser.add_argument("--threads", type=int, default=THREADS)
-    parser.add_argument("--spheres", type=int, default=SPHERES)
+    parser.add_argument("--runs", type=positive_int, help=f"timed rounds (default {QUICK_RUNS}, --full {FULL_RUNS})")
+    parser.add_argument("--threads", type=positive_int, default=THREADS)
+    parser.add_argument("--spheres", type=positive_int, default=SPHERES)
     parser.add_argument("--markdown", type=Path, metavar="FILE", help="also write the report as Markdown to FILE")
     args = parser.parse_args(argv)
     size = FULL_SIZE if args.full else QUICK_SIZE
