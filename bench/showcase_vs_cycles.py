@@ -52,19 +52,21 @@ def compare_engines(
             c = s.cycles
             c.device, c.samples, c.use_denoising, c.use_adaptive_sampling = "CPU", samples, False, False
         bpy.ops.render.render()  # warm-up: first-render set-up (kernels, caches) is not measured
-        times = []
+        times, parts = [], []
         for _ in range(repeats):
             t0 = time.perf_counter()
             bpy.ops.render.render()
             times.append(time.perf_counter() - t0)
+            if name == "DURER":
+                parts.append((durer_engine.last_render.export_seconds, durer_engine.last_render.render_seconds))
         entry = {"seconds": statistics.median(times), "min": min(times), "max": max(times), "runs": repeats}
         if name == "DURER":
             info = durer_engine.last_render
             if info.error:
                 raise RuntimeError(info.error)
             entry.update(
-                export_seconds=info.export_seconds,
-                render_seconds=info.render_seconds,
+                export_seconds=statistics.median(export for export, _ in parts),
+                render_seconds=statistics.median(render for _, render in parts),
                 mrays_per_s=info.stats.get("mrays_per_s"),
                 camera_rays=info.stats.get("rays"),
                 shadow_rays=info.stats.get("shadow_rays"),
@@ -98,7 +100,7 @@ def report(out: dict, target: float | None) -> list[str]:
     lines = [
         f"{Path(out['file']).name} at {out['width']}x{out['height']}, {out['samples']} sample(s); median of "
         f"{d['runs']} runs",
-        f"  Dürer:  {d['seconds']:.3f} s end to end (export {d['export_seconds']:.3f} s, render "
+        f"  Dürer:  {d['seconds']:.3f} s end to end (median export {d['export_seconds']:.3f} s, render "
         f"{d['render_seconds']:.3f} s; {d['spheres']} spheres, {d['planes']} planes; {d['camera_rays']:,} camera + "
         f"{d['shadow_rays']:,} shadow rays; min {d['min']:.3f}, max {d['max']:.3f} s)",
         f"  Cycles: {c['seconds']:.3f} s end to end (CPU; min {c['min']:.3f}, max {c['max']:.3f} s)",
