@@ -22,22 +22,11 @@ TRIANGLE_TARGET = 0.4  # seconds for about 1,000,000 triangles
 
 def point_cloud(bpy, scene, n: int) -> None:
     """n points as a mesh's vertices turned into a point cloud by geometry nodes."""
-    positions = np.random.default_rng(0).uniform(-10, 10, (n, 3)).astype(np.float32)
-    me = bpy.data.meshes.new("Points")
-    me.vertices.add(n)
-    me.vertices.foreach_set("co", positions.ravel())
-    obj = bpy.data.objects.new("Points", me)
+    from durer.blender.point_cloud import point_cloud_object
+
+    positions = np.random.default_rng(0).uniform(-10, 10, (n, 3))
+    obj = point_cloud_object(scene.collection, "Points", positions, radius=0.01)
     obj.location, obj.scale = (1, 2, 3), (2, 2, 2)
-    scene.collection.objects.link(obj)
-    ng = bpy.data.node_groups.new("Mesh to Points", "GeometryNodeTree")
-    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    group_in, group_out = ng.nodes.new("NodeGroupInput"), ng.nodes.new("NodeGroupOutput")
-    to_points = ng.nodes.new("GeometryNodeMeshToPoints")
-    to_points.inputs["Radius"].default_value = 0.01
-    ng.links.new(group_in.outputs[0], to_points.inputs["Mesh"])
-    ng.links.new(to_points.outputs[0], group_out.inputs[0])
-    obj.modifiers.new("Points", "NODES").node_group = ng
 
 
 def wavy_grid(bpy, scene, n: int) -> None:

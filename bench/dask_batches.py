@@ -80,6 +80,7 @@ def moving_cloud_blend(path: Path, frames: int, spheres: int, width: int, height
     import bpy
 
     import durer.blender
+    from durer.blender.point_cloud import point_cloud_object
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     durer.blender.register()
@@ -88,21 +89,8 @@ def moving_cloud_blend(path: Path, frames: int, spheres: int, width: int, height
     s.render.resolution_x, s.render.resolution_y, s.render.resolution_percentage = width, height, 100
     s.durer.samples, s.durer.threads = 1, threads
     s.frame_start, s.frame_end = 1, frames
-    positions = np.random.default_rng(48).uniform(-10, 10, (spheres, 3)).astype(np.float32)
-    mesh = bpy.data.meshes.new("Cloud")
-    mesh.vertices.add(spheres)
-    mesh.vertices.foreach_set("co", positions.ravel())
-    cloud = bpy.data.objects.new("Cloud", mesh)
-    s.collection.objects.link(cloud)
-    nodes = bpy.data.node_groups.new("Points", "GeometryNodeTree")
-    nodes.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-    nodes.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    group_in, group_out = nodes.nodes.new("NodeGroupInput"), nodes.nodes.new("NodeGroupOutput")
-    to_points = nodes.nodes.new("GeometryNodeMeshToPoints")
-    to_points.inputs["Radius"].default_value = 0.1
-    nodes.links.new(group_in.outputs[0], to_points.inputs["Mesh"])
-    nodes.links.new(to_points.outputs[0], group_out.inputs[0])
-    cloud.modifiers.new("Points", "NODES").node_group = nodes
+    positions = np.random.default_rng(48).uniform(-10, 10, (spheres, 3))
+    cloud = point_cloud_object(s.collection, "Cloud", positions, radius=0.1)
     for frame, angle in ((1, 0.0), (frames, 1.0)):
         cloud.rotation_euler = (0.0, 0.0, angle)
         cloud.keyframe_insert("rotation_euler", frame=frame)

@@ -170,6 +170,15 @@ def test_point_cloud_spheres_follow_object_transform(scene):
     assert not d.skipped and not d.warnings
 
 
+@pytest.mark.parametrize("positions", [np.zeros((4, 2)), np.zeros(3), np.zeros((2, 3, 1))])
+def test_point_cloud_refuses_positions_not_n_by_3(scene, positions):
+    from durer.blender.point_cloud import point_cloud_object
+
+    with pytest.raises(ValueError, match=r"positions must have shape \(N, 3\)"):
+        point_cloud_object(scene.collection, "Bad", positions)
+    assert "Bad" not in bpy.data.objects and "Bad" not in bpy.data.meshes
+
+
 def test_point_cloud_object_with_material_index(scene):
     obj = pointcloud_object(scene, "Cloud", [(0, 0, 0), (1, 0, 0), (2, 0, 0)], radius=0.1)
     pc = obj.data

@@ -10,6 +10,8 @@ import pytest
 bpy = pytest.importorskip("bpy")
 bmesh = pytest.importorskip("bmesh")
 
+from durer.blender import point_cloud  # noqa: E402
+
 
 def link(s, obj):
     s.collection.objects.link(obj)
@@ -60,29 +62,17 @@ def grid(s, name="Grid", size=1.0, n=4, **kw):
 
 def vertex_object(s, name, positions, location=(0, 0, 0)):
     """A mesh object of loose vertices at `positions`, linked into scene `s`."""
-    positions = np.asarray(positions, dtype=np.float32)
-    me = bpy.data.meshes.new(name)
-    me.vertices.add(len(positions))
-    me.vertices.foreach_set("co", positions.ravel())
-    obj = link(s, bpy.data.objects.new(name, me))
+    obj = point_cloud.vertex_object(s.collection, name, positions)
     obj.location = location
     return obj
 
 
 def points_object(s, name, positions, radius=0.05, location=(0, 0, 0), scale=(1, 1, 1)):
-    """A mesh object turned into a point cloud by a geometry-nodes "Mesh to Points" modifier
-    (evaluated as a point-cloud instance, like most point clouds users make)."""
-    obj = vertex_object(s, name, positions, location)
+    """A point cloud made the way most users make one (durer.blender.point_cloud: a vertex mesh
+    through a geometry-nodes "Mesh to Points" modifier, evaluated as a point-cloud instance)."""
+    obj = point_cloud.point_cloud_object(s.collection, name, positions, radius)
+    obj.location = location
     obj.scale = scale
-    ng = bpy.data.node_groups.new(f"{name} points", "GeometryNodeTree")
-    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    gin, gout = ng.nodes.new("NodeGroupInput"), ng.nodes.new("NodeGroupOutput")
-    m2p = ng.nodes.new("GeometryNodeMeshToPoints")
-    m2p.inputs["Radius"].default_value = radius
-    ng.links.new(gin.outputs[0], m2p.inputs["Mesh"])
-    ng.links.new(m2p.outputs[0], gout.inputs[0])
-    obj.modifiers.new("Points", "NODES").node_group = ng
     return obj
 
 
