@@ -17,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+#include "durer/Inline.h"
 #include "durer/geometry/Slab.h"
 #include "durer/math/Float.h"
 
@@ -192,7 +193,7 @@ class Bvh {
   // by the least normal number (lo down, hi up; it rounds back unless the difference is below
   // ~1e-31 or 1e-292), so that a ray parallel to an axis (inv = ±inf) whose origin lies on a box
   // face gets ∓inf, inside, never 0·inf = NaN. (Not a subnormal: those cost microcode assists.)
-  static void childEntries(const BvhNode<Real>& node, const BvhRay<Real>& ray, Real tHit, Real* out) {
+  DURER_INLINE static void childEntries(const BvhNode<Real>& node, const BvhRay<Real>& ray, Real tHit, Real* out) {
     constexpr Real tiny = std::numeric_limits<Real>::min();
     Lanes tn = broadcast(ray.tMin), tf = broadcast(tHit);
     Lanes nearT[3], farT[3];
@@ -216,7 +217,7 @@ class Bvh {
   }
 
   // Pushes the children of `node` that the ray enters in [tMin, tHit], farthest first.
-  static void pushChildren(const BvhNode<Real>& node, const BvhRay<Real>& ray, Real tHit, Stack& stack) {
+  DURER_INLINE static void pushChildren(const BvhNode<Real>& node, const BvhRay<Real>& ray, Real tHit, Stack& stack) {
     Real entry[BvhNode<Real>::kWidth];
     childEntries(node, ray, tHit, entry);
     // Insertion by entry t: the nearest child ends on top of the stack.
