@@ -113,6 +113,7 @@ constexpr durer::Precision kPrecisions[2] = {durer::Precision::Float, durer::Pre
 // The first (untimed) pass: each tracer alone in a memory probe; the images it leaves are compared.
 struct FirstPass {
   MemoryProbe::Growth embree, durer[2];
+  int64_t durerScene[2] = {};  // what the Scene alone holds, before a render prepares it
   Agreement agreement[2];
 };
 
@@ -123,6 +124,7 @@ FirstPass firstPass(const Workload& w, const EmbreeDevice& device, int threads, 
     const MemoryProbe probe;
     durer::Scene scene;
     addToScene(w, scene);
+    pass.durerScene[p] = probe.growth().retained;
     renderDurer(scene, w, kPrecisions[p], threads, durerImages[p]);
     pass.durer[p] = probe.growth();
     litFromColor(durerImages[p]);
@@ -164,9 +166,12 @@ std::string list(const std::vector<double>& values) {
   return out.str() + "]";
 }
 
-std::string json(const MemoryProbe::Growth& g) {
-  return "{\"retained_bytes\": " + std::to_string(g.retained) + ", \"peak_bytes\": " + std::to_string(g.peak) + "}";
+std::string json(const MemoryProbe::Growth& g, const std::string& more = "") {
+  return "{\"retained_bytes\": " + std::to_string(g.retained) + ", \"peak_bytes\": " + std::to_string(g.peak) + more +
+         "}";
 }
+
+std::string sceneBytes(int64_t bytes) { return ", \"scene_bytes\": " + std::to_string(bytes); }
 
 std::string json(const Agreement& a) {
   std::ostringstream out;
@@ -193,7 +198,8 @@ std::string report(const Options& o, const Workload& w, const FirstPass& first, 
   }
   out << " \"agreement\": {\"float\": " << json(first.agreement[0]) << ",\n               \"double\": "
       << json(first.agreement[1]) << "},\n \"memory\": {\"embree\": " << json(first.embree)
-      << ", \"durer_float\": " << json(first.durer[0]) << ", \"durer_double\": " << json(first.durer[1])
+      << ",\n            \"durer_float\": " << json(first.durer[0], sceneBytes(first.durerScene[0]))
+      << ",\n            \"durer_double\": " << json(first.durer[1], sceneBytes(first.durerScene[1]))
       << ", \"process_peak_rss_bytes\": " << processPeakRss() << "}}\n";
   return out.str();
 }
