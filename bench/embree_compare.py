@@ -8,7 +8,9 @@ before it times anything and reports JSON. Embree traces Dürer's own float came
 (RTC_GEOMETRY_TYPE_SPHERE_POINT, rtcIntersect8 packets, rtcOccluded8 shadow rays) on 2 threads;
 Dürer renders through its public C++ API `durer::render` (depth only; colour with the sun), float
 and double, 2 threads. Every time is a median over interleaved rounds (Embree, Dürer float, Dürer
-double) after an untimed first pass. Needs Embree 3 (Debian: `apt-get install libembree-dev`);
+double) after an untimed first pass. Dürer's core is compiled as the package's own build was (its
+compiler and DURER_NATIVE, so that ccache reuses its objects; set DURER_NATIVE=0/1 to choose), in
+build/bench-embree or build/bench-embree-native. Needs Embree 3 (Debian: `apt-get install libembree-dev`);
 exit status 2 without it, 1 when a workload's images disagree.
 """
 
@@ -137,13 +139,47 @@ def configure_command(build: Path, embree_dir: Path, native: bool) -> list[str]:
         command += ["-G", "Ninja", f"-DCMAKE_MAKE_PROGRAM={ninja if ninja.exists() else shutil.which('ninja')}"]
     if shutil.which("ccache"):
         command.append("-DCMAKE_CXX_COMPILER_LAUNCHER=ccache")
-    return command
+    compiler = package_compiler()
+    return command + ([f"-DCMAKE_CXX_COMPILER={compiler}"] if compiler else [])
+
+
+def package_cache() -> Path | None:
+    """The CMake cache of the package's own build (pyproject's build-dir, build/{wheel_tag}), if any."""
+    caches = sorted((ROOT / "build").glob("cp*/CMakeCache.txt"))
+    return caches[-1] if caches else None
+
+
+def package_compiler() -> str | None:
+    """The package build's C++ compiler: ccache keys on the compiler's path, so with it (and the same
+    flags) the core's objects come from the cache instead of ~10 minutes of compiling."""
+    cache = package_cache()
+    return cache_value(cache, "CMAKE_CXX_COMPILER") if cache else None
+
+
+def native_flags(environ: dict[str, str] | None = None) -> bool:
+    """Whether to compile with -march=native: $DURER_NATIVE if set (as for the package), else as the
+    package was built, so that the benchmark measures the core as installed."""
+    environ = os.environ if environ is None else environ
+    cache = package_cache()
+    value = environ.get("DURER_NATIVE") or (cache and cache_value(cache, "DURER_NATIVE")) or "OFF"
+    return value.upper() in ("1", "ON", "TRUE", "YES")
+
+
+def cache_value(cache: Path, name: str) -> str | None:
+    """A variable's value in a CMakeCache.txt (lines NAME:TYPE=VALUE)."""
+    for line in cache.read_text().splitlines():
+        if line.split(":", 1)[0] == name and "=" in line:
+            return line.split("=", 1)[1]
+    return None
 
 
 def build_executable(embree_dir: Path, native: bool) -> Path:
     """Configures and builds durer_embree_bench; returns its path. A clean build compiles Dürer's
     core (about 10 minutes on 2 cores); ccache makes a rebuild take seconds."""
     build = build_dir(native)
+    cache, compiler = build / "CMakeCache.txt", package_compiler()
+    if compiler and cache.exists() and cache_value(cache, "CMAKE_CXX_COMPILER") != compiler:
+        shutil.rmtree(build)  # CMake cannot switch a configured folder to another compiler
     env = {**os.environ, "CCACHE_BASEDIR": os.environ.get("CCACHE_BASEDIR", str(ROOT.parent))}
     steps = (configure_command(build, embree_dir, native), [tool("cmake"), "--build", str(build), "--target", EXECUTABLE])
     for step in steps:
@@ -154,12 +190,11 @@ def build_executable(embree_dir: Path, native: bool) -> Path:
 
 
 def compiler_description(build: Path) -> str:
-    """The first line of the build's C++ compiler's --version, from its CMake cache."""
-    for line in (build / "CMakeCache.txt").read_text().splitlines():
-        if line.startswith("CMAKE_CXX_COMPILER:"):
-            compiler = line.split("=", 1)[1]
-            return subprocess.run([compiler, "--version"], capture_output=True, text=True).stdout.splitlines()[0]
-    return "unknown compiler"
+    """The first line of the build's C++ compiler's --version."""
+    compiler = cache_value(build / "CMakeCache.txt", "CMAKE_CXX_COMPILER")
+    if not compiler:
+        return "unknown compiler"
+    return subprocess.run([compiler, "--version"], capture_output=True, text=True).stdout.splitlines()[0]
 
 
 # --- running -----------------------------------------------------------------------------------------
@@ -358,7 +393,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if embree_dir is None:
         print(INSTALL_HINT, file=sys.stderr)
         return 2
-    native = os.environ.get("DURER_NATIVE", "0").upper() in ("1", "ON", "TRUE", "YES")
+    native = native_flags()
     print(f"building {EXECUTABLE} in {build_dir(native)} (a clean build takes ~10 minutes)...", file=sys.stderr)
     executable = build_executable(embree_dir, native)
     size = QUICK_SIZE if args.quick else FULL_SIZE
