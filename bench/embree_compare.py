@@ -79,8 +79,8 @@ def workloads_named(text: str) -> list[Workload]:
     names = [name.strip() for name in text.split(",") if name.strip()]
     unknown = [name for name in names if name not in by_name]
     if unknown or not names:
-        known = ", ".join(by_name)
-        raise argparse.ArgumentTypeError(f"unknown workload(s) {', '.join(unknown) or '(none given)'}; choose from {known}")
+        given = ", ".join(unknown) or "(none given)"
+        raise argparse.ArgumentTypeError(f"unknown workload(s) {given}; choose from {', '.join(by_name)}")
     return [by_name[name] for name in names]
 
 
@@ -181,7 +181,10 @@ def build_executable(embree_dir: Path, native: bool) -> Path:
     if compiler and cache.exists() and cache_value(cache, "CMAKE_CXX_COMPILER") != compiler:
         shutil.rmtree(build)  # CMake cannot switch a configured folder to another compiler
     env = {**os.environ, "CCACHE_BASEDIR": os.environ.get("CCACHE_BASEDIR", str(ROOT.parent))}
-    steps = (configure_command(build, embree_dir, native), [tool("cmake"), "--build", str(build), "--target", EXECUTABLE])
+    steps = (
+        configure_command(build, embree_dir, native),
+        [tool("cmake"), "--build", str(build), "--target", EXECUTABLE],
+    )
     for step in steps:
         run = subprocess.run(step, cwd=ROOT, env=env, capture_output=True, text=True)
         if run.returncode != 0:
@@ -295,13 +298,18 @@ def memory_cell(memory: dict, spheres: int) -> str:
 
 
 def agreement_cell(report: dict) -> str:
-    """The share of pixels where Dürer and Embree agree on hit/miss, depth (1e-4) and, with a sun, light."""
-    cells = []
-    for p in ("float", "double"):
-        a = report["agreement"][p]
-        disagreeing = a["hit_mismatches"] + a["depth_mismatches"] + a["lit_mismatches"]
-        cells.append(f"{100 * (1 - disagreeing / a['pixels']):.3f}%" + ("" if a["passed"] else " FAIL"))
-    return " / ".join(cells)
+    """The share of pixels where Dürer (float / double) and Embree agree on hit/miss and depth (1e-4), and
+    with a sun, on which hits are lit."""
+    agreements = [report["agreement"][p] for p in ("float", "double")]
+
+    def shares(key: str) -> str:
+        return " / ".join(
+            f"{100 * (1 - sum(a[k] for k in key.split('+')) / a['pixels']):.3f}%" + ("" if a["passed"] else " FAIL")
+            for a in agreements
+        )
+
+    light = any(a["lit_mismatches"] for a in agreements)
+    return shares("hit_mismatches+depth_mismatches") + (f"; light {shares('lit_mismatches')}" if light else "")
 
 
 def others_cell(others: float | None) -> str:
@@ -348,8 +356,8 @@ def legend_lines(size: tuple[int, int], runs: int) -> list[str]:
         "hierarchy build included. Depth pass only; colour + depth with the sun.",
         "Dürer / Embree: Embree trace time / Dürer cached time (above 1: Dürer faster); First render: "
         "Embree build + trace / Dürer first render.",
-        "Hits agree: pixels where both hit or both miss, the depths agree to 1e-4 relative and (sun) both light or "
-        "both shade the hit; below 99.9 % the row is not timed.",
+        "Hits agree: pixels where both hit or both miss and the depths agree to 1e-4 relative (below 99.9 %: FAIL, "
+        "not timed); light: pixels both light or both leave dark (sun; below 99.5 %: FAIL).",
         "B/sphere (from 100k spheres): resident memory (VmRSS) added, per sphere: by Dürer's first render in float / "
         "double (that precision's geometry + hierarchy), + by its Scene (the spheres as given, in double); Embree: "
         "its scene, build and trace. Measured one tracer at a time, heap trimmed before each; Peak RSS: the process's.",
@@ -382,7 +390,8 @@ def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
                              f"{QUICK_RUNS} runs (unless --runs)")
     parser.add_argument("--workloads", type=workloads_named, default=list(WORKLOADS), metavar="A,B",
                         help=f"which workloads, comma-separated (default all: {','.join(w.name for w in WORKLOADS)})")
-    parser.add_argument("--runs", type=positive_int, metavar="N", help=f"timed rounds per workload (default {DEFAULT_RUNS})")
+    parser.add_argument("--runs", type=positive_int, metavar="N",
+                        help=f"timed rounds per workload (default {DEFAULT_RUNS})")
     parser.add_argument("--markdown", type=Path, metavar="FILE", help="also write the report as Markdown to FILE")
     return parser.parse_args(argv)
 

@@ -11,8 +11,8 @@ bool lit(const Image& image, size_t pixel) { return !image.lit.empty() && image.
 }  // namespace
 
 bool Agreement::passed() const {
-  const double allowed = kMaxDisagreeing * static_cast<double>(pixels);
-  return static_cast<double>(hitMismatches + depthMismatches) <= allowed && static_cast<double>(litMismatches) <= allowed;
+  const auto share = [&](int64_t count) { return static_cast<double>(count) / static_cast<double>(pixels); };
+  return share(hitMismatches + depthMismatches) <= kMaxDisagreeing && share(litMismatches) <= kMaxLitDisagreeing;
 }
 
 Agreement compare(const Image& embree, const Image& durer) {
@@ -22,7 +22,10 @@ Agreement compare(const Image& embree, const Image& durer) {
   for (size_t i = 0; i < embree.depth.size(); ++i) {
     const bool embreeHit = std::isfinite(embree.depth[i]), durerHit = std::isfinite(durer.depth[i]);
     if (embreeHit != durerHit) ++a.hitMismatches;
-    if (lit(embree, i) != lit(durer, i)) ++a.litMismatches;
+    if (lit(embree, i) != lit(durer, i)) {
+      ++a.litMismatches;
+      a.litByEmbreeOnly += lit(embree, i);
+    }
     if (!(embreeHit && durerHit)) continue;
     const double t = embree.depth[i];
     differences.push_back(std::abs(static_cast<double>(durer.depth[i]) - t) / std::max(t, 1e-30));

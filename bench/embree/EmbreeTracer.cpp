@@ -93,9 +93,9 @@ class TileTracer {
     RTCRay8 rays{};
     for (int k = 0; k < count; ++k) {
       if (hits.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
-      const durer::Vec3<float> normal = hits.hit.geomID[k] == m_groundId
-                                            ? durer::Vec3<float>(0, 1, 0)
-                                            : glm::normalize(durer::Vec3<float>(hits.hit.Ng_x[k], hits.hit.Ng_y[k], hits.hit.Ng_z[k]));
+      const durer::Vec3<float> sphereNormal(hits.hit.Ng_x[k], hits.hit.Ng_y[k], hits.hit.Ng_z[k]);
+      const durer::Vec3<float> normal =
+          hits.hit.geomID[k] == m_groundId ? durer::Vec3<float>(0, 1, 0) : glm::normalize(sphereNormal);
       if (glm::dot(normal, m_towardSun) <= 0) continue;
       const float t = hits.ray.tfar[k];
       const durer::Vec3<float> origin =
@@ -134,7 +134,9 @@ EmbreeDevice::~EmbreeDevice() { rtcReleaseDevice(m_device); }
 
 void EmbreeDevice::check(const char* what) const {
   const RTCError error = rtcGetDeviceError(m_device);
-  if (error != RTC_ERROR_NONE) throw std::runtime_error(std::string(what) + " failed: Embree error " + std::to_string(error));
+  if (error != RTC_ERROR_NONE) {
+    throw std::runtime_error(std::string(what) + " failed: Embree error " + std::to_string(error));
+  }
 }
 
 EmbreeScene::EmbreeScene(const EmbreeDevice& device, const Workload& workload)
@@ -152,7 +154,9 @@ void EmbreeScene::addSpheres() {
   auto* spheres = static_cast<float*>(
       rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), n));
   for (size_t i = 0; i < n; ++i) {
-    for (size_t axis = 0; axis < 3; ++axis) spheres[4 * i + axis] = static_cast<float>(m_workload.centers[3 * i + axis]);
+    for (size_t axis = 0; axis < 3; ++axis) {
+      spheres[4 * i + axis] = static_cast<float>(m_workload.centers[3 * i + axis]);
+    }
     spheres[4 * i + 3] = static_cast<float>(m_workload.radii[i]);
   }
   rtcCommitGeometry(geometry);

@@ -45,7 +45,9 @@ std::string usage() {
 long positive(const std::string& text, const std::string& field) {
   char* end = nullptr;
   const long value = std::strtol(text.c_str(), &end, 10);
-  if (text.empty() || *end != '\0' || value < 1) throw std::invalid_argument(field + " must be a positive integer, got '" + text + "'");
+  if (text.empty() || *end != '\0' || value < 1) {
+    throw std::invalid_argument(field + " must be a positive integer, got '" + text + "'");
+  }
   return value;
 }
 
@@ -178,6 +180,7 @@ std::string json(const Agreement& a) {
   out << "{\"pixels\": " << a.pixels << ", \"hit_mismatches\": " << a.hitMismatches << ", \"both_hit\": " << a.bothHit
       << ", \"depth_mismatches\": " << a.depthMismatches << ", \"depth_difference_p999\": " << a.depthDifference999
       << ", \"max_depth_difference\": " << a.maxDepthDifference << ", \"lit_mismatches\": " << a.litMismatches
+      << ", \"lit_by_embree_only\": " << a.litByEmbreeOnly
       << ", \"passed\": " << (a.passed() ? "true" : "false") << "}";
   return out.str();
 }
@@ -212,7 +215,7 @@ void logAgreement(const FirstPass& first) {
               << a.pixels - a.hitMismatches << " of " << a.pixels << " pixels agree, depth beyond "
               << Agreement::kDepthTolerance << " relative at " << a.depthMismatches << " of " << a.bothHit
               << " (99.9th percentile " << a.depthDifference999 << ", max " << a.maxDepthDifference << "), lit "
-              << a.litMismatches << " mismatches\n";
+              << a.litMismatches << " mismatches (" << a.litByEmbreeOnly << " lit by Embree only)\n";
   }
 }
 

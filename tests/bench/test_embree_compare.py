@@ -106,6 +106,13 @@ def test_a_row_shows_medians_ratios_agreement_and_memory():
     assert row["Peak RSS MB"] == "300" and row["Others"] == "0.05"
 
 
+def test_with_a_sun_the_row_also_shows_how_many_pixels_agree_on_light():
+    report = _report()
+    report["agreement"]["float"] = {**report["agreement"]["float"], "lit_mismatches": 2074}  # 0.1 % of 2,073,600
+    cell = bench.agreement_cell(report)
+    assert cell == "99.999% / 99.999%; light 99.900% / 100.000%"
+
+
 def test_a_row_whose_images_disagree_shows_no_timings():
     result = bench.Result(bench.WORKLOADS[3], _report(disagreeing=5000), 0.5, 3)
     row = dict(zip(bench.HEADER, bench.row_cells(result), strict=True))
@@ -128,7 +135,7 @@ EMBREE = bench.find_embree()
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(EMBREE is None, reason="Intel Embree 3 is not installed (benchmark only: apt-get install libembree-dev)")
+@pytest.mark.skipif(EMBREE is None, reason="Intel Embree 3 is not installed (a benchmark dependency: libembree-dev)")
 @pytest.mark.skipif(shutil.which("ccache") is None, reason="without ccache, building Dürer's core again takes ~10 min")
 def test_the_benchmark_checks_that_embree_and_durer_agree():
     executable = bench.build_executable(EMBREE, bench.native_flags())
