@@ -143,9 +143,10 @@ def configure_command(build: Path, embree_dir: Path, native: bool) -> list[str]:
     return command + ([f"-DCMAKE_CXX_COMPILER={compiler}"] if compiler else [])
 
 
-def package_cache() -> Path | None:
-    """The CMake cache of the package's own build (pyproject's build-dir, build/{wheel_tag}), if any."""
-    caches = sorted((ROOT / "build").glob("cp*/CMakeCache.txt"))
+def package_cache(root: Path = ROOT) -> Path | None:
+    """The CMake cache of the package's own build (pyproject's build-dir, build/{wheel_tag}: the one
+    scikit-build-core configured), if any."""
+    caches = [cache for cache in sorted((root / "build").glob("*/CMakeCache.txt")) if cache_value(cache, "SKBUILD")]
     return caches[-1] if caches else None
 
 

@@ -15,11 +15,11 @@ constexpr uint64_t kSeed = 20261123;
 constexpr double kCubeHalf = 1;         // the cube is [-1, 1]^3
 constexpr double kSlabHalfWidth = 10;   // the slab is 20 x 20 (x, z) ...
 constexpr double kSlabHeight = 4;       // ... x 4 (y), standing on the ground plane y = 0
-constexpr double kSlabRadius = 0.02;    // ~2.5 pixels across at 1920 pixels over the slab's 22 units
+constexpr double kSlabRadius = 0.02;    // ~3.5 pixels across: 1920 pixels span the view's 22 units
 constexpr double kSqrtHalf = 0.70710678118654752440;
 
-// A quarter of the mean spacing of n spheres in the cube: the cube's look stays the same from 1k to
-// 10M spheres (each ray meets about as many spheres before it stops), only finer.
+// A quarter of the mean spacing of n spheres in the cube: they fill the same share of its volume
+// (π/192, 1.6 %) at every n, ever finer.
 double cubeRadius(size_t n) { return 0.5 * kCubeHalf / std::cbrt(static_cast<double>(n)); }
 
 void addUniformSpheres(Workload& w, size_t n, const durer::Vec3d& lo, const durer::Vec3d& hi, double radius) {

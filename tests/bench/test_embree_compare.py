@@ -63,6 +63,16 @@ def test_durer_native_chooses_the_flags_as_for_the_package():
     assert bench.native_flags({"DURER_NATIVE": "ON"}) is True
 
 
+def test_the_package_build_is_the_one_scikit_build_configured(tmp_path):
+    for folder, lines in (("cp311-x", "SKBUILD:STRING=2\nDURER_NATIVE:BOOL=1\n"), ("cpp-tests", "DURER_NATIVE:BOOL=OFF\n")):
+        (tmp_path / "build" / folder).mkdir(parents=True)
+        (tmp_path / "build" / folder / "CMakeCache.txt").write_text("# comment\n" + lines)
+    cache = bench.package_cache(tmp_path)
+    assert cache == tmp_path / "build" / "cp311-x" / "CMakeCache.txt"
+    assert bench.cache_value(cache, "DURER_NATIVE") == "1" and bench.cache_value(cache, "CMAKE_CXX_COMPILER") is None
+    assert bench.package_cache(tmp_path / "elsewhere") is None
+
+
 def test_without_embree_the_driver_says_how_to_install_it(tmp_path):
     env = {**os.environ, "embree_DIR": str(tmp_path)}  # a folder without embree-config.cmake
     run = subprocess.run([sys.executable, str(SCRIPT), "--quick"], env=env, capture_output=True, text=True, timeout=60)
