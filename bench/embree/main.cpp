@@ -4,7 +4,8 @@
 //
 //   durer_embree_bench --workload KIND [--spheres N] [--size WxH] [--runs R] [--threads T]
 //
-// Exit status: 0 when the images agree, 3 when they do not (then nothing is timed), 2 on bad arguments.
+// Exit status: 0 when the images agree, 3 when they do not (then nothing is timed), 2 on bad arguments,
+// 1 when Embree or Dürer fails.
 #include <malloc.h>
 
 #include <chrono>

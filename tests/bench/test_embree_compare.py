@@ -64,7 +64,8 @@ def test_durer_native_chooses_the_flags_as_for_the_package():
 
 
 def test_the_package_build_is_the_one_scikit_build_configured(tmp_path):
-    for folder, lines in (("cp311-x", "SKBUILD:STRING=2\nDURER_NATIVE:BOOL=1\n"), ("cpp-tests", "DURER_NATIVE:BOOL=OFF\n")):
+    caches = {"cp311-x": "SKBUILD:STRING=2\nDURER_NATIVE:BOOL=1\n", "cpp-tests": "DURER_NATIVE:BOOL=OFF\n"}
+    for folder, lines in caches.items():
         (tmp_path / "build" / folder).mkdir(parents=True)
         (tmp_path / "build" / folder / "CMakeCache.txt").write_text("# comment\n" + lines)
     cache = bench.package_cache(tmp_path)
