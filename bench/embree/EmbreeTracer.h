@@ -1,0 +1,50 @@
+#pragma once
+#include <embree3/rtcore.h>
+
+#include "Image.h"
+#include "Workload.h"
+
+namespace bench {
+
+// An Embree device; its build threads are Embree's own (TBB), capped by "threads=N".
+class EmbreeDevice {
+ public:
+  explicit EmbreeDevice(int threads);
+  ~EmbreeDevice();
+  EmbreeDevice(const EmbreeDevice&) = delete;
+  EmbreeDevice& operator=(const EmbreeDevice&) = delete;
+
+  RTCDevice handle() const { return m_device; }
+  void check(const char* what) const;  // throws std::runtime_error if Embree reported an error
+
+ private:
+  RTCDevice m_device;
+};
+
+// A workload's geometry in Embree: its spheres as RTC_GEOMETRY_TYPE_SPHERE_POINT (float x, y, z, r)
+// and its ground plane as a quad far larger than anything the camera sees.
+class EmbreeScene {
+ public:
+  EmbreeScene(const EmbreeDevice& device, const Workload& workload);  // fills the buffers; no build
+  ~EmbreeScene();
+  EmbreeScene(const EmbreeScene&) = delete;
+  EmbreeScene& operator=(const EmbreeScene&) = delete;
+
+  void commit();  // rtcCommitScene: the hierarchy build
+
+  // Traces the camera's rays (Dürer's Camera<float>: the rays Dürer's float render makes) with
+  // rtcIntersect8 on `threads` std::threads, and with a sun the occlusion rays of the hits facing it
+  // with rtcOccluded8.
+  void trace(int threads, Image& image) const;
+
+ private:
+  void addSpheres();
+  void addGround();
+
+  const EmbreeDevice& m_device;
+  const Workload& m_workload;
+  RTCScene m_scene;
+  unsigned m_groundId = RTC_INVALID_GEOMETRY_ID;
+};
+
+}  // namespace bench

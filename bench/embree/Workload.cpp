@@ -1,0 +1,115 @@
+#include "Workload.h"
+
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <stdexcept>
+
+#include "durer/scene/Light.h"
+
+namespace bench {
+
+namespace {
+
+constexpr uint64_t kSeed = 20261123;
+constexpr double kCubeHalf = 1;         // the cube is [-1, 1]^3
+constexpr double kSlabHalfWidth = 10;   // the slab is 20 x 20 (x, z) ...
+constexpr double kSlabHeight = 4;       // ... x 4 (y), standing on the ground plane y = 0
+constexpr double kSlabRadius = 0.02;    // ~3.5 pixels across: 1920 pixels span the view's 22 units
+constexpr double kSqrtHalf = 0.70710678118654752440;
+
+// A quarter of the mean spacing of n spheres in the cube: they fill the same share of its volume
+// (π/192, 1.6 %) at every n, ever finer.
+double cubeRadius(size_t n) { return 0.5 * kCubeHalf / std::cbrt(static_cast<double>(n)); }
+
+void addUniformSpheres(Workload& w, size_t n, const durer::Vec3d& lo, const durer::Vec3d& hi, double radius) {
+  std::mt19937_64 random(kSeed);
+  std::uniform_real_distribution<double> x(lo.x, hi.x), y(lo.y, hi.y), z(lo.z, hi.z);
+  w.centers.reserve(3 * n);
+  for (size_t i = 0; i < n; ++i) {
+    w.centers.insert(w.centers.end(), {x(random), y(random), z(random)});
+  }
+  w.radii.assign(n, radius);
+}
+
+// Spheres fill the cube, seen along -z by an orthographic camera whose image width spans the cube.
+void makeCube(Workload& w, size_t n) {
+  addUniformSpheres(w, n, durer::Vec3d(-kCubeHalf), durer::Vec3d(kCubeHalf), cubeRadius(n));
+  w.camera.projection = durer::Projection::Orthographic;
+  w.camera.center = {0, 0, 4 * kCubeHalf};
+  w.camera.size = 2 * kCubeHalf;
+}
+
+// The cube's spheres seen from its centre through a 60° perspective camera.
+void makeInside(Workload& w, size_t n) {
+  makeCube(w, n);
+  w.camera.projection = durer::Projection::Perspective;
+  w.camera.center = {0, 0, 0};
+  w.camera.size = 60;
+}
+
+// Small spheres in a 20 x 20 x 4 slab on a ground plane, seen from 45° above by an orthographic camera.
+void makeSlab(Workload& w, size_t n) {
+  const double r = kSlabRadius;
+  addUniformSpheres(w, n, {-kSlabHalfWidth, r, -kSlabHalfWidth}, {kSlabHalfWidth, kSlabHeight - r, kSlabHalfWidth}, r);
+  w.groundPlane = true;
+  w.camera.projection = durer::Projection::Orthographic;
+  w.camera.direction = {0, -kSqrtHalf, -kSqrtHalf};
+  w.camera.center = durer::Vec3d(0, kSlabHeight / 2, 0) - 40.0 * w.camera.direction;
+  w.camera.size = 2.2 * kSlabHalfWidth;
+}
+
+void makeSlabWithSun(Workload& w, size_t n) {
+  makeSlab(w, n);
+  w.sunDirection = glm::normalize(durer::Vec3d(1, -2, -1));
+}
+
+using Maker = void (*)(Workload&, size_t);
+
+struct Kind {
+  const char* name;
+  const char* description;
+  Maker make;
+};
+
+const Kind kKinds[] = {
+    {"cube", "random spheres in a cube, radius a quarter of their mean spacing, orthographic view", makeCube},
+    {"slab", "radius-0.02 spheres in a 20x20x4 slab on a ground plane, orthographic view from 45 degrees", makeSlab},
+    {"slab-sun", "the slab lit by a sun casting shadows (colour render; Embree adds occlusion rays)", makeSlabWithSun},
+    {"inside", "the cube's spheres seen from its centre, 60-degree perspective view", makeInside},
+};
+
+}  // namespace
+
+const std::vector<std::pair<std::string, std::string>>& workloadKinds() {
+  static const std::vector<std::pair<std::string, std::string>> kinds = [] {
+    std::vector<std::pair<std::string, std::string>> list;
+    for (const Kind& kind : kKinds) list.emplace_back(kind.name, kind.description);
+    return list;
+  }();
+  return kinds;
+}
+
+Workload makeWorkload(const std::string& kind, size_t spheres, int width, int height) {
+  for (const Kind& k : kKinds) {
+    if (kind != k.name) continue;
+    Workload w;
+    w.kind = kind;
+    w.width = width;
+    w.height = height;
+    w.camera.tMax = INFINITY;
+    k.make(w, spheres);
+    durer::validate(w.camera);
+    return w;
+  }
+  throw std::invalid_argument("unknown workload '" + kind + "'");
+}
+
+void addToScene(const Workload& w, durer::Scene& scene) {
+  const int32_t defaultMaterial = 0;
+  scene.addSpheres(w.centers.data(), w.radii.data(), &defaultMaterial, w.sphereCount(), false);
+  if (w.groundPlane) scene.addPlane({0, 1, 0}, 0, defaultMaterial, nullptr);
+  if (w.sunDirection) scene.addDirectionalLight(*w.sunDirection, {1, 1, 1}, true);
+}
+
+}  // namespace bench

@@ -1,0 +1,38 @@
+#pragma once
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "durer/render/Camera.h"
+#include "durer/scene/Scene.h"
+
+namespace bench {
+
+// What both ray tracers are given: the same spheres (kept in double, as Dürer's scene keeps them;
+// Embree gets them rounded to float), an optional ground plane y = 0 facing up, an optional sun, and
+// the camera whose rays both trace.
+struct Workload {
+  std::string kind;
+  std::vector<double> centers;  // count x 3
+  std::vector<double> radii;    // count
+  bool groundPlane = false;
+  std::optional<durer::Vec3d> sunDirection;  // unit, the way the light travels; casts shadows
+  durer::CameraSpec camera;
+  int width = 0;
+  int height = 0;
+
+  size_t sphereCount() const { return radii.size(); }
+};
+
+// The workload kinds, one sentence each, for --help and the error on an unknown name.
+const std::vector<std::pair<std::string, std::string>>& workloadKinds();
+
+// Builds workload `kind` with `spheres` random spheres (seeded: the same call gives the same
+// spheres) for a width x height image; std::invalid_argument on an unknown kind.
+Workload makeWorkload(const std::string& kind, size_t spheres, int width, int height);
+
+// Dürer's scene of the workload: its spheres with the default material, the plane, the sun.
+void addToScene(const Workload& workload, durer::Scene& scene);
+
+}  // namespace bench

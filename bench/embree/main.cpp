@@ -1,0 +1,263 @@
+// durer_embree_bench: one workload, the same spheres and camera rays given to Intel Embree 3 and to
+// Dürer's render, their images compared, then both timed in interleaved rounds. The report is one
+// JSON object on stdout (bench/embree_compare.py reads it); progress and the agreement go to stderr.
+//
+//   durer_embree_bench --workload KIND [--spheres N] [--size WxH] [--runs R] [--threads T]
+//
+// Exit status: 0 when the images agree, 3 when they do not (then nothing is timed), 2 on bad arguments,
+// 1 when Embree or Dürer fails.
+#include <malloc.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <functional>
+#include <iostream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "Agreement.h"
+#include "EmbreeTracer.h"
+#include "Image.h"
+#include "Memory.h"
+#include "Workload.h"
+#include "durer/render/Renderer.h"
+
+namespace bench {
+
+namespace {
+
+struct Options {
+  std::string kind;
+  size_t spheres = 1000;
+  int width = 1920, height = 1080;
+  int runs = 5;
+  int threads = 2;
+};
+
+std::string usage() {
+  std::string text =
+      "usage: durer_embree_bench --workload KIND [--spheres N] [--size WxH] [--runs R] [--threads T]\nkinds:\n";
+  for (const auto& [name, description] : workloadKinds()) text += "  " + name + ": " + description + "\n";
+  return text;
+}
+
+long positive(const std::string& text, const std::string& field) {
+  char* end = nullptr;
+  const long value = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || value < 1) {
+    throw std::invalid_argument(field + " must be a positive integer, got '" + text + "'");
+  }
+  return value;
+}
+
+Options parseOptions(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; i += 2) {
+    const std::string flag = argv[i];
+    if (i + 1 >= argc) throw std::invalid_argument(flag + " needs a value");
+    const std::string value = argv[i + 1];
+    if (flag == "--workload") {
+      o.kind = value;
+    } else if (flag == "--spheres") {
+      o.spheres = static_cast<size_t>(positive(value, "--spheres"));
+    } else if (flag == "--size") {
+      const size_t x = value.find('x');
+      if (x == std::string::npos) throw std::invalid_argument("--size must be WIDTHxHEIGHT, got '" + value + "'");
+      o.width = static_cast<int>(positive(value.substr(0, x), "--size width"));
+      o.height = static_cast<int>(positive(value.substr(x + 1), "--size height"));
+    } else if (flag == "--runs") {
+      o.runs = static_cast<int>(positive(value, "--runs"));
+    } else if (flag == "--threads") {
+      o.threads = static_cast<int>(positive(value, "--threads"));
+    } else {
+      throw std::invalid_argument("unknown option " + flag);
+    }
+  }
+  if (o.kind.empty()) throw std::invalid_argument("--workload is required");
+  return o;
+}
+
+double millisecondsOf(const std::function<void()>& work) {
+  const auto start = std::chrono::steady_clock::now();
+  work();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Dürer's render of the workload through its public API: depth only, or colour + depth with a sun.
+void renderDurer(const durer::Scene& scene, const Workload& w, durer::Precision precision, int threads, Image& image) {
+  durer::RenderSettings settings;
+  settings.width = w.width;
+  settings.height = w.height;
+  settings.precision = precision;
+  settings.threads = threads;
+  settings.passes = durer::kPassDepth | (w.sunDirection ? durer::kPassColor : 0u);
+  durer::RenderTargets targets;
+  targets.depth = image.depth.data();
+  targets.color = w.sunDirection ? image.color.data() : nullptr;
+  durer::JobControl control;
+  const durer::RenderStats stats = durer::render(scene, w.camera, settings, targets, control, [] {});
+  image.rays = stats.counters.camera + stats.counters.shadow;
+}
+
+// With no ambient light and no emission, a pixel has colour exactly where its hit is lit by the sun.
+void litFromColor(Image& image) {
+  for (size_t i = 0; i < image.lit.size(); ++i) image.lit[i] = image.color[4 * i] > 0;
+}
+
+struct Timings {
+  std::vector<double> embreeBuild, embreeTrace;
+  std::vector<double> durerFirst[2], durerCached[2];  // [0] float, [1] double
+};
+
+constexpr durer::Precision kPrecisions[2] = {durer::Precision::Float, durer::Precision::Double};
+
+// The first (untimed) pass: each tracer alone in a memory probe; the images it leaves are compared.
+struct FirstPass {
+  MemoryProbe::Growth embree, durer[2];
+  int64_t durerScene[2] = {};  // what the Scene alone holds, before a render prepares it
+  Agreement agreement[2];
+};
+
+FirstPass firstPass(const Workload& w, const EmbreeDevice& device, int threads, Image& embreeImage,
+                    Image (&durerImages)[2]) {
+  FirstPass pass;
+  for (int p = 0; p < 2; ++p) {
+    const MemoryProbe probe;
+    durer::Scene scene;
+    addToScene(w, scene);
+    pass.durerScene[p] = probe.growth().retained;
+    renderDurer(scene, w, kPrecisions[p], threads, durerImages[p]);
+    pass.durer[p] = probe.growth();
+    litFromColor(durerImages[p]);
+  }
+  {
+    const MemoryProbe probe;
+    EmbreeScene scene(device, w);
+    scene.commit();
+    scene.trace(threads, embreeImage);
+    pass.embree = probe.growth();
+  }
+  for (int p = 0; p < 2; ++p) pass.agreement[p] = compare(embreeImage, durerImages[p]);
+  return pass;
+}
+
+// One timed round: Embree (build, trace), then Dürer in each precision (first render of a fresh
+// scene, which builds its hierarchy, then the same scene again, which reuses it).
+void timeRound(const Workload& w, const EmbreeDevice& device, int threads, Image& embreeImage,
+               Image (&durerImages)[2], Timings& t) {
+  {
+    EmbreeScene scene(device, w);
+    t.embreeBuild.push_back(millisecondsOf([&] { scene.commit(); }));
+    t.embreeTrace.push_back(millisecondsOf([&] { scene.trace(threads, embreeImage); }));
+  }
+  for (int p = 0; p < 2; ++p) {
+    durer::Scene scene;
+    addToScene(w, scene);
+    const auto render = [&] { renderDurer(scene, w, kPrecisions[p], threads, durerImages[p]); };
+    t.durerFirst[p].push_back(millisecondsOf(render));
+    t.durerCached[p].push_back(millisecondsOf(render));
+  }
+}
+
+// --- the JSON report ---------------------------------------------------------------------------------
+std::string list(const std::vector<double>& values) {
+  std::ostringstream out;
+  out << "[";
+  for (size_t i = 0; i < values.size(); ++i) out << (i ? ", " : "") << values[i];
+  return out.str() + "]";
+}
+
+std::string json(const MemoryProbe::Growth& g, const std::string& more = "") {
+  return "{\"retained_bytes\": " + std::to_string(g.retained) + ", \"peak_bytes\": " + std::to_string(g.peak) + more +
+         "}";
+}
+
+std::string sceneBytes(int64_t bytes) { return ", \"scene_bytes\": " + std::to_string(bytes); }
+
+std::string json(const Agreement& a) {
+  std::ostringstream out;
+  out << "{\"pixels\": " << a.pixels << ", \"hit_mismatches\": " << a.hitMismatches << ", \"both_hit\": " << a.bothHit
+      << ", \"depth_mismatches\": " << a.depthMismatches << ", \"depth_difference_p999\": " << a.depthDifference999
+      << ", \"max_depth_difference\": " << a.maxDepthDifference << ", \"lit_mismatches\": " << a.litMismatches
+      << ", \"lit_by_embree_only\": " << a.litByEmbreeOnly
+      << ", \"passed\": " << (a.passed() ? "true" : "false") << "}";
+  return out.str();
+}
+
+std::string report(const Options& o, const Workload& w, const FirstPass& first, const Timings& t,
+                   const Image& embreeImage, const Image (&durerImages)[2]) {
+  std::ostringstream out;
+  out.precision(6);
+  out << "{\"workload\": \"" << o.kind << "\", \"spheres\": " << w.sphereCount() << ", \"width\": " << w.width
+      << ", \"height\": " << w.height << ", \"threads\": " << o.threads << ", \"runs\": " << t.embreeTrace.size()
+      << ",\n \"rays\": {\"embree\": " << embreeImage.rays << ", \"durer_float\": " << durerImages[0].rays
+      << ", \"durer_double\": " << durerImages[1].rays << "},\n \"embree\": {\"build_ms\": " << list(t.embreeBuild)
+      << ", \"trace_ms\": " << list(t.embreeTrace) << "},\n";
+  const char* names[2] = {"float", "double"};
+  for (int p = 0; p < 2; ++p) {
+    out << " \"durer_" << names[p] << "\": {\"first_ms\": " << list(t.durerFirst[p])
+        << ", \"cached_ms\": " << list(t.durerCached[p]) << "},\n";
+  }
+  out << " \"agreement\": {\"float\": " << json(first.agreement[0]) << ",\n               \"double\": "
+      << json(first.agreement[1]) << "},\n \"memory\": {\"embree\": " << json(first.embree)
+      << ",\n            \"durer_float\": " << json(first.durer[0], sceneBytes(first.durerScene[0]))
+      << ",\n            \"durer_double\": " << json(first.durer[1], sceneBytes(first.durerScene[1]))
+      << ", \"process_peak_rss_bytes\": " << processPeakRss() << "}}\n";
+  return out.str();
+}
+
+void logAgreement(const FirstPass& first) {
+  const char* names[2] = {"float", "double"};
+  for (int p = 0; p < 2; ++p) {
+    const Agreement& a = first.agreement[p];
+    std::cerr << "  agreement, Dürer " << names[p] << " vs Embree: " << (a.passed() ? "OK" : "FAILED") << "; hit/miss "
+              << a.pixels - a.hitMismatches << " of " << a.pixels << " pixels agree, depth beyond "
+              << Agreement::kDepthTolerance << " relative at " << a.depthMismatches << " of " << a.bothHit
+              << " (99.9th percentile " << a.depthDifference999 << ", max " << a.maxDepthDifference << "), lit "
+              << a.litMismatches << " mismatches (" << a.litByEmbreeOnly << " lit by Embree only)\n";
+  }
+}
+
+int run(const Options& o) {
+  // A fixed mmap threshold: every large array is mapped and unmapped, never kept in the heap when
+  // freed, so that each memory probe sees only its own phase's memory.
+  mallopt(M_MMAP_THRESHOLD, 1 << 20);
+  const Workload w = makeWorkload(o.kind, o.spheres, o.width, o.height);
+  const EmbreeDevice device(o.threads);
+  const bool sun = w.sunDirection.has_value();
+  Image embreeImage(w.width, w.height, sun);
+  Image durerImages[2] = {Image(w.width, w.height, sun), Image(w.width, w.height, sun)};
+  std::cerr << o.kind << ", " << w.sphereCount() << " spheres, " << w.width << "x" << w.height << "\n";
+  const FirstPass first = firstPass(w, device, o.threads, embreeImage, durerImages);
+  logAgreement(first);
+  const bool agree = first.agreement[0].passed() && first.agreement[1].passed();
+  Timings timings;
+  for (int round = 0; agree && round < o.runs; ++round) {
+    timeRound(w, device, o.threads, embreeImage, durerImages, timings);
+  }
+  std::cout << report(o, w, first, timings, embreeImage, durerImages);
+  return agree ? 0 : 3;
+}
+
+}  // namespace
+
+}  // namespace bench
+
+int main(int argc, char** argv) {
+  if (argc == 2 && std::string(argv[1]) == "--help") {
+    std::cout << bench::usage();
+    return 0;
+  }
+  try {
+    return bench::run(bench::parseOptions(argc, argv));
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "durer_embree_bench: " << e.what() << "\n";
+    std::cerr << bench::usage();
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "durer_embree_bench: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,171 @@
+"""bench/embree_compare.py: the driver's own logic (always), and the C++ benchmark's agreement check on
+small workloads when Intel Embree 3 is installed (it is a benchmark dependency, never the package's)."""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+SCRIPT = ROOT / "bench" / "embree_compare.py"
+
+
+def _load_driver():
+    spec = importlib.util.spec_from_file_location("embree_compare", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+bench = _load_driver()
+
+
+def test_workloads_are_chosen_by_name_in_the_given_order():
+    assert [w.name for w in bench.workloads_named("slab-sun-1m, cube-1")] == ["slab-sun-1m", "cube-1"]
+    with pytest.raises(argparse.ArgumentTypeError, match=r"unknown workload\(s\) cube-2; choose from cube-1, "):
+        bench.workloads_named("cube-1,cube-2")
+    with pytest.raises(argparse.ArgumentTypeError, match="none given"):
+        bench.workloads_named(" , ")
+
+
+def test_quick_runs_trace_a_hundredth_of_the_spheres():
+    by_name = {w.name: w for w in bench.WORKLOADS}
+    assert by_name["cube-10m"].scaled(quick=True).spheres == 100_000
+    assert by_name["cube-1k"].scaled(quick=True).spheres == 10
+    assert by_name["cube-1"].scaled(quick=True).spheres == 1
+    assert by_name["slab-1m"].scaled(quick=False).spheres == 1_000_000
+
+
+def test_embree_is_found_where_cmake_would_look(tmp_path):
+    config = tmp_path / "lib" / "cmake" / "embree-3.13.5"
+    config.mkdir(parents=True)
+    (config / "embree-config.cmake").write_text("")
+    pattern = str(tmp_path / "lib" / "cmake" / "embree-3*" / "embree-config.cmake")
+    assert bench.find_embree({}, [pattern]) == config
+    assert bench.embree_version(config) == "3.13.5"
+    assert bench.find_embree({}, [str(tmp_path / "nowhere" / "embree-config.cmake")]) is None
+    # embree_DIR, as CMake reads it, wins over the usual places, and must hold the config file.
+    assert bench.find_embree({"embree_DIR": str(config)}, []) == config
+    assert bench.find_embree({"embree_DIR": str(tmp_path)}, [pattern]) is None
+
+
+def test_durer_native_chooses_the_flags_as_for_the_package():
+    assert bench.native_flags({"DURER_NATIVE": "1"}) is True
+    assert bench.native_flags({"DURER_NATIVE": "0"}) is False
+    assert bench.native_flags({"DURER_NATIVE": "ON"}) is True
+
+
+def test_the_package_build_is_the_one_scikit_build_configured(tmp_path):
+    caches = {"cp311-x": "SKBUILD:STRING=2\nDURER_NATIVE:BOOL=1\n", "cpp-tests": "DURER_NATIVE:BOOL=OFF\n"}
+    for folder, lines in caches.items():
+        (tmp_path / "build" / folder).mkdir(parents=True)
+        (tmp_path / "build" / folder / "CMakeCache.txt").write_text("# comment\n" + lines)
+    cache = bench.package_cache(tmp_path)
+    assert cache == tmp_path / "build" / "cp311-x" / "CMakeCache.txt"
+    assert bench.cache_value(cache, "DURER_NATIVE") == "1" and bench.cache_value(cache, "CMAKE_CXX_COMPILER") is None
+    assert bench.package_cache(tmp_path / "elsewhere") is None
+
+
+def test_without_embree_the_driver_says_how_to_install_it(tmp_path):
+    env = {**os.environ, "embree_DIR": str(tmp_path)}  # a folder without embree-config.cmake
+    run = subprocess.run([sys.executable, str(SCRIPT), "--quick"], env=env, capture_output=True, text=True, timeout=60)
+    assert run.returncode == 2
+    assert "apt-get install libembree-dev" in run.stderr and run.stdout == ""
+
+
+def _report(spheres: int = 1_000_000, disagreeing: int = 13) -> dict:
+    """A report as durer_embree_bench writes it, with round numbers."""
+    agreement = {
+        "pixels": 2_073_600, "hit_mismatches": disagreeing, "both_hit": 2_000_000, "depth_mismatches": 0,
+        "lit_mismatches": 0, "passed": disagreeing <= 2073,
+    }
+    return {
+        "spheres": spheres,
+        "rays": {"embree": 2_073_600, "durer_float": 2_073_600, "durer_double": 2_073_600},
+        "embree": {"build_ms": [12.0, 10.0, 11.0], "trace_ms": [90.0, 100.0, 110.0]},
+        "durer_float": {"first_ms": [111.0, 120.0, 100.0], "cached_ms": [40.0, 50.0, 60.0]},
+        "durer_double": {"first_ms": [222.0, 222.0, 222.0], "cached_ms": [200.0, 200.0, 200.0]},
+        "agreement": {"float": agreement, "double": agreement},
+        "memory": {
+            "embree": {"retained_bytes": 56_000_000, "peak_bytes": 60_000_000},
+            "durer_float": {"retained_bytes": 120_000_000, "peak_bytes": 140_000_000, "scene_bytes": 40_000_000},
+            "durer_double": {"retained_bytes": 186_000_000, "peak_bytes": 220_000_000, "scene_bytes": 40_000_000},
+            "process_peak_rss_bytes": 300 * 2**20,
+        },
+    }
+
+
+def test_a_row_shows_medians_ratios_agreement_and_memory():
+    row = dict(zip(bench.HEADER, bench.row_cells(bench.Result(bench.WORKLOADS[3], _report(), 0.05, 0)), strict=True))
+    assert row["Spheres"] == "1,000,000"
+    assert row["Embree build + trace ms"] == "11 + 100"
+    assert row["Embree Mrays/s"] == "20.7"  # 2,073,600 rays in 100 ms
+    assert row["Dürer float ms: cached (first)"] == "50 (111)"
+    assert row["Dürer Mrays/s f / d"] == "41.5 / 10.4"
+    assert row["Dürer / Embree f / d"] == "2.00x / 0.50x"  # Embree's 100 ms trace over Dürer's cached render
+    assert row["First render f / d"] == "1.00x / 0.50x"  # Embree's 111 ms build + trace over Dürer's first render
+    assert row["Hits agree f / d"] == "99.999% / 99.999%"
+    assert row["B/sphere: Dürer f / d + scene (Embree)"] == "80 / 146 + 40 (56)"
+    assert row["Peak RSS MB"] == "300" and row["Others"] == "0.05"
+
+
+def test_with_a_sun_the_row_also_shows_how_many_pixels_agree_on_light():
+    report = _report()
+    report["agreement"]["float"] = {**report["agreement"]["float"], "lit_mismatches": 2074}  # 0.1 % of 2,073,600
+    cell = bench.agreement_cell(report)
+    assert cell == "99.999% / 99.999%; light 99.900% / 100.000%"
+
+
+def test_a_row_whose_images_disagree_shows_no_timings():
+    result = bench.Result(bench.WORKLOADS[3], _report(disagreeing=5000), 0.5, 3)
+    row = dict(zip(bench.HEADER, bench.row_cells(result), strict=True))
+    assert not result.agrees
+    assert row["Hits agree f / d"] == "99.759% FAIL / 99.759% FAIL"
+    assert row["Dürer / Embree f / d"] == "-" and row["Embree build + trace ms"] == "-"
+    assert row["Others"] == "0.50 !"
+    text, _ = bench.report([result], ["Machine: test"], [])
+    assert "DISAGREEMENT in cube-1m" in text
+
+
+def test_memory_per_sphere_is_left_out_for_small_scenes():
+    row = bench.row_cells(bench.Result(bench.WORKLOADS[1], _report(spheres=1000), None, 0))
+    assert row[bench.HEADER.index("B/sphere: Dürer f / d + scene (Embree)")] == "-"
+    assert row[-1] == "n/a"
+
+
+# --- the C++ benchmark itself --------------------------------------------------------------------------
+EMBREE = bench.find_embree()
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(EMBREE is None, reason="Intel Embree 3 is not installed (a benchmark dependency: libembree-dev)")
+@pytest.mark.skipif(shutil.which("ccache") is None, reason="without ccache, building Dürer's core again takes ~10 min")
+def test_the_benchmark_checks_that_embree_and_durer_agree():
+    executable = bench.build_executable(EMBREE, bench.native_flags())
+    for workload in (bench.Workload("cube-1k", "cube", 1000), bench.Workload("slab-sun", "slab-sun", 3000)):
+        result = bench.run_workload(executable, workload, (160, 96), runs=2)
+        report = result.report
+        assert result.exit_code == 0 and result.agrees, report["agreement"]
+        assert report["spheres"] == workload.spheres
+        assert all(len(report["embree"][key]) == 2 for key in ("build_ms", "trace_ms"))
+        for precision in ("float", "double"):
+            agreement = report["agreement"][precision]
+            assert agreement["pixels"] == 160 * 96
+            assert agreement["hit_mismatches"] + agreement["depth_mismatches"] <= 0.001 * 160 * 96
+            assert report["memory"][f"durer_{precision}"]["retained_bytes"] > 0
+        if workload.kind == "cube":
+            assert report["rays"]["embree"] == report["rays"]["durer_double"] == 160 * 96
+        else:  # camera rays + one shadow ray per hit facing the sun, counted by each tracer
+            shadow = {name: rays - 160 * 96 for name, rays in report["rays"].items()}
+            assert shadow["embree"] > 0.3 * 160 * 96
+            assert abs(shadow["embree"] - shadow["durer_double"]) <= 0.001 * shadow["embree"]
+    bad = subprocess.run([str(executable), "--workload", "torus"], capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "unknown workload 'torus'" in bad.stderr
