@@ -41,11 +41,11 @@ struct Scenes {
   }
 };
 
-enum class Rays { TightGrid, WideGrid, Fan, Random };
+enum class Rays { TightGrid, WideGrid, Fan, Random, Grazing };
 
 // A packet of 64 rays of the given kind (camera kinds marked coherent, as Camera makes them).
 template <typename Real>
-RayPacket<Real> packetOf(Rays kind, std::mt19937& rng, Real tMin) {
+RayPacket<Real> packetOf(Rays kind, std::mt19937& rng, Real tMin, const Sphere<Real>* aim = nullptr) {
   std::uniform_real_distribution<double> u(-12, 12), unit(-1, 1), spacing(0.0005, 0.02);
   RayPacket<Real> p;
   p.count = 64;
@@ -53,9 +53,14 @@ RayPacket<Real> packetOf(Rays kind, std::mt19937& rng, Real tMin) {
   p.tMax = std::numeric_limits<Real>::infinity();
   const Vec3d corner(u(rng), u(rng), 15);
   const Vec3d direction = glm::normalize(Vec3d(unit(rng) * 0.3, unit(rng) * 0.3, -1));
-  const double step = kind == Rays::TightGrid ? spacing(rng) : 0.3;
+  const double step = kind == Rays::TightGrid ? spacing(rng) : kind == Rays::Grazing ? 1e-4 : 0.3;
+  Vec3d start = corner;
+  if (kind == Rays::Grazing) {  // a tight grid straddling a sphere's silhouette, straight down -z
+    const double a = unit(rng) * 3.2, r = double(aim->radius);
+    start = Vec3d(aim->center) + Vec3d(r * std::cos(a) - 3.5 * step, r * std::sin(a) - 3.5 * step, 15);
+  }
   for (int k = 0; k < 64; ++k) {
-    Vec3d o = corner + Vec3d(step * (k % 8), step * (k / 8), 0), d = direction;
+    Vec3d o = start + Vec3d(step * (k % 8), step * (k / 8), 0), d = kind == Rays::Grazing ? Vec3d(0, 0, -1) : direction;
     if (kind == Rays::Fan) o = corner, d = glm::normalize(Vec3d(unit(rng) * 0.05 + direction.x, unit(rng) * 0.05 + direction.y, -1));
     if (kind == Rays::Random) o = Vec3d(u(rng), u(rng), u(rng)), d = Vec3d(unit(rng), unit(rng), unit(rng));
     p.ox[k] = Real(o.x), p.oy[k] = Real(o.y), p.oz[k] = Real(o.z);
@@ -96,12 +101,13 @@ void checkAgainstBruteForce(const Set* sets, const RayPacket<Real>& rays, Search
 TEST_CASE_TEMPLATE("hierarchy searches find what brute force finds, bit for bit", Real, float, double) {
   const Scenes<Real> scenes(2024);
   std::mt19937 rng(7);
-  for (Rays kind : {Rays::TightGrid, Rays::WideGrid, Rays::Fan, Rays::Random}) {
+  for (Rays kind : {Rays::TightGrid, Rays::WideGrid, Rays::Fan, Rays::Random, Rays::Grazing}) {
     for (Real tMin : {-std::numeric_limits<Real>::infinity(), Real(0), std::numeric_limits<Real>::denorm_min()}) {
       for (int trial = 0; trial < 20; ++trial) {
         CAPTURE(int(kind));
         CAPTURE(tMin);
-        const RayPacket<Real> rays = packetOf<Real>(kind, rng, tMin);
+        const Sphere<Real>& aim = scenes.spheres[1].primitive(size_t(rng() % scenes.spheres[1].size()));
+        const RayPacket<Real> rays = packetOf<Real>(kind, rng, tMin, &aim);
         checkAgainstBruteForce(scenes.spheres, rays, [](const SphereSet<Real>& s, RayPacket<Real>& p, bool anyHit) {
           anyHit ? s.template intersect<SphereMethod::Robust, true>(p, 0, nullptr)
                  : s.template intersect<SphereMethod::Robust, false>(p, 0, nullptr);

@@ -7,6 +7,7 @@
 #include <limits>
 #include <vector>
 
+#include "durer/Inline.h"
 #include "durer/accel/Bvh.h"
 #include "durer/geometry/Slab.h"
 #include "durer/math/Float.h"
@@ -89,7 +90,7 @@ class BoxSet : public PrimitiveSet<Box<Real>, Real> {
   }
 
  private:
-  static void intersectRay(RayPacket<Real>& packet, const PacketInverse<Real>& inv, int k, const Box<Real>& b, int32_t id) {
+  DURER_INLINE static void intersectRay(RayPacket<Real>& packet, const PacketInverse<Real>& inv, int k, const Box<Real>& b, int32_t id) {
     constexpr Real inf = std::numeric_limits<Real>::infinity();
     Real nearT = -inf, farT = inf;
     slab(b.lo.x, b.hi.x, packet.ox[k], inv.x[k], nearT, farT);

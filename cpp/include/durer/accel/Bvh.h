@@ -122,6 +122,7 @@ class Bvh {
   int64_t walkPacket(const RayPacket<Real>& p, const PacketLeaf& packetLeaf, const RayLeaf& rayLeaf) const {
     const PacketInverse<Real> inv(p);
     const PacketWidth width(p);
+    const PacketInterval interval(p, inv);
     const BvhRay<Real> first(p.ox[0], p.oy[0], p.oz[0], p.dx[0], p.dy[0], p.dz[0], p.tMin);
     int32_t stack[kStackSize];
     int top = 0;
@@ -129,11 +130,12 @@ class Bvh {
     int64_t tests = 0;
     while (top > 0) {
       const BvhNode<Real>& node = m_nodes[static_cast<size_t>(stack[--top])];
-      Real entry[BvhNode<Real>::kWidth];
+      Real entry[BvhNode<Real>::kWidth], mayEnter[BvhNode<Real>::kWidth];
       childEntries(node, first, std::numeric_limits<Real>::infinity(), entry);
+      interval.mayEnter(node, mayEnter);
       int order[BvhNode<Real>::kWidth], found = 0;
       for (int i = 0; i < BvhNode<Real>::kWidth; ++i) {
-        if (node.child[i] < 0) continue;
+        if (node.child[i] < 0 || !(mayEnter[i] > 0)) continue;
         const Vec3<Real> lo(node.bounds[0][0][i], node.bounds[0][1][i], node.bounds[0][2][i]);
         const Vec3<Real> hi(node.bounds[1][0][i], node.bounds[1][1][i], node.bounds[1][2][i]);
         if (!anyRayEnters(p, inv, lo, hi)) continue;
@@ -231,6 +233,65 @@ class Bvh {
       stack.tNear[j] = entry[i], stack.child[j] = node.child[i], stack.count[j] = node.count[i];
     }
   }
+
+  // The packet's rays as intervals (Boulos et al.'s interval-arithmetic culling): the box of their
+  // origins and of their reciprocal directions, when no axis mixes signs. A child no ray can enter
+  // by this test (four at a time) costs one test instead of one per ray. Correctly rounded
+  // operations are monotonic in each operand, so the bounds computed from the intervals' ends
+  // bound what each ray's own test computes; the ends are shifted and widened as there.
+  struct PacketInterval {
+    Real oLo[3], oHi[3], invLo[3], invHi[3];
+    Real tMin, tHitMax;
+    bool usable = true;  // false: some axis mixes signs (or NaN): every child may be entered
+
+    PacketInterval(const RayPacket<Real>& p, const PacketInverse<Real>& inv) : tMin(p.tMin), tHitMax(p.tHit[0]) {
+      const Real* o[3] = {p.ox, p.oy, p.oz};
+      const Real* r[3] = {inv.x, inv.y, inv.z};
+      for (int a = 0; a < 3; ++a) {
+        oLo[a] = oHi[a] = o[a][0], invLo[a] = invHi[a] = r[a][0];
+        int negative = 0;
+        for (int k = 0; k < p.count; ++k) {
+          oLo[a] = std::min(oLo[a], o[a][k]), oHi[a] = std::max(oHi[a], o[a][k]);
+          invLo[a] = std::min(invLo[a], r[a][k]), invHi[a] = std::max(invHi[a], r[a][k]);
+          negative += std::signbit(r[a][k]) ? 1 : 0;
+        }
+        usable = usable && (negative == 0 || negative == p.count);
+      }
+      for (int k = 0; k < p.count; ++k) tHitMax = std::max(tHitMax, p.tHit[k]);
+      for (int a = 0; a < 3; ++a) usable = usable && oLo[a] == oLo[a] && oHi[a] == oHi[a] && invLo[a] == invLo[a] && invHi[a] == invHi[a];
+    }
+
+    // Whether any ray may enter each child: > 0 in mayEnter[i] where it may.
+    DURER_INLINE void mayEnter(const BvhNode<Real>& node, Real* out) const {
+      constexpr Real tiny = std::numeric_limits<Real>::min();
+      if (!usable) {
+        for (int i = 0; i < BvhNode<Real>::kWidth; ++i) out[i] = 1;
+        return;
+      }
+      Lanes nearT = broadcast(tMin), farT = broadcast(tHitMax);
+      for (int a = 0; a < 3; ++a) {
+        const Lanes lo = load(node.bounds[0][a]), hi = load(node.bounds[1][a]);
+        // Each bound minus each origin end, as is (what a ray computes) and shifted outward (what
+        // childEntries computes: never 0, so never 0·inf); a NaN product is skipped by the min/max.
+        const Lanes d[8] = {lo - oHi[a], lo - oLo[a], hi - oHi[a], hi - oLo[a],
+                            (lo - oHi[a]) - tiny, (lo - oLo[a]) - tiny, (hi - oHi[a]) + tiny, (hi - oLo[a]) + tiny};
+        Lanes least = d[4] * invLo[a], most = least;
+        for (int j = 0; j < 8; ++j) {
+          for (const Real r : {invLo[a], invHi[a]}) {
+            const Lanes t = d[j] * r;
+            least = t < least ? t : least;
+            most = t > most ? t : most;
+          }
+        }
+        least *= least > 0 ? broadcast(1 - kWiden) : broadcast(1 + kWiden);
+        most *= most > 0 ? broadcast(1 + kWiden) : broadcast(1 - kWiden);
+        nearT = least > nearT ? least : nearT;
+        farT = most < farT ? most : farT;
+      }
+      const Lanes result = nearT > farT ? broadcast(0) : broadcast(1);
+      std::memcpy(out, &result, sizeof result);
+    }
+  };
 
   // How wide a packet's beam is at distance t: the spread of its origins plus t times the spread of
   // its directions (box diagonals). A node much smaller than that splits the packet's rays.

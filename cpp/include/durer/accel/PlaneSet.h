@@ -5,6 +5,7 @@
 #include <limits>
 #include <vector>
 
+#include "durer/Inline.h"
 #include "durer/geometry/Hit.h"
 #include "durer/accel/PrimitiveSet.h"
 #include "durer/geometry/RayOffset.h"
@@ -74,7 +75,7 @@ class PlaneSet : public PrimitiveSet<Plane<Real>, Real> {
 
  private:
   template <bool Bounded>
-  static void intersectOne(RayPacket<Real>& packet, const Plane<Real>& pl, int32_t id) {
+  DURER_INLINE static void intersectOne(RayPacket<Real>& packet, const Plane<Real>& pl, int32_t id) {
     const int n = packet.count;
     const Real* __restrict ox = packet.ox;
     const Real* __restrict oy = packet.oy;

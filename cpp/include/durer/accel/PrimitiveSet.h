@@ -10,6 +10,7 @@
 #include <limits>
 #include <vector>
 
+#include "durer/Inline.h"
 #include "durer/accel/Bvh.h"
 #include "durer/geometry/Hit.h"
 #include "durer/geometry/RayPacket.h"
@@ -20,7 +21,7 @@ namespace durer {
 // [tMin, tHit) and `valid` (what the kernel itself decided). NaN never passes, nor -inf (an
 // overflowed root, which tMin = -inf would accept).
 template <typename Real>
-inline void recordHit(RayPacket<Real>& packet, int k, Real t, int32_t id, bool valid = true) {
+DURER_INLINE void recordHit(RayPacket<Real>& packet, int k, Real t, int32_t id, bool valid = true) {
   const bool closer = valid & (t >= packet.tMin) & (t < packet.tHit[k]) & (t > -std::numeric_limits<Real>::infinity());
   packet.tHit[k] = closer ? t : packet.tHit[k];
   packet.prim[k] = closer ? id : packet.prim[k];

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "durer/Inline.h"
 #include "durer/geometry/Hit.h"
 #include "durer/accel/PrimitiveSet.h"
 #include "durer/geometry/RayOffset.h"
@@ -74,7 +75,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
 
   // One sphere against ray k: the same arithmetic as intersectOne's loop, so the same t.
   template <SphereMethod M>
-  void intersectRay(RayPacket<Real>& packet, const SphereRayTerms<Real>& terms, int k, size_t i, int32_t primBase) const {
+  DURER_INLINE void intersectRay(RayPacket<Real>& packet, const SphereRayTerms<Real>& terms, int k, size_t i, int32_t primBase) const {
     const Vec3<Real> c = this->m_primitives[i].center;
     const Real r = this->m_primitives[i].radius;
     const Real ox = packet.ox[k], oy = packet.oy[k], oz = packet.oz[k];
@@ -89,7 +90,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
 
   // One sphere against every ray of the packet: the vectorised inner loop.
   template <SphereMethod M>
-  void intersectOne(RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, size_t i, int32_t primBase) const {
+  DURER_INLINE void intersectOne(RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, size_t i, int32_t primBase) const {
     const Vec3<Real> c = this->m_primitives[i].center;
     const Real r = this->m_primitives[i].radius;
     if constexpr (M == SphereMethod::Robust) {
@@ -119,7 +120,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
 
   // Whether the robust test may find a hit for any ray (robustMayMeet, implied by the full test).
   // Most spheres miss most packets; this skips their square roots and divisions.
-  static bool anyRayMayMeet(const RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, const Vec3<Real>& c,
+  DURER_INLINE static bool anyRayMayMeet(const RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, const Vec3<Real>& c,
                             Real r) {
     int meeting = 0;  // an integer count, not a bool: the reduction then vectorises
     for (int k = 0; k < packet.count; ++k) {

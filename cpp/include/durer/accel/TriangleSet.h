@@ -14,6 +14,7 @@
 #include <limits>
 #include <vector>
 
+#include "durer/Inline.h"
 #include "durer/accel/Bvh.h"
 #include "durer/geometry/Hit.h"
 #include "durer/accel/PrimitiveSet.h"
@@ -63,7 +64,7 @@ struct TriangleHit {
 // products are exact in double, so its sign is exact; a nonzero float result already has the exact
 // sign (rounding is monotonic). The two triangles at an edge thus agree on its sign.
 template <typename Real>
-Real edgeFunction(Real ax, Real ay, Real bx, Real by) {
+DURER_INLINE Real edgeFunction(Real ax, Real ay, Real bx, Real by) {
   const Real e = ax * by - ay * bx;
   if constexpr (std::is_same_v<Real, float>) {
     if (e == 0) {
@@ -150,7 +151,7 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real> {
   // One ray against one triangle (Woop, Benthin & Wald, section 3). With positiveT, a hit must have
   // t above its own rounding-error bound (pbrt-v4, 4th ed. §6.8.7): a ray leaving a triangle's
   // surface (its origin a few ulps off it) does not meet it again, however the ray is sheared.
-  static TriangleHit<Real> test(const Triangle<Real>& tri, Real ox, Real oy, Real oz, const RayShear<Real>& s,
+  DURER_INLINE static TriangleHit<Real> test(const Triangle<Real>& tri, Real ox, Real oy, Real oz, const RayShear<Real>& s,
                                 bool positiveT = false) {
     const Real a[3] = {tri.v0.x - ox, tri.v0.y - oy, tri.v0.z - oz};
     const Real b[3] = {tri.v1.x - ox, tri.v1.y - oy, tri.v1.z - oz};

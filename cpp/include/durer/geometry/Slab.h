@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <limits>
 
+#include "durer/Inline.h"
 #include "durer/geometry/RayPacket.h"
 #include "durer/math/Float.h"
 
@@ -16,7 +17,7 @@ namespace durer {
 // scalar on ISAs without mask registers (x86-64-v2, AVX2) while each slab also widened its ends
 // under an inf guard: 3x slower on 1,000 spheres.
 template <typename Real>
-inline void slab(Real lo, Real hi, Real o, Real inv, Real& nearT, Real& farT) {
+DURER_INLINE void slab(Real lo, Real hi, Real o, Real inv, Real& nearT, Real& farT) {
   constexpr Real inf = std::numeric_limits<Real>::infinity();
   const Real t0 = (lo - o) * inv, t1 = (hi - o) * inv;
   const bool defined = (t0 == t0) & (t1 == t1);
@@ -39,7 +40,7 @@ struct PacketInverse {
 // [tMin, its tHit], the slab's t widened by 2γ₅ for their own rounding (as in Bvh.h). Rays are
 // tested 16 at a time (a vectorised loop each), stopping at the first chunk with a ray that enters.
 template <typename Real>
-bool anyRayEnters(const RayPacket<Real>& p, const PacketInverse<Real>& inv, const Vec3<Real>& lo, const Vec3<Real>& hi) {
+DURER_INLINE bool anyRayEnters(const RayPacket<Real>& p, const PacketInverse<Real>& inv, const Vec3<Real>& lo, const Vec3<Real>& hi) {
   constexpr Real inf = std::numeric_limits<Real>::infinity();
   constexpr Real widen = 2 * errorGamma<Real>(5);
   constexpr int kChunk = 16;

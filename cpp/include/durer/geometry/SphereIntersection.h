@@ -8,6 +8,7 @@
 #include <cstring>
 #include <limits>
 
+#include "durer/Inline.h"
 #include "durer/geometry/RayPacket.h"
 #include "durer/Options.h"
 #include "durer/math/Float.h"
@@ -22,7 +23,7 @@ struct SphereRoots {
 
 // The first root at or past tMin, else NaN/inf that fails any range test.
 template <typename Real>
-inline Real firstRootFrom(SphereRoots<Real> roots, Real tMin) {
+DURER_INLINE Real firstRootFrom(SphereRoots<Real> roots, Real tMin) {
   return roots.near >= tMin ? roots.near : roots.far;
 }
 
@@ -38,7 +39,7 @@ struct SphereRayTerms {
 };
 
 template <SphereMethod M, typename Real>
-inline SphereRayTerms<Real> sphereRayTerms(Real dx, Real dy, Real dz) {
+DURER_INLINE SphereRayTerms<Real> sphereRayTerms(Real dx, Real dy, Real dz) {
   SphereRayTerms<Real> terms{};
   if constexpr (M == SphereMethod::Robust) {
     const Real ax = std::fabs(dx), ay = std::fabs(dy), az = std::fabs(dz);
@@ -61,7 +62,7 @@ inline SphereRayTerms<Real> sphereRayTerms(Real dx, Real dy, Real dz) {
 // Squared distance from the centre to the ray's line, |f × s|² / (s·s): each component of the cross
 // product nearly exact, so it keeps its digits when |f| is many orders above the radius.
 template <typename Real>
-inline Real lineDistanceSq(Real fx, Real fy, Real fz, const SphereRayTerms<Real>& t) {
+DURER_INLINE Real lineDistanceSq(Real fx, Real fy, Real fz, const SphereRayTerms<Real>& t) {
   const Real cx = differenceOfProducts(fy, t.sz, fz, t.sy);
   const Real cy = differenceOfProducts(fz, t.sx, fx, t.sz);
   const Real cz = differenceOfProducts(fx, t.sy, fy, t.sx);
@@ -74,20 +75,20 @@ inline Real lineDistanceSq(Real fx, Real fy, Real fz, const SphereRayTerms<Real>
 constexpr int kGrazingBound = 8;
 
 template <typename Real>
-inline bool robustMeets(Real r2, Real lineDistance2) {
+DURER_INLINE bool robustMeets(Real r2, Real lineDistance2) {
   return r2 - lineDistance2 > kGrazingBound * std::numeric_limits<Real>::epsilon() * (r2 + lineDistance2);
 }
 
 // The per-packet prefilter: implied by robustMeets on the exact f = fh + fe, from fh alone. The line
 // moves by at most |fe| <= u·|fh|₁ when the error of fh is added back, so r is widened by epsilon·|fh|₁.
 template <typename Real>
-inline bool robustMayMeet(Real r, Real lineDistance2, Real fhL1) {
+DURER_INLINE bool robustMayMeet(Real r, Real lineDistance2, Real fhL1) {
   const Real wide = r + std::numeric_limits<Real>::epsilon() * fhL1;
   return robustMeets(wide * wide, lineDistance2);
 }
 
 template <typename Real>
-inline SphereRoots<Real> sphereAlgebraic(Real fx, Real fy, Real fz, Real dx, Real dy, Real dz,
+DURER_INLINE SphereRoots<Real> sphereAlgebraic(Real fx, Real fy, Real fz, Real dx, Real dy, Real dz,
                                          SphereRayTerms<Real> terms, Real r) {
   const Real a = terms.lengthSq;
   const Real b = 2 * (fx * dx + fy * dy + fz * dz);
@@ -98,7 +99,7 @@ inline SphereRoots<Real> sphereAlgebraic(Real fx, Real fy, Real fz, Real dx, Rea
 
 // tMin >= 0 enables the lecture's early rejection (origin outside, centre behind the origin).
 template <typename Real>
-inline SphereRoots<Real> sphereGeometric(Real fx, Real fy, Real fz, Real dx, Real dy, Real dz,
+DURER_INLINE SphereRoots<Real> sphereGeometric(Real fx, Real fy, Real fz, Real dx, Real dy, Real dz,
                                          SphereRayTerms<Real> terms, Real r, Real tMin) {
   const Real invLength = terms.invLength;
   const Real ux = dx * invLength, uy = dy * invLength, uz = dz * invLength;
@@ -122,7 +123,7 @@ struct RobustOrigin {
 };
 
 template <typename Real>
-inline RobustOrigin<Real> robustOrigin(Real ox, Real oy, Real oz, const Vec3<Real>& center, Real r) {
+DURER_INLINE RobustOrigin<Real> robustOrigin(Real ox, Real oy, Real oz, const Vec3<Real>& center, Real r) {
   RobustOrigin<Real> o;
   o.fx = ox - center.x, o.fy = oy - center.y, o.fz = oz - center.z;
   o.ex = twoDiffError(ox, center.x, o.fx), o.ey = twoDiffError(oy, center.y, o.fy);
@@ -139,7 +140,7 @@ inline RobustOrigin<Real> robustOrigin(Real ox, Real oy, Real oz, const Vec3<Rea
 // q/a and c/q with q of the sign of -b (no -b ± sqrt cancellation); c = |f|² - r² by a compensated
 // sum, accurate when the origin is near the surface (a ground sphere seen from just above it).
 template <typename Real>
-inline SphereRoots<Real> robustRoots(const RobustOrigin<Real>& f, const SphereRayTerms<Real>& t, Real r) {
+DURER_INLINE SphereRoots<Real> robustRoots(const RobustOrigin<Real>& f, const SphereRayTerms<Real>& t, Real r) {
   const Real cx = differenceOfProducts(f.fy, t.sz, f.fz, t.sy) + (f.ey * t.sz - f.ez * t.sy);
   const Real cy = differenceOfProducts(f.fz, t.sx, f.fx, t.sz) + (f.ez * t.sx - f.ex * t.sz);
   const Real cz = differenceOfProducts(f.fx, t.sy, f.fy, t.sx) + (f.ex * t.sy - f.ey * t.sx);
@@ -156,7 +157,7 @@ inline SphereRoots<Real> robustRoots(const RobustOrigin<Real>& f, const SphereRa
 }
 
 template <typename Real>
-inline SphereRoots<Real> sphereRobust(Real ox, Real oy, Real oz, const Vec3<Real>& center,
+DURER_INLINE SphereRoots<Real> sphereRobust(Real ox, Real oy, Real oz, const Vec3<Real>& center,
                                       const SphereRayTerms<Real>& t, Real r) {
   return robustRoots(robustOrigin(ox, oy, oz, center, r), t, r);
 }
@@ -175,20 +176,20 @@ struct PacketRayTerms {
   alignas(64) Real scale[kPacketSize];
 
   template <SphereMethod M>
-  void compute(const Real* dx, const Real* dy, const Real* dz, int count) {
+  DURER_INLINE void compute(const Real* dx, const Real* dy, const Real* dz, int count) {
     for (int k = 0; k < count; ++k) {
       const SphereRayTerms<Real> t = sphereRayTerms<M>(dx[k], dy[k], dz[k]);
       invLength[k] = t.invLength, lengthSq[k] = t.lengthSq;
       sx[k] = t.sx, sy[k] = t.sy, sz[k] = t.sz, a[k] = t.a, invA[k] = t.invA, scale[k] = t.scale;
     }
   }
-  SphereRayTerms<Real> operator[](int k) const {
+  DURER_INLINE SphereRayTerms<Real> operator[](int k) const {
     return {invLength[k], lengthSq[k], sx[k], sy[k], sz[k], a[k], invA[k], scale[k]};
   }
 };
 
 template <SphereMethod M, typename Real>
-inline SphereRoots<Real> sphereRoots(Real ox, Real oy, Real oz, const Vec3<Real>& center, Real dx, Real dy, Real dz,
+DURER_INLINE SphereRoots<Real> sphereRoots(Real ox, Real oy, Real oz, const Vec3<Real>& center, Real dx, Real dy, Real dz,
                                      const SphereRayTerms<Real>& terms, Real r, Real tMin) {
   if constexpr (M == SphereMethod::Algebraic) {
     return sphereAlgebraic(ox - center.x, oy - center.y, oz - center.z, dx, dy, dz, terms, r);

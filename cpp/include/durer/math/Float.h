@@ -7,6 +7,7 @@
 #include <cstring>
 #include <limits>
 
+#include "durer/Inline.h"
 #include "durer/math/Vec.h"
 
 namespace durer {
@@ -22,11 +23,11 @@ constexpr Real errorGamma(int n) {
 // t moved away from zero, or toward it, by the relative amount `factor` (> 0, small): a range
 // [widenDown(a), widenUp(b)] holds [a, b] widened by that much; inf stays inf, and no NaN is made.
 template <typename Real>
-Real widenDown(Real t, Real factor) {
+DURER_INLINE Real widenDown(Real t, Real factor) {
   return t * (t > 0 ? 1 - factor : 1 + factor);
 }
 template <typename Real>
-Real widenUp(Real t, Real factor) {
+DURER_INLINE Real widenUp(Real t, Real factor) {
   return t * (t > 0 ? 1 + factor : 1 - factor);
 }
 
@@ -67,7 +68,7 @@ struct FloatBits<float> {
 // The next Real above (nextUp) or below (nextDown) x, as std::nextafter toward ±inf but inline
 // from the bits (pbrt-v4's NextFloatUp/Down): ±inf and NaN stay, -0 and +0 step to the least subnormal.
 template <typename Real>
-inline Real nextUp(Real x) {
+DURER_INLINE Real nextUp(Real x) {
   using Bits = typename FloatBits<Real>::Bits;
   if (!(x == x) || (std::isinf(x) && x > 0)) return x;
   if (x == 0) return std::numeric_limits<Real>::denorm_min();
@@ -78,7 +79,7 @@ inline Real nextUp(Real x) {
   return x;
 }
 template <typename Real>
-inline Real nextDown(Real x) {
+DURER_INLINE Real nextDown(Real x) {
   return -nextUp(-x);
 }
 
@@ -92,7 +93,7 @@ void roundOutward(Vec3<Real>& lo, Vec3<Real>& hi) {
 // 2^-floor(log2 x) for x > 0, built from x's exponent bits (no library call, so it vectorises);
 // NaN where the result would not be a normal number: x zero, subnormal, above 2^bias, inf or NaN.
 template <typename Real>
-inline Real inversePowerOfTwo(Real x) {
+DURER_INLINE Real inversePowerOfTwo(Real x) {
   using B = FloatBits<Real>;
   typename B::Bits bits;
   std::memcpy(&bits, &x, sizeof x);
@@ -107,7 +108,7 @@ inline Real inversePowerOfTwo(Real x) {
 // a·b - c·d with one rounding error instead of a catastrophic cancellation (Kahan; pbrt-v4's
 // DifferenceOfProducts): the fma recovers the rounding error of c·d exactly.
 template <typename Real>
-inline Real differenceOfProducts(Real a, Real b, Real c, Real d) {
+DURER_INLINE Real differenceOfProducts(Real a, Real b, Real c, Real d) {
   const Real cd = c * d;
   const Real error = std::fma(-c, d, cd);
   return std::fma(a, b, -cd) + error;
@@ -117,7 +118,7 @@ inline Real differenceOfProducts(Real a, Real b, Real c, Real d) {
 // diff = fl(a - b), a - b = diff + twoDiffError(a, b, diff) exactly (no fused multiply-adds allowed:
 // the core is built with -ffp-contract=off).
 template <typename Real>
-inline Real twoDiffError(Real a, Real b, Real diff) {
+DURER_INLINE Real twoDiffError(Real a, Real b, Real diff) {
   const Real bVirtual = a - diff;
   const Real aVirtual = diff + bVirtual;
   return (a - aVirtual) + (bVirtual - b);
@@ -126,7 +127,7 @@ inline Real twoDiffError(Real a, Real b, Real diff) {
 // x² + y² + z² - r² with about one rounding of the result instead of one of the largest term
 // (products split exactly by fma, sums compensated: Ogita, Rump & Oishi's Dot2).
 template <typename Real>
-inline Real sumOfSquaresMinus(Real x, Real y, Real z, Real r) {
+DURER_INLINE Real sumOfSquaresMinus(Real x, Real y, Real z, Real r) {
   Real sum = x * x;
   Real error = std::fma(x, x, -sum);
   const Real terms[3] = {y * y, z * z, -(r * r)};
