@@ -15,7 +15,7 @@ cd "$(dirname "$0")/.."
 
 minutes=${1:-5}
 sanitizers=${DURER_SANITIZE:-address,undefined}
-root=build/sanitize
+root="$PWD/build/sanitize"
 venv=$root/venv
 say() { printf '\033[1m[fuzz_sanitized]\033[0m %s\n' "$*" >&2; }
 
