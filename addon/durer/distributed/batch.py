@@ -38,9 +38,9 @@ def render_many(
     Without `client` the renders run one after another in this process, each on `threads` threads
     (None: all cores). With a `distributed.Client` each render is a task on the cluster: every
     distinct scene is sent to the cluster with its first task (a worker unpickles it once, whatever
-    the number of tasks, and it is dropped after its last), cameras go with their tasks, and each task renders
-    on `threads` threads (None: 1, Dask's threads being the parallelism; start workers with
-    ``--nthreads`` = cores). `ordered=True` yields in index order, False as renders complete; at
+    the number of tasks, unless Dask's memory manager dropped its replica; it is dropped after its
+    last), cameras go with their tasks, and each task renders on `threads` threads (None: 1, Dask's
+    threads being the parallelism; start workers with ``--nthreads`` = cores). `ordered=True` yields in index order, False as renders complete; at
     most a few tasks per worker thread are in flight (results wait on the workers, not in memory
     here). `progress=True` draws one bar over all renders (stderr). `options` are `durer.render`'s
     (spp, seed, sampler, precision, passes, ...); results equal `durer.render`'s bit for bit and
