@@ -34,6 +34,11 @@ class Scene:
         self, centers: NDArray[np.float64], radii: NDArray[np.float64], materials: NDArray[np.int32],
         transform: NDArray[np.float64] | None,
     ) -> int: ...
+    @property
+    def hierarchy_counts(self) -> dict[str, float]: ...
+    def move_spheres(
+        self, ids: NDArray[np.int32], centers: NDArray[np.float64], radii: NDArray[np.float64] | None
+    ) -> None: ...
     def add_plane(
         self, normal: _Triple, offset: float, material: int, bounds: Sequence[_Triple] | None,
         transform: NDArray[np.float64] | None,

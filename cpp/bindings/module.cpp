@@ -321,6 +321,15 @@ PYBIND11_MODULE(_core, m) {
           },
           py::arg("centers"), py::arg("radii"), py::arg("materials"), py::arg("transform"))
       .def(
+          "move_spheres",
+          [](Scene& s, const IdArray& ids, const DoubleArray& centers, const std::optional<DoubleArray>& radii) {
+            requireShape(ids, "ids", {kAny});
+            requireShape(centers, "centers", {ids.shape(0), 3});
+            if (radii) requireShape(*radii, "radii", {ids.shape(0)});
+            s.moveSpheres(ids.data(), centers.data(), radii ? radii->data() : nullptr, static_cast<size_t>(ids.shape(0)));
+          },
+          py::arg("ids"), py::arg("centers"), py::arg("radii"))
+      .def(
           "add_plane",
           [](Scene& s, const Triple& normal, double offset, int32_t material,
              const std::optional<std::array<Triple, 3>>& bounds, const std::optional<DoubleArray>& transform) {
@@ -384,6 +393,14 @@ PYBIND11_MODULE(_core, m) {
       .def_property(
           "ambient", [](const Scene& s) { return triple(s.ambient()); },
           [](Scene& s, const Triple& a) { s.setAmbient(vec(a)); })
+      .def_property_readonly("hierarchy_counts",
+                             [](const Scene& s) {
+                               const Scene::HierarchyCounts c = s.hierarchyCounts();
+                               py::dict d;
+                               d["built"] = c.built, d["refitted"] = c.refitted, d["rebuilt"] = c.rebuilt;
+                               d["milliseconds"] = c.milliseconds;
+                               return d;
+                             })
       .def_property_readonly("sphere_count", [](const Scene& s) { return s.group().counts().spheres; })
       .def_property_readonly("plane_count", [](const Scene& s) { return s.group().counts().planes; })
       .def_property_readonly("triangle_count", [](const Scene& s) { return s.group().counts().triangles; })

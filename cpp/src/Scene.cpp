@@ -3,6 +3,7 @@
 #include "durer/render/WorkQueue.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -46,24 +47,43 @@ void Scene::requireMaterial(int32_t material, const char* field) const {
 
 std::unique_lock<std::mutex> Scene::changeGeometry() {
   std::unique_lock<std::mutex> lock(m_preparedMutex);
-  m_preparedFloat.reset();
-  m_preparedDouble.reset();
+  m_preparedFloat = {};
+  m_preparedDouble = {};
   return lock;
 }
 
 template <typename Real>
 std::shared_ptr<const Group<Real>> Scene::prepared(int threads) const {
   std::lock_guard<std::mutex> lock(m_preparedMutex);
-  auto& cached = [this]() -> std::shared_ptr<const Group<Real>>& {
+  Prepared<Real>& cached = [this]() -> Prepared<Real>& {
     if constexpr (std::is_same_v<Real, float>) return m_preparedFloat;
     else return m_preparedDouble;
   }();
-  if (!cached) {
-    auto group = std::make_shared<Group<Real>>(m_group);
-    group->prepare(threads > 0 ? threads : defaultThreadCount());
-    cached = std::move(group);
+  const int workers = threads > 0 ? threads : defaultThreadCount();
+  const auto start = std::chrono::steady_clock::now();
+  if (cached.group && cached.moved) {
+    // A render still tracing the old geometry holds it too: it cannot change under that render.
+    if (cached.group.use_count() == 1) {
+      m_hierarchyCounts.rebuilt += cached.group->refitFrom(m_group, workers);
+      ++m_hierarchyCounts.refitted;
+    } else {
+      cached.group.reset();
+    }
+    cached.moved = false;
   }
-  return cached;
+  if (!cached.group) {
+    cached.group = std::make_shared<Group<Real>>(m_group);
+    cached.group->prepare(workers);
+    ++m_hierarchyCounts.built;
+  }
+  m_hierarchyCounts.milliseconds +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return cached.group;
+}
+
+Scene::HierarchyCounts Scene::hierarchyCounts() const {
+  std::lock_guard<std::mutex> lock(m_preparedMutex);
+  return m_hierarchyCounts;
 }
 
 template std::shared_ptr<const Group<float>> Scene::prepared<float>(int) const;
@@ -85,28 +105,61 @@ int32_t Scene::addMaterial(const Material& material) {
   return static_cast<int32_t>(m_materials.size() - 1);
 }
 
-int32_t Scene::addSpheres(const double* centers, const double* radii, const int32_t* materials, size_t count,
-                          bool perSphere, const Affined* worldFromObject) {
-  // Validate everything before changing anything.
-  requireTransform(worldFromObject);
+namespace {
+// Centers (count x 3) finite, radii (count, or null) finite and > 0.
+void requireSpheres(const double* centers, const double* radii, size_t count) {
   for (size_t i = 0; i < count; ++i) {
     const Vec3d c(centers[3 * i], centers[3 * i + 1], centers[3 * i + 2]);
     if (!(std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z))) {
       requireFinite(c, "centers[" + std::to_string(i) + "]");
     }
-    if (!(std::isfinite(radii[i]) && radii[i] > 0)) requirePositive(radii[i], "radii[" + std::to_string(i) + "]");
+    if (radii && !(std::isfinite(radii[i]) && radii[i] > 0)) {
+      requirePositive(radii[i], "radii[" + std::to_string(i) + "]");
+    }
   }
+}
+}  // namespace
+
+int32_t Scene::addSpheres(const double* centers, const double* radii, const int32_t* materials, size_t count,
+                          bool perSphere, const Affined* worldFromObject) {
+  // Validate everything before changing anything.
+  requireTransform(worldFromObject);
+  requireSpheres(centers, radii, count);
   requireMaterials(materials, count, perSphere);
   requirePrimitiveRoom(count);
   const int32_t first = takeObjectIds(count);
   const auto lock = changeGeometry();
-  SphereSet<double>& spheres = groupFor(worldFromObject).spheres();
+  Group<double>& group = groupFor(worldFromObject);
+  SphereSet<double>& spheres = group.spheres();
+  if (count) m_sphereRuns.push_back({first, count, &group, spheres.size()});
   spheres.reserve(spheres.size() + count);
   for (size_t i = 0; i < count; ++i) {
     const Vec3d c(centers[3 * i], centers[3 * i + 1], centers[3 * i + 2]);
     spheres.add({c, radii[i]}, materials[perSphere ? i : 0], first + static_cast<int32_t>(i));
   }
   return first;
+}
+
+void Scene::moveSpheres(const int32_t* ids, const double* centers, const double* radii, size_t count) {
+  std::vector<std::pair<SphereSet<double>*, size_t>> targets(count);
+  for (size_t i = 0; i < count; ++i) {
+    const auto after = std::upper_bound(m_sphereRuns.begin(), m_sphereRuns.end(), ids[i],
+                                        [](int32_t id, const SphereRun& run) { return id < run.firstId; });
+    if (after == m_sphereRuns.begin() || static_cast<size_t>(ids[i] - (after - 1)->firstId) >= (after - 1)->count) {
+      fail("ids[" + std::to_string(i) + "] = " + std::to_string(ids[i]) + " is not the object id of a sphere");
+    }
+    const SphereRun& run = *(after - 1);
+    targets[i] = {&run.group->spheres(), run.start + static_cast<size_t>(ids[i] - run.firstId)};
+  }
+  requireSpheres(centers, radii, count);
+  std::lock_guard<std::mutex> lock(m_preparedMutex);
+  for (size_t i = 0; i < count; ++i) {
+    SphereSet<double>& spheres = *targets[i].first;
+    const size_t index = targets[i].second;
+    const Vec3d c(centers[3 * i], centers[3 * i + 1], centers[3 * i + 2]);
+    spheres.setSphere(index, {c, radii ? radii[i] : spheres.primitive(index).radius});
+  }
+  m_preparedFloat.moved = m_preparedDouble.moved = true;
 }
 
 int32_t Scene::addPlane(const Vec3d& normal, double offset, int32_t material, const PlaneBounds* bounds,

@@ -118,6 +118,9 @@ def render_file(
 
     written: list[Path] = []
     pattern, use_extension = sc.render.filepath, sc.render.use_file_extension
+    # Frames in a row: each reuses the last one's scene where only spheres and the camera moved.
+    persistent = sc.render.use_persistent_data
+    sc.render.use_persistent_data = True
     try:
         for i, frame in enumerate(frame_list):
             target = frame_target(sc, explicit, frame)
@@ -133,6 +136,8 @@ def render_file(
             written.append(target)
     finally:
         sc.render.filepath, sc.render.use_file_extension = pattern, use_extension
+        sc.render.use_persistent_data = persistent
+        engine.persistent.pop(sc.name, None)
     return written
 
 

@@ -7,6 +7,8 @@ Everything that depends on the core's API lives here, so the export stays plain 
 from __future__ import annotations
 
 import math
+from dataclasses import fields, is_dataclass
+from typing import Any
 
 import numpy as np
 
@@ -75,6 +77,39 @@ def make_scene(data: SceneData) -> durer.Scene:
     scene.background = data.background
     scene.ambient = data.ambient
     return scene
+
+
+def update_scene(previous: tuple[SceneData, durer.Scene] | None, data: SceneData) -> tuple[durer.Scene, bool]:
+    """The core scene for `data`, and whether it is `previous`'s (the data it was made from, and
+    it): reused, its world-space spheres moved, when nothing else differs but the camera (an
+    animation's next frame of moving particles: the core refits the sphere hierarchy instead of
+    building it again); else made anew."""
+    if previous is not None:
+        old, scene = previous
+        if len(old.sphere_radii) == len(data.sphere_radii) and all(
+                _same(getattr(old, f.name), getattr(data, f.name)) for f in fields(data) if f.name not in _MOVABLE):
+            if not (_same(old.sphere_centers, data.sphere_centers) and _same(old.sphere_radii, data.sphere_radii)):
+                # make_scene adds the world-space spheres first: their object ids are 0..N-1.
+                scene.move_spheres(np.arange(data.sphere_count), data.sphere_centers, data.sphere_radii)
+            return scene, True
+    return make_scene(data), False
+
+
+#: What update_scene lets differ between two exports of one core scene.
+_MOVABLE = {"sphere_centers", "sphere_radii", "camera"}
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Equality through the export's dataclasses, lists, dicts and numpy arrays."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.array_equal(a, b)
+    if is_dataclass(a):
+        return type(a) is type(b) and all(_same(getattr(a, f.name), getattr(b, f.name)) for f in fields(a))
+    if isinstance(a, (list, tuple)):
+        return type(a) is type(b) and len(a) == len(b) and all(map(_same, a, b))
+    if isinstance(a, dict):
+        return isinstance(b, dict) and a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    return bool(a == b)
 
 
 def view_depth(depth: np.ndarray) -> np.ndarray:

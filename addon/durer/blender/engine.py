@@ -36,6 +36,9 @@ class RenderInfo:
     spheres: int = 0  # world-space spheres and ellipsoids
     planes: int = 0
     triangles: int = 0
+    #: Whether the last frame's core scene was reused (its spheres moved, the hierarchy refitted):
+    #: with Persistent Data on, when only sphere positions, radii and the camera changed.
+    reused_scene: bool = False
     #: The last text the engine showed in Blender's stats line.
     stats_line: str = ""
     #: Adaptive sampler: the samples each pixel got, (H, W) int32, top row first (the core's
@@ -43,10 +46,12 @@ class RenderInfo:
     sample_counts: np.ndarray | None = None
 
 
-def stats_line(width: int, height: int, samples: int, stats: dict, cancelled: bool = False) -> str:
+def stats_line(width: int, height: int, samples: int, stats: dict, cancelled: bool = False,
+               refitted: bool = False) -> str:
     """Blender's stats line after a render: size, samples and sampler (for Adaptive, the maximum and
     the mean a pixel got), the effects Dürer simulated (the core derives them from the scene: flat,
-    diffuse, specular, shadows, reflection, refraction) and speed."""
+    diffuse, specular, shadows, reflection, refraction), speed, and whether the last frame's scene
+    was refitted."""
     sampler = stats.get("sampler")
     total = stats.get("samples")
     if sampler == "adaptive":
@@ -64,12 +69,17 @@ def stats_line(width: int, height: int, samples: int, stats: dict, cancelled: bo
     mrays = stats.get("mrays_per_s")
     if isinstance(mrays, (int, float)):
         parts.append(f"{mrays:.1f} Mrays/s")
+    if refitted:
+        parts.append("last frame's scene refitted")
     if cancelled:
         parts.append("cancelled")
     return " | ".join(parts)
 
 
 last_render = RenderInfo()
+#: The last render's exported data and core scene, by Blender scene name, kept while that scene's
+#: Render › Performance › Persistent Data is on (as Cycles keeps its data between renders).
+persistent: dict[str, tuple] = {}
 #: Callables given the finished fraction while Dürer renders (batch progress bars use this).
 progress_hooks: list = []
 
@@ -153,7 +163,13 @@ class DurerEngineMixin:
             raise ValueError("The scene has no camera")
         cam_data = data.camera
         w, h = cam_data.width, cam_data.height
-        core_scene = build.make_scene(data)
+        keep = scene.render.use_persistent_data
+        previous = persistent.pop(scene.name, None) if keep else None
+        if not keep:
+            persistent.clear()
+        core_scene, info.reused_scene = build.update_scene(previous, data)
+        if keep:
+            persistent[scene.name] = (data, core_scene)
         camera = build.make_camera(cam_data)
         info.export_seconds = time.perf_counter() - t0
         info.width, info.height, info.samples = w, h, int(settings.samples)
@@ -199,7 +215,7 @@ class DurerEngineMixin:
             store_image(color)
         else:  # Blender's UI renders in a job thread: create datablocks on the main thread
             bpy.app.timers.register(lambda c=color: (store_image(c), None)[1], first_interval=0.0)
-        info.stats_line = stats_line(w, h, info.samples, stats, cancelled)
+        info.stats_line = stats_line(w, h, info.samples, stats, cancelled, info.reused_scene)
         self.update_stats("", info.stats_line)
 
     def _border(self, scene, w: int, h: int) -> tuple[slice, slice]:
@@ -319,13 +335,24 @@ def _compatible_panels():
             yield panel
 
 
+@bpy.app.handlers.persistent
+def _forget_persistent(*_args) -> None:
+    """Another file is loading (or the factory settings): the scenes kept were the last file's."""
+    persistent.clear()
+
+
 def register() -> None:
     bpy.utils.register_class(DurerRenderEngine)
     for panel in _compatible_panels():
         panel.COMPAT_ENGINES.add(DurerRenderEngine.bl_idname)
+    if _forget_persistent not in bpy.app.handlers.load_pre:
+        bpy.app.handlers.load_pre.append(_forget_persistent)
 
 
 def unregister() -> None:
     for panel in _compatible_panels():
         panel.COMPAT_ENGINES.discard(DurerRenderEngine.bl_idname)
     bpy.utils.unregister_class(DurerRenderEngine)
+    if _forget_persistent in bpy.app.handlers.load_pre:
+        bpy.app.handlers.load_pre.remove(_forget_persistent)
+    persistent.clear()

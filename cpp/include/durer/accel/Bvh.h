@@ -75,6 +75,13 @@ class Bvh {
   template <typename BoxOf>
   std::vector<uint32_t> build(size_t count, const BoxOf& boxOf, int threads);
 
+  // Keeps the tree and recomputes its boxes from the primitives' boxes boxOf(i, lo, hi) (the
+  // primitives in the order build returned, moved since): an animation frame's refit instead of a
+  // rebuild. Returns the tree's SAH cost now over its cost when built: moved primitives stretch
+  // boxes that were tight, and a caller rebuilds once the traversal would pay more than a build.
+  template <typename BoxOf>
+  double refit(const BoxOf& boxOf);
+
   // Calls leaf(first, count) for every leaf the ray may meet before tHit (which leaf may lower),
   // nearest first, from the root or from inner node `node`; stops early when leaf returns true (a
   // shadow ray's any hit). Returns the primitives visited.
@@ -317,8 +324,36 @@ class Bvh {
     }
   };
 
+  // The surface-area heuristic's expected cost of a ray through the tree, in box tests: each child
+  // box costs its area over the root's times its primitives (a leaf) or one (an inner node).
+  double sahCost() const {
+    double sum = 0;
+    const auto area = [](const BvhNode<Real>& n, int s) {
+      const double x = double(n.bounds[1][0][s]) - n.bounds[0][0][s], y = double(n.bounds[1][1][s]) - n.bounds[0][1][s],
+                   z = double(n.bounds[1][2][s]) - n.bounds[0][2][s];
+      return 2 * (x * y + y * z + z * x);
+    };
+    for (const BvhNode<Real>& n : m_nodes) {
+      for (int s = 0; s < BvhNode<Real>::kWidth; ++s) {
+        if (n.child[s] >= 0) sum += area(n, s) * (n.count[s] > 0 ? n.count[s] : 1);
+      }
+    }
+    const BvhNode<Real>& root = m_nodes.front();
+    Real lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = root.bounds[0][a][0], hi[a] = root.bounds[1][a][0];
+      for (int s = 1; s < BvhNode<Real>::kWidth; ++s) {
+        if (root.child[s] >= 0) lo[a] = std::min(lo[a], root.bounds[0][a][s]), hi[a] = std::max(hi[a], root.bounds[1][a][s]);
+      }
+    }
+    const double x = double(hi[0]) - lo[0], y = double(hi[1]) - lo[1], z = double(hi[2]) - lo[2];
+    const double rootArea = 2 * (x * y + y * z + z * x);
+    return rootArea > 0 ? sum / rootArea : sum;
+  }
+
   struct Builder;
-  std::vector<BvhNode<Real>> m_nodes;  // the root first
+  std::vector<BvhNode<Real>> m_nodes;  // the root first, every node before its children
+  double m_builtCost = 0;              // sahCost() when built
 };
 
 // The binned-SAH build (Wald 2007; pbrt-v4's BVHAggregate): a binary tree first, each split the
@@ -605,7 +640,37 @@ std::vector<uint32_t> Bvh<Real>::build(size_t count, const BoxOf& boxOf, int thr
     m_nodes.reserve(binaryNodes / 2 + 1);
     builder.collapse(0, 0, m_nodes);
   }
+  m_builtCost = sahCost();
   return builder.order();
+}
+
+template <typename Real>
+template <typename BoxOf>
+double Bvh<Real>::refit(const BoxOf& boxOf) {
+  constexpr Real kInf = std::numeric_limits<Real>::infinity();
+  for (size_t i = m_nodes.size(); i-- > 0;) {  // children come after their parent
+    BvhNode<Real>& n = m_nodes[i];
+    for (int s = 0; s < BvhNode<Real>::kWidth; ++s) {
+      if (n.child[s] < 0) continue;
+      Vec3<Real> lo(kInf), hi(-kInf);
+      if (n.count[s] > 0) {
+        for (int32_t p = n.child[s]; p < n.child[s] + n.count[s]; ++p) {
+          Vec3<Real> pLo, pHi;
+          boxOf(static_cast<size_t>(p), pLo, pHi);
+          lo = glm::min(lo, pLo), hi = glm::max(hi, pHi);
+        }
+      } else {
+        const BvhNode<Real>& c = m_nodes[static_cast<size_t>(n.child[s])];
+        for (int cs = 0; cs < BvhNode<Real>::kWidth; ++cs) {
+          if (c.child[cs] < 0) continue;
+          lo = glm::min(lo, Vec3<Real>(c.bounds[0][0][cs], c.bounds[0][1][cs], c.bounds[0][2][cs]));
+          hi = glm::max(hi, Vec3<Real>(c.bounds[1][0][cs], c.bounds[1][1][cs], c.bounds[1][2][cs]));
+        }
+      }
+      for (int a = 0; a < 3; ++a) n.bounds[0][a][s] = lo[a], n.bounds[1][a][s] = hi[a];
+    }
+  }
+  return m_builtCost > 0 ? sahCost() / m_builtCost : 1;
 }
 
 }  // namespace durer

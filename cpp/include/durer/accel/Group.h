@@ -129,6 +129,22 @@ class Group {
     buildInstanceBvh(threads);
   }
 
+  // Once prepared from `source` (the group this one was converted from) whose spheres have moved
+  // since: the spheres converted again and their hierarchies refitted (or rebuilt where refitting
+  // degraded them), the instances' bounds and the hierarchy over them made again. Returns the
+  // sphere hierarchies rebuilt.
+  template <typename Other>
+  int refitFrom(const Group<Other>& source, int threads) {
+    int rebuilt = m_spheres.refitFrom(source.spheres(), threads) ? 1 : 0;
+    for (size_t i = 0; i < m_instances.size(); ++i) {
+      Instance<Real>& inst = m_instances[i];
+      rebuilt += inst.child->refitFrom(*source.instances()[i].child, threads);
+      inst.bounded = inst.child->worldBounds(inst.worldFromObject, inst.lo, inst.hi);
+    }
+    buildInstanceBvh(threads);
+    return rebuilt;
+  }
+
   // The cheap t-only search for each ray's closest primitive; returns the ray-primitive tests made.
   template <SphereMethod M>
   int64_t intersect(RayPacket<Real>& packet, const std::atomic<bool>* cancel) const {

@@ -66,6 +66,27 @@ class PrimitiveSet {
     permute(m_primitives, order);
     permute(m_materials, order);
     permute(m_objectIds, order);
+    if (m_sourceIndex.empty()) {
+      m_sourceIndex = order;
+    } else {
+      permute(m_sourceIndex, order);
+    }
+  }
+
+  // The primitives of `source` (the set this one was converted from, same primitives in its own
+  // order, moved since) converted again, and the hierarchy refitted to them, or rebuilt once
+  // refitting has made it kRebuildCost times as costly as when built. Returns whether it was rebuilt.
+  template <typename OtherSet, typename Convert, typename BoxOf>
+  bool refitFrom(const OtherSet& source, Convert&& convert, const BoxOf& boxOf, int threads) {
+    for (size_t i = 0; i < m_primitives.size(); ++i) {
+      m_primitives[i] = convert(source.primitive(m_sourceIndex.empty() ? i : m_sourceIndex[i]));
+    }
+    if (m_bvh.empty()) return false;
+    constexpr double kRebuildCost = 1.5;
+    const double cost = m_bvh.refit([&](size_t i, Vec3<Real>& lo, Vec3<Real>& hi) { boxOf(m_primitives[i], lo, hi); });
+    if (cost <= kRebuildCost) return false;
+    buildBvh(boxOf, threads);
+    return true;
   }
 
   // Finds each ray's hits among the primitives it may meet. With a hierarchy, a coherent packet
@@ -130,7 +151,8 @@ class PrimitiveSet {
 
   std::vector<int32_t> m_materials;
   std::vector<int32_t> m_objectIds;
-  Bvh<Real> m_bvh;  // empty: brute force
+  Bvh<Real> m_bvh;                      // empty: brute force
+  std::vector<uint32_t> m_sourceIndex;  // with a hierarchy: primitive i's index in the set converted from
 };
 
 }  // namespace durer

@@ -29,21 +29,20 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   SphereSet() = default;
   template <typename Other>
   explicit SphereSet(const SphereSet<Other>& other) {
-    this->convertFrom(other, [](const Sphere<Other>& s) {
-      return Sphere<Real>{toReal<Real>(s.center), static_cast<Real>(s.radius)};
-    });
+    this->convertFrom(other, convert<Other>);
   }
 
   // Builds the bounding-volume hierarchy (and reorders the spheres and their ids to its order);
   // worth it above a few dozen spheres, after which intersect() traverses it.
-  void buildBvh(int threads) {
-    Base::buildBvh(
-        [](const Sphere<Real>& s, Vec3<Real>& lo, Vec3<Real>& hi) {
-          lo = s.center - s.radius, hi = s.center + s.radius;
-          roundOutward(lo, hi);
-        },
-        threads);
+  void buildBvh(int threads) { Base::buildBvh(boxOf, threads); }
+
+  // The spheres of `source`, the set this one was made from, after they moved (Base::refitFrom).
+  template <typename Other>
+  bool refitFrom(const SphereSet<Other>& source, int threads) {
+    return Base::refitFrom(source, convert<Other>, boxOf, threads);
   }
+
+  void setSphere(size_t i, const Sphere<Real>& sphere) { this->m_primitives[i] = sphere; }
 
   // Grows [lo, hi] to hold every sphere (the bounds of a transformed group).
   void bounds(Vec3<Real>& lo, Vec3<Real>& hi) const {
@@ -153,6 +152,15 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
 
  private:
   using Base = PrimitiveSet<Sphere<Real>, Real>;
+
+  template <typename Other>
+  static Sphere<Real> convert(const Sphere<Other>& s) {
+    return Sphere<Real>{toReal<Real>(s.center), static_cast<Real>(s.radius)};
+  }
+  static void boxOf(const Sphere<Real>& s, Vec3<Real>& lo, Vec3<Real>& hi) {
+    lo = s.center - s.radius, hi = s.center + s.radius;
+    roundOutward(lo, hi);
+  }
 };
 
 }  // namespace durer

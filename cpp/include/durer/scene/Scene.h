@@ -35,6 +35,11 @@ class Scene {
   // centers: count x 3 doubles; radii: count doubles; materials: count ids, or one id if !perSphere.
   int32_t addSpheres(const double* centers, const double* radii, const int32_t* materials, size_t count,
                      bool perSphere, const Affined* worldFromObject = nullptr);
+  // Moves spheres already added (an animation's next frame): ids are object ids addSpheres
+  // returned, centers count x 3 doubles, radii count doubles or null to keep the radii. The
+  // hierarchies already built are refitted at the next render, not rebuilt (rebuilt where refitting
+  // would make them much slower to trace).
+  void moveSpheres(const int32_t* ids, const double* centers, const double* radii, size_t count);
   int32_t addPlane(const Vec3d& normal, double offset, int32_t material, const PlaneBounds* bounds,
                    const Affined* worldFromObject = nullptr);
   // vertices: count x 3 x 3 doubles (v0, v1, v2 of each triangle); one object per triangle.
@@ -54,6 +59,14 @@ class Scene {
   void setShading(ShadingMode mode) { m_shading = mode; }
 
   const Group<double>& group() const { return m_group; }
+  // How the geometry was made ready for tracing, counted over the scene's life.
+  struct HierarchyCounts {
+    int64_t built = 0;     // prepared from scratch (a precision's first render, or after an add)
+    int64_t refitted = 0;  // made ready after moveSpheres by refitting
+    int64_t rebuilt = 0;   // of the sphere hierarchies refitted, those rebuilt as refitting degraded them
+    double milliseconds = 0;  // spent on all of it
+  };
+  HierarchyCounts hierarchyCounts() const;
   // The geometry as traced in precision Real: rounded to it, with its acceleration structure. Built
   // on first use (on `threads` threads, 0: all cores) and kept until the scene changes; safe to call
   // from concurrent renders.
@@ -83,10 +96,26 @@ class Scene {
   // Drops the prepared geometry and holds the lock while the caller changes m_group.
   std::unique_lock<std::mutex> changeGeometry();
 
+  // Spheres with object ids [firstId, firstId + count) are group's spheres [start, start + count).
+  struct SphereRun {
+    int32_t firstId;
+    size_t count;
+    Group<double>* group;
+    size_t start;
+  };
+  // Geometry as traced in one precision, and whether spheres have moved since it was made.
+  template <typename Real>
+  struct Prepared {
+    std::shared_ptr<Group<Real>> group;
+    bool moved = false;
+  };
+
   Group<double> m_group;
+  std::vector<SphereRun> m_sphereRuns;  // by firstId
   mutable std::mutex m_preparedMutex;
-  mutable std::shared_ptr<const Group<float>> m_preparedFloat;
-  mutable std::shared_ptr<const Group<double>> m_preparedDouble;
+  mutable Prepared<float> m_preparedFloat;
+  mutable Prepared<double> m_preparedDouble;
+  mutable HierarchyCounts m_hierarchyCounts;
   std::vector<Material> m_materials;
   std::vector<DirectionalLight> m_directionalLights;
   std::vector<PointLight> m_pointLights;
