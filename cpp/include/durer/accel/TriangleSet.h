@@ -169,20 +169,29 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real> {
     const Real az = s.sz * a[s.kz], bz = s.sz * b[s.kz], cz = s.sz * c[s.kz];
     h.t = (h.u * az + h.v * bz + h.w * cz) / h.det;
     h.hit = h.t == h.t;
-    if (positiveT && h.hit) h.hit = h.t > tErrorBound(h, ax, ay, bx, by, cx, cy, az, bz, cz);
+    if (positiveT && h.hit) {
+      const Real rawZ = max3(a[s.kz], b[s.kz], c[s.kz]);
+      h.hit = h.t > tErrorBound(h, max3(ax, bx, cx), max3(ay, by, cy), rawZ, max3(az, bz, cz));
+    }
     return h;
   }
 
-  // pbrt-v4's bound on the rounding error of t from the sheared coordinates and edge functions.
-  static Real tErrorBound(const TriangleHit<Real>& h, Real ax, Real ay, Real bx, Real by, Real cx, Real cy, Real az,
-                          Real bz, Real cz) {
-    const auto max3 = [](Real p, Real q, Real r) { return std::max(std::fabs(p), std::max(std::fabs(q), std::fabs(r))); };
-    const Real maxX = max3(ax, bx, cx), maxY = max3(ay, by, cy), maxZ = max3(az, bz, cz);
+  // pbrt-v4's bound on the rounding error of t, from the largest sheared x and y (maxX, maxY), the
+  // largest z before (rawZ, world units from the origin) and after (maxZ) its scaling by 1/d_z, and
+  // the edge functions. x and y are sheared with the unscaled z (x − (d_x/d_z)·z, |d_x/d_z| <= 1),
+  // so their errors are bounded with rawZ; pbrt's maxZ there only holds for directions of about unit
+  // length (|d| = 1e-4 made the bound 1e4 times too large, and rays from inside a mesh missed it). As
+  // written, scaling the direction by a power of two scales the bound exactly as it scales t.
+  static Real tErrorBound(const TriangleHit<Real>& h, Real maxX, Real maxY, Real rawZ, Real maxZ) {
     const Real deltaZ = errorGamma<Real>(3) * maxZ;
-    const Real deltaX = errorGamma<Real>(5) * (maxX + maxZ), deltaY = errorGamma<Real>(5) * (maxY + maxZ);
+    const Real deltaX = errorGamma<Real>(5) * (maxX + rawZ), deltaY = errorGamma<Real>(5) * (maxY + rawZ);
     const Real deltaE = 2 * (errorGamma<Real>(2) * maxX * maxY + deltaY * maxX + deltaX * maxY);
     const Real maxE = max3(h.u, h.v, h.w);
     return 3 * (errorGamma<Real>(3) * maxE * maxZ + deltaE * maxZ + deltaZ * maxE) / std::fabs(h.det);
+  }
+
+  DURER_INLINE static Real max3(Real p, Real q, Real r) {
+    return std::max(std::fabs(p), std::max(std::fabs(q), std::fabs(r)));
   }
 
  private:
