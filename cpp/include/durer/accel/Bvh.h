@@ -504,53 +504,44 @@ struct Bvh<Real>::Builder {
   // Partitions refs[begin, end) at the cheapest binned SAH plane; returns the first index of the
   // right side, or `end` when a leaf is cheaper than any split (only for a few primitives). Large
   // ranges are binned along the widest axis of their centres only: a third of the work, and the
-  // same plane in practice.
+  // same plane in practice. Small ones are binned along all three axes in one pass, into fewer bins:
+  // the sweep over the bins costs per node, and near the leaves it cost more than the binning.
   uint32_t split(uint32_t begin, uint32_t end, const Box& box, const Box& centroids) {
     constexpr uint32_t kOneAxisMin = 1024;
+    const uint32_t count = end - begin;
+    const int bins = static_cast<int>(std::min<uint32_t>(kBins, std::max<uint32_t>(4, count / 2)));
     F extent[3], scale[3];
     for (int a = 0; a < 3; ++a) {
       extent[a] = centroids.upper(a) - centroids.lower(a);
-      scale[a] = extent[a] > 0 ? F(kBins) * (1 - std::numeric_limits<Real>::epsilon()) / extent[a] : 0;
+      scale[a] = extent[a] > 0 ? F(bins) * (1 - std::numeric_limits<Real>::epsilon()) / extent[a] : 0;
     }
     const int widest = extent[0] >= extent[1] && extent[0] >= extent[2] ? 0 : extent[1] >= extent[2] ? 1 : 2;
-    const uint32_t count = end - begin;
-    const int firstAxis = count >= kOneAxisMin ? widest : 0, lastAxis = count >= kOneAxisMin ? widest : 2;
+    const bool oneAxis = count >= kOneAxisMin;
+    Bins perAxis[3];
+    if (oneAxis) {
+      binOneAxis(begin, end, widest, centroids.lower(widest), scale[widest], bins, perAxis[widest]);
+    } else {
+      binThreeAxes(begin, end, centroids, scale, bins, perAxis);
+    }
     F bestCost = kInf;
     int bestAxis = -1, bestBin = 0;
-    for (int a = firstAxis; a <= lastAxis; ++a) {
+    for (int a = oneAxis ? widest : 0; a <= (oneAxis ? widest : 2); ++a) {
       if (!(extent[a] > 0)) continue;
-      // Two sets of bins, for even and odd primitives: neighbours (often in the same bin) then do
-      // not wait for each other's update of it.
-      Box bins[kBins], odd[kBins];
-      uint32_t counts[kBins] = {}, oddCounts[kBins] = {};
-      uint32_t i = begin;
-      for (; i + 1 < end; i += 2) {
-        const int b0 = binOf(lane(refs[i].centroid(), a), centroids.lower(a), scale[a]);
-        const int b1 = binOf(lane(refs[i + 1].centroid(), a), centroids.lower(a), scale[a]);
-        ++counts[b0], ++oddCounts[b1];
-        bins[b0].grow(refs[i].box);
-        odd[b1].grow(refs[i + 1].box);
-      }
-      if (i < end) {
-        const int b = binOf(lane(refs[i].centroid(), a), centroids.lower(a), scale[a]);
-        ++counts[b];
-        bins[b].grow(refs[i].box);
-      }
-      for (int b = 0; b < kBins; ++b) bins[b].grow(odd[b]), counts[b] += oddCounts[b];
+      const Bins& b = perAxis[a];
       F rightArea[kBins];
       uint32_t rightCount[kBins];
       Box right;
       uint32_t n = 0;
-      for (int b = kBins - 1; b > 0; --b) {
-        right.grow(bins[b]), n += counts[b];
-        rightArea[b] = right.area(), rightCount[b] = n;
+      for (int i = bins - 1; i > 0; --i) {
+        right.grow(b.lo[i], b.hi[i]), n += b.count[i];
+        rightArea[i] = right.area(), rightCount[i] = n;
       }
       Box left;
       n = 0;
-      for (int b = 1; b < kBins; ++b) {  // plane between bin b - 1 and bin b
-        left.grow(bins[b - 1]), n += counts[b - 1];
-        const F cost = left.area() * F(n) + rightArea[b] * F(rightCount[b]);
-        if (n > 0 && rightCount[b] > 0 && cost < bestCost) bestCost = cost, bestAxis = a, bestBin = b;
+      for (int i = 1; i < bins; ++i) {  // plane between bin i - 1 and bin i
+        left.grow(b.lo[i - 1], b.hi[i - 1]), n += b.count[i - 1];
+        const F cost = left.area() * F(n) + rightArea[i] * F(rightCount[i]);
+        if (n > 0 && rightCount[i] > 0 && cost < bestCost) bestCost = cost, bestAxis = a, bestBin = i;
       }
     }
     // A traversal step costs about one primitive test: split while that is cheaper than testing all.
@@ -558,14 +549,54 @@ struct Bvh<Real>::Builder {
     if (count <= 2 * static_cast<uint32_t>(kMaxLeafSize) && bestCost / box.area() + 1 >= F(count)) return end;
     const F axisLo = centroids.lower(bestAxis), axisScale = scale[bestAxis];
     const auto mid = std::partition(refs.begin() + begin, refs.begin() + end, [&](const Ref& r) {
-      return binOf(lane(r.centroid(), bestAxis), axisLo, axisScale) < bestBin;
+      return binOf(lane(r.centroid(), bestAxis), axisLo, axisScale, bins) < bestBin;
     });
     return static_cast<uint32_t>(mid - refs.begin());
   }
 
-  static int binOf(F c, F lo, F scale) {
+  // The boxes and counts of the refs in each bin along an axis; only the first `bins` are set.
+  struct Bins {
+    Lanes lo[kBins], hi[kBins];
+    uint32_t count[kBins];
+    void clear(int bins) {
+      for (int i = 0; i < bins; ++i) lo[i] = broadcast(kInf), hi[i] = broadcast(-kInf), count[i] = 0;
+    }
+    void add(int i, const Box& box) {
+      lo[i] = box.lo < lo[i] ? box.lo : lo[i], hi[i] = box.hi > hi[i] ? box.hi : hi[i], ++count[i];
+    }
+  };
+
+  // Large ranges: two sets of bins, for even and odd refs, so that neighbours (often in the same
+  // bin) do not wait for each other's update of it.
+  void binOneAxis(uint32_t begin, uint32_t end, int axis, F lo, F scale, int bins, Bins& out) const {
+    Bins odd;
+    out.clear(bins), odd.clear(bins);
+    uint32_t i = begin;
+    for (; i + 1 < end; i += 2) {
+      out.add(binOf(lane(refs[i].centroid(), axis), lo, scale, bins), refs[i].box);
+      odd.add(binOf(lane(refs[i + 1].centroid(), axis), lo, scale, bins), refs[i + 1].box);
+    }
+    if (i < end) out.add(binOf(lane(refs[i].centroid(), axis), lo, scale, bins), refs[i].box);
+    for (int b = 0; b < bins; ++b) out.add(b, Box{odd.lo[b], odd.hi[b]}), out.count[b] += odd.count[b] - 1;
+  }
+
+  // Small ranges: each ref's three bins from one vector of its centre.
+  void binThreeAxes(uint32_t begin, uint32_t end, const Box& centroids, const F* scale, int bins, Bins* out) const {
+    typedef int32_t IntLanes __attribute__((vector_size(16)));
+    for (int a = 0; a < 3; ++a) out[a].clear(bins);
+    const Lanes lo = centroids.lo, scales = Lanes{scale[0], scale[1], scale[2], 0};
+    const IntLanes last = IntLanes{} + (bins - 1);
+    for (uint32_t i = begin; i < end; ++i) {
+      IntLanes b = __builtin_convertvector((refs[i].centroid() - lo) * scales, IntLanes);
+      b = b < 0 ? IntLanes{} : b;
+      b = b > last ? last : b;
+      out[0].add(b[0], refs[i].box), out[1].add(b[1], refs[i].box), out[2].add(b[2], refs[i].box);
+    }
+  }
+
+  static int binOf(F c, F lo, F scale, int bins) {
     const int b = static_cast<int>((c - lo) * scale);
-    return b < 0 ? 0 : b >= kBins ? kBins - 1 : b;
+    return b < 0 ? 0 : b >= bins ? bins - 1 : b;
   }
 
   // The 4-wide node of binary inner node `ref` of `tree`, and those below it, appended to out.

@@ -86,7 +86,7 @@ DURER_INLINE Real nextDown(Real x) {
 // The box [lo, hi] rounded outward by one ulp per side: a primitive's box computed in Real
 // arithmetic may be a rounding short of the primitive.
 template <typename Real>
-void roundOutward(Vec3<Real>& lo, Vec3<Real>& hi) {
+DURER_INLINE void roundOutward(Vec3<Real>& lo, Vec3<Real>& hi) {
   for (int a = 0; a < 3; ++a) lo[a] = nextDown(lo[a]), hi[a] = nextUp(hi[a]);
 }
 
