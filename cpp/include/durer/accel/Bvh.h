@@ -437,26 +437,26 @@ struct Bvh<Real>::Builder {
     trees.resize(1);
     struct Task {
       size_t tree;
-      uint32_t begin, end;
+      Range range;
     };
     std::vector<Task> tasks;
     // The top levels split serially until there is a subtree per thread and then some (for balance).
     const uint32_t n = static_cast<uint32_t>(refs.size());
     const uint32_t grain = std::max<uint32_t>(kParallelMin, n / (4 * std::max(threads, 1)));
     trees.reserve(n / kParallelMin + 2);  // a task per disjoint range of >= kParallelMin: no reallocation
-    const auto spawn = [&](uint32_t begin, uint32_t end) {
-      if (threads <= 1 || end - begin < kParallelMin || end - begin > grain) return false;
+    const auto spawn = [&](const Range& r) {
+      if (threads <= 1 || r.count() < kParallelMin || r.count() > grain) return false;
       trees.emplace_back();
-      tasks.push_back({trees.size() - 1, begin, end});
+      tasks.push_back({trees.size() - 1, r});
       return true;
     };
-    buildNode(trees[0].nodes, 0, n, 0, spawn);
+    buildNode(trees[0].nodes, measured(0, n), 0, spawn);
     std::vector<std::thread> workers;
     std::atomic<size_t> next{0};
     const auto work = [&] {
       for (size_t t; (t = next.fetch_add(1)) < tasks.size();) {
-        const auto never = [](uint32_t, uint32_t) { return false; };
-        buildNode(trees[tasks[t].tree].nodes, tasks[t].begin, tasks[t].end, 0, never);
+        const auto never = [](const Range&) { return false; };
+        buildNode(trees[tasks[t].tree].nodes, tasks[t].range, 0, never);
       }
     };
     for (int t = 1; t < threads && static_cast<size_t>(t) < tasks.size(); ++t) workers.emplace_back(work);
@@ -469,35 +469,46 @@ struct Bvh<Real>::Builder {
   }
   size_t treeOf(size_t tree, int32_t ref) const { return ref < 0 ? static_cast<size_t>(-ref - 1) : tree; }
 
-  // Builds refs[begin, end) into `nodes`, returning its index there (or, when spawn takes the
-  // range, a reference to the subtree that will hold it).
+  // A range of refs with the box of their boxes and of their centres.
+  struct Range {
+    uint32_t begin = 0, end = 0;
+    Box box, centroids;
+    uint32_t count() const { return end - begin; }
+    void grow(const Ref& r) { box.grow(r.box), centroids.grow(r.centroid(), r.centroid()); }
+  };
+
+  Range measured(uint32_t begin, uint32_t end) const {
+    Range r;
+    r.begin = begin, r.end = end;
+    for (uint32_t i = begin; i < end; ++i) r.grow(refs[i]);
+    return r;
+  }
+
+  // Builds range r into `nodes`, returning its index there (or, when spawn takes the range, a
+  // reference to the subtree that will hold it).
   template <typename Spawn>
-  int32_t buildNode(std::vector<Node>& nodes, uint32_t begin, uint32_t end, int depth, const Spawn& spawn) {
-    if (depth > 0 && spawn(begin, end)) return treeRef(trees.size() - 1);
+  int32_t buildNode(std::vector<Node>& nodes, const Range& r, int depth, const Spawn& spawn) {
+    if (depth > 0 && spawn(r)) return treeRef(trees.size() - 1);
     const int32_t index = static_cast<int32_t>(nodes.size());
     nodes.emplace_back();
-    Box box, centroids;
-    for (uint32_t i = begin; i < end; ++i) {
-      box.grow(refs[i].box);
-      centroids.grow(refs[i].centroid(), refs[i].centroid());
+    Range left, right;
+    bool inner = r.count() > static_cast<uint32_t>(kMaxLeafSize) && depth < kMaxDepth - 1 && split(r, left, right);
+    // No plane separates them (equal centroids) but they are too many for a leaf: halve the range.
+    if (!inner && r.count() > 2 * static_cast<uint32_t>(kMaxLeafSize) && depth < kMaxDepth - 1) {
+      const uint32_t middle = r.begin + r.count() / 2;
+      left = measured(r.begin, middle), right = measured(middle, r.end);
+      inner = true;
     }
-    const uint32_t count = end - begin;
-    uint32_t middle = end;  // end: a leaf
-    if (count > static_cast<uint32_t>(kMaxLeafSize) && depth < kMaxDepth - 1) {
-      middle = split(begin, end, box, centroids);
-      // No plane separates them (equal centroids): halve the range.
-      if (middle == begin || (middle == end && count > 2 * static_cast<uint32_t>(kMaxLeafSize))) middle = begin + count / 2;
-    }
-    if (middle == end) {
-      nodes[static_cast<size_t>(index)].box = box;
-      nodes[static_cast<size_t>(index)].first = begin;
-      nodes[static_cast<size_t>(index)].count = count;
+    if (!inner) {
+      nodes[static_cast<size_t>(index)].box = r.box;
+      nodes[static_cast<size_t>(index)].first = r.begin;
+      nodes[static_cast<size_t>(index)].count = r.count();
       return index;
     }
-    const int32_t left = buildNode(nodes, begin, middle, depth + 1, spawn);
-    const int32_t right = buildNode(nodes, middle, end, depth + 1, spawn);
+    const int32_t leftIndex = buildNode(nodes, left, depth + 1, spawn);
+    const int32_t rightIndex = buildNode(nodes, right, depth + 1, spawn);
     Node& n = nodes[static_cast<size_t>(index)];
-    n.box = box, n.left = left, n.right = right;
+    n.box = r.box, n.left = leftIndex, n.right = rightIndex;
     return index;
   }
 
@@ -506,9 +517,11 @@ struct Bvh<Real>::Builder {
   // ranges are binned along the widest axis of their centres only: a third of the work, and the
   // same plane in practice. Small ones are binned along all three axes in one pass, into fewer bins:
   // the sweep over the bins costs per node, and near the leaves it cost more than the binning.
-  uint32_t split(uint32_t begin, uint32_t end, const Box& box, const Box& centroids) {
+  bool split(const Range& r, Range& leftRange, Range& rightRange) {
     constexpr uint32_t kOneAxisMin = 1024;
-    const uint32_t count = end - begin;
+    const uint32_t begin = r.begin, end = r.end, count = r.count();
+    const Box& box = r.box;
+    const Box& centroids = r.centroids;
     const int bins = static_cast<int>(std::min<uint32_t>(kBins, std::max<uint32_t>(4, count / 2)));
     F extent[3], scale[3];
     for (int a = 0; a < 3; ++a) {
@@ -545,13 +558,28 @@ struct Bvh<Real>::Builder {
       }
     }
     // A traversal step costs about one primitive test: split while that is cheaper than testing all.
-    if (bestAxis < 0) return end;
-    if (count <= 2 * static_cast<uint32_t>(kMaxLeafSize) && bestCost / box.area() + 1 >= F(count)) return end;
+    if (bestAxis < 0) return false;
+    if (count <= 2 * static_cast<uint32_t>(kMaxLeafSize) && bestCost / box.area() + 1 >= F(count)) return false;
     const F axisLo = centroids.lower(bestAxis), axisScale = scale[bestAxis];
-    const auto mid = std::partition(refs.begin() + begin, refs.begin() + end, [&](const Ref& r) {
-      return binOf(lane(r.centroid(), bestAxis), axisLo, axisScale, bins) < bestBin;
-    });
-    return static_cast<uint32_t>(mid - refs.begin());
+    partition(begin, end, [&](const Ref& ref) { return binOf(lane(ref.centroid(), bestAxis), axisLo, axisScale, bins) < bestBin; },
+              leftRange, rightRange);
+    return true;
+  }
+
+  // std::partition's swaps (so the same order), measuring each side's boxes on the way: the
+  // children's boxes without another pass over their refs.
+  template <typename Left>
+  void partition(uint32_t begin, uint32_t end, const Left& isLeft, Range& left, Range& right) {
+    uint32_t i = begin, j = end;
+    for (;;) {
+      while (i < j && isLeft(refs[i])) left.grow(refs[i++]);
+      while (i < j && !isLeft(refs[j - 1])) right.grow(refs[--j]);
+      if (i >= j) break;
+      std::swap(refs[i], refs[j - 1]);
+      left.grow(refs[i++]);
+      right.grow(refs[--j]);
+    }
+    left.begin = begin, left.end = i, right.begin = i, right.end = end;
   }
 
   // The boxes and counts of the refs in each bin along an axis; only the first `bins` are set.
