@@ -61,6 +61,18 @@ struct NodeLanes<double> {
   typedef double Type __attribute__((vector_size(32)));
 };
 
+// f(begin, end) over [0, count) in one chunk per thread (on this thread alone below kMin items,
+// where starting threads costs more than it saves).
+template <typename F>
+void parallelChunks(size_t count, int threads, const F& f) {
+  constexpr size_t kMin = size_t(1) << 16;
+  const size_t chunks = count < kMin ? 1 : std::min<size_t>(static_cast<size_t>(std::max(threads, 1)), count / kMin);
+  std::vector<std::thread> workers;
+  for (size_t c = 1; c < chunks; ++c) workers.emplace_back(f, count * c / chunks, count * (c + 1) / chunks);
+  f(size_t(0), count / chunks);
+  for (std::thread& w : workers) w.join();
+}
+
 template <typename Real>
 class Bvh {
  public:
@@ -412,21 +424,25 @@ struct Bvh<Real>::Builder {
   std::vector<Subtree> trees;  // tree 0: the top levels
 
   template <typename BoxOf>
-  Builder(size_t count, const BoxOf& boxOf) : refs(count) {
-    for (size_t i = 0; i < count; ++i) {
-      Vec3<Real> lo, hi;
-      boxOf(i, lo, hi);
-      const F low = static_cast<Real>(i & 0xFFFFFF), high = static_cast<Real>(i >> 24);
-      const F l[4] = {toRealDown<F>(lo.x), toRealDown<F>(lo.y), toRealDown<F>(lo.z), low};
-      const F h[4] = {toRealUp<F>(hi.x), toRealUp<F>(hi.y), toRealUp<F>(hi.z), high};
-      std::memcpy(&refs[i].box.lo, l, sizeof l);
-      std::memcpy(&refs[i].box.hi, h, sizeof h);
-    }
+  Builder(size_t count, const BoxOf& boxOf, int threads) : refs(count) {
+    parallelChunks(count, threads, [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i) {
+        Vec3<Real> lo, hi;
+        boxOf(i, lo, hi);
+        const F low = static_cast<Real>(i & 0xFFFFFF), high = static_cast<Real>(i >> 24);
+        const F l[4] = {toRealDown<F>(lo.x), toRealDown<F>(lo.y), toRealDown<F>(lo.z), low};
+        const F h[4] = {toRealUp<F>(hi.x), toRealUp<F>(hi.y), toRealUp<F>(hi.z), high};
+        std::memcpy(&refs[i].box.lo, l, sizeof l);
+        std::memcpy(&refs[i].box.hi, h, sizeof h);
+      }
+    });
   }
 
-  std::vector<uint32_t> order() const {
+  std::vector<uint32_t> order(int threads) const {
     std::vector<uint32_t> out(refs.size());
-    for (size_t i = 0; i < refs.size(); ++i) out[i] = refs[i].id();
+    parallelChunks(refs.size(), threads, [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i) out[i] = refs[i].id();
+    });
     return out;
   }
 
@@ -679,7 +695,7 @@ template <typename BoxOf>
 std::vector<uint32_t> Bvh<Real>::build(size_t count, const BoxOf& boxOf, int threads) {
   m_nodes.clear();
   if (count == 0) return {};
-  Builder builder(count, boxOf);
+  Builder builder(count, boxOf, threads);
   builder.run(threads);
   const typename Builder::Node& root = builder.trees[0].nodes[0];
   if (root.count > 0) {  // a single leaf: a root node with one child
@@ -700,7 +716,7 @@ std::vector<uint32_t> Bvh<Real>::build(size_t count, const BoxOf& boxOf, int thr
     builder.collapse(0, 0, m_nodes);
   }
   m_builtCost = sahCost();
-  return builder.order();
+  return builder.order(threads);
 }
 
 template <typename Real>

@@ -63,13 +63,13 @@ class PrimitiveSet {
   void buildBvh(const BoxOf& boxOf, int threads) {
     const auto boxOfIndex = [&](size_t i, Vec3<Real>& lo, Vec3<Real>& hi) { boxOf(m_primitives[i], lo, hi); };
     const std::vector<uint32_t> order = m_bvh.build(m_primitives.size(), boxOfIndex, threads);
-    permute(m_primitives, order);
-    permute(m_materials, order);
-    permute(m_objectIds, order);
+    permute(m_primitives, order, threads);
+    permute(m_materials, order, threads);
+    permute(m_objectIds, order, threads);
     if (m_sourceIndex.empty()) {
       m_sourceIndex = order;
     } else {
-      permute(m_sourceIndex, order);
+      permute(m_sourceIndex, order, threads);
     }
   }
 
@@ -143,9 +143,11 @@ class PrimitiveSet {
 
  private:
   template <typename T>
-  static void permute(std::vector<T>& items, const std::vector<uint32_t>& order) {
+  static void permute(std::vector<T>& items, const std::vector<uint32_t>& order, int threads) {
     std::vector<T> sorted(order.size());
-    for (size_t i = 0; i < order.size(); ++i) sorted[i] = items[order[i]];
+    parallelChunks(order.size(), threads, [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i) sorted[i] = items[order[i]];
+    });
     items.swap(sorted);
   }
 
