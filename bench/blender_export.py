@@ -1,11 +1,13 @@
 """How long the Blender export takes on big inputs (bulk foreach_get only, no per-element Python).
 
-    python bench/blender_export.py [--points 1000000] [--grid 709] [--runs 3]
+    python bench/blender_export.py [--points 1000000] [--grid 709] [--instances 100000] [--runs 3]
 
 Times `export_depsgraph` alone (Blender's own depsgraph evaluation is done before timing) on a point
-cloud of --points spheres made by a "Mesh to Points" geometry-nodes modifier, and on a wavy grid of
---grid × --grid vertices (2·(grid − 1)² triangles: about a million at 709). Prints the best of --runs
-and the targets: ≤ 0.2 s for a million spheres, ≤ 0.4 s for a million triangles.
+cloud of --points spheres made by a "Mesh to Points" geometry-nodes modifier, on a wavy grid of
+--grid × --grid vertices (2·(grid − 1)² triangles: about a million at 709), and on --instances
+instances of a UV sphere object scattered by geometry nodes' Instance on Points (random rotation and
+scale). Prints the best of --runs and the targets: ≤ 0.2 s for a million spheres, ≤ 0.4 s for a
+million triangles, ≤ 0.5 s for 100,000 instances (issue 14).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import numpy as np
 
 SPHERE_TARGET = 0.2  # seconds for 1,000,000 point-cloud spheres
 TRIANGLE_TARGET = 0.4  # seconds for about 1,000,000 triangles
+INSTANCE_TARGET = 0.5  # seconds for 100,000 instanced UV spheres
 
 
 def point_cloud(bpy, scene, n: int) -> None:
@@ -27,6 +30,17 @@ def point_cloud(bpy, scene, n: int) -> None:
     positions = np.random.default_rng(0).uniform(-10, 10, (n, 3))
     obj = point_cloud_object(scene.collection, "Points", positions, radius=0.01)
     obj.location, obj.scale = (1, 2, 3), (2, 2, 2)
+
+
+def scattered_spheres(bpy, scene, n: int) -> None:
+    """n instances of a UV sphere object on a vertex mesh's points (geometry nodes)."""
+    from durer.blender.point_cloud import instance_on_points, vertex_object
+
+    points = vertex_object(scene.collection, "Points", np.random.default_rng(0).uniform(-10, 10, (n, 3)))
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.05)
+    ball = bpy.context.active_object
+    ball.hide_render = ball.hide_viewport = True
+    instance_on_points(points, ball, scale=(0.5, 2.0))
 
 
 def wavy_grid(bpy, scene, n: int) -> None:
@@ -66,6 +80,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python bench/blender_export.py", description=__doc__.splitlines()[0])
     parser.add_argument("--points", type=int, default=1_000_000)
     parser.add_argument("--grid", type=int, default=709)
+    parser.add_argument("--instances", type=int, default=100_000)
     parser.add_argument("--runs", type=int, default=3)
     args = parser.parse_args(argv)
     import bpy
@@ -81,6 +96,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     per_million = seconds / data.triangle_count * 1e6
     print(f"  mesh: {data.triangle_count} triangles in {seconds:.3f} s ({per_million:.3f} s per million; "
           f"target <= {TRIANGLE_TARGET} s: {'met' if per_million <= TRIANGLE_TARGET else 'NOT met'})")
+    seconds, data = best_export(bpy, scattered_spheres, args.instances, args.runs)
+    per_100k = seconds / max(data.sphere_count, 1) * 1e5
+    print(f"  instances: {data.sphere_count} instanced spheres in {seconds:.3f} s ({per_100k:.3f} s per 100,000; "
+          f"target <= {INSTANCE_TARGET} s: {'met' if per_100k <= INSTANCE_TARGET else 'NOT met'})")
     return 0
 
 

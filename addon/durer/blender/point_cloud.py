@@ -49,3 +49,36 @@ def point_cloud_object(
     obj = vertex_object(collection, name, positions)
     mesh_to_points(obj, radius)
     return obj
+
+
+def instance_on_points(obj: bpy.types.Object, instance: bpy.types.Object, rotate: bool = True,
+                       scale: tuple[float, float] = (1.0, 1.0), seed: int = 0) -> bpy.types.NodesModifier:
+    """Give `obj` a geometry-nodes modifier that puts an instance of `instance` (its geometry, as
+    an Object Info node gives it) on each of its mesh's vertices, as scatter setups do: a random
+    rotation if `rotate`, a uniform random scale in `scale` (seeded)."""
+    group = bpy.data.node_groups.new(f"{obj.name} instances", "GeometryNodeTree")
+    group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes, links = group.nodes, group.links
+    group_in, group_out = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
+    on_points = nodes.new("GeometryNodeInstanceOnPoints")
+    info = nodes.new("GeometryNodeObjectInfo")
+    info.inputs["Object"].default_value = instance
+    links.new(group_in.outputs[0], on_points.inputs["Points"])
+    links.new(info.outputs["Geometry"], on_points.inputs["Instance"])
+    if rotate:
+        angles = nodes.new("FunctionNodeRandomValue")
+        angles.data_type = "FLOAT_VECTOR"
+        angles.inputs["Max"].default_value = (6.2832, 6.2832, 6.2832)
+        angles.inputs["Seed"].default_value = seed
+        links.new(angles.outputs["Value"], on_points.inputs["Rotation"])
+    if scale != (1.0, 1.0):
+        size = nodes.new("FunctionNodeRandomValue")
+        size.data_type = "FLOAT"
+        size.inputs[2].default_value, size.inputs[3].default_value = scale  # Min, Max of the FLOAT variant
+        size.inputs["Seed"].default_value = seed + 1
+        links.new(size.outputs[1], on_points.inputs["Scale"])
+    links.new(on_points.outputs[0], group_out.inputs[0])
+    modifier = obj.modifiers.new("Instances", "NODES")
+    modifier.node_group = group
+    return modifier

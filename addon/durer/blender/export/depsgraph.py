@@ -7,6 +7,7 @@ import numpy as np
 from .builder import Builder
 from .camera import camera_data
 from .data import IDENTITY, SceneData
+from .instances import InstanceBatches
 from .lights import light_data
 from .materials import object_materials
 from .matrices import uniform_scale, world_matrix
@@ -18,6 +19,8 @@ from .world import world_colors
 _CONVERTED_TYPES = {"CURVE", "SURFACE", "FONT", "META"}
 # Object types that neither carry geometry nor light the scene.
 _NOT_RENDERED = {"CAMERA", "ARMATURE", "LATTICE", "SPEAKER", "LIGHT_PROBE"}
+# object.durer primitive modes under which an instanced mesh may be a sphere (instances.py).
+_SPHERE_MODES = {"AUTO", "SPHERE"}
 
 
 def _durer_settings(obj):
@@ -176,24 +179,28 @@ def export_depsgraph(depsgraph, camera=None) -> SceneData:
     """
     scene = depsgraph.scene_eval
     b = Builder()
+    batches = InstanceBatches(b)
     for inst in depsgraph.object_instances:
         obj = inst.object
-        if obj.type in _NOT_RENDERED:
+        kind = obj.type
+        if kind in _NOT_RENDERED:
             continue
-        m = world_matrix(inst.matrix_world)
-        if obj.type == "LIGHT":
-            _light(b, obj, m)
+        if kind == "LIGHT":
+            _light(b, obj, world_matrix(inst.matrix_world))
             continue
         settings = _durer_settings(obj)
         mode = settings.primitive if settings is not None else "AUTO"
         infinite = bool(settings.infinite_plane) if settings is not None else False
         if mode == "IGNORE":
             continue
-        if obj.type == "MESH" and obj.original is not None and obj.original.type in _CONVERTED_TYPES:
+        if kind == "MESH" and obj.original is not None and obj.original.type in _CONVERTED_TYPES:
             continue  # the mesh Blender made of a curve, text, surface or metaball: handled as that
-        convert = CONVERTERS.get(obj.type)
+        if kind == "MESH" and inst.is_instance and mode in _SPHERE_MODES and batches.take(inst, obj, mode, infinite):
+            continue
+        convert = CONVERTERS.get(kind)
         if convert is not None:
-            convert(b, obj, m, mode, infinite)
+            convert(b, obj, world_matrix(inst.matrix_world), mode, infinite)
+    batches.finish()
     data = b.finish()
     cam_obj = camera if camera is not None else scene.camera
     if cam_obj is not None:

@@ -17,16 +17,19 @@ def world_matrix(m) -> np.ndarray:
 def uniform_scale(m: np.ndarray) -> tuple[float, bool]:
     """Uniform scale factor of a 4x4 matrix (geometric mean of the axis scales) and whether the
     linear part is a uniform scale times a rotation."""
-    lin = m[:3, :3]
-    norms = np.linalg.norm(lin, axis=0)
-    det = abs(float(np.linalg.det(lin)))
-    s = det ** (1.0 / 3.0)
-    if s == 0.0:
-        return 0.0, False
-    gram = lin.T @ lin / (s * s)
-    uniform = bool(np.abs(gram - np.eye(3)).max() <= SCALE_TOLERANCE) and bool(
-        np.ptp(norms) <= SCALE_TOLERANCE * norms.max()
-    )
+    s, uniform = uniform_scales(m[None, :3, :3])
+    return float(s[0]), bool(uniform[0])
+
+
+def uniform_scales(linear: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`uniform_scale` of many linear parts at once ((N, 3, 3)): the scale factors (0 for a
+    singular one) and whether each is a uniform scale times a rotation."""
+    norms = np.linalg.norm(linear, axis=1)  # each column's length: the axis scales
+    s = np.abs(np.linalg.det(linear)) ** (1.0 / 3.0)
+    safe = np.where(s > 0, s, 1.0)
+    gram = np.einsum("nij,nik->njk", linear, linear) / (safe * safe)[:, None, None]
+    uniform = ((np.abs(gram - np.eye(3)).max(axis=(1, 2)) <= SCALE_TOLERANCE)
+               & (np.ptp(norms, axis=1) <= SCALE_TOLERANCE * norms.max(axis=1)) & (s > 0))
     return s, uniform
 
 

@@ -1,0 +1,69 @@
+"""Instances as scatter setups make them: geometry-nodes Instance on Points of a sphere object,
+collection instances, vertex instancing. Sphere-shaped instances are exported in bulk
+(export/instances.py) and must give exactly the spheres, one per instance, that their matrices say."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers.blender import cube, export, link, uv_sphere
+
+bpy = pytest.importorskip("bpy")
+
+from durer.blender import point_cloud
+
+pytestmark = pytest.mark.blender
+
+
+def instance_transforms(obj) -> tuple[np.ndarray, np.ndarray]:
+    """The instance transforms (N, 4, 4) and reference indices of obj's evaluated geometry, read
+    from Blender's own geometry set (what the export must agree with)."""
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    geometry = bpy.types.GeometrySet.from_evaluated_object(evaluated)
+    cloud = geometry.instances_pointcloud()
+    values = np.empty(len(cloud.points) * 16, np.float32)
+    cloud.attributes["instance_transform"].data.foreach_get("value", values)
+    world = np.array(evaluated.matrix_world)
+    return world @ values.reshape(-1, 4, 4).transpose(0, 2, 1), cloud
+
+
+def test_instance_on_points_of_a_uv_sphere_gives_one_sphere_per_instance(scene):
+    positions = np.random.default_rng(3).uniform(-4, 4, (500, 3))
+    points = point_cloud.vertex_object(scene.collection, "Points", positions)
+    points.location, points.rotation_euler, points.scale = (1, -2, 0.5), (0.3, 0.1, -0.4), (1.5, 1.5, 1.5)
+    ball = uv_sphere(scene, "Ball", radius=0.2)
+    ball.hide_render = ball.hide_viewport = True  # only its instances are seen
+    point_cloud.instance_on_points(points, ball, scale=(0.5, 2.0), seed=4)
+    data = export(scene)
+    transforms, _ = instance_transforms(points)
+    assert data.sphere_count == 500 and data.ellipsoid_count == 0 and data.sources["Points"] == 500
+    order = np.lexsort(data.sphere_centers.T)
+    expected_centers = transforms[:, :3, 3]
+    expected_radii = 0.2 * np.abs(np.linalg.det(transforms[:, :3, :3])) ** (1 / 3)
+    expected = np.lexsort(expected_centers.T)
+    np.testing.assert_allclose(data.sphere_centers[order], expected_centers[expected], rtol=0, atol=1e-5)
+    np.testing.assert_allclose(data.sphere_radii[order], expected_radii[expected], rtol=1e-5)
+    assert expected_radii.min() < 0.2 * 1.5 * 0.7 and expected_radii.max() > 0.2 * 1.5 * 1.5  # scales varied
+
+
+def test_collection_instances_with_a_squashed_one_and_instanced_cubes(scene):
+    """Empties instancing a collection of one sphere: uniform ones give spheres, a squashed one an
+    exact ellipsoid; a cube instanced on points is a mesh per instance, as before."""
+    collection = bpy.data.collections.new("Ball collection")
+    ball = uv_sphere(scene, "Ball", radius=0.5)
+    scene.collection.objects.unlink(ball)
+    collection.objects.link(ball)
+    for i, scale in enumerate([(1, 1, 1), (2, 2, 2), (1, 3, 1)]):
+        empty = link(scene, bpy.data.objects.new(f"Empty {i}", None))
+        empty.instance_type, empty.instance_collection = "COLLECTION", collection
+        empty.location, empty.scale = (3 * i, 0, 0), scale
+    data = export(scene)
+    assert data.sphere_count == 2 and data.ellipsoid_count == 1
+    np.testing.assert_allclose(sorted(data.sphere_radii), [0.5, 1.0], rtol=1e-6)
+    np.testing.assert_allclose(data.transformed_spheres[0].matrix[:3, :3], np.diag([1.0, 3.0, 1.0]), atol=1e-6)
+    box = cube(scene, "Box", size=0.2)
+    box.hide_render = box.hide_viewport = True
+    points = point_cloud.vertex_object(scene.collection, "Points", np.random.default_rng(1).uniform(-3, 3, (20, 3)))
+    point_cloud.instance_on_points(points, box)
+    data = export(scene)
+    assert data.sphere_count == 2 and len(data.meshes) == 20 and data.triangle_count == 20 * 12
