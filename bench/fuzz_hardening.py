@@ -70,8 +70,7 @@ class Child:
         self.args = args
         self.surfaces = SURFACES if args.surface == "all" else (args.surface,)
         self.tally = fuzz.Tally()
-        self.findings: Counter = Counter()
-        self.seen: Counter = Counter()  # inputs saved per distinct failure
+        self.findings: Counter = Counter()  # per surface and distinct failure
         self.folder = Path(tempfile.mkdtemp(prefix="durer-fuzz-"))
         fuzz.prepare_folder(self.folder)
         args.out.mkdir(parents=True, exist_ok=True)
@@ -95,10 +94,9 @@ class Child:
             self.report()
 
     def save(self, surface: str, data: bytes, message: str) -> None:
-        key = message.split("\n")[0][:120]
-        self.findings[f"{surface}: {key}"] += 1
-        self.seen[key] += 1
-        if self.seen[key] <= PER_FAILURE:
+        key = f"{surface}: {message.split(chr(10))[0][:120]}"
+        self.findings[key] += 1
+        if self.findings[key] <= PER_FAILURE:
             name = f"finding-{hashlib.sha1(data).hexdigest()[:16]}"
             folder = self.args.out / surface
             folder.mkdir(parents=True, exist_ok=True)
