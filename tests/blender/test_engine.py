@@ -264,6 +264,9 @@ def Image_pixels(path):
 def test_render_file_errors(scene, tmp_path):
     with pytest.raises(FileNotFoundError):
         batch.render_file(tmp_path / "missing.blend")
+    # a name the system cannot look up (an OSError traceback before; found by the hardening fuzz)
+    with pytest.raises(ValueError, match=r"^cannot open .*/x{300}: File name too long$"):
+        batch.render_file(tmp_path / ("x" * 300))
     blend = saved_blend(scene, tmp_path / "bad.blend")
     bpy.ops.wm.open_mainfile(filepath=str(blend))
     bpy.context.scene.camera.data.type = "PANO"

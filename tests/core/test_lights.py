@@ -75,6 +75,20 @@ def test_spot_light_cone(blend):
     assert (image[~inside] == 0).all() and (image[inside] > 0).sum() > 50
 
 
+@pytest.mark.parametrize("exponent, highlight", [(2.0, 0.0), (0.0, 1.0)])
+def test_no_highlight_where_the_half_vector_is_undefined(precision, exponent, highlight):
+    """The floor's underside seen from below, lit by a light above it on the camera ray: the light
+    and the viewer are exactly opposite, so L + V = 0 and H is undefined (found by the hardening
+    fuzz: normalising it gave a NaN colour). No highlight then: max(N·H, 0) is 0, and 0^0 = 1."""
+    scene = durer.Scene()
+    scene.add_plane((0, 1, 0), 0.0, material=scene.add_material((0.5, 0.5, 0.5), specular=(0.25, 0.25, 0.25),
+                                                                  exponent=exponent))
+    scene.add_point_light((0, 3, 0), (1, 1, 1))
+    below = durer.OrthographicCamera((0, -10, 0), (0, 1, 0), (0, 0, -1), 8.0)
+    image = durer.render(scene, below, 1, 1, precision=precision).color
+    np.testing.assert_array_equal(image[0, 0], [0.5 + 0.25 * highlight] * 3 + [1.0])
+
+
 def test_emission_is_added_unlit():
     scene = durer.Scene()
     glow = scene.add_material(diffuse=(0.5, 0.5, 0.5), emission=(0.25, 0.5, 1.0))

@@ -152,6 +152,10 @@ def test_to_scene_without_lights_keeps_flat_shading():
 
 
 def test_to_scene_batches_spheres_and_triangles_by_matrix(monkeypatch):
+    # Read first: the reader makes each item alone to see whether the core takes it.
+    files = {name: read_scene_file(CORPUS / name) for name in (
+        "scene3_09_exponent_variations.txt", "scene2_16_t_scale.txt", "scene4_12_point_light_circle_d_attenuation.txt",
+        "scene4_03_mirrored_floor.txt")}
     calls: dict[str, int] = {}
     for name in ("add_spheres", "add_triangles", "add_mesh", "add_plane"):
         original = getattr(durer.Scene, name)
@@ -161,16 +165,16 @@ def test_to_scene_batches_spheres_and_triangles_by_matrix(monkeypatch):
             return _original(self, *args, **kwargs)
 
         monkeypatch.setattr(durer.Scene, name, counted)
-    read_scene_file(CORPUS / "scene3_09_exponent_variations.txt").to_scene()   # 9 spheres, no transform
+    files["scene3_09_exponent_variations.txt"].to_scene()   # 9 spheres, no transform
     assert calls == {"add_spheres": 1}
     calls.clear()
-    read_scene_file(CORPUS / "scene2_16_t_scale.txt").to_scene()    # 6 spheres, 5 distinct transforms
+    files["scene2_16_t_scale.txt"].to_scene()    # 6 spheres, 5 distinct transforms
     assert calls == {"add_spheres": 6}
     calls.clear()
-    read_scene_file(CORPUS / "scene4_12_point_light_circle_d_attenuation.txt").to_scene()
+    files["scene4_12_point_light_circle_d_attenuation.txt"].to_scene()
     assert calls == {"add_plane": 1, "add_mesh": 3, "add_spheres": 3}
     calls.clear()
-    read_scene_file(CORPUS / "scene4_03_mirrored_floor.txt").to_scene()
+    files["scene4_03_mirrored_floor.txt"].to_scene()
     assert calls == {"add_triangles": 1, "add_mesh": 3}
 
 
@@ -182,8 +186,9 @@ def test_transforms_reach_the_scene_only_when_not_identity(monkeypatch):
         seen.append(transform)
         return original(self, centers, radii, material, transform=transform)
 
+    scene_file = read_scene_file(CORPUS / "scene2_16_t_scale.txt")
     monkeypatch.setattr(durer.Scene, "add_spheres", spy)
-    read_scene_file(CORPUS / "scene2_16_t_scale.txt").to_scene()
+    scene_file.to_scene()
     assert sum(t is None for t in seen) == 1
     np.testing.assert_array_equal(seen[0], [[5, 0, 0, -1.25], [0, 5, 0, -1.25], [0, 0, 5, -2], [0, 0, 0, 1]])
 

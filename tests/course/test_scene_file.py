@@ -583,6 +583,20 @@ def test_malformed_lights(tmp_path, lights, line, message):
     assert (info.value.line, info.value.message) == (line, message)
 
 
+# What the reader takes but the core refuses is refused while reading, at the item's line.
+@pytest.mark.parametrize("text, line, message", [
+    (BASE.replace("up 0 1 0", "up 0 1 1e300"), 1,
+     "Dürer cannot render this OrthographicCamera: up must not be parallel to direction"),
+    (one_primitive("Plane { normal 1e-320 0 0 offset 1 }"), 3,
+     "Dürer cannot render this Plane: offset / |normal| must be finite, got inf"),
+])
+def test_values_the_core_refuses_are_scene_file_errors(tmp_path, text, line, message):
+    path = write(tmp_path, text)
+    with pytest.raises(SceneFileError) as info:
+        read_scene_file(path)
+    assert (info.value.path, info.value.line, info.value.message) == (str(path), line, message)
+
+
 def test_material_index_past_the_end_when_materials_come_later(tmp_path):
     path = write(tmp_path, "Group { numObjects 1\nMaterialIndex 1\nSphere { center 0 0 0 radius 1 } }\n"
                            "Materials { numMaterials 1 Material { } }\n")
@@ -613,6 +627,9 @@ def test_missing_obj(tmp_path):
     ("v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\n", 3, "face indices (1, 2, 3) out of range: expected 1..2 (the vertices "
                                                 "defined above)"),
     ("v 0 0 0\nv 1 0 0\nv 0 1e999 0\nf 1 2 3\n", 3, "expected finite vertex coordinates, got (0.0, inf, 0.0)"),
+    # int64 could not hold it (an OverflowError traceback before)
+    (f"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 {2**63}\n", 4,
+     "face indices out of range: expected at most 18 digits, got 'f 1 2 9223372036854775808'"),
 ])
 def test_malformed_obj_names_the_obj_file_and_line(tmp_path, obj, line, message):
     write(tmp_path, obj, "bad.obj")

@@ -148,7 +148,11 @@ def open_blend(blend: Path, scene: str | None = None, samples: int | None = None
 
     from . import register
 
-    if not blend.is_file():
+    try:
+        found = blend.is_file()
+    except OSError as error:  # a name the system cannot look up (too long, ...)
+        raise ValueError(f"cannot open {blend}: {error.strerror}") from None
+    if not found:
         raise FileNotFoundError(f"No such .blend file: {blend}")
     if samples is not None and int(samples) < 1:
         raise ValueError(f"samples must be >= 1, got {samples}")

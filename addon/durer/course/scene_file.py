@@ -287,6 +287,9 @@ def read_obj(path: Path) -> tuple[np.ndarray, np.ndarray]:
             if match is None:
                 raise SceneFileError(path, number, "expected 'f i j k' with three 1-based vertex indices (faces "
                                                    f"are triangles), got '{_clip(line)}'")
+            if max(len(index) for index in match.groups()) > _MAX_INTEGER_DIGITS:
+                raise SceneFileError(path, number, f"face indices out of range: expected at most {_MAX_INTEGER_DIGITS} "
+                                                   f"digits, got '{_clip(line)}'")
             face_words += match.groups()
             face_lines.append(number)
             defined_before.append(len(vertex_lines))
@@ -365,6 +368,15 @@ class _Parser:
         if len(self.open_blocks) >= MAX_NESTING:
             raise self.error(keyword.line, f"'{keyword.text}' nested more than {MAX_NESTING} blocks deep")
         self.open_blocks.append(keyword)
+
+    def core_accepts(self, keyword: _Token, build: Callable[[], object]) -> None:
+        """Run `build` (the item alone, made as `to_scene` or the camera makes it) so that what the
+        core refuses (it holds the rules: an `up` parallel to the direction once normalised, a
+        plane whose offset / |normal| overflows, ...) is refused here, at the item's line."""
+        try:
+            build()
+        except ValueError as error:
+            raise self.error(keyword.line, f"Dürer cannot render this {keyword.text}: {error}") from None
 
     def close(self) -> None:
         self.expect("}")
@@ -452,7 +464,9 @@ class _Parser:
                 raise self.error(size_token.line, f"expected 'angle' in (0, 180) degrees, got {size:g}")
             projection = "perspective"
         self.close()
-        self.scene.camera = SceneCamera(projection, center, direction, up, size)
+        camera = SceneCamera(projection, center, direction, up, size)
+        self.core_accepts(keyword, camera.to_durer)
+        self.scene.camera = camera
 
     def background(self, keyword: _Token) -> None:
         self.open(keyword)
@@ -499,7 +513,7 @@ class _Parser:
             direction = self.vector_field("direction", _nonzero)
             color = self.vector_field("color", _non_negative)
             self.close()
-            self.scene.lights.append(SceneLight("directional", color, direction=direction))
+            self.add_light(keyword, SceneLight("directional", color, direction=direction))
             return
         position = self.vector_field("position")
         color = self.vector_field("color", _non_negative)
@@ -512,7 +526,11 @@ class _Parser:
         if token.text != "}":
             raise self.error(token.line, f"expected 'attenuation' or '}}' in PointLight, got '{token.text}'")
         self.open_blocks.pop()
-        self.scene.lights.append(SceneLight("point", color, position=position, attenuation=attenuation))
+        self.add_light(keyword, SceneLight("point", color, position=position, attenuation=attenuation))
+
+    def add_light(self, keyword: _Token, light: SceneLight) -> None:
+        self.core_accepts(keyword, SceneFile(self.path, lights=[light]).to_scene)
+        self.scene.lights.append(light)
 
     def materials(self, keyword: _Token) -> None:
         self.counted(keyword, "numMaterials", "material", _MATERIALS, self.material)
@@ -537,7 +555,9 @@ class _Parser:
                 raise self.error(token.line, f"expected 'indexOfRefraction' > 0, got {value:g}")
             values[name] = value
         self.open_blocks.pop()
-        self.scene.materials.append(SceneMaterial(**values))
+        material = SceneMaterial(**values)
+        self.core_accepts(keyword, SceneFile(self.path, materials=[material]).to_scene)
+        self.scene.materials.append(material)
 
     # --- objects ---
     def group(self, keyword: _Token, matrix: np.ndarray) -> None:
@@ -588,8 +608,10 @@ class _Parser:
             values = getattr(self, keyword.text.lower())()
             self.close()
             kind = {"Sphere": "sphere", "Plane": "plane", "Triangle": "triangle", "TriangleMesh": "mesh"}[keyword.text]
-            self.scene.primitives.append(ScenePrimitive(kind, self.current_material, matrix,
-                                                        f"{self.path}:{keyword.line}", **values))
+            primitive = ScenePrimitive(kind, self.current_material, matrix, f"{self.path}:{keyword.line}", **values)
+            alone = SceneFile(self.path, materials=[SceneMaterial()], primitives=[dataclasses.replace(primitive, material=0)])
+            self.core_accepts(keyword, alone.to_scene)
+            self.scene.primitives.append(primitive)
 
     def sphere(self) -> dict[str, object]:
         center = self.vector_field("center")

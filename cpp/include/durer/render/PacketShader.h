@@ -73,6 +73,13 @@ class PacketShader {
  private:
   static Vec3<Real> direction(const RayPacket<Real>& p, int k) { return Vec3<Real>(p.dx[k], p.dy[k], p.dz[k]); }
 
+  // max(N·H, 0) for the half vector H = normalize(L + V). L + V is zero when the light lies exactly
+  // behind the point as the viewer sees it (a back face lit from behind, the light on the camera ray):
+  // H is undefined and normalising it gave NaN; no highlight faces both ways, so 0.
+  static Real highlight(const Vec3<Real>& normal, const Vec3<Real>& half) {
+    return glm::dot(half, half) > 0 ? std::max(glm::dot(normal, glm::normalize(half)), Real(0)) : Real(0);
+  }
+
   // Σ over lights of max(N·L, 0)·light·kd (+ ks·light·max(N·H, 0)^exponent where N·L > 0), a light's
   // term dropped where the shadow ray toward it is blocked. One light at a time, so that the shadow
   // rays toward it go as one packet.
@@ -101,8 +108,7 @@ class PacketShader {
         const Vec3<Real> arriving = light.arriving(h.point, toLight);
         Vec3<Real> contribution = cosine * arriving * m.diffuse;
         if constexpr (Specular) {
-          const Real highlight = std::max(glm::dot(normal[k], glm::normalize(toLight + toViewer[k])), Real(0));
-          contribution += std::pow(highlight, m.exponent) * arriving * m.specular;
+          contribution += std::pow(highlight(normal[k], toLight + toViewer[k]), m.exponent) * arriving * m.specular;
         }
         if (!(Shadows && light.shadows)) {
           rgb[k] += contribution;
