@@ -96,7 +96,7 @@ TEST_CASE_TEMPLATE("nextUp and nextDown step exactly as std::nextafter toward +i
   CHECK(std::isnan(nextDown(std::numeric_limits<Real>::quiet_NaN())));
 }
 
-TEST_CASE("inversePowerOfTwo is 2^-floor(log2 x), NaN outside the normal range") {
+TEST_CASE("inversePowerOfTwo is 2^-floor(log2 x) for normal x, NaN for the rest") {
   CHECK(inversePowerOfTwo(3.0) == 0.5);
   CHECK(inversePowerOfTwo(1.0) == 1.0);
   CHECK(inversePowerOfTwo(0.3) == 4.0);
@@ -104,7 +104,8 @@ TEST_CASE("inversePowerOfTwo is 2^-floor(log2 x), NaN outside the normal range")
   CHECK(std::isnan(inversePowerOfTwo(0.0)));
   CHECK(std::isnan(inversePowerOfTwo(std::numeric_limits<double>::denorm_min())));
   CHECK(std::isnan(inversePowerOfTwo(kInf)));
-  CHECK(std::isnan(inversePowerOfTwo(std::ldexp(1.0, 1023))));  // 2^-1023 is subnormal
+  CHECK(inversePowerOfTwo(std::ldexp(1.0, 1023)) == std::ldexp(1.0, -1023));  // subnormal, exact
+  CHECK(inversePowerOfTwo(std::numeric_limits<float>::max()) == std::ldexp(1.0f, -127));
 }
 
 TEST_CASE("error-free transformations recover what plain arithmetic rounds away") {

@@ -167,22 +167,27 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real> {
     h.det = h.u + h.v + h.w;
     if (outside || h.det == 0 || h.det != h.det) return h;  // h.hit stays false
     const Real az = s.sz * a[s.kz], bz = s.sz * b[s.kz], cz = s.sz * c[s.kz];
-    h.t = (h.u * az + h.v * bz + h.w * cz) / h.det;
+    // U, V, W and det are products of two coordinates: scaled by a power of two (exact, so t keeps
+    // its bits) before they meet a third, t's numerator cannot overflow where coordinates fit Limits.h.
+    const Real power = inversePowerOfTwo(std::fabs(h.det));
+    const Real scale = power == power ? power : Real(1);
+    h.t = (h.u * scale * az + h.v * scale * bz + h.w * scale * cz) / (h.det * scale);
     h.hit = h.t == h.t;
-    if (positiveT && h.hit) h.hit = h.t > tErrorBound(h, ax, ay, bx, by, cx, cy, az, bz, cz);
+    if (positiveT && h.hit) h.hit = h.t > tErrorBound(h, scale, ax, ay, bx, by, cx, cy, az, bz, cz);
     return h;
   }
 
-  // pbrt-v4's bound on the rounding error of t from the sheared coordinates and edge functions.
-  static Real tErrorBound(const TriangleHit<Real>& h, Real ax, Real ay, Real bx, Real by, Real cx, Real cy, Real az,
-                          Real bz, Real cz) {
+  // pbrt-v4's bound on the rounding error of t from the sheared coordinates and edge functions
+  // (those scaled by `scale` as in the test, so that no product of three coordinates is formed).
+  static Real tErrorBound(const TriangleHit<Real>& h, Real scale, Real ax, Real ay, Real bx, Real by, Real cx, Real cy,
+                          Real az, Real bz, Real cz) {
     const auto max3 = [](Real p, Real q, Real r) { return std::max(std::fabs(p), std::max(std::fabs(q), std::fabs(r))); };
     const Real maxX = max3(ax, bx, cx), maxY = max3(ay, by, cy), maxZ = max3(az, bz, cz);
     const Real deltaZ = errorGamma<Real>(3) * maxZ;
     const Real deltaX = errorGamma<Real>(5) * (maxX + maxZ), deltaY = errorGamma<Real>(5) * (maxY + maxZ);
-    const Real deltaE = 2 * (errorGamma<Real>(2) * maxX * maxY + deltaY * maxX + deltaX * maxY);
-    const Real maxE = max3(h.u, h.v, h.w);
-    return 3 * (errorGamma<Real>(3) * maxE * maxZ + deltaE * maxZ + deltaZ * maxE) / std::fabs(h.det);
+    const Real deltaE = 2 * (errorGamma<Real>(2) * maxX * maxY + deltaY * maxX + deltaX * maxY) * scale;
+    const Real maxE = max3(h.u, h.v, h.w) * scale;
+    return 3 * (errorGamma<Real>(3) * maxE * maxZ + deltaE * maxZ + deltaZ * maxE) / std::fabs(h.det * scale);
   }
 
  private:

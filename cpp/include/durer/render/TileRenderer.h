@@ -316,12 +316,14 @@ class TileRenderer {
       }
       if (m_targets.color) {
         float* out = m_targets.color + 4 * first;
+        // A pixel brighter than float32 holds saturates at its largest number (the sums never hold NaN).
+        const Real brightest = std::numeric_limits<float>::max();
         for (int col = 0; col < w; ++col) {
           const int k = k0 + col;
           const Real invSpp = 1 / acc.samples[k];
-          out[4 * col + 0] = static_cast<float>(acc.r[k] * invSpp);
-          out[4 * col + 1] = static_cast<float>(acc.g[k] * invSpp);
-          out[4 * col + 2] = static_cast<float>(acc.b[k] * invSpp);
+          out[4 * col + 0] = static_cast<float>(std::min(acc.r[k] * invSpp, brightest));
+          out[4 * col + 1] = static_cast<float>(std::min(acc.g[k] * invSpp, brightest));
+          out[4 * col + 2] = static_cast<float>(std::min(acc.b[k] * invSpp, brightest));
           out[4 * col + 3] = static_cast<float>(acc.a[k] * invSpp);
         }
       }
