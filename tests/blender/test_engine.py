@@ -21,6 +21,7 @@ from helpers.blender import (
     cube,
     link,
     pointcloud_object,
+    quad,
     render_passes,
 )
 
@@ -116,6 +117,24 @@ def test_passes_are_registered_and_written(scene, tmp_path):
     assert offered("Depth") and not offered("Normal")
     out = render_passes(scene, tmp_path / "nonormal.exr", normal=False)
     assert set(out) == {"color", "depth"}
+
+
+def test_normal_pass_of_samples_on_opposite_faces(scene, tmp_path):
+    """Shade Back off, 4 samples, 5x5 pixels over two quads: the left one at z = 0 facing up, the
+    right one at z = 1 facing down (away from the camera above). The middle column's samples see two
+    of each, whose normals cancel: it takes the nearest sample's, the right quad's (it was 0)."""
+    scene.render.resolution_x, scene.render.resolution_y = 5, 5
+    scene.durer.samples = 4
+    scene.durer.shade_back = False
+    quad(scene, "Up", corners=((-3, -3, 0), (0, -3, 0), (0, 3, 0), (-3, 3, 0)))
+    quad(scene, "Down", corners=((0, -3, 1), (0, 3, 1), (3, 3, 1), (3, -3, 1)))
+    scene.camera.data.type = "ORTHO"
+    scene.camera.data.ortho_scale = 5.0
+    scene.camera.location = (0, 0, 5)
+    scene.camera.rotation_euler = (0, 0, 0)
+    out = render_passes(scene, tmp_path / "facing.exr")
+    np.testing.assert_array_equal(out["normal"], np.broadcast_to([[0, 0, 1]] * 2 + [[0, 0, -1]] * 3, (5, 5, 3)))
+    np.testing.assert_array_equal(out["depth"], np.broadcast_to([5, 5, 4, 4, 4], (5, 5)))
 
 
 def test_errors_are_reported_and_blender_stays_usable(scene):
