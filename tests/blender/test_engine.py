@@ -30,6 +30,7 @@ bpy = pytest.importorskip("bpy")
 import durer
 import durer.blender
 from durer.blender import batch, engine, extension
+from durer.distributed import frames
 
 pytestmark = pytest.mark.blender
 
@@ -289,6 +290,11 @@ def test_render_file_errors(scene, tmp_path):
     bpy.ops.wm.save_mainfile()
     with pytest.raises(batch.BatchRenderError, match="Frame 1 of .* failed: .*is pano"):
         batch.render_file(blend, frames=1, output=tmp_path / "x.png")
+    # Blender would clamp these silently (to 4096 and 1024): refused, naming them, before a render
+    with pytest.raises(ValueError, match=r"^samples must be <= 4096, got 5000$"):
+        batch.render_file(blend, samples=5000)
+    with pytest.raises(ValueError, match=r"^threads must be <= 1024, got 2147483648$"):
+        frames.render_frames(blend, client=None, threads=2**31)
     assert batch.main([str(tmp_path / "missing.blend")]) == 2
     assert batch.main([str(blend), "-q", "-f", "1", "-o", str(tmp_path / "y.png")]) == 1
 
