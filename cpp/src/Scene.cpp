@@ -354,10 +354,11 @@ void Scene::requireFits(const NumericLimits& limits, double rayReach) const {
   const std::string where = std::string(" with precision='") + limits.precision + "'";
   requireWithin(m_reach.magnitude, limits.coordinate, m_reach.field, where);
   const double world = std::fmax(m_reach.world, rayReach);
+  std::ostringstream field;
+  field << "transform: the scene and rays (reaching " << world << ") in its object space";
   for (const Instance<double>& instance : m_group.instances()) {
     const Affined& m = instance.objectFromWorld;
-    requireWithin(rowSumNorm(m) * world + maxAbs(m.offset), limits.coordinate,
-                  "transform: the scene and rays (reaching " + std::to_string(world) + ") in its object space", where);
+    requireWithin(rowSumNorm(m) * world + maxAbs(m.offset), limits.coordinate, field.str(), where);
   }
 }
 

@@ -108,6 +108,34 @@ def test_geometry_at_the_limit_is_hit(precision):
     assert hit.all()
 
 
+@pytest.mark.parametrize("precision", PRECISIONS)
+def test_a_sphere_finer_than_its_hit_points_spacing_has_a_normal(precision):
+    """A radius of 1e-20 met dead centre from 5 away: the hit point rounds to the centre, p - c = 0
+    (its normal was NaN); the normal faces the ray, in cast and in both of render's normal paths."""
+    scene = durer.Scene()
+    scene.add_spheres([[0, 0, 0]], 1e-20)
+    result = durer.cast(scene, [[0, 0, 5]], [[0, 0, -1]], precision=precision)
+    assert result.object_id[0] == 0 and result.t[0] == 5
+    np.testing.assert_array_equal(result.normal[0], [0, 0, 1])
+    camera = durer.OrthographicCamera(**ORTHO)
+    np.testing.assert_array_equal(durer.render(scene, camera, 1, 1, precision=precision).normal[0, 0], [0, 0, 1])
+    scene.add_directional_light((0, 0, -1), (1, 1, 1))  # hit records instead of the flat path
+    lit = durer.render(scene, camera, 1, 1, precision=precision)
+    np.testing.assert_array_equal(lit.normal[0, 0], [0, 0, 1])
+    np.testing.assert_allclose(lit.color[0, 0], [0.8, 0.8, 0.8, 1], rtol=1e-6)
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+def test_a_normal_through_a_huge_scale_stays_unit(precision):
+    """A sphere of radius 1e-13 scaled by 1e30: the inverse transpose shrinks its normal to ~1e-30,
+    whose square underflows float (the normal was NaN); it is scaled by a power of two first."""
+    scene = durer.Scene()
+    scene.add_spheres([[0, 0, 0]], 1e-13, transform=np.diag([1e30, 1e30, 1e30, 1.0]))
+    result = durer.cast(scene, [[0, 0, 5e17]], [[0, 0, -1]], precision=precision)
+    assert result.object_id[0] == 0 and result.t[0] == pytest.approx(4e17, rel=1e-6)
+    np.testing.assert_allclose(result.normal[0], [0, 0, 1], atol=1e-7)
+
+
 # --- the camera -------------------------------------------------------------------------------------
 @pytest.mark.parametrize("precision", PRECISIONS)
 @pytest.mark.parametrize(("camera", "field"), [

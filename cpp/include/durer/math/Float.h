@@ -109,6 +109,18 @@ DURER_INLINE Real inversePowerOfTwo(Real x) {
   return usable ? scale : std::numeric_limits<Real>::quiet_NaN();
 }
 
+// v scaled by a power of two (exact) so that its largest |component| is in [1, 2): no square of it
+// under- or overflows, and a unit vector made from it has the bits one made from v has wherever
+// that works. `otherwise` (finite, normal) stands in where v is 0 or subnormal: no direction to trust.
+template <typename Real>
+DURER_INLINE Vec3<Real> wellScaled(const Vec3<Real>& v, const Vec3<Real>& otherwise) {
+  const auto largest = [](const Vec3<Real>& u) {
+    return std::max(std::fabs(u.x), std::max(std::fabs(u.y), std::fabs(u.z)));
+  };
+  const Real power = inversePowerOfTwo(largest(v));
+  return power == power ? v * power : otherwise * inversePowerOfTwo(largest(otherwise));
+}
+
 // a·b - c·d with one rounding error instead of a catastrophic cancellation (Kahan; pbrt-v4's
 // DifferenceOfProducts): the fma recovers the rounding error of c·d exactly.
 template <typename Real>

@@ -258,9 +258,12 @@ class TileRenderer {
         const bool isSphere = (prim >= 0) & (prim < sphereCount);
         const Sphere<Real>& s = sphere[isSphere ? prim : 0];
         const Real t = isSphere ? packet.tHit[k] : Real(0);  // a miss's t is tMax, maybe inf
-        const Real vx = packet.ox[k] + t * packet.dx[k] - s.center.x;
-        const Real vy = packet.oy[k] + t * packet.dy[k] - s.center.y;
-        const Real vz = packet.oz[k] + t * packet.dz[k] - s.center.z;
+        // As SphereSet::normal: p - c scaled by a power of two, -d where it is 0 or subnormal.
+        const Vec3<Real> v = wellScaled(Vec3<Real>(packet.ox[k] + t * packet.dx[k] - s.center.x,
+                                                   packet.oy[k] + t * packet.dy[k] - s.center.y,
+                                                   packet.oz[k] + t * packet.dz[k] - s.center.z),
+                                        -Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]));
+        const Real vx = v.x, vy = v.y, vz = v.z;
         const Real side = facingSign(vx * packet.dx[k] + vy * packet.dy[k] + vz * packet.dz[k], m_shadeBack);
         const Real length = std::sqrt(vx * vx + vy * vy + vz * vz);
         const Real scale = isSphere ? side / length : Real(0);
