@@ -244,6 +244,20 @@ def test_a_pixel_brighter_than_float32_saturates(precision):
     assert hit[1, 1] and centre[0] == FLOAT_MAX and centre[1] == 0 and centre[2] == 0 and centre[3] == 1
 
 
+@pytest.mark.parametrize("precision", PRECISIONS)
+def test_a_back_face_lit_from_straight_behind_has_no_highlight(precision):
+    """The plane z = 0 (normal +z) seen from below, the sun straight above: toLight + toViewer = 0,
+    the half vector has no direction (the colour was NaN with a specular material); the highlight is
+    0 and the diffuse term stays (no shade_back: the normal is as given, facing the light)."""
+    scene = durer.Scene()
+    scene.add_plane((0, 0, 1), 0.0, material=scene.add_material((0.5, 0.25, 0.125), specular=(1, 1, 1), exponent=8))
+    scene.add_directional_light((0, 0, -1), (1, 1, 1))
+    camera = durer.OrthographicCamera((0, 0, -5), (0, 0, 1), (0, 1, 0), 2.0, t_min=0.0)
+    result = durer.render(scene, camera, 2, 2, precision=precision)
+    assert_finite_passes(result)
+    np.testing.assert_array_equal(result.color, np.broadcast_to([0.5, 0.25, 0.125, 1], (2, 2, 4)))
+
+
 # --- integers -----------------------------------------------------------------------------------
 @pytest.mark.parametrize(("kwargs", "field"), [
     (dict(width=2**31), "width"), (dict(height=-(2**31) - 1), "height"), (dict(spp=2**40), "spp"),

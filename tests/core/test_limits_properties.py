@@ -34,8 +34,11 @@ FIELDS: dict[str, tuple[str, str, int | None]] = {
     "triangle vertex": ("vertices", "vertex", 2),
     "box corner": ("hi", "hi", 1),
     "plane offset": ("offset", "offset", None),
+    "plane normal": ("normal", "plane_normal", 0),
     "light position": ("position", "light", 1),
     "light colour": ("color", "light_color", None),
+    "light direction": ("direction", "sun", 0),
+    "exponent": ("exponent", "exponent", None),
     "diffuse": ("diffuse", "diffuse", None),
     "emission": ("emission", "emission", None),
     "reflective": ("reflective", "reflective", None),
@@ -44,6 +47,7 @@ FIELDS: dict[str, tuple[str, str, int | None]] = {
     "background": ("background", "background", None),
     "scale": ("transform", "scale", None),
     "camera centre": ("center", "eye", 0),
+    "camera direction": ("direction", "view", 1),
     "camera size": ("size", "size", None),
     "camera shift": ("shift", "shift", None),
     "pixel aspect": ("pixel_aspect", "aspect", None),
@@ -61,7 +65,8 @@ def replace(setup: dict[str, Any], field: str, value: float) -> None:
 
 def base_setup() -> dict[str, Any]:
     return {"center": [0.0, 0.0, 0.0], "radius": 1.0, "vertex": [0.0, 1.0, -1.0], "hi": [3.0, 1.0, 1.0],
-            "offset": -2.0, "light": [2.0, 3.0, 4.0], "light_color": 1.0, "diffuse": 0.5, "emission": 0.0,
+            "offset": -2.0, "plane_normal": [0.0, 0.0, 1.0], "sun": [0.0, -1.0, -1.0], "exponent": 8.0,
+            "view": [0.0, 0.0, -1.0], "light": [2.0, 3.0, 4.0], "light_color": 1.0, "diffuse": 0.5, "emission": 0.0,
             "reflective": 0.5, "ior": 1.5, "attenuation": 1.0,
             "background": 0.1, "scale": 1.0, "eye": [0.0, 0.0, 5.0], "size": 4.0, "shift": 0.0, "aspect": 1.0,
             "length": 1.0}
@@ -70,6 +75,7 @@ def base_setup() -> dict[str, Any]:
 def build(setup: dict[str, Any], perspective: bool) -> tuple[durer.Scene, Any]:
     scene = durer.Scene()
     material = scene.add_material(diffuse=(setup["diffuse"], 0.5, 0.5), emission=(setup["emission"], 0, 0),
+                                  specular=(0.5, 0.5, 0.5), exponent=setup["exponent"],
                                   reflective=(setup["reflective"], 0.5, 0.5), transparent=(0.25, 0.25, 0.25),
                                   ior=setup["ior"])
     scene.add_spheres([setup["center"]], setup["radius"], material=material)
@@ -77,12 +83,12 @@ def build(setup: dict[str, Any], perspective: bool) -> tuple[durer.Scene, Any]:
     scene.add_boxes([[2.0, -1.0, -1.0]], [setup["hi"]])
     scale = setup["scale"]
     scene.add_spheres([[0.0, -1.5, 0.0]], 0.5, transform=np.diag([scale, scale, scale, 1.0]))
-    scene.add_plane((0, 0, 1), setup["offset"])
+    scene.add_plane(setup["plane_normal"], setup["offset"])
     scene.add_point_light(setup["light"], (setup["light_color"], 1.0, 1.0), attenuation=(setup["attenuation"], 0, 1),
                           shadows=True)
-    scene.add_directional_light((0, -1, -1), (0.5, setup["light_color"], 0.5))
+    scene.add_directional_light(setup["sun"], (0.5, setup["light_color"], 0.5))
     scene.background = (setup["background"], 0.0, 0.0)
-    common = dict(center=setup["eye"], direction=(0, 0, -1), up=(0, 1, 0), shift=(setup["shift"], 0.0),
+    common = dict(center=setup["eye"], direction=setup["view"], up=(0, 1, 0), shift=(setup["shift"], 0.0),
                   pixel_aspect=setup["aspect"])
     if perspective:
         return scene, durer.PerspectiveCamera(**common, fov_degrees=min(max(abs(setup["size"]) * 10, 1.0), 170.0))

@@ -107,7 +107,9 @@ class PacketShader {
         const Real falloff = light.falloff(h.point, toLight);
         Vec3<Real> contribution = (cosine * falloff) * (light.color * m.diffuse);
         if constexpr (Specular) {
-          const Real highlight = std::max(glm::dot(normal[k], glm::normalize(toLight + toViewer[k])), Real(0));
+          // 0 first: where the light is exactly behind the surface from the viewer (a back face lit
+          // through it), toLight + toViewer = 0 has no direction, N·H is NaN, and the highlight is 0.
+          const Real highlight = std::max(Real(0), glm::dot(normal[k], glm::normalize(toLight + toViewer[k])));
           contribution += (std::pow(highlight, m.exponent) * falloff) * (light.color * m.specular);
         }
         if (!(Shadows && light.shadows)) {
