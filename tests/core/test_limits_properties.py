@@ -46,9 +46,14 @@ FIELDS: dict[str, tuple[str, str, int | None]] = {
     "attenuation": ("attenuation", "attenuation", None),
     "background": ("background", "background", None),
     "scale": ("transform", "scale", None),
+    "scale x": ("transform", "stretch", 0),
+    "transparent": ("transparent", "transparent", None),
+    "spot position": ("position", "spot", 2),
+    "spot angle": ("half_angle_degrees", "spot_angle", None),
+    "fov": ("fov_degrees", "fov", None),
     "camera centre": ("center", "eye", 0),
     "camera direction": ("direction", "view", 1),
-    "camera size": ("size", "size", None),
+    "camera size": ("size", "size", None),  # orthographic only: perspective cameras take "fov"
     "camera shift": ("shift", "shift", None),
     "pixel aspect": ("pixel_aspect", "aspect", None),
     "cast direction length": ("directions", "length", None),
@@ -66,7 +71,8 @@ def replace(setup: dict[str, Any], field: str, value: float) -> None:
 def base_setup() -> dict[str, Any]:
     return {"center": [0.0, 0.0, 0.0], "radius": 1.0, "vertex": [0.0, 1.0, -1.0], "hi": [3.0, 1.0, 1.0],
             "offset": -2.0, "plane_normal": [0.0, 0.0, 1.0], "sun": [0.0, -1.0, -1.0], "exponent": 8.0,
-            "view": [0.0, 0.0, -1.0], "light": [2.0, 3.0, 4.0], "light_color": 1.0, "diffuse": 0.5, "emission": 0.0,
+            "view": [0.0, 0.0, -1.0], "stretch": [1.0, 1.0, 1.0], "transparent": 0.25, "spot": [0.0, 0.0, 6.0],
+            "spot_angle": 30.0, "fov": 40.0, "light": [2.0, 3.0, 4.0], "light_color": 1.0, "diffuse": 0.5, "emission": 0.0,
             "reflective": 0.5, "ior": 1.5, "attenuation": 1.0,
             "background": 0.1, "scale": 1.0, "eye": [0.0, 0.0, 5.0], "size": 4.0, "shift": 0.0, "aspect": 1.0,
             "length": 1.0}
@@ -76,13 +82,16 @@ def build(setup: dict[str, Any], perspective: bool) -> tuple[durer.Scene, Any]:
     scene = durer.Scene()
     material = scene.add_material(diffuse=(setup["diffuse"], 0.5, 0.5), emission=(setup["emission"], 0, 0),
                                   specular=(0.5, 0.5, 0.5), exponent=setup["exponent"],
-                                  reflective=(setup["reflective"], 0.5, 0.5), transparent=(0.25, 0.25, 0.25),
+                                  reflective=(setup["reflective"], 0.5, 0.5), transparent=(setup["transparent"], 0.25, 0.25),
                                   ior=setup["ior"])
     scene.add_spheres([setup["center"]], setup["radius"], material=material)
     scene.add_triangles([[[-1.0, -1.0, -1.0], [1.0, -1.0, -1.0], setup["vertex"]]])
     scene.add_boxes([[2.0, -1.0, -1.0]], [setup["hi"]])
     scale = setup["scale"]
     scene.add_spheres([[0.0, -1.5, 0.0]], 0.5, transform=np.diag([scale, scale, scale, 1.0]))
+    scene.add_boxes([[-0.5, 1.0, -0.5]], [[0.5, 2.0, 0.5]], transform=np.diag([*setup["stretch"], 1.0]))
+    scene.add_spot_light(setup["spot"], (0, 0, -1), (1, 1, 1), half_angle_degrees=setup["spot_angle"], blend=0.5,
+                         attenuation=(0, 0, 1), shadows=True)
     scene.add_plane(setup["plane_normal"], setup["offset"])
     scene.add_point_light(setup["light"], (setup["light_color"], 1.0, 1.0), attenuation=(setup["attenuation"], 0, 1),
                           shadows=True)
@@ -91,7 +100,7 @@ def build(setup: dict[str, Any], perspective: bool) -> tuple[durer.Scene, Any]:
     common = dict(center=setup["eye"], direction=setup["view"], up=(0, 1, 0), shift=(setup["shift"], 0.0),
                   pixel_aspect=setup["aspect"])
     if perspective:
-        return scene, durer.PerspectiveCamera(**common, fov_degrees=min(max(abs(setup["size"]) * 10, 1.0), 170.0))
+        return scene, durer.PerspectiveCamera(**common, fov_degrees=setup["fov"])
     return scene, durer.OrthographicCamera(**common, size=setup["size"])
 
 
