@@ -139,3 +139,27 @@ def test_extreme_values_are_refused_by_name_or_render_finite(replaced, precision
     hit = cast.object_id >= 0
     assert np.isfinite(cast.t[hit]).all() and (cast.t[~hit] == math.inf).all()
     np.testing.assert_allclose(np.linalg.norm(cast.normal[hit], axis=-1), 1.0, atol=1e-5)
+
+
+@SETTINGS
+@given(
+    origin=st.tuples(numbers, numbers, numbers),
+    direction=st.tuples(numbers, numbers, numbers),
+    t_min=st.one_of(st.just(0.0), st.just(-math.inf), numbers),
+    precision=st.sampled_from(PRECISIONS),
+)
+def test_extreme_rays_are_refused_by_name_or_cast_finite(origin, direction, t_min, precision):
+    """cast of one drawn ray among ordinary ones at the ordinary scene: a ValueError naming the
+    ray's field, or every hit finite, in range and with a unit normal."""
+    scene, _ = build(base_setup(), False)
+    origins = np.array([(0.0, 0.0, 5.0), origin, (0.5, 0.5, 5.0)])
+    directions = np.array([(0.0, 0.0, -1.0), direction, (0.0, 0.0, -1.0)])
+    try:
+        cast = durer.cast(scene, origins, directions, t_min=t_min, precision=precision)
+    except ValueError as error:
+        assert any(name in str(error) for name in ("origins[1]", "directions[1]", "t_min")), str(error)
+        return
+    hit = cast.object_id >= 0
+    assert (hit[0] and hit[2]) or t_min > 0  # the ordinary rays meet the sphere at t = 4
+    assert np.isfinite(cast.t[hit]).all() and (cast.t[hit] >= t_min).all() and (cast.t[~hit] == math.inf).all()
+    np.testing.assert_allclose(np.linalg.norm(cast.normal[hit], axis=-1), 1.0, atol=1e-5)
