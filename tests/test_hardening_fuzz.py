@@ -4,8 +4,9 @@ oracle as bench/fuzz_hardening.py (atheris or random bytes, for hours), derandom
 tries the same inputs. DURER_HARDENING_EXAMPLES=N multiplies the default counts by N.
 
 Every input any fuzz run has failed on is kept in tests/fuzz_findings/<surface>/ (the bytes, and
-beside them the failure as found) and rerun here: fixed, or xfailed (strict) while issue 18 item 3
-(finite passes for extreme numbers) is open. docs/reliability.md has the counts.
+beside them the failure as found) and rerun here: each must now pass, the NaN and inf found at
+extreme numbers included (issue 18 item 3: refused with a named ValueError, or rendered finite).
+docs/reliability.md has the counts.
 """
 
 from __future__ import annotations
@@ -26,7 +27,6 @@ from helpers.hardening_fuzz import SURFACES, NonFinite, Tally, prepare_folder, r
 FINDINGS = ROOT / "tests" / "fuzz_findings"
 SCALE = max(1, int(os.environ.get("DURER_HARDENING_EXAMPLES", "1")))
 EXAMPLES = {"api": 4000 * SCALE, "reader": 3500 * SCALE, "cli": 2000 * SCALE}
-ITEM_3 = "issue 18 item 3: extreme numbers give NaN or inf in a pass"
 
 
 @pytest.fixture(scope="module")
@@ -84,39 +84,22 @@ def test_fuzz(folder, surface):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("surface", [
-    pytest.param("api", marks=pytest.mark.xfail(strict=True, raises=NonFinite, reason=ITEM_3)),
-    pytest.param("reader", marks=pytest.mark.xfail(strict=True, raises=NonFinite, reason=ITEM_3)),
-    "cli",  # the commands write images, not passes: nothing non-finite to see
-])
+@pytest.mark.parametrize("surface", SURFACES)
 def test_fuzz_at_the_extremes(folder, surface):
     """The same with numbers from the extremes of both precisions: no crash, no traceback, no
-    undocumented exception (a real failure), and no NaN or inf in a pass (the xfail, until item 3)."""
+    undocumented exception, and no NaN or inf in a pass (the commands write images, not passes)."""
     tally, non_finite = fuzz(surface, folder, extremes=True)
     assert tally.inputs[surface] >= EXAMPLES[surface] * 0.9, str(tally)
     if non_finite:
         raise NonFinite(f"{len(non_finite)} of {tally.renders} renders; the first: {non_finite[0]}")
 
 
-def saved(kind: str) -> list:
-    """The saved inputs whose recorded failure is (kind "non-finite") or is not a NonFinite."""
-    cases = []
-    for path in sorted(FINDINGS.glob("*/*.bin")):
-        recorded = path.with_suffix(".txt").read_text().split("\n")[0]
-        non_finite = recorded.startswith("NonFinite")
-        if non_finite == (kind == "non-finite"):
-            cases.append(pytest.param(path, id=f"{path.parent.name}/{path.stem}"))
-    return cases
+def saved() -> list:
+    return [pytest.param(path, id=f"{path.parent.name}/{path.stem}") for path in sorted(FINDINGS.glob("*/*.bin"))]
 
 
-@pytest.mark.parametrize("path", saved("fixed"))
+@pytest.mark.parametrize("path", saved())
 def test_saved_findings_are_fixed(folder, path):
-    run_case(path.parent.name, path.read_bytes(), Tally(), folder)
-
-
-@pytest.mark.xfail(strict=True, raises=NonFinite, reason=ITEM_3)
-@pytest.mark.parametrize("path", saved("non-finite"))
-def test_saved_non_finite_findings(folder, path):
     run_case(path.parent.name, path.read_bytes(), Tally(), folder)
 
 

@@ -20,6 +20,8 @@ SHADING_MODES: tuple[str, ...]  # ("auto", "flat", "lit")
 # (name, components, default) per field of Material, in its order (cpp/include/durer/Material.h):
 # default is a tuple of floats for a colour (3 components), a float for a scalar (1).
 MATERIAL_FIELDS: tuple[tuple[str, int, tuple[float, float, float] | float], ...]
+# The accepted numbers per precision (Limits.h, docs/numerics.md): {"float": {"coordinate": 1e18, "color": 1e18}, ...}
+LIMITS: dict[str, dict[str, float]]
 
 class CameraSpec:
     def __init__(

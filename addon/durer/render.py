@@ -33,7 +33,9 @@ class RenderResult:
                       ray (the distance from the ray origin), with depth="planar" its distance
                       along the camera's view axis (Blender's Depth); +inf where every sample missed.
     normal (H, W, 3): unit world-space normal, the normalised mean over the pixel's hit samples;
-                      0 where every sample missed.
+                      where that mean is shorter than 1/1024 of their count (the samples' normals
+                      cancel: a thin wall seen from both sides), the nearest hit sample's normal
+                      (the first taken among equally near ones); 0 where every sample missed.
     stats:            effects (the effect set simulated: "flat" or "diffuse", "specular", "shadows",
                       "reflection", "refraction"); rays (camera), shadow_rays, reflection_rays,
                       refraction_rays, shading_evaluations, bounces_cut_by_depth,

@@ -67,6 +67,18 @@ py::tuple materialFields() {
   return py::tuple(fields);
 }
 
+// LIMITS: {precision: {"coordinate": ..., "color": ...}} (Limits.h).
+py::dict limitsTable() {
+  py::dict table;
+  for (const NumericLimits& l : kLimits) {
+    py::dict row;
+    row["coordinate"] = l.coordinate;
+    row["color"] = l.color;
+    table[l.precision] = row;
+  }
+  return table;
+}
+
 // A material from keyword arguments named as its fields; a field not given keeps its default.
 Material materialFrom(const py::kwargs& given) {
   Material m;
@@ -292,8 +304,9 @@ py::tuple cameraRaysIn(const CameraSpec& spec, int width, int height) {
 py::tuple cameraRaysPy(const CameraSpec& spec, int width, int height, const std::string& precision) {
   if (width < 1) throw py::value_error("width must be >= 1");
   if (height < 1) throw py::value_error("height must be >= 1");
-  return optionNamed(kPrecisionNames, precision, "precision") == Precision::Float ? cameraRaysIn<float>(spec, width, height)
-                                                       : cameraRaysIn<double>(spec, width, height);
+  const Precision p = optionNamed(kPrecisionNames, precision, "precision");
+  requireRaysWithin(spec, width, height, limitsFor(p));
+  return p == Precision::Float ? cameraRaysIn<float>(spec, width, height) : cameraRaysIn<double>(spec, width, height);
 }
 
 }  // namespace
@@ -433,4 +446,5 @@ PYBIND11_MODULE(_core, m) {
   m.attr("FITS") = names(kFitNames);
   m.attr("SHADING_MODES") = names(kShadingModeNames);
   m.attr("MATERIAL_FIELDS") = materialFields();
+  m.attr("LIMITS") = limitsTable();
 }

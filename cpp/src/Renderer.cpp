@@ -67,6 +67,8 @@ RenderStats render(const Scene& scene, const CameraSpec& camera, const RenderSet
                    const RenderTargets& targets, JobControl& control, const std::function<void()>& poll) {
   validate(camera);
   validate(settings);
+  const NumericLimits& limits = limitsFor(settings.precision);
+  scene.requireFits(limits, requireRaysWithin(camera, settings.width, settings.height, limits));
   const auto start = std::chrono::steady_clock::now();
   const RenderJob job{scene, camera, settings, targets, effectsFor(scene, settings, targets), control, poll};
   const bool single = settings.precision == Precision::Float;

@@ -18,6 +18,10 @@ namespace durer {
 
 namespace {
 
+std::string sphereField(size_t i) {
+  return "centers[" + std::to_string(i) + "] ± radii[" + std::to_string(i) + "]";
+}
+
 // One field of a material within its bound (MaterialField), finite; else an error naming the field.
 void requireWithinBound(const MaterialField& field, const Material& material) {
   const bool positive = field.bound == MaterialField::Bound::Positive;
@@ -33,6 +37,13 @@ void requireWithinBound(const MaterialField& field, const Material& material) {
     }
     fail(message.str());
   }
+  std::ostringstream shown;
+  if (field.color) {
+    shown << "(" << value.x << ", " << value.y << ", " << value.z << ")";
+  } else {
+    shown << value.x;
+  }
+  requireColorWithin(field.color ? maxAbs(value) : value.x, field.name, shown.str());
 }
 }  // namespace
 
@@ -106,17 +117,23 @@ int32_t Scene::addMaterial(const Material& material) {
 }
 
 namespace {
-// Centers (count x 3) finite, radii (count, or null) finite and > 0.
-void requireSpheres(const double* centers, const double* radii, size_t count) {
+// Centers (count x 3) finite, radii (count) finite and > 0, each sphere within the widest limits;
+// returns the index of the sphere that reaches farthest and how far.
+std::pair<size_t, double> requireSpheres(const double* centers, const double* radii, size_t count) {
+  const double limit = widestLimits().coordinate;
+  size_t farthest = 0;
+  double reach = 0;
   for (size_t i = 0; i < count; ++i) {
     const Vec3d c(centers[3 * i], centers[3 * i + 1], centers[3 * i + 2]);
     if (!(std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z))) {
       requireFinite(c, "centers[" + std::to_string(i) + "]");
     }
-    if (radii && !(std::isfinite(radii[i]) && radii[i] > 0)) {
-      requirePositive(radii[i], "radii[" + std::to_string(i) + "]");
-    }
+    if (!(std::isfinite(radii[i]) && radii[i] > 0)) requirePositive(radii[i], "radii[" + std::to_string(i) + "]");
+    const double extent = maxAbs(c) + radii[i];
+    if (extent > limit) requireWithin(extent, limit, sphereField(i), Scene::widestLimitsNote());
+    if (extent > reach) reach = extent, farthest = i;
   }
+  return {farthest, reach};
 }
 }  // namespace
 
@@ -124,24 +141,29 @@ int32_t Scene::addSpheres(const double* centers, const double* radii, const int3
                           bool perSphere, const Affined* worldFromObject) {
   // Validate everything before changing anything.
   requireTransform(worldFromObject);
-  requireSpheres(centers, radii, count);
+  const auto [farthest, reach] = requireSpheres(centers, radii, count);
   requireMaterials(materials, count, perSphere);
   requirePrimitiveRoom(count);
+  const Reach placed = requireReach(reach, sphereField(farthest), worldFromObject);
   const int32_t first = takeObjectIds(count);
   const auto lock = changeGeometry();
   Group<double>& group = groupFor(worldFromObject);
   SphereSet<double>& spheres = group.spheres();
-  if (count) m_sphereRuns.push_back({first, count, &group, spheres.size()});
+  if (count) {
+    m_sphereRuns.push_back({first, count, &group, spheres.size(), &group != &m_group, {}});
+    if (&group != &m_group) m_sphereRuns.back().worldFromObject = *worldFromObject;
+  }
   spheres.reserve(spheres.size() + count);
   for (size_t i = 0; i < count; ++i) {
     const Vec3d c(centers[3 * i], centers[3 * i + 1], centers[3 * i + 2]);
     spheres.add({c, radii[i]}, materials[perSphere ? i : 0], first + static_cast<int32_t>(i));
   }
+  noteReach(placed);
   return first;
 }
 
 void Scene::moveSpheres(const int32_t* ids, const double* centers, const double* radii, size_t count) {
-  std::vector<std::pair<SphereSet<double>*, size_t>> targets(count);
+  std::vector<std::pair<const SphereRun*, size_t>> targets(count);
   for (size_t i = 0; i < count; ++i) {
     const auto after = std::upper_bound(m_sphereRuns.begin(), m_sphereRuns.end(), ids[i],
                                         [](int32_t id, const SphereRun& run) { return id < run.firstId; });
@@ -149,15 +171,25 @@ void Scene::moveSpheres(const int32_t* ids, const double* centers, const double*
       fail("ids[" + std::to_string(i) + "] = " + std::to_string(ids[i]) + " is not the object id of a sphere");
     }
     const SphereRun& run = *(after - 1);
-    targets[i] = {&run.group->spheres(), run.start + static_cast<size_t>(ids[i] - run.firstId)};
+    targets[i] = {&run, run.start + static_cast<size_t>(ids[i] - run.firstId)};
+  }
+  std::vector<double> kept;
+  if (!radii) {
+    for (const auto& [run, index] : targets) kept.push_back(run->group->spheres().primitive(index).radius);
+    radii = kept.data();
   }
   requireSpheres(centers, radii, count);
+  std::vector<Reach> placed;  // each sphere's, through its group's transform
+  for (size_t i = 0; i < count; ++i) {
+    const SphereRun& run = *targets[i].first;
+    const double extent = maxAbs(Vec3d(centers[3 * i], centers[3 * i + 1], centers[3 * i + 2])) + radii[i];
+    placed.push_back(requireReach(extent, sphereField(i), run.transformed ? &run.worldFromObject : nullptr));
+  }
   std::lock_guard<std::mutex> lock(m_preparedMutex);
   for (size_t i = 0; i < count; ++i) {
-    SphereSet<double>& spheres = *targets[i].first;
-    const size_t index = targets[i].second;
     const Vec3d c(centers[3 * i], centers[3 * i + 1], centers[3 * i + 2]);
-    spheres.setSphere(index, {c, radii ? radii[i] : spheres.primitive(index).radius});
+    targets[i].first->group->spheres().setSphere(targets[i].second, {c, radii[i]});
+    noteReach(placed[i]);
   }
   m_preparedFloat.moved = m_preparedDouble.moved = true;
 }
@@ -174,6 +206,7 @@ int32_t Scene::addPlane(const Vec3d& normal, double offset, int32_t material, co
   const Vec3d unit = scaled / glm::length(scaled);
   const double unitOffset = offset / largest / glm::length(scaled);
   requireFinite(unitOffset, "offset / |normal|");
+  Reach placed = requireReach(std::fabs(unitOffset), "offset / |normal|", worldFromObject);
   Plane<double> plane{unit, unitOffset, unitOffset * unit, false, Vec3d(0), Vec3d(0), Vec3d(0)};
   if (bounds) {
     requireFinite(bounds->corner, "bounds corner");
@@ -196,11 +229,17 @@ int32_t Scene::addPlane(const Vec3d& normal, double offset, int32_t material, co
     plane.dual2 = c2 / glm::dot(c2, bounds->edge2);
     requireFinite(plane.dual1, "bounds edge1 (too long or too short)");
     requireFinite(plane.dual2, "bounds edge2 (too long or too short)");
+    const Vec3d& c = bounds->corner;
+    const double extent = std::fmax(
+        std::fmax(maxAbs(c), maxAbs(c + bounds->edge1 + bounds->edge2)),
+        std::fmax(maxAbs(c + bounds->edge1), maxAbs(c + bounds->edge2)));
+    placed = requireReach(extent, "bounds (corner + edges)", worldFromObject);
   }
   requirePrimitiveRoom(1);
   const int32_t id = takeObjectIds(1);
   const auto lock = changeGeometry();
   groupFor(worldFromObject).planes().add(plane, material, id);
+  noteReach(placed);
   return id;
 }
 
@@ -214,19 +253,34 @@ Triangle<double> makeTriangle(const Vec3d& v0, const Vec3d& v1, const Vec3d& v2)
 }
 
 Vec3d vec3At(const double* p, size_t i) { return Vec3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]); }
+
+// The index of the point (of `count`) farthest from 0 by its largest |coordinate|; a point beyond
+// the widest coordinate limit is an error naming field(i).
+template <typename Field>
+size_t farthestPoint(const double* points, size_t count, const Field& field) {
+  const double limit = widestLimits().coordinate;
+  size_t farthest = 0;
+  for (size_t i = 0; i < count; ++i) {
+    const double extent = maxAbs(vec3At(points, i));
+    if (extent > limit) requireWithin(extent, limit, field(i), Scene::widestLimitsNote());
+    if (extent > maxAbs(vec3At(points, farthest))) farthest = i;
+  }
+  return farthest;
+}
 }  // namespace
 
 int32_t Scene::addTriangles(const double* vertices, const int32_t* materials, size_t count, bool perTriangle,
                             const Affined* worldFromObject) {
   requireTransform(worldFromObject);
+  const auto field = [](size_t i) { return "vertices[" + std::to_string(i / 3) + "][" + std::to_string(i % 3) + "]"; };
   for (size_t i = 0; i < 3 * count; ++i) {
     const Vec3d v = vec3At(vertices, i);
-    if (!(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z))) {
-      requireFinite(v, "vertices[" + std::to_string(i / 3) + "][" + std::to_string(i % 3) + "]");
-    }
+    if (!(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z))) requireFinite(v, field(i));
   }
+  const size_t farthest = farthestPoint(vertices, 3 * count, field);
   requireMaterials(materials, count, perTriangle);
   requirePrimitiveRoom(count);
+  const Reach placed = requireReach(count ? maxAbs(vec3At(vertices, farthest)) : 0, field(farthest), worldFromObject);
   const int32_t first = takeObjectIds(count);
   const auto lock = changeGeometry();
   TriangleSet<double>& triangles = groupFor(worldFromObject).triangles();
@@ -235,18 +289,19 @@ int32_t Scene::addTriangles(const double* vertices, const int32_t* materials, si
     triangles.add(makeTriangle(vec3At(vertices, 3 * i), vec3At(vertices, 3 * i + 1), vec3At(vertices, 3 * i + 2)),
                   materials[perTriangle ? i : 0], first + static_cast<int32_t>(i));
   }
+  noteReach(placed);
   return first;
 }
 
 int32_t Scene::addMesh(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount,
                        int32_t material, const Affined* worldFromObject) {
   requireTransform(worldFromObject);
+  const auto field = [](size_t i) { return "vertices[" + std::to_string(i) + "]"; };
   for (size_t i = 0; i < vertexCount; ++i) {
     const Vec3d v = vec3At(vertices, i);
-    if (!(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z))) {
-      requireFinite(v, "vertices[" + std::to_string(i) + "]");
-    }
+    if (!(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z))) requireFinite(v, field(i));
   }
+  const size_t farthest = farthestPoint(vertices, vertexCount, field);
   for (size_t i = 0; i < 3 * faceCount; ++i) {
     if (faces[i] < 0 || static_cast<uint64_t>(faces[i]) >= vertexCount) {
       fail("faces[" + std::to_string(i / 3) + "][" + std::to_string(i % 3) + "] = " + std::to_string(faces[i]) +
@@ -255,6 +310,8 @@ int32_t Scene::addMesh(const double* vertices, size_t vertexCount, const int64_t
   }
   requireMaterial(material, "material");
   requirePrimitiveRoom(faceCount);
+  const Reach placed =
+      requireReach(vertexCount ? maxAbs(vec3At(vertices, farthest)) : 0, field(farthest), worldFromObject);
   const int32_t id = takeObjectIds(1);
   const auto lock = changeGeometry();
   TriangleSet<double>& triangles = groupFor(worldFromObject).triangles();
@@ -265,6 +322,7 @@ int32_t Scene::addMesh(const double* vertices, size_t vertexCount, const int64_t
                                vec3At(vertices, static_cast<size_t>(face[2]))),
                   material, id);
   }
+  noteReach(placed);
   return id;
 }
 
@@ -279,14 +337,24 @@ int32_t Scene::addBoxes(const double* lo, const double* hi, const int32_t* mater
       fail("lo[" + std::to_string(i) + "] must be < hi[" + std::to_string(i) + "] in every axis");
     }
   }
+  const auto field = [](size_t i) { return (i % 2 ? "hi[" : "lo[") + std::to_string(i / 2) + "]"; };
+  const auto corner = [&](size_t i) { return vec3At(i % 2 ? hi : lo, i / 2); };
+  size_t farthest = 0;
+  for (size_t i = 0; i < 2 * count; ++i) {
+    const double extent = maxAbs(corner(i));
+    if (extent > widestLimits().coordinate) requireWithin(extent, widestLimits().coordinate, field(i), widestLimitsNote());
+    if (extent > maxAbs(corner(farthest))) farthest = i;
+  }
   requireMaterials(materials, count, perBox);
   requirePrimitiveRoom(count);
+  const Reach placed = requireReach(count ? maxAbs(corner(farthest)) : 0, field(farthest), worldFromObject);
   const int32_t first = takeObjectIds(count);
   const auto lock = changeGeometry();
   BoxSet<double>& boxes = groupFor(worldFromObject).boxes();
   for (size_t i = 0; i < count; ++i) {
     boxes.add({vec3At(lo, i), vec3At(hi, i)}, materials[perBox ? i : 0], first + static_cast<int32_t>(i));
   }
+  noteReach(placed);
   return first;
 }
 
@@ -317,6 +385,49 @@ void Scene::requireTransform(const Affined* m) {
   if (!isInvertible(*m)) fail("transform must be invertible (it is singular, or its inverse overflows)");
 }
 
+namespace {
+// ‖A‖∞, the largest row sum of |A|: |A·p| <= ‖A‖∞·|p| in the largest-component norm.
+double rowSumNorm(const Affined& m) {
+  return std::fmax(glm::dot(glm::abs(m.row[0]), Vec3d(1)),
+                   std::fmax(glm::dot(glm::abs(m.row[1]), Vec3d(1)), glm::dot(glm::abs(m.row[2]), Vec3d(1))));
+}
+}  // namespace
+
+std::string Scene::widestLimitsNote() {
+  std::ostringstream note;
+  note << " (precision='" << widestLimits().precision << "'; '" << limitsFor(Precision::Float).precision
+       << "': ±" << limitsFor(Precision::Float).coordinate << ")";
+  return note.str();
+}
+
+Scene::Reach Scene::requireReach(double magnitude, std::string field, const Affined* m) {
+  const double limit = widestLimits().coordinate;
+  requireWithin(magnitude, limit, field, widestLimitsNote());
+  Reach reach{magnitude, std::move(field), magnitude};
+  if (m) {
+    reach.world = rowSumNorm(*m) * magnitude + maxAbs(m->offset);
+    requireWithin(reach.world, limit, "transform applied to " + reach.field, widestLimitsNote());
+  }
+  return reach;
+}
+
+void Scene::noteReach(const Reach& reach) {
+  if (reach.magnitude > m_reach.magnitude) m_reach.magnitude = reach.magnitude, m_reach.field = reach.field;
+  m_reach.world = std::fmax(m_reach.world, reach.world);
+}
+
+void Scene::requireFits(const NumericLimits& limits, double rayReach) const {
+  const std::string where = std::string(" with precision='") + limits.precision + "'";
+  requireWithin(m_reach.magnitude, limits.coordinate, m_reach.field, where);
+  const double world = std::fmax(m_reach.world, rayReach);
+  std::ostringstream field;
+  field << "transform: the scene and rays (reaching " << world << ") in its object space";
+  for (const Instance<double>& instance : m_group.instances()) {
+    const Affined& m = instance.objectFromWorld;
+    requireWithin(rowSumNorm(m) * world + maxAbs(m.offset), limits.coordinate, field.str(), where);
+  }
+}
+
 Group<double>& Scene::groupFor(const Affined* m) {
   if (!m || m->isIdentity()) return m_group;
   return m_group.transformed(*m, inverse(*m));
@@ -337,13 +448,16 @@ void requireAttenuation(const Vec3d& c) {
 
 void Scene::addPointLight(const PointLight& light) {
   requireFinite(light.position, "position");
+  const Reach placed = requireReach(maxAbs(light.position), "position", nullptr);
   requireNonNegativeColor(light.color, "color");
   requireAttenuation(light.attenuation);
   m_pointLights.push_back(light);
+  noteReach(placed);
 }
 
 void Scene::addSpotLight(const SpotLight& light) {
   requireFinite(light.position, "position");
+  const Reach placed = requireReach(maxAbs(light.position), "position", nullptr);
   requireNonZero(light.direction, "direction");
   requireNonNegativeColor(light.color, "color");
   requireAttenuation(light.attenuation);
@@ -352,6 +466,7 @@ void Scene::addSpotLight(const SpotLight& light) {
   SpotLight spot = light;
   spot.direction = safeNormalize(light.direction);
   m_spotLights.push_back(spot);
+  noteReach(placed);
 }
 
 void Scene::setBackground(const Vec4d& rgba) {

@@ -4,6 +4,9 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "durer/math/Float.h"
+#include "durer/scene/Limits.h"
+
 namespace durer {
 
 namespace {
@@ -39,6 +42,23 @@ void requireNonZero(const Vec3d& value, const std::string& field) {
 void requireNonNegativeColor(const Vec3d& value, const std::string& field) {
   requireFinite(value, field);
   if (value.x < 0 || value.y < 0 || value.z < 0) fail(field + " must be >= 0 in each channel, got " + show(value));
+  requireColorWithin(maxAbs(value), field, show(value));
+}
+
+void requireColorWithin(double largest, const std::string& field, const std::string& shown) {
+  const double limit = widestLimits().color;
+  if (largest <= limit) return;
+  std::ostringstream message;
+  message << field << " must be <= " << limit << (shown.empty() || shown[0] != '(' ? "" : " in each channel")
+          << ", got " << shown;
+  fail(message.str());
+}
+
+void requireWithin(double magnitude, double limit, const std::string& field, const std::string& where) {
+  if (magnitude <= limit) return;
+  std::ostringstream message;
+  message << field << " must lie within ±" << limit << where << ", got " << magnitude;
+  fail(message.str());
 }
 
 void requireRange(double tMin, double tMax, const std::string& minField, const std::string& maxField) {

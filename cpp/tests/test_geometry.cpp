@@ -96,7 +96,7 @@ TEST_CASE_TEMPLATE("nextUp and nextDown step exactly as std::nextafter toward +i
   CHECK(std::isnan(nextDown(std::numeric_limits<Real>::quiet_NaN())));
 }
 
-TEST_CASE("inversePowerOfTwo is 2^-floor(log2 x), NaN outside the normal range") {
+TEST_CASE("inversePowerOfTwo is 2^-floor(log2 x) for normal x, NaN for the rest") {
   CHECK(inversePowerOfTwo(3.0) == 0.5);
   CHECK(inversePowerOfTwo(1.0) == 1.0);
   CHECK(inversePowerOfTwo(0.3) == 4.0);
@@ -104,7 +104,20 @@ TEST_CASE("inversePowerOfTwo is 2^-floor(log2 x), NaN outside the normal range")
   CHECK(std::isnan(inversePowerOfTwo(0.0)));
   CHECK(std::isnan(inversePowerOfTwo(std::numeric_limits<double>::denorm_min())));
   CHECK(std::isnan(inversePowerOfTwo(kInf)));
-  CHECK(std::isnan(inversePowerOfTwo(std::ldexp(1.0, 1023))));  // 2^-1023 is subnormal
+  CHECK(inversePowerOfTwo(std::ldexp(1.0, 1023)) == std::ldexp(1.0, -1023));  // subnormal, exact
+  CHECK(inversePowerOfTwo(std::numeric_limits<float>::max()) == std::ldexp(1.0f, -127));
+}
+
+TEST_CASE_TEMPLATE("wellScaled keeps a unit vector's bits, and stands in where the squares underflow", Real, float,
+                   double) {
+  const Vec3<Real> v(Real(0.3), Real(-1.7), Real(2.9)), fallback(0, 0, -3);
+  CHECK(glm::normalize(wellScaled(v, fallback)) == glm::normalize(v));  // exact power-of-two scaling
+  const Real tiny = std::numeric_limits<Real>::min() * 4;  // normal, but its square underflows to 0
+  CHECK(!std::isfinite(glm::normalize(Vec3<Real>(0, tiny, 0)).y));
+  CHECK(glm::normalize(wellScaled(Vec3<Real>(0, tiny, 0), fallback)) == Vec3<Real>(0, 1, 0));
+  CHECK(glm::normalize(wellScaled(Vec3<Real>(0), fallback)) == Vec3<Real>(0, 0, -1));
+  CHECK(glm::normalize(wellScaled(Vec3<Real>(0, std::numeric_limits<Real>::denorm_min(), 0), fallback)) ==
+        Vec3<Real>(0, 0, -1));
 }
 
 TEST_CASE("error-free transformations recover what plain arithmetic rounds away") {

@@ -21,6 +21,7 @@ from helpers.blender import (
     cube,
     link,
     pointcloud_object,
+    quad,
     render_passes,
 )
 
@@ -29,6 +30,7 @@ bpy = pytest.importorskip("bpy")
 import durer
 import durer.blender
 from durer.blender import batch, engine, extension
+from durer.distributed import frames
 
 pytestmark = pytest.mark.blender
 
@@ -116,6 +118,24 @@ def test_passes_are_registered_and_written(scene, tmp_path):
     assert offered("Depth") and not offered("Normal")
     out = render_passes(scene, tmp_path / "nonormal.exr", normal=False)
     assert set(out) == {"color", "depth"}
+
+
+def test_normal_pass_of_samples_on_opposite_faces(scene, tmp_path):
+    """Shade Back off, 4 samples, 5x5 pixels over two quads: the left one at z = 0 facing up, the
+    right one at z = 1 facing down (away from the camera above). The middle column's samples see two
+    of each, whose normals cancel: it takes the nearest sample's, the right quad's (it was 0)."""
+    scene.render.resolution_x, scene.render.resolution_y = 5, 5
+    scene.durer.samples = 4
+    scene.durer.shade_back = False
+    quad(scene, "Up", corners=((-3, -3, 0), (0, -3, 0), (0, 3, 0), (-3, 3, 0)))
+    quad(scene, "Down", corners=((0, -3, 1), (0, 3, 1), (3, 3, 1), (3, -3, 1)))
+    scene.camera.data.type = "ORTHO"
+    scene.camera.data.ortho_scale = 5.0
+    scene.camera.location = (0, 0, 5)
+    scene.camera.rotation_euler = (0, 0, 0)
+    out = render_passes(scene, tmp_path / "facing.exr")
+    np.testing.assert_array_equal(out["normal"], np.broadcast_to([[0, 0, 1]] * 2 + [[0, 0, -1]] * 3, (5, 5, 3)))
+    np.testing.assert_array_equal(out["depth"], np.broadcast_to([5, 5, 4, 4, 4], (5, 5)))
 
 
 def test_errors_are_reported_and_blender_stays_usable(scene):
@@ -273,6 +293,11 @@ def test_render_file_errors(scene, tmp_path):
     bpy.ops.wm.save_mainfile()
     with pytest.raises(batch.BatchRenderError, match="Frame 1 of .* failed: .*is pano"):
         batch.render_file(blend, frames=1, output=tmp_path / "x.png")
+    # Blender would clamp these silently (to 4096 and 1024): refused, naming them, before a render
+    with pytest.raises(ValueError, match=r"^samples must be <= 4096, got 5000$"):
+        batch.render_file(blend, samples=5000)
+    with pytest.raises(ValueError, match=r"^threads must be <= 1024, got 2147483648$"):
+        frames.render_frames(blend, client=None, threads=2**31)
     assert batch.main([str(tmp_path / "missing.blend")]) == 2
     assert batch.main([str(blend), "-q", "-f", "1", "-o", str(tmp_path / "y.png")]) == 1
 

@@ -189,6 +189,7 @@ def test_a_pickled_scene_replays_its_moves_and_keeps_only_the_last_of_the_same_s
     ([0], [[0, np.nan, 0]], None, ValueError, "centers must be finite"),
     ([0], [[0, 0, 0]], [0.0], ValueError, r"radii\[0\] must be finite and > 0"),
     ([0], [[0, 0, 0]], [1, 2], ValueError, r"radii must have shape \(1,\)"),
+    ([0], [[1e40, 0, 0]], None, ValueError, r"centers\[0\] ± radii\[0\] must lie within ±1e\+36"),
 ])
 def test_bad_moves_name_the_argument_and_change_nothing(rng, ids, centers, radii, error, match):
     scene = fresh(*cloud(rng))
@@ -214,3 +215,14 @@ def test_a_few_spheres_without_a_hierarchy_move_too(rng):
     assert (a.object_id >= 0).any()
     np.testing.assert_array_equal(a.object_id, b.object_id)
     np.testing.assert_array_equal(a.t, b.t)
+
+
+def test_a_move_beyond_what_float_holds_is_refused_by_a_float_render_not_a_double_one(rng):
+    centers, radii = cloud(rng, 100)
+    scene = fresh(centers, radii)
+    origins, directions = rays(rng, 200)
+    durer.cast(scene, origins, directions, precision="float")
+    scene.move_spheres([7], [[1e20, 0, 0]])
+    durer.cast(scene, origins, directions, precision="double")
+    with pytest.raises(ValueError, match=r"centers\[0\] ± radii\[0\] must lie within ±1e\+18 with precision='float'"):
+        durer.cast(scene, origins, directions, precision="float")

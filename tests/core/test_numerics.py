@@ -16,8 +16,9 @@ arithmetic. The spec the answers are judged by (`judge`) is the documented contr
   an exact tangent (a double root) is a miss. In that zone (below) a miss is always right and a hit
   must land on the sphere within the position tolerance. Outside it the robust method must decide
   like the exact answer.
-* Any input NaN or infinite (after rounding to the precision: a double beyond 3.4e38 is inf in float)
-  gives a miss, and overflow of an intermediate result gives a miss or a finite correct hit.
+* Any input NaN or infinite gives a miss (cast with check=False). Finite inputs beyond the precision's
+  limits (docs/numerics.md, "Accepted ranges") are refused with a ValueError naming the field; within
+  them no intermediate result overflows.
 
 Tolerances, with u = ε/2 the unit roundoff (float: 2^-24 ≈ 5.96e-8, double: 2^-53 ≈ 1.11e-16),
 f = o - c, h² = r² - p² and everything exact from the rounded inputs:
@@ -80,7 +81,15 @@ from helpers.exact import (
 )
 
 
-def cast_case(case: Case, precision: str, method: str) -> tuple[durer.CastResult, list[int]]:
+def cast_case(case: Case, precision: str, method: str) -> tuple[durer.CastResult, list[int]] | None:
+    """The case cast with `method`; None where it is refused as expected (beyond the limits)."""
+    if per_precision(case.expect, precision) == "refused":
+        with pytest.raises(ValueError, match=case.refused):
+            scene, _ = build_scene(case.primitives_for(precision))
+            durer.cast(scene, np.array([case.origin_for(precision)], float),
+                       np.array([case.direction_for(precision)], float), precision=precision, sphere_method=method,
+                       check=False)
+        return None
     scene, ids = build_scene(case.primitives_for(precision))
     result = durer.cast(scene, np.array([case.origin_for(precision)], float),
                         np.array([case.direction_for(precision)], float),
@@ -128,8 +137,9 @@ class Case:
     miss     the exact answer has none (or none representable); the robust method must miss
     tangent  the exact answer is a double root (r² = p² exactly); the robust method must miss
     graze    the exact answer is a hit inside the grazing zone, or outside it: `judge` decides
-    overflow the exact answer is a hit, but an intermediate overflows: a miss or a correct hit
     any      whatever the rounded inputs give (where rounding to float moves the ray by ~the radius)
+    refused  beyond the precision's limits (docs/numerics.md, durer._core.LIMITS): a ValueError whose
+             message matches `refused` (the field), from the add or the cast
     """
 
     id: str
@@ -141,6 +151,7 @@ class Case:
     t_min: Any = 0.0
     t_max: Any = INF
     ordinary: bool = False  # all three sphere methods must get it right
+    refused: str = ""       # with expect "refused": the field the ValueError names (a regex)
 
     def origin_for(self, precision: str):
         return tuple(float(x) for x in per_precision(self.origin, precision))
@@ -226,7 +237,8 @@ TANGENT_ORIGIN = (1163.0, -2116.0, 2520.0)  # c + (3, 4, 0) + 40·(4, -3, -12): 
 BIG_TANGENT_CENTER = (2.0**20, -(2.0**21), 3 * 2.0**19)
 BIG_TANGENT_ORIGIN = (1052675.0, -2100220.0, 1560576.0)  # c + (3, 4, 0) + 1024·(4, -3, -12)
 ON_SPHERE = Sphere((10.0, 20.0, 30.0), 13.0)  # (13, 24, 42) = c + (3, 4, 12) is exactly on it
-NEAR_OVERFLOW = {"double": 1e150, "float": 1e18}  # |f|² ~ 9s² fits: 9e300 < 1.8e308, 9e36 < 3.4e38
+# The sphere below reaches 2.1·s: just inside each precision's coordinate limit.
+NEAR_OVERFLOW = {p: durer._core.LIMITS[p]["coordinate"] / 2.2 for p in ("double", "float")}
 
 
 def nudged_x(origin, toward: float) -> Callable[[str], tuple]:
@@ -353,9 +365,11 @@ def _cases() -> list[Case]:
     cases += [
         Case("direction-subnormal", "Origin (0, 0, 2^-58), direction (0, 0, -2^-1070) (double: subnormal; float: "
              "(0, 0, -2^-140), subnormal), sphere r = 2^-60 at 0 (double); t* = 3·2^1010 (double) is finite. "
-             "The exact power-of-two scale 2^1070 overflows. Expected: a miss or a correct hit.",
+             "The exact power-of-two scale 2^1070 overflows. Expected: refused (a direction's largest "
+             "component must be a normal number of the precision).",
              (Sphere((0.0, 0.0, 0.0), 2.0**-60),), (0.0, 0.0, 2.0**-58),
-             {"double": (0.0, 0.0, -(2.0**-1070)), "float": (0.0, 0.0, -(2.0**-140))}, expect="overflow"),
+             {"double": (0.0, 0.0, -(2.0**-1070)), "float": (0.0, 0.0, -(2.0**-140))}, expect="refused",
+             refused=r"^directions\[0\] must have its largest \|component\| in \["),
         Case("direction-t-overflow", "Origin (0, 0, 1e10), direction (0, 0, -1e-300) (float: -1e-35), unit "
              "sphere at 0: t* ~ 1e310 (float: 1e45) is not representable. Expected: a miss (t is never inf).",
              (UNIT,), (0.0, 0.0, 1e10), {"double": (0.0, 0.0, -1e-300), "float": (0.0, 0.0, -1e-35)},
@@ -365,37 +379,42 @@ def _cases() -> list[Case]:
              (UNIT,), (0.0, 0.0, 1e10), {"double": (0.0, 0.0, 1e-300), "float": (0.0, 0.0, 1e-35)},
              t_min=-INF, expect="miss"),
         Case("direction-huge-components", "Origin (0, 0, 5), direction (1e-10, 2e-10, -1)·1.5e308 (float: "
-             "the direction rounds to inf: a miss), unit sphere at 0: |d|² overflows, and so does the inverse "
-             "2^1024 of the power-of-two scale of a component above 2^1023. Expected: double a miss or a hit "
-             "at t* ~ 4/1.5e308 within the bound; float a miss.",
-             (UNIT,), (0.0, 0.0, 5.0), (1.5e298, 3e298, -1.5e308), expect={"double": "overflow", "float": "miss"}),
+             "beyond its range: refused), unit sphere at 0: |d|² overflows; the power-of-two scale of a "
+             "component above 2^1023 is the subnormal 2^-1023, still exact. Expected: double a hit at "
+             "t* ~ 4/1.5e308 within the bound; float refused.",
+             (UNIT,), (0.0, 0.0, 5.0), (1.5e298, 3e298, -1.5e308), expect={"double": "hit", "float": "refused"},
+             refused=r"^directions\[0\] must have its largest"),
     ]
     # Overflow-range coordinates.
     cases += [
-        Case("overflow-near-limit", "Origin 0, sphere r = s/10 at c = s·(1, 2, -2) with s = 1e150 (float: 1e18, "
-             "so that |f|² ~ 1e37 still fits), direction c + 0.3 r·(2, -2, -1)/3. Expected: a hit within the "
-             "well-conditioned bound (no square overflows).",
+        Case("overflow-near-limit", "Origin 0, sphere r = s/10 at c = s·(1, 2, -2) with s = limit/2.2 (the "
+             "sphere reaches 2.1·s, just inside the coordinate limit: 4.5e35 in double, 4.5e17 in float), "
+             "direction c + 0.3 r·(2, -2, -1)/3. Expected: a hit within the well-conditioned bound (no square "
+             "overflows).",
              {p: (Sphere((s, 2 * s, -2 * s), s / 10),) for p, s in NEAR_OVERFLOW.items()}, (0.0, 0.0, 0.0),
              {p: (s + s / 50, 2 * s - s / 50, -2 * s - s / 100) for p, s in NEAR_OVERFLOW.items()}),
         Case("overflow-sphere", "Origin 0, sphere r = 1e199 at c = (1e200, 2e200, -2e200) (float: inf after "
-             "rounding), direction c (dead centre): r² and |f|² overflow in double. Expected: a miss or a finite "
-             "correct hit (t* = 1 - 1/30); float a miss.",
+             "rounding), direction c (dead centre): r² and |f|² overflow in double. Expected: refused by the "
+             "add (beyond every precision's coordinate limit).",
              (Sphere((1e200, 2e200, -2e200), 1e199),), (0.0, 0.0, 0.0), (1e200, 2e200, -2e200),
-             expect={"double": "overflow", "float": "miss"}),
+             expect="refused", refused=r"^centers\[0\] ± radii\[0\] must lie within ±1e\+36"),
         Case("overflow-origin", "Origin s·(1, 2, -2), s = 1e200 (float: 1e25, finite, but |f|² ~ 1e51 "
-             "overflows), direction -(1, 2, -2) aimed at the sphere r = 1 at (0.5, 0.25, 0) near 0. Expected: a "
-             "miss or a finite correct hit (t* ~ s).",
+             "overflows), direction -(1, 2, -2) aimed at the sphere r = 1 at (0.5, 0.25, 0) near 0. Expected: "
+             "refused by the cast (the origin is beyond the coordinate limit).",
              (Sphere((0.5, 0.25, 0.0), 1.0),), {"double": (1e200, 2e200, -2e200), "float": (1e25, 2e25, -2e25)},
-             (-1.0, -2.0, 2.0), expect="overflow"),
-        Case("overflow-float-range", "Origin (0, 0, 1e39), direction (0, 0, -1), sphere r = 1e30 at 0. Double: a "
-             "hit at t* = 1e39 - 1e30; float: 1e39 rounds to inf. Expected: double a hit, float a miss.",
-             (Sphere((0.0, 0.0, 0.0), 1e30),), (0.0, 0.0, 1e39), (0.0, 0.0, -1.0),
-             expect={"double": "hit", "float": "miss"}),
+             (-1.0, -2.0, 2.0), expect="refused", refused=r"^origins\[0\] must lie within ±1e\+(36|18)"),
+        Case("overflow-float-range", "Origin (0, 0, 1e35), direction (0, 0, -1), sphere r = 1e30 at 0. Double: "
+             "a hit at t* = 1e35 - 1e30; float: beyond its coordinate limit (1e35 would fit float, its squares "
+             "would not). Expected: double a hit, float refused naming the origin.",
+             (Sphere((0.0, 0.0, 0.0), 1e30),), (0.0, 0.0, 1e35), (0.0, 0.0, -1.0),
+             expect={"double": "hit", "float": "refused"},
+             refused=r"^origins\[0\] must lie within ±1e\+18 with precision='float', got 1e\+35$"),
         Case("overflow-ground", "Ground sphere r = 1e300 at (0, 0, -r) (float: r = 1e32), origin (0, 0, 1e295) "
-             "(float: 1e27) above its top, direction (0.1, 0, -1): r² overflows. Expected: a miss or a correct "
-             "hit (t* ~ 1e295).",
+             "(float: 1e27) above its top, direction (0.1, 0, -1): r² overflows. Expected: refused (beyond the "
+             "coordinate limits).",
              {"double": (Sphere((0.0, 0.0, -1e300), 1e300),), "float": (Sphere((0.0, 0.0, -1e32), 1e32),)},
-             {"double": (0.0, 0.0, 1e295), "float": (0.0, 0.0, 1e27)}, (0.1, 0.0, -1.0), expect="overflow"),
+             {"double": (0.0, 0.0, 1e295), "float": (0.0, 0.0, 1e27)}, (0.1, 0.0, -1.0), expect="refused",
+             refused=r"^(centers\[0\] ± radii\[0\]|origins\[0\]) must lie within ±1e\+(36|18)"),
     ]
     # Planes.
     oblique_point = tuple(1e7 * c for c in (1 / 3, 2 / 3, 2 / 3))
@@ -474,9 +493,9 @@ CASES = _cases()
 SPHERE_CASES = [c for c in CASES if any(isinstance(p, Sphere) for p in c.primitives_for("double"))]
 
 
-def case_exacts(case: Case, precision: str, *, allow_miss: bool = False, robust: bool = True) -> list[Exact]:
+def case_exacts(case: Case, precision: str, *, robust: bool = True) -> list[Exact]:
     return exact_answers(case.primitives_for(precision), case.origin_for(precision), case.direction_for(precision),
-                         precision, allow_miss=allow_miss, robust=robust)
+                         precision, robust=robust)
 
 
 def _check_expectation(case: Case, precision: str, exacts: list[Exact]) -> None:
@@ -495,8 +514,6 @@ def _check_expectation(case: Case, precision: str, exacts: list[Exact]) -> None:
         assert info["h2"] == 0 and info["f_exact"], f"case setup: {case.id} is not an exact tangent"
     elif expect == "graze":
         assert info["h2"] > 0, f"case setup: {case.id} does not meet the sphere"
-    elif expect == "overflow":
-        assert not info["finite"] or info["h2"] > 0, f"case setup: {case.id} is not a hit"
 
 
 @pytest.mark.parametrize("precision", PRECISIONS)
@@ -505,9 +522,12 @@ def test_hard_case(case: Case, precision: str) -> None:
     """Robust method (the default) against the exact answer of `case` (its doc states the ray, the
     primitive and the expected behaviour); the tolerances are the module docstring's."""
     expect = per_precision(case.expect, precision)
-    exacts = case_exacts(case, precision, allow_miss=expect == "overflow")
+    cast = cast_case(case, precision, "robust")
+    if cast is None:
+        return
+    exacts = case_exacts(case, precision)
     _check_expectation(case, precision, exacts)
-    result, ids = cast_case(case, precision, "robust")
+    result, ids = cast
     t, index = float(result.t[0]), result_index(result, ids)
     assert result.t.dtype == DTYPE[precision]
     problems = judge(exacts, t, index, result.normal[0], case.t_min_for(precision), case.t_max_for(precision),
@@ -525,8 +545,11 @@ def test_hard_case(case: Case, precision: str) -> None:
 def test_textbook_methods(case: Case, precision: str, method: str, record_property) -> None:
     """The textbook methods on the same cases: their error is recorded (junit XML property
     `error`), asserted only on ordinary cases; on every case a hit has a finite t in range."""
+    cast = cast_case(case, precision, method)
+    if cast is None:
+        return
     exacts = case_exacts(case, precision, robust=False)
-    result, ids = cast_case(case, precision, method)
+    result, ids = cast
     t = float(result.t[0])
     record_property("error", relative_error(case, precision, result, exacts, ids))
     if result.object_id[0] >= 0:

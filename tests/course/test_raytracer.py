@@ -13,7 +13,7 @@ from PIL import Image
 import durer
 from durer.course import gallery, raytracer
 from durer.course.raytracer import RaytracerOptions, parse_arguments, render_scene_file, to_bytes, write_image
-from durer.course.scene_file import read_scene_file
+from durer.course.scene_file import SceneFileError, read_scene_file
 from durer.render import PASSES
 from helpers import ROOT
 
@@ -102,6 +102,31 @@ def test_malformed_scene_exits_with_code_1(tmp_path, capsys):
     assert raytracer.main(["-input", str(scene), "-size", "4", "4", "-output", str(tmp_path / "o.png")]) == 1
     assert capsys.readouterr().err == f"raytracer: error: {scene}:4: expected a number for 'radius', got 'abc'\n"
     assert not (tmp_path / "o.png").exists()
+
+
+FAR_SPHERE = """OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }
+Materials { numMaterials 1 Material { diffuseColor 1 0 0 } }
+Group {
+ numObjects 2
+ MaterialIndex 0
+ Sphere { center 0 0 0 radius 1 }
+ Sphere { center 0 0 -1e20 radius 1 }
+}
+"""
+
+
+def test_what_only_double_holds_is_refused_in_float_at_the_items_line(tmp_path, capsys):
+    scene = tmp_path / "far.txt"
+    scene.write_text(FAR_SPHERE)
+    assert 9 < render_scene_file(scene, 4, 4, precision="double").depth[2, 2] < 10  # double holds 1e20
+    arguments = ["-input", str(scene), "-size", "4", "4", "-output", str(tmp_path / "o.png"), "-precision", "float"]
+    assert raytracer.main(arguments) == 1
+    error = capsys.readouterr().err
+    assert error.startswith(f"raytracer: error: {scene}:7: Dürer cannot render this Sphere with precision='float': ")
+    assert "1e+18" in error and error.count("\n") == 1
+    scene.write_text(FAR_SPHERE.replace("center 0 0 10 direction", "center 0 0 1e30 direction"))
+    with pytest.raises(SceneFileError, match=r"far.txt:1: Dürer cannot render this OrthographicCamera with precision='float'"):
+        render_scene_file(scene, 4, 4, precision="float")
 
 
 def test_missing_scene_file_exits_with_code_1(tmp_path, capsys):

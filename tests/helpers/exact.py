@@ -125,7 +125,7 @@ def representable(t, precision: str) -> bool:
     return abs(t) <= float(np.finfo(DTYPE[precision]).max)
 
 
-def exact_sphere(o, d, sphere: Sphere, precision: str, *, allow_miss: bool = False, robust: bool = True) -> Exact:
+def exact_sphere(o, d, sphere: Sphere, precision: str, *, robust: bool = True) -> Exact:
     """Roots of |o + t·d - c|² = r² for the rounded inputs, with the robust method's tolerances
     (robust=True) or the looser ones the textbook methods meet on ordinary cases (robust=False)."""
     u = unit_roundoff(precision)
@@ -172,7 +172,7 @@ def exact_sphere(o, d, sphere: Sphere, precision: str, *, allow_miss: bool = Fal
             else:  # h moves by at most min(√δ, δ/2h) when h² is off by δ <= z_hit
                 tol = wc(t) + min(MP.sqrt(2 * z_hit), z_hit / h) / nd
                 pos = g_pos
-            required = h2 > z_miss and representable(t, precision) and not allow_miss
+            required = h2 > z_miss and representable(t, precision)
             roots.append(Root(t, float(tol), required, None if pos is None else float(pos)))
     elif h2 >= -z_hit:  # a graze by less than rounding: one optional pseudo-root at the closest approach
         tol = wc(t_ca) + MP.sqrt(2 * z_hit) / nd
@@ -223,9 +223,8 @@ def exact_plane(o, d, plane: Plane, precision: str) -> Exact:
     return Exact(roots, surface_distance, normal_check, {"finite": True, "denominator": denominator})
 
 
-def exact_answers(primitives: tuple, o, d, precision: str, *, allow_miss: bool = False,
-                  robust: bool = True) -> list[Exact]:
-    return [exact_sphere(o, d, p, precision, allow_miss=allow_miss, robust=robust) if isinstance(p, Sphere)
+def exact_answers(primitives: tuple, o, d, precision: str, *, robust: bool = True) -> list[Exact]:
+    return [exact_sphere(o, d, p, precision, robust=robust) if isinstance(p, Sphere)
             else exact_plane(o, d, p, precision) for p in primitives]
 
 

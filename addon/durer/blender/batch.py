@@ -13,6 +13,7 @@ import sys
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
+from .. import _checks
 from ..distributed.output import is_complete
 
 #: Image formats chosen from the output file's extension.
@@ -141,6 +142,17 @@ def render_file(
     return written
 
 
+def setting_range(name: str) -> tuple[int, int]:
+    """The hard bounds of the integer Dürer scene setting `name`: its IntProperty is their one home
+    (Blender would clamp a value beyond them silently)."""
+    from . import register
+    from .properties import DurerSceneSettings
+
+    register()
+    setting = DurerSceneSettings.bl_rna.properties[name]
+    return setting.hard_min, setting.hard_max
+
+
 def open_blend(blend: Path, scene: str | None = None, samples: int | None = None):
     """Open `blend` (an absolute path) in bpy with Dürer registered and return the scene to render
     (`scene` or the active one) with the DURER engine and `samples`, if given, set."""
@@ -154,8 +166,8 @@ def open_blend(blend: Path, scene: str | None = None, samples: int | None = None
         raise ValueError(f"cannot open {blend}: {error.strerror}") from None
     if not found:
         raise FileNotFoundError(f"No such .blend file: {blend}")
-    if samples is not None and int(samples) < 1:
-        raise ValueError(f"samples must be >= 1, got {samples}")
+    if samples is not None:
+        samples = _checks.integer(samples, "samples", *setting_range("samples"))
     register()
     try:
         bpy.ops.wm.open_mainfile(filepath=str(blend), load_ui=False)
@@ -168,7 +180,7 @@ def open_blend(blend: Path, scene: str | None = None, samples: int | None = None
         bpy.context.window.scene = sc
     sc.render.engine = "DURER"
     if samples is not None:
-        sc.durer.samples = int(samples)
+        sc.durer.samples = samples
     if sc.camera is None:
         raise BatchRenderError(f"Scene '{sc.name}' in {blend} has no camera")
     return sc
@@ -267,8 +279,8 @@ def _main_distributed(args: argparse.Namespace, prog: str) -> int:
         require_distributed()
         if args.workers is not None and args.workers < 0:
             raise ValueError(f"--workers must be >= 1, got {args.workers}")
-        if args.threads is not None and args.threads < 1:
-            raise ValueError(f"--threads must be >= 1, got {args.threads}")
+        if args.threads is not None:
+            _checks.integer(args.threads, "--threads", 1, setting_range("threads")[1])
         parse_frames(args.frames)  # bad input is reported before a cluster starts
         if not Path(args.file).is_file():
             raise FileNotFoundError(f"No such .blend file: {Path(args.file).resolve()}")

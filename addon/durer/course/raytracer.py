@@ -86,9 +86,16 @@ def render_scene_file(
     if scene_file.camera is None:
         raise ValueError(f"{scene_file.path}: the scene has no camera (an OrthographicCamera or PerspectiveCamera "
                          "block)")
-    return render(scene_file.to_scene(shadows=shadows), scene_file.camera.to_durer(), width, height, spp=spp,
-                  precision=precision, passes=tuple(passes), shade_back=shade_back, max_bounces=bounces,
-                  min_weight=weight)
+    scene = scene_file.to_scene(shadows=shadows)
+    try:
+        return render(scene, scene_file.camera.to_durer(), width, height, spp=spp, precision=precision,
+                      passes=tuple(passes), shade_back=shade_back, max_bounces=bounces, min_weight=weight)
+    except ValueError as error:
+        # What the file's items are refused for in this precision (the core's range messages say
+        # "with precision='...'") is the file's error, at an item's line; bad options are the caller's.
+        if precision not in PRECISIONS or "precision=" not in str(error):
+            raise
+        raise scene_file.locate_refusal(error, precision) from None
 
 
 def to_bytes(values: np.ndarray) -> np.ndarray:

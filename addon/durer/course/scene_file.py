@@ -133,6 +133,28 @@ class SceneFile:
     lights: list[SceneLight] = field(default_factory=list)
     materials: list[SceneMaterial] = field(default_factory=list)
     primitives: list[ScenePrimitive] = field(default_factory=list)
+    #: (line, block keyword, how to make the item alone): for `locate_refusal`.
+    items: list[tuple[int, str, Callable[[], object]]] = field(default_factory=list, compare=False, repr=False)
+
+    def locate_refusal(self, error: ValueError, precision: str) -> SceneFileError:
+        """The item a render in `precision` refused (`error`: its coordinates or camera window
+        beyond what the precision holds), found by making each item alone and checking it in that
+        precision, at its line; the camera's line if no item refuses alone."""
+        from ..cast import cast
+        from ..render import render
+
+        for line, keyword, build in self.items:
+            made = build()
+            try:
+                if isinstance(made, Scene):
+                    cast(made, [[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]], precision=precision)
+                elif made is not None and not isinstance(made, Scene):
+                    render(Scene(), made, 1, 1, precision=precision, passes=("depth",))
+            except ValueError as alone:
+                return SceneFileError(self.path, line, f"Dürer cannot render this {keyword} with precision="
+                                                       f"'{precision}': {alone}")
+        line = next((line for line, keyword, _ in self.items if keyword.endswith("Camera")), 1)
+        return SceneFileError(self.path, line, f"Dürer cannot render this scene with precision='{precision}': {error}")
 
     @property
     def effective_ambient(self) -> Vec3:
@@ -377,6 +399,7 @@ class _Parser:
             build()
         except ValueError as error:
             raise self.error(keyword.line, f"Dürer cannot render this {keyword.text}: {error}") from None
+        self.scene.items.append((keyword.line, keyword.text, build))
 
     def close(self) -> None:
         self.expect("}")
@@ -476,10 +499,9 @@ class _Parser:
                                              f"got '{token.text}'")
             self.pos -= 1
             value = self.vector_field(token.text, _non_negative)
-            if token.text == "color":
-                self.scene.background = value
-            else:
-                self.scene.ambient = value
+            target = "background" if token.text == "color" else "ambient"
+            self.core_accepts(keyword, lambda: setattr(Scene(), target, value))
+            setattr(self.scene, target, value)
         self.open_blocks.pop()
 
     def counted(self, keyword: _Token, count_name: str, item: str, kinds: tuple[str, ...],

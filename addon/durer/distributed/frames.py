@@ -65,7 +65,7 @@ def render_frames(
     from ..blender import batch
 
     if threads is not None:
-        threads = _checks.integer(threads, "threads", 1)
+        threads = _checks.integer(threads, "threads", 1, batch.setting_range("threads")[1])
     blend = Path(path).expanduser().resolve()
     frame_list = batch.parse_frames(frames)
     sc = batch.open_blend(blend, scene, samples)

@@ -31,7 +31,8 @@ enum class SamplerKind {
 enum PassFlags : unsigned {
   kPassColor = 1u << 0,   // RGBA, linear
   kPassDepth = 1u << 1,   // the pixel's nearest sample hit (DepthKind says measured how); inf on a miss
-  kPassNormal = 1u << 2,  // unit world-space normal, the normalised mean over the pixel's hit samples; 0 on a miss
+  kPassNormal = 1u << 2,  // unit world-space normal, the normalised mean over the pixel's hit samples (the
+                          // nearest hit sample's where their normals cancel: TileRenderer.h); 0 on a miss
 };
 
 // What the depth pass measures.

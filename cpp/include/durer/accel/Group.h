@@ -300,7 +300,7 @@ class Group {
     local.tHit[0] = packet.tHit[k];
     local.prim[0] = packet.prim[k] - inst.primBase;
     Hit<Real> h = inst.child->hitOwn(local, 0);
-    const Vec3<Real> n = inst.objectFromWorld.transposed(h.normal);
+    const Vec3<Real> n = wellScaled(inst.objectFromWorld.transposed(h.normal), h.normal);
     h.normal = n / glm::length(n);
     h.pointError = inst.worldFromObject.pointError(h.point, h.pointError);
     h.point = inst.worldFromObject.point(h.point);

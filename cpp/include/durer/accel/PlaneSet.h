@@ -11,6 +11,7 @@
 #include "durer/geometry/RayOffset.h"
 #include "durer/geometry/RayPacket.h"
 #include "durer/math/Vec.h"
+#include "durer/scene/Limits.h"
 
 namespace durer {
 
@@ -18,6 +19,9 @@ namespace durer {
 // a, b in [0, 1]. The bounded test uses the dual basis: a = (p - corner)·dual1, b = (p - corner)·dual2.
 // Rays meet it at t = normal·(point - o) / normal·d: measuring from a point of the plane rather than
 // subtracting normal·o from the offset keeps the digits when o and the plane are both far from 0.
+// An unbounded plane ends where coordinates leave the precision's limits (|x| <= coordinateLimit, in
+// the frame it is tested in): a ray nearly parallel to it would otherwise meet it at a t, and a
+// point, that no later step (depth pass, hit point, secondary rays) can represent.
 template <typename Real>
 struct Plane {
   Vec3<Real> normal;  // unit, world space; the shading normal as given (not flipped toward the ray)
@@ -98,6 +102,10 @@ class PlaneSet : public PrimitiveSet<Plane<Real>, Real> {
         const Real a = qx * pl.dual1.x + qy * pl.dual1.y + qz * pl.dual1.z;
         const Real b = qx * pl.dual2.x + qy * pl.dual2.y + qz * pl.dual2.z;
         valid = valid & (a >= 0) & (a <= 1) & (b >= 0) & (b <= 1);
+      } else {
+        constexpr Real kReach = static_cast<Real>(coordinateLimit<Real>());
+        const Real px = ox[k] + t * dx[k], py = oy[k] + t * dy[k], pz = oz[k] + t * dz[k];
+        valid = valid & (std::fabs(px) <= kReach) & (std::fabs(py) <= kReach) & (std::fabs(pz) <= kReach);
       }
       recordHit(packet, k, t, id, valid);
     }

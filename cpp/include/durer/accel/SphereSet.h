@@ -134,7 +134,10 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     const Real t = packet.tHit[k];
     const Vec3<Real> p(packet.ox[k] + t * packet.dx[k], packet.oy[k] + t * packet.dy[k],
                        packet.oz[k] + t * packet.dz[k]);
-    return glm::normalize(p - this->m_primitives[index].center);
+    // A sphere smaller than the spacing of numbers at its hit point can be met exactly at its centre
+    // (p - c = 0): the normal then faces the ray.
+    return glm::normalize(wellScaled(p - this->m_primitives[index].center,
+                                     -Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k])));
   }
 
   // Full record of ray k's hit on sphere `index` at packet.tHit[k].

@@ -167,27 +167,32 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real> {
     h.det = h.u + h.v + h.w;
     if (outside || h.det == 0 || h.det != h.det) return h;  // h.hit stays false
     const Real az = s.sz * a[s.kz], bz = s.sz * b[s.kz], cz = s.sz * c[s.kz];
-    h.t = (h.u * az + h.v * bz + h.w * cz) / h.det;
+    // U, V, W and det are products of two coordinates: scaled by a power of two (exact, so t keeps
+    // its bits) before they meet a third, t's numerator cannot overflow where coordinates fit Limits.h.
+    const Real power = inversePowerOfTwo(std::fabs(h.det));
+    const Real scale = power == power ? power : Real(1);
+    h.t = (h.u * scale * az + h.v * scale * bz + h.w * scale * cz) / (h.det * scale);
     h.hit = h.t == h.t;
     if (positiveT && h.hit) {
       const Real rawZ = max3(a[s.kz], b[s.kz], c[s.kz]);
-      h.hit = h.t > tErrorBound(h, max3(ax, bx, cx), max3(ay, by, cy), rawZ, max3(az, bz, cz));
+      h.hit = h.t > tErrorBound(h, scale, max3(ax, bx, cx), max3(ay, by, cy), rawZ, max3(az, bz, cz));
     }
     return h;
   }
 
   // pbrt-v4's bound on the rounding error of t, from the largest sheared x and y (maxX, maxY), the
   // largest z before (rawZ, world units from the origin) and after (maxZ) its scaling by 1/d_z, and
-  // the edge functions. x and y are sheared with the unscaled z (x − (d_x/d_z)·z, |d_x/d_z| <= 1),
-  // so their errors are bounded with rawZ; pbrt's maxZ there only holds for directions of about unit
-  // length (|d| = 1e-4 made the bound 1e4 times too large, and rays from inside a mesh missed it). As
+  // the edge functions (scaled by `scale` as in the test, so that no product of three coordinates
+  // is formed). x and y are sheared with the unscaled z (x − (d_x/d_z)·z, |d_x/d_z| <= 1), so their
+  // errors are bounded with rawZ; pbrt's maxZ there only holds for directions of about unit length
+  // (|d| = 1e-4 made the bound 1e4 times too large, and rays from inside a mesh missed it). As
   // written, scaling the direction by a power of two scales the bound exactly as it scales t.
-  static Real tErrorBound(const TriangleHit<Real>& h, Real maxX, Real maxY, Real rawZ, Real maxZ) {
+  static Real tErrorBound(const TriangleHit<Real>& h, Real scale, Real maxX, Real maxY, Real rawZ, Real maxZ) {
     const Real deltaZ = errorGamma<Real>(3) * maxZ;
     const Real deltaX = errorGamma<Real>(5) * (maxX + rawZ), deltaY = errorGamma<Real>(5) * (maxY + rawZ);
-    const Real deltaE = 2 * (errorGamma<Real>(2) * maxX * maxY + deltaY * maxX + deltaX * maxY);
-    const Real maxE = max3(h.u, h.v, h.w);
-    return 3 * (errorGamma<Real>(3) * maxE * maxZ + deltaE * maxZ + deltaZ * maxE) / std::fabs(h.det);
+    const Real deltaE = 2 * (errorGamma<Real>(2) * maxX * maxY + deltaY * maxX + deltaX * maxY) * scale;
+    const Real maxE = max3(h.u, h.v, h.w) * scale;
+    return 3 * (errorGamma<Real>(3) * maxE * maxZ + deltaE * maxZ + deltaZ * maxE) / std::fabs(h.det * scale);
   }
 
   DURER_INLINE static Real max3(Real p, Real q, Real r) {

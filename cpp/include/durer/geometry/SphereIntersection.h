@@ -35,7 +35,7 @@ struct SphereRayTerms {
   Real sx, sy, sz; // robust: s = d·scale, exactly (scale is a power of two), with |s| in [1, 2·sqrt(3))
   Real a, invA;    // robust: s·s and 1/(s·s)
   Real scale;      // robust: t along d = t along s · scale; NaN if d's largest component is 0, subnormal,
-                   // above 2^bias (2^1023, 2^127), inf or NaN: the ray then misses
+                   // inf or NaN: the ray then misses
 };
 
 template <SphereMethod M, typename Real>

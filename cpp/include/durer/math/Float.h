@@ -91,18 +91,34 @@ DURER_INLINE void roundOutward(Vec3<Real>& lo, Vec3<Real>& hi) {
 }
 
 // 2^-floor(log2 x) for x > 0, built from x's exponent bits (no library call, so it vectorises);
-// NaN where the result would not be a normal number: x zero, subnormal, above 2^bias, inf or NaN.
+// NaN where x is zero, subnormal, inf or NaN (2^-floor(log2 x) would overflow or x has no exponent).
+// For x in the top binade [2^bias, max] it is 2^-bias, a subnormal: multiplying by it is still exact
+// where the product is normal, so directions of any finite length scale exactly.
 template <typename Real>
 DURER_INLINE Real inversePowerOfTwo(Real x) {
   using B = FloatBits<Real>;
-  typename B::Bits bits;
+  using Bits = typename B::Bits;
+  Bits bits;
   std::memcpy(&bits, &x, sizeof x);
   const int exponent = static_cast<int>((bits >> B::kMantissaBits) & (2 * B::kBias + 1));  // biased
-  const bool usable = exponent >= 1 && exponent <= 2 * B::kBias - 1;
-  const typename B::Bits scaleBits = static_cast<typename B::Bits>(2 * B::kBias - exponent) << B::kMantissaBits;
+  const bool usable = exponent >= 1 && exponent <= 2 * B::kBias;
+  const Bits scaleBits = exponent == 2 * B::kBias ? Bits(1) << (B::kMantissaBits - 1)
+                                                  : static_cast<Bits>(2 * B::kBias - exponent) << B::kMantissaBits;
   Real scale;
   std::memcpy(&scale, &scaleBits, sizeof scale);
   return usable ? scale : std::numeric_limits<Real>::quiet_NaN();
+}
+
+// v scaled by a power of two (exact) so that its largest |component| is in [1, 2): no square of it
+// under- or overflows, and a unit vector made from it has the bits one made from v has wherever
+// that works. `otherwise` (finite, normal) stands in where v is 0 or subnormal: no direction to trust.
+template <typename Real>
+DURER_INLINE Vec3<Real> wellScaled(const Vec3<Real>& v, const Vec3<Real>& otherwise) {
+  const auto largest = [](const Vec3<Real>& u) {
+    return std::max(std::fabs(u.x), std::max(std::fabs(u.y), std::fabs(u.z)));
+  };
+  const Real power = inversePowerOfTwo(largest(v));
+  return power == power ? v * power : otherwise * inversePowerOfTwo(largest(otherwise));
 }
 
 // a·b - c·d with one rounding error instead of a catastrophic cancellation (Kahan; pbrt-v4's
@@ -141,10 +157,10 @@ DURER_INLINE Real sumOfSquaresMinus(Real x, Real y, Real z, Real r) {
   return sum + error;
 }
 
+// The largest |component|: a vector's infinity norm (NaN components are skipped).
+inline double maxAbs(const Vec3d& v) { return std::fmax(std::fabs(v.x), std::fmax(std::fabs(v.y), std::fabs(v.z))); }
+
 // Unit vector without overflow or underflow for any finite non-zero input.
-inline Vec3d safeNormalize(const Vec3d& v) {
-  const double largest = std::fmax(std::fabs(v.x), std::fmax(std::fabs(v.y), std::fabs(v.z)));
-  return glm::normalize(v / largest);
-}
+inline Vec3d safeNormalize(const Vec3d& v) { return glm::normalize(v / maxAbs(v)); }
 
 }  // namespace durer

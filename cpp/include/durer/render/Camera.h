@@ -4,6 +4,7 @@
 #include "durer/Options.h"
 #include "durer/geometry/RayPacket.h"
 #include "durer/math/Vec.h"
+#include "durer/scene/Limits.h"
 
 namespace durer {
 
@@ -24,6 +25,18 @@ struct CameraSpec {
 };
 
 void validate(const CameraSpec& spec);  // throws std::invalid_argument naming the field
+
+// The image plane's pixel pitch and the position of sample (0, 0) on it (at distance 1 for
+// perspective), in double: Camera<Real> rounds them to its precision.
+struct ImageWindow {
+  double pixelWidth, pixelHeight, xOffset, yOffset;
+};
+ImageWindow imageWindow(const CameraSpec& spec, int width, int height);
+
+// Throws std::invalid_argument naming the camera's fields unless its rays fit `limits`: the
+// origins (orthographic: the window around the centre) and, for a perspective camera, the window at
+// unit distance. Returns the largest |coordinate| of the rays' origins.
+double requireRaysWithin(const CameraSpec& spec, int width, int height, const NumericLimits& limits);
 
 // A camera set up for one image size. Sample positions are in pixels: x right from the left edge,
 // y down from the top edge, so pixel (i, j)'s centre is (i + 0.5, j + 0.5). Directions are unit,

@@ -68,6 +68,10 @@ class PacketShader {
       }
     }
     if (m_effects.bounces()) addBounces(packet, hits, weights, depth, rgb, counters);
+    // Sums of non-negative finite terms can overflow, but never to NaN: saturated here, a brighter
+    // colour stays finite through every factor that multiplies it on the way to the pixel.
+    const Real brightest = std::numeric_limits<Real>::max();
+    for (int k = 0; k < packet.count; ++k) rgb[k] = glm::min(rgb[k], Vec3<Real>(brightest));
   }
 
  private:
@@ -105,10 +109,13 @@ class PacketShader {
         const Real cosine = glm::dot(normal[k], toLight);
         if (!(cosine > 0)) continue;
         const MaterialIn<Real>& m = m_shading.material(h.materialId);
-        const Vec3<Real> arriving = light.arriving(h.point, toLight);
-        Vec3<Real> contribution = cosine * arriving * m.diffuse;
+        // Colours first: their products are finite (Limits.h), so a huge falloff gives at most inf,
+        // never 0·inf, and shade() saturates it.
+        const Real falloff = light.falloff(h.point, toLight);
+        Vec3<Real> contribution = (cosine * falloff) * (light.color * m.diffuse);
         if constexpr (Specular) {
-          contribution += std::pow(highlight(normal[k], toLight + toViewer[k]), m.exponent) * arriving * m.specular;
+          contribution += (std::pow(highlight(normal[k], toLight + toViewer[k]), m.exponent) * falloff) *
+                          (light.color * m.specular);
         }
         if (!(Shadows && light.shadows)) {
           rgb[k] += contribution;

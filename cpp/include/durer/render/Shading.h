@@ -25,13 +25,16 @@ struct ShadingLight {
     return kind == Kind::Directional ? vector : glm::normalize(vector - point);
   }
 
-  // The light's colour arriving at `point` (toLight: its unit direction toward the light).
-  Vec3<Real> arriving(const Vec3<Real>& point, const Vec3<Real>& toLight) const {
-    if (kind == Kind::Directional) return color;
+  // The fraction of the light's colour arriving at `point` (toLight: its unit direction toward the
+  // light). Finite, so that colour · falloff is never 0·inf: where the falloff's denominator
+  // underflows (a point at the light with c0 = 0) it is the precision's largest number.
+  Real falloff(const Vec3<Real>& point, const Vec3<Real>& toLight) const {
+    if (kind == Kind::Directional) return 1;
     const Real d = glm::length(vector - point);
-    Real factor = 1 / (attenuation.x + d * (attenuation.y + d * attenuation.z));
+    Real factor = std::min(1 / (attenuation.x + d * (attenuation.y + d * attenuation.z)),
+                           std::numeric_limits<Real>::max());
     if (kind == Kind::Spot) factor *= spotFactor(-glm::dot(toLight, axis));
-    return factor * color;
+    return factor;
   }
 
   Real spotFactor(Real cosine) const {

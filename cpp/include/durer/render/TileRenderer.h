@@ -18,6 +18,8 @@ namespace durer {
 namespace tiles {
 
 constexpr int kTileSize = 8;  // 8x8 pixels = one packet of kPacketSize rays per sample
+// The shortest mean of a pixel's unit hit normals (relative to the hits) taken as a direction (2^-10).
+constexpr double kMinMeanNormal = 1.0 / 1024;
 static_assert(kTileSize * kTileSize == kPacketSize, "a tile is one packet");
 
 inline RenderSettings::Region regionOf(const RenderSettings& s) {
@@ -97,18 +99,32 @@ class TileRenderer {
     alignas(64) Real r[kPacketSize], g[kPacketSize], b[kPacketSize], a[kPacketSize];  // colour sums
     alignas(64) Real depth[kPacketSize];                                          // nearest t
     alignas(64) Real nx[kPacketSize], ny[kPacketSize], nz[kPacketSize];           // normal sums
+    alignas(64) Real hits[kPacketSize];                                           // samples that hit
+    alignas(64) Real nearestT[kPacketSize];                                       // t of the nearest hit sample
+    alignas(64) Real fx[kPacketSize], fy[kPacketSize], fz[kPacketSize];           // and its normal
     alignas(64) Real samples[kPacketSize];                                        // samples taken
     void clear(int count) {
       for (int k = 0; k < count; ++k) {
-        r[k] = g[k] = b[k] = a[k] = nx[k] = ny[k] = nz[k] = samples[k] = 0;
-        depth[k] = std::numeric_limits<Real>::infinity();
+        r[k] = g[k] = b[k] = a[k] = nx[k] = ny[k] = nz[k] = hits[k] = fx[k] = fy[k] = fz[k] = samples[k] = 0;
+        depth[k] = nearestT[k] = std::numeric_limits<Real>::infinity();
       }
+    }
+    // Adds one hit sample's unit normal, at t along its ray, to pixel k (branch-free: `hit` false adds nothing).
+    void addNormal(int k, bool hit, Real t, Real x, Real y, Real z) {
+      const Real weight = hit ? Real(1) : Real(0);
+      nx[k] += x * weight, ny[k] += y * weight, nz[k] += z * weight, hits[k] += weight;
+      const bool nearer = hit & (t < nearestT[k]);
+      nearestT[k] = nearer ? t : nearestT[k];
+      fx[k] = nearer ? x : fx[k], fy[k] = nearer ? y : fy[k], fz[k] = nearer ? z : fz[k];
     }
     // Adds entry j of `other` (one sample's values) to pixel k.
     void add(int k, const Accumulator& other, int j) {
       r[k] += other.r[j], g[k] += other.g[j], b[k] += other.b[j], a[k] += other.a[j];
-      nx[k] += other.nx[j], ny[k] += other.ny[j], nz[k] += other.nz[j];
+      nx[k] += other.nx[j], ny[k] += other.ny[j], nz[k] += other.nz[j], hits[k] += other.hits[j];
       depth[k] = std::min(depth[k], other.depth[j]);
+      if (other.nearestT[j] < nearestT[k]) {
+        nearestT[k] = other.nearestT[j], fx[k] = other.fx[j], fy[k] = other.fy[j], fz[k] = other.fz[j];
+      }
     }
   };
 
@@ -219,9 +235,7 @@ class TileRenderer {
       if (!hits[k].isHit()) continue;
       acc.depth[k] = std::min(acc.depth[k], m_planarDepth ? hits[k].t * planarScale(packet, k) : hits[k].t);
       const Vec3<Real> n = m_shader.shadingNormal(hits[k], Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]));
-      acc.nx[k] += n.x;
-      acc.ny[k] += n.y;
-      acc.nz[k] += n.z;
+      acc.addNormal(k, true, hits[k].t, n.x, n.y, n.z);
     }
     alignas(64) Vec3<Real> rgb[kPacketSize];
     alignas(64) Real weights[kPacketSize];
@@ -244,24 +258,23 @@ class TileRenderer {
         const bool isSphere = (prim >= 0) & (prim < sphereCount);
         const Sphere<Real>& s = sphere[isSphere ? prim : 0];
         const Real t = isSphere ? packet.tHit[k] : Real(0);  // a miss's t is tMax, maybe inf
-        const Real vx = packet.ox[k] + t * packet.dx[k] - s.center.x;
-        const Real vy = packet.oy[k] + t * packet.dy[k] - s.center.y;
-        const Real vz = packet.oz[k] + t * packet.dz[k] - s.center.z;
+        // As SphereSet::normal: p - c scaled by a power of two, -d where it is 0 or subnormal.
+        const Vec3<Real> v = wellScaled(Vec3<Real>(packet.ox[k] + t * packet.dx[k] - s.center.x,
+                                                   packet.oy[k] + t * packet.dy[k] - s.center.y,
+                                                   packet.oz[k] + t * packet.dz[k] - s.center.z),
+                                        -Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]));
+        const Real vx = v.x, vy = v.y, vz = v.z;
         const Real side = facingSign(vx * packet.dx[k] + vy * packet.dy[k] + vz * packet.dz[k], m_shadeBack);
         const Real length = std::sqrt(vx * vx + vy * vy + vz * vz);
         const Real scale = isSphere ? side / length : Real(0);
-        acc.nx[k] += vx * scale;
-        acc.ny[k] += vy * scale;
-        acc.nz[k] += vz * scale;
+        acc.addNormal(k, isSphere, packet.tHit[k], vx * scale, vy * scale, vz * scale);
       }
     }
     for (int k = 0; k < packet.count; ++k) {
       if (packet.prim[k] < sphereCount) continue;
       const Vec3<Real> n =
           shadingNormal(m_group.hit(packet, k).normal, Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]), m_shadeBack);
-      acc.nx[k] += n.x;
-      acc.ny[k] += n.y;
-      acc.nz[k] += n.z;
+      acc.addNormal(k, packet.prim[k] != kNoPrimitive, packet.tHit[k], n.x, n.y, n.z);
     }
   }
 
@@ -306,12 +319,14 @@ class TileRenderer {
       }
       if (m_targets.color) {
         float* out = m_targets.color + 4 * first;
+        // A pixel brighter than float32 holds saturates at its largest number (the sums never hold NaN).
+        const Real brightest = std::numeric_limits<float>::max();
         for (int col = 0; col < w; ++col) {
           const int k = k0 + col;
           const Real invSpp = 1 / acc.samples[k];
-          out[4 * col + 0] = static_cast<float>(acc.r[k] * invSpp);
-          out[4 * col + 1] = static_cast<float>(acc.g[k] * invSpp);
-          out[4 * col + 2] = static_cast<float>(acc.b[k] * invSpp);
+          out[4 * col + 0] = static_cast<float>(std::min(acc.r[k] * invSpp, brightest));
+          out[4 * col + 1] = static_cast<float>(std::min(acc.g[k] * invSpp, brightest));
+          out[4 * col + 2] = static_cast<float>(std::min(acc.b[k] * invSpp, brightest));
           out[4 * col + 3] = static_cast<float>(acc.a[k] * invSpp);
         }
       }
@@ -323,12 +338,15 @@ class TileRenderer {
         float* out = m_targets.normal + 3 * first;
         for (int col = 0; col < w; ++col) {
           const int k = k0 + col;
-          // One sample's normal is unit already; a mean of several is renormalised (0 stays 0).
+          // One sample's normal is unit already; a mean of several is renormalised. Where the hit
+          // samples' normals (nearly) cancel -- a thin wall seen from both sides within one pixel --
+          // the mean has no direction, and the nearest hit sample's normal stands in (0 on a miss).
           const Real length = acc.samples[k] == 1 ? 1 : std::sqrt(acc.nx[k] * acc.nx[k] + acc.ny[k] * acc.ny[k] + acc.nz[k] * acc.nz[k]);
-          const Real scale = length > 0 ? 1 / length : 0;
-          out[3 * col + 0] = static_cast<float>(acc.nx[k] * scale);
-          out[3 * col + 1] = static_cast<float>(acc.ny[k] * scale);
-          out[3 * col + 2] = static_cast<float>(acc.nz[k] * scale);
+          const bool directed = length > static_cast<Real>(kMinMeanNormal) * acc.hits[k];
+          const Real scale = directed ? 1 / length : 0;
+          out[3 * col + 0] = static_cast<float>(directed ? acc.nx[k] * scale : acc.fx[k]);
+          out[3 * col + 1] = static_cast<float>(directed ? acc.ny[k] * scale : acc.fy[k]);
+          out[3 * col + 2] = static_cast<float>(directed ? acc.nz[k] * scale : acc.fz[k]);
         }
       }
     }

@@ -3,10 +3,12 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <vector>
 
 #include "durer/accel/Group.h"
 #include "durer/scene/Light.h"
+#include "durer/scene/Limits.h"
 #include "durer/scene/Material.h"
 #include "durer/Options.h"
 #include "durer/math/Vec.h"
@@ -83,6 +85,12 @@ class Scene {
   bool hasLights() const { return !m_directionalLights.empty() || !m_pointLights.empty() || !m_spotLights.empty(); }
   // Whether hits are shaded with lights (Lit) or take their flat colour.
   bool lit() const { return m_shading == ShadingMode::Lit || (m_shading == ShadingMode::Auto && hasLights()); }
+  // Throws std::invalid_argument naming the field unless every coordinate fits `limits` (the adds
+  // checked the widest precision's), and every transform's object space, holding the scene and rays
+  // whose origins reach rayReach (largest |coordinate|), does too.
+  void requireFits(const NumericLimits& limits, double rayReach) const;
+  // " (precision='double'; 'float': ±1e+18)": what an add's coordinate error adds to its message.
+  static std::string widestLimitsNote();
 
  private:
   void requireMaterial(int32_t material, const char* field) const;
@@ -92,6 +100,16 @@ class Scene {
   // The group objects seen through worldFromObject go into (validated first); the world if null or identity.
   Group<double>& groupFor(const Affined* worldFromObject);
   static void requireTransform(const Affined* worldFromObject);
+  // An add's largest |coordinate| (object space) and the field it came from: checked against the
+  // widest limits, in world space too under worldFromObject, before the add changes anything;
+  // recorded by noteReach once it has.
+  struct Reach {
+    double magnitude = 0;  // object space included: what the kernels see
+    std::string field;
+    double world = 0;      // where it lands in world space
+  };
+  static Reach requireReach(double magnitude, std::string field, const Affined* worldFromObject);
+  void noteReach(const Reach& reach);
 
   // Drops the prepared geometry and holds the lock while the caller changes m_group.
   std::unique_lock<std::mutex> changeGeometry();
@@ -102,6 +120,8 @@ class Scene {
     size_t count;
     Group<double>* group;
     size_t start;
+    bool transformed;         // the group is a transformed one, seen through:
+    Affined worldFromObject;
   };
   // Geometry as traced in one precision, and whether spheres have moved since it was made.
   template <typename Real>
@@ -124,6 +144,7 @@ class Scene {
   Vec4d m_background{0, 0, 0, 1};
   Vec3d m_ambient{0};
   int32_t m_objectCount = 0;
+  Reach m_reach;  // the largest of every add's (world: the largest world reach)
 };
 
 }  // namespace durer

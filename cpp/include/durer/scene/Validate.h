@@ -11,7 +11,11 @@ void requireFinite(double value, const std::string& field);
 void requireFinite(const Vec3d& value, const std::string& field);
 void requirePositive(double value, const std::string& field);  // finite and > 0
 void requireNonZero(const Vec3d& value, const std::string& field);  // finite and of non-zero length
-void requireNonNegativeColor(const Vec3d& value, const std::string& field);  // finite, each >= 0
+void requireNonNegativeColor(const Vec3d& value, const std::string& field);  // finite, each in [0, color limit]
+// largest (a colour's largest channel, or a scalar) <= the colour limit (Limits.h); `shown`: the value as given.
+void requireColorWithin(double largest, const std::string& field, const std::string& shown);
+// |every component| <= limit (finite): else "<field> must lie within ±limit<where>, got <value>".
+void requireWithin(double magnitude, double limit, const std::string& field, const std::string& where = "");
 void requireRange(double tMin, double tMax, const std::string& minField, const std::string& maxField);
 [[noreturn]] void fail(const std::string& message);
 
