@@ -179,18 +179,32 @@ void Scene::moveSpheres(const int32_t* ids, const double* centers, const double*
     radii = kept.data();
   }
   requireSpheres(centers, radii, count);
-  std::vector<Reach> placed;  // each sphere's, through its group's transform
+  // The farthest moved sphere of each run (a few runs: one per add), checked through its transform.
+  struct Farthest {
+    const SphereRun* run;
+    double extent;
+    size_t index;
+  };
+  std::vector<Farthest> farthest;
   for (size_t i = 0; i < count; ++i) {
-    const SphereRun& run = *targets[i].first;
     const double extent = maxAbs(Vec3d(centers[3 * i], centers[3 * i + 1], centers[3 * i + 2])) + radii[i];
-    placed.push_back(requireReach(extent, sphereField(i), run.transformed ? &run.worldFromObject : nullptr));
+    auto f = std::find_if(farthest.begin(), farthest.end(), [&](const Farthest& x) { return x.run == targets[i].first; });
+    if (f == farthest.end()) {
+      farthest.push_back({targets[i].first, extent, i});
+    } else if (extent > f->extent) {
+      f->extent = extent, f->index = i;
+    }
+  }
+  std::vector<Reach> placed;
+  for (const Farthest& f : farthest) {
+    placed.push_back(requireReach(f.extent, sphereField(f.index), f.run->transformed ? &f.run->worldFromObject : nullptr));
   }
   std::lock_guard<std::mutex> lock(m_preparedMutex);
   for (size_t i = 0; i < count; ++i) {
     const Vec3d c(centers[3 * i], centers[3 * i + 1], centers[3 * i + 2]);
     targets[i].first->group->spheres().setSphere(targets[i].second, {c, radii[i]});
-    noteReach(placed[i]);
   }
+  for (const Reach& reach : placed) noteReach(reach);
   m_preparedFloat.moved = m_preparedDouble.moved = true;
 }
 
