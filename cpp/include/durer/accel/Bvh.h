@@ -23,12 +23,15 @@
 
 namespace durer {
 
+// The children's boxes are single precision in both precisions' trees, rounded outward (so still
+// bounds): a double ray's slab test reads them exactly as doubles. A node is then two cache lines,
+// not four, for double traversal too.
 template <typename Real>
 struct alignas(64) BvhNode {
   static constexpr int kWidth = 4;
-  Real bounds[2][3][kWidth];  // [lo, hi][axis][child]: the children's boxes, rounded outward
-  int32_t child[kWidth];      // inner child: its node index; leaf: its first primitive; empty slot: -1
-  int32_t count[kWidth];      // leaf: its primitives (> 0); inner child and empty slot: 0
+  float bounds[2][3][kWidth];  // [lo, hi][axis][child]: the children's boxes, rounded outward
+  int32_t child[kWidth];       // inner child: its node index; leaf: its first primitive; empty slot: -1
+  int32_t count[kWidth];       // leaf: its primitives (> 0); inner child and empty slot: 0
 };
 
 // One ray as the traversal sees it, set up once per ray: origin, reciprocal direction, which bound
@@ -201,10 +204,11 @@ class Bvh {
   // The four children's lanes as one SIMD vector (GCC/Clang vector extensions: SSE for float, AVX
   // for double where the kernel set has it, two SSE halves otherwise).
   using Lanes = typename NodeLanes<Real>::Type;
-  static Lanes load(const Real* p) {
-    Lanes v;
+  // A node's four bounds of one axis, in Real's lanes (exact: every float is a double).
+  static Lanes load(const float* p) {
+    typename NodeLanes<float>::Type v;
     std::memcpy(&v, p, sizeof v);
-    return v;
+    return __builtin_convertvector(v, Lanes);
   }
   static Lanes broadcast(Real x) { return Lanes{} + x; }
 
@@ -351,7 +355,7 @@ class Bvh {
       }
     }
     const BvhNode<Real>& root = m_nodes.front();
-    Real lo[3], hi[3];
+    float lo[3], hi[3];
     for (int a = 0; a < 3; ++a) {
       lo[a] = root.bounds[0][a][0], hi[a] = root.bounds[1][a][0];
       for (int s = 1; s < BvhNode<Real>::kWidth; ++s) {
@@ -702,8 +706,8 @@ std::vector<uint32_t> Bvh<Real>::build(size_t count, const BoxOf& boxOf, int thr
     BvhNode<Real> wide;
     for (int s = 0; s < 4; ++s) {
       for (int a = 0; a < 3; ++a) {
-        wide.bounds[0][a][s] = s == 0 ? root.box.lower(a) : std::numeric_limits<Real>::infinity();
-        wide.bounds[1][a][s] = s == 0 ? root.box.upper(a) : -std::numeric_limits<Real>::infinity();
+        wide.bounds[0][a][s] = s == 0 ? root.box.lower(a) : std::numeric_limits<float>::infinity();
+        wide.bounds[1][a][s] = s == 0 ? root.box.upper(a) : -std::numeric_limits<float>::infinity();
       }
       wide.child[s] = s == 0 ? 0 : -1;
       wide.count[s] = s == 0 ? static_cast<int32_t>(root.count) : 0;
@@ -742,7 +746,7 @@ double Bvh<Real>::refit(const BoxOf& boxOf) {
           hi = glm::max(hi, Vec3<Real>(c.bounds[1][0][cs], c.bounds[1][1][cs], c.bounds[1][2][cs]));
         }
       }
-      for (int a = 0; a < 3; ++a) n.bounds[0][a][s] = lo[a], n.bounds[1][a][s] = hi[a];
+      for (int a = 0; a < 3; ++a) n.bounds[0][a][s] = toRealDown<float>(lo[a]), n.bounds[1][a][s] = toRealUp<float>(hi[a]);
     }
   }
   return m_builtCost > 0 ? sahCost() / m_builtCost : 1;
