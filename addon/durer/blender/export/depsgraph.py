@@ -23,10 +23,10 @@ _NOT_RENDERED = {"CAMERA", "ARMATURE", "LATTICE", "SPEAKER", "LIGHT_PROBE"}
 _SPHERE_MODES = {"AUTO", "SPHERE"}
 
 
-def _durer_settings(obj):
+def _durer_settings(obj, original):
     """object.durer of the original object (evaluated copies can hold stale values; geometry
     instances made by geometry nodes report their instancer as original)."""
-    return getattr(obj.original or obj, "durer", None)
+    return getattr(original or obj, "durer", None)
 
 
 def _pointcloud(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
@@ -188,15 +188,17 @@ def export_depsgraph(depsgraph, camera=None) -> SceneData:
         if kind == "LIGHT":
             _light(b, obj, world_matrix(inst.matrix_world))
             continue
-        settings = _durer_settings(obj)
+        original = obj.original  # read once: the walk's per-instance cost is in such reads
+        settings = _durer_settings(obj, original)
         mode = settings.primitive if settings is not None else "AUTO"
-        infinite = bool(settings.infinite_plane) if settings is not None else False
         if mode == "IGNORE":
             continue
-        if kind == "MESH" and obj.original is not None and obj.original.type in _CONVERTED_TYPES:
-            continue  # the mesh Blender made of a curve, text, surface or metaball: handled as that
-        if kind == "MESH" and inst.is_instance and mode in _SPHERE_MODES and batches.take(inst, obj, mode, infinite):
-            continue
+        if kind == "MESH":
+            if original is not None and original.type in _CONVERTED_TYPES:
+                continue  # the mesh Blender made of a curve, text, surface or metaball: handled as that
+            if inst.is_instance and mode in _SPHERE_MODES and batches.take(inst, obj, original, mode):
+                continue
+        infinite = bool(settings.infinite_plane) if settings is not None else False
         convert = CONVERTERS.get(kind)
         if convert is not None:
             convert(b, obj, world_matrix(inst.matrix_world), mode, infinite)

@@ -29,12 +29,11 @@ class InstanceBatches:
         self.builder = builder
         self.batches: dict[tuple, _Batch] = {}
 
-    def take(self, inst, obj, mode: str, infinite: bool) -> bool:
-        """Keep instance `inst` (of mesh object `obj`) for `finish` if its mesh is a sphere; False
-        if it is not (the caller exports it as before). The instance's data is only valid during
-        the walk: what a batch needs of it is read now."""
-        original = obj.original
-        key = (obj.data.as_pointer(), original.as_pointer() if original is not None else 0, mode, infinite)
+    def take(self, inst, obj, original, mode: str) -> bool:
+        """Keep instance `inst` (of mesh object `obj`, whose original is `original`) for `finish`
+        if its mesh is a sphere; False if it is not (the caller exports it as before). The
+        instance's data is only valid during the walk: what a batch needs of it is read now."""
+        key = (obj.data.as_pointer(), original.as_pointer() if original is not None else 0, mode)
         batch = self.batches.get(key)
         if batch is None:
             batch = self.batches[key] = self._batch(obj, mode)
