@@ -67,3 +67,30 @@ def test_collection_instances_with_a_squashed_one_and_instanced_cubes(scene):
     point_cloud.instance_on_points(points, box)
     data = export(scene)
     assert data.sphere_count == 2 and len(data.meshes) == 20 and data.triangle_count == 20 * 12
+
+
+def test_an_instancer_inside_instanced_collections_gives_each_copy_its_spheres(scene):
+    """The bulk path reads an instancer's own instance transforms; a collection instance of that
+    instancer must still give its copy of the spheres, where the copy is."""
+    from helpers.blender import material
+
+    collection = bpy.data.collections.new("Cloud")
+    points = point_cloud.vertex_object(collection, "Points", np.random.default_rng(2).uniform(-1, 1, (50, 3)))
+    ball = uv_sphere(scene, "Ball", radius=0.1)
+    ball.data.materials.append(material("Red", (0.9, 0.1, 0.1)))
+    ball.hide_render = ball.hide_viewport = True
+    point_cloud.instance_on_points(points, ball, rotate=False)
+    for i, x in enumerate((-5.0, 5.0)):
+        empty = link(scene, bpy.data.objects.new(f"Copy {i}", None))
+        empty.instance_type, empty.instance_collection = "COLLECTION", collection
+        empty.location = (x, 0, 0)
+    data = export(scene)
+    assert data.sphere_count == 100
+    left = data.sphere_centers[:, 0] < 0
+    assert left.sum() == 50
+    np.testing.assert_allclose(np.sort(data.sphere_centers[left][:, 1]), np.sort(data.sphere_centers[~left][:, 1]))
+    scene.collection.children.link(collection)  # the instancer itself in the scene too: its 50 more
+    data = export(scene)
+    assert data.sphere_count == 150
+    red = [i for i, m in enumerate(data.materials) if np.allclose(m.diffuse, (0.9, 0.1, 0.1), atol=1e-6)]
+    assert len(red) == 1 and (data.sphere_materials == red[0]).all()

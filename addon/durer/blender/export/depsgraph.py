@@ -193,10 +193,15 @@ def export_depsgraph(depsgraph, camera=None) -> SceneData:
         mode = settings.primitive if settings is not None else "AUTO"
         if mode == "IGNORE":
             continue
+        is_instance = inst.is_instance
+        if is_instance and batches.instancers and inst.parent.as_pointer() in batches.instancers:
+            continue  # made in bulk with its instancer
+        if not is_instance and mode in _SPHERE_MODES:
+            batches.take_instancer(obj, mode)
         if kind == "MESH":
             if original is not None and original.type in _CONVERTED_TYPES:
                 continue  # the mesh Blender made of a curve, text, surface or metaball: handled as that
-            if inst.is_instance and mode in _SPHERE_MODES and batches.take(inst, obj, original, mode):
+            if is_instance and mode in _SPHERE_MODES and batches.take(inst, obj, original, mode):
                 continue
         infinite = bool(settings.infinite_plane) if settings is not None else False
         convert = CONVERTERS.get(kind)
