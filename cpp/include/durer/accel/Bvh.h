@@ -612,6 +612,12 @@ struct Bvh<Real>::Builder {
     void add(int i, const Box& box) {
       lo[i] = box.lo < lo[i] ? box.lo : lo[i], hi[i] = box.hi > hi[i] ? box.hi : hi[i], ++count[i];
     }
+    void merge(const Bins& other, int bins) {
+      for (int i = 0; i < bins; ++i) {
+        lo[i] = other.lo[i] < lo[i] ? other.lo[i] : lo[i], hi[i] = other.hi[i] > hi[i] ? other.hi[i] : hi[i];
+        count[i] += other.count[i];
+      }
+    }
   };
 
   // Large ranges: two sets of bins, for even and odd refs, so that neighbours (often in the same
@@ -625,7 +631,7 @@ struct Bvh<Real>::Builder {
       odd.add(binOf(lane(refs[i + 1].centroid(), axis), lo, scale, bins), refs[i + 1].box);
     }
     if (i < end) out.add(binOf(lane(refs[i].centroid(), axis), lo, scale, bins), refs[i].box);
-    for (int b = 0; b < bins; ++b) out.add(b, Box{odd.lo[b], odd.hi[b]}), out.count[b] += odd.count[b] - 1;
+    out.merge(odd, bins);
   }
 
   // Small ranges: each ref's three bins from one vector of its centre.
