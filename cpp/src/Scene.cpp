@@ -268,16 +268,16 @@ Triangle<double> makeTriangle(const Vec3d& v0, const Vec3d& v1, const Vec3d& v2)
 
 Vec3d vec3At(const double* p, size_t i) { return Vec3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]); }
 
-// The index of the point (of `count`) farthest from 0 by its largest |coordinate|; a point beyond
-// the widest coordinate limit is an error naming field(i).
-template <typename Field>
-size_t farthestPoint(const double* points, size_t count, const Field& field) {
+// The index of the point point(i) (of `count`) farthest from 0 by its largest |coordinate|; a point
+// beyond the widest coordinate limit is an error naming field(i).
+template <typename Point, typename Field>
+size_t farthestPoint(size_t count, const Point& point, const Field& field) {
   const double limit = widestLimits().coordinate;
   size_t farthest = 0;
   for (size_t i = 0; i < count; ++i) {
-    const double extent = maxAbs(vec3At(points, i));
+    const double extent = maxAbs(point(i));
     if (extent > limit) requireWithin(extent, limit, field(i), Scene::widestLimitsNote());
-    if (extent > maxAbs(vec3At(points, farthest))) farthest = i;
+    if (extent > maxAbs(point(farthest))) farthest = i;
   }
   return farthest;
 }
@@ -291,7 +291,7 @@ int32_t Scene::addTriangles(const double* vertices, const int32_t* materials, si
     const Vec3d v = vec3At(vertices, i);
     if (!(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z))) requireFinite(v, field(i));
   }
-  const size_t farthest = farthestPoint(vertices, 3 * count, field);
+  const size_t farthest = farthestPoint(3 * count, [&](size_t i) { return vec3At(vertices, i); }, field);
   requireMaterials(materials, count, perTriangle);
   requirePrimitiveRoom(count);
   const Reach placed = requireReach(count ? maxAbs(vec3At(vertices, farthest)) : 0, field(farthest), worldFromObject);
@@ -315,7 +315,7 @@ int32_t Scene::addMesh(const double* vertices, size_t vertexCount, const int64_t
     const Vec3d v = vec3At(vertices, i);
     if (!(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z))) requireFinite(v, field(i));
   }
-  const size_t farthest = farthestPoint(vertices, vertexCount, field);
+  const size_t farthest = farthestPoint(vertexCount, [&](size_t i) { return vec3At(vertices, i); }, field);
   for (size_t i = 0; i < 3 * faceCount; ++i) {
     if (faces[i] < 0 || static_cast<uint64_t>(faces[i]) >= vertexCount) {
       fail("faces[" + std::to_string(i / 3) + "][" + std::to_string(i % 3) + "] = " + std::to_string(faces[i]) +
@@ -353,12 +353,7 @@ int32_t Scene::addBoxes(const double* lo, const double* hi, const int32_t* mater
   }
   const auto field = [](size_t i) { return (i % 2 ? "hi[" : "lo[") + std::to_string(i / 2) + "]"; };
   const auto corner = [&](size_t i) { return vec3At(i % 2 ? hi : lo, i / 2); };
-  size_t farthest = 0;
-  for (size_t i = 0; i < 2 * count; ++i) {
-    const double extent = maxAbs(corner(i));
-    if (extent > widestLimits().coordinate) requireWithin(extent, widestLimits().coordinate, field(i), widestLimitsNote());
-    if (extent > maxAbs(corner(farthest))) farthest = i;
-  }
+  const size_t farthest = farthestPoint(2 * count, corner, field);
   requireMaterials(materials, count, perBox);
   requirePrimitiveRoom(count);
   const Reach placed = requireReach(count ? maxAbs(corner(farthest)) : 0, field(farthest), worldFromObject);
