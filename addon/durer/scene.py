@@ -90,10 +90,7 @@ class Scene:
         given = centers
         centers = _checks.float_array(centers, "centers", (None, 3))
         n = centers.shape[0]
-        radii_array = _checks._numeric_array(radii, "radii")
-        if radii_array.ndim == 0:
-            radii_array = np.full(n, radii_array, dtype=np.float64)
-        radii_array = _checks.float_array(radii_array, "radii", (n,), finite=False)  # the core checks > 0
+        radii_array = _radii(radii, n)
         materials = _material_ids(material, n)
         matrix = _owned(_checks.transform(transform), transform)
         if n == 0:
@@ -114,12 +111,7 @@ class Scene:
         id_array = _int32_array(ids, "ids")
         n = id_array.shape[0]
         centers = _checks.float_array(centers, "centers", (n, 3))
-        radii_array = None
-        if radii is not None:
-            radii_array = _checks._numeric_array(radii, "radii")
-            if radii_array.ndim == 0:
-                radii_array = np.full(n, radii_array, dtype=np.float64)
-            radii_array = _owned(_checks.float_array(radii_array, "radii", (n,), finite=False), radii)
+        radii_array = None if radii is None else _owned(_radii(radii, n), radii)
         if n == 0:
             return
         self._add("move_spheres", _owned(id_array, ids), _owned(centers, given), radii_array)
@@ -355,6 +347,14 @@ def _superseded(add: tuple[str, tuple[Any, ...], dict[str, Any]], move: tuple[st
     method, args, _ = add
     return (method == "move_spheres" and np.array_equal(args[0], move[1][0])
             and (move[1][2] is not None or args[2] is None))
+
+
+def _radii(radii: Any, n: int) -> np.ndarray:
+    """(n,) float64 radii from (n,) values or one for all (the core checks they are finite and > 0)."""
+    array = _checks._numeric_array(radii, "radii")
+    if array.ndim == 0:
+        array = np.full(n, array, dtype=np.float64)
+    return _checks.float_array(array, "radii", (n,), finite=False)
 
 
 def _int32_array(value: Any, name: str) -> np.ndarray:
