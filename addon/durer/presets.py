@@ -14,8 +14,9 @@ PRESETS: dict[str, dict[str, Any]] = {
     "draft": {"sampler": "center", "spp": 1, "precision": "float"},
     # A few stratified samples: edges already smooth.
     "preview": {"sampler": "stratified", "spp": 4, "precision": "float"},
-    # Samples where they matter: up to 64 per pixel, flat regions stop at 4.
-    "final": {"sampler": "adaptive", "spp": 64, "target_error": 0.005, "precision": "double"},
+    # Samples where they matter: 8 per pixel first (enough not to miss what is a few pixels across),
+    # then up to 64 where the estimated error or an edge asks for them.
+    "final": {"sampler": "adaptive", "spp": 64, "min_spp": 8, "target_error": 0.005, "precision": "double"},
     # Converged: what the others are measured against.
     "reference": {"sampler": "stratified", "spp": 1024, "precision": "double"},
 }

@@ -49,6 +49,7 @@ class RenderResult:
     normal: np.ndarray | None
     stats: dict[str, Any] = field(default_factory=dict)
     samples: np.ndarray | None = None  # (H, W) int32 samples per pixel, with sampler="adaptive"
+    error: np.ndarray | None = None    # (H, W) float32 estimated RMS colour error per pixel, with sampler="adaptive"
 
 
 class RenderCancelled(Exception):
@@ -96,6 +97,8 @@ def render(
     seed: int = 0,
     sampler: str = "stratified",
     target_error: float = 0.01,
+    min_spp: int = 4,
+    time_limit: float | None = None,
     precision: str = "double",
     sphere_method: str = "robust",
     passes: Iterable[str] = PASSES,
@@ -152,29 +155,34 @@ def render(
     for value, name in ((sampler, "sampler"), (precision, "precision"), (sphere_method, "sphere_method"), (depth, "depth")):
         _checks.string(value, name)
     target_error = _checks.real(target_error, "target_error")
+    min_spp = _checks.c_int(min_spp, "min_spp")
+    time_limit = 0.0 if time_limit is None else _checks.real(time_limit, "time_limit")
     wanted = _pass_names(passes)
     shade_back = _checks.boolean(shade_back, "shade_back")
     max_bounces = _checks.c_int(max_bounces, "max_bounces")
     min_weight = _checks.real(min_weight, "min_weight")
-    box = region_argument(region, width, height, sampler)
+    box = region_argument(region, width, height)
     poll = poll_function(progress, cancel)
     if out is not None and not isinstance(out, RenderResult):
         raise TypeError(f"out must be a RenderResult or None, got {type(out).__name__}")
     buffers = {} if out is None else {"color": out.color, "depth": out.depth, "normal": out.normal}
     out = _core.render(
-        scene._core, camera._spec, width, height, spp, seed, sampler, target_error, precision, sphere_method,
+        scene._core, camera._spec, width, height, spp, seed, sampler, target_error, min_spp, time_limit, precision,
+        sphere_method,
         wanted, depth, threads_argument(threads), shade_back, max_bounces, min_weight, poll, buffers, box,
     )
     stats = dict(out["stats"])
     seconds = stats["milliseconds"] / 1000
     stats.update(
-        width=width, height=height, spp=spp, sampler=sampler, samples=stats["rays"], precision=precision,
+        width=width, height=height, spp=spp, sampler=sampler, precision=precision,
+        samples=int(out["samples"].sum(dtype=np.int64)) if "samples" in out else stats["rays"],
         sphere_method=sphere_method, depth=depth,
         passes=tuple(p for p in PASSES if p in wanted), region=box if box[2] else None,
         requested_rays=(box[2] * box[3] if box[2] else width * height) * spp,
         mrays_per_s=stats["rays"] / seconds / 1e6 if seconds > 0 else float("inf"),
     )
-    result = RenderResult(out.get("color"), out.get("depth"), out.get("normal"), stats, out.get("samples"))
+    result = RenderResult(out.get("color"), out.get("depth"), out.get("normal"), stats, out.get("samples"),
+                          out.get("error"))
     if stats["cancelled"]:
         raise RenderCancelled(result)
     if progress is not None:
@@ -182,13 +190,7 @@ def render(
     return result
 
 
-#: The core's tile edge in pixels: adaptive sampling looks at a pixel's neighbours within its tile.
-TILE_GRID = 8
-
-
-def region_argument(
-    region: tuple[int, int, int, int] | None, width: int, height: int, sampler: str
-) -> tuple[int, int, int, int]:
+def region_argument(region: tuple[int, int, int, int] | None, width: int, height: int) -> tuple[int, int, int, int]:
     """The core's region: (x, y, w, h) inside the image, or (0, 0, 0, 0) for the whole image."""
     if region is None:
         return (0, 0, 0, 0)
@@ -198,11 +200,6 @@ def region_argument(
         raise ValueError(f"region must be (x, y, width, height), got {region!r}") from None
     x, y = _checks.integer(x, "region x", 0, width - 1), _checks.integer(y, "region y", 0, height - 1)
     w, h = _checks.integer(w, "region width", 1, width - x), _checks.integer(h, "region height", 1, height - y)
-    if sampler == "adaptive":
-        for name, start, end, size in (("x", x, x + w, width), ("y", y, y + h, height)):
-            if start % TILE_GRID or (end % TILE_GRID and end != size):
-                raise ValueError(f"region {name} edges must be multiples of {TILE_GRID} (or the image edge) with "
-                                 f"sampler='adaptive', got {start}..{end}")
     return (x, y, w, h)
 
 

@@ -172,7 +172,8 @@ float* target(const py::dict& out, const char* name, bool wanted, std::vector<py
 }
 
 py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int height, int spp, uint64_t seed,
-                  const std::string& sampler, double targetError, const std::string& precision,
+                  const std::string& sampler, double targetError, int minSamples, double timeLimit,
+                  const std::string& precision,
                   const std::string& method, const std::vector<std::string>& passes, const std::string& depthKind,
                   int threads, bool shadeBack, int maxBounces, double minWeight, const py::function& poll,
                   const py::dict& out, const std::array<int, 4>& region) {
@@ -183,6 +184,8 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
   settings.seed = seed;
   settings.sampler = optionNamed(kSamplerNames, sampler, "sampler");
   settings.targetError = targetError;
+  settings.minSamples = minSamples;
+  settings.timeLimit = timeLimit;
   settings.precision = optionNamed(kPrecisionNames, precision, "precision");
   settings.sphereMethod = optionNamed(kSphereMethodNames, method, "sphere_method");
   settings.passes = 0;
@@ -203,8 +206,11 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
   targets.normal = target(out, "normal", settings.passes & kPassNormal, {h, w, 3}, result);
   if (settings.sampler == SamplerKind::Adaptive) {
     py::array_t<int32_t> counts({h, w});
+    py::array_t<float> error({h, w});
     targets.samples = counts.mutable_data();
+    targets.error = error.mutable_data();
     result["samples"] = counts;
+    result["error"] = error;
   }
   JobControl control;
   const RenderStats stats = withoutGil(control, poll, [&](const std::function<void()>& p) {
@@ -224,6 +230,13 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
   s["milliseconds"] = stats.milliseconds;
   s["threads"] = stats.threads;
   s["cancelled"] = stats.cancelled;
+  if (settings.sampler == SamplerKind::Adaptive) {
+    const AdaptiveStats& a = stats.adaptive;
+    s["estimated_rmse"] = a.estimatedRmse;
+    s["estimated_worst"] = a.estimatedWorst;
+    s["rounds"] = a.rounds;
+    s["time_limit_reached"] = a.timeLimitReached;
+  }
   const EffectSet& e = stats.effects;
   py::list effects;
   if (color) effects.append(e.lit ? "diffuse" : "flat");
@@ -426,7 +439,7 @@ PYBIND11_MODULE(_core, m) {
       });
 
   m.def("render", &renderPy, py::arg("scene"), py::arg("camera"), py::arg("width"), py::arg("height"),
-        py::arg("spp"), py::arg("seed"), py::arg("sampler"), py::arg("target_error"), py::arg("precision"), py::arg("sphere_method"), py::arg("passes"),
+        py::arg("spp"), py::arg("seed"), py::arg("sampler"), py::arg("target_error"), py::arg("min_spp"), py::arg("time_limit"), py::arg("precision"), py::arg("sphere_method"), py::arg("passes"),
         py::arg("depth"), py::arg("threads"), py::arg("shade_back"), py::arg("max_bounces"),
         py::arg("min_weight"), py::arg("poll"), py::arg("out"), py::arg("region"));
   m.def("cast", &castPy, py::arg("scene"), py::arg("origins"), py::arg("directions"), py::arg("t_min"),

@@ -104,6 +104,7 @@ def test_presets_set_samples_sampler_target_error_and_precision(scene):
         assert settings.sampler == preset.get("sampler", _default("sampler")).upper()
         assert settings.precision == preset.get("precision", _default("precision")).upper()
         assert np.float32(settings.target_error) == np.float32(preset.get("target_error", _default("target_error")))
+        assert settings.min_samples == preset.get("min_spp", _default("min_spp"))
         assert settings.seed == 7  # not a preset's business
         if "sphere_method" not in preset:
             assert settings.sphere_method == "GEOMETRIC"
@@ -154,7 +155,8 @@ def test_render_panel_rows(scene):
         settings.sampler = sampler
         rows = {name: (label, active) for name, label, active in ui.sampling_rows(settings)}
         assert list(rows)[:3] == ["preset", "samples", "sampler"]
-        assert ("target_error" in rows) == (sampler == "ADAPTIVE")
+        for adaptive_only in ("min_samples", "target_error", "time_limit"):
+            assert (adaptive_only in rows) == (sampler == "ADAPTIVE")
         assert rows["samples"][0] == ("Max Samples" if sampler == "ADAPTIVE" else "Samples")
         assert rows["seed"][1] == (sampler != "CENTER")
         for name in rows:
@@ -167,6 +169,20 @@ def test_stats_line_names_the_sampler():
     line = engine.stats_line(8, 4, 64, {"sampler": "adaptive", "samples": 8 * 4 * 6, "mrays_per_s": 2.0})
     assert line == "Dürer | 8x4 | adaptive ≤ 64 spp (mean 6.0) | 2.0 Mrays/s"
     assert engine.stats_line(8, 4, 2, {}) == "Dürer | 8x4 | 2 spp"  # a core that does not say
+    adaptive = {"sampler": "adaptive", "samples": 8 * 4 * 6, "estimated_rmse": 0.0012, "time_limit_reached": True}
+    assert engine.stats_line(8, 4, 64, adaptive) == "Dürer | 8x4 | adaptive ≤ 64 spp (mean 6.0) | est. error 1.2e-03 (time limit)"
+
+
+def test_min_samples_and_time_limit_reach_the_render(scene):
+    settings = scene.durer
+    settings.sampler = "ADAPTIVE"
+    assert engine.render_kwargs(settings)["time_limit"] is None  # 0: no limit
+    assert engine.render_kwargs(settings)["min_spp"] == _default("min_spp")
+    settings.min_samples, settings.time_limit = 16, 2.5
+    kwargs = engine.render_kwargs(settings)
+    assert (kwargs["min_spp"], kwargs["time_limit"]) == (16, 2.5)
+    settings.time_limit = -1.0  # clamped: a budget is never negative
+    assert settings.time_limit == 0.0
 
 
 def test_settings_survive_save_and_reload(scene, tmp_path):

@@ -12,70 +12,12 @@ import pytest
 
 import durer
 from durer.render import SAMPLERS
+from helpers.coverage import (
+    C, COVERAGE, CUT, SIZE, THETA, WHITE_ON_BLACK, half_plane_scene, pixel_camera, pixel_centres, render_values,
+    vertical_edge_coverage,
+)
 
 FIXED = tuple(s for s in SAMPLERS if s != "adaptive")  # a fixed number of samples per pixel
-WHITE_ON_BLACK = (0.0, 0.0, 0.0, 1.0)
-
-
-# --- scenes with exactly known pixel coverage ---------------------------------------------------
-
-
-def half_plane_scene(theta: float, c: float) -> durer.Scene:
-    """A white half-plane {p in z = 0 : cos(theta)·x + sin(theta)·y >= c} on black, flat colours
-    (no lights): a pixel's exact value is the fraction of it the half-plane covers."""
-    scene = durer.Scene()
-    scene.background = WHITE_ON_BLACK
-    white = scene.add_material((1, 1, 1))
-    n = np.array([math.cos(theta), math.sin(theta), 0.0])
-    d = np.array([-math.sin(theta), math.cos(theta), 0.0])
-    big = 1000.0
-    corner = c * n - big * d
-    scene.add_plane((0, 0, 1), 0.0, material=white, bounds=(corner, 2 * big * d, big * n))
-    return scene
-
-
-def pixel_camera(width: int, height: int) -> durer.OrthographicCamera:
-    """Orthographic, looking down -z, one unit per pixel: pixel (i, j) (column i, row j from the
-    top) spans x in i - W/2 + [0, 1], y in H/2 - j - [1, 0]."""
-    return durer.OrthographicCamera((0, 0, 1), (0, 0, -1), (0, 1, 0), float(max(width, height)))
-
-
-def pixel_centres(width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
-    x = np.arange(width) + 0.5 - width / 2
-    y = height / 2 - np.arange(height) - 0.5
-    return np.meshgrid(x, y)
-
-
-def _ramp_integral(t: np.ndarray) -> np.ndarray:
-    """An antiderivative of clip(t, 0, 1)."""
-    return np.where(t < 0, 0.0, np.where(t <= 1, t * t / 2, t - 0.5))
-
-
-def half_plane_coverage(theta: float, c: float, width: int, height: int) -> np.ndarray:
-    """Exact covered fraction of every pixel (0 < theta < pi/2): for u across the pixel, the covered
-    height is clip(a + b·u, 0, 1), whose integral over u in [-1/2, 1/2] is closed-form."""
-    x, y = pixel_centres(width, height)
-    s, k = math.sin(theta), math.cos(theta)
-    a = 0.5 + y - (c - k * x) / s
-    b = k / s
-    return (_ramp_integral(a + b / 2) - _ramp_integral(a - b / 2)) / b
-
-
-def vertical_edge_coverage(c: float, width: int, height: int) -> np.ndarray:
-    """theta = 0: the half-plane x >= c."""
-    x, _ = pixel_centres(width, height)
-    return np.clip(x + 0.5 - c, 0.0, 1.0)
-
-
-def render_values(scene, width, height, **kwargs) -> np.ndarray:
-    return durer.render(scene, pixel_camera(width, height), width, height, passes="color", **kwargs).color[..., 0]
-
-
-# A tilted edge across a 48 x 48 image: about a hundred pixels with every kind of cut.
-THETA, C, SIZE = 0.6, 0.37, 48
-COVERAGE = half_plane_coverage(THETA, C, SIZE, SIZE)
-COVERAGE[COVERAGE < 1e-9], COVERAGE[COVERAGE > 1 - 1e-9] = 0.0, 1.0  # uncut pixels: exactly 0 or 1
-CUT = (COVERAGE > 0) & (COVERAGE < 1)
 
 
 def test_the_exact_coverage_is_right():
@@ -139,48 +81,44 @@ def test_the_default_sampler_is_stratified():
                                                                sampler="stratified").color)
 
 
-@pytest.mark.parametrize("spp", [1, 2, 3, 4, 6, 9, 16, 64])
-def test_adaptive_sample_counts(spp):
+@pytest.mark.parametrize(("spp", "min_spp"), [(1, 4), (2, 4), (3, 4), (4, 4), (6, 4), (9, 4), (16, 4), (64, 4),
+                                               (64, 1), (64, 3), (16, 16), (5, 8)])
+def test_adaptive_sample_counts(spp, min_spp):
     scene, camera = durer.showcase_scene(small_spheres=20)
-    result = durer.render(scene, camera, 40, 30, spp=spp, sampler="adaptive", target_error=0.01)
+    result = durer.render(scene, camera, 40, 30, spp=spp, sampler="adaptive", target_error=0.01, min_spp=min_spp)
     counts = result.samples
     assert isinstance(counts, np.ndarray) and counts.dtype == np.int32 and counts.shape == (30, 40)
-    first = min(4, spp)
-    assert counts.min() >= first and counts.max() <= spp
-    # The first round, then rounds of 4 more, the last one cut at spp.
-    assert np.all((counts == first) | (counts % 4 == 0) | (counts == spp))
+    first = min(min_spp, spp)
+    # The first pass, then rounds that double a marked pixel's samples, the last one cut at spp.
+    levels = {min(first * 2**r, spp) for r in range(21)}
+    assert set(np.unique(counts)) <= levels
+    assert result.stats["rounds"] == 1 + sum(1 for r in range(21) if first * 2**r < spp)
     assert int(counts.sum()) == result.stats["samples"] == result.stats["rays"]
     assert result.stats["sampler"] == "adaptive"
-    if spp >= 16:  # the showcase has flat sky and silhouettes: both ends are used
-        assert counts.min() == 4 and counts.max() == spp
+    if spp >= 16 and first < spp:  # the showcase has flat sky and silhouettes: both ends are used
+        assert counts.min() == first and counts.max() == spp
 
 
 def test_adaptive_spends_its_samples_on_edges():
-    # A flat-coloured disc (no lights) on black: a pixel entirely inside or outside has identical
-    # samples and stops after the first 4 (or 8: one more round to look for a hidden edge when a
-    # neighbour in its tile saw both); a pixel whose samples see both keeps going to spp.
+    # A flat-coloured disc (no lights) on black. Every pixel the silhouette may cross takes all spp
+    # samples, those whose first samples all missed the edge too (their neighbours differ from them);
+    # pixels more than a pixel and a half away from it have identical samples and neighbours and stop
+    # after the first 4.
     size, spp, radius = 32, 64, 9.3
     scene = durer.Scene()
     scene.background = WHITE_ON_BLACK
     scene.add_spheres([[0.3, -0.2, -50]], [radius], material=scene.add_material((0.9, 0.6, 0.3)))
     result = durer.render(scene, pixel_camera(size, size), size, size, spp=spp, sampler="adaptive")
-    counts, value = result.samples, result.color[..., 0]
+    counts = result.samples
     x, y = pixel_centres(size, size)
-    distance = np.hypot(x - 0.3, y + 0.2) - radius
-    flat = np.abs(distance) > math.sqrt(0.5) + 1e-6  # the silhouette misses the pixel
-    assert flat.sum() > 900
-    assert set(np.unique(counts[flat])) <= {4, 8} and np.mean(counts[flat] == 4) > 0.85
-    assert set(np.unique(counts)) <= {4, 8, spp}
-    mixed = (value > 1e-4) & (value < 0.9 - 1e-4)  # 0.9: the disc's red
-    np.testing.assert_array_equal(counts[mixed], spp)  # samples that disagree are never cut short
-    np.testing.assert_array_equal(counts == spp, mixed)
-    # Pixels the silhouette crosses near their centre are nearly all refined (4 Sobol points are
-    # one per quadrant of the pixel, so they straddle an edge through the middle).
-    through_middle = np.abs(distance) < 0.2
-    assert through_middle.sum() >= 20
-    assert np.mean(counts[through_middle] == spp) >= 0.9
-    assert counts[~flat].mean() > 4 * counts[flat].mean()
-    assert result.stats["samples"] < 0.2 * size * size * spp
+    distance = np.abs(np.hypot(x - 0.3, y + 0.2) - radius)
+    cut = distance <= math.sqrt(0.5)  # the silhouette may cross the pixel
+    far = distance > math.sqrt(0.5) + 1.5
+    assert cut.sum() >= 80 and far.sum() > 700
+    np.testing.assert_array_equal(counts[cut], spp)
+    np.testing.assert_array_equal(counts[far], 4)
+    np.testing.assert_array_equal(result.error[far], 0)  # identical samples: nothing to doubt
+    assert result.stats["samples"] < 0.3 * size * size * spp
 
 
 def test_a_smaller_target_error_never_takes_fewer_samples():

@@ -49,7 +49,7 @@ class RenderInfo:
 def stats_line(width: int, height: int, samples: int, stats: dict, cancelled: bool = False,
                refitted: bool = False) -> str:
     """Blender's stats line after a render: size, samples and sampler (for Adaptive, the maximum and
-    the mean a pixel got), the effects Dürer simulated (the core derives them from the scene: flat,
+    the mean a pixel got, and the RMS error it estimates), the effects Dürer simulated (the core derives them from the scene: flat,
     diffuse, specular, shadows, reflection, refraction), speed, and whether the last frame's scene
     was refitted."""
     sampler = stats.get("sampler")
@@ -66,6 +66,9 @@ def stats_line(width: int, height: int, samples: int, stats: dict, cancelled: bo
     effects = stats.get("effects")
     if effects is not None:
         parts.append(" + ".join(effects) if len(effects) else "depth only")
+    estimate = stats.get("estimated_rmse")
+    if isinstance(estimate, float):
+        parts.append(f"est. error {estimate:.1e}" + (" (time limit)" if stats.get("time_limit_reached") else ""))
     mrays = stats.get("mrays_per_s")
     if isinstance(mrays, (int, float)):
         parts.append(f"{mrays:.1f} Mrays/s")
@@ -123,6 +126,8 @@ def render_kwargs(settings) -> dict:
         "threads": int(settings.threads) or None,
         "sampler": settings.sampler.lower(),
         "target_error": _float32_decimal(settings.target_error),
+        "min_spp": int(settings.min_samples),
+        "time_limit": float(settings.time_limit) or None,
         "max_bounces": int(settings.max_bounces),
         "min_weight": round(float(settings.min_weight), 6),  # the float32 property's 0.01, not 0.0099999998
         # On by default: Cycles shades back faces with the flipped normal (and refraction needs the

@@ -48,8 +48,9 @@ SAMPLER_TEXT = {
     ),
     "adaptive": (
         "Adaptive",
-        "Sobol points, 4 at first, then 4 more at a time while the pixel's samples hit different "
-        "objects or their luminance's standard error exceeds Target Error, up to Samples",
+        "Sobol points, Min Samples at first, then twice as many in rounds for the pixels whose estimated "
+        "error exceeds Target Error or that sit on an edge their own or their neighbours' samples show, "
+        "up to Samples (or until the Time Limit)",
     ),
 }
 #: Label and tooltip of each precision (durer.render.PRECISIONS).
@@ -95,6 +96,7 @@ PRESET_FIELDS = {
     "spp": ("samples", int),
     "sampler": ("sampler", str.upper),
     "target_error": ("target_error", float),
+    "min_spp": ("min_samples", int),
     "precision": ("precision", str.upper),
     "sphere_method": ("sphere_method", str.upper),
 }
@@ -107,7 +109,7 @@ def preset_settings(name: str) -> dict:
     core_name = PRESET_NAMES.get(name)
     if core_name is None:
         return {}
-    defaults = {key: RENDER_DEFAULTS[key] for key in ("spp", "sampler", "target_error", "precision")}
+    defaults = {key: RENDER_DEFAULTS[key] for key in ("spp", "sampler", "target_error", "min_spp", "precision")}
     values = {}
     for key, value in {**defaults, **durer.preset(core_name)}.items():
         if key in PRESET_FIELDS:
@@ -185,6 +187,13 @@ def _option_setting(label: str, description: str, items: list, keyword: str):
     )
 
 
+def _sample_count_setting(label: str, description: str, keyword: str):
+    """A count of samples per pixel (durer.render's `keyword`), starting at its default; editing it
+    makes the preset Custom."""
+    return IntProperty(name=label, description=description, default=RENDER_DEFAULTS[keyword], min=1, soft_max=64,
+                       max=4096, update=_setting_changed)
+
+
 class DurerSceneSettings(bpy.types.PropertyGroup):
     preset: EnumProperty(
         name="Preset",
@@ -194,21 +203,13 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
         default="CUSTOM",
         update=_apply_preset,
     )
-    samples: IntProperty(
-        name="Samples",
-        description="Camera rays per pixel (Adaptive: the most a pixel gets)",
-        default=RENDER_DEFAULTS["spp"],
-        min=1,
-        soft_max=64,
-        max=4096,
-        update=_setting_changed,
-    )
+    samples: _sample_count_setting("Samples", "Camera rays per pixel (Adaptive: the most a pixel gets)", "spp")
     seed: IntProperty(name="Seed", description="Seed of the pixel sampler", default=RENDER_DEFAULTS["seed"], min=0)
     sampler: _option_setting("Sampler", "Where a pixel's rays go", SAMPLER_ITEMS, "sampler")
     target_error: FloatProperty(
         name="Target Error",
-        description="Adaptive: a pixel gets more samples while its samples hit different objects or the "
-        "standard error of their mean luminance exceeds this",
+        description="Adaptive: a pixel gets more samples while the estimated RMS error of its colour "
+        "(or of its neighbourhood's) exceeds this",
         default=RENDER_DEFAULTS["target_error"],
         min=1e-5,
         soft_min=0.001,
@@ -216,6 +217,19 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
         precision=4,
         step=0.1,
         update=_setting_changed,
+    )
+    min_samples: _sample_count_setting(
+        "Min Samples", "Adaptive: samples every pixel takes before any is judged (more finds smaller details)", "min_spp"
+    )
+    time_limit: FloatProperty(
+        name="Time Limit",
+        description="Adaptive: stop refining after this long, the worst tiles refined first (0: no limit); "
+        "the first Min Samples of every pixel are always taken",
+        default=0.0,
+        min=0.0,
+        soft_max=600.0,
+        subtype="TIME_ABSOLUTE",
+        unit="TIME_ABSOLUTE",
     )
     precision: _option_setting(
         "Precision", "Floating-point precision of the intersection arithmetic", PRECISION_ITEMS, "precision"

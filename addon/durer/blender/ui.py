@@ -27,8 +27,8 @@ class _DurerPanel:
 
 def sampling_rows(settings) -> list[tuple[str, str, bool]]:
     """The sampling part of the Render panel as (property, label, active) rows: Preset, Samples
-    ("Max Samples" for Adaptive), Sampler, Target Error (Adaptive only), Seed (inactive for Center,
-    which has no randomness)."""
+    ("Max Samples" for Adaptive), Sampler, Min Samples, Target Error and Time Limit (Adaptive only),
+    Seed (inactive for Center, which has no randomness)."""
     adaptive = settings.sampler == "ADAPTIVE"
     rows = [
         ("preset", "Preset", True),
@@ -36,7 +36,8 @@ def sampling_rows(settings) -> list[tuple[str, str, bool]]:
         ("sampler", "Sampler", True),
     ]
     if adaptive:
-        rows.append(("target_error", "Target Error", True))
+        rows += [("min_samples", "Min Samples", True), ("target_error", "Target Error", True),
+                 ("time_limit", "Time Limit", True)]
     rows.append(("seed", "Seed", settings.sampler != "CENTER"))
     return rows
 

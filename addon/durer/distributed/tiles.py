@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from .. import _checks
-from ..render import TILE_GRID, RenderResult
+from ..render import RenderResult
 from ..scene import Scene
 from .batch import Camera, _RENDER_OPTIONS, run_renders
 
@@ -21,13 +21,10 @@ _COUNTERS = ("rays", "shadow_rays", "reflection_rays", "refraction_rays", "shadi
 
 def tile_regions(width: int, height: int, tile: int = 512) -> list[tuple[int, int, int, int]]:
     """The (x, y, w, h) tiles of a width x height image, row by row from the top: `tile` x `tile`
-    pixels (a multiple of the core's 8-pixel grid, so adaptive sampling sees the same neighbours as
-    in one render), smaller at the right and bottom edges."""
+    pixels, smaller at the right and bottom edges."""
     width = _checks.integer(width, "width", 1, 2**20)
     height = _checks.integer(height, "height", 1, 2**20)
-    tile = _checks.integer(tile, "tile", TILE_GRID)
-    if tile % TILE_GRID:
-        raise ValueError(f"tile must be a multiple of {TILE_GRID}, got {tile}")
+    tile = _checks.integer(tile, "tile", 1)
     return [(x, y, min(tile, width - x), min(tile, height - y))
             for y in range(0, height, tile) for x in range(0, width, tile)]
 
@@ -48,7 +45,8 @@ def render_tiles(
     `client` (a `distributed.Client`; the scene is sent once), or one after another here without
     one, and assemble them. The result equals ``durer.render(scene, camera, width, height,
     **options)`` bit for bit, pixels and sample counts; its stats add up the tiles' counters, with
-    `milliseconds` the wall time and `tiles` the count. `threads` and `progress` as in
+    `milliseconds` the wall time and `tiles` the count (with sampler="adaptive" each tile also traces
+    the margin its refinement reads, so `rays` exceeds one render's; `samples` does not). `threads` and `progress` as in
     `render_many`."""
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a durer.Scene, got {type(scene).__name__}")
@@ -65,6 +63,9 @@ def render_tiles(
             image = _empty_like(part, width, height)
         _paste(image, part, regions[i])
     assert image is not None  # there is at least one tile
+    if image.error is not None:
+        image.stats.update(estimated_rmse=float(np.sqrt(np.mean(np.square(image.error, dtype=np.float64)))),
+                           estimated_worst=float(image.error.max()))
     image.stats.update(milliseconds=(time.perf_counter() - start) * 1000, tiles=len(regions))
     seconds = image.stats["milliseconds"] / 1000
     image.stats["mrays_per_s"] = image.stats["rays"] / seconds / 1e6 if seconds > 0 else float("inf")
@@ -77,16 +78,20 @@ def _empty_like(part: RenderResult, width: int, height: int) -> RenderResult:
 
     stats = {k: v for k, v in part.stats.items() if k not in ("worker", "region")}
     stats.update({k: 0 for k in _COUNTERS}, region=None, workers={})
-    return RenderResult(full(part.color), full(part.depth), full(part.normal), stats, full(part.samples))
+    return RenderResult(full(part.color), full(part.depth), full(part.normal), stats, full(part.samples),
+                        full(part.error))
 
 
 def _paste(image: RenderResult, part: RenderResult, region: tuple[int, int, int, int]) -> None:
     x, y, w, h = region
-    for name in ("color", "depth", "normal", "samples"):
+    for name in ("color", "depth", "normal", "samples", "error"):
         target = getattr(image, name)
         if target is not None:
             target[y : y + h, x : x + w] = getattr(part, name)
     for key in _COUNTERS:
         image.stats[key] += part.stats[key]
+    if image.error is not None:  # adaptive: the whole image's summary of its error estimates
+        image.stats["rounds"] = max(image.stats["rounds"], part.stats["rounds"])
+        image.stats["time_limit_reached"] = image.stats["time_limit_reached"] or part.stats["time_limit_reached"]
     worker = part.stats["worker"]
     image.stats["workers"][worker] = image.stats["workers"].get(worker, 0) + 1

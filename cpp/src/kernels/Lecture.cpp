@@ -1,7 +1,7 @@
 // The lecture's sphere methods (algebraic, geometric) for both precisions, compiled once for the
 // baseline instruction set: they are there to compare accuracy, not to be fast.
 #include "durer/render/CastKernel.h"
-#include "durer/render/TileRenderer.h"
+#include "durer/render/RenderKernel.h"
 
 namespace durer {
 

@@ -1,5 +1,5 @@
 // The robust render kernel in double precision, compiled once per instruction set (DURER_ISA).
-#include "durer/render/TileRenderer.h"
+#include "durer/render/RenderKernel.h"
 
 namespace durer {
 DURER_DECLARE_KERNEL_SET(DURER_ISA)

@@ -28,11 +28,17 @@ class PixelSampler {
 
   // Offset in [0, 1)^2 of sample s of the pixel with linear index `pixel`.
   void offset(uint64_t pixel, int s, double& u, double& v) const;
+  // Offsets of samples [first, first + count) of a pixel: offset(pixel, first + i, u[i], v[i]), the
+  // Sobol points (Sobol and Adaptive) in one loop over the samples that the compiler vectorises.
+  void offsets(uint64_t pixel, int first, int count, double* u, double* v) const;
 
  private:
   static uint32_t reverseBits(uint32_t x);
   static uint32_t sobolSecondDimension(uint32_t index);
+  static uint32_t laineKarras(uint32_t x, uint32_t seed);
   static uint32_t nestedUniformScramble(uint32_t x, uint32_t seed);
+  uint64_t pixelSeed(uint64_t pixel) const { return mixBits(m_seed + pixel * 0x2545f4914f6cdd1dull); }
+  static void sobolOffsets(uint64_t pixelSeed, int first, int count, double* u, double* v);
 
   SamplerKind m_kind;
   int m_spp;
@@ -58,24 +64,45 @@ inline uint32_t PixelSampler::reverseBits(uint32_t x) {
   return x;
 }
 
-// The second Sobol dimension (its generator matrix as in Burley 2020); the first is reverseBits.
-inline uint32_t PixelSampler::sobolSecondDimension(uint32_t index) {
-  uint32_t result = 0;
-  for (uint32_t v = 1u << 31; index; index >>= 1, v ^= v >> 1) {
-    if (index & 1u) result ^= v;
+// The second Sobol dimension (its generator matrix as in Burley 2020); the first is reverseBits. The
+// matrix product over GF(2) is a XOR of one column per set index bit; kSobolBytes holds those XORs
+// for each byte of the index, so a point costs four lookups instead of a loop over 32 bits.
+struct SobolByteTable {
+  uint32_t xors[4][256];
+  constexpr SobolByteTable() : xors() {
+    uint32_t column[32] = {};
+    for (uint32_t bit = 0, v = 1u << 31; bit < 32; ++bit, v ^= v >> 1) column[bit] = v;
+    for (int byte = 0; byte < 4; ++byte) {
+      for (uint32_t value = 0; value < 256; ++value) {
+        uint32_t x = 0;
+        for (int bit = 0; bit < 8; ++bit) {
+          if (value & (1u << bit)) x ^= column[8 * byte + bit];
+        }
+        xors[byte][value] = x;
+      }
+    }
   }
-  return result;
+};
+inline constexpr SobolByteTable kSobolBytes{};
+
+inline uint32_t PixelSampler::sobolSecondDimension(uint32_t index) {
+  return kSobolBytes.xors[0][index & 0xffu] ^ kSobolBytes.xors[1][(index >> 8) & 0xffu] ^
+         kSobolBytes.xors[2][(index >> 16) & 0xffu] ^ kSobolBytes.xors[3][index >> 24];
 }
 
-// Owen scrambling by hashing (Laine & Karras's permutation on the reversed bits, Burley 2020).
+// Owen scrambling by hashing (Burley 2020): Laine & Karras's permutation, which scrambles each bit by
+// the bits below it, applied to the reversed bits (each bit by the bits above it).
 inline uint32_t PixelSampler::nestedUniformScramble(uint32_t x, uint32_t seed) {
-  x = reverseBits(x);
+  return reverseBits(laineKarras(reverseBits(x), seed));
+}
+
+inline uint32_t PixelSampler::laineKarras(uint32_t x, uint32_t seed) {
   x += seed;
   x ^= x * 0x6c50b47cu;
   x ^= x * 0xb82f1e52u;
   x ^= x * 0xc7afe638u;
   x ^= x * 0x8d22f6e6u;
-  return reverseBits(x);
+  return x;
 }
 
 inline void PixelSampler::offset(uint64_t pixel, int s, double& u, double& v) const {
@@ -85,17 +112,12 @@ inline void PixelSampler::offset(uint64_t pixel, int s, double& u, double& v) co
     u = v = 0.5;
     return;
   }
-  const uint64_t pixelSeed = mixBits(m_seed + pixel * 0x2545f4914f6cdd1dull);
   if (m_kind == SamplerKind::Sobol || m_kind == SamplerKind::Adaptive) {
-    const uint32_t seed = static_cast<uint32_t>(pixelSeed), seedX = static_cast<uint32_t>(pixelSeed >> 32);
-    const uint32_t index = nestedUniformScramble(static_cast<uint32_t>(s), seed);  // shuffled order
-    const uint32_t x = nestedUniformScramble(reverseBits(index), seedX);
-    const uint32_t y = nestedUniformScramble(sobolSecondDimension(index), seedX ^ 0x5bd1e995u);
-    u = x * k32, v = y * k32;
+    sobolOffsets(pixelSeed(pixel), s, 1, &u, &v);
     return;
   }
   // Random, or Stratified with several strata.
-  const uint64_t key = mixBits(pixelSeed + static_cast<uint64_t>(s));
+  const uint64_t key = mixBits(pixelSeed(pixel) + static_cast<uint64_t>(s));
   const uint64_t other = mixBits(key + 0x9e3779b97f4a7c15ull);
   const double ju = static_cast<double>(key >> 11) * k53, jv = static_cast<double>(other >> 11) * k53;
   if (m_kind == SamplerKind::Random) {
@@ -103,6 +125,25 @@ inline void PixelSampler::offset(uint64_t pixel, int s, double& u, double& v) co
   } else {
     u = (s % m_nx + ju) / m_nx;
     v = (s / m_nx + jv) / m_ny;
+  }
+}
+
+inline void PixelSampler::offsets(uint64_t pixel, int first, int count, double* u, double* v) const {
+  if (m_kind == SamplerKind::Sobol || m_kind == SamplerKind::Adaptive) {
+    sobolOffsets(pixelSeed(pixel), first, count, u, v);
+    return;
+  }
+  for (int i = 0; i < count; ++i) offset(pixel, first + i, u[i], v[i]);
+}
+
+inline void PixelSampler::sobolOffsets(uint64_t pixelSeed, int first, int count, double* u, double* v) {
+  constexpr double k32 = 1.0 / 4294967296.0;  // 2^-32
+  const uint32_t seed = static_cast<uint32_t>(pixelSeed), seedX = static_cast<uint32_t>(pixelSeed >> 32);
+  for (int i = 0; i < count; ++i) {
+    const uint32_t index = nestedUniformScramble(static_cast<uint32_t>(first + i), seed);  // shuffled order
+    const uint32_t x = reverseBits(laineKarras(index, seedX));  // nestedUniformScramble(reverseBits(index), seedX)
+    const uint32_t y = nestedUniformScramble(sobolSecondDimension(index), seedX ^ 0x5bd1e995u);
+    u[i] = x * k32, v[i] = y * k32;
   }
 }
 

@@ -18,7 +18,9 @@ struct RenderSettings {
   int samplesPerPixel = 1;           // >= 1; 1 samples the pixel centre
   uint64_t seed = 0;                 // sampler seed
   SamplerKind sampler = SamplerKind::Stratified;
-  double targetError = 0.01;         // adaptive: stop once the pixel's mean luminance is this sure
+  double targetError = 0.01;         // adaptive: a pixel stops once its colour's estimated RMS error is below this
+  int minSamples = 4;                // adaptive: samples every pixel takes first (at most samplesPerPixel)
+  double timeLimit = 0;              // adaptive: seconds after which refining stops (0: none)
   Precision precision = Precision::Double;
   SphereMethod sphereMethod = SphereMethod::Robust;
   unsigned passes = kPassColor | kPassDepth | kPassNormal;  // PassFlags
@@ -40,6 +42,15 @@ struct RenderTargets {
   float* depth = nullptr;   // height x width
   float* normal = nullptr;  // height x width x 3
   int32_t* samples = nullptr;  // height x width: samples taken per pixel
+  float* error = nullptr;      // height x width: adaptive: the estimated RMS error of the pixel's colour
+};
+
+// What adaptive sampling reached (AdaptiveSampler.h).
+struct AdaptiveStats {
+  double estimatedRmse = 0;    // root mean square over the pixels of their estimated colour errors
+  double estimatedWorst = 0;   // the largest of them
+  int rounds = 0;              // sampling rounds run (the first pass included)
+  bool timeLimitReached = false;
 };
 
 struct RenderStats {
@@ -48,6 +59,7 @@ struct RenderStats {
   double milliseconds = 0;  // wall time of the render
   int threads = 0;
   bool cancelled = false;
+  AdaptiveStats adaptive;  // with SamplerKind::Adaptive
 };
 
 void validate(const RenderSettings& settings);  // throws std::invalid_argument naming the field

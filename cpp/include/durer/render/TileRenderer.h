@@ -1,5 +1,5 @@
 #pragma once
-// The render kernel: 8x8-pixel tiles traced as packets of camera rays, shaded by PacketShader,
+// The tile kernel: 8x8-pixel tiles traced as packets of camera rays, shaded by PacketShader,
 // accumulated over the samples and written to the targets. Instantiated for one precision and sphere
 // method per kernel translation unit (src/kernels), each compiled once per instruction set.
 #include <algorithm>
@@ -71,11 +71,6 @@ class TileRenderer {
     Accumulator acc;
     acc.clear(count);
     RayCounters counters;
-    if (m_sampler.kind() == SamplerKind::Adaptive) {
-      if (!renderAdaptive(x0, y0, w, h, acc, counters)) return {};
-      write(acc, x0, y0, w, h);
-      return counters;
-    }
     RayPacket<Real> packet;
     alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
     for (int s = 0; s < m_sampler.samplesPerPixel(); ++s) {
@@ -95,6 +90,7 @@ class TileRenderer {
   }
 
   // Per-pixel sums over the samples of a tile, structure-of-arrays.
+ public:
   struct Accumulator {
     alignas(64) Real r[kPacketSize], g[kPacketSize], b[kPacketSize], a[kPacketSize];  // colour sums
     alignas(64) Real depth[kPacketSize];                                          // nearest t
@@ -128,6 +124,72 @@ class TileRenderer {
     }
   };
 
+  // Positions in the image of samples [first, first + count) of pixel (x, y).
+  void samplePositions(int x, int y, int first, int count, Real* sampleX, Real* sampleY) const {
+    alignas(64) double u[kPacketSize], v[kPacketSize];
+    m_sampler.offsets(static_cast<uint64_t>(y) * m_settings.width + x, first, count, u, v);
+    for (int i = 0; i < count; ++i) sampleX[i] = static_cast<Real>(x + u[i]), sampleY[i] = static_cast<Real>(y + v[i]);
+  }
+
+  // Traces the samples at (sampleX[j], sampleY[j]) for j < count as one packet: entry j of `out`
+  // (cleared first) gets that sample's values, prim[j] the primitive it met and t[j] how far along
+  // its ray (inf on a miss, whatever the depth pass measures). False if cancelled.
+  bool trace(const Real* sampleX, const Real* sampleY, int count, Accumulator& out, int32_t* prim, Real* t,
+             RayCounters& counters) const {
+    RayPacket<Real> packet;
+    m_camera.generate(packet, sampleX, sampleY, count);
+    counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
+    if (m_cancel.load(std::memory_order_relaxed)) return false;
+    out.clear(count);
+    accumulate(packet, out, counters);
+    counters.camera += count;
+    std::copy(packet.prim, packet.prim + count, prim);
+    for (int j = 0; j < count; ++j) {
+      t[j] = packet.prim[j] != kNoPrimitive ? packet.tHit[j] : std::numeric_limits<Real>::infinity();
+    }
+    return true;
+  }
+
+  // Writes entries [k0, k0 + count) of `acc` to the region's pixels [first, first + count).
+  void writeRow(const Accumulator& acc, int k0, int count, size_t first) const {
+    if (m_targets.samples) {
+      for (int i = 0; i < count; ++i) m_targets.samples[first + i] = static_cast<int32_t>(acc.samples[k0 + i]);
+    }
+    if (m_targets.color) {
+      float* out = m_targets.color + 4 * first;
+      // A pixel brighter than float32 holds saturates at its largest number (the sums never hold NaN).
+      const Real brightest = std::numeric_limits<float>::max();
+      for (int i = 0; i < count; ++i) {
+        const int k = k0 + i;
+        const Real invSpp = 1 / acc.samples[k];
+        out[4 * i + 0] = static_cast<float>(std::min(acc.r[k] * invSpp, brightest));
+        out[4 * i + 1] = static_cast<float>(std::min(acc.g[k] * invSpp, brightest));
+        out[4 * i + 2] = static_cast<float>(std::min(acc.b[k] * invSpp, brightest));
+        out[4 * i + 3] = static_cast<float>(acc.a[k] * invSpp);
+      }
+    }
+    if (m_targets.depth) {
+      float* out = m_targets.depth + first;
+      for (int i = 0; i < count; ++i) out[i] = static_cast<float>(acc.depth[k0 + i]);
+    }
+    if (m_targets.normal) {
+      float* out = m_targets.normal + 3 * first;
+      for (int i = 0; i < count; ++i) {
+        const int k = k0 + i;
+        // One sample's normal is unit already; a mean of several is renormalised. Where the hit
+        // samples' normals (nearly) cancel -- a thin wall seen from both sides within one pixel --
+        // the mean has no direction, and the nearest hit sample's normal stands in (0 on a miss).
+        const Real length = acc.samples[k] == 1 ? 1 : std::sqrt(acc.nx[k] * acc.nx[k] + acc.ny[k] * acc.ny[k] + acc.nz[k] * acc.nz[k]);
+        const bool directed = length > static_cast<Real>(kMinMeanNormal) * acc.hits[k];
+        const Real scale = directed ? 1 / length : 0;
+        out[3 * i + 0] = static_cast<float>(directed ? acc.nx[k] * scale : acc.fx[k]);
+        out[3 * i + 1] = static_cast<float>(directed ? acc.ny[k] * scale : acc.fy[k]);
+        out[3 * i + 2] = static_cast<float>(directed ? acc.nz[k] * scale : acc.fz[k]);
+      }
+    }
+  }
+
+ private:
   // Colour of every material without lights, the background last; material of each primitive.
   struct FlatTable {
     std::vector<Real> r, g, b, a;       // by material id; index materials: the background
@@ -154,72 +216,6 @@ class TileRenderer {
     m_sampler.offset(static_cast<uint64_t>(y) * m_settings.width + x, s, u, v);
     sampleX = static_cast<Real>(x + u);
     sampleY = static_cast<Real>(y + v);
-  }
-
-  // Adaptive sampling: every pixel takes min(4, spp) samples, then rounds of 4 more while its samples
-  // meet different primitives or the standard error of their mean luminance exceeds targetError, up
-  // to spp. Samples of the pixels still active are traced together, a packet per sample slot.
-  bool renderAdaptive(int x0, int y0, int w, int h, Accumulator& acc, RayCounters& counters) const {
-    constexpr int kRound = 4;
-    const int count = w * h, spp = m_sampler.samplesPerPixel();
-    const Real target = static_cast<Real>(m_settings.targetError);
-    alignas(64) Real luminance[kPacketSize], luminanceSq[kPacketSize];
-    alignas(64) int32_t firstPrim[kPacketSize];
-    alignas(64) bool mixed[kPacketSize];
-    std::fill(luminance, luminance + count, Real(0));
-    std::fill(luminanceSq, luminanceSq + count, Real(0));
-    std::fill(mixed, mixed + count, false);
-    int active[kPacketSize];
-    int activeCount = count;
-    for (int k = 0; k < count; ++k) active[k] = k;
-    RayPacket<Real> packet;
-    alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
-    for (int done = 0; activeCount > 0; done += done == 0 ? std::min(kRound, spp) : kRound) {
-      const int slots = std::min(kRound, spp - done);
-      for (int slot = 0; slot < slots; ++slot) {
-        for (int j = 0; j < activeCount; ++j) {
-          const int k = active[j];
-          samplePosition(x0 + k % w, y0 + k / w, done + slot, sampleX[j], sampleY[j]);
-        }
-        m_camera.generate(packet, sampleX, sampleY, activeCount);
-        counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
-        if (m_cancel.load(std::memory_order_relaxed)) return false;
-        Accumulator sample;
-        sample.clear(activeCount);
-        accumulate(packet, sample, counters);
-        counters.camera += activeCount;
-        for (int j = 0; j < activeCount; ++j) {
-          const int k = active[j];
-          acc.add(k, sample, j);
-          const Real y = Real(0.2126) * sample.r[j] + Real(0.7152) * sample.g[j] + Real(0.0722) * sample.b[j];
-          luminance[k] += y;
-          luminanceSq[k] += y * y;
-          if (done + slot == 0) firstPrim[k] = packet.prim[j];
-          mixed[k] = mixed[k] || packet.prim[j] != firstPrim[k];
-        }
-      }
-      const int taken = done + slots;
-      alignas(64) bool uncertain[kPacketSize] = {};
-      for (int j = 0; j < activeCount; ++j) {
-        const int k = active[j];
-        acc.samples[k] = static_cast<Real>(taken);
-        const Real mean = luminance[k] / taken;
-        const Real variance = std::max(luminanceSq[k] / taken - mean * mean, Real(0)) * taken / std::max(taken - 1, 1);
-        uncertain[k] = mixed[k] || std::sqrt(variance / taken) > target;
-      }
-      // An edge that only clips a pixel's corner can hide from its first samples; a neighbour (in
-      // the tile) that saw two objects gives it away, so such a pixel takes one more round to look.
-      const bool firstRound = done == 0;
-      int still = 0;
-      for (int j = 0; j < activeCount; ++j) {
-        const int k = active[j], col = k % w, row = k / w;
-        const bool nearMixed = firstRound && ((col > 0 && mixed[k - 1]) || (col + 1 < w && mixed[k + 1]) ||
-                                              (row > 0 && mixed[k - w]) || (row + 1 < h && mixed[k + w]));
-        if (taken < spp && (uncertain[k] || nearMixed)) active[still++] = k;
-      }
-      activeCount = still;
-    }
-    return true;
   }
 
   // Adds one sample per ray of the packet to the tile's sums.
@@ -312,43 +308,7 @@ class TileRenderer {
 
   void write(const Accumulator& acc, int x0, int y0, int w, int h) const {
     for (int row = 0; row < h; ++row) {
-      const size_t first = static_cast<size_t>(y0 + row - m_region.y) * m_region.width + (x0 - m_region.x);
-      const int k0 = row * w;
-      if (m_targets.samples) {
-        for (int col = 0; col < w; ++col) m_targets.samples[first + col] = static_cast<int32_t>(acc.samples[k0 + col]);
-      }
-      if (m_targets.color) {
-        float* out = m_targets.color + 4 * first;
-        // A pixel brighter than float32 holds saturates at its largest number (the sums never hold NaN).
-        const Real brightest = std::numeric_limits<float>::max();
-        for (int col = 0; col < w; ++col) {
-          const int k = k0 + col;
-          const Real invSpp = 1 / acc.samples[k];
-          out[4 * col + 0] = static_cast<float>(std::min(acc.r[k] * invSpp, brightest));
-          out[4 * col + 1] = static_cast<float>(std::min(acc.g[k] * invSpp, brightest));
-          out[4 * col + 2] = static_cast<float>(std::min(acc.b[k] * invSpp, brightest));
-          out[4 * col + 3] = static_cast<float>(acc.a[k] * invSpp);
-        }
-      }
-      if (m_targets.depth) {
-        float* out = m_targets.depth + first;
-        for (int col = 0; col < w; ++col) out[col] = static_cast<float>(acc.depth[k0 + col]);
-      }
-      if (m_targets.normal) {
-        float* out = m_targets.normal + 3 * first;
-        for (int col = 0; col < w; ++col) {
-          const int k = k0 + col;
-          // One sample's normal is unit already; a mean of several is renormalised. Where the hit
-          // samples' normals (nearly) cancel -- a thin wall seen from both sides within one pixel --
-          // the mean has no direction, and the nearest hit sample's normal stands in (0 on a miss).
-          const Real length = acc.samples[k] == 1 ? 1 : std::sqrt(acc.nx[k] * acc.nx[k] + acc.ny[k] * acc.ny[k] + acc.nz[k] * acc.nz[k]);
-          const bool directed = length > static_cast<Real>(kMinMeanNormal) * acc.hits[k];
-          const Real scale = directed ? 1 / length : 0;
-          out[3 * col + 0] = static_cast<float>(directed ? acc.nx[k] * scale : acc.fx[k]);
-          out[3 * col + 1] = static_cast<float>(directed ? acc.ny[k] * scale : acc.fy[k]);
-          out[3 * col + 2] = static_cast<float>(directed ? acc.nz[k] * scale : acc.fz[k]);
-        }
-      }
+      writeRow(acc, row * w, w, static_cast<size_t>(y0 + row - m_region.y) * m_region.width + (x0 - m_region.x));
     }
   }
 
@@ -370,40 +330,5 @@ class TileRenderer {
 };
 
 }  // namespace tiles
-
-template <typename Real, SphereMethod M>
-RenderStats renderWith(const RenderJob& job) {
-  const Scene& scene = job.scene;
-  const CameraSpec& spec = job.camera;
-  const RenderSettings& settings = job.settings;
-  const RenderTargets& targets = job.targets;
-  JobControl& control = job.control;
-  const std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>(settings.threads);
-  const Group<Real>& group = *prepared;
-  const EffectSet& effects = job.effects;
-  const tiles::TileRenderer<Real, M> tiles(scene, group, spec, settings, targets, effects, control.cancel);
-  RenderStats stats;
-  stats.effects = effects;
-  stats.threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
-  // A work item is a strip of kStripTiles tiles along a row: threads then rarely write to the same
-  // cache line of the outputs, and the shared totals see one update per strip, not per tile.
-  constexpr int64_t kStripTiles = 8;
-  const int64_t tileCount = tiles.tileCount();
-  std::mutex totalsMutex;
-  runParallel(
-      (tileCount + kStripTiles - 1) / kStripTiles, stats.threads, control,
-      [&](int64_t strip) {
-        RayCounters counters;
-        for (int64_t tile = strip * kStripTiles; tile < std::min(tileCount, (strip + 1) * kStripTiles); ++tile) {
-          counters += tiles.render(tile);
-        }
-        const std::lock_guard<std::mutex> lock(totalsMutex);
-        stats.counters += counters;
-      },
-      job.poll);
-  stats.cancelled = control.cancel.load();
-  return stats;
-}
-
 
 }  // namespace durer

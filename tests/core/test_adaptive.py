@@ -1,0 +1,131 @@
+"""Adaptive sampling: edges found from the image, error estimates against exactly known pixel values,
+the time limit, the first pass's minimum, regions, bad input.
+
+Pixel values are checked against the exact covered fraction of pixels cut by a half-plane
+(helpers.coverage); correctness only, never speed (the accuracy report measures time)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import durer
+from helpers.coverage import SIZE, half_plane_coverage, half_plane_scene, pixel_camera
+
+EDGES = [(0.6, 0.37), (0.2, 3.1), (1.1, -2.3)]  # (theta, c): three edges across the 48 x 48 image
+
+
+def adaptive(scene, width=SIZE, height=SIZE, camera=None, **kwargs) -> durer.RenderResult:
+    options = {"spp": 256, "sampler": "adaptive", "passes": "color", **kwargs}
+    return durer.render(scene, camera or pixel_camera(width, height), width, height, **options)
+
+
+@pytest.mark.parametrize("target", [0.04, 0.01, 0.005])
+def test_the_estimated_error_is_the_measured_error(target):
+    # target_error bounds each stopped pixel's estimated error, and over the image the estimate
+    # (stats["estimated_rmse"], the RMS of result.error) is within 1.5x of the true RMSE.
+    measured, estimated = [], []
+    for theta, c in EDGES:
+        exact = half_plane_coverage(theta, c, SIZE, SIZE)
+        for seed in range(3):
+            result = adaptive(half_plane_scene(theta, c), target_error=target, seed=seed)
+            stopped = result.samples < 256
+            assert stopped.any() and np.all(result.error[stopped] <= target)
+            assert result.stats["estimated_rmse"] == pytest.approx(math.sqrt(np.mean(result.error.astype(float) ** 2)),
+                                                                   rel=1e-5)
+            assert result.stats["estimated_worst"] == pytest.approx(result.error.max(), rel=1e-6)
+            measured.append(math.sqrt(np.mean((result.color[..., 0] - exact) ** 2)))
+            estimated.append(result.stats["estimated_rmse"])
+    ratio = np.mean(estimated) / np.mean(measured)
+    assert 1 / 1.5 <= ratio <= 1.5
+
+
+def test_edges_the_first_samples_missed_are_found():
+    # Four Sobol points per pixel miss an edge that only clips a pixel's corner; the pixel's
+    # neighbours, which see it, differ from it, and it is refined too: no pixel is left far off.
+    worst = []
+    for theta, c in EDGES:
+        exact = half_plane_coverage(theta, c, SIZE, SIZE)
+        result = adaptive(half_plane_scene(theta, c), target_error=0.01)
+        cut = (exact > 1e-9) & (exact < 1 - 1e-9)
+        slivers = cut & ((exact < 0.1) | (exact > 0.9))
+        assert slivers.sum() >= 10
+        assert np.all(result.samples[slivers] >= 16)
+        worst.append(np.abs(result.color[..., 0] - exact).max())
+    assert max(worst) <= 0.05
+
+
+def test_a_pixel_whose_samples_agree_but_whose_neighbours_differ_is_refined():
+    # A pixel-sized gap between two flat discs of different colour on a plane: its own first samples
+    # all see the plane, but it takes as many samples as its contrast with its neighbours asks for.
+    scene = durer.Scene()
+    scene.background = (0.0, 0.0, 0.0, 1.0)
+    scene.add_spheres([[-4.6, 0.0, -50], [4.6, 0.0, -50]], [4.0, 4.0],
+                      material=[scene.add_material((1, 1, 1)), scene.add_material((0.2, 0.4, 0.9))])
+    result = adaptive(scene, 16, 8, target_error=0.01)
+    contrast = np.sqrt(np.mean((result.color[:, 1:, :3] - result.color[:, :-1, :3]) ** 2, axis=-1))
+    beside = np.zeros(result.samples.shape, bool)
+    beside[:, 1:] |= contrast > 0.1
+    beside[:, :-1] |= contrast > 0.1
+    assert beside.sum() >= 8
+    assert np.all(result.samples[beside] >= 0.1 / 0.01)
+
+
+def test_a_time_limit_stops_after_the_first_pass_and_says_so():
+    scene, camera = durer.showcase_scene(small_spheres=20)
+    rushed = adaptive(scene, 64, 48, camera, target_error=1e-6, time_limit=1e-9)
+    assert rushed.stats["time_limit_reached"] is True and rushed.stats["rounds"] == 1
+    np.testing.assert_array_equal(rushed.samples, 4)
+    assert rushed.stats["estimated_rmse"] > 0 and np.isfinite(rushed.color).all()
+    relaxed = adaptive(scene, 64, 48, camera, target_error=0.01, time_limit=600.0)
+    free = adaptive(scene, 64, 48, camera, target_error=0.01)
+    assert relaxed.stats["time_limit_reached"] is False and free.stats["time_limit_reached"] is False
+    np.testing.assert_array_equal(relaxed.color, free.color)
+    np.testing.assert_array_equal(relaxed.samples, free.samples)
+
+
+def test_a_time_limit_refines_the_worst_tiles_first():
+    # A tight but non-zero budget on one thread: the rounds it reaches refine the tiles with the
+    # largest estimated errors; what it leaves has a larger estimate than an unlimited render.
+    scene, camera = durer.showcase_scene(small_spheres=20)
+    free = adaptive(scene, 160, 96, camera, target_error=0.001, threads=1)
+    budget = free.stats["milliseconds"] / 1000 / 4
+    limited = adaptive(scene, 160, 96, camera, target_error=0.001, threads=1, time_limit=budget)
+    assert limited.stats["time_limit_reached"] is True
+    assert 4 * 160 * 96 < limited.stats["samples"] < free.stats["samples"]
+    assert limited.stats["estimated_rmse"] > free.stats["estimated_rmse"]
+
+
+@pytest.mark.parametrize("region", [(0, 0, 48, 48), (3, 5, 17, 9), (40, 1, 8, 30), (13, 13, 1, 1)])
+def test_a_region_equals_the_whole_render_there(region):
+    # Each round reads a pixel's neighbours, so a region is sampled with a margin of as many pixels
+    # as there are rounds: any rectangle, on the tile grid or not, is the whole render's pixels.
+    theta, c = EDGES[0]
+    whole = adaptive(half_plane_scene(theta, c), target_error=0.005, seed=7, passes=("color", "depth", "normal"))
+    part = adaptive(half_plane_scene(theta, c), target_error=0.005, seed=7, passes=("color", "depth", "normal"),
+                    region=region)
+    x, y, w, h = region
+    for name in ("color", "depth", "normal", "samples", "error"):
+        np.testing.assert_array_equal(getattr(part, name), getattr(whole, name)[y : y + h, x : x + w])
+
+
+def test_progress_rises_to_one_over_the_rounds():
+    scene, camera = durer.showcase_scene(small_spheres=20)
+    seen: list[float] = []
+    adaptive(scene, 64, 48, camera, spp=64, target_error=0.001, progress=seen.append)
+    assert seen[-1] == 1.0 and all(a <= b for a, b in zip(seen, seen[1:]))
+
+
+@pytest.mark.parametrize(("kwargs", "error", "message"), [
+    ({"min_spp": 0}, ValueError, r"min_spp must be in \[1, "),
+    ({"min_spp": 1.5}, TypeError, "min_spp must be an integer"),
+    ({"time_limit": -1.0}, ValueError, "time_limit must be finite and >= 0"),
+    ({"time_limit": math.nan}, ValueError, "time_limit must be finite"),
+    ({"time_limit": "1"}, TypeError, "time_limit must be a real number"),
+])
+def test_bad_adaptive_settings_name_the_field(kwargs, error, message):
+    scene, camera = durer.showcase_scene(small_spheres=5)
+    with pytest.raises(error, match=message):
+        adaptive(scene, 8, 8, camera, **kwargs)
