@@ -41,15 +41,21 @@ class RenderResult:
                       refraction_rays, shading_evaluations, bounces_cut_by_depth,
                       bounces_cut_by_weight, total_internal_reflections, intersection_tests
                       (ray-primitive tests made); milliseconds, mrays_per_s (camera rays), threads,
-                      width, height, spp, precision, sphere_method, passes, cancelled.
+                      width, height, spp, samples (camera samples of the returned pixels), precision,
+                      sphere_method, passes, cancelled; with sampler="adaptive" also
+                      estimated_rmse, estimated_worst, rounds, time_limit_reached.
+    samples (H, W):   int32 samples each pixel took, with sampler="adaptive" (else None).
+    error   (H, W):   float32, with sampler="adaptive": the estimated RMS error over RGB of the
+                      pixel's colour, from the difference of the means of the two halves of its
+                      samples (0 where they agree; else None).
     """
 
     color: np.ndarray | None
     depth: np.ndarray | None
     normal: np.ndarray | None
     stats: dict[str, Any] = field(default_factory=dict)
-    samples: np.ndarray | None = None  # (H, W) int32 samples per pixel, with sampler="adaptive"
-    error: np.ndarray | None = None    # (H, W) float32 estimated RMS colour error per pixel, with sampler="adaptive"
+    samples: np.ndarray | None = None
+    error: np.ndarray | None = None
 
 
 class RenderCancelled(Exception):
@@ -117,9 +123,14 @@ def render(
     spp samples per pixel, placed by `sampler` and deterministic for a `seed`, averaged with a box
     filter: "stratified" (jittered in an nx·ny grid; 1 sample is the pixel centre), "center" (all at
     the centre: no anti-aliasing), "random" (uniform), "sobol" (Owen-scrambled Sobol points) or
-    "adaptive" (spp is the maximum: min(4, spp) Sobol samples, then rounds of 4 more while the
-    pixel's samples meet different objects or the standard error of its mean luminance exceeds
-    `target_error`; `result.samples` holds the counts). `durer.preset(name)` gives ready settings. `precision` "float" or "double" is used for every ray and
+    "adaptive" (spp is the maximum: every pixel takes min(min_spp, spp) Sobol samples, then rounds
+    double the samples of the pixels whose estimated colour error, or their 3x3 neighbourhood's,
+    exceeds `target_error`, or that sit on an edge their own or their neighbours' samples show;
+    `target_error` is the estimated RMS error over RGB a pixel stops at, `result.error` each pixel's
+    estimate, stats "estimated_rmse" / "estimated_worst" the image's, "rounds" the rounds run,
+    `result.samples` the counts; `time_limit` seconds (None: none) stops refining when spent, the
+    worst tiles refined first, and sets stats "time_limit_reached"; see AdaptiveSampler.h).
+    `durer.preset(name)` gives ready settings. `precision` "float" or "double" is used for every ray and
     intersection; `sphere_method` "robust" (default), "algebraic" or "geometric". Only the
     requested `passes` are computed. The GIL is released while rendering on `threads` threads
     (None: all cores); `progress(fraction)` is called from this thread as tiles finish, and the
@@ -137,9 +148,9 @@ def render(
 
     `region=(x, y, w, h)` renders only pixels [x, x + w) x [y, y + h) of the width x height image
     (x right, y down from the top row), into (h, w) arrays equal bit for bit to that part of the
-    whole render: positions and seeds are the whole image's. With sampler="adaptive" its edges must
-    lie on the core's 8-pixel tile grid or the image's edges (a pixel's neighbours in its tile steer
-    its sampling).
+    whole render: positions and seeds are the whole image's. With sampler="adaptive" it is sampled
+    with a margin of one pixel per round (a pixel's neighbours steer its sampling), counted in
+    stats "rays" but not "samples".
 
     Types and shapes are checked here, values (ranges, option names) by the core: either way the
     ValueError or TypeError names the argument.

@@ -11,7 +11,7 @@ from .. import numerics
 from . import __doc__ as package_doc
 from .markdown import markdown, summary
 from .measure import Config, Report, measure
-from .plots import plot_antialiasing, plot_presets
+from .plots import plot_adaptive, plot_antialiasing, plot_presets
 
 
 def write_report(report: Report, output: Path) -> list[Path]:
@@ -25,6 +25,12 @@ def write_report(report: Report, output: Path) -> list[Path]:
         plot_antialiasing(aa, path)
         plots[aa.scene] = path.name
         written.append(path)
+        point = aa.heatmap_point(report.config.baselines)
+        if point is not None:
+            path = output.parent / f"{stem}-adaptive-{aa.scene}.png"
+            plot_adaptive(point, aa.scene, path)
+            plots[f"adaptive-{aa.scene}"] = path.name
+            written.append(path)
     if report.sweep:
         path = output.parent / f"{stem}-sphere-methods.png"
         numerics.plot(report.sweep, path)

@@ -7,7 +7,7 @@ import math
 from ...render import PRECISIONS, SPHERE_METHODS
 from .. import numerics
 from ..scenes import FLAT_ROW
-from .measure import REFERENCE_SAMPLER, SEED, AAPoint, AntiAliasing, EffectRow, PresetRow, Report
+from .measure import REFERENCE_SAMPLER, SEED, AntiAliasing, BudgetPoint, EffectRow, PresetRow, Report
 from .targets import targets
 
 
@@ -45,13 +45,30 @@ def aa_tables(aa: AntiAliasing) -> str:
     return "\n".join(lines)
 
 
-def sweep_table(aa: AntiAliasing, baseline: AAPoint | None) -> str:
-    lines = ["| target_error | max spp | samples/pixel | RMSE | worst pixel | ms | time / stratified baseline |",
-             "| ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+def sweep_table(aa: AntiAliasing, baselines: tuple[tuple[int, float], ...]) -> str:
+    """Adaptive's sweep: what each setting took and reached, its own error estimate, and its time
+    against each stratified baseline."""
+    bases = [(spp, aa.point("stratified", spp)) for spp, _ in baselines]
+    head = " | ".join(f"time / stratified {spp}" for spp, _ in bases)
+    lines = [f"| max spp | min_spp | target_error | samples/pixel | RMSE | estimated RMSE | estimated / measured | "
+             f"worst pixel | ms | {head} |", "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | "
+             + " | ".join("---:" for _ in bases) + " |"]
     for p in aa.sweep:
-        ratio = f"{p.ms / baseline.ms:.2f}" if baseline and baseline.ms > 0 else "—"
-        lines.append(f"| {p.target_error:g} | {p.spp} | {p.samples_per_pixel:.1f} | {_fmt(p.rmse)} | {_fmt(p.worst)} | "
-                     f"{p.ms:.1f} | {ratio} |")
+        ratios = " | ".join(f"{p.ms / b.ms:.2f}" if b and b.ms > 0 else "—" for _, b in bases)
+        estimate = p.estimated_rmse if p.estimated_rmse is not None else float("nan")
+        factor = f"{estimate / p.rmse:.2f}" if p.rmse > 0 and not math.isnan(estimate) else "—"
+        lines.append(f"| {p.spp} | {p.min_spp} | {p.target_error:g} | {p.samples_per_pixel:.1f} | {_fmt(p.rmse)} | "
+                     f"{_fmt(estimate)} | {factor} | {_fmt(p.worst)} | {p.ms:.1f} | {ratios} |")
+    return "\n".join(lines)
+
+
+def budget_table(rows: list[BudgetPoint]) -> str:
+    lines = ["| time_limit | ms | stopped by the limit | samples/pixel | RMSE | estimated RMSE | worst pixel |",
+             "| ---: | ---: | --- | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        limit = "none" if r.time_limit is None else f"{r.time_limit * 1000:.1f} ms"
+        lines.append(f"| {limit} | {r.ms:.1f} | {'yes' if r.reached else 'no'} | {r.samples_per_pixel:.1f} | "
+                     f"{_fmt(r.rmse)} | {_fmt(r.estimated_rmse)} | {_fmt(r.worst)} |")
     return "\n".join(lines)
 
 
@@ -114,6 +131,12 @@ def presets_table(rows: list[PresetRow]) -> str:
     return "\n".join(lines)
 
 
+def _heatmap_label(aa: AntiAliasing, baselines: tuple[tuple[int, float], ...]) -> str:
+    point = aa.heatmap_point(baselines)
+    return "" if point is None else (f"max {point.spp} spp, min_spp {point.min_spp}, target_error "
+                                     f"{point.target_error:g}: {point.samples_per_pixel:.1f} samples/pixel")
+
+
 def markdown(report: Report, plots: dict[str, str]) -> str:
     c = report.config
     width, height = c.aa_size
@@ -147,9 +170,11 @@ def markdown(report: Report, plots: dict[str, str]) -> str:
         f"{c.reference_spp}-spp {REFERENCE_SAMPLER} double-precision reference (another seed) at {width}×{height}, "
         f"for spp {', '.join(map(str, c.spps))} and every sampler. *center* puts every sample at the pixel centre, "
         "*random* is uniform, *stratified* jittered stratified (the default), *sobol* Owen-scrambled Sobol' (0,2) "
-        "points; *adaptive* treats spp as the maximum: it starts with min(4, spp) Sobol' samples and adds rounds "
-        "of 4 while a pixel's samples hit different objects or the standard error of its mean luminance exceeds "
-        "`target_error` (default 0.01), so its samples/pixel column is what it actually took. The slopes are "
+        "points; *adaptive* treats spp as the maximum: every pixel takes `min_spp` (default 4) Sobol' samples, then "
+        "rounds double the samples of the pixels whose estimated colour error (the difference of the two halves of "
+        "their samples), or their 3x3 neighbourhood's, exceeds `target_error` (default 0.01), or that sit on an "
+        "edge their own or their neighbours' samples show (other geometry, or a colour contrast an unseen edge "
+        "could hide in), so its samples/pixel column is what it actually took. The slopes are "
         "least-squares fits of log RMSE against log spp (adaptive: against the samples it took); plain Monte "
         "Carlo converges as spp^-0.5. The reference's own error puts a floor under the curves at the highest spp.",
     ]
@@ -160,10 +185,22 @@ def markdown(report: Report, plots: dict[str, str]) -> str:
         if a.scene in plots:
             parts += ["", f"![RMSE vs samples and time, {a.scene}]({plots[a.scene]})"]
         if a.sweep:
-            baseline = a.point("stratified", c.baseline_spp)
-            parts += ["", f"Adaptive sampling's knob: `target_error` swept with spp (the maximum) = "
-                      f"{c.adaptive_max_spp}; the time is compared with {c.baseline_spp}-spp stratified.", "",
-                      sweep_table(a, baseline)]
+            parts += ["", "Adaptive sampling's knobs: `target_error` swept with `min_spp` and spp (the maximum); "
+                      "*estimated RMSE* is the render's own estimate (`stats['estimated_rmse']`, the RMS of "
+                      "`result.error`), measured against nothing but its samples.", "", sweep_table(a, c.baselines)]
+        if f"adaptive-{a.scene}" in plots:
+            parts += ["", f"Where adaptive put its samples ({_heatmap_label(a, c.baselines)}): the render and "
+                      "`result.samples` as a heat map.", "",
+                      f"![adaptive samples per pixel, {a.scene}]({plots[f'adaptive-{a.scene}']})"]
+        if not math.isnan(a.edge_share):
+            parts += ["", f"{a.edge_share:.0%} of this scene's pixels hold an edge (their centre sample differs from "
+                      "the reference by more than 1e-3): those need about as many samples from any sampler."]
+        if a.budget:
+            free = a.budget[-1]
+            parts += ["", f"With a time budget: `time_limit=` a share of the unlimited render's time (max "
+                      f"{a.sweep[-1].spp if a.sweep else '—'} spp, target_error {min(c.target_errors):g}, "
+                      f"{free.ms:.1f} ms); the render refines the tiles with the largest estimated errors first "
+                      "and reports the estimate it reached.", "", budget_table(a.budget)]
     tw, th = c.timing_size
     parts += [
         "",

@@ -15,7 +15,7 @@ from ...render import PRECISIONS, SAMPLERS, SPHERE_METHODS, RenderResult, render
 from ...scene import Scene
 from ...showcase import showcase_scene
 from .. import numerics
-from ..errors import depth_differences, fit_slope, rmse, worst_pixel
+from ..errors import depth_differences, fit_slope, pixel_errors, rmse, worst_pixel
 from ..machine import machine
 from ..scenes import EFFECT_ROWS, edge_scene, effect_scene
 
@@ -33,7 +33,8 @@ class Config:
     spps: tuple[int, ...]                    # samples per pixel swept (adaptive: the maximum)
     reference_spp: int
     runs: int                                # timed rounds per point (median); one warm-up before
-    target_errors: tuple[float, ...]         # adaptive's knob, swept on the showcase
+    target_errors: tuple[float, ...]         # adaptive's knob, swept on both scenes
+    min_spps: tuple[int, ...]                # adaptive's first pass, swept with it
     timing_size: tuple[int, int]             # precision and sphere-method timings
     timing_spp: int
     timing_runs: int
@@ -44,24 +45,30 @@ class Config:
     @classmethod
     def full(cls) -> Config:
         return cls(quick=False, aa_size=(160, 90), spps=(1, 4, 16, 64, 256), reference_spp=4096, runs=3,
-                   target_errors=(0.08, 0.04, 0.02, 0.01, 0.005, 0.0025), timing_size=(480, 270), timing_spp=4,
-                   timing_runs=5, effects_size=(640, 360))
+                   target_errors=(0.02, 0.01, 0.007, 0.005, 0.0035, 0.0025), min_spps=(4, 8),
+                   timing_size=(480, 270), timing_spp=4, timing_runs=5, effects_size=(640, 360))
 
     @classmethod
     def quick_config(cls) -> Config:
         return cls(quick=True, aa_size=(80, 45), spps=(1, 4, 16), reference_spp=256, runs=1,
-                   target_errors=(0.04, 0.01), timing_size=(160, 90), timing_spp=4, timing_runs=3,
+                   target_errors=(0.04, 0.01), min_spps=(4,), timing_size=(160, 90), timing_spp=4, timing_runs=3,
                    effects_size=(480, 270))
 
     @property
-    def baseline_spp(self) -> int:
-        """The stratified spp the adaptive target compares with: 64, or the largest measured below it."""
-        return max([s for s in self.spps if s <= 64] or [min(self.spps)])
+    def baselines(self) -> tuple[tuple[int, float], ...]:
+        """(stratified spp, the share of its time adaptive must reach its error in): 64 in 1/3 and 256
+        in 1/4 (quick: the largest measured spp below each)."""
+        out = []
+        for spp, share in ((64, 1 / 3), (256, 1 / 4)):
+            measured = max([s for s in self.spps if s <= spp] or [min(self.spps)])
+            if all(measured != b for b, _ in out):
+                out.append((measured, share))
+        return tuple(out)
 
     @property
-    def adaptive_max_spp(self) -> int:
-        """The maximum spp of the target_error sweep: 4 x the baseline, so adaptive is not capped by it."""
-        return 4 * self.baseline_spp
+    def adaptive_max_spps(self) -> tuple[int, ...]:
+        """The maxima of the target_error sweep: each baseline's spp."""
+        return tuple(spp for spp, _ in self.baselines)
 
 
 # --- timing ---------------------------------------------------------------------------------------
@@ -95,7 +102,24 @@ class AAPoint:
     rmse: float
     worst: float
     ms: float
-    target_error: float | None = None  # adaptive only
+    target_error: float | None = None     # adaptive's sweep only
+    min_spp: int | None = None            # adaptive's sweep only
+    estimated_rmse: float | None = None   # adaptive: the render's own estimate of `rmse`
+    color: np.ndarray | None = field(default=None, repr=False)    # adaptive's sweep: the image
+    samples: np.ndarray | None = field(default=None, repr=False)  # and its per-pixel sample counts
+
+
+@dataclass
+class BudgetPoint:
+    """An adaptive render stopped by `time_limit`: what it reached against what it estimated."""
+
+    time_limit: float | None   # seconds; None: no limit
+    ms: float
+    samples_per_pixel: float
+    rmse: float
+    estimated_rmse: float
+    worst: float
+    reached: bool              # stopped by the limit
 
 
 @dataclass
@@ -107,8 +131,10 @@ class AntiAliasing:
     reference_spp: int
     reference_ms: float
     points: list[AAPoint]
-    sweep: list[AAPoint] = field(default_factory=list)  # adaptive's target_error sweep (showcase)
+    sweep: list[AAPoint] = field(default_factory=list)  # adaptive's target_error x min_spp x max spp sweep
     reference: np.ndarray | None = field(default=None, repr=False)  # the reference's colour
+    edge_share: float = float("nan")   # pixels whose reference differs from their centre sample by > 1e-3
+    budget: list[BudgetPoint] = field(default_factory=list)  # adaptive under time limits
 
     def slope(self, sampler: str) -> float:
         """Fitted log RMSE / log spp of a sampler's points (adaptive: against the samples it took)."""
@@ -118,30 +144,68 @@ class AntiAliasing:
     def point(self, sampler: str, spp: int) -> AAPoint | None:
         return next((p for p in self.points if p.sampler == sampler and p.spp == spp), None)
 
+    def cheapest_reaching(self, base: AAPoint) -> AAPoint | None:
+        """The fastest adaptive render with `base`'s RMSE and worst pixel or better."""
+        reached = [p for p in self.points + self.sweep
+                   if p.sampler == "adaptive" and p.rmse <= base.rmse and p.worst <= base.worst]
+        return min(reached, key=lambda p: p.ms, default=None)
+
+    def heatmap_point(self, baselines: tuple[tuple[int, float], ...]) -> AAPoint | None:
+        """The sweep's render the report's heat map shows: the cheapest reaching the first baseline's
+        RMSE and worst pixel, else the one with the smallest RMSE."""
+        base = self.point("stratified", baselines[0][0]) if baselines else None
+        reaching = self.cheapest_reaching(base) if base is not None else None
+        if reaching is not None and reaching.samples is not None:
+            return reaching
+        return min((p for p in self.sweep if p.samples is not None), key=lambda p: p.rmse, default=None)
+
 
 def measure_antialiasing(name: str, description: str, scene: Scene, camera: Any, width: int, height: int,
                          spps: Sequence[int], reference_spp: int, runs: int, samplers: Sequence[str] = SAMPLERS,
-                         target_errors: Sequence[float] = (), adaptive_max_spp: int = 256) -> AntiAliasing:
-    """Every sampler at every spp against a `reference_spp` stratified double render."""
+                         target_errors: Sequence[float] = (), adaptive_max_spps: Sequence[int] = (),
+                         min_spps: Sequence[int] = (4,)) -> AntiAliasing:
+    """Every sampler at every spp, and adaptive's sweep of target_error x min_spp x max spp, against
+    a `reference_spp` stratified double render."""
     start = time.perf_counter()
     reference = render(scene, camera, width, height, spp=reference_spp, seed=REFERENCE_SEED,
                        sampler=REFERENCE_SAMPLER, precision="double", passes=("color",))
     reference_ms = (time.perf_counter() - start) * 1000
-    configs = [(s, n, None) for s in samplers for n in spps]
-    configs += [("adaptive", adaptive_max_spp, e) for e in target_errors]
+    configs: list[tuple[str, int, float | None, int | None]] = [(s, n, None, None) for s in samplers for n in spps]
+    configs += [("adaptive", n, e, m) for n in adaptive_max_spps for m in min_spps for e in target_errors]
 
-    def renderer(sampler: str, spp: int, target_error: float | None) -> Callable[..., RenderResult]:
-        extra = {} if target_error is None else {"target_error": target_error}
+    def renderer(sampler: str, spp: int, target_error: float | None, min_spp: int | None) -> Callable[..., RenderResult]:
+        extra = {} if target_error is None else {"target_error": target_error, "min_spp": min_spp}
         return lambda out: render(scene, camera, width, height, spp=spp, seed=SEED, sampler=sampler,
                                   passes=("color",), **extra)
 
     medians, results = timed([renderer(*c) for c in configs], runs)
-    points = [AAPoint(s, n, samples_per_pixel(r), rmse(r.color, reference.color), worst_pixel(r.color, reference.color),
-                      ms, e) for (s, n, e), ms, r in zip(configs, medians, results)]
-    main_points = [p for p in points if p.target_error is None]
-    sweep = [p for p in points if p.target_error is not None]
-    return AntiAliasing(name, description, width, height, reference_spp, reference_ms, main_points, sweep,
-                        reference.color)
+    points = []
+    for (s, n, e, m), ms, r in zip(configs, medians, results):
+        swept = e is not None
+        points.append(AAPoint(s, n, samples_per_pixel(r), rmse(r.color, reference.color),
+                              worst_pixel(r.color, reference.color), ms, e, m, r.stats.get("estimated_rmse"),
+                              r.color if swept else None, r.samples if swept else None))
+    centre = next((r for (s, n, _, _), r in zip(configs, results) if s == "center" and n == 1), None)
+    edge_share = float("nan") if centre is None else \
+        float(np.mean(pixel_errors(centre.color, reference.color) > 1e-3))
+    return AntiAliasing(name, description, width, height, reference_spp, reference_ms,
+                        [p for p in points if p.target_error is None], [p for p in points if p.target_error is not None],
+                        reference.color, edge_share)
+
+
+def measure_budget(aa: AntiAliasing, scene: Scene, camera: Any, max_spp: int, target_error: float,
+                   shares: Sequence[float] = (1 / 8, 1 / 4, 1 / 2)) -> list[BudgetPoint]:
+    """Adaptive (max_spp, target_error) without a limit, then with time limits of `shares` of its
+    time: the error each reached, measured and estimated. One render each, after a warm-up."""
+    def run(limit: float | None) -> BudgetPoint:
+        r = render(scene, camera, aa.width, aa.height, spp=max_spp, seed=SEED, sampler="adaptive",
+                   target_error=target_error, time_limit=limit, passes=("color",))
+        return BudgetPoint(limit, r.stats["milliseconds"], samples_per_pixel(r), rmse(r.color, aa.reference),
+                           r.stats["estimated_rmse"], worst_pixel(r.color, aa.reference), r.stats["time_limit_reached"])
+
+    run(None)
+    free = run(None)
+    return [*(run(free.ms / 1000 * share) for share in shares), free]
 
 
 @dataclass
@@ -251,16 +315,22 @@ def measure(config: Config, command: str = "python -m durer accuracy", log: Call
     edges, edges_camera = edge_scene(config.edge_spheres)
     threads = int(render(showcase, showcase_camera, 8, 8).stats["threads"])
 
+    adaptive = "adaptive" in config.samplers
+    sweep = dict(target_errors=config.target_errors if adaptive else (), adaptive_max_spps=config.adaptive_max_spps,
+                 min_spps=config.min_spps)
     log(f"anti-aliasing: showcase, {width}x{height}, reference {config.reference_spp} spp ...")
     aa_showcase = measure_antialiasing(
         "showcase", f"the showcase scene ({showcase.sphere_count} spheres, a ground plane, a sun)", showcase,
-        showcase_camera, width, height, config.spps, config.reference_spp, config.runs, config.samplers,
-        config.target_errors if "adaptive" in config.samplers else (), config.adaptive_max_spp)
+        showcase_camera, width, height, config.spps, config.reference_spp, config.runs, config.samplers, **sweep)
     log(f"anti-aliasing: edges ({config.edge_spheres} small spheres) ...")
     aa_edges = measure_antialiasing(
         "edges", f"the edge-heavy scene ({config.edge_spheres} spheres of radius 0.02-0.08 on a plane, seen from "
         "above, one sun without shadows)", edges, edges_camera, width, height, config.spps, config.reference_spp,
-        config.runs, config.samplers)
+        config.runs, config.samplers, **sweep)
+    if adaptive:
+        log("adaptive under time limits ...")
+        for aa, (scene, camera) in ((aa_showcase, (showcase, showcase_camera)), (aa_edges, (edges, edges_camera))):
+            aa.budget = measure_budget(aa, scene, camera, max(config.adaptive_max_spps), min(config.target_errors))
 
     tw, th = config.timing_size
     log(f"precision and sphere method: {tw}x{th}, {config.timing_spp} spp ...")
