@@ -160,7 +160,8 @@ T* target(const py::dict& out, const char* name, bool wanted, std::vector<py::ss
   if (out.contains(name) && !out[name].is_none()) {
     py::object given = out[name];
     if (!py::isinstance<py::array_t<T>>(given)) {
-      throw py::type_error(std::string("out.") + name + " must be a " + (std::is_same_v<T, float> ? "float32" : "int32") + " array");
+      const char* dtype = std::is_same_v<T, float> ? "float32" : "int32";
+      throw py::type_error(std::string("out.") + name + " must be a " + dtype + " array");
     }
     a = given.cast<py::array_t<T>>();
     const bool sameShape = a.ndim() == static_cast<py::ssize_t>(shape.size()) &&

@@ -25,7 +25,10 @@ void validate(const RenderSettings& s) {
   if (s.threads < 0) fail("threads must be >= 0 (0: all cores), got " + std::to_string(s.threads));
   unsigned known = 0;
   std::string names;
-  for (const OptionName<PassFlags>& pass : kPassNames) known |= pass.value, names += (names.empty() ? "" : ", ") + std::string(pass.name);
+  for (const OptionName<PassFlags>& pass : kPassNames) {
+    known |= pass.value;
+    names += (names.empty() ? "" : ", ") + std::string(pass.name);
+  }
   if (s.passes == 0 || (s.passes & ~known) != 0) fail("passes must name at least one of " + names);
   if (!(std::isfinite(s.targetError) && s.targetError > 0)) fail("target_error must be finite and > 0, got " + std::to_string(s.targetError));
   if (s.maxBounces < 0 || s.maxBounces > 1000) fail("max_bounces must be in [0, 1000], got " + std::to_string(s.maxBounces));

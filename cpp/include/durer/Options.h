@@ -33,8 +33,9 @@ enum PassFlags : unsigned {
   kPassDepth = 1u << 1,   // the pixel's nearest sample hit (DepthKind says measured how); inf on a miss
   kPassNormal = 1u << 2,  // unit world-space normal, the normalised mean over the pixel's hit samples (the
                           // nearest hit sample's where their normals cancel: TileRenderer.h); 0 on a miss
-  kPassObjectId = 1u << 3,    // int32: the object id (as cast reports it) of the pixel's nearest hit sample; -1 on a miss
-  kPassMaterialId = 1u << 4,  // int32: the material id of the pixel's nearest hit sample; -1 on a miss
+  kPassObjectId = 1u << 3,    // int32: the object id (as cast reports it) of the pixel's nearest hit sample (the
+                              // first taken among equally near ones); -1 on a miss
+  kPassMaterialId = 1u << 4,  // int32: the material id of that sample; -1 on a miss
 };
 // What a render computes when not told: the float passes. Id passes are asked for by name.
 inline constexpr unsigned kDefaultPasses = kPassColor | kPassDepth | kPassNormal;

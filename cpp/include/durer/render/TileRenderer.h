@@ -248,7 +248,9 @@ class TileRenderer {
       if (m_targets.normal) {
         accumulateNormals(packet, acc);
       } else if (m_needNearest) {
-        for (int k = 0; k < packet.count; ++k) acc.addNearest(k, packet.prim[k] != kNoPrimitive, packet.tHit[k], packet.prim[k]);
+        for (int k = 0; k < packet.count; ++k) {
+          acc.addNearest(k, packet.prim[k] != kNoPrimitive, packet.tHit[k], packet.prim[k]);
+        }
       }
       return;
     }
