@@ -148,10 +148,22 @@ def test_export_keeps_pass_indices_and_tables_map_core_ids(scene):
     np.testing.assert_array_equal(IdTables.lookup(tables.material_pass_index, np.array([-1, 0])), [0, 0])
 
 
-def test_the_index_panel_and_registered_passes(scene):
-    layer = scene.view_layers[0]
-    layer.use_pass_object_index = True
-    layer.durer.use_pass_object_id = True
+def test_the_index_panel_and_the_passes_the_compositor_offers(scene):
     assert bpy.types.DURER_PT_index_passes.bl_parent_id == "VIEWLAYER_PT_layer_passes"
-    names = {name for name, wanted, _, _ in engine.INDEX_PASSES if wanted(layer)}
-    assert names == {"Object Index", "Object ID"}
+    tree = bpy.data.node_groups.new("Compositing", "CompositorNodeTree")
+    scene.compositing_node_group = tree
+    node = tree.nodes.new("CompositorNodeRLayers")
+    node.scene = scene
+
+    def offered():
+        return {name for name, _, _, _ in engine.INDEX_PASSES if name in node.outputs and node.outputs[name].enabled}
+
+    layer = scene.view_layers[0]
+    assert offered() == set()
+    layer.use_pass_object_index = True
+    assert offered() == {"Object Index"}
+    layer.durer.use_pass_object_id = True
+    assert offered() == {"Object Index", "Object ID"}
+    layer.use_pass_object_index = False
+    layer.use_pass_material_index = True
+    assert offered() == {"Material Index", "Object ID"}

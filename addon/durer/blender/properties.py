@@ -286,6 +286,14 @@ class DurerObjectSettings(bpy.types.PropertyGroup):
     )
 
 
+def _passes_changed(settings, _context) -> None:
+    """Blender asks the engine for a view layer's passes again (the compositor's Render Layers
+    sockets) when one of its own pass switches changes, not ours: tell it."""
+    for layer in settings.id_data.view_layers:
+        if layer.durer.as_pointer() == settings.as_pointer():
+            layer.update_render_passes()
+
+
 class DurerViewLayerSettings(bpy.types.PropertyGroup):
     use_pass_object_id: BoolProperty(
         name="Object ID",
@@ -293,6 +301,7 @@ class DurerViewLayerSettings(bpy.types.PropertyGroup):
         "exports them (0 where nothing is hit), whatever their Pass Index; the names in that order are "
         "durer.blender.engine.last_render.object_names",
         default=False,
+        update=_passes_changed,
     )
 
 
