@@ -63,7 +63,8 @@ class RenderResult:
 
 
 class RenderCancelled(Exception):
-    """The render was cancelled; `result` holds the tiles finished before it stopped."""
+    """The render was cancelled; `result` holds the tiles finished before it stopped (the id
+    passes of the pixels not reached hold -1, unless reused through `out`)."""
 
     def __init__(self, result: RenderResult) -> None:
         super().__init__(f"render cancelled after {result.stats['rays']} of {result.stats['requested_rays']} rays")

@@ -152,7 +152,8 @@ auto withoutGil(JobControl& control, const py::function& poll, Job job) {
 }
 
 // The buffer of a requested pass (float32, or int32 for the id passes): out[name] when given (reused,
-// e.g. frame after frame), else new.
+// e.g. frame after frame), else new. A new id buffer starts as misses (-1), so that the pixels a
+// cancelled render did not reach hold an id that maps to something.
 template <typename T>
 T* target(const py::dict& out, const char* name, bool wanted, std::vector<py::ssize_t> shape, py::dict& result) {
   if (!wanted) return nullptr;
@@ -172,6 +173,7 @@ T* target(const py::dict& out, const char* name, bool wanted, std::vector<py::ss
     }
   } else {
     a = py::array_t<T>(shape);
+    if constexpr (std::is_same_v<T, int32_t>) std::fill_n(a.mutable_data(), a.size(), int32_t(-1));
   }
   result[name] = a;
   return a.mutable_data();
