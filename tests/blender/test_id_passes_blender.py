@@ -82,6 +82,23 @@ def test_index_passes_equal_cycles_away_from_edges(scene, tmp_path, samples):
     assert (compared & (cycles["depth"] > 1e9)).sum() > 100
 
 
+@pytest.mark.parametrize("crop", [False, True])
+def test_index_passes_of_a_render_region_equal_cycles(scene, tmp_path, crop):
+    index_scene(scene)
+    r = scene.render
+    r.use_border, r.use_crop_to_border = True, crop
+    r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y = 0.13, 0.71, 0.27, 0.88
+    use_cycles(scene)
+    cycles = render_passes(scene, tmp_path / "cycles.exr", depth=False, normal=False, indexes=True)
+    scene.render.engine = "DURER"
+    durer_ = render_passes(scene, tmp_path / "durer.exr", depth=False, normal=False, indexes=True)
+    for name in ("IndexOB", "IndexMA"):
+        assert durer_[name].shape == cycles[name].shape == ((44, 56) if crop else (72, 96))
+        compared = away_from_edges(cycles["IndexOB"] * 100 + cycles["IndexMA"])
+        np.testing.assert_array_equal(durer_[name][compared], cycles[name][compared], err_msg=name)
+        assert len(np.unique(cycles[name][compared])) >= 4
+
+
 def test_instances_take_the_pass_index_cycles_gives_them(scene, tmp_path):
     """Geometry-nodes instances (of a sphere: exported in bulk; of a cube: a mesh each) show their
     instancer's Pass Index, collection instances the instanced object's, in Cycles and Dürer alike."""
