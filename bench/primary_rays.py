@@ -30,7 +30,7 @@ from pathlib import Path  # noqa: E402
 
 import durer  # noqa: E402
 import numpy as np  # noqa: E402
-from durer.render import PASSES  # noqa: E402
+from durer.render import DEFAULT_PASSES  # noqa: E402
 
 DEFAULT_RUNS = 7
 MIN_RUNS_FOR_MEDIAN = 5
@@ -38,7 +38,7 @@ CONTENDED_SHARE = 0.85  # of a core per thread for our own process
 BUSY_OTHERS = 0.2  # cores used by other processes
 DEPTH_TOLERANCE = 1e-4
 COLOR_DEPTH = ("color", "depth")
-ALL_PASSES = PASSES
+ALL_PASSES = DEFAULT_PASSES
 RANDOM_SPHERES = 1000
 RANDOM_SEED = 2024
 

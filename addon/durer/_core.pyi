@@ -12,7 +12,8 @@ KERNEL_SET: str  # the instruction set of the hot kernels this CPU runs: "x86-64
 PRECISIONS: tuple[str, ...]  # ("float", "double")
 SPHERE_METHODS: tuple[str, ...]  # ("algebraic", "geometric", "robust")
 SAMPLERS: tuple[str, ...]  # ("center", "random", "stratified", "sobol", "adaptive")
-PASSES: tuple[str, ...]  # ("color", "depth", "normal")
+PASSES: tuple[str, ...]  # ("color", "depth", "normal", "object_id", "material_id")
+DEFAULT_PASSES: tuple[str, ...]  # ("color", "depth", "normal")
 DEPTHS: tuple[str, ...]  # ("ray", "planar")
 PROJECTIONS: tuple[str, ...]  # ("orthographic", "perspective")
 FITS: tuple[str, ...]  # ("auto", "horizontal", "vertical")
@@ -87,7 +88,7 @@ def render(
     target_error: float, min_spp: int, time_limit: float, precision: str,
     sphere_method: str, passes: Sequence[str], depth: str, threads: int, shade_back: bool, max_bounces: int,
     min_weight: float, poll: Callable[[float], bool],
-    out: dict[str, NDArray[np.float32] | None], region: tuple[int, int, int, int],
+    out: dict[str, NDArray[np.float32] | NDArray[np.int32] | None], region: tuple[int, int, int, int],
 ) -> dict[str, object]: ...
 def cast(
     scene: Scene, origins: NDArray[np.float64], directions: NDArray[np.float64], t_min: float, t_max: float,

@@ -1,4 +1,4 @@
-"""`render`: an image of a scene through a camera, with colour, depth and normal passes."""
+"""`render`: an image of a scene through a camera, with colour, depth, normal and id passes."""
 
 from __future__ import annotations
 
@@ -14,6 +14,8 @@ from .scene import Scene
 
 # The option names, owned by the core (cpp/include/durer/Options.h), in its order.
 PASSES: tuple[str, ...] = _core.PASSES
+#: The passes `render` computes unless told: colour, depth, normal (the id passes are asked for by name).
+DEFAULT_PASSES: tuple[str, ...] = _core.DEFAULT_PASSES
 SAMPLERS: tuple[str, ...] = _core.SAMPLERS
 PRECISIONS: tuple[str, ...] = _core.PRECISIONS
 SPHERE_METHODS: tuple[str, ...] = _core.SPHERE_METHODS
@@ -36,6 +38,10 @@ class RenderResult:
                       where that mean is shorter than 1/1024 of their count (the samples' normals
                       cancel: a thin wall seen from both sides), the nearest hit sample's normal
                       (the first taken among equally near ones); 0 where every sample missed.
+    object_id, material_id (H, W) int32: the object id (as `cast` and the scene's adds give them)
+                      and material id of the pixel's nearest hit sample (the first taken among
+                      equally near ones: one sample's ids, never a blend at an edge); -1 where
+                      every sample missed. Not computed unless asked for in `passes`.
     stats:            effects (the effect set simulated: "flat" or "diffuse", "specular", "shadows",
                       "reflection", "refraction"); rays (camera), shadow_rays, reflection_rays,
                       refraction_rays, shading_evaluations, bounces_cut_by_depth,
@@ -56,10 +62,16 @@ class RenderResult:
     stats: dict[str, Any] = field(default_factory=dict)
     samples: np.ndarray | None = None
     error: np.ndarray | None = None
+    object_id: np.ndarray | None = None
+    material_id: np.ndarray | None = None
+
+    #: The per-pixel arrays a result may hold (a pass not requested, or not adaptive: None).
+    ARRAYS = ("color", "depth", "normal", "samples", "error", "object_id", "material_id")
 
 
 class RenderCancelled(Exception):
-    """The render was cancelled; `result` holds the tiles finished before it stopped."""
+    """The render was cancelled; `result` holds the tiles finished before it stopped (the id
+    passes of the pixels not reached hold -1, unless reused through `out`)."""
 
     def __init__(self, result: RenderResult) -> None:
         super().__init__(f"render cancelled after {result.stats['rays']} of {result.stats['requested_rays']} rays")
@@ -107,7 +119,7 @@ def render(
     time_limit: float | None = None,
     precision: str = "double",
     sphere_method: str = "robust",
-    passes: Iterable[str] = PASSES,
+    passes: Iterable[str] = DEFAULT_PASSES,
     threads: int | None = None,
     progress: Callable[[float], Any] | None = None,
     cancel: Callable[[], bool] | _Flag | None = None,
@@ -132,7 +144,7 @@ def render(
     worst tiles refined first, and sets stats "time_limit_reached"; see AdaptiveSampler.h).
     `durer.preset(name)` gives ready settings. `precision` "float" or "double" is used for every ray and
     intersection; `sphere_method` "robust" (default), "algebraic" or "geometric". Only the
-    requested `passes` are computed. The GIL is released while rendering on `threads` threads
+    requested `passes` (any of PASSES; by default DEFAULT_PASSES) are computed. The GIL is released while rendering on `threads` threads
     (None: all cores); `progress(fraction)` is called from this thread as tiles finish, and the
     render stops within 0.1 s once `cancel()` returns true (or the `cancel` Event is set), raising
     RenderCancelled with the partial result. `out`, an earlier RenderResult of the same size and
@@ -176,7 +188,7 @@ def render(
     poll = poll_function(progress, cancel)
     if out is not None and not isinstance(out, RenderResult):
         raise TypeError(f"out must be a RenderResult or None, got {type(out).__name__}")
-    buffers = {} if out is None else {"color": out.color, "depth": out.depth, "normal": out.normal}
+    buffers = {} if out is None else {name: getattr(out, name) for name in PASSES}
     out = _core.render(
         scene._core, camera._spec, width, height, spp, seed, sampler, target_error, min_spp, time_limit, precision,
         sphere_method,
@@ -193,7 +205,7 @@ def render(
         mrays_per_s=stats["rays"] / seconds / 1e6 if seconds > 0 else float("inf"),
     )
     result = RenderResult(out.get("color"), out.get("depth"), out.get("normal"), stats, out.get("samples"),
-                          out.get("error"))
+                          out.get("error"), out.get("object_id"), out.get("material_id"))
     if stats["cancelled"]:
         raise RenderCancelled(result)
     if progress is not None:

@@ -11,6 +11,7 @@
 #include <initializer_list>
 #include <optional>
 #include <string>
+#include <type_traits>
 
 #include "durer/render/Camera.h"
 #include "durer/render/Cast.h"
@@ -150,14 +151,20 @@ auto withoutGil(JobControl& control, const py::function& poll, Job job) {
   return job(pollWithGil);
 }
 
-// The float32 buffer of a requested pass: out[name] when given (reused, e.g. frame after frame), else new.
-float* target(const py::dict& out, const char* name, bool wanted, std::vector<py::ssize_t> shape, py::dict& result) {
+// The buffer of a requested pass (float32, or int32 for the id passes): out[name] when given (reused,
+// e.g. frame after frame), else new. A new id buffer starts as misses (-1), so that the pixels a
+// cancelled render did not reach hold an id that maps to something.
+template <typename T>
+T* target(const py::dict& out, const char* name, bool wanted, std::vector<py::ssize_t> shape, py::dict& result) {
   if (!wanted) return nullptr;
-  py::array_t<float> a;
+  py::array_t<T> a;
   if (out.contains(name) && !out[name].is_none()) {
     py::object given = out[name];
-    if (!py::isinstance<py::array_t<float>>(given)) throw py::type_error(std::string("out.") + name + " must be a float32 array");
-    a = given.cast<py::array_t<float>>();
+    if (!py::isinstance<py::array_t<T>>(given)) {
+      const char* dtype = std::is_same_v<T, float> ? "float32" : "int32";
+      throw py::type_error(std::string("out.") + name + " must be a " + dtype + " array");
+    }
+    a = given.cast<py::array_t<T>>();
     const bool sameShape = a.ndim() == static_cast<py::ssize_t>(shape.size()) &&
                            std::equal(shape.begin(), shape.end(), a.shape());
     if (!sameShape) throw py::value_error(std::string("out.") + name + " has the wrong shape for this render");
@@ -165,7 +172,8 @@ float* target(const py::dict& out, const char* name, bool wanted, std::vector<py
       throw py::value_error(std::string("out.") + name + " must be C-contiguous and writeable");
     }
   } else {
-    a = py::array_t<float>(shape);
+    a = py::array_t<T>(shape);
+    if constexpr (std::is_same_v<T, int32_t>) std::fill_n(a.mutable_data(), a.size(), int32_t(-1));
   }
   result[name] = a;
   return a.mutable_data();
@@ -201,9 +209,11 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
   const py::ssize_t h = region[2] != 0 ? region[3] : height, w = region[2] != 0 ? region[2] : width;
   py::dict result;
   RenderTargets targets;
-  targets.color = target(out, "color", color, {h, w, 4}, result);
-  targets.depth = target(out, "depth", settings.passes & kPassDepth, {h, w}, result);
-  targets.normal = target(out, "normal", settings.passes & kPassNormal, {h, w, 3}, result);
+  targets.color = target<float>(out, "color", color, {h, w, 4}, result);
+  targets.depth = target<float>(out, "depth", settings.passes & kPassDepth, {h, w}, result);
+  targets.normal = target<float>(out, "normal", settings.passes & kPassNormal, {h, w, 3}, result);
+  targets.objectId = target<int32_t>(out, "object_id", settings.passes & kPassObjectId, {h, w}, result);
+  targets.materialId = target<int32_t>(out, "material_id", settings.passes & kPassMaterialId, {h, w}, result);
   if (settings.sampler == SamplerKind::Adaptive) {
     py::array_t<int32_t> counts({h, w});
     py::array_t<float> error({h, w});
@@ -454,6 +464,11 @@ PYBIND11_MODULE(_core, m) {
   m.attr("SPHERE_METHODS") = names(kSphereMethodNames);
   m.attr("SAMPLERS") = names(kSamplerNames);
   m.attr("PASSES") = names(kPassNames);
+  py::list defaultPasses;
+  for (const OptionName<PassFlags>& pass : kPassNames) {
+    if (pass.value & kDefaultPasses) defaultPasses.append(pass.name);
+  }
+  m.attr("DEFAULT_PASSES") = py::tuple(defaultPasses);
   m.attr("DEPTHS") = names(kDepthNames);
   m.attr("PROJECTIONS") = names(kProjectionNames);
   m.attr("FITS") = names(kFitNames);

@@ -23,7 +23,13 @@ void validate(const RenderSettings& s) {
   requireCount(s.height, "height");
   requireCount(s.samplesPerPixel, "spp");
   if (s.threads < 0) fail("threads must be >= 0 (0: all cores), got " + std::to_string(s.threads));
-  if (s.passes == 0 || (s.passes & ~(kPassColor | kPassDepth | kPassNormal)) != 0) fail("passes must name at least one of color, depth, normal");
+  unsigned known = 0;
+  std::string names;
+  for (const OptionName<PassFlags>& pass : kPassNames) {
+    known |= pass.value;
+    names += (names.empty() ? "" : ", ") + std::string(pass.name);
+  }
+  if (s.passes == 0 || (s.passes & ~known) != 0) fail("passes must name at least one of " + names);
   requireCount(s.minSamples, "min_spp");
   if (!(std::isfinite(s.timeLimit) && s.timeLimit >= 0)) fail("time_limit must be finite and >= 0 (0: none), got " + std::to_string(s.timeLimit));
   if (!(std::isfinite(s.targetError) && s.targetError > 0)) fail("target_error must be finite and > 0, got " + std::to_string(s.targetError));

@@ -22,7 +22,8 @@ STUB = Path(_core.__file__).with_name("_core.pyi")
 if not STUB.exists():  # an editable install keeps the stub with the sources
     STUB = Path(durer.__file__).with_name("_core.pyi")
 
-OPTION_TUPLES = ("PRECISIONS", "SPHERE_METHODS", "SAMPLERS", "PASSES", "DEPTHS", "PROJECTIONS", "FITS", "SHADING_MODES")
+OPTION_TUPLES = ("PRECISIONS", "SPHERE_METHODS", "SAMPLERS", "PASSES", "DEFAULT_PASSES", "DEPTHS", "PROJECTIONS", "FITS",
+                 "SHADING_MODES")
 
 
 def _stub() -> ast.Module:
@@ -69,6 +70,7 @@ def test_the_package_reads_its_names_from_the_core():
     assert render_module.SPHERE_METHODS is _core.SPHERE_METHODS
     assert render_module.SAMPLERS is _core.SAMPLERS
     assert render_module.PASSES is _core.PASSES
+    assert render_module.DEFAULT_PASSES is _core.DEFAULT_PASSES
     assert render_module.DEPTHS is _core.DEPTHS
     assert camera_module.FITS is _core.FITS
     # The defaults of the public API are among them.
@@ -77,7 +79,8 @@ def test_the_package_reads_its_names_from_the_core():
     assert params["sphere_method"].default in _core.SPHERE_METHODS
     assert params["sampler"].default in _core.SAMPLERS
     assert params["depth"].default in _core.DEPTHS
-    assert tuple(params["passes"].default) == _core.PASSES
+    assert params["passes"].default is _core.DEFAULT_PASSES
+    assert set(_core.DEFAULT_PASSES) < set(_core.PASSES)
 
 
 def test_every_option_name_is_documented_in_the_render_docstring():

@@ -64,6 +64,21 @@ def test_cancel_before_start_renders_nothing():
     assert info.value.result.stats["rays"] < 64 * 64
 
 
+def test_a_cancelled_renders_id_passes_are_misses_where_it_did_not_reach():
+    scene, camera = heavy_scene()
+    scene.add_plane((0, 0, 1), -6.0)  # behind everything: every pixel rendered hits something
+    stop = threading.Event()
+    timer = threading.Timer(0.3, stop.set)
+    timer.start()
+    with pytest.raises(durer.RenderCancelled) as info:
+        durer.render(scene, camera, 400, 400, spp=256, passes=("object_id",), cancel=stop)
+    timer.join()
+    partial = info.value.result
+    assert 0 < partial.stats["rays"] < 400 * 400 * 256
+    # A tile is written whole or not at all: 256 camera rays per pixel reached, -1 everywhere else.
+    assert (partial.object_id != -1).sum() * 256 == partial.stats["rays"]
+
+
 def test_a_python_thread_runs_while_rendering():
     scene, camera = heavy_scene()
     ticks = 0

@@ -14,7 +14,7 @@ import durer
 from durer.course import gallery, raytracer
 from durer.course.raytracer import RaytracerOptions, parse_arguments, render_scene_file, to_bytes, write_image
 from durer.course.scene_file import SceneFileError, read_scene_file
-from durer.render import PASSES
+from durer.render import DEFAULT_PASSES
 from helpers import ROOT
 
 CORPUS = ROOT / "scenes" / "6837"
@@ -53,7 +53,7 @@ def test_full_command_line():
                               "-shade_back -shadows -bounces 3 -weight 0.01 -spp 4 -precision float".split())
     assert options == RaytracerOptions(Path("s.txt"), 64, 48, Path("o.tga"), (-2.0, 2.5, Path("d.png")),
                                        Path("n.tga"), True, True, 3, 0.01, 4, "float", ())
-    assert options.passes == PASSES
+    assert options.passes == DEFAULT_PASSES
 
 
 def test_defaults_and_passes():

@@ -18,14 +18,14 @@ W, H = 45, 37  # not multiples of the core's 8-pixel tiles
 
 
 def crop(result, x, y, w, h):
-    part = [None if a is None else a[y : y + h, x : x + w]
-            for a in (result.color, result.depth, result.normal, result.samples, result.error)]
-    return durer.RenderResult(*part[:3], {}, *part[3:])
+    return durer.RenderResult(stats={}, **{name: None if getattr(result, name) is None else
+                                           getattr(result, name)[y : y + h, x : x + w]
+                                           for name in durer.RenderResult.ARRAYS})
 
 
 @pytest.mark.parametrize("options", [
     {"spp": 4}, {"spp": 3, "sampler": "random"}, {"spp": 8, "sampler": "sobol", "precision": "float"},
-    {"spp": 1, "sampler": "center", "passes": ("depth",)},
+    {"spp": 1, "sampler": "center", "passes": ("depth",)}, {"spp": 4, "passes": ("depth", "object_id", "material_id")},
 ])
 def test_any_region_equals_that_part_of_the_whole_render(options):
     whole = durer.render(SCENE, CAMERA, W, H, **options)
@@ -70,7 +70,8 @@ def test_tile_regions_cover_the_image_once():
         tile_regions(45, 37, 0)
 
 
-@pytest.mark.parametrize("options", [{"spp": 4}, {"spp": 16, "sampler": "adaptive", "target_error": 0.002}])
+@pytest.mark.parametrize("options", [{"spp": 4}, {"spp": 16, "sampler": "adaptive", "target_error": 0.002},
+                                     {"spp": 2, "passes": ("color", "object_id", "material_id")}])
 def test_render_tiles_locally_equals_one_render(options):
     whole = durer.render(SCENE, CAMERA, W, H, **options)
     tiled = durer.render_tiles(SCENE, CAMERA, W, H, tile=16, **options)

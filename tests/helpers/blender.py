@@ -155,15 +155,17 @@ def use_cycles(s, samples=1, filter_width=0.01, max_bounces=0):
     s.render.threads = 2
 
 
-def render_passes(s, path, depth=True, normal=True):
+def render_passes(s, path, depth=True, normal=True, indexes=False):
     """Render the scene with its engine through bpy.ops.render.render(write_still=True) into an
     uncompressed 32-bit multilayer EXR; return {"color": (H,W,4), "depth": (H,W), "normal":
-    (H,W,3)} (top row first), read back from the file."""
+    (H,W,3)} (top row first), read back from the file; with `indexes`, "IndexOB" and "IndexMA"
+    (H,W) too (the view layer's Object and Material Index passes, so named in Blender 5)."""
     from helpers.exr import read_exr
 
     layer = s.view_layers[0]
     layer.use_pass_z = depth
     layer.use_pass_normal = normal
+    layer.use_pass_object_index = layer.use_pass_material_index = indexes
     st = s.render.image_settings
     st.media_type = "MULTI_LAYER_IMAGE"
     st.file_format = "OPEN_EXR_MULTILAYER"
@@ -179,6 +181,8 @@ def render_passes(s, path, depth=True, normal=True):
         out["depth"] = ch[f"{name}.Depth.Z"]
     if normal:
         out["normal"] = np.stack([ch[f"{name}.Normal.{c}"] for c in "XYZ"], axis=-1)
+    if indexes:
+        out["IndexOB"], out["IndexMA"] = ch[f"{name}.Object Index.X"], ch[f"{name}.Material Index.X"]
     return out
 
 

@@ -50,7 +50,7 @@ def orbit_cameras(count: int) -> list[durer.PerspectiveCamera]:
 
 def assert_same_image(a: durer.RenderResult, b: durer.RenderResult) -> None:
     """Bit-identical passes (NaN-free float32 arrays, inf where nothing was hit)."""
-    for name in ("color", "depth", "normal", "samples", "error"):
+    for name in durer.RenderResult.ARRAYS:
         x, y = getattr(a, name), getattr(b, name)
         assert (x is None) == (y is None), name
         if x is not None:

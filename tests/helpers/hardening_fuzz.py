@@ -84,7 +84,8 @@ KEYWORDS = ("OrthographicCamera", "PerspectiveCamera", "Background", "Lights", "
             "vertex2", "obj_file", "position", "attenuation", "diffuseColor", "specularColor", "exponent",
             "reflectiveColor", "transparentColor", "indexOfRefraction", "{", "}")
 DTYPES = (np.float64, np.float32, np.float16, np.int64, np.int32, np.uint8, np.bool_, np.complex128, object, "U3")
-PASS_SETS = (("color",), ("depth",), ("normal",), ("color", "depth", "normal"), (), ("colour",), "color", None)
+PASS_SETS = (("color",), ("depth",), ("normal",), ("color", "depth", "normal"), ("depth", "object_id", "material_id"),
+             (), ("colour",), "color", None)
 
 
 class Finding(AssertionError):
@@ -212,7 +213,7 @@ def _natural(array: np.ndarray) -> np.ndarray:
 # --- the oracle ----------------------------------------------------------------------------------
 
 def check_result(result: durer.RenderResult, tally: Tally) -> None:
-    """Finite colour and normal; depth finite, or +inf on a miss (with a zero normal)."""
+    """Finite colour and normal; depth finite, or +inf on a miss (with a zero normal and object id -1)."""
     tally.renders += 1
     if result.color is not None:
         tally.pixels += result.color.shape[0] * result.color.shape[1]
@@ -227,6 +228,8 @@ def check_result(result: durer.RenderResult, tally: Tally) -> None:
             raise NonFinite(f"depth -inf or NaN (only +inf, a miss, may be non-finite)\n{depth[bad][:8]}")
         if result.normal is not None and (result.normal[depth == np.inf] != 0).any():
             raise NonFinite("depth +inf (a miss) on a pixel with a normal: a hit at infinite depth")
+        if result.object_id is not None and ((result.object_id == -1) != (depth == np.inf)).any():
+            raise NonFinite("object id -1 (a miss) where the depth is finite, or an id at infinite depth")
 
 
 def check_cast(hits: CastResult) -> None:

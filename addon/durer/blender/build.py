@@ -7,7 +7,7 @@ Everything that depends on the core's API lives here, so the export stays plain 
 from __future__ import annotations
 
 import math
-from dataclasses import fields, is_dataclass
+from dataclasses import dataclass, fields, is_dataclass
 from typing import Any
 
 import numpy as np
@@ -42,7 +42,8 @@ def make_scene(data: SceneData) -> durer.Scene:
     """The Dürer scene: materials (with the Phong, mirror and refraction parameters the export
     mapped from Blender's shaders), spheres, ellipsoids, planes (normals as Blender's winding gives
     them), triangle meshes, lights, world. Which side of a surface is shaded is the render's
-    `shade_back` setting (the core flips the normal toward the ray, as Cycles does)."""
+    `shade_back` setting (the core flips the normal toward the ray, as Cycles does). Materials and
+    objects are added in the order `IdTables` relies on (the core numbers them in add order)."""
     scene = durer.Scene()
     # Only the effect parameters a material uses are passed: a diffuse material asks for no effect.
     table = np.array(
@@ -77,6 +78,42 @@ def make_scene(data: SceneData) -> durer.Scene:
     scene.background = data.background
     scene.ambient = data.ambient
     return scene
+
+
+@dataclass
+class IdTables:
+    """The core's ids -> Blender's index passes, as float32 lookup tables indexed by core id + 1
+    (entry 0: a miss, -1, which Blender's passes show as 0, as Cycles' background)."""
+
+    #: By core object id: the Blender object's pass_index (IndexOB).
+    object_pass_index: np.ndarray
+    #: By core object id: the Blender object's 1-based place in SceneData.objects (Dürer's Object ID).
+    object_number: np.ndarray
+    #: By core material id: the Blender material's pass_index (IndexMA).
+    material_pass_index: np.ndarray
+
+    @classmethod
+    def of(cls, data: SceneData) -> IdTables:
+        """The tables of the core scene make_scene(data) builds: material 0 is the core's default
+        (unused), then data.materials in order; objects in make_scene's add order (world-space
+        spheres, each ellipsoid, planes, meshes), one core object per sphere, plane or mesh."""
+        owners = np.concatenate([
+            data.sphere_owners,
+            *(np.full(len(g.radii), g.owner, np.int32) for g in data.transformed_spheres),
+            np.array([p.owner for p in data.planes], np.int32),
+            np.array([m.owner for m in data.meshes], np.int32),
+        ]).astype(np.intp)
+        object_pass = np.array([o.pass_index for o in data.objects], np.float32)
+        return cls(
+            object_pass_index=np.concatenate([[0], object_pass[owners]]).astype(np.float32),
+            object_number=np.concatenate([[0], owners + 1]).astype(np.float32),
+            material_pass_index=np.array([0, 0, *data.material_pass_indices], np.float32),
+        )
+
+    @staticmethod
+    def lookup(table: np.ndarray, core_ids: np.ndarray) -> np.ndarray:
+        """A Blender pass: table[core id + 1] per pixel (core ids -1 on a miss)."""
+        return table[core_ids.astype(np.intp) + 1]
 
 
 def update_scene(previous: tuple[SceneData, durer.Scene] | None, data: SceneData) -> tuple[durer.Scene, bool]:

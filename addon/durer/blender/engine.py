@@ -44,6 +44,8 @@ class RenderInfo:
     #: Adaptive sampler: the samples each pixel got, (H, W) int32, top row first (the core's
     #: result.samples over the whole frame); None for the fixed samplers.
     sample_counts: np.ndarray | None = None
+    #: The objects Dürer rendered, in export order: the Object ID pass shows object_names[i] as i + 1.
+    object_names: list[str] = field(default_factory=list)
 
 
 def stats_line(width: int, height: int, samples: int, stats: dict, cancelled: bool = False,
@@ -85,6 +87,16 @@ last_render = RenderInfo()
 persistent: dict[str, tuple] = {}
 #: Callables given the finished fraction while Dürer renders (batch progress bars use this).
 progress_hooks: list = []
+
+
+#: Blender's index passes (Blender 5 names IndexOB and IndexMA "Object Index" and "Material Index",
+#: as Cycles writes them) and Dürer's Object ID: (pass name, whether view layer `layer` asks for it,
+#: the core pass it is made from, the build.IdTables table that maps the core's ids to it).
+INDEX_PASSES = (
+    ("Object Index", lambda layer: layer.use_pass_object_index, "object_id", "object_pass_index"),
+    ("Material Index", lambda layer: layer.use_pass_material_index, "material_id", "material_pass_index"),
+    ("Object ID", lambda layer: layer.durer.use_pass_object_id, "object_id", "object_number"),
+)
 
 
 def _flip(rows_top_first: np.ndarray) -> np.ndarray:
@@ -147,6 +159,9 @@ class DurerEngineMixin:
             self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
         if renderlayer.use_pass_normal:
             self.register_pass(scene, renderlayer, "Normal", 3, "XYZ", "VECTOR")
+        for name, wanted, _, _ in INDEX_PASSES:
+            if wanted(renderlayer):
+                self.register_pass(scene, renderlayer, name, 1, "X", "VALUE")
 
     def render(self, depsgraph):
         global last_render
@@ -181,6 +196,7 @@ class DurerEngineMixin:
         info.spheres, info.planes = data.sphere_count + data.ellipsoid_count, len(data.planes)
         info.triangles = data.triangle_count
         info.warnings = data.warnings
+        info.object_names = [o.name for o in data.objects]
         for message in info.warnings:
             self.report({"WARNING"}, message)
 
@@ -189,6 +205,10 @@ class DurerEngineMixin:
             passes.append("depth")
         if layer.use_pass_normal:
             passes.append("normal")
+        index_passes = [entry for entry in INDEX_PASSES if entry[1](layer)]
+        for _, _, core, _ in index_passes:
+            if core not in passes:
+                passes.append(core)
         kwargs = render_kwargs(settings)
         self.update_stats("", f"Dürer | {w}x{h} | {info.samples} spp | rendering")
         result, cancelled = self._run(core_scene, camera, w, h, passes, kwargs)
@@ -213,6 +233,11 @@ class DurerEngineMixin:
             if "Normal" in rl.passes and result.normal is not None:
                 normal = np.asarray(result.normal, np.float32)
                 rl.passes["Normal"].rect.foreach_set(_flip(normal[crop]).ravel())
+            tables = build.IdTables.of(data) if index_passes else None
+            for name, _, core, table in index_passes:
+                if name in rl.passes and getattr(result, core) is not None:
+                    ids = build.IdTables.lookup(getattr(tables, table), getattr(result, core)[crop])
+                    rl.passes[name].rect.foreach_set(_flip(ids).ravel())
         finally:
             self.end_result(rr, cancel=False)
         color = color[crop]

@@ -300,6 +300,25 @@ class DurerObjectSettings(bpy.types.PropertyGroup):
     )
 
 
+def _passes_changed(settings, _context) -> None:
+    """Blender asks the engine for a view layer's passes again (the compositor's Render Layers
+    sockets) when one of its own pass switches changes, not ours: tell it."""
+    for layer in settings.id_data.view_layers:
+        if layer.durer.as_pointer() == settings.as_pointer():
+            layer.update_render_passes()
+
+
+class DurerViewLayerSettings(bpy.types.PropertyGroup):
+    use_pass_object_id: BoolProperty(
+        name="Object ID",
+        description="Dürer's Object ID pass: every object Dürer renders numbered 1, 2, ... in the order it "
+        "exports them (0 where nothing is hit), whatever their Pass Index; the names in that order are "
+        "durer.blender.engine.last_render.object_names",
+        default=False,
+        update=_passes_changed,
+    )
+
+
 #: Label and tooltip of each field of a material override (durer.material.COURSE_FIELDS).
 MATERIAL_TEXT = {
     "diffuse": ("Diffuse", "kd"),
@@ -358,7 +377,7 @@ class DurerLightSettings(bpy.types.PropertyGroup):
     )
 
 
-CLASSES = (DurerSceneSettings, DurerObjectSettings, DurerMaterialSettings, DurerLightSettings)
+CLASSES = (DurerSceneSettings, DurerObjectSettings, DurerMaterialSettings, DurerLightSettings, DurerViewLayerSettings)
 
 
 def register() -> None:
@@ -368,9 +387,11 @@ def register() -> None:
     bpy.types.Object.durer = PointerProperty(type=DurerObjectSettings, name="Dürer")
     bpy.types.Material.durer = PointerProperty(type=DurerMaterialSettings, name="Dürer")
     bpy.types.Light.durer = PointerProperty(type=DurerLightSettings, name="Dürer")
+    bpy.types.ViewLayer.durer = PointerProperty(type=DurerViewLayerSettings, name="Dürer")
 
 
 def unregister() -> None:
+    del bpy.types.ViewLayer.durer
     del bpy.types.Light.durer
     del bpy.types.Material.durer
     del bpy.types.Object.durer

@@ -1,5 +1,6 @@
 """Dürer's panels: Render Properties (scene.durer), Object Properties (object.durer), Material
-Properties (material.durer, the 6.837 material override) and Light Properties (light.durer)."""
+Properties (material.durer, the 6.837 material override), Light Properties (light.durer) and
+View Layer › Passes › Indexes (Blender's index passes and view_layer.durer's Object ID)."""
 
 from __future__ import annotations
 
@@ -127,7 +128,23 @@ class DURER_PT_light(_DurerPanel, bpy.types.Panel):
         row.prop(settings, "attenuation")
 
 
-CLASSES = (DURER_PT_render, DURER_PT_object, DURER_PT_material, DURER_PT_light)
+class DURER_PT_index_passes(_DurerPanel, bpy.types.Panel):
+    """Blender's index passes (as Cycles shows them) and Dürer's Object ID, under View Layer › Passes."""
+
+    bl_label = "Indexes"
+    bl_context = "view_layer"
+    bl_parent_id = "VIEWLAYER_PT_layer_passes"
+
+    def draw(self, context):
+        layout = self.split_layout()
+        layer = context.view_layer
+        col = layout.column(heading="Indexes", align=True)
+        col.prop(layer, "use_pass_object_index")
+        col.prop(layer, "use_pass_material_index")
+        col.prop(layer.durer, "use_pass_object_id")
+
+
+CLASSES = (DURER_PT_render, DURER_PT_object, DURER_PT_material, DURER_PT_light, DURER_PT_index_passes)
 
 
 def register() -> None:

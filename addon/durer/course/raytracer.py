@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ..render import PASSES, PRECISIONS, RenderResult, render
+from ..render import DEFAULT_PASSES, PRECISIONS, RenderResult, render
 from ..visualize import depth_to_gray, make_folder_for, normal_to_rgb
 from .scene_file import SceneFile, SceneFileError, read_scene_file
 
@@ -76,7 +76,7 @@ def render_scene_file(
     weight: float = 0.0,
     spp: int = 1,
     precision: str = "double",
-    passes: Iterable[str] = PASSES,
+    passes: Iterable[str] = DEFAULT_PASSES,
 ) -> RenderResult:
     """Render a 6.837 scene (a SceneFile or its path) through its own camera, with the course's
     defaults: one sample at each pixel centre, no bounces. Raises SceneFileError for a malformed

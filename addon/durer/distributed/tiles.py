@@ -78,13 +78,12 @@ def _empty_like(part: RenderResult, width: int, height: int) -> RenderResult:
 
     stats = {k: v for k, v in part.stats.items() if k not in ("worker", "region")}
     stats.update({k: 0 for k in _COUNTERS}, region=None, workers={})
-    return RenderResult(full(part.color), full(part.depth), full(part.normal), stats, full(part.samples),
-                        full(part.error))
+    return RenderResult(stats=stats, **{name: full(getattr(part, name)) for name in RenderResult.ARRAYS})
 
 
 def _paste(image: RenderResult, part: RenderResult, region: tuple[int, int, int, int]) -> None:
     x, y, w, h = region
-    for name in ("color", "depth", "normal", "samples", "error"):
+    for name in RenderResult.ARRAYS:
         target = getattr(image, name)
         if target is not None:
             target[y : y + h, x : x + w] = getattr(part, name)

@@ -33,7 +33,12 @@ enum PassFlags : unsigned {
   kPassDepth = 1u << 1,   // the pixel's nearest sample hit (DepthKind says measured how); inf on a miss
   kPassNormal = 1u << 2,  // unit world-space normal, the normalised mean over the pixel's hit samples (the
                           // nearest hit sample's where their normals cancel: TileRenderer.h); 0 on a miss
+  kPassObjectId = 1u << 3,    // int32: the object id (as cast reports it) of the pixel's nearest hit sample (the
+                              // first taken among equally near ones); -1 on a miss
+  kPassMaterialId = 1u << 4,  // int32: the material id of that sample; -1 on a miss
 };
+// What a render computes when not told: the float passes. Id passes are asked for by name.
+inline constexpr unsigned kDefaultPasses = kPassColor | kPassDepth | kPassNormal;
 
 // What the depth pass measures.
 enum class DepthKind {
@@ -69,7 +74,8 @@ inline constexpr OptionName<SamplerKind> kSamplerNames[] = {
     {"center", SamplerKind::Center},  {"random", SamplerKind::Random},     {"stratified", SamplerKind::Stratified},
     {"sobol", SamplerKind::Sobol},    {"adaptive", SamplerKind::Adaptive}};
 inline constexpr OptionName<PassFlags> kPassNames[] = {
-    {"color", kPassColor}, {"depth", kPassDepth}, {"normal", kPassNormal}};
+    {"color", kPassColor}, {"depth", kPassDepth}, {"normal", kPassNormal}, {"object_id", kPassObjectId},
+    {"material_id", kPassMaterialId}};
 inline constexpr OptionName<DepthKind> kDepthNames[] = {{"ray", DepthKind::Ray}, {"planar", DepthKind::Planar}};
 inline constexpr OptionName<Projection> kProjectionNames[] = {
     {"orthographic", Projection::Orthographic}, {"perspective", Projection::Perspective}};

@@ -47,8 +47,17 @@ MaterialData = material_dataclass(
 
 
 @dataclass
+class ObjectData:
+    """A Blender object that gave Dürer geometry (instances of one object share it)."""
+
+    name: str
+    pass_index: int  # Blender's object.pass_index (Cycles' IndexOB)
+
+
+@dataclass
 class PlaneData:
     name: str
+    owner: int  # index into SceneData.objects
     normal: np.ndarray  # (3,) unit, the face normal (Blender's winding)
     offset: float  # normal · p for points p on the plane
     material: int
@@ -61,6 +70,7 @@ class TransformedSpheres:
     them ellipsoids (the core intersects them exactly in object space)."""
 
     name: str
+    owner: int  # index into SceneData.objects
     centers: np.ndarray  # (N, 3) object space
     radii: np.ndarray  # (N,) object space
     materials: np.ndarray  # (N,) int32 indices into SceneData.materials
@@ -73,6 +83,7 @@ class MeshData:
     instances of one mesh share the arrays), and the object's world matrix."""
 
     name: str
+    owner: int  # index into SceneData.objects
     vertices: np.ndarray  # (V, 3) float32 (float64 in world space when the matrix is singular)
     faces: np.ndarray  # (F, 3) int32
     material: int  # index into SceneData.materials
@@ -141,12 +152,19 @@ class SceneData:
     sphere_centers: np.ndarray = field(default_factory=lambda: np.empty((0, 3)))
     sphere_radii: np.ndarray = field(default_factory=lambda: np.empty(0))
     sphere_materials: np.ndarray = field(default_factory=lambda: np.empty(0, np.int32))
+    #: The Blender object of each world-space sphere: (N,) int32 indices into `objects`.
+    sphere_owners: np.ndarray = field(default_factory=lambda: np.empty(0, np.int32))
     #: Spheres under a non-uniform scale or shear (ellipsoids), per object.
     transformed_spheres: list[TransformedSpheres] = field(default_factory=list)
     planes: list[PlaneData] = field(default_factory=list)
     #: Triangle meshes, one per object and material slot used.
     meshes: list[MeshData] = field(default_factory=list)
     materials: list[MaterialData] = field(default_factory=list)
+    #: Blender's material.pass_index of each of `materials` (Cycles' IndexMA; 0 without a material).
+    material_pass_indices: list[int] = field(default_factory=list)
+    #: The Blender objects that gave geometry, in the order they first did (the Object ID pass
+    #: numbers them from 1 in this order).
+    objects: list[ObjectData] = field(default_factory=list)
     lights: list[LightData] = field(default_factory=list)
     camera: CameraData | None = None
     background: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)

@@ -62,7 +62,7 @@ def _pointcloud(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> No
     if s == 0.0:  # flattened to nothing
         return
     if not uniform:  # ellipsoids: the points stay in object space under the object's matrix
-        b.transformed_spheres(obj.name, m, pos, radii, materials)
+        b.transformed_spheres(b.owner(obj), m, pos, radii, materials)
         return
     # Transform in double precision (Blender stores float32 positions; Dürer intersects in double).
     if np.array_equal(m, IDENTITY):
@@ -71,7 +71,7 @@ def _pointcloud(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> No
         centers = pos.astype(np.float64) @ m[:3, :3].T
         centers += m[:3, 3]
     radii = radii * s if s != 1.0 else radii
-    b.spheres(obj.name, centers, radii, materials)
+    b.spheres(b.owner(obj), centers, radii, materials)
 
 
 def _mesh(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
@@ -90,9 +90,9 @@ def _add_shape(b: Builder, obj, m: np.ndarray, shape: MeshShape, infinite: bool)
     if shape.kind == "triangles":
         b.triangles(obj, m, shape.parts)
     elif shape.kind == "sphere":
-        b.sphere(obj.name, m, shape.center, shape.radius, b.object_material(obj))
+        b.sphere(b.owner(obj), m, shape.center, shape.radius, b.object_material(obj))
     elif shape.kind == "plane":
-        b.plane(obj.name, m, shape, b.object_material(obj), infinite)
+        b.plane(b.owner(obj), m, shape, b.object_material(obj), infinite)
 
 
 def _converted(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
@@ -130,7 +130,7 @@ def _metaball(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None
             continue
         r = metaball_iso_radius(el.radius, el.stiffness, mb.threshold)
         if r > 0:
-            b.sphere(obj.name, m, np.array(el.co), r, material)
+            b.sphere(b.owner(obj), m, np.array(el.co), r, material)
 
 
 def _light(b: Builder, obj, m: np.ndarray) -> None:
@@ -144,7 +144,7 @@ def _light(b: Builder, obj, m: np.ndarray) -> None:
 def _empty(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
     """An empty displayed as a sphere is a sphere of its display size (not a collection instancer)."""
     if obj.empty_display_type == "SPHERE" and mode in {"AUTO", "SPHERE"} and obj.instance_type != "COLLECTION":
-        b.sphere(obj.name, m, np.zeros(3), float(obj.empty_display_size), b.object_material(obj))
+        b.sphere(b.owner(obj), m, np.zeros(3), float(obj.empty_display_size), b.object_material(obj))
 
 
 def _mesh_or_skip(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:

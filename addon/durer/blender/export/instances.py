@@ -18,7 +18,7 @@ from .shapes import MeshShape, mesh_shape
 
 @dataclass
 class _Batch:
-    name: str
+    owner: int  # the instanced object's index in SceneData.objects
     shape: MeshShape | None  # None: not a sphere, exported one instance at a time
     material: int = 0
     rows: list[float] = field(default_factory=list)  # the instances' matrices' top three rows
@@ -68,7 +68,7 @@ class InstanceBatches:
         # Blender's matrices are stored by column; the instancer's world matrix goes first.
         world = np.array(obj.matrix_world, np.float64) @ values.reshape(n, 4, 4).transpose(0, 2, 1)
         for i, (shape, material) in enumerate(kinds):
-            self._add_spheres(obj.name, world[index == i][:, :3, :], shape, material)
+            self._add_spheres(self.builder.owner(obj), world[index == i][:, :3, :], shape, material)
         self.instancers.add(obj.as_pointer())
 
     def take(self, inst, obj, original, mode: str) -> bool:
@@ -90,8 +90,8 @@ class InstanceBatches:
     def _batch(self, obj, mode: str) -> _Batch:
         shape = self._shape(obj.data, mode)
         if shape.kind != "sphere":
-            return _Batch(obj.name, None)
-        return _Batch(obj.name, shape, self.builder.object_material(obj))
+            return _Batch(self.builder.owner(obj), None)
+        return _Batch(self.builder.owner(obj), shape, self.builder.object_material(obj))
 
     def _shape(self, me, mode: str) -> MeshShape:
         key = (me.as_pointer(), len(me.vertices), len(me.polygons), mode, None)
@@ -106,15 +106,15 @@ class InstanceBatches:
         for batch in self.batches.values():
             if batch.shape is not None and batch.rows:
                 rows = np.array(batch.rows, dtype=np.float64).reshape(-1, 3, 4)
-                self._add_spheres(batch.name, rows, batch.shape, batch.material)
+                self._add_spheres(batch.owner, rows, batch.shape, batch.material)
 
-    def _add_spheres(self, name: str, rows: np.ndarray, shape: MeshShape, material: int) -> None:
+    def _add_spheres(self, owner: int, rows: np.ndarray, shape: MeshShape, material: int) -> None:
         """The spheres of `shape` under each matrix (rows: (N, 3, 4), the top three rows)."""
         linear, offset = rows[:, :, :3], rows[:, :, 3]
         scale, uniform = uniform_scales(linear)
         center = np.asarray(shape.center, dtype=np.float64)
         centers = linear[uniform] @ center + offset[uniform]
-        self.builder.spheres(name, centers, shape.radius * scale[uniform], material)
+        self.builder.spheres(owner, centers, shape.radius * scale[uniform], material)
         for i in np.flatnonzero(~uniform & (scale > 0)):  # sheared or squashed: exact ellipsoids
             m = np.vstack([rows[i], [0.0, 0.0, 0.0, 1.0]])
-            self.builder.transformed_spheres(name, m, center[None], np.array([shape.radius]), material)
+            self.builder.transformed_spheres(owner, m, center[None], np.array([shape.radius]), material)

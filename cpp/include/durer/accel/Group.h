@@ -180,14 +180,24 @@ class Group {
 
   // Material id of every packed primitive, in packed order.
   void appendMaterials(std::vector<int32_t>& out) const {
-    for (const std::vector<int32_t>* materials :
-         {&m_spheres.materials(), &m_planes.materials(), &m_triangles.materials(), &m_boxes.materials()}) {
-      out.insert(out.end(), materials->begin(), materials->end());
-    }
-    for (const Instance<Real>& inst : m_instances) inst.child->appendMaterials(out);
+    appendPerPrimitive(out, [](const auto& set) -> const std::vector<int32_t>& { return set.materials(); });
+  }
+
+  // Object id of every packed primitive, in packed order (the ids a hit record reports).
+  void appendObjectIds(std::vector<int32_t>& out) const {
+    appendPerPrimitive(out, [](const auto& set) -> const std::vector<int32_t>& { return set.objectIds(); });
   }
 
  private:
+  // ids(set), a per-primitive table of each primitive set, joined in packed order.
+  template <typename Ids>
+  void appendPerPrimitive(std::vector<int32_t>& out, const Ids& ids) const {
+    for (const std::vector<int32_t>* table : {&ids(m_spheres), &ids(m_planes), &ids(m_triangles), &ids(m_boxes)}) {
+      out.insert(out.end(), table->begin(), table->end());
+    }
+    for (const Instance<Real>& inst : m_instances) inst.child->appendPerPrimitive(out, ids);
+  }
+
   template <typename Other>
   friend class Group;
 

@@ -23,7 +23,7 @@ struct RenderSettings {
   double timeLimit = 0;              // adaptive: seconds after which refining stops (0: none)
   Precision precision = Precision::Double;
   SphereMethod sphereMethod = SphereMethod::Robust;
-  unsigned passes = kPassColor | kPassDepth | kPassNormal;  // PassFlags
+  unsigned passes = kDefaultPasses;  // PassFlags
   DepthKind depth = DepthKind::Ray;  // what the depth pass measures
   int threads = 0;                   // 0: all hardware threads
   bool shadeBack = false;            // shade back faces with the flipped normal (6.837 -shade_back)
@@ -36,11 +36,13 @@ struct RenderSettings {
   } region;
 };
 
-// Output buffers, row-major, top row first, float32; null for a pass not requested.
+// Output buffers, row-major, top row first; null for a pass not requested.
 struct RenderTargets {
   float* color = nullptr;   // height x width x 4
   float* depth = nullptr;   // height x width
   float* normal = nullptr;  // height x width x 3
+  int32_t* objectId = nullptr;    // height x width
+  int32_t* materialId = nullptr;  // height x width
   int32_t* samples = nullptr;  // height x width: samples taken per pixel
   float* error = nullptr;      // height x width: adaptive: the estimated RMS error of the pixel's colour
 };

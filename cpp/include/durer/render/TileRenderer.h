@@ -41,7 +41,9 @@ class TileRenderer {
         m_flat(scene, group),
         m_shader(group, m_shading, effects, BounceLimits{settings.maxBounces, settings.minWeight, settings.shadeBack},
                  toReal<Real>(Vec3d(scene.background())), cancel),
+        m_objectOf(targets.objectId ? objectTable(group) : std::vector<int32_t>{}),
         m_needHits(targets.color != nullptr && (effects.lit || effects.bounces())),
+        m_needNearest(targets.objectId != nullptr || targets.materialId != nullptr),
         m_shadeBack(settings.shadeBack),
         m_planarDepth(settings.depth == DepthKind::Planar),
         m_region(regionOf(settings)),
@@ -98,19 +100,28 @@ class TileRenderer {
     alignas(64) Real hits[kPacketSize];                                           // samples that hit
     alignas(64) Real nearestT[kPacketSize];                                       // t of the nearest hit sample
     alignas(64) Real fx[kPacketSize], fy[kPacketSize], fz[kPacketSize];           // and its normal
+    alignas(64) int32_t nearestPrim[kPacketSize];                                 // and its packed primitive
     alignas(64) Real samples[kPacketSize];                                        // samples taken
     void clear(int count) {
       for (int k = 0; k < count; ++k) {
         r[k] = g[k] = b[k] = a[k] = nx[k] = ny[k] = nz[k] = hits[k] = fx[k] = fy[k] = fz[k] = samples[k] = 0;
         depth[k] = nearestT[k] = std::numeric_limits<Real>::infinity();
+        nearestPrim[k] = kNoPrimitive;
       }
     }
-    // Adds one hit sample's unit normal, at t along its ray, to pixel k (branch-free: `hit` false adds nothing).
-    void addNormal(int k, bool hit, Real t, Real x, Real y, Real z) {
-      const Real weight = hit ? Real(1) : Real(0);
-      nx[k] += x * weight, ny[k] += y * weight, nz[k] += z * weight, hits[k] += weight;
+    // Makes a hit sample of primitive `prim` at t along its ray pixel k's nearest if it is nearer than
+    // those before it (the first taken among equally near ones); returns whether it did. Branch-free.
+    bool addNearest(int k, bool hit, Real t, int32_t prim) {
       const bool nearer = hit & (t < nearestT[k]);
       nearestT[k] = nearer ? t : nearestT[k];
+      nearestPrim[k] = nearer ? prim : nearestPrim[k];
+      return nearer;
+    }
+    // Adds one hit sample's unit normal, at t along its ray, to pixel k (branch-free: `hit` false adds nothing).
+    void addNormal(int k, bool hit, Real t, int32_t prim, Real x, Real y, Real z) {
+      const Real weight = hit ? Real(1) : Real(0);
+      nx[k] += x * weight, ny[k] += y * weight, nz[k] += z * weight, hits[k] += weight;
+      const bool nearer = addNearest(k, hit, t, prim);
       fx[k] = nearer ? x : fx[k], fy[k] = nearer ? y : fy[k], fz[k] = nearer ? z : fz[k];
     }
     // Adds entry j of `other` (one sample's values) to pixel k.
@@ -120,6 +131,7 @@ class TileRenderer {
       depth[k] = std::min(depth[k], other.depth[j]);
       if (other.nearestT[j] < nearestT[k]) {
         nearestT[k] = other.nearestT[j], fx[k] = other.fx[j], fy[k] = other.fy[j], fz[k] = other.fz[j];
+        nearestPrim[k] = other.nearestPrim[j];
       }
     }
   };
@@ -187,6 +199,18 @@ class TileRenderer {
         out[3 * i + 2] = static_cast<float>(directed ? acc.nz[k] * scale : acc.fz[k]);
       }
     }
+    // The id passes are the nearest hit sample's ids: an id is not a quantity to average.
+    if (m_targets.objectId) {
+      int32_t* out = m_targets.objectId + first;
+      for (int i = 0; i < count; ++i) out[i] = m_objectOf[static_cast<size_t>(acc.nearestPrim[k0 + i] + 1)];
+    }
+    if (m_targets.materialId) {
+      int32_t* out = m_targets.materialId + first;
+      for (int i = 0; i < count; ++i) {
+        const int32_t prim = acc.nearestPrim[k0 + i];
+        out[i] = prim == kNoPrimitive ? -1 : m_flat.primMaterial[static_cast<size_t>(prim + 1)];
+      }
+    }
   }
 
  private:
@@ -211,6 +235,13 @@ class TileRenderer {
     }
   };
 
+  // The object id of every packed primitive, by packed index + 1, with -1 (a miss) first.
+  static std::vector<int32_t> objectTable(const Group<Real>& group) {
+    std::vector<int32_t> table{-1};
+    group.appendObjectIds(table);
+    return table;
+  }
+
   void samplePosition(int x, int y, int s, Real& sampleX, Real& sampleY) const {
     double u, v;
     m_sampler.offset(static_cast<uint64_t>(y) * m_settings.width + x, s, u, v);
@@ -222,7 +253,13 @@ class TileRenderer {
   void accumulate(const RayPacket<Real>& packet, Accumulator& acc, RayCounters& counters) const {
     if (!m_needHits) {  // flat colours, depth and normals: no hit records
       accumulateFlat(packet, acc);
-      if (m_targets.normal) accumulateNormals(packet, acc);
+      if (m_targets.normal) {
+        accumulateNormals(packet, acc);
+      } else if (m_needNearest) {
+        for (int k = 0; k < packet.count; ++k) {
+          acc.addNearest(k, packet.prim[k] != kNoPrimitive, packet.tHit[k], packet.prim[k]);
+        }
+      }
       return;
     }
     alignas(64) Hit<Real> hits[kPacketSize];
@@ -231,7 +268,7 @@ class TileRenderer {
       if (!hits[k].isHit()) continue;
       acc.depth[k] = std::min(acc.depth[k], m_planarDepth ? hits[k].t * planarScale(packet, k) : hits[k].t);
       const Vec3<Real> n = m_shader.shadingNormal(hits[k], Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]));
-      acc.addNormal(k, true, hits[k].t, n.x, n.y, n.z);
+      acc.addNormal(k, true, hits[k].t, packet.prim[k], n.x, n.y, n.z);
     }
     alignas(64) Vec3<Real> rgb[kPacketSize];
     alignas(64) Real weights[kPacketSize];
@@ -263,14 +300,14 @@ class TileRenderer {
         const Real side = facingSign(vx * packet.dx[k] + vy * packet.dy[k] + vz * packet.dz[k], m_shadeBack);
         const Real length = std::sqrt(vx * vx + vy * vy + vz * vz);
         const Real scale = isSphere ? side / length : Real(0);
-        acc.addNormal(k, isSphere, packet.tHit[k], vx * scale, vy * scale, vz * scale);
+        acc.addNormal(k, isSphere, packet.tHit[k], prim, vx * scale, vy * scale, vz * scale);
       }
     }
     for (int k = 0; k < packet.count; ++k) {
       if (packet.prim[k] < sphereCount) continue;
       const Vec3<Real> n =
           shadingNormal(m_group.hit(packet, k).normal, Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]), m_shadeBack);
-      acc.addNormal(k, packet.prim[k] != kNoPrimitive, packet.tHit[k], n.x, n.y, n.z);
+      acc.addNormal(k, packet.prim[k] != kNoPrimitive, packet.tHit[k], packet.prim[k], n.x, n.y, n.z);
     }
   }
 
@@ -321,7 +358,9 @@ class TileRenderer {
   const std::atomic<bool>& m_cancel;
   FlatTable m_flat;
   PacketShader<Real, M> m_shader;
+  std::vector<int32_t> m_objectOf;  // object id by packed primitive index + 1 (-1: a miss); with the object id pass
   bool m_needHits;   // colour needs hit records: lights or secondary rays
+  bool m_needNearest;  // the id passes: the nearest hit sample's primitive, normals or not
   bool m_shadeBack;
   bool m_planarDepth;  // depth along the view axis, not along the ray
   RenderSettings::Region m_region;
