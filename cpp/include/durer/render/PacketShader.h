@@ -7,12 +7,15 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <type_traits>
 
 #include "durer/accel/Group.h"
 #include "durer/render/RayCounters.h"
 #include "durer/geometry/RayOffset.h"
 #include "durer/geometry/RayPacket.h"
+#include "durer/render/PixelSampler.h"
 #include "durer/render/Shading.h"
 
 namespace durer {
@@ -23,6 +26,7 @@ struct EffectSet {
   bool shadows = false;     // lit, and some light casts shadows
   bool reflection = false;  // some material is reflective and maxBounces > 0
   bool refraction = false;  // some material is transparent and maxBounces > 0
+  bool occlusion = false;   // lit, ambient occlusion asked for, and some ambient · kd to scale
   bool bounces() const { return reflection || refraction; }
 };
 
@@ -32,13 +36,20 @@ struct BounceLimits {
   bool shadeBack = false;  // shade back faces with the flipped normal (6.837 -shade_back)
 };
 
+struct OcclusionSettings {
+  int samples = 0;       // rays per shaded hit
+  double distance = 0;   // how far an occluder counts (inf: any)
+  uint64_t seed = 0;     // the render's seed
+};
+
 template <typename Real, SphereMethod M>
 class PacketShader {
  public:
   PacketShader(const Group<Real>& group, const Shading<Real>& shading, const EffectSet& effects,
-               const BounceLimits& limits, const Vec3<Real>& background, const std::atomic<bool>& cancel)
-      : m_group(group), m_shading(shading), m_effects(effects), m_limits(limits), m_background(background),
-        m_cancel(cancel), m_minWeight(static_cast<Real>(limits.minWeight)) {}
+               const BounceLimits& limits, const OcclusionSettings& occlusion, const Vec3<Real>& background,
+               const std::atomic<bool>& cancel)
+      : m_group(group), m_shading(shading), m_effects(effects), m_limits(limits), m_occlusion(occlusion),
+        m_background(background), m_cancel(cancel), m_minWeight(static_cast<Real>(limits.minWeight)) {}
 
   // The shading normal of a hit (Hit.h decides the side).
   Vec3<Real> shadingNormal(const Hit<Real>& hit, const Vec3<Real>& direction) const {
@@ -50,13 +61,16 @@ class PacketShader {
   // never spawned).
   void shade(const RayPacket<Real>& packet, const Hit<Real>* hits, const Real* weights, int depth, Vec3<Real>* rgb,
              RayCounters& counters) const {
+    alignas(64) Real open[kPacketSize];
+    if (m_effects.occlusion) ambientOcclusion(packet, hits, open, counters);
     for (int k = 0; k < packet.count; ++k) {
       if (!hits[k].isHit()) {
         rgb[k] = m_background;
         continue;
       }
       const MaterialIn<Real>& m = m_shading.material(hits[k].materialId);
-      rgb[k] = m.emission + (m_effects.lit ? m_shading.ambient() * m.diffuse : m.diffuse);
+      const Vec3<Real> ambient = m_effects.occlusion ? open[k] * m_shading.ambient() : m_shading.ambient();
+      rgb[k] = m.emission + (m_effects.lit ? ambient * m.diffuse : m.diffuse);
     }
     if (m_effects.lit) {  // one instantiation per combination: no per-ray test of what is absent
       if (m_effects.specular) {
@@ -139,6 +153,72 @@ class PacketShader {
         if (shadow.prim[j] == kNoPrimitive) rgb[pixelOf[j]] += term[j];
       }
     }
+  }
+
+  // open[k] = the unoccluded fraction of the cosine-weighted hemisphere about hit k's shading normal
+  // within the AO distance (1 for misses and black diffuse), from m_occlusion.samples any-hit rays
+  // per hit: the k-th rays of every hit go as one packet.
+  void ambientOcclusion(const RayPacket<Real>& packet, const Hit<Real>* hits, Real* open, RayCounters& counters) const {
+    alignas(64) Vec3<Real> normal[kPacketSize], tangent[kPacketSize], bitangent[kPacketSize];
+    alignas(64) uint64_t key[kPacketSize];
+    alignas(64) int hitOf[kPacketSize];
+    int count = 0;
+    for (int k = 0; k < packet.count; ++k) {
+      open[k] = 1;
+      if (!hits[k].isHit() || maxComponent(m_shading.material(hits[k].materialId).diffuse) <= 0) continue;
+      const int j = count++;
+      hitOf[j] = k;
+      normal[j] = shadingNormal(hits[k], direction(packet, k));
+      orthonormalFrame(normal[j], tangent[j], bitangent[j]);
+      key[j] = rayKey(packet, k);
+      open[k] = 0;
+    }
+    if (count == 0) return;
+    RayPacket<Real> rays;
+    rays.count = count;
+    rays.tMin = std::numeric_limits<Real>::denorm_min();  // t > 0, as for shadow rays
+    rays.tMax = static_cast<Real>(m_occlusion.distance);
+    for (int s = 0; s < m_occlusion.samples; ++s) {
+      for (int j = 0; j < count; ++j) {
+        const Hit<Real>& h = hits[hitOf[j]];
+        double u, v;
+        PixelSampler::scrambledSobol(static_cast<uint32_t>(s), key[j], u, v);
+        // Malley's method: a uniform point of the unit disc lifted onto the hemisphere is cosine-distributed.
+        const Real r = static_cast<Real>(std::sqrt(u)), phi = static_cast<Real>(2 * 3.14159265358979323846 * v);
+        const Real up = static_cast<Real>(std::sqrt(1 - u));
+        const Vec3<Real> w = (r * std::cos(phi)) * tangent[j] + (r * std::sin(phi)) * bitangent[j] + up * normal[j];
+        const Vec3<Real> origin = offsetRayOrigin(h.point, h.normal, h.pointError, w);
+        rays.ox[j] = origin.x, rays.oy[j] = origin.y, rays.oz[j] = origin.z;
+        rays.dx[j] = w.x, rays.dy[j] = w.y, rays.dz[j] = w.z;
+      }
+      counters.intersectionTests += m_group.template occluded<M>(rays, &m_cancel);
+      counters.ambientOcclusion += count;
+      for (int j = 0; j < count; ++j) open[hitOf[j]] += rays.prim[j] == kNoPrimitive ? Real(1) : Real(0);
+    }
+    const Real perSample = Real(1) / static_cast<Real>(m_occlusion.samples);
+    for (int j = 0; j < count; ++j) open[hitOf[j]] *= perSample;
+  }
+
+  // t, b such that (t, b, n) is a right-handed orthonormal frame, for unit n (Duff et al. 2017: no
+  // branch on which axis n is closest to, continuous everywhere but at n.z = 0 from below).
+  static void orthonormalFrame(const Vec3<Real>& n, Vec3<Real>& t, Vec3<Real>& b) {
+    const Real sign = std::copysign(Real(1), n.z);
+    const Real a = -1 / (sign + n.z), c = n.x * n.y * a;
+    t = Vec3<Real>(1 + sign * n.x * n.x * a, sign * c, -sign * n.x);
+    b = Vec3<Real>(c, sign + n.y * n.y * a, -n.y);
+  }
+
+  // The Owen scramble of a hit's AO samples: a hash of the render's seed and the ray that found the
+  // hit. That ray is a pure function of (seed, pixel, sample) and the bounces before it, so the
+  // samples, like the pixel sampler's, depend on neither threads nor tiling.
+  uint64_t rayKey(const RayPacket<Real>& p, int k) const {
+    uint64_t key = m_occlusion.seed;
+    for (const Real c : {p.ox[k], p.oy[k], p.oz[k], p.dx[k], p.dy[k], p.dz[k]}) {
+      std::conditional_t<sizeof(Real) == 8, uint64_t, uint32_t> bits;
+      std::memcpy(&bits, &c, sizeof bits);
+      key = mixBits(key ^ bits);
+    }
+    return key;
   }
 
   // A secondary ray waiting to be traced: where it starts and goes, whose colour it adds to, how much.
@@ -235,6 +315,7 @@ class PacketShader {
   const Shading<Real>& m_shading;
   EffectSet m_effects;
   BounceLimits m_limits;
+  OcclusionSettings m_occlusion;
   Vec3<Real> m_background;  // what a secondary ray that misses sees (RGB)
   const std::atomic<bool>& m_cancel;
   Real m_minWeight;

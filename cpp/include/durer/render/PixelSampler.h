@@ -29,6 +29,10 @@ class PixelSampler {
   // Offset in [0, 1)^2 of sample s of the pixel with linear index `pixel`.
   void offset(uint64_t pixel, int s, double& u, double& v) const;
 
+  // Point `index` in [0, 1)^2 of the 2-D Sobol sequence, Owen-scrambled (points and their order)
+  // by `seed`: any 2^k consecutive indices from 0 are stratified in every dyadic box of 2^k cells.
+  static void scrambledSobol(uint32_t index, uint64_t seed, double& u, double& v);
+
  private:
   static uint32_t reverseBits(uint32_t x);
   static uint32_t sobolSecondDimension(uint32_t index);
@@ -78,20 +82,23 @@ inline uint32_t PixelSampler::nestedUniformScramble(uint32_t x, uint32_t seed) {
   return reverseBits(x);
 }
 
+inline void PixelSampler::scrambledSobol(uint32_t index, uint64_t seed, double& u, double& v) {
+  constexpr double k32 = 1.0 / 4294967296.0;  // 2^-32
+  const uint32_t seedX = static_cast<uint32_t>(seed >> 32);
+  const uint32_t shuffled = nestedUniformScramble(index, static_cast<uint32_t>(seed));
+  u = nestedUniformScramble(reverseBits(shuffled), seedX) * k32;
+  v = nestedUniformScramble(sobolSecondDimension(shuffled), seedX ^ 0x5bd1e995u) * k32;
+}
+
 inline void PixelSampler::offset(uint64_t pixel, int s, double& u, double& v) const {
   constexpr double k53 = 1.0 / 9007199254740992.0;  // 2^-53: 53 random bits -> [0, 1)
-  constexpr double k32 = 1.0 / 4294967296.0;        // 2^-32
   if (centred()) {  // Center, and Stratified with one stratum: no hash
     u = v = 0.5;
     return;
   }
   const uint64_t pixelSeed = mixBits(m_seed + pixel * 0x2545f4914f6cdd1dull);
   if (m_kind == SamplerKind::Sobol || m_kind == SamplerKind::Adaptive) {
-    const uint32_t seed = static_cast<uint32_t>(pixelSeed), seedX = static_cast<uint32_t>(pixelSeed >> 32);
-    const uint32_t index = nestedUniformScramble(static_cast<uint32_t>(s), seed);  // shuffled order
-    const uint32_t x = nestedUniformScramble(reverseBits(index), seedX);
-    const uint32_t y = nestedUniformScramble(sobolSecondDimension(index), seedX ^ 0x5bd1e995u);
-    u = x * k32, v = y * k32;
+    scrambledSobol(static_cast<uint32_t>(s), pixelSeed, u, v);
     return;
   }
   // Random, or Stratified with several strata.
