@@ -61,16 +61,12 @@ class PacketShader {
   // never spawned).
   void shade(const RayPacket<Real>& packet, const Hit<Real>* hits, const Real* weights, int depth, Vec3<Real>* rgb,
              RayCounters& counters) const {
-    alignas(64) Real open[kPacketSize];
-    if (m_effects.occlusion) ambientOcclusion(packet, hits, open, counters);
-    for (int k = 0; k < packet.count; ++k) {
-      if (!hits[k].isHit()) {
-        rgb[k] = m_background;
-        continue;
-      }
-      const MaterialIn<Real>& m = m_shading.material(hits[k].materialId);
-      const Vec3<Real> ambient = m_effects.occlusion ? open[k] * m_shading.ambient() : m_shading.ambient();
-      rgb[k] = m.emission + (m_effects.lit ? ambient * m.diffuse : m.diffuse);
+    if (m_effects.occlusion) {
+      alignas(64) Real open[kPacketSize];
+      ambientOcclusion(packet, hits, open, counters);
+      baseColors<true>(packet, hits, open, rgb);
+    } else {
+      baseColors<false>(packet, hits, nullptr, rgb);
     }
     if (m_effects.lit) {  // one instantiation per combination: no per-ray test of what is absent
       if (m_effects.specular) {
@@ -151,6 +147,24 @@ class PacketShader {
       counters.shadow += shadow.count;
       for (int j = 0; j < shadow.count; ++j) {
         if (shadow.prim[j] == kNoPrimitive) rgb[pixelOf[j]] += term[j];
+      }
+    }
+  }
+
+  // Emission plus ambient · kd (lit; with Occlusion, the ambient light scaled by open[k]) or kd
+  // (flat) of each hit, the background for misses.
+  template <bool Occlusion>
+  void baseColors(const RayPacket<Real>& packet, const Hit<Real>* hits, const Real* open, Vec3<Real>* rgb) const {
+    for (int k = 0; k < packet.count; ++k) {
+      if (!hits[k].isHit()) {
+        rgb[k] = m_background;
+        continue;
+      }
+      const MaterialIn<Real>& m = m_shading.material(hits[k].materialId);
+      if constexpr (Occlusion) {
+        rgb[k] = m.emission + (open[k] * m_shading.ambient()) * m.diffuse;  // occlusion implies lit
+      } else {
+        rgb[k] = m.emission + (m_effects.lit ? m_shading.ambient() * m.diffuse : m.diffuse);
       }
     }
   }
