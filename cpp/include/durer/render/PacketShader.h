@@ -197,10 +197,10 @@ class PacketShader {
         const Hit<Real>& h = hits[hitOf[j]];
         double u, v;
         PixelSampler::scrambledSobol(static_cast<uint32_t>(s), key[j], u, v);
-        // Malley's method: a uniform point of the unit disc lifted onto the hemisphere is cosine-distributed.
-        const Real r = static_cast<Real>(std::sqrt(u)), phi = static_cast<Real>(2 * 3.14159265358979323846 * v);
-        const Real up = static_cast<Real>(std::sqrt(1 - u));
-        const Vec3<Real> w = (r * std::cos(phi)) * tangent[j] + (r * std::sin(phi)) * bitangent[j] + up * normal[j];
+        double x, y, z;
+        cosineHemisphere(u, v, x, y, z);
+        const Vec3<Real> w = static_cast<Real>(x) * tangent[j] + static_cast<Real>(y) * bitangent[j] +
+                             static_cast<Real>(z) * normal[j];
         const Vec3<Real> origin = offsetRayOrigin(h.point, h.normal, h.pointError, w);
         rays.ox[j] = origin.x, rays.oy[j] = origin.y, rays.oz[j] = origin.z;
         rays.dx[j] = w.x, rays.dy[j] = w.y, rays.dz[j] = w.z;
@@ -211,6 +211,24 @@ class PacketShader {
     }
     const Real perSample = Real(1) / static_cast<Real>(m_occlusion.samples);
     for (int j = 0; j < count; ++j) open[hitOf[j]] *= perSample;
+  }
+
+  // A cosine-distributed unit direction (x, y, z), z up, for (u, v) in [0, 1)^2 (Malley's method: a
+  // uniform point of the unit disc lifted onto the hemisphere). The disc point is Shirley and Chiu's
+  // concentric map, which keeps the Sobol points' strata compact; its angle stays within ±π/4 of an
+  // axis, where short Taylor series give sine and cosine to 2e-9 (libm's sincos took a fifth of
+  // an AO render) in plain arithmetic, the same on every instruction set.
+  static void cosineHemisphere(double u, double v, double& x, double& y, double& z) {
+    const double a = 2 * u - 1, b = 2 * v - 1;
+    const bool wide = std::fabs(a) > std::fabs(b);
+    const double r = wide ? a : b;
+    const double t = r == 0 ? 0 : 0.78539816339744830962 * (wide ? b / a : a / b);
+    const double t2 = t * t;
+    const double sine = t * (1 - t2 / 6 * (1 - t2 / 20 * (1 - t2 / 42 * (1 - t2 / 72))));
+    const double cosine = 1 - t2 / 2 * (1 - t2 / 12 * (1 - t2 / 30 * (1 - t2 / 56 * (1 - t2 / 90))));
+    x = r * (wide ? cosine : sine);
+    y = r * (wide ? sine : cosine);
+    z = std::sqrt(std::max(1 - r * r, 0.0));
   }
 
   // t, b such that (t, b, n) is a right-handed orthonormal frame, for unit n (Duff et al. 2017: no
