@@ -174,7 +174,7 @@ class PacketShader {
   // per hit: the k-th rays of every hit go as one packet.
   void ambientOcclusion(const RayPacket<Real>& packet, const Hit<Real>* hits, Real* open, RayCounters& counters) const {
     alignas(64) Vec3<Real> normal[kPacketSize], tangent[kPacketSize], bitangent[kPacketSize];
-    alignas(64) uint64_t key[kPacketSize];
+    alignas(64) uint32_t key[kPacketSize];
     alignas(64) int hitOf[kPacketSize];
     int count = 0;
     for (int k = 0; k < packet.count; ++k) {
@@ -243,14 +243,14 @@ class PacketShader {
   // The Owen scramble of a hit's AO samples: a hash of the render's seed and the ray that found the
   // hit. That ray is a pure function of (seed, pixel, sample) and the bounces before it, so the
   // samples, like the pixel sampler's, depend on neither threads nor tiling.
-  uint64_t rayKey(const RayPacket<Real>& p, int k) const {
+  uint32_t rayKey(const RayPacket<Real>& p, int k) const {
     uint64_t key = m_occlusion.seed;
     for (const Real c : {p.ox[k], p.oy[k], p.oz[k], p.dx[k], p.dy[k], p.dz[k]}) {
       std::conditional_t<sizeof(Real) == 8, uint64_t, uint32_t> bits;
       std::memcpy(&bits, &c, sizeof bits);
       key = mixBits(key ^ bits);
     }
-    return key;
+    return static_cast<uint32_t>(key);
   }
 
   // A secondary ray waiting to be traced: where it starts and goes, whose colour it adds to, how much.

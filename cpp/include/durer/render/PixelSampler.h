@@ -29,9 +29,9 @@ class PixelSampler {
   // Offset in [0, 1)^2 of sample s of the pixel with linear index `pixel`.
   void offset(uint64_t pixel, int s, double& u, double& v) const;
 
-  // Point `index` in [0, 1)^2 of the 2-D Sobol sequence, Owen-scrambled (points and their order)
-  // by `seed`: any 2^k consecutive indices from 0 are stratified in every dyadic box of 2^k cells.
-  static void scrambledSobol(uint32_t index, uint64_t seed, double& u, double& v);
+  // Point `index` in [0, 1)^2 of the 2-D Sobol sequence, Owen-scrambled by `seed`: indices 0 to
+  // 2^k - 1 are stratified in every dyadic box of 2^k cells.
+  static void scrambledSobol(uint32_t index, uint32_t seed, double& u, double& v);
 
  private:
   static uint32_t reverseBits(uint32_t x);
@@ -82,12 +82,10 @@ inline uint32_t PixelSampler::nestedUniformScramble(uint32_t x, uint32_t seed) {
   return reverseBits(x);
 }
 
-inline void PixelSampler::scrambledSobol(uint32_t index, uint64_t seed, double& u, double& v) {
+inline void PixelSampler::scrambledSobol(uint32_t index, uint32_t seed, double& u, double& v) {
   constexpr double k32 = 1.0 / 4294967296.0;  // 2^-32
-  const uint32_t seedX = static_cast<uint32_t>(seed >> 32);
-  const uint32_t shuffled = nestedUniformScramble(index, static_cast<uint32_t>(seed));
-  u = nestedUniformScramble(reverseBits(shuffled), seedX) * k32;
-  v = nestedUniformScramble(sobolSecondDimension(shuffled), seedX ^ 0x5bd1e995u) * k32;
+  u = nestedUniformScramble(reverseBits(index), seed) * k32;
+  v = nestedUniformScramble(sobolSecondDimension(index), seed ^ 0x5bd1e995u) * k32;
 }
 
 inline void PixelSampler::offset(uint64_t pixel, int s, double& u, double& v) const {
@@ -98,7 +96,9 @@ inline void PixelSampler::offset(uint64_t pixel, int s, double& u, double& v) co
   }
   const uint64_t pixelSeed = mixBits(m_seed + pixel * 0x2545f4914f6cdd1dull);
   if (m_kind == SamplerKind::Sobol || m_kind == SamplerKind::Adaptive) {
-    scrambledSobol(static_cast<uint32_t>(s), pixelSeed, u, v);
+    // Samples in a shuffled order (still stratified by powers of two): adaptive stops at any count.
+    const uint32_t index = nestedUniformScramble(static_cast<uint32_t>(s), static_cast<uint32_t>(pixelSeed));
+    scrambledSobol(index, static_cast<uint32_t>(pixelSeed >> 32), u, v);
     return;
   }
   // Random, or Stratified with several strata.
