@@ -168,3 +168,27 @@ def test_deterministic_across_threads_regions_and_seeded():
 def test_bad_values_name_ambient_occlusion(value, error, message):
     with pytest.raises(error, match=message):
         durer.render(sphere_over_plane(), TOP_CAMERA, 8, 8, ambient_occlusion=value)
+
+
+def test_secondary_hits_are_occluded_too():
+    # A half-mirror floor under a ceiling 20 above: the camera's hits on the floor and the mirrored
+    # rays' hits on the ceiling each see the other plane within a distance L only along directions
+    # within acos(20 / L) of the normal, a cosine-weighted fraction 1 − (20 / L)²: (20 / L)² is open.
+    scene = durer.Scene()
+    scene.add_plane((0, 1, 0), 0.0, material=scene.add_material((0.5, 0.5, 0.5), reflective=(0.5, 0.5, 0.5)))
+    scene.add_plane((0, -1, 0), -20.0, material=scene.add_material((1, 1, 1)))
+    scene.shading = "lit"
+    scene.ambient = (1, 1, 1)
+    camera = durer.OrthographicCamera((0, 10, 0), (0, -1, 0), (0, 0, -1), size=4.0, t_min=0.0)
+    samples = 64
+    result = durer.render(scene, camera, 32, 32, ambient_occlusion=(samples, 21.0))
+    assert result.stats["reflection_rays"] == 32 * 32
+    assert result.stats["ao_rays"] == 2 * samples * 32 * 32  # at the floor and at the mirrored ceiling
+    value = result.color[..., 0]  # 0.5·open(floor) + 0.5·1·open(ceiling)
+    open_fraction = (20 / 21) ** 2
+    sigma = np.sqrt(0.5 * open_fraction * (1 - open_fraction) / samples)
+    assert np.all(np.abs(value - open_fraction) <= 4 * sigma)
+    assert abs(value.mean() - open_fraction) < 4 * sigma / 32
+    unoccluded = durer.render(scene, camera, 32, 32, ambient_occlusion=(samples, 19.0))
+    assert np.all(unoccluded.color[..., :3] == 1.0)
+    assert unoccluded.stats["ambient_occlusion"] == (samples, 19.0)
