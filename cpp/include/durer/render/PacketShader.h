@@ -9,7 +9,6 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
-#include <type_traits>
 
 #include "durer/accel/Group.h"
 #include "durer/render/RayCounters.h"
@@ -246,7 +245,7 @@ class PacketShader {
   uint32_t rayKey(const RayPacket<Real>& p, int k) const {
     uint64_t key = m_occlusion.seed;
     for (const Real c : {p.ox[k], p.oy[k], p.oz[k], p.dx[k], p.dy[k], p.dz[k]}) {
-      std::conditional_t<sizeof(Real) == 8, uint64_t, uint32_t> bits;
+      typename FloatBits<Real>::Bits bits;
       std::memcpy(&bits, &c, sizeof bits);
       key = mixBits(key ^ bits);
     }
