@@ -44,5 +44,6 @@ def ambient_occlusion(scene) -> tuple[int, float] | None:
     distance = float(settings.ao_distance)
     if settings.use_world_ao_distance and scene.world is not None:
         distance = float(scene.world.light_settings.distance)
-    # Blender allows a distance of 0 (no occlusion in Cycles); Dürer's smallest is the property's minimum.
+    # The World's distance may be 0, which durer.render refuses: the setting's minimum stands in
+    # (practically nothing occludes).
     return int(settings.ao_samples), max(distance, 1e-6)

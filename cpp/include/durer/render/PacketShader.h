@@ -1,6 +1,7 @@
 #pragma once
-// The colour of a packet's hits: emission, the lights' diffuse and Phong terms (with shadow rays
-// toward lights that cast them), and the mirror and refracted rays, traced as packets of their own,
+// The colour of a packet's hits: emission, ambient light (scaled by its unoccluded fraction when
+// ambient occlusion is asked for), the lights' diffuse and Phong terms (with shadow rays toward
+// lights that cast them), and the mirror and refracted rays, traced as packets of their own,
 // bounce after bounce (6.837 assignments 2-4). What a scene does not call for is never run: the
 // EffectSet says which parts apply, decided once per render (Renderer.cpp), so an absent effect costs
 // at most a test per packet, never per ray.
@@ -170,7 +171,7 @@ class PacketShader {
 
   // open[k] = the unoccluded fraction of the cosine-weighted hemisphere about hit k's shading normal
   // within the AO distance (1 for misses and black diffuse), from m_occlusion.samples any-hit rays
-  // per hit: the k-th rays of every hit go as one packet.
+  // per hit: sample s of every hit goes in one packet.
   void ambientOcclusion(const RayPacket<Real>& packet, const Hit<Real>* hits, Real* open, RayCounters& counters) const {
     alignas(64) Vec3<Real> normal[kPacketSize], tangent[kPacketSize], bitangent[kPacketSize];
     alignas(64) uint32_t key[kPacketSize];
@@ -231,7 +232,7 @@ class PacketShader {
   }
 
   // t, b such that (t, b, n) is a right-handed orthonormal frame, for unit n (Duff et al. 2017: no
-  // branch on which axis n is closest to, continuous everywhere but at n.z = 0 from below).
+  // branch on which axis n is closest to; it jumps only where n.z changes sign).
   static void orthonormalFrame(const Vec3<Real>& n, Vec3<Real>& t, Vec3<Real>& b) {
     const Real sign = std::copysign(Real(1), n.z);
     const Real a = -1 / (sign + n.z), c = n.x * n.y * a;
