@@ -33,6 +33,8 @@ def test_the_setting_exports_samples_and_distance(scene):
     scene.durer.ambient_occlusion = "ON"
     scene.durer.use_world_ao_distance = True
     assert export(scene).ambient_occlusion == (64, 2.5)
+    w.light_settings.distance = 0.0  # Blender allows 0, durer.render does not: its smallest stands in
+    assert export(scene).ambient_occlusion == (64, 1e-6)
     scene.world = None  # no World: Dürer's own distance
     assert export(scene).ambient_occlusion == (64, pytest.approx(0.75))
 
