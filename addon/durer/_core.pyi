@@ -87,7 +87,7 @@ def render(
     scene: Scene, camera: CameraSpec, width: int, height: int, spp: int, seed: int, sampler: str,
     target_error: float, min_spp: int, time_limit: float, precision: str,
     sphere_method: str, passes: Sequence[str], depth: str, threads: int, shade_back: bool, max_bounces: int,
-    min_weight: float, poll: Callable[[float], bool],
+    min_weight: float, ambient_occlusion: tuple[int, float] | None, poll: Callable[[float], bool],
     out: dict[str, NDArray[np.float32] | NDArray[np.int32] | None], region: tuple[int, int, int, int],
 ) -> dict[str, object]: ...
 def cast(

@@ -43,8 +43,8 @@ class RenderResult:
                       equally near ones: one sample's ids, never a blend at an edge); -1 where
                       every sample missed. Not computed unless asked for in `passes`.
     stats:            effects (the effect set simulated: "flat" or "diffuse", "specular", "shadows",
-                      "reflection", "refraction"); rays (camera), shadow_rays, reflection_rays,
-                      refraction_rays, shading_evaluations, bounces_cut_by_depth,
+                      "reflection", "refraction", "ambient_occlusion"); rays (camera), shadow_rays,
+                      reflection_rays, refraction_rays, ao_rays, shading_evaluations, bounces_cut_by_depth,
                       bounces_cut_by_weight, total_internal_reflections, intersection_tests
                       (ray-primitive tests made); milliseconds, mrays_per_s (camera rays), threads,
                       width, height, spp, samples (camera samples of the returned pixels), precision,
@@ -129,6 +129,7 @@ def render(
     min_weight: float = 0.01,
     depth: str = "ray",
     region: tuple[int, int, int, int] | None = None,
+    ambient_occlusion: tuple[int, float] | None = None,
 ) -> RenderResult:
     """Render `scene` through `camera` at width x height pixels.
 
@@ -158,6 +159,12 @@ def render(
     `depth` says what the depth pass measures: "ray" (t along the unit camera ray) or "planar" (the
     distance along the camera's view axis, as Blender's and Cycles' Depth pass).
 
+    `ambient_occlusion=(samples, distance)` scales the ambient term (ambient · kd, lit scenes) of
+    every shaded hit by the fraction of `samples` cosine-weighted rays over its hemisphere that meet
+    nothing within `distance` (inf: nothing at all): Owen-scrambled Sobol directions, deterministic
+    for the seed, any-hit rays counted in stats["ao_rays"]. None (default): no AO rays at all.
+    Samples in [1, 65536], distance > 0; see docs/accuracy.md for its noise and cost per sample.
+
     `region=(x, y, w, h)` renders only pixels [x, x + w) x [y, y + h) of the width x height image
     (x right, y down from the top row), into (h, w) arrays equal bit for bit to that part of the
     whole render: positions and seeds are the whole image's. With sampler="adaptive" it is sampled
@@ -185,21 +192,22 @@ def render(
     max_bounces = _checks.c_int(max_bounces, "max_bounces")
     min_weight = _checks.real(min_weight, "min_weight")
     box = region_argument(region, width, height)
+    occlusion = ambient_occlusion_argument(ambient_occlusion)
     poll = poll_function(progress, cancel)
     if out is not None and not isinstance(out, RenderResult):
         raise TypeError(f"out must be a RenderResult or None, got {type(out).__name__}")
     buffers = {} if out is None else {name: getattr(out, name) for name in PASSES}
     out = _core.render(
         scene._core, camera._spec, width, height, spp, seed, sampler, target_error, min_spp, time_limit, precision,
-        sphere_method,
-        wanted, depth, threads_argument(threads), shade_back, max_bounces, min_weight, poll, buffers, box,
+        sphere_method, wanted, depth, threads_argument(threads), shade_back, max_bounces, min_weight, occlusion, poll,
+        buffers, box,
     )
     stats = dict(out["stats"])
     seconds = stats["milliseconds"] / 1000
     stats.update(
         width=width, height=height, spp=spp, sampler=sampler, precision=precision,
         samples=int(out["samples"].sum(dtype=np.int64)) if "samples" in out else stats["rays"],
-        sphere_method=sphere_method, depth=depth,
+        sphere_method=sphere_method, depth=depth, ambient_occlusion=occlusion,
         passes=tuple(p for p in PASSES if p in wanted), region=box if box[2] else None,
         requested_rays=(box[2] * box[3] if box[2] else width * height) * spp,
         mrays_per_s=stats["rays"] / seconds / 1e6 if seconds > 0 else float("inf"),
@@ -224,6 +232,17 @@ def region_argument(region: tuple[int, int, int, int] | None, width: int, height
     x, y = _checks.integer(x, "region x", 0, width - 1), _checks.integer(y, "region y", 0, height - 1)
     w, h = _checks.integer(w, "region width", 1, width - x), _checks.integer(h, "region height", 1, height - y)
     return (x, y, w, h)
+
+
+def ambient_occlusion_argument(value: tuple[int, float] | None) -> tuple[int, float] | None:
+    """(samples, distance) as (int, float), or None (off); their ranges are the core's to check."""
+    if value is None:
+        return None
+    try:
+        samples, distance = value
+    except (TypeError, ValueError):
+        raise TypeError(f"ambient_occlusion must be (samples, distance) or None, got {value!r}") from None
+    return _checks.c_int(samples, "ambient_occlusion samples"), _checks.real(distance, "ambient_occlusion distance")
 
 
 def _pass_names(passes: Iterable[str]) -> tuple[str, ...]:

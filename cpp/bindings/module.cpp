@@ -12,6 +12,7 @@
 #include <optional>
 #include <string>
 #include <type_traits>
+#include <utility>
 
 #include "durer/render/Camera.h"
 #include "durer/render/Cast.h"
@@ -183,7 +184,8 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
                   const std::string& sampler, double targetError, int minSamples, double timeLimit,
                   const std::string& precision,
                   const std::string& method, const std::vector<std::string>& passes, const std::string& depthKind,
-                  int threads, bool shadeBack, int maxBounces, double minWeight, const py::function& poll,
+                  int threads, bool shadeBack, int maxBounces, double minWeight,
+                  const std::optional<std::pair<int, double>>& ambientOcclusion, const py::function& poll,
                   const py::dict& out, const std::array<int, 4>& region) {
   RenderSettings settings;
   settings.width = width;
@@ -203,6 +205,7 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
   settings.shadeBack = shadeBack;
   settings.maxBounces = maxBounces;
   settings.minWeight = minWeight;
+  if (ambientOcclusion) settings.ambientOcclusion = {true, ambientOcclusion->first, ambientOcclusion->second};
   settings.region = {region[0], region[1], region[2], region[3]};
   validate(settings);
   const bool color = settings.passes & kPassColor;
@@ -232,6 +235,7 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
   s["shadow_rays"] = c.shadow;
   s["reflection_rays"] = c.reflection;
   s["refraction_rays"] = c.refraction;
+  s["ao_rays"] = c.ambientOcclusion;
   s["shading_evaluations"] = c.shadingEvaluations;
   s["bounces_cut_by_depth"] = c.cutByDepth;
   s["bounces_cut_by_weight"] = c.cutByWeight;
@@ -254,6 +258,7 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
   if (e.refraction) effects.append("refraction");
   if (e.shadows) effects.append("shadows");
   if (e.specular) effects.append("specular");
+  if (e.occlusion) effects.append("ambient_occlusion");
   effects.attr("sort")();
   s["effects"] = py::tuple(effects);
   result["stats"] = s;
@@ -451,7 +456,7 @@ PYBIND11_MODULE(_core, m) {
   m.def("render", &renderPy, py::arg("scene"), py::arg("camera"), py::arg("width"), py::arg("height"),
         py::arg("spp"), py::arg("seed"), py::arg("sampler"), py::arg("target_error"), py::arg("min_spp"), py::arg("time_limit"), py::arg("precision"), py::arg("sphere_method"), py::arg("passes"),
         py::arg("depth"), py::arg("threads"), py::arg("shade_back"), py::arg("max_bounces"),
-        py::arg("min_weight"), py::arg("poll"), py::arg("out"), py::arg("region"));
+        py::arg("min_weight"), py::arg("ambient_occlusion"), py::arg("poll"), py::arg("out"), py::arg("region"));
   m.def("cast", &castPy, py::arg("scene"), py::arg("origins"), py::arg("directions"), py::arg("t_min"),
         py::arg("t_max"), py::arg("precision"), py::arg("sphere_method"), py::arg("threads"), py::arg("poll"));
   m.def("camera_rays", &cameraRaysPy, py::arg("camera"), py::arg("width"), py::arg("height"),

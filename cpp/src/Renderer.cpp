@@ -35,6 +35,12 @@ void validate(const RenderSettings& s) {
   if (!(std::isfinite(s.targetError) && s.targetError > 0)) fail("target_error must be finite and > 0, got " + std::to_string(s.targetError));
   if (s.maxBounces < 0 || s.maxBounces > 1000) fail("max_bounces must be in [0, 1000], got " + std::to_string(s.maxBounces));
   if (!(std::isfinite(s.minWeight) && s.minWeight >= 0)) fail("min_weight must be finite and >= 0, got " + std::to_string(s.minWeight));
+  const RenderSettings::AmbientOcclusion& ao = s.ambientOcclusion;
+  constexpr int kMaxAoSamples = 1 << 16;
+  if (ao.on && (ao.samples < 1 || ao.samples > kMaxAoSamples)) {
+    fail("ambient_occlusion samples must be in [1, " + std::to_string(kMaxAoSamples) + "], got " + std::to_string(ao.samples));
+  }
+  if (ao.on && !(ao.distance > 0)) fail("ambient_occlusion distance must be > 0 (inf: unlimited), got " + std::to_string(ao.distance));
   const RenderSettings::Region& r = s.region;
   if (r.width != 0 && !(r.x >= 0 && r.y >= 0 && r.width >= 1 && r.height >= 1 && r.x <= s.width - r.width &&
                         r.y <= s.height - r.height)) {
@@ -66,6 +72,9 @@ EffectSet effectsFor(const Scene& scene, const RenderSettings& settings, const R
   e.shadows = e.lit && shadowing;
   e.reflection = settings.maxBounces > 0 && any(&Material::reflective);
   e.refraction = settings.maxBounces > 0 && any(&Material::transparent);
+  const Vec3d& ambient = scene.ambient();
+  e.occlusion = e.lit && settings.ambientOcclusion.on && (ambient.x > 0 || ambient.y > 0 || ambient.z > 0) &&
+                any(&Material::diffuse);
   return e;
 }
 

@@ -18,7 +18,7 @@ import durer
 
 BACKGROUND = np.array([0.1, 0.2, 0.3])
 COUNTERS = (
-    "shadow_rays", "reflection_rays", "refraction_rays", "shading_evaluations",
+    "shadow_rays", "reflection_rays", "refraction_rays", "ao_rays", "shading_evaluations",
     "bounces_cut_by_depth", "bounces_cut_by_weight", "total_internal_reflections",
 )
 

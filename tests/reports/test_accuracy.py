@@ -237,6 +237,7 @@ def test_quick_command(tmp_path, capsys):
     assert main(["--quick", "--output", str(output)]) == 0
     text = output.read_text()
     assert "quick mode" in text and "| stratified | 16 | 16.0 |" in text
+    assert "\n## Ambient occlusion\n" in text and "| 16 |" in text.split("## Ambient occlusion", 1)[1]
     for name in ("aa-showcase", "aa-edges", "sphere-methods"):
         assert (tmp_path / f"accuracy-{name}.png").stat().st_size > 10_000
     out = capsys.readouterr().out

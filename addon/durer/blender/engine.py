@@ -51,9 +51,9 @@ class RenderInfo:
 def stats_line(width: int, height: int, samples: int, stats: dict, cancelled: bool = False,
                refitted: bool = False) -> str:
     """Blender's stats line after a render: size, samples and sampler (for Adaptive, the maximum and
-    the mean a pixel got, and the RMS error it estimates), the effects Dürer simulated (the core derives them from the scene: flat,
-    diffuse, specular, shadows, reflection, refraction), speed, and whether the last frame's scene
-    was refitted."""
+    the mean a pixel got, and the RMS error it estimates), the effects Dürer simulated (the core
+    derives them from the scene: flat, diffuse, specular, shadows, reflection, refraction, ambient
+    occlusion with its samples), speed, and whether the last frame's scene was refitted."""
     sampler = stats.get("sampler")
     total = stats.get("samples")
     if sampler == "adaptive":
@@ -67,7 +67,9 @@ def stats_line(width: int, height: int, samples: int, stats: dict, cancelled: bo
     parts = [f"Dürer | {width}x{height} | {spp}"]
     effects = stats.get("effects")
     if effects is not None:
-        parts.append(" + ".join(effects) if len(effects) else "depth only")
+        occlusion = stats.get("ambient_occlusion")
+        named = [f"AO {occlusion[0]}" if e == "ambient_occlusion" and occlusion else e for e in effects]
+        parts.append(" + ".join(named) if len(named) else "depth only")
     estimate = stats.get("estimated_rmse")
     if isinstance(estimate, float):
         parts.append(f"est. error {estimate:.1e}" + (" (time limit)" if stats.get("time_limit_reached") else ""))
@@ -210,6 +212,7 @@ class DurerEngineMixin:
             if core not in passes:
                 passes.append(core)
         kwargs = render_kwargs(settings)
+        kwargs["ambient_occlusion"] = data.ambient_occlusion
         self.update_stats("", f"Dürer | {w}x{h} | {info.samples} spp | rendering")
         result, cancelled = self._run(core_scene, camera, w, h, passes, kwargs)
         info.render_seconds = time.perf_counter() - t0 - info.export_seconds

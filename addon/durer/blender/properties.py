@@ -278,6 +278,40 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
         min=0.0,
         soft_max=1.0,
     )
+    ambient_occlusion: EnumProperty(
+        name="Ambient Occlusion",
+        description="Darken the ambient (world) light where nearby surfaces block it: durer.render's "
+        "ambient_occlusion",
+        items=[
+            ("AUTO", "From Fast GI", "On when Cycles' Fast GI Approximation is on "
+             "(Render Properties › Light Paths, in Cycles)"),
+            ("ON", "On", "Always"),
+            ("OFF", "Off", "Never: no occlusion rays"),
+        ],
+        default="AUTO",
+    )
+    ao_samples: IntProperty(
+        name="AO Samples",
+        description="Occlusion rays per shaded point (per camera sample): noise falls as samples grow",
+        default=16,
+        min=1,
+        soft_max=256,
+        max=65536,
+    )
+    use_world_ao_distance: BoolProperty(
+        name="World AO Distance",
+        description="Occluders count within the World's AO Distance (World › Light Settings, "
+        "Cycles' Fast GI AO distance) instead of AO Distance below",
+        default=True,
+    )
+    ao_distance: FloatProperty(
+        name="AO Distance",
+        description="How far a surface occludes the ambient light, when World AO Distance is off",
+        default=10.0,
+        min=1e-6,
+        soft_max=100.0,
+        subtype="DISTANCE",
+    )
     shade_back: BoolProperty(
         name="Shade Back Faces",
         description="Shade back faces with the flipped normal, as Cycles does (6.837's -shade_back); "

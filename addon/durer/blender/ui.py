@@ -71,6 +71,14 @@ class DURER_PT_render(_DurerPanel, bpy.types.Panel):
         row = col.row()
         row.active = settings.use_custom_ambient
         row.prop(settings, "ambient")
+        layout.prop(settings, "ambient_occlusion")
+        col = layout.column()
+        col.active = settings.ambient_occlusion != "OFF"
+        col.prop(settings, "ao_samples")
+        col.prop(settings, "use_world_ao_distance")
+        row = col.row()
+        row.active = not settings.use_world_ao_distance
+        row.prop(settings, "ao_distance")
 
 
 class DURER_PT_object(_DurerPanel, bpy.types.Panel):

@@ -14,7 +14,7 @@ from ..scene import Scene
 from .batch import Camera, _RENDER_OPTIONS, run_renders
 
 #: Counters of `RenderResult.stats` that add up over tiles.
-_COUNTERS = ("rays", "shadow_rays", "reflection_rays", "refraction_rays", "shading_evaluations",
+_COUNTERS = ("rays", "shadow_rays", "reflection_rays", "refraction_rays", "ao_rays", "shading_evaluations",
              "bounces_cut_by_depth", "bounces_cut_by_weight", "total_internal_reflections", "intersection_tests",
              "samples", "requested_rays")
 

@@ -169,6 +169,8 @@ class SceneData:
     camera: CameraData | None = None
     background: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
     ambient: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    #: durer.render's ambient_occlusion=(samples, distance), None when off.
+    ambient_occlusion: tuple[int, float] | None = None
     #: Number of Dürer objects (spheres, planes, meshes) each Blender object contributed, by name.
     sources: Counter = field(default_factory=Counter)
     #: Geometry Dürer cannot render, counted by a short description ("volume", "area light", ...).

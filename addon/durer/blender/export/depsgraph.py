@@ -13,7 +13,7 @@ from .materials import object_materials
 from .matrices import uniform_scale, world_matrix
 from .nodes import rgb
 from .shapes import MeshShape, mesh_shape, metaball_iso_radius
-from .world import world_colors
+from .world import ambient_occlusion, world_colors
 
 # Object types whose evaluated mesh also appears among the depsgraph's instances.
 _CONVERTED_TYPES = {"CURVE", "SURFACE", "FONT", "META"}
@@ -227,4 +227,5 @@ def export_depsgraph(depsgraph, camera=None) -> SceneData:
         data.ambient = rgb(settings.ambient)
     elif settings is None or settings.use_world_lighting:
         data.ambient = world_rgb
+    data.ambient_occlusion = ambient_occlusion(scene)
     return data

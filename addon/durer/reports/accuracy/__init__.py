@@ -9,6 +9,7 @@
 - sphere method: algebraic vs geometric vs robust, time per ray and error as distance/radius grows
   (the sweep of `durer.reports.numerics`);
 - effects: what diffuse light, shadows, specular, reflection and refraction each add in time;
+- ambient occlusion: noise and time against AO samples per hit;
 - presets: each of `durer.PRESETS`' time and error,
 
 and writes the Markdown page with its tables and the PNG plots next to it (accuracy-*.png). Every

@@ -8,6 +8,7 @@ from ...render import PRECISIONS, SPHERE_METHODS
 from .. import numerics
 from ..scenes import FLAT_ROW
 from .measure import REFERENCE_SAMPLER, SEED, AntiAliasing, BudgetPoint, EffectRow, PresetRow, Report
+from .occlusion import markdown_section
 from .targets import targets
 
 
@@ -233,6 +234,10 @@ def markdown(report: Report, plots: dict[str, str]) -> str:
         "`bench/effects.py`): *added ms* is that effect's own cost, *time / flat* the ratio to the unlit render.",
         "",
         effects_table(report.effects),
+    ]
+    if report.occlusion is not None:
+        parts += markdown_section(report.occlusion)
+    parts += [
         "",
         "## Presets",
         "",

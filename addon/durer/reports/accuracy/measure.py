@@ -6,7 +6,7 @@ import statistics
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -18,6 +18,9 @@ from .. import numerics
 from ..errors import depth_differences, fit_slope, pixel_errors, rmse, worst_pixel
 from ..machine import machine
 from ..scenes import EFFECT_ROWS, edge_scene, effect_scene
+
+if TYPE_CHECKING:
+    from .occlusion import Occlusion
 
 REFERENCE_SAMPLER = "stratified"
 REFERENCE_SEED = 90210          # not the measured renders' seed: the reference's noise is independent of theirs
@@ -305,6 +308,7 @@ class Report:
     effects: list[EffectRow]
     presets: list[PresetRow]
     seconds: float = 0.0
+    occlusion: Occlusion | None = None
 
 
 def measure(config: Config, command: str = "python -m durer accuracy", log: Callable[[str], Any] = print) -> Report:
@@ -346,5 +350,9 @@ def measure(config: Config, command: str = "python -m durer accuracy", log: Call
     preset_rows = measure_presets(showcase, showcase_camera, width, height, aa_showcase.reference, config.runs, PRESETS)
     report = Report(config, machine(), time.strftime("%Y-%m-%d %H:%M %Z"), command, threads,
                     [aa_showcase, aa_edges], timings, sweep, effects, preset_rows)
+    from .occlusion import measure_occlusion  # it times with this module's timed()
+
+    log("ambient occlusion ...")
+    report.occlusion = measure_occlusion(config)
     report.seconds = time.perf_counter() - start
     return report

@@ -3,8 +3,6 @@
 // its rounding error; a secondary ray starts just outside that error box, on the side of the surface
 // it leaves toward, so it can neither re-hit its own surface (acne) nor skip past a nearby one (leaks).
 // No fixed t_min: the offset is a few ulps of the hit point's own magnitude, in the render's precision.
-#include <cmath>
-#include <limits>
 
 #include "durer/math/Float.h"
 
@@ -22,8 +20,7 @@ Vec3<Real> offsetRayOrigin(const Vec3<Real>& point, const Vec3<Real>& normal, co
   const Vec3<Real> origin = point + glm::dot(glm::abs(normal), error) * away;
   Vec3<Real> result;
   for (int i = 0; i < 3; ++i) {
-    const Real inf = std::numeric_limits<Real>::infinity();
-    result[i] = away[i] > 0 ? std::nextafter(origin[i], inf) : away[i] < 0 ? std::nextafter(origin[i], -inf) : origin[i];
+    result[i] = away[i] > 0 ? nextUp(origin[i]) : away[i] < 0 ? nextDown(origin[i]) : origin[i];
   }
   return result;
 }

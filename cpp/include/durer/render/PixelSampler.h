@@ -32,6 +32,10 @@ class PixelSampler {
   // Sobol points (Sobol and Adaptive) in one loop over the samples that the compiler vectorises.
   void offsets(uint64_t pixel, int first, int count, double* u, double* v) const;
 
+  // Point `index` in [0, 1)^2 of the 2-D Sobol sequence, Owen-scrambled by `seed`: indices 0 to
+  // 2^k - 1 are stratified in every dyadic box of 2^k cells.
+  static void scrambledSobol(uint32_t index, uint32_t seed, double& u, double& v);
+
  private:
   static uint32_t reverseBits(uint32_t x);
   static uint32_t sobolSecondDimension(uint32_t index);
@@ -105,9 +109,14 @@ inline uint32_t PixelSampler::laineKarras(uint32_t x, uint32_t seed) {
   return x;
 }
 
+inline void PixelSampler::scrambledSobol(uint32_t index, uint32_t seed, double& u, double& v) {
+  constexpr double k32 = 1.0 / 4294967296.0;  // 2^-32
+  u = reverseBits(laineKarras(index, seed)) * k32;  // nestedUniformScramble(reverseBits(index), seed)
+  v = nestedUniformScramble(sobolSecondDimension(index), seed ^ 0x5bd1e995u) * k32;
+}
+
 inline void PixelSampler::offset(uint64_t pixel, int s, double& u, double& v) const {
   constexpr double k53 = 1.0 / 9007199254740992.0;  // 2^-53: 53 random bits -> [0, 1)
-  constexpr double k32 = 1.0 / 4294967296.0;        // 2^-32
   if (centred()) {  // Center, and Stratified with one stratum: no hash
     u = v = 0.5;
     return;
@@ -137,13 +146,10 @@ inline void PixelSampler::offsets(uint64_t pixel, int first, int count, double* 
 }
 
 inline void PixelSampler::sobolOffsets(uint64_t pixelSeed, int first, int count, double* u, double* v) {
-  constexpr double k32 = 1.0 / 4294967296.0;  // 2^-32
   const uint32_t seed = static_cast<uint32_t>(pixelSeed), seedX = static_cast<uint32_t>(pixelSeed >> 32);
+  // Samples in a shuffled order (still stratified by powers of two): adaptive stops at any count.
   for (int i = 0; i < count; ++i) {
-    const uint32_t index = nestedUniformScramble(static_cast<uint32_t>(first + i), seed);  // shuffled order
-    const uint32_t x = reverseBits(laineKarras(index, seedX));  // nestedUniformScramble(reverseBits(index), seedX)
-    const uint32_t y = nestedUniformScramble(sobolSecondDimension(index), seedX ^ 0x5bd1e995u);
-    u[i] = x * k32, v[i] = y * k32;
+    scrambledSobol(nestedUniformScramble(static_cast<uint32_t>(first + i), seed), seedX, u[i], v[i]);
   }
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 #include <cstdint>
 #include <functional>
+#include <limits>
 
 #include "durer/render/Camera.h"
 #include "durer/render/PacketShader.h"
@@ -29,6 +30,14 @@ struct RenderSettings {
   bool shadeBack = false;            // shade back faces with the flipped normal (6.837 -shade_back)
   int maxBounces = 4;                // deepest secondary ray (reflection, refraction); 0: none
   double minWeight = 0.01;           // secondary rays that would weigh less are not spawned
+  // Ambient occlusion (durer.render's ambient_occlusion=(samples, distance)): the ambient term scaled
+  // by the unoccluded fraction of the cosine-weighted hemisphere within `distance`, from `samples`
+  // any-hit rays per shaded hit. Off: none traced.
+  struct AmbientOcclusion {
+    bool on = false;
+    int samples = 16;                                           // [1, 65536]
+    double distance = std::numeric_limits<double>::infinity();  // > 0; inf: any occluder
+  } ambientOcclusion;
   // The part of the image rendered: pixels [x, x + width) x [y, y + height), sampled and seeded as in
   // the whole image, written to targets of region.width x region.height. Width 0: the whole image.
   struct Region {

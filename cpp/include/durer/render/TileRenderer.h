@@ -40,6 +40,7 @@ class TileRenderer {
         m_cancel(cancel),
         m_flat(scene, group),
         m_shader(group, m_shading, effects, BounceLimits{settings.maxBounces, settings.minWeight, settings.shadeBack},
+                 OcclusionSettings{settings.ambientOcclusion.samples, settings.ambientOcclusion.distance, settings.seed},
                  toReal<Real>(Vec3d(scene.background())), cancel),
         m_objectOf(targets.objectId ? objectTable(group) : std::vector<int32_t>{}),
         m_needHits(targets.color != nullptr && (effects.lit || effects.bounces())),
