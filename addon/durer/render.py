@@ -37,7 +37,7 @@ class RenderResult:
                       cancel: a thin wall seen from both sides), the nearest hit sample's normal
                       (the first taken among equally near ones); 0 where every sample missed.
     stats:            effects (the effect set simulated: "flat" or "diffuse", "specular", "shadows",
-                      "reflection", "refraction"); rays (camera), shadow_rays, reflection_rays,
+                      "reflection", "refraction", "colors" (per-primitive colours)); rays (camera), shadow_rays, reflection_rays,
                       refraction_rays, shading_evaluations, bounces_cut_by_depth,
                       bounces_cut_by_weight, total_internal_reflections, intersection_tests
                       (ray-primitive tests made); milliseconds, mrays_per_s (camera rays), threads,

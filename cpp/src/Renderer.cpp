@@ -58,6 +58,7 @@ EffectSet effectsFor(const Scene& scene, const RenderSettings& settings, const R
   e.shadows = e.lit && shadowing;
   e.reflection = settings.maxBounces > 0 && any(&Material::reflective);
   e.refraction = settings.maxBounces > 0 && any(&Material::transparent);
+  e.colors = scene.colored();
   return e;
 }
 

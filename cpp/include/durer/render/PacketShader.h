@@ -23,6 +23,7 @@ struct EffectSet {
   bool shadows = false;     // lit, and some light casts shadows
   bool reflection = false;  // some material is reflective and maxBounces > 0
   bool refraction = false;  // some material is transparent and maxBounces > 0
+  bool colors = false;      // some primitive has its own colours: flat colours too come from hit records
   bool bounces() const { return reflection || refraction; }
 };
 
@@ -56,7 +57,8 @@ class PacketShader {
         continue;
       }
       const MaterialIn<Real>& m = m_shading.material(hits[k].materialId);
-      rgb[k] = m.emission + (m_effects.lit ? m_shading.ambient() * m.diffuse : m.diffuse);
+      const Vec3<Real>& kd = diffuse(hits[k], m);
+      rgb[k] = m.emission + (m_effects.lit ? m_shading.ambient() * kd : kd);
     }
     if (m_effects.lit) {  // one instantiation per combination: no per-ray test of what is absent
       if (m_effects.specular) {
@@ -76,6 +78,11 @@ class PacketShader {
 
  private:
   static Vec3<Real> direction(const RayPacket<Real>& p, int k) { return Vec3<Real>(p.dx[k], p.dy[k], p.dz[k]); }
+
+  // A hit's kd: its primitive's own colour if it has one, else its material's.
+  static const Vec3<Real>& diffuse(const Hit<Real>& hit, const MaterialIn<Real>& m) {
+    return hit.colored ? hit.color : m.diffuse;
+  }
 
   // max(N·H, 0) for the half vector H = normalize(L + V). L + V is zero when the light lies exactly
   // behind the point as the viewer sees it (a back face lit from behind, the light on the camera ray):
@@ -112,7 +119,7 @@ class PacketShader {
         // Colours first: their products are finite (Limits.h), so a huge falloff gives at most inf,
         // never 0·inf, and shade() saturates it.
         const Real falloff = light.falloff(h.point, toLight);
-        Vec3<Real> contribution = (cosine * falloff) * (light.color * m.diffuse);
+        Vec3<Real> contribution = (cosine * falloff) * (light.color * diffuse(h, m));
         if constexpr (Specular) {
           contribution += (std::pow(highlight(normal[k], toLight + toViewer[k]), m.exponent) * falloff) *
                           (light.color * m.specular);

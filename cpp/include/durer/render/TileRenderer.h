@@ -41,7 +41,7 @@ class TileRenderer {
         m_flat(scene, group),
         m_shader(group, m_shading, effects, BounceLimits{settings.maxBounces, settings.minWeight, settings.shadeBack},
                  toReal<Real>(Vec3d(scene.background())), cancel),
-        m_needHits(targets.color != nullptr && (effects.lit || effects.bounces())),
+        m_needHits(targets.color != nullptr && (effects.lit || effects.bounces() || effects.colors)),
         m_shadeBack(settings.shadeBack),
         m_planarDepth(settings.depth == DepthKind::Planar),
         m_region(regionOf(settings)),
@@ -361,7 +361,7 @@ class TileRenderer {
   const std::atomic<bool>& m_cancel;
   FlatTable m_flat;
   PacketShader<Real, M> m_shader;
-  bool m_needHits;   // colour needs hit records: lights or secondary rays
+  bool m_needHits;   // colour needs hit records: lights, secondary rays or primitives' own colours
   bool m_shadeBack;
   bool m_planarDepth;  // depth along the view axis, not along the ray
   RenderSettings::Region m_region;
