@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .attribute_colors import ColorSource, Unmapped, color_source, read_values
 from .data import IDENTITY, MeshData, PlaneData, SceneData, TransformedSpheres
 from .materials import material_data, object_materials
 from .matrices import is_invertible, transform_points, uniform_scale
@@ -21,9 +22,13 @@ class Builder:
         self.centers: list[np.ndarray] = []
         self.radii: list[np.ndarray] = []
         self.mats: list[np.ndarray] = []
+        self.colors: list[np.ndarray | None] = []  # per sphere chunk: attribute kd, or None
         self.material_ids: dict[tuple, int] = {}
         self.blender_materials: dict[int, int] = {}
         self.shape_cache: dict[tuple, MeshShape] = {}
+        self.color_sources: dict[int, ColorSource | None] = {}  # by Blender material pointer
+        self.fallbacks: set[str] = set()  # materials whose attribute colours were not used, noted once
+        self.mesh_colors: dict[tuple, tuple] = {}  # (part, its colours) by (mesh, part, material)
 
     # materials
     def material(self, mat, obj) -> int:
@@ -44,14 +49,106 @@ class Builder:
         mats = object_materials(obj)
         return self.material(mats[0] if mats else None, obj)
 
+    # attribute colours
+    def color_source(self, mat) -> ColorSource | None:
+        """How `mat`'s kd follows from attributes (attribute_colors.py), None if it does not (or
+        its graph cannot be mapped: then noted once)."""
+        if mat is None:
+            return None
+        key = mat.as_pointer()
+        if key not in self.color_sources:
+            try:
+                self.color_sources[key] = color_source(mat)
+            except Unmapped as reason:
+                self.color_sources[key] = None
+                self.fallback(mat.name, str(reason))
+        return self.color_sources[key]
+
+    def uncolored(self, mat, why: str) -> None:
+        """Geometry with material `mat` that takes one colour: noted if `mat` reads attribute colours."""
+        if self.color_source(mat) is not None:
+            self.fallback(mat.name, why)
+
+    def fallback(self, material: str, reason: str) -> None:
+        """Notes once per material that its own colour stands in for its attribute colours."""
+        if material not in self.fallbacks:
+            self.fallbacks.add(material)
+            self.data.notes.append(f"Material '{material}' uses its own colour, not attribute colours: {reason}")
+
+    def attribute_colors(self, geometry, mats: list, slots: np.ndarray | None, materials, n: int,
+                         sizes: dict[str, int]) -> np.ndarray | None:
+        """(n, 3) kd of n elements of `geometry` (a point cloud: points) whose Blender materials
+        are mats[slots] (slots None: mats[0]) and Dürer materials `materials`: attribute colours
+        where their material reads some, the material's kd elsewhere; None if none does."""
+        sources = [self.color_source(mat) for mat in (mats[:1] if slots is None else mats)]
+        default = getattr(getattr(geometry, "color_attributes", None), "default_color_name", None)
+        colors = None
+        for slot, source in enumerate(sources):
+            if source is None:
+                continue
+            try:
+                values, _ = read_values(geometry.attributes, source.attributes, default, sizes)
+            except Unmapped as reason:
+                self.fallback(source.material, str(reason))
+                continue
+            if slots is None:
+                return source.colors(values, n)
+            if colors is None:
+                kd = np.array([m.diffuse for m in self.data.materials], np.float64)
+                colors = kd[materials]
+            chosen = np.clip(slots, 0, len(mats) - 1) == slot
+            colors[chosen] = source.colors(values, n)[chosen]
+        return colors
+
+    def part_colors(self, me, part: TrianglePart, mat) -> np.ndarray | None:
+        """A mesh part's kd from attributes: (V, 3) per vertex where every attribute read is on
+        vertices, else (F, 3, 3) per face corner; None if its material reads none."""
+        source = self.color_source(mat)
+        if source is None:
+            return None
+        # The part is kept with its colours, so that its id stays its own while the export runs.
+        key = (me.as_pointer(), id(part), mat.as_pointer())
+        if key not in self.mesh_colors:
+            self.mesh_colors[key] = (part, self._part_colors(me, part, source))
+        return self.mesh_colors[key][1]
+
+    def _part_colors(self, me, part: TrianglePart, source: ColorSource) -> np.ndarray | None:
+        sizes = {"POINT": len(me.vertices), "CORNER": len(me.loops), "FACE": len(me.polygons)}
+        try:
+            values, domains = read_values(me.attributes, source.attributes, me.color_attributes.default_color_name, sizes)
+        except Unmapped as reason:
+            self.fallback(source.material, str(reason))
+            return None
+        if all(domain == "POINT" for domain in domains.values()):
+            if part.vertex_ids is not None:
+                values = {name: v[part.vertex_ids] for name, v in values.items()}
+            return source.colors(values, len(part.vertices))
+        polygons = None
+        corner_values = {}
+        for name, v in values.items():
+            if domains[name] == "POINT":
+                at = v[part.vertex_ids][part.faces] if part.vertex_ids is not None else v[part.faces]
+            elif domains[name] == "CORNER":
+                at = v[part.corners]
+            else:
+                if polygons is None:
+                    polygons = np.empty(len(me.loop_triangle_polygons), np.int32)
+                    me.loop_triangle_polygons.foreach_get("value", polygons)
+                    if part.triangles is not None:
+                        polygons = polygons[part.triangles]
+                at = np.repeat(v[polygons][:, None, :], 3, axis=1)
+            corner_values[name] = at.reshape(-1, 4)
+        return source.colors(corner_values, 3 * len(part.faces)).reshape(-1, 3, 3)
+
     # geometry
-    def spheres(self, name: str, centers: np.ndarray, radii: np.ndarray, materials) -> None:
+    def spheres(self, name: str, centers: np.ndarray, radii: np.ndarray, materials, colors=None) -> None:
         n = len(radii)
         if n == 0:
             return
         self.centers.append(np.asarray(centers).reshape(n, 3))
         self.radii.append(np.asarray(radii).reshape(n))
         self.mats.append(np.broadcast_to(np.asarray(materials, dtype=np.int32), (n,)))
+        self.colors.append(colors)
         self.data.sources[name] += n
 
     def sphere(self, name: str, m: np.ndarray, center, radius: float, material: int) -> None:
@@ -65,17 +162,19 @@ class Builder:
         else:
             self.transformed_spheres(name, m, center, np.array([float(radius)]), material)
 
-    def transformed_spheres(self, name: str, m: np.ndarray, centers, radii, materials) -> None:
+    def transformed_spheres(self, name: str, m: np.ndarray, centers, radii, materials, colors=None) -> None:
         n = len(radii)
         if n == 0:
             return
         materials = np.broadcast_to(np.asarray(materials, dtype=np.int32), (n,))
-        group = TransformedSpheres(name, np.asarray(centers, np.float64), np.asarray(radii, np.float64), materials, m)
+        group = TransformedSpheres(name, np.asarray(centers, np.float64), np.asarray(radii, np.float64), materials, m,
+                                   colors)
         self.data.transformed_spheres.append(group)
         self.data.sources[name] += n
 
-    def triangles(self, obj, m: np.ndarray, parts: list[TrianglePart]) -> None:
-        """A mesh's triangles in object space, one Dürer mesh per material slot used."""
+    def triangles(self, obj, m: np.ndarray, parts: list[TrianglePart], me) -> None:
+        """A mesh's triangles in object space, one Dürer mesh per material slot used, with the
+        attribute colours of mesh `me` where the slot's material reads some."""
         mats = object_materials(obj)
         flat = not is_invertible(m)
         for part in parts:
@@ -83,7 +182,8 @@ class Builder:
             vertices, matrix = part.vertices, m
             if flat:  # the core needs an invertible transform: a mesh scaled flat goes in world space
                 vertices, matrix = transform_points(m, vertices.astype(np.float64)), IDENTITY
-            self.data.meshes.append(MeshData(obj.name, vertices, part.faces, self.material(mat, obj), matrix))
+            colors = self.part_colors(me, part, mat)
+            self.data.meshes.append(MeshData(obj.name, vertices, part.faces, self.material(mat, obj), matrix, colors))
             self.data.sources[obj.name] += 1
 
     def plane(self, name: str, m: np.ndarray, shape: MeshShape, material: int, infinite: bool) -> None:
@@ -107,6 +207,10 @@ class Builder:
             d.sphere_centers = _join(self.centers, np.float64)
             d.sphere_radii = _join(self.radii, np.float64)
             d.sphere_materials = _join(self.mats, np.int32)
+            if any(c is not None for c in self.colors):
+                kd = np.array([m.diffuse for m in d.materials], np.float64)
+                d.sphere_colors = _join([kd[mats] if c is None else c for c, mats in zip(self.colors, self.mats)],
+                                        np.float64)
         return d
 
 

@@ -58,7 +58,9 @@ class InstanceBatches:
             shape = self._shape(mesh, mode)
             if shape.kind != "sphere":
                 return
-            kinds.append((shape, self.builder.material(mesh.materials[0] if len(mesh.materials) else None, obj)))
+            mat = mesh.materials[0] if len(mesh.materials) else None
+            self.builder.uncolored(mat, f"the instances of '{obj.name}' are spheres of one colour each")
+            kinds.append((shape, self.builder.material(mat, obj)))
         n = len(cloud.points)
         values = np.empty(n * 16, np.float32)
         cloud.attributes["instance_transform"].data.foreach_get("value", values)

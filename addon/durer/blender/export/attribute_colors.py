@@ -1,0 +1,333 @@
+"""Per-primitive colours from geometry attributes: a material's Base Color traced back through its
+node graph to Attribute and Color Attribute nodes, compiled into a numpy function of the
+attributes' values (`color_source`), and those values read from Blender's geometry in bulk
+(`read_values`, one ``foreach_get`` per attribute). Every node is evaluated as Cycles' SVM
+evaluates it, so that the colours are the ones Cycles renders. A graph with a node not mapped here
+falls back to the material's colour (`Unmapped` says why; the export notes it once).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .materials import base_color_input
+
+#: An attribute's values as RGBA rows, (N, 4) float32: colours as stored (byte colours decoded from
+#: sRGB as Blender renders them), vectors (x, y, z, 1), floats (v, v, v, 1).
+Values = dict[str, np.ndarray]
+#: A compiled socket: attribute values -> (N, 3) colours or (N,) values (or constants that broadcast).
+Expression = Callable[[Values], np.ndarray]
+COLOR, VALUE = "color", "value"
+#: Blender's scene-linear (Rec. 709) luminance: Cycles' implicit colour-to-value conversion.
+LUMINANCE = np.array([0.2126729, 0.7151522, 0.0721750])
+#: Cycles bakes a Color Ramp into this many entries and interpolates linearly between them.
+RAMP_TABLE_SIZE = 256
+#: The largest colour component the core accepts (durer._core.LIMITS).
+COLOR_LIMIT = 1e18
+
+#: Attribute data type -> (foreach_get field, components).
+_FIELDS = {"FLOAT_COLOR": ("color", 4), "BYTE_COLOR": ("color", 4), "FLOAT_VECTOR": ("vector", 3), "FLOAT": ("value", 1)}
+
+
+class Unmapped(Exception):
+    """A node graph or an attribute the export cannot turn into colours (the message says which)."""
+
+
+@dataclass(frozen=True)
+class ColorSource:
+    """How a material's kd follows from attributes: kd = expression(attribute values) × scale."""
+
+    material: str
+    attributes: tuple[str, ...]  # names read ("" is the geometry's default colour attribute)
+    expression: Expression
+    scale: tuple[float, float, float]
+
+    def colors(self, values: Values, n: int) -> np.ndarray:
+        """(n, 3) float64 kd, clamped to what the core accepts (>= 0, finite: NaN becomes 0)."""
+        kd = np.empty((n, 3), np.float64)
+        kd[...] = self.expression(values)  # one pass: broadcast and conversion
+        if self.scale != (1.0, 1.0, 1.0):
+            kd *= self.scale
+        np.fmin(kd, COLOR_LIMIT, out=kd)
+        return np.fmax(kd, 0.0, out=kd)
+
+
+def color_source(mat) -> ColorSource | None:
+    """The attribute colours of material `mat`'s kd, or None where its colour input is not linked
+    (or its shader has no such input). Raises Unmapped for a graph that cannot be mapped."""
+    found = base_color_input(mat)
+    if found is None:
+        return None
+    node, name, scale = found
+    socket = node.inputs[name]
+    if not socket.is_linked:
+        return None
+    compiler = _Compiler()
+    expression = compiler.input(socket, COLOR)
+    if not compiler.attributes:
+        raise Unmapped(f"material '{mat.name}': its {name} reads no attribute")
+    return ColorSource(mat.name, tuple(compiler.attributes), expression, scale)
+
+
+def read_values(attributes, names: tuple[str, ...], default_name: str | None, sizes: dict[str, int]) -> tuple[Values, dict[str, str]]:
+    """The RGBA values of the attributes `names` of a geometry (its `attributes` collection), and
+    each one's domain. "" names the default colour attribute (`default_name`). `sizes`: the
+    element count of each domain the caller can use (e.g. {"POINT": n}). Raises Unmapped for a
+    missing attribute, an unsupported type or a domain not in `sizes`."""
+    values, domains = {}, {}
+    for name in names:
+        real = default_name if name == "" else name
+        attribute = attributes.get(real) if real else None
+        if attribute is None:
+            raise Unmapped(f"no attribute '{real or '(default colour attribute)'}'")
+        field = _FIELDS.get(attribute.data_type)
+        if field is None:
+            raise Unmapped(f"attribute '{real}' is {attribute.data_type}, not a colour, vector or float")
+        if attribute.domain not in sizes:
+            raise Unmapped(f"attribute '{real}' is on the {attribute.domain.lower()} domain")
+        n = sizes[attribute.domain]
+        raw = np.empty(n * field[1], np.float32)
+        attribute.data.foreach_get(field[0], raw)
+        raw = raw.reshape(n, field[1])
+        if field[1] == 4:
+            rgba = raw
+        else:
+            rgba = np.ones((n, 4), np.float32)
+            rgba[:, :3] = raw
+        values[name], domains[name] = rgba, attribute.domain
+    return values, domains
+
+
+class _Compiler:
+    """Compiles sockets into expressions, collecting the attribute names they read."""
+
+    def __init__(self) -> None:
+        self.attributes: list[str] = []
+
+    def input(self, socket, kind: str) -> Expression:
+        """An input socket's value as `kind` (Cycles' implicit conversions between colours and values)."""
+        if not socket.is_linked:
+            value = socket.default_value
+            constant = np.array(value[:3], np.float64) if kind == COLOR and socket.type in ("RGBA", "VECTOR") \
+                else np.float64(value if socket.type == "VALUE" else np.mean(value[:3]))
+            if kind == COLOR and np.ndim(constant) == 0:
+                constant = np.full(3, constant)
+            return lambda values: constant
+        link = socket.links[0]
+        if link.is_muted:
+            raise Unmapped(f"the link into '{socket.node.name}' is muted")
+        expression, given = self.output(link.from_node, link.from_socket)
+        if given == kind:
+            return expression
+        if kind == VALUE:
+            return lambda values: np.asarray(expression(values)) @ LUMINANCE
+        return lambda values: np.repeat(np.asarray(expression(values))[..., None], 3, axis=-1)
+
+    def output(self, node, socket) -> tuple[Expression, str]:
+        if node.mute:
+            raise Unmapped(f"node '{node.name}' is muted")
+        compile_node = _NODES.get(node.bl_idname)
+        if compile_node is None:
+            raise Unmapped(f"node '{node.name}' ({node.bl_label}) is not mapped")
+        return compile_node(self, node, socket.identifier)
+
+    def read(self, name: str, output: str) -> tuple[Expression, str]:
+        if name not in self.attributes:
+            self.attributes.append(name)
+        if output in ("Color", "Vector"):
+            return (lambda values: values[name][:, :3]), COLOR
+        if output == "Alpha":
+            return (lambda values: values[name][:, 3]), VALUE
+        return (lambda values: values[name][:, :3].mean(axis=1)), VALUE  # Factor: Cycles' average
+
+
+def _socket(node, identifier: str):
+    return next(s for s in node.inputs if s.identifier == identifier)
+
+
+def _attribute(c: _Compiler, node, output: str) -> tuple[Expression, str]:
+    if node.attribute_type != "GEOMETRY":
+        raise Unmapped(f"Attribute node '{node.name}' is of type {node.attribute_type.title()}, not Geometry")
+    return c.read(node.attribute_name, output)
+
+
+def _color_attribute(c: _Compiler, node, output: str) -> tuple[Expression, str]:
+    return c.read(node.layer_name, output)
+
+
+def _reroute(c: _Compiler, node, output: str) -> tuple[Expression, str]:
+    socket = node.inputs[0]
+    kind = COLOR if socket.type in ("RGBA", "VECTOR") else VALUE
+    return c.input(socket, kind), kind
+
+
+def _lerp(a, b, t):
+    return a + t * (b - a)
+
+
+#: Cycles' svm_mix for colours: (A, B, factor) -> result.
+_BLENDS = {
+    "MIX": lambda a, b, t: _lerp(a, b, t),
+    "ADD": lambda a, b, t: a + t * b,
+    "MULTIPLY": lambda a, b, t: a * (1 - t + t * b),
+    "SUBTRACT": lambda a, b, t: a - t * b,
+    "SCREEN": lambda a, b, t: 1 - (1 - t + t * (1 - b)) * (1 - a),
+    "DIFFERENCE": lambda a, b, t: _lerp(a, np.abs(a - b), t),
+    "DARKEN": lambda a, b, t: _lerp(a, np.minimum(a, b), t),
+    "LIGHTEN": lambda a, b, t: _lerp(a, np.maximum(a, b), t),
+}
+
+
+def _mix(c: _Compiler, node, output: str) -> tuple[Expression, str]:
+    if node.data_type == "FLOAT":
+        kind, suffix, blend = VALUE, "Float", _BLENDS["MIX"]
+    elif node.data_type == "RGBA" and node.blend_type in _BLENDS:
+        kind, suffix, blend = COLOR, "Color", _BLENDS[node.blend_type]
+    else:
+        raise Unmapped(f"Mix node '{node.name}' ({node.data_type.lower()}, {node.blend_type.lower()}) is not mapped")
+    factor = c.input(_socket(node, "Factor_Float"), VALUE)
+    a, b = c.input(_socket(node, f"A_{suffix}"), kind), c.input(_socket(node, f"B_{suffix}"), kind)
+    clamp_factor, clamp_result = node.clamp_factor, node.clamp_result and kind == COLOR
+
+    def mix(values):
+        t = np.asarray(factor(values))
+        t = np.clip(t, 0, 1) if clamp_factor else t
+        result = blend(a(values), b(values), t[..., None] if kind == COLOR else t)
+        return np.clip(result, 0, 1) if clamp_result else result
+
+    return mix, kind
+
+
+def _color_ramp(c: _Compiler, node, output: str) -> tuple[Expression, str]:
+    """Cycles' baked table: Blender's own ramp evaluated at 256 points, interpolated linearly
+    between them (constant ramps take the entry below)."""
+    ramp = node.color_ramp
+    table = np.array([ramp.evaluate(i / (RAMP_TABLE_SIZE - 1)) for i in range(RAMP_TABLE_SIZE)], np.float64)
+    interpolate = ramp.interpolation != "CONSTANT"
+    factor = c.input(node.inputs["Fac"], VALUE)
+    channels = slice(0, 3) if output == "Color" else 3
+
+    def lookup(values):
+        f = np.clip(np.asarray(factor(values), np.float64), 0, 1) * (RAMP_TABLE_SIZE - 1)
+        i = np.clip(f.astype(np.int64), 0, RAMP_TABLE_SIZE - 1)
+        result = table[i]
+        if interpolate:
+            t = (f - i)[..., None]
+            result = np.where(t > 0, (1 - t) * result + t * table[np.minimum(i + 1, RAMP_TABLE_SIZE - 1)], result)
+        return result[..., channels]
+
+    return lookup, COLOR if output == "Color" else VALUE
+
+
+def _rgb_to_hsv(rgb: np.ndarray) -> np.ndarray:
+    """Cycles' rgb_to_hsv, vectorised."""
+    cmax, cmin = rgb.max(axis=-1), rgb.min(axis=-1)
+    delta = cmax - cmin
+    s = np.where(cmax != 0, delta / np.where(cmax != 0, cmax, 1), 0.0)
+    c = (cmax[..., None] - rgb) / np.where(delta != 0, delta, 1)[..., None]
+    r, g = rgb[..., 0] == cmax, rgb[..., 1] == cmax
+    h = np.where(r, c[..., 2] - c[..., 1], np.where(g, 2 + c[..., 0] - c[..., 2], 4 + c[..., 1] - c[..., 0])) / 6
+    h = np.where(h < 0, h + 1, h)
+    return np.stack([np.where(s != 0, h, 0.0), s, cmax], axis=-1)
+
+
+def _hsv_to_rgb(hsv: np.ndarray) -> np.ndarray:
+    """Cycles' hsv_to_rgb, vectorised."""
+    h, s, v = hsv[..., 0], hsv[..., 1], hsv[..., 2]
+    h = np.where(h == 1, 0.0, h) * 6
+    i = np.floor(h)
+    f = h - i
+    p, q, t = v * (1 - s), v * (1 - s * f), v * (1 - s * (1 - f))
+    sectors = [(v, t, p), (q, v, p), (p, v, t), (p, q, v), (t, p, v), (v, p, q)]
+    k = np.clip(i, 0, 5).astype(np.int64)
+    rgb = np.stack([np.choose(k, [sector[channel] for sector in sectors]) for channel in range(3)], axis=-1)
+    return np.where((s != 0)[..., None], rgb, v[..., None])
+
+
+def _hue_saturation(c: _Compiler, node, output: str) -> tuple[Expression, str]:
+    hue, saturation, value, factor = (c.input(node.inputs[name], VALUE) for name in ("Hue", "Saturation", "Value", "Fac"))
+    color = c.input(node.inputs["Color"], COLOR)
+
+    def hsv(values):
+        rgb = np.asarray(color(values), np.float64)
+        h = _rgb_to_hsv(rgb)
+        h[..., 0] = np.mod(h[..., 0] + hue(values) + 0.5, 1.0)
+        h[..., 1] = np.clip(h[..., 1] * saturation(values), 0, 1)
+        h[..., 2] = h[..., 2] * value(values)
+        t = np.asarray(factor(values))[..., None]
+        return np.maximum(t * _hsv_to_rgb(h) + (1 - t) * rgb, 0)
+
+    return hsv, COLOR
+
+
+def _gamma(c: _Compiler, node, output: str) -> tuple[Expression, str]:
+    color, gamma = c.input(node.inputs["Color"], COLOR), c.input(node.inputs["Gamma"], VALUE)
+
+    def power(values):
+        rgb, g = np.asarray(color(values), np.float64), np.asarray(gamma(values))[..., None]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(rgb > 0, np.power(np.maximum(rgb, 0), g), rgb)
+
+    return power, COLOR
+
+
+def _separate(c: _Compiler, node, output: str) -> tuple[Expression, str]:
+    if node.mode != "RGB":
+        raise Unmapped(f"Separate Color node '{node.name}' is in {node.mode} mode")
+    color, channel = c.input(node.inputs["Color"], COLOR), ("Red", "Green", "Blue").index(output)
+    return (lambda values: np.asarray(color(values))[..., channel]), VALUE
+
+
+def _combine(c: _Compiler, node, output: str) -> tuple[Expression, str]:
+    if node.mode != "RGB":
+        raise Unmapped(f"Combine Color node '{node.name}' is in {node.mode} mode")
+    red, green, blue = (c.input(node.inputs[name], VALUE) for name in ("Red", "Green", "Blue"))
+    return (lambda values: np.stack(np.broadcast_arrays(red(values), green(values), blue(values)), axis=-1)), COLOR
+
+
+def _safe_divide(a, b):
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(b != 0, a / np.where(b != 0, b, 1), 0.0)
+
+
+#: Cycles' svm_math for the operations a factor usually goes through: (a, b, c) -> result.
+_MATH = {
+    "ADD": lambda a, b, c: a + b,
+    "SUBTRACT": lambda a, b, c: a - b,
+    "MULTIPLY": lambda a, b, c: a * b,
+    "DIVIDE": lambda a, b, c: _safe_divide(a, b),
+    "MULTIPLY_ADD": lambda a, b, c: a * b + c,
+    "MINIMUM": lambda a, b, c: np.minimum(a, b),
+    "MAXIMUM": lambda a, b, c: np.maximum(a, b),
+}
+
+
+def _math(c: _Compiler, node, output: str) -> tuple[Expression, str]:
+    operation = _MATH.get(node.operation)
+    if operation is None:
+        raise Unmapped(f"Math node '{node.name}' ({node.operation.lower()}) is not mapped")
+    a, b, third = (c.input(socket, VALUE) for socket in node.inputs[:3])
+    clamp = node.use_clamp
+
+    def evaluate(values):
+        result = operation(np.asarray(a(values)), np.asarray(b(values)), np.asarray(third(values)))
+        return np.clip(result, 0, 1) if clamp else result
+
+    return evaluate, VALUE
+
+
+_NODES = {
+    "ShaderNodeAttribute": _attribute,
+    "ShaderNodeVertexColor": _color_attribute,
+    "NodeReroute": _reroute,
+    "ShaderNodeMix": _mix,
+    "ShaderNodeValToRGB": _color_ramp,
+    "ShaderNodeHueSaturation": _hue_saturation,
+    "ShaderNodeGamma": _gamma,
+    "ShaderNodeSeparateColor": _separate,
+    "ShaderNodeCombineColor": _combine,
+    "ShaderNodeMath": _math,
+}
