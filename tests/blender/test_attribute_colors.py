@@ -18,6 +18,7 @@ from helpers.blender import (
     pointcloud_object,
     points_object,
     render_passes,
+    uv_sphere,
     world,
 )
 
@@ -219,6 +220,37 @@ def test_points_of_a_plain_material_keep_its_kd_beside_coloured_ones(scene):
     np.testing.assert_allclose(data.sphere_colors[[1, 2]], [(0.9, 0.1, 0.1)] * 2, rtol=1e-7)
 
 
+def test_geometry_nodes_instances_take_their_instance_colour_read_by_an_instancer_attribute(scene, tmp_path):
+    from durer.blender import point_cloud
+
+    positions = grid_positions(3, spacing=1.5)
+    points = point_cloud.vertex_object(scene.collection, "Points", positions)
+    colors = np.random.default_rng(7).uniform(0.1, 1, (9, 4))
+    set_attribute(points.data, "Color", "FLOAT_COLOR", "POINT", colors)  # carried to the instances
+    ball = uv_sphere(scene, "Ball", radius=0.5)
+    ball.data.shade_smooth()
+    ball.hide_render = ball.hide_viewport = True
+
+    def instancer_color(tree):
+        node = tree.nodes.new("ShaderNodeAttribute")
+        node.attribute_type, node.attribute_name = "INSTANCER", "Color"
+        return node.outputs["Color"]
+
+    ball.data.materials.append(attribute_material("Per instance", instancer_color))
+    point_cloud.instance_on_points(points, ball, rotate=False)
+    front_view(scene)
+    data = export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    assert data.warnings == [] and data.sphere_count == 9
+    order = np.lexsort((data.sphere_centers[:, 2], data.sphere_centers[:, 0]))
+    np.testing.assert_allclose(data.sphere_colors[order], colors[np.lexsort((positions[:, 2], positions[:, 0])), :3],
+                               rtol=1e-7)
+    c, d = both(scene, tmp_path, normal=False)
+    # Each instance's centre pixel (the UV sphere's smooth normals there face the camera, as the sphere's do).
+    for x, z in positions[:, [0, 2]]:
+        row, col = int(60 - z * 160 / 6), int(80 + x * 160 / 6)
+        np.testing.assert_allclose(d["color"][row, col, :3], c["color"][row, col, :3], rtol=0.02, atol=1e-3)
+
+
 def noise_into_base_color(tree):
     return tree.nodes.new("ShaderNodeTexNoise").outputs["Color"]
 
@@ -233,7 +265,7 @@ def instancer_attribute(tree):
     ("build", "reason"),
     [
         (noise_into_base_color, "node 'Noise Texture' (Noise Texture) is not mapped"),
-        (instancer_attribute, "Attribute node 'Attribute' is of type Instancer, not Geometry"),
+        (instancer_attribute, "it reads the instancer attribute 'Color' where there is none"),
         (lambda tree: attribute_node(tree, "Missing"), "no attribute 'Missing'"),
     ],
 )

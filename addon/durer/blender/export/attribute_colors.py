@@ -15,9 +15,13 @@ import numpy as np
 
 from .materials import base_color_input
 
-#: An attribute's values as RGBA rows, (N, 4) float32: colours as stored (byte colours decoded from
+#: An attribute an expression reads: (where, name), where "GEOMETRY" (the shaded geometry's own) or
+#: "INSTANCER" (its geometry-nodes instance's, Cycles' Attribute node type Instancer); name "" is the
+#: geometry's default colour attribute.
+Key = tuple[str, str]
+#: Attributes' values as RGBA rows, (N, 4) float32: colours as stored (byte colours decoded from
 #: sRGB as Blender renders them), vectors (x, y, z, 1), floats (v, v, v, 1).
-Values = dict[str, np.ndarray]
+Values = dict[Key, np.ndarray]
 #: A compiled socket: attribute values -> (N, 3) colours or (N,) values (or constants that broadcast).
 Expression = Callable[[Values], np.ndarray]
 COLOR, VALUE = "color", "value"
@@ -41,7 +45,7 @@ class ColorSource:
     """How a material's kd follows from attributes: kd = expression(attribute values) × scale."""
 
     material: str
-    attributes: tuple[str, ...]  # names read ("" is the geometry's default colour attribute)
+    attributes: tuple[Key, ...]
     expression: Expression
     scale: tuple[float, float, float]
 
@@ -72,13 +76,18 @@ def color_source(mat) -> ColorSource | None:
     return ColorSource(mat.name, tuple(compiler.attributes), expression, scale)
 
 
-def read_values(attributes, names: tuple[str, ...], default_name: str | None, sizes: dict[str, int]) -> tuple[Values, dict[str, str]]:
-    """The RGBA values of the attributes `names` of a geometry (its `attributes` collection), and
-    each one's domain. "" names the default colour attribute (`default_name`). `sizes`: the
-    element count of each domain the caller can use (e.g. {"POINT": n}). Raises Unmapped for a
-    missing attribute, an unsupported type or a domain not in `sizes`."""
+def read_values(attributes, keys: tuple[Key, ...], default_name: str | None, sizes: dict[str, int],
+                where: str = "GEOMETRY") -> tuple[Values, dict[Key, str]]:
+    """The RGBA values of the attributes `keys` in `attributes` (a collection holding those of
+    `where`), and each one's domain. Name "" is the default colour attribute (`default_name`).
+    `sizes`: the element count of each domain the caller can use (e.g. {"POINT": n}). Raises
+    Unmapped for an attribute of another place, a missing one, an unsupported type or a domain not
+    in `sizes`."""
     values, domains = {}, {}
-    for name in names:
+    for key in keys:
+        place, name = key
+        if place != where:
+            raise Unmapped(f"it reads the {place.lower()} attribute '{name}' where there is none")
         real = default_name if name == "" else name
         attribute = attributes.get(real) if real else None
         if attribute is None:
@@ -97,7 +106,7 @@ def read_values(attributes, names: tuple[str, ...], default_name: str | None, si
         else:
             rgba = np.ones((n, 4), np.float32)
             rgba[:, :3] = raw
-        values[name], domains[name] = rgba, attribute.domain
+        values[key], domains[key] = rgba, attribute.domain
     return values, domains
 
 
@@ -105,7 +114,7 @@ class _Compiler:
     """Compiles sockets into expressions, collecting the attribute names they read."""
 
     def __init__(self) -> None:
-        self.attributes: list[str] = []
+        self.attributes: list[Key] = []
 
     def input(self, socket, kind: str) -> Expression:
         """An input socket's value as `kind` (Cycles' implicit conversions between colours and values)."""
@@ -134,14 +143,14 @@ class _Compiler:
             raise Unmapped(f"node '{node.name}' ({node.bl_label}) is not mapped")
         return compile_node(self, node, socket.identifier)
 
-    def read(self, name: str, output: str) -> tuple[Expression, str]:
-        if name not in self.attributes:
-            self.attributes.append(name)
+    def read(self, key: Key, output: str) -> tuple[Expression, str]:
+        if key not in self.attributes:
+            self.attributes.append(key)
         if output in ("Color", "Vector"):
-            return (lambda values: values[name][:, :3]), COLOR
+            return (lambda values: values[key][:, :3]), COLOR
         if output == "Alpha":
-            return (lambda values: values[name][:, 3]), VALUE
-        return (lambda values: values[name][:, :3].mean(axis=1)), VALUE  # Factor: Cycles' average
+            return (lambda values: values[key][:, 3]), VALUE
+        return (lambda values: values[key][:, :3].mean(axis=1)), VALUE  # Factor: Cycles' average
 
 
 def _socket(node, identifier: str):
@@ -149,13 +158,13 @@ def _socket(node, identifier: str):
 
 
 def _attribute(c: _Compiler, node, output: str) -> tuple[Expression, str]:
-    if node.attribute_type != "GEOMETRY":
-        raise Unmapped(f"Attribute node '{node.name}' is of type {node.attribute_type.title()}, not Geometry")
-    return c.read(node.attribute_name, output)
+    if node.attribute_type not in ("GEOMETRY", "INSTANCER"):
+        raise Unmapped(f"Attribute node '{node.name}' is of type {node.attribute_type.title()}")
+    return c.read((node.attribute_type, node.attribute_name), output)
 
 
 def _color_attribute(c: _Compiler, node, output: str) -> tuple[Expression, str]:
-    return c.read(node.layer_name, output)
+    return c.read(("GEOMETRY", node.layer_name), output)
 
 
 def _reroute(c: _Compiler, node, output: str) -> tuple[Expression, str]:

@@ -76,10 +76,11 @@ class Builder:
             self.data.notes.append(f"Material '{material}' uses its own colour, not attribute colours: {reason}")
 
     def attribute_colors(self, geometry, mats: list, slots: np.ndarray | None, materials, n: int,
-                         sizes: dict[str, int]) -> np.ndarray | None:
-        """(n, 3) kd of n elements of `geometry` (a point cloud: points) whose Blender materials
-        are mats[slots] (slots None: mats[0]) and Dürer materials `materials`: attribute colours
-        where their material reads some, the material's kd elsewhere; None if none does."""
+                         sizes: dict[str, int], where: str = "GEOMETRY") -> np.ndarray | None:
+        """(n, 3) kd of n elements of `geometry` (a point cloud: points; an instancer's instances,
+        `where` "INSTANCER") whose Blender materials are mats[slots] (slots None: mats[0]) and
+        Dürer materials `materials`: attribute colours where their material reads some, the
+        material's kd elsewhere; None if none does."""
         sources = [self.color_source(mat) for mat in (mats[:1] if slots is None else mats)]
         default = getattr(getattr(geometry, "color_attributes", None), "default_color_name", None)
         colors = None
@@ -87,7 +88,7 @@ class Builder:
             if source is None:
                 continue
             try:
-                values, _ = read_values(geometry.attributes, source.attributes, default, sizes)
+                values, _ = read_values(geometry.attributes, source.attributes, default, sizes, where)
             except Unmapped as reason:
                 self.fallback(source.material, str(reason))
                 continue
@@ -121,14 +122,14 @@ class Builder:
             return None
         if all(domain == "POINT" for domain in domains.values()):
             if part.vertex_ids is not None:
-                values = {name: v[part.vertex_ids] for name, v in values.items()}
+                values = {key: v[part.vertex_ids] for key, v in values.items()}
             return source.colors(values, len(part.vertices))
         polygons = None
         corner_values = {}
-        for name, v in values.items():
-            if domains[name] == "POINT":
+        for key, v in values.items():
+            if domains[key] == "POINT":
                 at = v[part.vertex_ids][part.faces] if part.vertex_ids is not None else v[part.faces]
-            elif domains[name] == "CORNER":
+            elif domains[key] == "CORNER":
                 at = v[part.corners]
             else:
                 if polygons is None:
@@ -137,7 +138,7 @@ class Builder:
                     if part.triangles is not None:
                         polygons = polygons[part.triangles]
                 at = np.repeat(v[polygons][:, None, :], 3, axis=1)
-            corner_values[name] = at.reshape(-1, 4)
+            corner_values[key] = at.reshape(-1, 4)
         return source.colors(corner_values, 3 * len(part.faces)).reshape(-1, 3, 3)
 
     # geometry
