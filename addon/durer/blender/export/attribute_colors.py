@@ -52,11 +52,10 @@ class ColorSource:
     def colors(self, values: Values, n: int) -> np.ndarray:
         """(n, 3) float64 kd, clamped to what the core accepts (>= 0, finite: NaN becomes 0)."""
         kd = np.empty((n, 3), np.float64)
-        kd[...] = self.expression(values)  # one pass: broadcast and conversion
+        np.fmax(np.broadcast_to(self.expression(values), (n, 3)), 0.0, out=kd)  # converts too; NaN -> 0
         if self.scale != (1.0, 1.0, 1.0):
             kd *= self.scale
-        np.fmin(kd, COLOR_LIMIT, out=kd)
-        return np.fmax(kd, 0.0, out=kd)
+        return np.fmin(kd, COLOR_LIMIT, out=kd)
 
 
 def color_source(mat) -> ColorSource | None:
