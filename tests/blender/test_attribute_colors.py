@@ -192,6 +192,29 @@ def test_each_attribute_type_gives_the_colour_blender_renders(scene, kind):
     np.testing.assert_allclose(data.sphere_colors, expected, rtol=1e-6, atol=1e-7)
 
 
+def test_each_material_slot_of_a_mesh_reads_its_own_attribute_and_domain(scene):
+    obj = grid(scene, "Slots", n=4)
+    me = obj.data
+    rng = np.random.default_rng(8)
+    vertex_colors = rng.uniform(0, 1, (len(me.vertices), 4))
+    face_colors = rng.uniform(0, 1, (len(me.polygons), 4))
+    set_attribute(me, "V", "FLOAT_COLOR", "POINT", vertex_colors)
+    set_attribute(me, "F", "FLOAT_COLOR", "FACE", face_colors)
+    slots = np.arange(len(me.polygons)) % 2
+    me.attributes.new("material_index", "INT", "FACE").data.foreach_set("value", slots.astype(np.int32))
+    me.materials.append(attribute_material("By vertex", lambda tree: attribute_node(tree, "V")))
+    me.materials.append(attribute_material("By face", lambda tree: attribute_node(tree, "F")))
+    by_vertex, by_face = export_depsgraph(bpy.context.evaluated_depsgraph_get()).meshes
+    co = np.array([v.co for v in me.vertices])
+    index_of = {tuple(np.round(p, 5)): i for i, p in enumerate(co)}
+    vertex_ids = [index_of[tuple(np.round(p, 5))] for p in by_vertex.vertices]
+    np.testing.assert_allclose(by_vertex.colors, vertex_colors[vertex_ids, :3], rtol=1e-7)
+    assert by_face.colors.shape == (2 * (slots == 1).sum(), 3, 3)
+    np.testing.assert_array_equal(by_face.colors[:, 0], by_face.colors[:, 2])  # one colour per face
+    expected = {tuple(np.float64(c[:3])) for c in face_colors[slots == 1].astype(np.float32)}
+    assert {tuple(c) for c in by_face.colors[:, 0]} == expected
+
+
 def test_principled_kd_scales_the_colour_and_color_attribute_nodes_read_the_default(scene):
     obj = grid(scene, "Painted", n=3)
     colors = np.random.default_rng(5).uniform(0, 1, (len(obj.data.vertices), 4))

@@ -73,6 +73,17 @@ def test_lit_spheres_use_the_colour_as_kd_with_ambient_and_shadowed_lights(preci
         np.testing.assert_allclose(result.color[pixel_of(x, 0)][:3], expected, rtol=1e-5)
 
 
+def test_a_mirror_shows_the_colour_of_the_sphere_it_reflects(precision):
+    scene = durer.Scene()
+    mirror = scene.add_material((0, 0, 0), reflective=(1, 1, 1))
+    scene.add_plane((0, 0, 1), 0.0, mirror, bounds=((-4, -4, 0), (8, 0, 0), (0, 8, 0)))
+    scene.add_spheres([[0, 0, 15]], 3.0, colors=[[0.25, 0.5, 0.75]])  # behind the camera: seen only in the mirror
+    eye = durer.PerspectiveCamera(center=(0, 0, 10), direction=(0, 0, -1), up=(0, 1, 0), fov_degrees=20)
+    result = durer.render(scene, eye, 16, 16, precision=precision, passes=("color",))
+    assert "reflection" in result.stats["effects"] and "colors" in result.stats["effects"]
+    np.testing.assert_allclose(result.color[8, 8, :3], (0.25, 0.5, 0.75), atol=close(precision))
+
+
 def test_a_scene_without_colours_asks_for_no_colour_effect():
     scene = durer.Scene()
     scene.add_spheres([[0, 0, 0]], 1.0)

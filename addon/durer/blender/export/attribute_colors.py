@@ -71,7 +71,7 @@ def color_source(mat) -> ColorSource | None:
     compiler = _Compiler()
     expression = compiler.input(socket, COLOR)
     if not compiler.attributes:
-        raise Unmapped(f"material '{mat.name}': its {name} reads no attribute")
+        raise Unmapped(f"its {name} reads no attribute")
     return ColorSource(mat.name, tuple(compiler.attributes), expression, scale)
 
 
@@ -109,6 +109,33 @@ def read_values(attributes, keys: tuple[Key, ...], default_name: str | None, siz
     return values, domains
 
 
+def part_colors(me, part, source: ColorSource) -> np.ndarray:
+    """The kd of a mesh part (triangles.TrianglePart of mesh `me`) from its attributes: (V, 3) per
+    vertex where every attribute read is on vertices, else (F, 3, 3) per face corner (a vertex's
+    value at each corner that uses it, a face's at its three). Raises Unmapped as read_values."""
+    sizes = {"POINT": len(me.vertices), "CORNER": len(me.loops), "FACE": len(me.polygons)}
+    values, domains = read_values(me.attributes, source.attributes, me.color_attributes.default_color_name, sizes)
+    if part.vertex_ids is not None:
+        values = {key: v[part.vertex_ids] if domains[key] == "POINT" else v for key, v in values.items()}
+    if all(domain == "POINT" for domain in domains.values()):
+        return source.colors(values, len(part.vertices))
+    polygons = None
+    at_corners = {}
+    for key, v in values.items():
+        if domains[key] == "POINT":
+            at = v[part.faces]
+        elif domains[key] == "CORNER":
+            at = v[part.corners]
+        else:
+            if polygons is None:
+                polygons = np.empty(len(me.loop_triangle_polygons), np.int32)
+                me.loop_triangle_polygons.foreach_get("value", polygons)
+                polygons = polygons if part.triangles is None else polygons[part.triangles]
+            at = np.repeat(v[polygons][:, None, :], 3, axis=1)
+        at_corners[key] = at.reshape(-1, 4)
+    return source.colors(at_corners, 3 * len(part.faces)).reshape(-1, 3, 3)
+
+
 class _Compiler:
     """Compiles sockets into expressions, collecting the attribute names they read."""
 
@@ -116,23 +143,15 @@ class _Compiler:
         self.attributes: list[Key] = []
 
     def input(self, socket, kind: str) -> Expression:
-        """An input socket's value as `kind` (Cycles' implicit conversions between colours and values)."""
+        """An input socket's value as `kind`: its own constant if unlinked, else what is linked."""
         if not socket.is_linked:
             value = socket.default_value
-            constant = np.array(value[:3], np.float64) if kind == COLOR and socket.type in ("RGBA", "VECTOR") \
-                else np.float64(value if socket.type == "VALUE" else np.mean(value[:3]))
-            if kind == COLOR and np.ndim(constant) == 0:
-                constant = np.full(3, constant)
-            return lambda values: constant
+            constant = np.array(value[:3], np.float64) if socket.type in ("RGBA", "VECTOR") else np.float64(value)
+            return _as(lambda values: constant, COLOR if np.ndim(constant) else VALUE, kind)
         link = socket.links[0]
         if link.is_muted:
             raise Unmapped(f"the link into '{socket.node.name}' is muted")
-        expression, given = self.output(link.from_node, link.from_socket)
-        if given == kind:
-            return expression
-        if kind == VALUE:
-            return lambda values: np.asarray(expression(values)) @ LUMINANCE
-        return lambda values: np.repeat(np.asarray(expression(values))[..., None], 3, axis=-1)
+        return _as(*self.output(link.from_node, link.from_socket), kind)
 
     def output(self, node, socket) -> tuple[Expression, str]:
         if node.mute:
@@ -150,6 +169,16 @@ class _Compiler:
         if output == "Alpha":
             return (lambda values: values[key][:, 3]), VALUE
         return (lambda values: values[key][:, :3].mean(axis=1)), VALUE  # Factor: Cycles' average
+
+
+def _as(expression: Expression, given: str, kind: str) -> Expression:
+    """`expression` (of kind `given`) as `kind`, converted as Cycles converts along a link: a colour
+    to a value by its luminance, a value to the gray colour."""
+    if given == kind:
+        return expression
+    if kind == VALUE:
+        return lambda values: np.asarray(expression(values)) @ LUMINANCE
+    return lambda values: np.repeat(np.asarray(expression(values))[..., None], 3, axis=-1)
 
 
 def _socket(node, identifier: str):

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .attribute_colors import ColorSource, Unmapped, color_source, read_values
+from .attribute_colors import ColorSource, Unmapped, color_source, part_colors, read_values
 from .data import IDENTITY, MeshData, PlaneData, SceneData, TransformedSpheres
 from .materials import material_data, object_materials
 from .matrices import is_invertible, transform_points, uniform_scale
@@ -110,36 +110,14 @@ class Builder:
         # The part is kept with its colours, so that its id stays its own while the export runs.
         key = (me.as_pointer(), id(part), mat.as_pointer())
         if key not in self.mesh_colors:
-            self.mesh_colors[key] = (part, self._part_colors(me, part, source))
+            try:
+                colors = part_colors(me, part, source)
+            except Unmapped as reason:
+                self.fallback(source.material, str(reason))
+                colors = None
+            self.mesh_colors[key] = (part, colors)
         return self.mesh_colors[key][1]
 
-    def _part_colors(self, me, part: TrianglePart, source: ColorSource) -> np.ndarray | None:
-        sizes = {"POINT": len(me.vertices), "CORNER": len(me.loops), "FACE": len(me.polygons)}
-        try:
-            values, domains = read_values(me.attributes, source.attributes, me.color_attributes.default_color_name, sizes)
-        except Unmapped as reason:
-            self.fallback(source.material, str(reason))
-            return None
-        if all(domain == "POINT" for domain in domains.values()):
-            if part.vertex_ids is not None:
-                values = {key: v[part.vertex_ids] for key, v in values.items()}
-            return source.colors(values, len(part.vertices))
-        polygons = None
-        corner_values = {}
-        for key, v in values.items():
-            if domains[key] == "POINT":
-                at = v[part.vertex_ids][part.faces] if part.vertex_ids is not None else v[part.faces]
-            elif domains[key] == "CORNER":
-                at = v[part.corners]
-            else:
-                if polygons is None:
-                    polygons = np.empty(len(me.loop_triangle_polygons), np.int32)
-                    me.loop_triangle_polygons.foreach_get("value", polygons)
-                    if part.triangles is not None:
-                        polygons = polygons[part.triangles]
-                at = np.repeat(v[polygons][:, None, :], 3, axis=1)
-            corner_values[key] = at.reshape(-1, 4)
-        return source.colors(corner_values, 3 * len(part.faces)).reshape(-1, 3, 3)
 
     # geometry
     def spheres(self, name: str, centers: np.ndarray, radii: np.ndarray, materials, colors=None) -> None:
