@@ -9,7 +9,8 @@ instances of a UV sphere object scattered by geometry nodes' Instance on Points 
 scale). Prints the best of --runs and the targets: ≤ 0.2 s for a million spheres, ≤ 0.4 s for a
 million triangles, ≤ 0.5 s for 100,000 instances (issue 14). The point cloud is exported again with
 a FLOAT_COLOR attribute its material's Base Color reads (Set Material in its geometry nodes): the
-difference is what reading and mapping the attribute colours costs (target ≤ 50 ms per million).
+difference is what reading and mapping the attribute colours costs (target ≤ 50 ms per million);
+the mesh too, with a colour per face corner.
 """
 
 from __future__ import annotations
@@ -40,18 +41,32 @@ def colored_point_cloud(bpy, scene, n: int) -> None:
     (an Attribute node), as molecular add-ons make them."""
     point_cloud(bpy, scene, n)
     obj = scene.objects["Points"]
-    colors = np.random.default_rng(1).uniform(0, 1, (n, 4)).astype(np.float32)
-    obj.data.attributes.new("Color", "FLOAT_COLOR", "POINT").data.foreach_set("color", colors.ravel())
-    mat = bpy.data.materials.new("Atoms")
-    tree = mat.node_tree
-    attribute = tree.nodes.new("ShaderNodeAttribute")
-    attribute.attribute_name = "Color"
-    tree.links.new(attribute.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    mat = _color_attribute(bpy, obj.data, "POINT", n)
     group = obj.modifiers[0].node_group
     set_material = group.nodes.new("GeometryNodeSetMaterial")
     set_material.inputs["Material"].default_value = mat
     group.links.new(group.nodes["Mesh to Points"].outputs[0], set_material.inputs["Geometry"])
     group.links.new(set_material.outputs[0], group.nodes["Group Output"].inputs[0])
+
+
+def _color_attribute(bpy, geometry, domain: str, n: int):
+    """A random FLOAT_COLOR attribute "Color" on `domain` (n values) of `geometry`, and a material
+    whose Base Color reads it (an Attribute node)."""
+    colors = np.random.default_rng(1).uniform(0, 1, (n, 4)).astype(np.float32)
+    geometry.attributes.new("Color", "FLOAT_COLOR", domain).data.foreach_set("color", colors.ravel())
+    mat = bpy.data.materials.new("Coloured")
+    tree = mat.node_tree
+    attribute = tree.nodes.new("ShaderNodeAttribute")
+    attribute.attribute_name = "Color"
+    tree.links.new(attribute.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    return mat
+
+
+def colored_wavy_grid(bpy, scene, n: int) -> None:
+    """`wavy_grid` with a colour per face corner (interpolated over each triangle)."""
+    wavy_grid(bpy, scene, n)
+    me = scene.objects["Terrain"].data
+    me.materials.append(_color_attribute(bpy, me, "CORNER", len(me.loops)))
 
 
 def scattered_spheres(bpy, scene, n: int) -> None:
@@ -124,6 +139,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     per_million = seconds / data.triangle_count * 1e6
     print(f"  mesh: {data.triangle_count} triangles in {seconds:.3f} s ({per_million:.3f} s per million; "
           f"target <= {TRIANGLE_TARGET} s: {'met' if per_million <= TRIANGLE_TARGET else 'NOT met'})")
+    colored_seconds, data = best_export(bpy, colored_wavy_grid, args.grid, args.runs)
+    assert data.meshes[0].colors is not None and not data.warnings, data.warnings
+    corners = 3 * data.triangle_count
+    print(f"  corner colours: {corners} in {colored_seconds:.3f} s, "
+          f"{1000 * (colored_seconds - seconds) / corners * 1e6:.0f} ms per million over the same mesh without them")
     seconds, data = best_export(bpy, scattered_spheres, args.instances, args.runs)
     per_100k = seconds / max(data.sphere_count, 1) * 1e5
     print(f"  instances: {data.sphere_count} instanced spheres in {seconds:.3f} s ({per_100k:.3f} s per 100,000; "
