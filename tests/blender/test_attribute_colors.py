@@ -157,18 +157,43 @@ def swizzle(tree):
     return combine.outputs["Color"]
 
 
-def test_colours_through_ramp_hsv_gamma_mix_math_and_separate_combine_match_cycles(scene, tmp_path):
+def ranges(tree):
+    """Attribute Factor -> Map Range (clamped) -> Clamp -> Combine Color (with a constant and the
+    factor) -> Invert -> Brightness/Contrast."""
+    factor = attribute_node(tree, "Heat", "Factor")
+    map_range = tree.nodes.new("ShaderNodeMapRange")
+    for name, value in (("From Min", 0.2), ("From Max", 0.9), ("To Min", 0.1), ("To Max", 1.2)):
+        map_range.inputs[name].default_value = value
+    tree.links.new(factor, map_range.inputs["Value"])
+    clamp = tree.nodes.new("ShaderNodeClamp")
+    clamp.inputs["Min"].default_value, clamp.inputs["Max"].default_value = 0.25, 0.95
+    tree.links.new(map_range.outputs["Result"], clamp.inputs["Value"])
+    combine = tree.nodes.new("ShaderNodeCombineColor")
+    combine.inputs["Green"].default_value = 0.5
+    tree.links.new(clamp.outputs["Result"], combine.inputs["Red"])
+    tree.links.new(factor, combine.inputs["Blue"])
+    invert = tree.nodes.new("ShaderNodeInvert")
+    invert.inputs["Fac"].default_value = 0.6
+    tree.links.new(combine.outputs["Color"], invert.inputs["Color"])
+    adjust = tree.nodes.new("ShaderNodeBrightContrast")
+    adjust.inputs["Bright"].default_value, adjust.inputs["Contrast"].default_value = 0.1, 0.3
+    tree.links.new(invert.outputs["Color"], adjust.inputs["Color"])
+    return adjust.outputs["Color"]
+
+
+def test_colours_through_every_mapped_node_match_cycles(scene, tmp_path):
     rng = np.random.default_rng(3)
     heat = rng.uniform(0, 1, 25)
-    colored_cloud(scene, grid_positions() + (-2.8, 0, 0), attribute_material("Heat", chain),
+    colored_cloud(scene, grid_positions() + (-5.2, 0, 0), attribute_material("Heat", chain),
                   {"Heat": ("FLOAT", heat)}, radius=0.45)
+    colored_cloud(scene, grid_positions(), attribute_material("Ranges", ranges), {"Heat": ("FLOAT", heat)}, radius=0.45)
     colors = rng.uniform(0.05, 1, (25, 4))
-    cloud = colored_cloud(scene, grid_positions() + (2.8, 0, 0), attribute_material("Swizzle", swizzle),
-                          {"Color": ("FLOAT_COLOR", colors)}, radius=0.45)
-    cloud.name = "Swizzled"
-    front_view(scene, scale=12.0)
+    colored_cloud(scene, grid_positions() + (5.2, 0, 0), attribute_material("Swizzle", swizzle),
+                  {"Color": ("FLOAT_COLOR", colors)}, radius=0.45)
+    front_view(scene, scale=16.0)
+    scene.render.resolution_x, scene.render.resolution_y = 240, 180
     data = export_depsgraph(bpy.context.evaluated_depsgraph_get())
-    swizzled = data.sphere_colors[data.sphere_centers[:, 0] > 0]
+    swizzled = data.sphere_colors[data.sphere_centers[:, 0] > 2.6]
     np.testing.assert_allclose(swizzled, colors[:, [2, 0, 1]], rtol=1e-7)
     c, d = both(scene, tmp_path, normal=False)
     compare_shading(c, d, min_fraction=0.04)  # about 1,000 pixels: the spheres are small here

@@ -356,6 +356,51 @@ def _math(c: _Compiler, node, output: str) -> tuple[Expression, str]:
     return evaluate, VALUE
 
 
+def _map_range(c: _Compiler, node, output: str) -> tuple[Expression, str]:
+    if node.data_type != "FLOAT" or node.interpolation_type != "LINEAR":
+        raise Unmapped(f"Map Range node '{node.name}' ({node.data_type.lower()}, "
+                       f"{node.interpolation_type.lower()}) is not mapped")
+    value, from_min, from_max, to_min, to_max = (
+        c.input(_socket(node, name), VALUE) for name in ("Value", "From Min", "From Max", "To Min", "To Max"))
+    clamp = node.clamp
+
+    def map_range(values):
+        low, high, a, b = from_min(values), from_max(values), to_min(values), to_max(values)
+        result = a + _safe_divide(np.asarray(value(values)) - low, np.asarray(high - low)) * (b - a)
+        return np.clip(result, np.minimum(a, b), np.maximum(a, b)) if clamp else result
+
+    return map_range, VALUE
+
+
+def _clamp(c: _Compiler, node, output: str) -> tuple[Expression, str]:
+    value, low, high = (c.input(node.inputs[name], VALUE) for name in ("Value", "Min", "Max"))
+    swap = node.clamp_type == "RANGE"
+
+    def clamp(values):
+        a, b = np.asarray(low(values)), np.asarray(high(values))
+        if swap:
+            a, b = np.minimum(a, b), np.maximum(a, b)
+        return np.minimum(np.maximum(value(values), a), b)
+
+    return clamp, VALUE
+
+
+def _invert(c: _Compiler, node, output: str) -> tuple[Expression, str]:
+    factor, color = c.input(node.inputs["Fac"], VALUE), c.input(node.inputs["Color"], COLOR)
+    return (lambda values: _lerp(color(values), 1 - color(values), np.asarray(factor(values))[..., None])), COLOR
+
+
+def _bright_contrast(c: _Compiler, node, output: str) -> tuple[Expression, str]:
+    color, bright, contrast = (c.input(node.inputs[name], kind)
+                               for name, kind in (("Color", COLOR), ("Bright", VALUE), ("Contrast", VALUE)))
+
+    def adjust(values):
+        k = np.asarray(contrast(values))[..., None]
+        return np.maximum((1 + k) * color(values) + (np.asarray(bright(values))[..., None] - k * 0.5), 0)
+
+    return adjust, COLOR
+
+
 _NODES = {
     "ShaderNodeAttribute": _attribute,
     "ShaderNodeVertexColor": _color_attribute,
@@ -367,4 +412,8 @@ _NODES = {
     "ShaderNodeSeparateColor": _separate,
     "ShaderNodeCombineColor": _combine,
     "ShaderNodeMath": _math,
+    "ShaderNodeMapRange": _map_range,
+    "ShaderNodeClamp": _clamp,
+    "ShaderNodeInvert": _invert,
+    "ShaderNodeBrightContrast": _bright_contrast,
 }
