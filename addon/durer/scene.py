@@ -101,7 +101,7 @@ class Scene:
         radii_array = _radii(radii, n)
         materials = _material_ids(material, n)
         matrix = _owned(_checks.transform(transform), transform)
-        color_array = _colors(colors, (n, 3))
+        color_array = _checks.one_of_shapes(colors, "colors", (n, 3))
         if n == 0:
             return np.empty(0, dtype=np.int32)
         first = self._add("add_spheres", _owned(centers, given), _owned(radii_array, radii), _owned(materials, material),
@@ -174,7 +174,7 @@ class Scene:
         n = vertices.shape[0]
         materials = _material_ids(material, n)
         matrix = _owned(_checks.transform(transform), transform)
-        color_array = _colors(colors, (n, 3), (n, 3, 3))
+        color_array = _checks.one_of_shapes(colors, "colors", (n, 3), (n, 3, 3))
         if n == 0:
             return np.empty(0, dtype=np.int32)
         first = self._add("add_triangles", _owned(vertices, given), _owned(materials, material), matrix,
@@ -204,7 +204,7 @@ class Scene:
             raise ValueError(f"faces must have shape (F, 3), got {face_array.shape}")
         if face_array.size and (face_array.max() > np.iinfo(np.int64).max):
             raise ValueError("faces must fit in int64")
-        color_array = _colors(colors, (vertices.shape[0], 3), (face_array.shape[0], 3, 3))
+        color_array = _checks.one_of_shapes(colors, "colors", (vertices.shape[0], 3), (face_array.shape[0], 3, 3))
         return self._add(
             "add_mesh", _owned(vertices, given), _owned(np.ascontiguousarray(face_array, dtype=np.int64), faces),
             _checks.c_int(material, "material"), _owned(_checks.transform(transform), transform),
@@ -230,7 +230,7 @@ class Scene:
         n = lo.shape[0]
         materials = _material_ids(material, n)
         matrix = _owned(_checks.transform(transform), transform)
-        color_array = _colors(colors, (n, 3))
+        color_array = _checks.one_of_shapes(colors, "colors", (n, 3))
         if n == 0:
             return np.empty(0, dtype=np.int32)
         first = self._add("add_boxes", _owned(lo, given_lo), _owned(hi, given_hi), _owned(materials, material), matrix,
@@ -378,19 +378,6 @@ def _owned(array: np.ndarray | None, given: Any) -> np.ndarray | None:
         array = array.copy()
     array.flags.writeable = False
     return array
-
-
-def _colors(colors: Any, *shapes: tuple[int, ...]) -> np.ndarray | None:
-    """An add's `colors` as float64 of one of `shapes` (the core checks the values: finite, >= 0),
-    or None."""
-    if colors is None:
-        return None
-    array = _checks._numeric_array(colors, "colors")
-    shape = next((s for s in shapes if len(s) == array.ndim), shapes[0])
-    if array.shape != shape:
-        wanted = " or ".join(str(s) for s in shapes)
-        raise ValueError(f"colors must have shape {wanted}, got {array.shape}")
-    return _checks.float_array(array, "colors", shape, finite=False)
 
 
 def _superseded(add: tuple[str, tuple[Any, ...], dict[str, Any]], move: tuple[str, tuple[Any, ...], dict[str, Any]]) -> bool:
