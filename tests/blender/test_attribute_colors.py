@@ -149,11 +149,14 @@ def chain(tree):
 
 
 def swizzle(tree):
-    """Attribute Color -> Separate Color -> Combine Color as (blue, red, green)."""
+    """Attribute Color -> Separate Color -> Combine Color as (blue, red, the colour itself: a colour
+    into a factor is its luminance)."""
     separate, combine = tree.nodes.new("ShaderNodeSeparateColor"), tree.nodes.new("ShaderNodeCombineColor")
-    tree.links.new(attribute_node(tree, "Color"), separate.inputs["Color"])
-    for source, target in (("Blue", "Red"), ("Red", "Green"), ("Green", "Blue")):
-        tree.links.new(separate.outputs[source], combine.inputs[target])
+    color = attribute_node(tree, "Color")
+    tree.links.new(color, separate.inputs["Color"])
+    tree.links.new(separate.outputs["Blue"], combine.inputs["Red"])
+    tree.links.new(separate.outputs["Red"], combine.inputs["Green"])
+    tree.links.new(color, combine.inputs["Blue"])
     return combine.outputs["Color"]
 
 
@@ -194,7 +197,8 @@ def test_colours_through_every_mapped_node_match_cycles(scene, tmp_path):
     scene.render.resolution_x, scene.render.resolution_y = 240, 180
     data = export_depsgraph(bpy.context.evaluated_depsgraph_get())
     swizzled = data.sphere_colors[data.sphere_centers[:, 0] > 2.6]
-    np.testing.assert_allclose(swizzled, colors[:, [2, 0, 1]], rtol=1e-7)
+    luminance = colors[:, :3].astype(np.float32) @ (0.2126729, 0.7151522, 0.0721750)
+    np.testing.assert_allclose(swizzled, np.column_stack([colors[:, 2], colors[:, 0], luminance]), rtol=1e-6)
     c, d = both(scene, tmp_path, normal=False)
     compare_shading(c, d, min_fraction=0.04)  # about 1,000 pixels: the spheres are small here
     assert engine.last_render.warnings == []
