@@ -7,7 +7,10 @@ cloud of --points spheres made by a "Mesh to Points" geometry-nodes modifier, on
 --grid × --grid vertices (2·(grid − 1)² triangles: about a million at 709), and on --instances
 instances of a UV sphere object scattered by geometry nodes' Instance on Points (random rotation and
 scale). Prints the best of --runs and the targets: ≤ 0.2 s for a million spheres, ≤ 0.4 s for a
-million triangles, ≤ 0.5 s for 100,000 instances (issue 14).
+million triangles, ≤ 0.5 s for 100,000 instances (issue 14). The point cloud is exported again with
+a FLOAT_COLOR attribute its material's Base Color reads (Set Material in its geometry nodes): the
+difference is what reading and mapping the attribute colours costs (target ≤ 50 ms per million);
+the mesh too, with a colour per face corner.
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ import numpy as np
 SPHERE_TARGET = 0.2  # seconds for 1,000,000 point-cloud spheres
 TRIANGLE_TARGET = 0.4  # seconds for about 1,000,000 triangles
 INSTANCE_TARGET = 0.5  # seconds for 100,000 instanced UV spheres
+COLOR_TARGET = 0.05  # seconds for 1,000,000 attribute colours (over the same export without them)
 
 
 def point_cloud(bpy, scene, n: int) -> None:
@@ -30,6 +34,39 @@ def point_cloud(bpy, scene, n: int) -> None:
     positions = np.random.default_rng(0).uniform(-10, 10, (n, 3))
     obj = point_cloud_object(scene.collection, "Points", positions, radius=0.01)
     obj.location, obj.scale = (1, 2, 3), (2, 2, 2)
+
+
+def colored_point_cloud(bpy, scene, n: int) -> None:
+    """`point_cloud` whose points carry a "Color" attribute that their material's Base Color reads
+    (an Attribute node), as molecular add-ons make them."""
+    point_cloud(bpy, scene, n)
+    obj = scene.objects["Points"]
+    mat = _color_attribute(bpy, obj.data, "POINT", n)
+    group = obj.modifiers[0].node_group
+    set_material = group.nodes.new("GeometryNodeSetMaterial")
+    set_material.inputs["Material"].default_value = mat
+    group.links.new(group.nodes["Mesh to Points"].outputs[0], set_material.inputs["Geometry"])
+    group.links.new(set_material.outputs[0], group.nodes["Group Output"].inputs[0])
+
+
+def _color_attribute(bpy, geometry, domain: str, n: int):
+    """A random FLOAT_COLOR attribute "Color" on `domain` (n values) of `geometry`, and a material
+    whose Base Color reads it (an Attribute node)."""
+    colors = np.random.default_rng(1).uniform(0, 1, (n, 4)).astype(np.float32)
+    geometry.attributes.new("Color", "FLOAT_COLOR", domain).data.foreach_set("color", colors.ravel())
+    mat = bpy.data.materials.new("Coloured")
+    tree = mat.node_tree
+    attribute = tree.nodes.new("ShaderNodeAttribute")
+    attribute.attribute_name = "Color"
+    tree.links.new(attribute.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    return mat
+
+
+def colored_wavy_grid(bpy, scene, n: int) -> None:
+    """`wavy_grid` with a colour per face corner (interpolated over each triangle)."""
+    wavy_grid(bpy, scene, n)
+    me = scene.objects["Terrain"].data
+    me.materials.append(_color_attribute(bpy, me, "CORNER", len(me.loops)))
 
 
 def scattered_spheres(bpy, scene, n: int) -> None:
@@ -92,10 +129,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     per_million = seconds / data.sphere_count * 1e6
     print(f"  point cloud: {data.sphere_count} spheres in {seconds:.3f} s ({per_million:.3f} s per million; "
           f"target <= {SPHERE_TARGET} s: {'met' if per_million <= SPHERE_TARGET else 'NOT met'})")
+    colored_seconds, data = best_export(bpy, colored_point_cloud, args.points, args.runs)
+    assert data.sphere_colors is not None and not data.warnings, data.warnings
+    extra = (colored_seconds - seconds) / data.sphere_count * 1e6
+    print(f"  attribute colours: {data.sphere_count} in {colored_seconds:.3f} s, {1000 * extra:.0f} ms per million "
+          f"over the same cloud without them (target <= {1000 * COLOR_TARGET:.0f} ms: "
+          f"{'met' if extra <= COLOR_TARGET else 'NOT met'})")
     seconds, data = best_export(bpy, wavy_grid, args.grid, args.runs)
     per_million = seconds / data.triangle_count * 1e6
     print(f"  mesh: {data.triangle_count} triangles in {seconds:.3f} s ({per_million:.3f} s per million; "
           f"target <= {TRIANGLE_TARGET} s: {'met' if per_million <= TRIANGLE_TARGET else 'NOT met'})")
+    colored_seconds, data = best_export(bpy, colored_wavy_grid, args.grid, args.runs)
+    assert data.meshes[0].colors is not None and not data.warnings, data.warnings
+    corners = 3 * data.triangle_count
+    print(f"  corner colours: {corners} in {colored_seconds:.3f} s, "
+          f"{1000 * (colored_seconds - seconds) / corners * 1e6:.0f} ms per million over the same mesh without them")
     seconds, data = best_export(bpy, scattered_spheres, args.instances, args.runs)
     per_100k = seconds / max(data.sphere_count, 1) * 1e5
     print(f"  instances: {data.sphere_count} instanced spheres in {seconds:.3f} s ({per_100k:.3f} s per 100,000; "

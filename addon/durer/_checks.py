@@ -37,6 +37,18 @@ def float_array(value: Any, name: str, shape: tuple[int | None, ...], *, finite:
     return array
 
 
+def one_of_shapes(value: Any, name: str, *shapes: tuple[int, ...]) -> np.ndarray | None:
+    """`value` as a C-contiguous float64 array of one of `shapes` (told apart by their number of
+    axes), or None for None; its values are the core's to check (per-primitive colours)."""
+    if value is None:
+        return None
+    array = _numeric_array(value, name)
+    shape = next((s for s in shapes if len(s) == array.ndim), None)
+    if shape is None or array.shape != shape:
+        raise ValueError(f"{name} must have shape {' or '.join(str(s) for s in shapes)}, got {array.shape}")
+    return float_array(array, name, shape, finite=False)
+
+
 def vector3(value: Any, name: str) -> tuple[float, float, float]:
     """Three real numbers (finiteness, non-zero length and the like are the core's to check)."""
     x, y, z = float_array(value, name, (3,), finite=False)

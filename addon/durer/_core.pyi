@@ -35,7 +35,7 @@ class Scene:
     def add_material(self, **fields: _Triple | float) -> int: ...  # named as MATERIAL_FIELDS; others default
     def add_spheres(
         self, centers: NDArray[np.float64], radii: NDArray[np.float64], materials: NDArray[np.int32],
-        transform: NDArray[np.float64] | None,
+        transform: NDArray[np.float64] | None, colors: NDArray[np.float64] | None = None,
     ) -> int: ...
     @property
     def hierarchy_counts(self) -> dict[str, float]: ...
@@ -47,15 +47,16 @@ class Scene:
         transform: NDArray[np.float64] | None,
     ) -> int: ...
     def add_triangles(
-        self, vertices: NDArray[np.float64], materials: NDArray[np.int32], transform: NDArray[np.float64] | None
+        self, vertices: NDArray[np.float64], materials: NDArray[np.int32], transform: NDArray[np.float64] | None,
+        colors: NDArray[np.float64] | None = None,
     ) -> int: ...
     def add_mesh(
         self, vertices: NDArray[np.float64], faces: NDArray[np.int64], material: int,
-        transform: NDArray[np.float64] | None,
+        transform: NDArray[np.float64] | None, colors: NDArray[np.float64] | None = None,
     ) -> int: ...
     def add_boxes(
         self, lo: NDArray[np.float64], hi: NDArray[np.float64], materials: NDArray[np.int32],
-        transform: NDArray[np.float64] | None,
+        transform: NDArray[np.float64] | None, colors: NDArray[np.float64] | None = None,
     ) -> int: ...
     def add_directional_light(self, direction: _Triple, color: _Triple, shadows: bool) -> None: ...
     def add_point_light(self, position: _Triple, color: _Triple, attenuation: _Triple, shadows: bool) -> None: ...

@@ -43,8 +43,9 @@ class RenderResult:
                       equally near ones: one sample's ids, never a blend at an edge); -1 where
                       every sample missed. Not computed unless asked for in `passes`.
     stats:            effects (the effect set simulated: "flat" or "diffuse", "specular", "shadows",
-                      "reflection", "refraction", "ambient_occlusion"); rays (camera), shadow_rays,
-                      reflection_rays, refraction_rays, ao_rays, shading_evaluations, bounces_cut_by_depth,
+                      "reflection", "refraction", "ambient_occlusion", "colors" (per-primitive
+                      colours)); rays (camera), shadow_rays, reflection_rays, refraction_rays, ao_rays,
+                      shading_evaluations, bounces_cut_by_depth,
                       bounces_cut_by_weight, total_internal_reflections, intersection_tests
                       (ray-primitive tests made); milliseconds, mrays_per_s (camera rays), threads,
                       width, height, spp, samples (camera samples of the returned pixels), precision,

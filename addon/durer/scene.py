@@ -82,21 +82,30 @@ class Scene:
         })
 
     def add_spheres(
-        self, centers: ArrayLike, radii: ArrayLike, material: ArrayLike = 0, *, transform: ArrayLike | None = None
+        self,
+        centers: ArrayLike,
+        radii: ArrayLike,
+        material: ArrayLike = 0,
+        *,
+        transform: ArrayLike | None = None,
+        colors: ArrayLike | None = None,
     ) -> np.ndarray:
         """Add N spheres. `centers` (N, 3); `radii` (N,) or one radius for all, each finite and > 0;
         `material` one id or (N,) ids. Returns the (N,) int32 object ids. With `transform` (see the
-        class docstring) a sphere can become an ellipsoid."""
+        class docstring) a sphere can become an ellipsoid. `colors` (N, 3), linear RGB, finite and
+        >= 0: each sphere's diffuse colour (kd) in place of its material's, lit or flat (the
+        material's other fields still apply)."""
         given = centers
         centers = _checks.float_array(centers, "centers", (None, 3))
         n = centers.shape[0]
         radii_array = _radii(radii, n)
         materials = _material_ids(material, n)
         matrix = _owned(_checks.transform(transform), transform)
+        color_array = _checks.one_of_shapes(colors, "colors", (n, 3))
         if n == 0:
             return np.empty(0, dtype=np.int32)
         first = self._add("add_spheres", _owned(centers, given), _owned(radii_array, radii), _owned(materials, material),
-                          matrix)
+                          matrix, colors=_owned(color_array, colors))
         return np.arange(first, first + n, dtype=np.int32)
 
     def move_spheres(self, ids: ArrayLike, centers: ArrayLike, radii: ArrayLike | None = None) -> None:
@@ -146,27 +155,46 @@ class Scene:
         return self._add("add_plane", normal3, offset_value, material_id, corners, _owned(_checks.transform(transform), transform))
 
     def add_triangles(
-        self, vertices: ArrayLike, material: ArrayLike = 0, *, transform: ArrayLike | None = None
+        self,
+        vertices: ArrayLike,
+        material: ArrayLike = 0,
+        *,
+        transform: ArrayLike | None = None,
+        colors: ArrayLike | None = None,
     ) -> np.ndarray:
         """Add N triangles, each its own object: `vertices` (N, 3, 3) holds v0, v1, v2 of each.
         The geometric normal normalize((v1 − v0) × (v2 − v0)) follows the winding. The test is
         watertight (a ray through an edge or vertex shared by two triangles hits one of them);
-        degenerate triangles are kept and never hit. Returns the (N,) int32 object ids."""
+        degenerate triangles are kept and never hit. `colors`: the diffuse colour in place of the
+        material's (as in add_spheres), (N, 3) one per triangle or (N, 3, 3) one per corner (at v0,
+        v1, v2), interpolated across the triangle by the hit's barycentric coordinates. Returns the
+        (N,) int32 object ids."""
         given = vertices
         vertices = _checks.float_array(vertices, "vertices", (None, 3, 3))
         n = vertices.shape[0]
         materials = _material_ids(material, n)
         matrix = _owned(_checks.transform(transform), transform)
+        color_array = _checks.one_of_shapes(colors, "colors", (n, 3), (n, 3, 3))
         if n == 0:
             return np.empty(0, dtype=np.int32)
-        first = self._add("add_triangles", _owned(vertices, given), _owned(materials, material), matrix)
+        first = self._add("add_triangles", _owned(vertices, given), _owned(materials, material), matrix,
+                          colors=_owned(color_array, colors))
         return np.arange(first, first + n, dtype=np.int32)
 
     def add_mesh(
-        self, vertices: ArrayLike, faces: ArrayLike, material: int = 0, *, transform: ArrayLike | None = None
+        self,
+        vertices: ArrayLike,
+        faces: ArrayLike,
+        material: int = 0,
+        *,
+        transform: ArrayLike | None = None,
+        colors: ArrayLike | None = None,
     ) -> int:
         """Add a triangle mesh as one object with one material: `vertices` (V, 3), `faces` (F, 3)
-        0-based vertex indices, each face a triangle wound as in add_triangles. Returns its object id."""
+        0-based vertex indices, each face a triangle wound as in add_triangles. `colors`: the
+        diffuse colour in place of the material's (as in add_spheres), (V, 3) one per vertex or
+        (F, 3, 3) one per face corner (a face's own colour: the same at its three corners),
+        interpolated across each face. Returns its object id."""
         given = vertices
         vertices = _checks.float_array(vertices, "vertices", (None, 3))
         face_array = _checks._numeric_array(faces, "faces")
@@ -176,26 +204,37 @@ class Scene:
             raise ValueError(f"faces must have shape (F, 3), got {face_array.shape}")
         if face_array.size and (face_array.max() > np.iinfo(np.int64).max):
             raise ValueError("faces must fit in int64")
+        color_array = _checks.one_of_shapes(colors, "colors", (vertices.shape[0], 3), (face_array.shape[0], 3, 3))
         return self._add(
             "add_mesh", _owned(vertices, given), _owned(np.ascontiguousarray(face_array, dtype=np.int64), faces),
             _checks.c_int(material, "material"), _owned(_checks.transform(transform), transform),
+            colors=_owned(color_array, colors),
         )
 
     def add_boxes(
-        self, lo: ArrayLike, hi: ArrayLike, material: ArrayLike = 0, *, transform: ArrayLike | None = None
+        self,
+        lo: ArrayLike,
+        hi: ArrayLike,
+        material: ArrayLike = 0,
+        *,
+        transform: ArrayLike | None = None,
+        colors: ArrayLike | None = None,
     ) -> np.ndarray:
         """Add N axis-aligned boxes [lo, hi] (each (N, 3), lo < hi in every axis), each its own object.
         A ray starting inside a box hits it where it leaves. With `transform` a box can be rotated,
-        sheared or scaled. Returns the (N,) int32 object ids."""
+        sheared or scaled. `colors` (N, 3): each box's diffuse colour in place of its material's (as
+        in add_spheres). Returns the (N,) int32 object ids."""
         given_lo, given_hi = lo, hi
         lo = _checks.float_array(lo, "lo", (None, 3))
         hi = _checks.float_array(hi, "hi", (lo.shape[0], 3))
         n = lo.shape[0]
         materials = _material_ids(material, n)
         matrix = _owned(_checks.transform(transform), transform)
+        color_array = _checks.one_of_shapes(colors, "colors", (n, 3))
         if n == 0:
             return np.empty(0, dtype=np.int32)
-        first = self._add("add_boxes", _owned(lo, given_lo), _owned(hi, given_hi), _owned(materials, material), matrix)
+        first = self._add("add_boxes", _owned(lo, given_lo), _owned(hi, given_hi), _owned(materials, material), matrix,
+                          colors=_owned(color_array, colors))
         return np.arange(first, first + n, dtype=np.int32)
 
     # --- lights and background ------------------------------------------------------------------

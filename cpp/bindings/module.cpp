@@ -48,6 +48,20 @@ void requireShape(const py::array& a, const char* name, std::initializer_list<py
   if (!same) throw py::value_error(std::string(name) + " must have shape " + wanted + (shape.size() == 1 ? ",)" : ")"));
 }
 
+// An add's optional colours, one per primitive: (count, 3); else ValueError naming `colors`.
+ColorArray colorArray(const std::optional<DoubleArray>& colors, py::ssize_t count) {
+  if (!colors) return {};
+  requireShape(*colors, "colors", {count, 3});
+  return {colors->data(), false};
+}
+
+// Triangles' colours: as colorArray, or one per corner of each of `corners` triangles, (corners, 3, 3).
+ColorArray cornerColorArray(const std::optional<DoubleArray>& colors, py::ssize_t count, py::ssize_t corners) {
+  if (!colors || colors->ndim() != 3) return colorArray(colors, count);
+  requireShape(*colors, "colors", {corners, 3, 3});
+  return {colors->data(), true};
+}
+
 // An option table's names, in its order (Options.h).
 template <typename Enum, size_t N>
 py::tuple names(const OptionName<Enum> (&table)[N]) {
@@ -254,6 +268,7 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
   const EffectSet& e = stats.effects;
   py::list effects;
   if (color) effects.append(e.lit ? "diffuse" : "flat");
+  if (e.colors) effects.append("colors");
   if (e.reflection) effects.append("reflection");
   if (e.refraction) effects.append("refraction");
   if (e.shadows) effects.append("shadows");
@@ -353,14 +368,15 @@ PYBIND11_MODULE(_core, m) {
       .def(
           "add_spheres",
           [](Scene& s, const DoubleArray& centers, const DoubleArray& radii, const IdArray& materials,
-             const std::optional<DoubleArray>& transform) {
+             const std::optional<DoubleArray>& transform, const std::optional<DoubleArray>& colors) {
             requireShape(radii, "radii", {kAny});
             requireShape(centers, "centers", {radii.shape(0), 3});
             const size_t n = static_cast<size_t>(radii.shape(0));
             const bool each = perPrimitive(materials, n);
-            return s.addSpheres(centers.data(), radii.data(), materials.data(), n, each, OptionalAffine(transform).get());
+            return s.addSpheres(centers.data(), radii.data(), materials.data(), n, each, OptionalAffine(transform).get(),
+                                colorArray(colors, radii.shape(0)));
           },
-          py::arg("centers"), py::arg("radii"), py::arg("materials"), py::arg("transform"))
+          py::arg("centers"), py::arg("radii"), py::arg("materials"), py::arg("transform"), py::arg("colors") = py::none())
       .def(
           "move_spheres",
           [](Scene& s, const IdArray& ids, const DoubleArray& centers, const std::optional<DoubleArray>& radii) {
@@ -382,34 +398,38 @@ PYBIND11_MODULE(_core, m) {
           py::arg("normal"), py::arg("offset"), py::arg("material"), py::arg("bounds"), py::arg("transform"))
       .def(
           "add_triangles",
-          [](Scene& s, const DoubleArray& vertices, const IdArray& materials, const std::optional<DoubleArray>& transform) {
+          [](Scene& s, const DoubleArray& vertices, const IdArray& materials, const std::optional<DoubleArray>& transform,
+             const std::optional<DoubleArray>& colors) {
             requireShape(vertices, "vertices", {kAny, 3, 3});
             const size_t n = static_cast<size_t>(vertices.shape(0));
             const bool each = perPrimitive(materials, n);
-            return s.addTriangles(vertices.data(), materials.data(), n, each, OptionalAffine(transform).get());
+            return s.addTriangles(vertices.data(), materials.data(), n, each, OptionalAffine(transform).get(),
+                                  cornerColorArray(colors, vertices.shape(0), vertices.shape(0)));
           },
-          py::arg("vertices"), py::arg("materials"), py::arg("transform"))
+          py::arg("vertices"), py::arg("materials"), py::arg("transform"), py::arg("colors") = py::none())
       .def(
           "add_mesh",
           [](Scene& s, const DoubleArray& vertices, const IndexArray& faces, int32_t material,
-             const std::optional<DoubleArray>& transform) {
+             const std::optional<DoubleArray>& transform, const std::optional<DoubleArray>& colors) {
             requireShape(vertices, "vertices", {kAny, 3});
             requireShape(faces, "faces", {kAny, 3});
             return s.addMesh(vertices.data(), static_cast<size_t>(vertices.shape(0)), faces.data(),
-                             static_cast<size_t>(faces.shape(0)), material, OptionalAffine(transform).get());
+                             static_cast<size_t>(faces.shape(0)), material, OptionalAffine(transform).get(),
+                             cornerColorArray(colors, vertices.shape(0), faces.shape(0)));
           },
-          py::arg("vertices"), py::arg("faces"), py::arg("material"), py::arg("transform"))
+          py::arg("vertices"), py::arg("faces"), py::arg("material"), py::arg("transform"), py::arg("colors") = py::none())
       .def(
           "add_boxes",
           [](Scene& s, const DoubleArray& lo, const DoubleArray& hi, const IdArray& materials,
-             const std::optional<DoubleArray>& transform) {
+             const std::optional<DoubleArray>& transform, const std::optional<DoubleArray>& colors) {
             requireShape(lo, "lo", {kAny, 3});
             requireShape(hi, "hi", {lo.shape(0), 3});
             const size_t n = static_cast<size_t>(lo.shape(0));
             const bool each = perPrimitive(materials, n);
-            return s.addBoxes(lo.data(), hi.data(), materials.data(), n, each, OptionalAffine(transform).get());
+            return s.addBoxes(lo.data(), hi.data(), materials.data(), n, each, OptionalAffine(transform).get(),
+                              colorArray(colors, lo.shape(0)));
           },
-          py::arg("lo"), py::arg("hi"), py::arg("materials"), py::arg("transform"))
+          py::arg("lo"), py::arg("hi"), py::arg("materials"), py::arg("transform"), py::arg("colors") = py::none())
       .def("add_directional_light",
            [](Scene& s, const Triple& d, const Triple& c, bool shadows) { s.addDirectionalLight(vec(d), vec(c), shadows); })
       .def("add_point_light",

@@ -73,8 +73,9 @@ EffectSet effectsFor(const Scene& scene, const RenderSettings& settings, const R
   e.reflection = settings.maxBounces > 0 && any(&Material::reflective);
   e.refraction = settings.maxBounces > 0 && any(&Material::transparent);
   const Vec3d& ambient = scene.ambient();
+  e.colors = scene.colored();
   e.occlusion = e.lit && settings.ambientOcclusion.on && (ambient.x > 0 || ambient.y > 0 || ambient.z > 0) &&
-                any(&Material::diffuse);
+                (any(&Material::diffuse) || e.colors);
   return e;
 }
 

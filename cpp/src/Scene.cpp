@@ -22,6 +22,28 @@ std::string sphereField(size_t i) {
   return "centers[" + std::to_string(i) + "] ± radii[" + std::to_string(i) + "]";
 }
 
+Vec3d vec3At(const double* p, size_t i) { return Vec3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]); }
+
+// The `count` colours of an add (count x 3 doubles, or none if null) finite, >= 0 and within the
+// colour limit; else an error naming colour i as field(i).
+template <typename Field>
+void requireColors(const double* values, size_t count, const Field& field) {
+  if (!values) return;
+  const double limit = widestLimits().color;
+  for (size_t i = 0; i < count; ++i) {
+    const Vec3d c = vec3At(values, i);
+    // NaN fails every comparison, so it too takes the slow path, which names it.
+    if (!(c.x >= 0 && c.y >= 0 && c.z >= 0 && c.x <= limit && c.y <= limit && c.z <= limit)) {
+      requireNonNegativeColor(c, field(i));
+    }
+  }
+}
+
+std::string colorField(size_t i) { return "colors[" + std::to_string(i) + "]"; }
+std::string cornerColorField(size_t i) {
+  return "colors[" + std::to_string(i / 3) + "][" + std::to_string(i % 3) + "]";
+}
+
 // One field of a material within its bound (MaterialField), finite; else an error naming the field.
 void requireWithinBound(const MaterialField& field, const Material& material) {
   const bool positive = field.bound == MaterialField::Bound::Positive;
@@ -48,6 +70,23 @@ void requireWithinBound(const MaterialField& field, const Material& material) {
 }  // namespace
 
 Scene::Scene() { m_materials.push_back(Material{}); }
+
+template <typename Set>
+void Scene::prepareColors(Set& set, bool given) {
+  if (!given) return;
+  m_colored = true;
+  if (!set.colored()) set.startColors([this](int32_t material) { return m_materials[static_cast<size_t>(material)].diffuse; });
+}
+
+template <typename Set, typename Prim, typename ColorsOf>
+void Scene::addTo(Set& set, const Prim& primitive, int32_t material, int32_t objectId, bool given,
+                  const ColorsOf& colorsOf) {
+  if (given) return set.add(primitive, material, objectId, colorsOf());
+  if (!set.colored()) return set.add(primitive, material, objectId);
+  typename Set::Colors kd;
+  kd.fill(m_materials[static_cast<size_t>(material)].diffuse);
+  set.add(primitive, material, objectId, kd);
+}
 
 void Scene::requireMaterial(int32_t material, const char* field) const {
   if (material < 0 || static_cast<size_t>(material) >= m_materials.size()) {
@@ -138,11 +177,12 @@ std::pair<size_t, double> requireSpheres(const double* centers, const double* ra
 }  // namespace
 
 int32_t Scene::addSpheres(const double* centers, const double* radii, const int32_t* materials, size_t count,
-                          bool perSphere, const Affined* worldFromObject) {
+                          bool perSphere, const Affined* worldFromObject, const ColorArray& colors) {
   // Validate everything before changing anything.
   requireTransform(worldFromObject);
   const auto [farthest, reach] = requireSpheres(centers, radii, count);
   requireMaterials(materials, count, perSphere);
+  requireColors(colors.values, count, colorField);
   requirePrimitiveRoom(count);
   const Reach placed = requireReach(reach, sphereField(farthest), worldFromObject);
   const int32_t first = takeObjectIds(count);
@@ -153,10 +193,13 @@ int32_t Scene::addSpheres(const double* centers, const double* radii, const int3
     m_sphereRuns.push_back({first, count, &group, spheres.size(), &group != &m_group, {}});
     if (&group != &m_group) m_sphereRuns.back().worldFromObject = *worldFromObject;
   }
+  const bool given = colors.values && count;
+  prepareColors(spheres, given);
   spheres.reserve(spheres.size() + count);
   for (size_t i = 0; i < count; ++i) {
     const Vec3d c(centers[3 * i], centers[3 * i + 1], centers[3 * i + 2]);
-    spheres.add({c, radii[i]}, materials[perSphere ? i : 0], first + static_cast<int32_t>(i));
+    addTo(spheres, Sphere<double>{c, radii[i]}, materials[perSphere ? i : 0], first + static_cast<int32_t>(i), given,
+          [&] { return SphereSet<double>::Colors{vec3At(colors.values, i)}; });
   }
   noteReach(placed);
   return first;
@@ -266,8 +309,6 @@ Triangle<double> makeTriangle(const Vec3d& v0, const Vec3d& v1, const Vec3d& v2)
   return {v0, v1, v2, unit};
 }
 
-Vec3d vec3At(const double* p, size_t i) { return Vec3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]); }
-
 // The index of the point point(i) (of `count`) farthest from 0 by its largest |coordinate|; a point
 // beyond the widest coordinate limit is an error naming field(i).
 template <typename Point, typename Field>
@@ -284,7 +325,7 @@ size_t farthestPoint(size_t count, const Point& point, const Field& field) {
 }  // namespace
 
 int32_t Scene::addTriangles(const double* vertices, const int32_t* materials, size_t count, bool perTriangle,
-                            const Affined* worldFromObject) {
+                            const Affined* worldFromObject, const ColorArray& colors) {
   requireTransform(worldFromObject);
   const auto field = [](size_t i) { return "vertices[" + std::to_string(i / 3) + "][" + std::to_string(i % 3) + "]"; };
   for (size_t i = 0; i < 3 * count; ++i) {
@@ -293,22 +334,34 @@ int32_t Scene::addTriangles(const double* vertices, const int32_t* materials, si
   }
   const size_t farthest = farthestPoint(3 * count, [&](size_t i) { return vec3At(vertices, i); }, field);
   requireMaterials(materials, count, perTriangle);
+  if (colors.perCorner) {
+    requireColors(colors.values, 3 * count, cornerColorField);
+  } else {
+    requireColors(colors.values, count, colorField);
+  }
   requirePrimitiveRoom(count);
   const Reach placed = requireReach(count ? maxAbs(vec3At(vertices, farthest)) : 0, field(farthest), worldFromObject);
   const int32_t first = takeObjectIds(count);
   const auto lock = changeGeometry();
   TriangleSet<double>& triangles = groupFor(worldFromObject).triangles();
+  const bool given = colors.values && count;
+  prepareColors(triangles, given);
   triangles.reserve(triangles.size() + count);
   for (size_t i = 0; i < count; ++i) {
-    triangles.add(makeTriangle(vec3At(vertices, 3 * i), vec3At(vertices, 3 * i + 1), vec3At(vertices, 3 * i + 2)),
-                  materials[perTriangle ? i : 0], first + static_cast<int32_t>(i));
+    const auto colorsOf = [&] {
+      const double* c = colors.values;
+      return colors.perCorner ? TriangleSet<double>::Colors{vec3At(c, 3 * i), vec3At(c, 3 * i + 1), vec3At(c, 3 * i + 2)}
+                              : TriangleSet<double>::Colors{vec3At(c, i), vec3At(c, i), vec3At(c, i)};
+    };
+    addTo(triangles, makeTriangle(vec3At(vertices, 3 * i), vec3At(vertices, 3 * i + 1), vec3At(vertices, 3 * i + 2)),
+          materials[perTriangle ? i : 0], first + static_cast<int32_t>(i), given, colorsOf);
   }
   noteReach(placed);
   return first;
 }
 
 int32_t Scene::addMesh(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount,
-                       int32_t material, const Affined* worldFromObject) {
+                       int32_t material, const Affined* worldFromObject, const ColorArray& colors) {
   requireTransform(worldFromObject);
   const auto field = [](size_t i) { return "vertices[" + std::to_string(i) + "]"; };
   for (size_t i = 0; i < vertexCount; ++i) {
@@ -323,25 +376,37 @@ int32_t Scene::addMesh(const double* vertices, size_t vertexCount, const int64_t
     }
   }
   requireMaterial(material, "material");
+  if (colors.perCorner) {
+    requireColors(colors.values, 3 * faceCount, cornerColorField);
+  } else {
+    requireColors(colors.values, vertexCount, colorField);
+  }
   requirePrimitiveRoom(faceCount);
   const Reach placed =
       requireReach(vertexCount ? maxAbs(vec3At(vertices, farthest)) : 0, field(farthest), worldFromObject);
   const int32_t id = takeObjectIds(1);
   const auto lock = changeGeometry();
   TriangleSet<double>& triangles = groupFor(worldFromObject).triangles();
+  const bool given = colors.values && faceCount;
+  prepareColors(triangles, given);
   triangles.reserve(triangles.size() + faceCount);
   for (size_t f = 0; f < faceCount; ++f) {
-    const int64_t* face = faces + 3 * f;
-    triangles.add(makeTriangle(vec3At(vertices, static_cast<size_t>(face[0])), vec3At(vertices, static_cast<size_t>(face[1])),
-                               vec3At(vertices, static_cast<size_t>(face[2]))),
-                  material, id);
+    const size_t v0 = static_cast<size_t>(faces[3 * f]), v1 = static_cast<size_t>(faces[3 * f + 1]),
+                 v2 = static_cast<size_t>(faces[3 * f + 2]);
+    const auto colorsOf = [&] {
+      const double* c = colors.values;
+      return colors.perCorner ? TriangleSet<double>::Colors{vec3At(c, 3 * f), vec3At(c, 3 * f + 1), vec3At(c, 3 * f + 2)}
+                              : TriangleSet<double>::Colors{vec3At(c, v0), vec3At(c, v1), vec3At(c, v2)};
+    };
+    addTo(triangles, makeTriangle(vec3At(vertices, v0), vec3At(vertices, v1), vec3At(vertices, v2)), material, id,
+          given, colorsOf);
   }
   noteReach(placed);
   return id;
 }
 
 int32_t Scene::addBoxes(const double* lo, const double* hi, const int32_t* materials, size_t count, bool perBox,
-                        const Affined* worldFromObject) {
+                        const Affined* worldFromObject, const ColorArray& colors) {
   requireTransform(worldFromObject);
   for (size_t i = 0; i < count; ++i) {
     const Vec3d a = vec3At(lo, i), b = vec3At(hi, i);
@@ -355,13 +420,17 @@ int32_t Scene::addBoxes(const double* lo, const double* hi, const int32_t* mater
   const auto corner = [&](size_t i) { return vec3At(i % 2 ? hi : lo, i / 2); };
   const size_t farthest = farthestPoint(2 * count, corner, field);
   requireMaterials(materials, count, perBox);
+  requireColors(colors.values, count, colorField);
   requirePrimitiveRoom(count);
   const Reach placed = requireReach(count ? maxAbs(corner(farthest)) : 0, field(farthest), worldFromObject);
   const int32_t first = takeObjectIds(count);
   const auto lock = changeGeometry();
   BoxSet<double>& boxes = groupFor(worldFromObject).boxes();
+  const bool given = colors.values && count;
+  prepareColors(boxes, given);
   for (size_t i = 0; i < count; ++i) {
-    boxes.add({vec3At(lo, i), vec3At(hi, i)}, materials[perBox ? i : 0], first + static_cast<int32_t>(i));
+    addTo(boxes, Box<double>{vec3At(lo, i), vec3At(hi, i)}, materials[perBox ? i : 0], first + static_cast<int32_t>(i),
+          given, [&] { return BoxSet<double>::Colors{vec3At(colors.values, i)}; });
   }
   noteReach(placed);
   return first;

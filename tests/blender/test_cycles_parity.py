@@ -8,12 +8,14 @@ import math
 import numpy as np
 import pytest
 from helpers.blender import (
+    MISS,
     aim_camera,
+    both,
+    compare_shading,
     light,
     material,
     pointcloud_object,
     quad,
-    render_passes,
     use_cycles,
     world,
 )
@@ -21,8 +23,6 @@ from helpers.blender import (
 bpy = pytest.importorskip("bpy")
 
 pytestmark = pytest.mark.blender
-
-MISS = 1e9  # Blender's Depth pass holds 1e10 where nothing is hit
 
 
 def build_scene(s, plane_material=None, sphere_material=None):
@@ -37,14 +37,6 @@ def build_scene(s, plane_material=None, sphere_material=None):
     floor = quad(s, "Floor", location=(0, 0, -1.0), scale=(5, 4, 1))
     floor.data.materials.append(plane_material or material("Floor", (0.8, 0.8, 0.8)))
     return cloud, floor
-
-
-def both(s, tmp_path, **kw):
-    use_cycles(s)
-    cycles = render_passes(s, tmp_path / "cycles.exr", **kw)
-    s.render.engine = "DURER"
-    durer_ = render_passes(s, tmp_path / "durer.exr", **kw)
-    return cycles, durer_
 
 
 CAMERA_CASES = [
@@ -90,41 +82,12 @@ def test_masks_depth_normals_match_cycles(scene, tmp_path, projection, fit, res,
     np.testing.assert_allclose(d["color"][..., 3], 1.0)
 
 
-def smooth_mask(c_img, d_hit, c_hit, lit_only=True):
-    """Pixels whose 3x3 neighbourhood is hit in both renders and has no step in Cycles' brightness
-    (no silhouette or shadow edge); `lit_only` also drops pixels Cycles shows in shadow."""
-    lum = c_img[..., :3].mean(axis=-1)
-    both_hit = d_hit & c_hit
-    pad = np.pad(lum, 1, mode="edge")
-    hpad = np.pad(both_hit, 1, mode="constant")
-    h, w = lum.shape
-    lo = np.full((h, w), np.inf)
-    hi = np.full((h, w), -np.inf)
-    all_hit = np.ones((h, w), bool)
-    for dy in range(3):
-        for dx in range(3):
-            lo = np.minimum(lo, pad[dy : dy + h, dx : dx + w])
-            hi = np.maximum(hi, pad[dy : dy + h, dx : dx + w])
-            all_hit &= hpad[dy : dy + h, dx : dx + w]
-    smooth = all_hit & (hi <= 1.3 * lo + 1e-3)
-    return smooth & (lum > 0.01) if lit_only else smooth
-
-
 def shading_scene(s):
     build_scene(s, material("Floor", (0.7, 0.7, 0.7)), material("Spheres", (0.9, 0.5, 0.2)))
     cam = aim_camera(s, (0, -10, 9)).data
     cam.type = "ORTHO"
     cam.ortho_scale = 9.0
     s.render.resolution_x, s.render.resolution_y = 80, 60
-
-
-def compare_shading(c, d, lit_only=True, min_fraction=0.3):
-    hit_c, hit_d = c["depth"] < MISS, d["depth"] < MISS
-    mask = smooth_mask(c["color"], hit_d, hit_c, lit_only)
-    assert mask.mean() > min_fraction
-    cc, dd = c["color"][mask][:, :3], d["color"][mask][:, :3]
-    err = np.abs(dd - cc) - 0.01 * cc
-    assert err.max() <= 1e-4, f"{(err > 1e-4).mean():.2%} of compared pixels differ by more than 1 %"
 
 
 def test_sun_brightness_matches_cycles_on_lit_pixels(scene, tmp_path):

@@ -203,3 +203,44 @@ def ball_scene(s, width=64, height=48):
     uv_sphere(s, "Ball", radius=1.0).data.materials.append(material("Red", (0.8, 0.1, 0.1)))
     light(s, "SUN", energy=3.0, rotation=(40 * DEG, 0, 20 * DEG))
     aim_camera(s, (0, -6, 0))
+
+
+MISS = 1e9  # Blender's Depth pass holds 1e10 where nothing is hit
+
+
+def both(s, tmp_path, **kw):
+    """The scene's passes rendered by Cycles (`use_cycles`), then by Dürer."""
+    use_cycles(s)
+    cycles = render_passes(s, tmp_path / "cycles.exr", **kw)
+    s.render.engine = "DURER"
+    durer_ = render_passes(s, tmp_path / "durer.exr", **kw)
+    return cycles, durer_
+
+
+def smooth_mask(c_img, d_hit, c_hit, lit_only=True):
+    """Pixels whose 3x3 neighbourhood is hit in both renders and has no step in Cycles' brightness
+    (no silhouette or shadow edge); `lit_only` also drops pixels Cycles shows in shadow."""
+    lum = c_img[..., :3].mean(axis=-1)
+    both_hit = d_hit & c_hit
+    pad = np.pad(lum, 1, mode="edge")
+    hpad = np.pad(both_hit, 1, mode="constant")
+    h, w = lum.shape
+    lo = np.full((h, w), np.inf)
+    hi = np.full((h, w), -np.inf)
+    all_hit = np.ones((h, w), bool)
+    for dy in range(3):
+        for dx in range(3):
+            lo = np.minimum(lo, pad[dy : dy + h, dx : dx + w])
+            hi = np.maximum(hi, pad[dy : dy + h, dx : dx + w])
+            all_hit &= hpad[dy : dy + h, dx : dx + w]
+    smooth = all_hit & (hi <= 1.3 * lo + 1e-3)
+    return smooth & (lum > 0.01) if lit_only else smooth
+
+
+def compare_shading(c, d, lit_only=True, min_fraction=0.3):
+    hit_c, hit_d = c["depth"] < MISS, d["depth"] < MISS
+    mask = smooth_mask(c["color"], hit_d, hit_c, lit_only)
+    assert mask.mean() > min_fraction
+    cc, dd = c["color"][mask][:, :3], d["color"][mask][:, :3]
+    err = np.abs(dd - cc) - 0.01 * cc
+    assert err.max() <= 1e-4, f"{(err > 1e-4).mean():.2%} of compared pixels differ by more than 1 %"

@@ -41,9 +41,10 @@ def make_camera(cam: CameraData) -> durer.OrthographicCamera | durer.Perspective
 def make_scene(data: SceneData) -> durer.Scene:
     """The Dürer scene: materials (with the Phong, mirror and refraction parameters the export
     mapped from Blender's shaders), spheres, ellipsoids, planes (normals as Blender's winding gives
-    them), triangle meshes, lights, world. Which side of a surface is shaded is the render's
-    `shade_back` setting (the core flips the normal toward the ray, as Cycles does). Materials and
-    objects are added in the order `IdTables` relies on (the core numbers them in add order)."""
+    them), triangle meshes (spheres and meshes with their attribute colours as kd, where the export
+    read some), lights, world. Which side of a surface is shaded is the render's `shade_back`
+    setting (the core flips the normal toward the ray, as Cycles does). Materials and objects are
+    added in the order `IdTables` relies on (the core numbers them in add order)."""
     scene = durer.Scene()
     # Only the effect parameters a material uses are passed: a diffuse material asks for no effect.
     table = np.array(
@@ -51,13 +52,15 @@ def make_scene(data: SceneData) -> durer.Scene:
         dtype=np.int32,
     )
     if data.sphere_count:
-        scene.add_spheres(data.sphere_centers, data.sphere_radii, material=table[data.sphere_materials])
+        scene.add_spheres(data.sphere_centers, data.sphere_radii, material=table[data.sphere_materials],
+                          colors=data.sphere_colors)
     for g in data.transformed_spheres:
-        scene.add_spheres(g.centers, g.radii, material=table[g.materials], transform=g.matrix)
+        scene.add_spheres(g.centers, g.radii, material=table[g.materials], transform=g.matrix, colors=g.colors)
     for p in data.planes:
         scene.add_plane(p.normal, p.offset, material=int(table[p.material]), bounds=p.bounds)
     for mesh in data.meshes:
-        scene.add_mesh(mesh.vertices, mesh.faces, material=int(table[mesh.material]), transform=mesh.transform)
+        scene.add_mesh(mesh.vertices, mesh.faces, material=int(table[mesh.material]), transform=mesh.transform,
+                       colors=mesh.colors)
     for light in data.lights:
         attenuation = light.attenuation
         if light.kind == "sun":

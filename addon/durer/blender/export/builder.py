@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .attribute_colors import ColorSource, Unmapped, color_source, part_colors, read_values
 from .data import IDENTITY, MeshData, ObjectData, PlaneData, SceneData, TransformedSpheres
 from .materials import material_data, object_materials
 from .matrices import is_invertible, transform_points, uniform_scale
@@ -24,9 +25,13 @@ class Builder:
         self.mats: list[np.ndarray] = []
         self.sphere_owners: list[np.ndarray] = []
         self.owners: dict[str, int] = {}
+        self.colors: list[np.ndarray | None] = []  # per sphere chunk: attribute kd, or None
         self.material_ids: dict[tuple, int] = {}
         self.blender_materials: dict[int, int] = {}
         self.shape_cache: dict[tuple, MeshShape] = {}
+        self.color_sources: dict[int, ColorSource | None] = {}  # by Blender material pointer
+        self.fallbacks: set[str] = set()  # materials whose attribute colours were not used, noted once
+        self.mesh_colors: dict[tuple, tuple] = {}  # (part, its colours) by (mesh, part, material)
 
     # materials
     def material(self, mat, obj) -> int:
@@ -62,8 +67,77 @@ class Builder:
             self.data.objects.append(ObjectData(name, int(pass_index)))
         return index
 
+    # attribute colours
+    def color_source(self, mat) -> ColorSource | None:
+        """How `mat`'s kd follows from attributes (attribute_colors.py), None if it does not (or
+        its graph cannot be mapped: then noted once)."""
+        if mat is None:
+            return None
+        key = mat.as_pointer()
+        if key not in self.color_sources:
+            try:
+                self.color_sources[key] = color_source(mat)
+            except Unmapped as reason:
+                self.color_sources[key] = None
+                self.fallback(mat.name, str(reason))
+        return self.color_sources[key]
+
+    def uncolored(self, mat, why: str) -> None:
+        """Geometry with material `mat` that takes one colour: noted if `mat` reads attribute colours."""
+        if self.color_source(mat) is not None:
+            self.fallback(mat.name, why)
+
+    def fallback(self, material: str, reason: str) -> None:
+        """Notes once per material that its own colour stands in for its attribute colours."""
+        if material not in self.fallbacks:
+            self.fallbacks.add(material)
+            self.data.notes.append(f"Material '{material}' uses its own colour, not attribute colours: {reason}")
+
+    def attribute_colors(self, geometry, mats: list, slots: np.ndarray | None, materials, n: int,
+                         sizes: dict[str, int], where: str = "GEOMETRY") -> np.ndarray | None:
+        """(n, 3) kd of n elements of `geometry` (a point cloud: points; an instancer's instances,
+        `where` "INSTANCER") whose Blender materials are mats[slots] (slots None: mats[0]) and
+        Dürer materials `materials`: attribute colours where their material reads some, the
+        material's kd elsewhere; None if none does."""
+        sources = [self.color_source(mat) for mat in (mats[:1] if slots is None else mats)]
+        default = getattr(getattr(geometry, "color_attributes", None), "default_color_name", None)
+        colors = None
+        for slot, source in enumerate(sources):
+            if source is None:
+                continue
+            try:
+                values, _ = read_values(geometry.attributes, source.attributes, default, sizes, where)
+            except Unmapped as reason:
+                self.fallback(source.material, str(reason))
+                continue
+            if slots is None:
+                return source.colors(values, n)
+            if colors is None:
+                kd = np.array([m.diffuse for m in self.data.materials], np.float64)
+                colors = kd[materials]
+            chosen = np.clip(slots, 0, len(mats) - 1) == slot
+            colors[chosen] = source.colors(values, n)[chosen]
+        return colors
+
+    def part_colors(self, me, part: TrianglePart, mat) -> np.ndarray | None:
+        """A mesh part's kd from attributes: (V, 3) per vertex where every attribute read is on
+        vertices, else (F, 3, 3) per face corner; None if its material reads none."""
+        source = self.color_source(mat)
+        if source is None:
+            return None
+        # The part is kept with its colours, so that its id stays its own while the export runs.
+        key = (me.as_pointer(), id(part), mat.as_pointer())
+        if key not in self.mesh_colors:
+            try:
+                colors = part_colors(me, part, source)
+            except Unmapped as reason:
+                self.fallback(source.material, str(reason))
+                colors = None
+            self.mesh_colors[key] = (part, colors)
+        return self.mesh_colors[key][1]
+
     # geometry
-    def spheres(self, owner: int, centers: np.ndarray, radii: np.ndarray, materials) -> None:
+    def spheres(self, owner: int, centers: np.ndarray, radii: np.ndarray, materials, colors=None) -> None:
         n = len(radii)
         if n == 0:
             return
@@ -72,6 +146,7 @@ class Builder:
         self.mats.append(np.broadcast_to(np.asarray(materials, dtype=np.int32), (n,)))
         self.sphere_owners.append(np.broadcast_to(np.int32(owner), (n,)))
         self.data.sources[self.data.objects[owner].name] += n
+        self.colors.append(colors)
 
     def sphere(self, owner: int, m: np.ndarray, center, radius: float, material: int) -> None:
         """A sphere in object space: a world-space sphere under a uniform scale, else an ellipsoid."""
@@ -84,19 +159,20 @@ class Builder:
         else:
             self.transformed_spheres(owner, m, center, np.array([float(radius)]), material)
 
-    def transformed_spheres(self, owner: int, m: np.ndarray, centers, radii, materials) -> None:
+    def transformed_spheres(self, owner: int, m: np.ndarray, centers, radii, materials, colors=None) -> None:
         n = len(radii)
         if n == 0:
             return
         materials = np.broadcast_to(np.asarray(materials, dtype=np.int32), (n,))
         name = self.data.objects[owner].name
         group = TransformedSpheres(name, owner, np.asarray(centers, np.float64), np.asarray(radii, np.float64),
-                                   materials, m)
+                                   materials, m, colors)
         self.data.transformed_spheres.append(group)
         self.data.sources[name] += n
 
-    def triangles(self, obj, m: np.ndarray, parts: list[TrianglePart]) -> None:
-        """A mesh's triangles in object space, one Dürer mesh per material slot used."""
+    def triangles(self, obj, m: np.ndarray, parts: list[TrianglePart], me) -> None:
+        """A mesh's triangles in object space, one Dürer mesh per material slot used, with the
+        attribute colours of mesh `me` where the slot's material reads some."""
         mats = object_materials(obj)
         owner = self.owner(obj)
         flat = not is_invertible(m)
@@ -105,7 +181,9 @@ class Builder:
             vertices, matrix = part.vertices, m
             if flat:  # the core needs an invertible transform: a mesh scaled flat goes in world space
                 vertices, matrix = transform_points(m, vertices.astype(np.float64)), IDENTITY
-            self.data.meshes.append(MeshData(obj.name, owner, vertices, part.faces, self.material(mat, obj), matrix))
+            colors = self.part_colors(me, part, mat)
+            self.data.meshes.append(MeshData(obj.name, owner, vertices, part.faces, self.material(mat, obj), matrix,
+                                             colors))
             self.data.sources[obj.name] += 1
 
     def plane(self, owner: int, m: np.ndarray, shape: MeshShape, material: int, infinite: bool) -> None:
@@ -131,6 +209,10 @@ class Builder:
             d.sphere_radii = _join(self.radii, np.float64)
             d.sphere_materials = _join(self.mats, np.int32)
             d.sphere_owners = _join(self.sphere_owners, np.int32)
+            if any(c is not None for c in self.colors):
+                kd = np.array([m.diffuse for m in d.materials], np.float64)
+                d.sphere_colors = _join([kd[mats] if c is None else c for c, mats in zip(self.colors, self.mats)],
+                                        np.float64)
         return d
 
 

@@ -75,6 +75,7 @@ class TransformedSpheres:
     radii: np.ndarray  # (N,) object space
     materials: np.ndarray  # (N,) int32 indices into SceneData.materials
     matrix: np.ndarray  # (4, 4) world-from-object
+    colors: np.ndarray | None = None  # (N, 3) kd from attributes (attribute_colors.py), or None
 
 
 @dataclass
@@ -88,6 +89,7 @@ class MeshData:
     faces: np.ndarray  # (F, 3) int32
     material: int  # index into SceneData.materials
     matrix: np.ndarray  # (4, 4) world-from-object
+    colors: np.ndarray | None = None  # kd from attributes: (V, 3) per vertex or (F, 3, 3) per corner, or None
 
     @property
     def transform(self) -> np.ndarray | None:
@@ -154,6 +156,9 @@ class SceneData:
     sphere_materials: np.ndarray = field(default_factory=lambda: np.empty(0, np.int32))
     #: The Blender object of each world-space sphere: (N,) int32 indices into `objects`.
     sphere_owners: np.ndarray = field(default_factory=lambda: np.empty(0, np.int32))
+    #: (N, 3) kd of each world-space sphere where some have attribute colours (the others: their
+    #: material's kd), else None.
+    sphere_colors: np.ndarray | None = None
     #: Spheres under a non-uniform scale or shear (ellipsoids), per object.
     transformed_spheres: list[TransformedSpheres] = field(default_factory=list)
     planes: list[PlaneData] = field(default_factory=list)

@@ -46,23 +46,27 @@ def _pointcloud(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> No
         radii = np.full(n, 0.01, np.float32)  # Blender's default point radius
     mats = object_materials(obj)
     index_attr = attrs.get("material_index")
+    slots = None
     if index_attr is not None and len(mats) > 1:
-        idx = np.empty(n, np.int32)
-        index_attr.data.foreach_get("value", idx)
+        slots = np.empty(n, np.int32)
+        index_attr.data.foreach_get("value", slots)
         table = np.array([b.material(mt, obj) for mt in mats], dtype=np.int32)
-        materials = table[np.clip(idx, 0, len(mats) - 1)]
+        materials = table[np.clip(slots, 0, len(mats) - 1)]
     else:
         materials = b.material(mats[0] if mats else None, obj)
+    colors = b.attribute_colors(pc, mats, slots, materials, n, {"POINT": n})
     keep = radii > 0
     if not keep.all():
         pos, radii = pos[keep], radii[keep]
         if not np.isscalar(materials):
             materials = materials[keep]
+        if colors is not None:
+            colors = colors[keep]
     s, uniform = uniform_scale(m)
     if s == 0.0:  # flattened to nothing
         return
     if not uniform:  # ellipsoids: the points stay in object space under the object's matrix
-        b.transformed_spheres(b.owner(obj), m, pos, radii, materials)
+        b.transformed_spheres(b.owner(obj), m, pos, radii, materials, colors)
         return
     # Transform in double precision (Blender stores float32 positions; Dürer intersects in double).
     if np.array_equal(m, IDENTITY):
@@ -71,27 +75,34 @@ def _pointcloud(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> No
         centers = pos.astype(np.float64) @ m[:3, :3].T
         centers += m[:3, 3]
     radii = radii * s if s != 1.0 else radii
-    b.spheres(b.owner(obj), centers, radii, materials)
+    b.spheres(b.owner(obj), centers, radii, materials, colors)
 
 
 def _mesh(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
     me = obj.data
+    if mode == "AUTO" and any(b.color_source(mat) for mat in object_materials(obj)):
+        mode = "MESH"  # colours vary over it: not one sphere or plane of one colour
     axis_scale = tuple(np.round(np.linalg.norm(m[:3, :3], axis=0), 9)) if mode == "PLANE" else None
     key = (me.as_pointer(), len(me.vertices), len(me.polygons), mode, axis_scale)
     shape = b.shape_cache.get(key)
     if shape is None:
         shape = b.shape_cache[key] = mesh_shape(me, mode, axis_scale or (1.0, 1.0, 1.0))
-    _add_shape(b, obj, m, shape, infinite)
+    _add_shape(b, obj, m, shape, infinite, me)
 
 
-def _add_shape(b: Builder, obj, m: np.ndarray, shape: MeshShape, infinite: bool) -> None:
+def _add_shape(b: Builder, obj, m: np.ndarray, shape: MeshShape, infinite: bool, me) -> None:
     """A detected sphere or plane of `obj` (world matrix m) with the object's material, or its
-    triangles with their slots' materials; nothing for an empty shape."""
+    triangles (of mesh `me`) with their slots' materials; nothing for an empty shape."""
     if shape.kind == "triangles":
-        b.triangles(obj, m, shape.parts)
-    elif shape.kind == "sphere":
+        b.triangles(obj, m, shape.parts, me)
+        return
+    if shape.kind == "empty":
+        return
+    mats = object_materials(obj)
+    b.uncolored(mats[0] if mats else None, f"'{obj.name}' is rendered as one {shape.kind}, of one colour")
+    if shape.kind == "sphere":
         b.sphere(b.owner(obj), m, shape.center, shape.radius, b.object_material(obj))
-    elif shape.kind == "plane":
+    else:
         b.plane(b.owner(obj), m, shape, b.object_material(obj), infinite)
 
 
@@ -109,7 +120,7 @@ def _converted(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> Non
     try:
         axis_scale = np.linalg.norm(m[:3, :3], axis=0)
         # The arrays are copies (foreach_get), so they outlive the temporary mesh.
-        _add_shape(b, obj, m, mesh_shape(me, mode, axis_scale), infinite)
+        _add_shape(b, obj, m, mesh_shape(me, mode, axis_scale), infinite, me)
     finally:
         obj.to_mesh_clear()
 

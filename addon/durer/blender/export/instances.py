@@ -12,6 +12,7 @@ import bpy
 import numpy as np
 
 from .builder import Builder
+from .materials import object_materials
 from .matrices import uniform_scales
 from .shapes import MeshShape, mesh_shape
 
@@ -49,7 +50,7 @@ class InstanceBatches:
         cloud = geometry.instances_pointcloud()
         if cloud is None or len(cloud.points) == 0:
             return
-        kinds = []
+        kinds, mats = [], []
         for reference in geometry.instance_references():
             mesh = reference.mesh if isinstance(reference, bpy.types.GeometrySet) else None
             if mesh is None or reference.pointcloud is not None or reference.curves is not None or \
@@ -58,7 +59,8 @@ class InstanceBatches:
             shape = self._shape(mesh, mode)
             if shape.kind != "sphere":
                 return
-            kinds.append((shape, self.builder.material(mesh.materials[0] if len(mesh.materials) else None, obj)))
+            mats.append(mesh.materials[0] if len(mesh.materials) else None)
+            kinds.append((shape, self.builder.material(mats[-1], obj)))
         n = len(cloud.points)
         values = np.empty(n * 16, np.float32)
         cloud.attributes["instance_transform"].data.foreach_get("value", values)
@@ -67,8 +69,14 @@ class InstanceBatches:
             cloud.attributes[".reference_index"].data.foreach_get("value", index)
         # Blender's matrices are stored by column; the instancer's world matrix goes first.
         world = np.array(obj.matrix_world, np.float64) @ values.reshape(n, 4, 4).transpose(0, 2, 1)
+        # Instance attributes (an Attribute node of type Instancer) colour each instance's sphere.
+        materials = np.array([material for _, material in kinds], np.int32)[index]
+        colors = self.builder.attribute_colors(cloud, mats, index if len(kinds) > 1 else None, materials, n,
+                                               {"POINT": n}, where="INSTANCER")
         for i, (shape, material) in enumerate(kinds):
-            self._add_spheres(self.builder.owner(obj), world[index == i][:, :3, :], shape, material)
+            chosen = index == i
+            self._add_spheres(self.builder.owner(obj), world[chosen][:, :3, :], shape, material,
+                              None if colors is None else colors[chosen])
         self.instancers.add(obj.as_pointer())
 
     def take(self, inst, obj, original, mode: str) -> bool:
@@ -91,6 +99,8 @@ class InstanceBatches:
         shape = self._shape(obj.data, mode)
         if shape.kind != "sphere":
             return _Batch(self.builder.owner(obj), None)
+        mats = object_materials(obj)
+        self.builder.uncolored(mats[0] if mats else None, f"the instances of '{obj.name}' are spheres of one colour each")
         return _Batch(self.builder.owner(obj), shape, self.builder.object_material(obj))
 
     def _shape(self, me, mode: str) -> MeshShape:
@@ -108,13 +118,17 @@ class InstanceBatches:
                 rows = np.array(batch.rows, dtype=np.float64).reshape(-1, 3, 4)
                 self._add_spheres(batch.owner, rows, batch.shape, batch.material)
 
-    def _add_spheres(self, owner: int, rows: np.ndarray, shape: MeshShape, material: int) -> None:
-        """The spheres of `shape` under each matrix (rows: (N, 3, 4), the top three rows)."""
+    def _add_spheres(self, owner: int, rows: np.ndarray, shape: MeshShape, material: int,
+                     colors: np.ndarray | None = None) -> None:
+        """The spheres of `shape` under each matrix (rows: (N, 3, 4), the top three rows), with
+        their kd (colors (N, 3)) if given."""
         linear, offset = rows[:, :, :3], rows[:, :, 3]
         scale, uniform = uniform_scales(linear)
         center = np.asarray(shape.center, dtype=np.float64)
         centers = linear[uniform] @ center + offset[uniform]
-        self.builder.spheres(owner, centers, shape.radius * scale[uniform], material)
+        self.builder.spheres(owner, centers, shape.radius * scale[uniform], material,
+                             None if colors is None else colors[uniform])
         for i in np.flatnonzero(~uniform & (scale > 0)):  # sheared or squashed: exact ellipsoids
             m = np.vstack([rows[i], [0.0, 0.0, 0.0, 1.0]])
-            self.builder.transformed_spheres(owner, m, center[None], np.array([shape.radius]), material)
+            self.builder.transformed_spheres(owner, m, center[None], np.array([shape.radius]), material,
+                                             None if colors is None else colors[i : i + 1])

@@ -76,16 +76,8 @@ def _principled(mat, node, viewport) -> MaterialData:
     * Emission Color × Strength as emission. Linked inputs use the material's viewport settings.
     """
     base = color_input(node, "Base Color", viewport)
-    metallic = _clamp01(scalar_input(node, "Metallic", mat.metallic))
-    roughness = _clamp01(scalar_input(node, "Roughness", mat.roughness))
-    ior = max(scalar_input(node, "IOR", 1.5), 1e-3)
-    level = max(scalar_input(node, "Specular IOR Level", mat.specular_intensity), 0.0)
-    tint = color_input(node, "Specular Tint", (1.0, 1.0, 1.0))
-    transmission = _clamp01(scalar_input(node, "Transmission Weight", 0.0))
-    f0 = tuple(min(fresnel_f0(ior) * 2.0 * level * c, 1.0) for c in tint)
+    metallic, roughness, ior, transmission, f0, below = _principled_layers(mat, node)
     spec = _add3(_scale3(base, metallic), _scale3(f0, 1.0 - metallic))
-    # What the dielectric specular layer reflects does not reach the diffuse or transmission below.
-    below = tuple(1.0 - x for x in f0)
     diffuse = _scale3(_scale3(base, (1.0 - metallic) * (1.0 - transmission)), below)
     transparent = BLACK
     if transmission > 0.0 and metallic < 1.0:
@@ -97,6 +89,41 @@ def _principled(mat, node, viewport) -> MaterialData:
         emission = tuple(c * float(estr) for c in rgb(ecol))
     md = MaterialData(mat.name, diffuse, emission, transparent=transparent, ior=ior if any(transparent) else 1.0)
     return _with_lobe(md, spec, roughness)
+
+
+def _principled_layers(mat, node) -> tuple:
+    """(metallic, roughness, IOR, transmission, dielectric F0 per channel, 1 − F0 per channel) of a
+    Principled BSDF (see `_principled`)."""
+    metallic = _clamp01(scalar_input(node, "Metallic", mat.metallic))
+    roughness = _clamp01(scalar_input(node, "Roughness", mat.roughness))
+    ior = max(scalar_input(node, "IOR", 1.5), 1e-3)
+    level = max(scalar_input(node, "Specular IOR Level", mat.specular_intensity), 0.0)
+    tint = color_input(node, "Specular Tint", (1.0, 1.0, 1.0))
+    transmission = _clamp01(scalar_input(node, "Transmission Weight", 0.0))
+    f0 = tuple(min(fresnel_f0(ior) * 2.0 * level * c, 1.0) for c in tint)
+    # What the dielectric specular layer reflects does not reach the diffuse or transmission below.
+    below = tuple(1.0 - x for x in f0)
+    return metallic, roughness, ior, transmission, f0, below
+
+
+def base_color_input(mat) -> tuple[object, str, tuple[float, float, float]] | None:
+    """(surface shader node, its colour input's name, the factors kd = colour × factors) for a
+    material whose kd is its shader's colour input times constants (Principled BSDF: Base Color ×
+    (1 − m)·(1 − t)·(1 − F0); Diffuse BSDF: Color), without a ``material.durer`` override; else None."""
+    if mat is None or mat.node_tree is None:
+        return None
+    override = getattr(mat.original or mat, "durer", None)
+    if override is not None and override.use_override:
+        return None
+    node = _surface_shader(mat.node_tree)
+    if node is None:
+        return None
+    if node.bl_idname == "ShaderNodeBsdfDiffuse":
+        return node, "Color", (1.0, 1.0, 1.0)
+    if node.bl_idname == "ShaderNodeBsdfPrincipled":
+        metallic, _, _, transmission, _, below = _principled_layers(mat, node)
+        return node, "Base Color", _scale3(below, (1.0 - metallic) * (1.0 - transmission))
+    return None
 
 
 def _with_lobe(md: MaterialData, spec, roughness: float) -> MaterialData:

@@ -19,11 +19,15 @@ class TrianglePart:
     slot: int  # material slot index (0 when the object has no slots)
     vertices: np.ndarray  # (V, 3) float32, as Blender stores them
     faces: np.ndarray  # (F, 3) int32 indices into `vertices`
+    corners: np.ndarray  # (F, 3) int32 the mesh's corner (loop) of each face's vertices
+    vertex_ids: np.ndarray | None = None  # (V,) the mesh's vertex of each of `vertices` (None: the same)
+    triangles: np.ndarray | None = None  # (F,) the mesh's loop triangle of each face (None: the same)
 
 
-def mesh_triangles(me) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(vertices (V, 3) float32, faces (T, 3) int32, material slot of each face (T,) int32) of a
-    mesh's loop triangles (Blender's own triangulation of its polygons, n-gons included).
+def mesh_triangles(me) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(vertices (V, 3) float32, faces (T, 3) int32, material slot of each face (T,) int32, corners
+    of each face (T, 3) int32) of a mesh's loop triangles (Blender's own triangulation of its
+    polygons, n-gons included).
 
     Read through the attribute arrays and the triangles' corner and polygon indices, which
     ``foreach_get`` copies as raw memory; the triangles' ``vertices`` and ``material_index`` are
@@ -46,7 +50,8 @@ def mesh_triangles(me) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         polygons = np.empty(t, np.int32)
         me.loop_triangle_polygons.foreach_get("value", polygons)
         slots = face_slots[polygons]
-    return vertices.reshape(-1, 3), corner_verts[corners].reshape(t, 3), slots
+    corners = corners.reshape(t, 3)
+    return vertices.reshape(-1, 3), corner_verts[corners], slots, corners
 
 
 def _attribute(me, name: str, field: str, n: int, width: int, dtype) -> np.ndarray | None:
@@ -60,7 +65,8 @@ def _attribute(me, name: str, field: str, n: int, width: int, dtype) -> np.ndarr
     return values
 
 
-def split_by_slot(vertices: np.ndarray, faces: np.ndarray, slots: np.ndarray, slot_count: int) -> list[TrianglePart]:
+def split_by_slot(vertices: np.ndarray, faces: np.ndarray, slots: np.ndarray, slot_count: int,
+                  corners: np.ndarray) -> list[TrianglePart]:
     """One part per material slot the faces use, in slot order. Indices past the last slot use the
     last one and negative ones the first, as Blender renders them; without slots everything is
     slot 0. A part of a split mesh keeps only the vertices its faces use."""
@@ -69,19 +75,22 @@ def split_by_slot(vertices: np.ndarray, faces: np.ndarray, slots: np.ndarray, sl
     slots = np.clip(slots, 0, max(slot_count - 1, 0))
     used = np.flatnonzero(np.bincount(slots))  # linear in the face count, unlike np.unique's sort
     if len(used) == 1:
-        return [TrianglePart(int(used[0]), vertices, faces)]
+        return [TrianglePart(int(used[0]), vertices, faces, corners)]
     parts = []
     for slot in used:
-        part = faces[slots == slot]
+        chosen = slots == slot
+        part = faces[chosen]
         # Renumber the vertices the part uses in their original order: a mask and a running count,
         # linear in the mesh's size (no sort).
         uses = np.zeros(len(vertices), bool)
         uses[part] = True
         number = np.cumsum(uses, dtype=np.int32) - 1
-        parts.append(TrianglePart(int(slot), vertices[uses], number[part]))
+        parts.append(TrianglePart(int(slot), vertices[uses], number[part], corners[chosen], np.flatnonzero(uses),
+                                  np.flatnonzero(chosen)))
     return parts
 
 
 def triangle_parts(me, slot_count: int) -> list[TrianglePart]:
     """`split_by_slot` of `mesh_triangles(me)`: [] for a mesh without faces."""
-    return split_by_slot(*mesh_triangles(me), slot_count)
+    vertices, faces, slots, corners = mesh_triangles(me)
+    return split_by_slot(vertices, faces, slots, slot_count, corners)

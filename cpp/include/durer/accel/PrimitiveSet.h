@@ -3,8 +3,9 @@
 // intersectors: a kernel finds t, and one epilog records it. Here: the primitives with their ids
 // (ids, not pointers), the reorder to a hierarchy's order, the search over every primitive any ray
 // of a packet may meet with one cancel policy, the closer-hit epilog of the search and the ids of the
-// hit record.
+// hit record, and the primitives' own colours where an add gave them.
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <limits>
@@ -14,6 +15,7 @@
 #include "durer/accel/Bvh.h"
 #include "durer/geometry/Hit.h"
 #include "durer/geometry/RayPacket.h"
+#include "durer/math/Float.h"
 
 namespace durer {
 
@@ -27,23 +29,47 @@ DURER_INLINE void recordHit(RayPacket<Real>& packet, int k, Real t, int32_t id, 
   packet.prim[k] = closer ? id : packet.prim[k];
 }
 
-template <typename Prim, typename Real>
+// kCorners: the colours a primitive carries when colours are given (1: one for the whole primitive;
+// triangles: one per corner, interpolated).
+template <typename Prim, typename Real, int kCorners = 1>
 class PrimitiveSet {
  public:
+  // A primitive's colour at each of its corners: linear RGB, its kd in place of its material's.
+  using Colors = std::array<Vec3<Real>, kCorners>;
+
   void add(const Prim& primitive, int32_t material, int32_t objectId) {
     m_primitives.push_back(primitive);
     m_materials.push_back(material);
     m_objectIds.push_back(objectId);
   }
+  // Once colored(), every primitive added needs its colours too (its material's kd if it has none).
+  void add(const Prim& primitive, int32_t material, int32_t objectId, const Colors& colors) {
+    add(primitive, material, objectId);
+    m_colors.push_back(colors);
+  }
   void reserve(size_t n) {
     m_primitives.reserve(n);
     m_materials.reserve(n);
     m_objectIds.reserve(n);
+    if (colored()) m_colors.reserve(n);
   }
   size_t size() const { return m_primitives.size(); }
   const Prim& primitive(size_t i) const { return m_primitives[i]; }
   const std::vector<int32_t>& materials() const { return m_materials; }  // material id of primitive i
   const std::vector<int32_t>& objectIds() const { return m_objectIds; }  // scene object id of primitive i
+  // Whether the primitives carry colours: none do until an add gives some, and then all do.
+  bool colored() const { return !m_colors.empty(); }
+  const std::vector<Colors>& colors() const { return m_colors; }  // of primitive i; empty unless colored()
+  // Makes the set colored(): each primitive already in it takes kdOf(its material id) at every corner.
+  template <typename KdOf>
+  void startColors(const KdOf& kdOf) {
+    m_colors.reserve(m_primitives.capacity());
+    for (const int32_t material : m_materials) {
+      Colors colors;
+      colors.fill(kdOf(material));
+      m_colors.push_back(colors);
+    }
+  }
 
   static constexpr size_t kCancelBatch = 4096;  // primitives between cancel checks without a hierarchy
 
@@ -55,6 +81,12 @@ class PrimitiveSet {
     for (size_t i = 0; i < other.size(); ++i) m_primitives.push_back(convert(other.primitive(i)));
     m_materials = other.materials();
     m_objectIds = other.objectIds();
+    m_colors.reserve(other.colors().size());
+    for (const auto& colors : other.colors()) {
+      Colors converted;
+      for (int c = 0; c < kCorners; ++c) converted[c] = toReal<Real>(colors[c]);
+      m_colors.push_back(converted);
+    }
   }
 
   // Builds the hierarchy over the primitives' boxes boxOf(primitive, lo, hi) on up to `threads`
@@ -66,6 +98,7 @@ class PrimitiveSet {
     permute(m_primitives, order, threads);
     permute(m_materials, order, threads);
     permute(m_objectIds, order, threads);
+    if (colored()) permute(m_colors, order, threads);
     if (m_sourceIndex.empty()) {
       m_sourceIndex = order;
     } else {
@@ -133,10 +166,14 @@ class PrimitiveSet {
 
   size_t bvhBytes() const { return m_bvh.bytes(); }
 
-  // The hit record's epilog: the ids of primitive `index`.
+  // The hit record's epilog: the ids of primitive `index`, and its colour if it has one colour
+  // (a primitive with one per corner interpolates them itself).
   void recordIds(Hit<Real>& hit, size_t index) const {
     hit.objectId = m_objectIds[index];
     hit.materialId = m_materials[index];
+    if constexpr (kCorners == 1) {
+      if (colored()) hit.colored = true, hit.color = m_colors[index][0];
+    }
   }
 
   std::vector<Prim> m_primitives;
@@ -153,6 +190,7 @@ class PrimitiveSet {
 
   std::vector<int32_t> m_materials;
   std::vector<int32_t> m_objectIds;
+  std::vector<Colors> m_colors;         // empty, or one entry per primitive
   Bvh<Real> m_bvh;                      // empty: brute force
   std::vector<uint32_t> m_sourceIndex;  // with a hierarchy: primitive i's index in the set converted from
 };

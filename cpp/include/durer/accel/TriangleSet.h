@@ -80,7 +80,7 @@ DURER_INLINE Real edgeFunction(Real ax, Real ay, Real bx, Real by) {
 }
 
 template <typename Real>
-class TriangleSet : public PrimitiveSet<Triangle<Real>, Real> {
+class TriangleSet : public PrimitiveSet<Triangle<Real>, Real, 3> {
  public:
   TriangleSet() = default;
   template <typename Other>
@@ -132,19 +132,26 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real> {
   }
 
   // Full record of ray k's hit on triangle `index` at packet.tHit[k]: the point from the
-  // barycentrics (pbrt-v4), so its error does not depend on t's.
+  // barycentrics (pbrt-v4), so its error does not depend on t's, and so is the colour of a coloured
+  // triangle from its corners' (each weight in [0, 1]: the colour stays within theirs).
   Hit<Real> hit(const RayPacket<Real>& packet, int k, size_t index) const {
     const Triangle<Real>& tri = this->m_primitives[index];
     const TriangleHit<Real> h =
         test(tri, packet.ox[k], packet.oy[k], packet.oz[k], RayShear<Real>(packet.dx[k], packet.dy[k], packet.dz[k]));
     const Real invDet = 1 / h.det;
-    const Vec3<Real> p0 = (h.u * invDet) * tri.v0, p1 = (h.v * invDet) * tri.v1, p2 = (h.w * invDet) * tri.v2;
+    const Real b0 = h.u * invDet, b1 = h.v * invDet, b2 = h.w * invDet;
+    const Vec3<Real> p0 = b0 * tri.v0, p1 = b1 * tri.v1, p2 = b2 * tri.v2;
     Hit<Real> out;
     out.t = packet.tHit[k];
     out.normal = tri.normal;
     out.point = p0 + p1 + p2;
     out.pointError = errorGamma<Real>(7) * (glm::abs(p0) + glm::abs(p1) + glm::abs(p2));
     this->recordIds(out, index);
+    if (this->colored()) {
+      const typename Base::Colors& c = this->colors()[index];
+      out.colored = true;
+      out.color = b0 * c[0] + b1 * c[1] + b2 * c[2];
+    }
     return out;
   }
 
@@ -200,7 +207,7 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real> {
   }
 
  private:
-  using Base = PrimitiveSet<Triangle<Real>, Real>;
+  using Base = PrimitiveSet<Triangle<Real>, Real, 3>;
 };
 
 }  // namespace durer

@@ -15,6 +15,8 @@ struct Hit {
   Vec3<Real> pointError{0};                        // per-component bound on |point - exact hit point| (RayOffset.h)
   int32_t objectId = -1;                           // id returned when the object was added; -1 on a miss
   int32_t materialId = -1;                         // -1 on a miss
+  bool colored = false;                            // whether the primitive has its own colour:
+  Vec3<Real> color;                                // then its kd at the hit, in place of the material's (else unset)
   bool isHit() const { return objectId >= 0; }
 };
 

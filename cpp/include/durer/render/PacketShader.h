@@ -27,6 +27,7 @@ struct EffectSet {
   bool reflection = false;  // some material is reflective and maxBounces > 0
   bool refraction = false;  // some material is transparent and maxBounces > 0
   bool occlusion = false;   // lit, ambient occlusion asked for, and some ambient · kd to scale
+  bool colors = false;      // some primitive has its own colours: flat colours too come from hit records
   bool bounces() const { return reflection || refraction; }
 };
 
@@ -87,6 +88,11 @@ class PacketShader {
  private:
   static Vec3<Real> direction(const RayPacket<Real>& p, int k) { return Vec3<Real>(p.dx[k], p.dy[k], p.dz[k]); }
 
+  // A hit's kd: its primitive's own colour if it has one, else its material's.
+  static const Vec3<Real>& diffuse(const Hit<Real>& hit, const MaterialIn<Real>& m) {
+    return hit.colored ? hit.color : m.diffuse;
+  }
+
   // max(N·H, 0) for the half vector H = normalize(L + V). L + V is zero when the light lies exactly
   // behind the point as the viewer sees it (a back face lit from behind, the light on the camera ray):
   // H is undefined and normalising it gave NaN; no highlight faces both ways, so 0.
@@ -122,7 +128,7 @@ class PacketShader {
         // Colours first: their products are finite (Limits.h), so a huge falloff gives at most inf,
         // never 0·inf, and shade() saturates it.
         const Real falloff = light.falloff(h.point, toLight);
-        Vec3<Real> contribution = (cosine * falloff) * (light.color * m.diffuse);
+        Vec3<Real> contribution = (cosine * falloff) * (light.color * diffuse(h, m));
         if constexpr (Specular) {
           contribution += (std::pow(highlight(normal[k], toLight + toViewer[k]), m.exponent) * falloff) *
                           (light.color * m.specular);
@@ -161,10 +167,11 @@ class PacketShader {
         continue;
       }
       const MaterialIn<Real>& m = m_shading.material(hits[k].materialId);
+      const Vec3<Real>& kd = diffuse(hits[k], m);
       if constexpr (Occlusion) {
-        rgb[k] = m.emission + (open[k] * m_shading.ambient()) * m.diffuse;  // occlusion implies lit
+        rgb[k] = m.emission + (open[k] * m_shading.ambient()) * kd;  // occlusion implies lit
       } else {
-        rgb[k] = m.emission + (m_effects.lit ? m_shading.ambient() * m.diffuse : m.diffuse);
+        rgb[k] = m.emission + (m_effects.lit ? m_shading.ambient() * kd : kd);
       }
     }
   }
@@ -179,7 +186,7 @@ class PacketShader {
     int count = 0;
     for (int k = 0; k < packet.count; ++k) {
       open[k] = 1;
-      if (!hits[k].isHit() || maxComponent(m_shading.material(hits[k].materialId).diffuse) <= 0) continue;
+      if (!hits[k].isHit() || maxComponent(diffuse(hits[k], m_shading.material(hits[k].materialId))) <= 0) continue;
       const int j = count++;
       hitOf[j] = k;
       normal[j] = shadingNormal(hits[k], direction(packet, k));

@@ -43,7 +43,7 @@ class TileRenderer {
                  OcclusionSettings{settings.ambientOcclusion.samples, settings.ambientOcclusion.distance, settings.seed},
                  toReal<Real>(Vec3d(scene.background())), cancel),
         m_objectOf(targets.objectId ? objectTable(group) : std::vector<int32_t>{}),
-        m_needHits(targets.color != nullptr && (effects.lit || effects.bounces())),
+        m_needHits(targets.color != nullptr && (effects.lit || effects.bounces() || effects.colors)),
         m_needNearest(targets.objectId != nullptr || targets.materialId != nullptr),
         m_shadeBack(settings.shadeBack),
         m_planarDepth(settings.depth == DepthKind::Planar),
@@ -360,7 +360,7 @@ class TileRenderer {
   FlatTable m_flat;
   PacketShader<Real, M> m_shader;
   std::vector<int32_t> m_objectOf;  // object id by packed primitive index + 1 (-1: a miss); with the object id pass
-  bool m_needHits;   // colour needs hit records: lights or secondary rays
+  bool m_needHits;   // colour needs hit records: lights, secondary rays or primitives' own colours
   bool m_needNearest;  // the id passes: the nearest hit sample's primitive, normals or not
   bool m_shadeBack;
   bool m_planarDepth;  // depth along the view axis, not along the ray

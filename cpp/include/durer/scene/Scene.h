@@ -21,6 +21,15 @@ struct PlaneBounds {
   Vec3d edge2;   // in the plane, not parallel to edge1
 };
 
+// Colours given with a geometry add: each primitive's kd (linear RGB; finite, >= 0, each channel within
+// the colour limit) in place of its material's, lit or flat. Null values: the materials' kd.
+struct ColorArray {
+  const double* values = nullptr;
+  // Triangles: three colours per triangle (at v0, v1, v2, interpolated across it) rather than one. A
+  // mesh: three per face (its corners) rather than one per vertex (shared by the faces that use it).
+  bool perCorner = false;
+};
+
 // What is rendered: geometry (kept in double; converted once per render for float precision),
 // materials, lights and the background. Every add validates its input and throws
 // std::invalid_argument naming the field; an add that throws changes nothing.
@@ -34,9 +43,12 @@ class Scene {
   // an invertible affine map puts them in the transformed group of that map (see Instance in Group.h).
   // Object ids are returned for the first object; the others follow consecutively.
 
+  // Every add but addPlane takes colors (ColorArray): count x 3 doubles (spheres, boxes, triangles),
+  // count x 3 x 3 (triangles per corner), vertexCount x 3 or faceCount x 3 x 3 (a mesh).
+
   // centers: count x 3 doubles; radii: count doubles; materials: count ids, or one id if !perSphere.
   int32_t addSpheres(const double* centers, const double* radii, const int32_t* materials, size_t count,
-                     bool perSphere, const Affined* worldFromObject = nullptr);
+                     bool perSphere, const Affined* worldFromObject = nullptr, const ColorArray& colors = {});
   // Moves spheres already added (an animation's next frame): ids are object ids addSpheres
   // returned, centers count x 3 doubles, radii count doubles or null to keep the radii. The
   // hierarchies already built are refitted at the next render, not rebuilt (rebuilt where refitting
@@ -46,13 +58,13 @@ class Scene {
                    const Affined* worldFromObject = nullptr);
   // vertices: count x 3 x 3 doubles (v0, v1, v2 of each triangle); one object per triangle.
   int32_t addTriangles(const double* vertices, const int32_t* materials, size_t count, bool perTriangle,
-                       const Affined* worldFromObject = nullptr);
+                       const Affined* worldFromObject = nullptr, const ColorArray& colors = {});
   // One object: faceCount triangles indexing vertexCount x 3 doubles by 0-based faces (faceCount x 3).
   int32_t addMesh(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount, int32_t material,
-                  const Affined* worldFromObject = nullptr);
+                  const Affined* worldFromObject = nullptr, const ColorArray& colors = {});
   // lo, hi: count x 3 doubles, lo < hi in each axis; one object per box.
   int32_t addBoxes(const double* lo, const double* hi, const int32_t* materials, size_t count, bool perBox,
-                   const Affined* worldFromObject = nullptr);
+                   const Affined* worldFromObject = nullptr, const ColorArray& colors = {});
   void addDirectionalLight(const Vec3d& direction, const Vec3d& color, bool shadows);
   void addPointLight(const PointLight& light);
   void addSpotLight(const SpotLight& light);  // light.direction need not be unit
@@ -82,6 +94,8 @@ class Scene {
   const Vec4d& background() const { return m_background; }
   const Vec3d& ambient() const { return m_ambient; }
   int32_t objectCount() const { return m_objectCount; }
+  // Whether some primitive carries its own colours (then hits are shaded from their hit records).
+  bool colored() const { return m_colored; }
   bool hasLights() const { return !m_directionalLights.empty() || !m_pointLights.empty() || !m_spotLights.empty(); }
   // Whether hits are shaded with lights (Lit) or take their flat colour.
   bool lit() const { return m_shading == ShadingMode::Lit || (m_shading == ShadingMode::Auto && hasLights()); }
@@ -96,6 +110,14 @@ class Scene {
   void requireMaterial(int32_t material, const char* field) const;
   void requireMaterials(const int32_t* materials, size_t count, bool perPrimitive) const;
   void requirePrimitiveRoom(size_t count) const;
+  // Adds primitive i of an add to `set` (Set::add's arguments but the colours): with the add's
+  // colours, made by colorsOf(i), if it has them; with its material's kd if the set is coloured by
+  // an earlier add. Call prepareColors first.
+  template <typename Set, typename Prim, typename ColorsOf>
+  void addTo(Set& set, const Prim& primitive, int32_t material, int32_t objectId, bool given, const ColorsOf& colorsOf);
+  // Before an add with colours (`given`) to `set`: the primitives already there take their kd.
+  template <typename Set>
+  void prepareColors(Set& set, bool given);
   int32_t takeObjectIds(size_t count);
   // The group objects seen through worldFromObject go into (validated first); the world if null or identity.
   Group<double>& groupFor(const Affined* worldFromObject);
@@ -144,6 +166,7 @@ class Scene {
   Vec4d m_background{0, 0, 0, 1};
   Vec3d m_ambient{0};
   int32_t m_objectCount = 0;
+  bool m_colored = false;
   Reach m_reach;  // the largest of every add's (world: the largest world reach)
 };
 
