@@ -203,6 +203,13 @@ def test_session_restarts_on_a_changed_view_or_scene(scene):
     session.update(bpy.context.evaluated_depsgraph_get())
     assert session.view(rv3d, 32, 24)
     assert not session.view(rv3d, 32, 24)  # nothing changed: the passes go on
+    bpy.data.objects["Ball"].select_set(True)
+    scene.camera.location.z += 1.0
+    session.update(bpy.context.evaluated_depsgraph_get())
+    assert not session.view(rv3d, 32, 24)  # a selection and the scene camera change nothing Dürer shows here
+    scene.durer.max_bounces = 2
+    session.update(bpy.context.evaluated_depsgraph_get())
+    assert session.view(rv3d, 32, 24)  # a render setting changed
     assert session.view(rv3d, 40, 24)  # the region was resized
     assert session.image.wait(30) and session.image.passes == 3
     assert session.status() == "Dürer | viewport | sample 3/3 | done"

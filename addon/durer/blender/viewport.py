@@ -9,6 +9,7 @@ thread; only `texture` and `draw` need a GPU, which bpy in background mode has n
 from __future__ import annotations
 
 import threading
+from dataclasses import replace
 from typing import Any
 
 import gpu
@@ -17,7 +18,7 @@ from gpu_extras.presets import draw_texture_2d
 
 import durer
 
-from . import build
+from . import build, engine  # engine imports this module too: used at call time only
 from .export.depsgraph import export_depsgraph
 
 #: The sampler of every pass: one uniformly random sample per pixel, independent between seeds, so
@@ -71,9 +72,7 @@ def region_camera(region_data, width: int, height: int) -> durer.OrthographicCam
 def pass_kwargs(settings) -> dict:
     """durer.render's settings for a viewport pass, from scene.durer: the F12 render's precision,
     sphere method, threads, bounces and back-face shading; the sampling is the pass's own."""
-    from .engine import render_kwargs  # the engine imports this module
-
-    kwargs = render_kwargs(settings)
+    kwargs = engine.render_kwargs(settings)
     for key in ("spp", "seed", "sampler", "target_error", "min_spp", "time_limit", "depth"):
         kwargs.pop(key, None)
     return kwargs
@@ -178,8 +177,9 @@ class ViewportSession:
         self.error: str | None = None
 
     def update(self, depsgraph) -> None:
-        """Export the depsgraph (Blender's view_update: the scene or its settings changed); the
-        next `view` restarts. A core scene whose spheres alone moved is refitted, not rebuilt."""
+        """Export the depsgraph (Blender's view_update: something in the file changed); the next
+        `view` restarts if what Dürer renders or its settings changed (the scene camera aside: the
+        view is the camera). A core scene whose spheres alone moved is refitted, not rebuilt."""
         try:
             data = export_depsgraph(depsgraph)
             scene, _ = build.update_scene(self._kept, data)
@@ -187,10 +187,14 @@ class ViewportSession:
             self.image.stop()
             self._kept, self.error = None, f"{type(exc).__name__}: {exc}"
             return
-        self._kept, self.error = (data, scene), None
-        settings = depsgraph.scene.durer
-        self._settings = {"passes": int(settings.samples), "seed": int(settings.seed), **pass_kwargs(settings)}
-        self._view_key = None
+        durer_settings = depsgraph.scene.durer
+        settings = {"passes": int(durer_settings.samples), "seed": int(durer_settings.seed),
+                    **pass_kwargs(durer_settings)}
+        unchanged = (self._kept is not None and settings == self._settings
+                     and build.same_data(replace(self._kept[0], camera=data.camera), data))
+        self._kept, self._settings, self.error = (data, scene), settings, None
+        if not unchanged:  # else a selection, or the scene camera seen from another view: the passes go on
+            self._view_key = None
 
     def view(self, region_data, width: int, height: int) -> bool:
         """Show this view (a RegionView3D drawn at width x height): restart the image if the view's
@@ -216,59 +220,59 @@ class ViewportSession:
         return f"Dürer | viewport | sample {self.image.passes}/{total}{state}"
 
 
-def session(engine) -> ViewportSession:
+def session(render_engine) -> ViewportSession:
     """The engine instance's viewport session (made on first use)."""
-    found = getattr(engine, "durer_viewport", None)
+    found = getattr(render_engine, "durer_viewport", None)
     if found is None:
-        found = engine.durer_viewport = ViewportSession()
+        found = render_engine.durer_viewport = ViewportSession()
     return found
 
 
-def view_update(engine, depsgraph) -> None:
+def view_update(render_engine, depsgraph) -> None:
     """RenderEngine.view_update: the scene changed."""
-    session(engine).update(depsgraph)
+    session(render_engine).update(depsgraph)
 
 
-def view_draw(engine, context, depsgraph) -> None:
+def view_draw(render_engine, context, depsgraph) -> None:
     """RenderEngine.view_draw: draw the image of the current view, and ask for another draw while
     passes are under way (Blender has no other way to hear of them on its main thread). The mean is
     uploaded only when it holds new passes."""
-    current = session(engine)
+    current = session(render_engine)
     region = context.region
     current.view(context.region_data, region.width, region.height)
-    engine.update_stats("", current.status())
+    render_engine.update_stats("", current.status())
     if current.image.running:
-        engine.tag_redraw()
+        render_engine.tag_redraw()
     key = (current.image.generation, current.image.passes)
     if key != current.texture_key:
         pixels = current.image.mean()
         current.texture = None if pixels is None else texture(pixels)
         current.texture_key = key
     if current.texture is not None:
-        draw(engine, depsgraph.scene, current.texture)
+        draw(render_engine, depsgraph.scene, current.texture)
 
 
 def texture(pixels_top_first: np.ndarray):
     """A float GPU texture of (H, W, 4) RGBA pixels (Blender's rows bottom first)."""
     h, w = pixels_top_first.shape[:2]
-    data = gpu.types.Buffer("FLOAT", w * h * 4, np.ascontiguousarray(pixels_top_first[::-1]).ravel())
+    data = gpu.types.Buffer("FLOAT", w * h * 4, engine._flip(pixels_top_first).ravel())
     return gpu.types.GPUTexture((w, h), format="RGBA16F", data=data)
 
 
-def draw(engine, scene, image_texture) -> None:
+def draw(render_engine, scene, image_texture) -> None:
     """Draw the texture over the region in the scene's display colour space (Blender's custom render
     engine template)."""
     gpu.state.blend_set("ALPHA_PREMULT")
-    engine.bind_display_space_shader(scene)
+    render_engine.bind_display_space_shader(scene)
     draw_texture_2d(image_texture, (0, 0), image_texture.width, image_texture.height)
-    engine.unbind_display_space_shader()
+    render_engine.unbind_display_space_shader()
     gpu.state.blend_set("NONE")
 
 
-def free(engine) -> None:
+def free(render_engine) -> None:
     """The engine is being freed (leaving Rendered mode): stop its passes."""
     try:
-        found = getattr(engine, "durer_viewport", None)
+        found = getattr(render_engine, "durer_viewport", None)
     except ReferenceError:  # Blender freed the engine's data first: its Python attributes went with it
         return
     if found is not None:
