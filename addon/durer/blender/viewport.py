@@ -86,7 +86,7 @@ class ProgressiveImage:
         self._lock = threading.Lock()
         self._cancel = threading.Event()
         self._worker: threading.Thread | None = None
-        self._sum: np.ndarray | None = None
+        self._mean: np.ndarray | None = None
         self._passes = 0
         self._generation = 0
         #: The error that ended the last passes early (None if none did).
@@ -108,11 +108,9 @@ class ProgressiveImage:
         return self._worker is not None and self._worker.is_alive()
 
     def mean(self) -> np.ndarray | None:
-        """The image so far, (H, W, 4) float32 RGBA, top row first; None before the first pass."""
-        with self._lock:
-            if self._passes == 0:
-                return None
-            return (self._sum / self._passes).astype(np.float32)
+        """The image so far, (H, W, 4) float32 RGBA, top row first (read-only); None before the
+        first pass. The worker makes it after each pass, so the main thread only reads it."""
+        return self._mean
 
     def restart(self, scene: durer.Scene, camera, width: int, height: int, passes: int, seed: int = 0,
                 **kwargs: Any) -> None:
@@ -120,7 +118,7 @@ class ProgressiveImage:
         settings in kwargs)."""
         self.stop()
         with self._lock:
-            self._sum, self._passes, self.error = None, 0, None
+            self._mean, self._passes, self.error = None, 0, None
             self._generation += 1
         self._cancel = threading.Event()
         self._worker = threading.Thread(
@@ -142,7 +140,7 @@ class ProgressiveImage:
         return not self.running
 
     def _run(self, cancel: threading.Event, scene, camera, width, height, passes, seed, kwargs) -> None:
-        result = None
+        result, total = None, None
         for index in range(passes):
             try:
                 result = durer.render(scene, camera, width, height, spp=1, seed=seed + index, sampler=PASS_SAMPLER,
@@ -152,13 +150,16 @@ class ProgressiveImage:
             except Exception as exc:  # noqa: BLE001 - shown by the viewport, never raised in Blender
                 self.error = f"{type(exc).__name__}: {exc}"
                 return
+            if total is None:
+                total = result.color.astype(np.float64)
+            else:
+                total += result.color
+            mean = (total / (index + 1)).astype(np.float32)
+            mean.flags.writeable = False
             with self._lock:
                 if cancel.is_set():
                     return
-                if self._sum is None:
-                    self._sum = np.zeros(result.color.shape, np.float64)
-                self._sum += result.color
-                self._passes = index + 1
+                self._mean, self._passes = mean, index + 1
 
 
 class ViewportSession:
