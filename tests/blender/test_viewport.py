@@ -235,12 +235,23 @@ def test_session_restarts_on_a_changed_view_or_scene(scene):
     session.image.stop()
 
 
-def test_session_shows_an_export_error(scene):
+def test_session_shows_an_export_error_instead_of_the_last_image(scene):
     ball_scene(scene, 32, 24)
-    scene.camera.data.type = "PANO"
+    scene.durer.samples = 2
     session = viewport.ViewportSession()
     session.update(bpy.context.evaluated_depsgraph_get())
-    assert not session.view(region_view(), 32, 24) and session.image.mean() is None
+    assert session.view(region_view(), 32, 24) and session.image.wait(30)
+    key, pixels = session.frame()
+    assert key == (session.image.generation, 2) and pixels is session.image.mean() and pixels.shape == (24, 32, 4)
+
+    scene.camera.data.type = "PANO"
+    session.update(bpy.context.evaluated_depsgraph_get())
+    assert not session.view(region_view(), 32, 24) and session.frame() == (("error",), None)
     assert session.status() == (
         "Dürer | error: ValueError: Camera 'Camera' is pano: Dürer renders orthographic and perspective cameras"
     )
+
+    scene.camera.data.type = "PERSP"
+    session.update(bpy.context.evaluated_depsgraph_get())
+    assert session.view(region_view(), 32, 24) and session.error is None
+    session.image.stop()

@@ -171,7 +171,7 @@ class ViewportSession:
         self._kept: tuple | None = None  # (export data, core scene), for build.update_scene
         self._settings: dict = {}
         self._view_key: tuple | None = None
-        #: The GPU texture of the mean last drawn, and its (generation, passes).
+        #: The GPU texture last drawn, and its `frame` key.
         self.texture = None
         self.texture_key: tuple[int, int] | None = None
         #: What the view shows instead of an image (an export error), or None.
@@ -211,6 +211,13 @@ class ViewportSession:
         self.image.restart(self._kept[1], camera, width, height, **self._settings)
         return True
 
+    def frame(self) -> tuple[tuple, np.ndarray | None]:
+        """What the view shows, with a key that changes whenever it does: the image so far, or
+        nothing while an export error stands."""
+        if self.error is not None:
+            return ("error",), None
+        return (self.image.generation, self.image.passes), self.image.mean()
+
     def status(self) -> str:
         """The stats line: passes done of the total, or the error."""
         error = self.error or self.image.error
@@ -244,9 +251,8 @@ def view_draw(render_engine, context, depsgraph) -> None:
     render_engine.update_stats("", current.status())
     if current.image.running:
         render_engine.tag_redraw()
-    key = (current.image.generation, current.image.passes)
+    key, pixels = current.frame()
     if key != current.texture_key:
-        pixels = current.image.mean()
         current.texture = None if pixels is None else texture(pixels)
         current.texture_key = key
     if current.texture is not None:
