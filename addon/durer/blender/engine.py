@@ -256,6 +256,9 @@ class DurerEngineMixin:
 
     def __del__(self):
         viewport.free(self)
+        parent = getattr(super(), "__del__", None)
+        if parent is not None:  # the main-branch engine template calls one; 5.0.1 has none
+            parent()
 
     def _border(self, scene, w: int, h: int) -> tuple[slice, slice]:
         """Rows and columns (top row first) of the result Blender expects: the whole image, or
