@@ -11,7 +11,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from helpers.blender import aim_camera, ball_scene  # noqa: E402
+from helpers.blender import aim_camera, ball_scene, light, pointcloud_object, world  # noqa: E402
 from mathutils import Euler, Matrix  # noqa: E402
 
 import durer  # noqa: E402
@@ -233,6 +233,33 @@ def test_session_restarts_on_a_changed_view_or_scene(scene):
                                  window_matrix=rv3d.window_matrix, is_perspective=rv3d.is_perspective)
     assert session.view(moved_view, 40, 24) and not session.view(moved_view, 40, 24)
     session.image.stop()
+
+
+def test_moved_spheres_are_refitted_after_the_passes_stop(scene):
+    world(scene, (0.05, 0.05, 0.05))
+    light(scene, "SUN", energy=3.0)
+    aim_camera(scene, (0, -8, 0))
+    rng = np.random.default_rng(2)
+    cloud = pointcloud_object(scene, "Cloud", rng.uniform(-1.5, 1.5, (200, 3)), radius=0.15)
+    scene.durer.samples = 500  # still rendering when the cloud moves
+    rv3d = region_view()
+    session = viewport.ViewportSession()
+    session.update(bpy.context.evaluated_depsgraph_get())
+    assert session.view(rv3d, 48, 32) and session.image.running
+    core = session.scene
+
+    cloud.location.x += 0.4
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    session.update(depsgraph)
+    assert session.scene is core  # the same core scene, its spheres moved
+    scene.durer.samples = 2
+    session.update(depsgraph)
+    assert session.view(rv3d, 48, 32) and session.image.wait(30) and session.image.passes == 2
+    fresh = build.make_scene(export_depsgraph(depsgraph))
+    expected = direct_mean(fresh, viewport.region_camera(rv3d, 48, 32), 48, 32, 2, int(scene.durer.seed),
+                           **viewport.pass_kwargs(scene.durer))
+    np.testing.assert_allclose(session.image.mean(), expected, atol=1e-6)
+    assert np.ptp(expected[..., 0]) > 0.2  # the cloud is in view
 
 
 def test_session_shows_an_export_error_instead_of_the_last_image(scene):

@@ -177,25 +177,30 @@ class ViewportSession:
         #: What the view shows instead of an image (an export error), or None.
         self.error: str | None = None
 
+    @property
+    def scene(self) -> durer.Scene | None:
+        """The core scene the passes render (None before an export, or after one failed)."""
+        return None if self._kept is None else self._kept[1]
+
     def update(self, depsgraph) -> None:
         """Export the depsgraph (Blender's view_update: something in the file changed); the next
         `view` restarts if what Dürer renders or its settings changed (the scene camera aside: the
         view is the camera). A core scene whose spheres alone moved is refitted, not rebuilt."""
         try:
             data = export_depsgraph(depsgraph)
+            settings = {"passes": int(depsgraph.scene.durer.samples), "seed": int(depsgraph.scene.durer.seed),
+                        **pass_kwargs(depsgraph.scene.durer)}
+            if (self._kept is not None and settings == self._settings
+                    and build.same_data(replace(self._kept[0], camera=data.camera), data)):
+                return  # a selection, or the scene camera seen from another view: the passes go on
+            self.image.stop()  # before update_scene moves the spheres of the scene the passes render
             scene, _ = build.update_scene(self._kept, data)
         except Exception as exc:  # noqa: BLE001 - shown by the viewport, never raised in Blender
             self.image.stop()
             self._kept, self.error = None, f"{type(exc).__name__}: {exc}"
             return
-        durer_settings = depsgraph.scene.durer
-        settings = {"passes": int(durer_settings.samples), "seed": int(durer_settings.seed),
-                    **pass_kwargs(durer_settings)}
-        unchanged = (self._kept is not None and settings == self._settings
-                     and build.same_data(replace(self._kept[0], camera=data.camera), data))
         self._kept, self._settings, self.error = (data, scene), settings, None
-        if not unchanged:  # else a selection, or the scene camera seen from another view: the passes go on
-            self._view_key = None
+        self._view_key = None
 
     def view(self, region_data, width: int, height: int) -> bool:
         """Show this view (a RegionView3D drawn at width x height): restart the image if the view's
@@ -208,7 +213,7 @@ class ViewportSession:
             return False
         self._view_key = key
         camera = region_camera(region_data, width, height)
-        self.image.restart(self._kept[1], camera, width, height, **self._settings)
+        self.image.restart(self.scene, camera, width, height, **self._settings)
         return True
 
     def frame(self) -> tuple[tuple, np.ndarray | None]:
