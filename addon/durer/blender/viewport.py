@@ -173,7 +173,7 @@ class ViewportSession:
         self._view_key: tuple | None = None
         #: The GPU texture last drawn, and its `frame` key.
         self.texture = None
-        self.texture_key: tuple[int, int] | None = None
+        self.texture_key: tuple | None = None
         #: What the view shows instead of an image (an export error), or None.
         self.error: str | None = None
 
