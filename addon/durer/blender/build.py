@@ -127,8 +127,8 @@ def update_scene(previous: tuple[SceneData, durer.Scene] | None, data: SceneData
     if previous is not None:
         old, scene = previous
         if len(old.sphere_radii) == len(data.sphere_radii) and all(
-                _same(getattr(old, f.name), getattr(data, f.name)) for f in fields(data) if f.name not in _MOVABLE):
-            if not (_same(old.sphere_centers, data.sphere_centers) and _same(old.sphere_radii, data.sphere_radii)):
+                same_data(getattr(old, f.name), getattr(data, f.name)) for f in fields(data) if f.name not in _MOVABLE):
+            if not (same_data(old.sphere_centers, data.sphere_centers) and same_data(old.sphere_radii, data.sphere_radii)):
                 # make_scene adds the world-space spheres first: their object ids are 0..N-1.
                 scene.move_spheres(np.arange(data.sphere_count), data.sphere_centers, data.sphere_radii)
             return scene, True
@@ -139,16 +139,16 @@ def update_scene(previous: tuple[SceneData, durer.Scene] | None, data: SceneData
 _MOVABLE = {"sphere_centers", "sphere_radii", "camera"}
 
 
-def _same(a: Any, b: Any) -> bool:
+def same_data(a: Any, b: Any) -> bool:
     """Equality through the export's dataclasses, lists, dicts and numpy arrays."""
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
         return np.array_equal(a, b)
     if is_dataclass(a):
-        return type(a) is type(b) and all(_same(getattr(a, f.name), getattr(b, f.name)) for f in fields(a))
+        return type(a) is type(b) and all(same_data(getattr(a, f.name), getattr(b, f.name)) for f in fields(a))
     if isinstance(a, (list, tuple)):
-        return type(a) is type(b) and len(a) == len(b) and all(map(_same, a, b))
+        return type(a) is type(b) and len(a) == len(b) and all(map(same_data, a, b))
     if isinstance(a, dict):
-        return isinstance(b, dict) and a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+        return isinstance(b, dict) and a.keys() == b.keys() and all(same_data(a[k], b[k]) for k in a)
     return bool(a == b)
 
 

@@ -11,7 +11,7 @@ import numpy as np
 
 import durer
 
-from . import build
+from . import build, viewport
 from .export.depsgraph import export_depsgraph
 
 #: Name of the float Image datablock that holds the Combined pixels after every render.
@@ -250,6 +250,18 @@ class DurerEngineMixin:
             bpy.app.timers.register(lambda c=color: (store_image(c), None)[1], first_interval=0.0)
         info.stats_line = stats_line(w, h, info.samples, stats, cancelled, info.reused_scene)
         self.update_stats("", info.stats_line)
+
+    def view_update(self, context, depsgraph):
+        viewport.view_update(self, depsgraph)
+
+    def view_draw(self, context, depsgraph):
+        viewport.view_draw(self, context, depsgraph)
+
+    def __del__(self):
+        viewport.free(self)
+        parent = getattr(super(), "__del__", None)
+        if parent is not None:  # the main-branch engine template calls one; 5.0.1 has none
+            parent()
 
     def _border(self, scene, w: int, h: int) -> tuple[slice, slice]:
         """Rows and columns (top row first) of the result Blender expects: the whole image, or
