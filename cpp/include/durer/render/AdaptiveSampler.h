@@ -2,9 +2,9 @@
 // Adaptive sampling (SamplerKind::Adaptive): the whole image is sampled in rounds. Every pixel first
 // takes minSamples Sobol samples; then, between rounds, each pixel is marked from its own samples
 // and its eight neighbours' (across tile borders: the state of every pixel is kept), and every marked
-// pixel doubles its samples, up to samplesPerPixel. Power-of-two counts keep each pixel's Sobol points
-// a (0,m,2)-net, and the two halves of its samples (the last round's and the ones before) two nets
-// whose difference estimates the error of their mean.
+// pixel doubles its samples, up to samplesPerPixel. Doubling keeps a pixel's Sobol points a
+// (0,m,2)-net (with a power-of-two first pass), and the two halves of its samples (the last round's
+// and the ones before) two nets whose difference estimates the error of their mean.
 //
 // A pixel is marked while
 //   - the estimated RMS error of its colour, or the mean of the squared estimates of its 3x3
@@ -15,6 +15,9 @@
 //   - it has fewer than contrast / targetError samples, where contrast is the RMS difference of its
 //     mean colour from a neighbour's: an edge inside it covering less than about 1 / samples of its
 //     area may not have been seen yet, and would be off by at most about that times the contrast.
+// A time limit stops the refining rounds (never the first pass) when spent; each round takes its
+// tiles worst first (the largest estimated error), so what the limit cuts is what matters least.
+// Every pixel's state is kept until the end (TileState: 179 bytes a pixel in double, 111 in float).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
 // threads; a pixel's result depends on the pixels within `rounds` of it, so a region is rendered
 // with that margin around it and equals the whole render's pixels bit for bit.
@@ -122,6 +125,7 @@ class AdaptiveSampler {
     float error[kPacketSize] = {};                        // estimated RMS error of the mean colour
     float meanR[kPacketSize], meanG[kPacketSize], meanB[kPacketSize];  // the mean colour
     int sampledIn = -1;                                   // the last round that sampled the tile
+    bool fresh[kPacketSize] = {};                         // the pixel took samples in that round
     float priority = 0;                                   // the worst marked pixel's (time limit: first)
   };
 
@@ -190,6 +194,7 @@ class AdaptiveSampler {
     for (int k = 0; k < count; ++k) {
       t.taken[k] += t.add[k];
       t.last[k] = t.add[k] == 0 ? t.last[k] : first ? t.add[k] / 2 : t.add[k];
+      t.fresh[k] = t.add[k] > 0;
       t.add[k] = 0;
       t.sums.samples[k] = static_cast<Real>(t.taken[k]);
       t.error[k] = estimatedError(t, k);
@@ -242,8 +247,8 @@ class AdaptiveSampler {
 
   static int slotOf(const TileState& t, int x, int y) { return (y - t.y0) * t.w + (x - t.x0); }
 
-  // Decides add[k] for every pixel of tile `index` from the state the last round left. A tile whose
-  // neighbourhood the last round did not sample decides as before it: nothing to add.
+  // Decides add[k] for every pixel of tile `index` from the state the last round left. A pixel (or a
+  // tile) whose neighbourhood the last round did not sample decides as before it: nothing to add.
   void mark(size_t index, int level, int round) {
     TileState& t = m_state[index];
     t.priority = 0;
@@ -255,6 +260,7 @@ class AdaptiveSampler {
       double error = own, contrast = 0;
       if (own <= m_target) {
         const int x = t.x0 + k % t.w, y = t.y0 + k / t.w;
+        if (!freshAround(x, y, round)) continue;
         double neighbourhood = 0;
         int around = 0;
         bool edge = t.mixed[k];
@@ -274,6 +280,17 @@ class AdaptiveSampler {
       t.add[k] = level - taken;
       t.priority = std::max(t.priority, static_cast<float>(std::max(error, contrast / taken)));
     }
+  }
+
+  // Whether a pixel around (x, y), itself included, took samples in `round`.
+  bool freshAround(int x, int y, int round) const {
+    for (int ny = std::max(y - 1, m_work.y); ny <= std::min(y + 1, m_work.y + m_work.height - 1); ++ny) {
+      for (int nx = std::max(x - 1, m_work.x); nx <= std::min(x + 1, m_work.x + m_work.width - 1); ++nx) {
+        const TileState& u = tileAt(nx, ny);
+        if (u.sampledIn == round && u.fresh[slotOf(u, nx, ny)]) return true;
+      }
+    }
+    return false;
   }
 
   // Whether no tile around tile `index` (itself included) was sampled in `round`.

@@ -25,17 +25,17 @@ RenderStats renderWith(const RenderJob& job) {
   RenderStats stats;
   stats.effects = effects;
   stats.threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
-  // A work item is a strip of kStripTiles tiles along a row: threads then rarely write to the same
-  // cache line of the outputs, and the shared totals see one update per strip, not per tile.
-  constexpr int64_t kStripTiles = 8;
-  const int64_t tileCount = tiles.tileCount();
-  std::mutex totalsMutex;
   if (settings.sampler == SamplerKind::Adaptive) {
     tiles::AdaptiveSampler<Real, M> adaptive(tiles, settings, targets);
     stats.counters = adaptive.render(stats.threads, control, job.poll, stats.adaptive);
     stats.cancelled = control.cancel.load();
     return stats;
   }
+  // A work item is a strip of kStripTiles tiles along a row: threads then rarely write to the same
+  // cache line of the outputs, and the shared totals see one update per strip, not per tile.
+  constexpr int64_t kStripTiles = 8;
+  const int64_t tileCount = tiles.tileCount();
+  std::mutex totalsMutex;
   runParallel(
       (tileCount + kStripTiles - 1) / kStripTiles, stats.threads, control,
       [&](int64_t strip) {
