@@ -74,21 +74,25 @@ class AdaptiveSampler {
 
   // Runs the rounds on `threads` workers, then writes the output region; returns what was traced.
   RayCounters render(int threads, JobControl& control, const std::function<void()>& poll, AdaptiveStats& stats) {
-    const auto start = std::chrono::steady_clock::now();
-    const auto deadline = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                      std::chrono::duration<double>(m_timeLimit));
+    // A limit of more than a year is none: the clock's integer ticks would overflow.
+    constexpr double kYear = 365.25 * 24 * 3600;
+    const bool limited = m_timeLimit > 0 && m_timeLimit < kYear;
+    const auto deadline = std::chrono::steady_clock::now() +
+                          std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                              std::chrono::duration<double>(limited ? m_timeLimit : 0.0));
+    // The time limit spares the first pass: every pixel gets its first samples.
+    const auto overTime = [&](int round) { return round > 0 && limited && std::chrono::steady_clock::now() >= deadline; };
     RayCounters counters;
     std::vector<int64_t> order(m_state.size());
     for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int64_t>(i);
     for (int round = 0; !order.empty(); ++round) {
-      if (round > 0 && m_timeLimit > 0 && std::chrono::steady_clock::now() >= deadline) {
+      if (overTime(round)) {
         stats.timeLimitReached = true;
         break;
       }
       std::atomic<bool> late{false};
       const auto work = [&](int64_t i, RayCounters& c) {
-        // The time limit spares the first pass: every pixel gets its first samples.
-        if (round > 0 && m_timeLimit > 0 && std::chrono::steady_clock::now() >= deadline) {
+        if (overTime(round)) {
           late = true;
           return;
         }
