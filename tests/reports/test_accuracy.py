@@ -22,6 +22,7 @@ from durer.reports.accuracy.measure import (
     measure_antialiasing,
     measure_effects,
     measure_timings,
+    oracle_samples,
 )
 from durer.reports.accuracy.targets import targets
 from durer.reports.errors import depth_differences, fit_slope, pixel_errors, rmse, worst_pixel
@@ -70,6 +71,17 @@ def test_fit_slope_recovers_known_slopes():
     assert math.isnan(fit_slope([4, 4], [0.5, 0.4]))
 
 
+def test_oracle_samples_by_hand():
+    # Two pixels: A's error falls 1 -> 0.5 -> 0.1 at 1, 2, 4 samples; B is exact from 1 sample.
+    errors = {1: np.array([[1.0, 0.0]]), 2: np.array([[0.5, 0.0]]), 4: np.array([[0.1, 0.0]])}
+    # RMSE 0.5 / sqrt(2) and worst 0.5 need A at 2 samples, B at 1: 1.5 per pixel.
+    assert oracle_samples(errors, 0.5 / math.sqrt(2), 0.5) == pytest.approx(1.5)
+    # A worst pixel of 0.2 forces A to 4 samples; no target forces B above 1.
+    assert oracle_samples(errors, 1.0, 0.2) == pytest.approx(2.5)
+    assert math.isinf(oracle_samples(errors, 0.05, 1.0))  # the RMSE needs A below 0.07: never
+    assert math.isinf(oracle_samples(errors, 1.0, 0.05))  # and so does this worst pixel
+
+
 def test_configs():
     quick, full = Config.quick_config(), Config.full()
     assert quick.quick and quick.aa_size == (80, 45) and quick.spps == (1, 4, 16) and quick.reference_spp == 256
@@ -109,6 +121,7 @@ def synthetic_report(config: Config) -> Report:
                       AAPoint("adaptive", 256, 5.0, 0.05, 0.3, 0.5, 0.04, 8, 0.06)]
     edges = synthetic_aa("edges", slopes)
     edges.edge_share = 0.57
+    edges.oracle = {64: 26.2, 256: float("inf")}
     timings = [Timing(scene, p, m, 10.0 if p == "double" else 7.0, 1_000_000, 0.0 if p == "double" else 1e-6, 0.0,
                       0.0, 0.0, 0) for scene in ("showcase", "edges") for p in PRECISIONS
                for m in SPHERE_METHODS]
@@ -128,7 +141,8 @@ def test_targets_from_measurements():
     # On the edge scene only adaptive at max 256 spp (128 taken, 12.8 ms) reaches it: twice its time,
     # and the figure says how many of the scene's pixels hold an edge.
     assert edges64.met is False and "= 2.00 x the time" in edges64.figure
-    assert "57% of this scene's pixels hold an edge" in edges64.figure
+    assert "would need 26.2 samples/pixel = 0.41 of stratified's" in edges64.figure
+    assert "no choice of power-of-two Sobol counts per pixel reaches both" in edges256.figure
     assert estimate.met is True and "from 1.20 to 1.22 over 2 renders" in estimate.figure
     assert slope.met is True and "sobol -1.00, random -0.50" in slope.figure
     report.antialiasing[0].sweep[1].estimated_rmse = 0.05 * 1.6
@@ -171,6 +185,7 @@ def test_report_writes_sections_tables_and_plots(tmp_path):
     assert "| adaptive | 64 | 32.0 |" in text
     assert "| 256 | 4 | 0.01 | 20.0 | 3.98e-03 | 4.86e-03 | 1.22 | 2.21e-02 | 1.6 | 0.25 | 0.06 |" in text
     assert "57% of this scene's pixels hold an edge" in text
+    assert "64-spp stratified's RMSE and worst pixel: 26.2 samples/pixel (0.41 of its samples)" in text
     assert "| showcase | 10.0 | 7.0 | 0.700 |" in text
     assert "| edges | double | algebraic | 10.0 | 1.000 |" in text
     assert "| double | robust |" in text and "Worst relative error of t" in text

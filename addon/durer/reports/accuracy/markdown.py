@@ -63,6 +63,10 @@ def sweep_table(aa: AntiAliasing, baselines: tuple[tuple[int, float], ...]) -> s
     return "\n".join(lines)
 
 
+def _samples(n: float) -> str:
+    return "no choice reaches it" if math.isinf(n) else f"{n:.1f}"
+
+
 def budget_table(rows: list[BudgetPoint]) -> str:
     lines = ["| time_limit | ms | stopped by the limit | samples/pixel | RMSE | estimated RMSE | worst pixel |",
              "| ---: | ---: | --- | ---: | ---: | ---: | ---: |"]
@@ -195,7 +199,15 @@ def markdown(report: Report, plots: dict[str, str]) -> str:
                       f"![adaptive samples per pixel, {a.scene}]({plots[f'adaptive-{a.scene}']})"]
         if not math.isnan(a.edge_share):
             parts += ["", f"{a.edge_share:.0%} of this scene's pixels hold an edge (their centre sample differs from "
-                      "the reference by more than 1e-3): those need about as many samples from any sampler."]
+                      "the reference by more than 1e-3)."]
+        if a.oracle:
+            bounds = "; ".join(f"{spp}-spp stratified's RMSE and worst pixel: {_samples(n)} samples/pixel"
+                               + ("" if math.isinf(n) else f" ({n / spp:.2f} of its samples)")
+                               for spp, n in a.oracle.items())
+            parts += ["", "A bound on any sampler that gives each pixel a power-of-two count of Sobol samples, as "
+                      "adaptive does: an oracle that knew every pixel's expected error after 1, 2, 4, … samples (the "
+                      f"RMS over {c.oracle_seeds} seeds) and chose each pixel's count with the fewest samples in all "
+                      f"would need, to reach {bounds}."]
         if a.budget:
             free = a.budget[-1]
             parts += ["", f"With a time budget: `time_limit=` a share of the unlimited render's time (max "

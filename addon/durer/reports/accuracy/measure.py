@@ -38,6 +38,7 @@ class Config:
     runs: int                                # timed rounds per point (median); one warm-up before
     target_errors: tuple[float, ...]         # adaptive's knob, swept on both scenes
     min_spps: tuple[int, ...]                # adaptive's first pass, swept with it
+    oracle_seeds: int                        # seeds each pixel's expected Sobol error is measured over
     timing_size: tuple[int, int]             # precision and sphere-method timings
     timing_spp: int
     timing_runs: int
@@ -48,14 +49,14 @@ class Config:
     @classmethod
     def full(cls) -> Config:
         return cls(quick=False, aa_size=(160, 90), spps=(1, 4, 16, 64, 256), reference_spp=4096, runs=3,
-                   target_errors=(0.02, 0.01, 0.007, 0.005, 0.0035, 0.0025), min_spps=(4, 8),
+                   target_errors=(0.02, 0.01, 0.007, 0.005, 0.0035, 0.0025), min_spps=(4, 8), oracle_seeds=6,
                    timing_size=(480, 270), timing_spp=4, timing_runs=5, effects_size=(640, 360))
 
     @classmethod
     def quick_config(cls) -> Config:
         return cls(quick=True, aa_size=(80, 45), spps=(1, 4, 16), reference_spp=256, runs=1,
-                   target_errors=(0.04, 0.01), min_spps=(4,), timing_size=(160, 90), timing_spp=4, timing_runs=3,
-                   effects_size=(480, 270))
+                   target_errors=(0.04, 0.01), min_spps=(4,), oracle_seeds=2, timing_size=(160, 90), timing_spp=4,
+                   timing_runs=3, effects_size=(480, 270))
 
     @property
     def baselines(self) -> tuple[tuple[int, float], ...]:
@@ -138,6 +139,7 @@ class AntiAliasing:
     reference: np.ndarray | None = field(default=None, repr=False)  # the reference's colour
     edge_share: float = float("nan")   # pixels whose reference differs from their centre sample by > 1e-3
     budget: list[BudgetPoint] = field(default_factory=list)  # adaptive under time limits
+    oracle: dict[int, float] = field(default_factory=dict)   # stratified spp -> oracle_samples(...) for it
 
     def slope(self, sampler: str) -> float:
         """Fitted log RMSE / log spp of a sampler's points (adaptive: against the samples it took)."""
@@ -191,9 +193,57 @@ def measure_antialiasing(name: str, description: str, scene: Scene, camera: Any,
     centre = next((r for (s, n, _, _), r in zip(configs, results) if s == "center" and n == 1), None)
     edge_share = float("nan") if centre is None else \
         float(np.mean(pixel_errors(centre.color, reference.color) > 1e-3))
-    return AntiAliasing(name, description, width, height, reference_spp, reference_ms,
-                        [p for p in points if p.target_error is None], [p for p in points if p.target_error is not None],
-                        reference.color, edge_share)
+    aa = AntiAliasing(name, description, width, height, reference_spp, reference_ms,
+                      [p for p in points if p.target_error is None], [p for p in points if p.target_error is not None],
+                      reference.color, edge_share)
+    return aa
+
+
+def measure_oracle(aa: AntiAliasing, scene: Scene, camera: Any, baselines: Sequence[int], seeds: int) -> None:
+    """aa.oracle: for each stratified baseline, oracle_samples over Sobol counts 1, 2, 4, ... up to
+    it, each pixel's error the RMS over `seeds` seeds (its expected error, not one draw's luck)."""
+    counts = [2**k for k in range(21) if 2**k <= max(baselines, default=0)]
+    errors = {}
+    for n in counts:
+        squares = [pixel_errors(render(scene, camera, aa.width, aa.height, spp=n, seed=SEED + k, sampler="sobol",
+                                       passes=("color",)).color, aa.reference) ** 2 for k in range(seeds)]
+        errors[n] = np.sqrt(np.mean(squares, axis=0))
+    for spp in baselines:
+        base = aa.point("stratified", spp)
+        if base is not None:
+            aa.oracle[spp] = oracle_samples({n: e for n, e in errors.items() if n <= spp}, base.rmse, base.worst)
+
+
+def oracle_samples(errors: dict[int, np.ndarray], rmse_target: float, worst_target: float) -> float:
+    """The fewest samples per pixel, on average, of an oracle that knows every pixel's error after
+    each of the given Sobol counts (errors: spp -> (H, W) per-pixel errors) and gives each pixel
+    one of those counts so that the image's RMSE and worst pixel meet the targets; inf if no choice
+    does. A bound for any sampler that chooses among these counts per pixel, as adaptive does
+    without the oracle's knowledge.
+    Lagrangian relaxation: each pixel takes the count minimising n + lambda * error^2 among those
+    within worst_target; lambda is found by bisection."""
+    counts = np.array(sorted(errors), np.float64)
+    squared = np.stack([errors[int(n)].ravel().astype(np.float64) ** 2 for n in counts])  # (counts, pixels)
+    allowed = np.sqrt(squared) <= worst_target * (1 + 1e-9)
+    if not allowed.any(axis=0).all():
+        return float("inf")
+    budget = rmse_target**2 * squared.shape[1] * (1 + 1e-9)  # a target met exactly is met
+
+    def choose(lam: float) -> tuple[float, float]:
+        cost = np.where(allowed, counts[:, None] + lam * squared, np.inf)
+        pick = np.argmin(cost, axis=0)
+        columns = np.arange(squared.shape[1])
+        return float(counts[pick].mean()), float(squared[pick, columns].sum())
+
+    low, high = 0.0, 1.0
+    while choose(high)[1] > budget:
+        high *= 4
+        if high > 1e30:
+            return float("inf")
+    for _ in range(60):
+        middle = (low + high) / 2
+        low, high = (middle, high) if choose(middle)[1] > budget else (low, middle)
+    return choose(high)[0]
 
 
 def measure_budget(aa: AntiAliasing, scene: Scene, camera: Any, max_spp: int, target_error: float,
@@ -332,9 +382,10 @@ def measure(config: Config, command: str = "python -m durer accuracy", log: Call
         "above, one sun without shadows)", edges, edges_camera, width, height, config.spps, config.reference_spp,
         config.runs, config.samplers, **sweep)
     if adaptive:
-        log("adaptive under time limits ...")
+        log("adaptive under time limits, and the oracle's bound ...")
         for aa, (scene, camera) in ((aa_showcase, (showcase, showcase_camera)), (aa_edges, (edges, edges_camera))):
             aa.budget = measure_budget(aa, scene, camera, max(config.adaptive_max_spps), min(config.target_errors))
+            measure_oracle(aa, scene, camera, config.adaptive_max_spps, config.oracle_seeds)
 
     tw, th = config.timing_size
     log(f"precision and sphere method: {tw}x{th}, {config.timing_spp} spp ...")

@@ -37,12 +37,12 @@ def targets(report: Report) -> list[Target]:
                 closest = min(adaptive, key=lambda p: max(p.rmse / base.rmse, p.worst / base.worst))
                 out.append(Target(name, f"{stratified}; no adaptive setting measured reaches both (closest: "
                                   f"{_adaptive_label(closest)}: RMSE {closest.rmse:.2e}, worst {closest.worst:.2e} in "
-                                  f"{closest.ms:.1f} ms){_edge_note(aa.edge_share)}", False))
+                                  f"{closest.ms:.1f} ms){_oracle_note(aa.oracle.get(spp), spp)}", False))
                 continue
             ratio = best.ms / base.ms
             out.append(Target(name, f"{stratified}; cheapest adaptive reaching both ({_adaptive_label(best)}): RMSE "
                               f"{best.rmse:.2e}, worst {best.worst:.2e} in {best.ms:.1f} ms = {ratio:.2f} x the time"
-                              f"{'' if ratio <= share else _edge_note(aa.edge_share)}", ratio <= share))
+                              f"{'' if ratio <= share else _oracle_note(aa.oracle.get(spp), spp)}", ratio <= share))
     out.append(_estimate_target(report))
     out.append(_slope_target(report))
     return out
@@ -78,12 +78,13 @@ def _factor(p: AAPoint) -> float:
     return max(ratio, 1 / ratio)
 
 
-def _edge_note(share: float) -> str:
-    if math.isnan(share):
+def _oracle_note(samples: float | None, spp: int) -> str:
+    if samples is None:
         return ""
-    return (f"; {share:.0%} of this scene's pixels hold an edge (their centre sample is off the reference by > 1e-3), "
-            "and those need about the baseline's samples, so no sampler can spend much less than that share of its "
-            "time")
+    if math.isinf(samples):
+        return "; no choice of power-of-two Sobol counts per pixel reaches both"
+    return (f"; an oracle choosing each pixel's power-of-two Sobol count from its expected error would need "
+            f"{samples:.1f} samples/pixel = {samples / spp:.2f} of stratified's")
 
 
 def _adaptive_label(p: AAPoint) -> str:
