@@ -136,6 +136,22 @@ def transform(value: Any, name: str = "transform") -> np.ndarray | None:
     return array
 
 
+def transforms(value: Any, name: str = "transforms") -> np.ndarray:
+    """(N, 4, 4) or (N, 3, 4) world-from-object affine matrices, N >= 1, as a C-contiguous (N, 3, 4)
+    float64 array (the core checks each is invertible, naming it)."""
+    array = _numeric_array(value, name)
+    if array.ndim != 3 or array.shape[1:] not in ((4, 4), (3, 4)) or array.shape[0] < 1:
+        raise ValueError(f"{name} must have shape (N, 4, 4) or (N, 3, 4) with N >= 1, got {array.shape}")
+    array = array.astype(np.float64)
+    if array.shape[1] == 4:
+        wrong = np.flatnonzero(np.any(array[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
+        if wrong.size:
+            raise ValueError(f"{name}[{wrong[0]}] must be affine: its bottom row must be (0, 0, 0, 1), got "
+                             f"{tuple(array[wrong[0], 3].tolist())}")
+        array = array[:, :3]
+    return np.ascontiguousarray(array)
+
+
 def is_invertible(matrix: Any) -> bool:
     """Whether a (4, 4) or (3, 4) affine matrix is finite and invertible by the core's rule (the one
     every transform passed to a Scene must meet)."""

@@ -54,6 +54,10 @@ class Scene:
         self, vertices: NDArray[np.float64], faces: NDArray[np.int64], material: int,
         transform: NDArray[np.float64] | None, colors: NDArray[np.float64] | None = None,
     ) -> int: ...
+    def add_mesh_instances(
+        self, vertices: NDArray[np.float64], faces: NDArray[np.int64], material: int,
+        transforms: NDArray[np.float64], colors: NDArray[np.float64] | None = None,
+    ) -> int: ...
     def add_boxes(
         self, lo: NDArray[np.float64], hi: NDArray[np.float64], materials: NDArray[np.int32],
         transform: NDArray[np.float64] | None, colors: NDArray[np.float64] | None = None,
@@ -73,6 +77,8 @@ class Scene:
     def plane_count(self) -> int: ...
     @property
     def triangle_count(self) -> int: ...
+    @property
+    def stored_triangle_count(self) -> int: ...
     @property
     def box_count(self) -> int: ...
     @property

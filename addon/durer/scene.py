@@ -195,21 +195,26 @@ class Scene:
         diffuse colour in place of the material's (as in add_spheres), (V, 3) one per vertex or
         (F, 3, 3) one per face corner (a face's own colour: the same at its three corners),
         interpolated across each face. Returns its object id."""
-        given = vertices
-        vertices = _checks.float_array(vertices, "vertices", (None, 3))
-        face_array = _checks._numeric_array(faces, "faces")
-        if face_array.dtype.kind not in "iu":
-            raise TypeError(f"faces must hold integer vertex indices, got dtype {face_array.dtype}")
-        if face_array.ndim != 2 or face_array.shape[1] != 3:
-            raise ValueError(f"faces must have shape (F, 3), got {face_array.shape}")
-        if face_array.size and (face_array.max() > np.iinfo(np.int64).max):
-            raise ValueError("faces must fit in int64")
-        color_array = _checks.one_of_shapes(colors, "colors", (vertices.shape[0], 3), (face_array.shape[0], 3, 3))
-        return self._add(
-            "add_mesh", _owned(vertices, given), _owned(np.ascontiguousarray(face_array, dtype=np.int64), faces),
-            _checks.c_int(material, "material"), _owned(_checks.transform(transform), transform),
-            colors=_owned(color_array, colors),
-        )
+        mesh = _mesh_arguments(vertices, faces, material, colors)
+        return self._add("add_mesh", *mesh[:3], _owned(_checks.transform(transform), transform), colors=mesh[3])
+
+    def add_mesh_instances(
+        self,
+        vertices: ArrayLike,
+        faces: ArrayLike,
+        transforms: ArrayLike,
+        material: int = 0,
+        *,
+        colors: ArrayLike | None = None,
+    ) -> int:
+        """Add the mesh of add_mesh seen through each of `transforms` ((N, 4, 4) or (N, 3, 4)
+        world-from-object matrices, each invertible): one object whose triangles and hierarchy are
+        stored once and shared by its N instances (instancing a rock a hundred thousand times costs
+        one rock and a hierarchy over the instances). Returns its object id, which every instance's
+        hits report."""
+        mesh = _mesh_arguments(vertices, faces, material, colors)
+        return self._add("add_mesh_instances", *mesh[:3], _owned(_checks.transforms(transforms), transforms),
+                         colors=mesh[3])
 
     def add_boxes(
         self,
@@ -337,8 +342,13 @@ class Scene:
 
     @property
     def triangle_count(self) -> int:
-        """Triangles, counting every face of every mesh."""
+        """Triangles, counting every face of every mesh (of every instance: as traced)."""
         return self._core.triangle_count
+
+    @property
+    def stored_triangle_count(self) -> int:
+        """Triangles stored: a mesh of add_mesh_instances once, however many instances it has."""
+        return self._core.stored_triangle_count
 
     @property
     def box_count(self) -> int:
@@ -346,7 +356,8 @@ class Scene:
 
     @property
     def transform_count(self) -> int:
-        """Distinct transforms in use (objects added with the same matrix share one)."""
+        """Transforms in use: distinct ones (objects added with the same matrix share one), and each
+        instance of add_mesh_instances."""
         return self._core.transform_count
 
     @property
@@ -419,3 +430,19 @@ def _material_ids(material: Any, n: int) -> np.ndarray:
     if n and (array.min() < np.iinfo(np.int32).min or array.max() > np.iinfo(np.int32).max):
         raise ValueError("material ids must fit in int32")
     return np.ascontiguousarray(array, dtype=np.int32)
+
+
+def _mesh_arguments(vertices: ArrayLike, faces: ArrayLike, material: int, colors: ArrayLike | None) -> tuple:
+    """add_mesh's vertices, faces, material and colors, checked, as the core takes them."""
+    given = vertices
+    vertices = _checks.float_array(vertices, "vertices", (None, 3))
+    face_array = _checks._numeric_array(faces, "faces")
+    if face_array.dtype.kind not in "iu":
+        raise TypeError(f"faces must hold integer vertex indices, got dtype {face_array.dtype}")
+    if face_array.ndim != 2 or face_array.shape[1] != 3:
+        raise ValueError(f"faces must have shape (F, 3), got {face_array.shape}")
+    if face_array.size and (face_array.max() > np.iinfo(np.int64).max):
+        raise ValueError("faces must fit in int64")
+    color_array = _checks.one_of_shapes(colors, "colors", (vertices.shape[0], 3), (face_array.shape[0], 3, 3))
+    return (_owned(vertices, given), _owned(np.ascontiguousarray(face_array, dtype=np.int64), faces),
+            _checks.c_int(material, "material"), _owned(color_array, colors))

@@ -419,6 +419,27 @@ PYBIND11_MODULE(_core, m) {
           },
           py::arg("vertices"), py::arg("faces"), py::arg("material"), py::arg("transform"), py::arg("colors") = py::none())
       .def(
+          "add_mesh_instances",
+          [](Scene& s, const DoubleArray& vertices, const IndexArray& faces, int32_t material,
+             const DoubleArray& transforms, const std::optional<DoubleArray>& colors) {
+            requireShape(vertices, "vertices", {kAny, 3});
+            requireShape(faces, "faces", {kAny, 3});
+            requireShape(transforms, "transforms", {kAny, 3, 4});
+            const auto t = transforms.unchecked<3>();
+            std::vector<Affined> maps(static_cast<size_t>(transforms.shape(0)));
+            for (size_t n = 0; n < maps.size(); ++n) {
+              for (int i = 0; i < 3; ++i) {
+                const auto k = static_cast<py::ssize_t>(n);
+                maps[n].row[i] = Vec3d(t(k, i, 0), t(k, i, 1), t(k, i, 2)), maps[n].offset[i] = t(k, i, 3);
+              }
+            }
+            return s.addMeshInstances(vertices.data(), static_cast<size_t>(vertices.shape(0)), faces.data(),
+                                      static_cast<size_t>(faces.shape(0)), material, maps.data(), maps.size(),
+                                      cornerColorArray(colors, vertices.shape(0), faces.shape(0)));
+          },
+          py::arg("vertices"), py::arg("faces"), py::arg("material"), py::arg("transforms"),
+          py::arg("colors") = py::none())
+      .def(
           "add_boxes",
           [](Scene& s, const DoubleArray& lo, const DoubleArray& hi, const IdArray& materials,
              const std::optional<DoubleArray>& transform, const std::optional<DoubleArray>& colors) {
@@ -465,6 +486,7 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("sphere_count", [](const Scene& s) { return s.group().counts().spheres; })
       .def_property_readonly("plane_count", [](const Scene& s) { return s.group().counts().planes; })
       .def_property_readonly("triangle_count", [](const Scene& s) { return s.group().counts().triangles; })
+      .def_property_readonly("stored_triangle_count", [](const Scene& s) { return s.group().counts().storedTriangles; })
       .def_property_readonly("box_count", [](const Scene& s) { return s.group().counts().boxes; })
       .def_property_readonly("transform_count", [](const Scene& s) { return s.group().counts().instances; })
       .def_property_readonly("material_count", [](const Scene& s) { return s.materials().size(); })

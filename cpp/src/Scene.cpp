@@ -360,9 +360,8 @@ int32_t Scene::addTriangles(const double* vertices, const int32_t* materials, si
   return first;
 }
 
-int32_t Scene::addMesh(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount,
-                       int32_t material, const Affined* worldFromObject, const ColorArray& colors) {
-  requireTransform(worldFromObject);
+Scene::Reach Scene::requireMesh(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount,
+                                int32_t material, const ColorArray& colors) const {
   const auto field = [](size_t i) { return "vertices[" + std::to_string(i) + "]"; };
   for (size_t i = 0; i < vertexCount; ++i) {
     const Vec3d v = vec3At(vertices, i);
@@ -381,12 +380,11 @@ int32_t Scene::addMesh(const double* vertices, size_t vertexCount, const int64_t
   } else {
     requireColors(colors.values, vertexCount, colorField);
   }
-  requirePrimitiveRoom(faceCount);
-  const Reach placed =
-      requireReach(vertexCount ? maxAbs(vec3At(vertices, farthest)) : 0, field(farthest), worldFromObject);
-  const int32_t id = takeObjectIds(1);
-  const auto lock = changeGeometry();
-  TriangleSet<double>& triangles = groupFor(worldFromObject).triangles();
+  return requireReach(vertexCount ? maxAbs(vec3At(vertices, farthest)) : 0, field(farthest), nullptr);
+}
+
+void Scene::addMeshTo(TriangleSet<double>& triangles, const double* vertices, const int64_t* faces, size_t faceCount,
+                      int32_t material, int32_t id, const ColorArray& colors) {
   const bool given = colors.values && faceCount;
   prepareColors(triangles, given);
   triangles.reserve(triangles.size() + faceCount);
@@ -401,6 +399,41 @@ int32_t Scene::addMesh(const double* vertices, size_t vertexCount, const int64_t
     addTo(triangles, makeTriangle(vec3At(vertices, v0), vec3At(vertices, v1), vec3At(vertices, v2)), material, id,
           given, colorsOf);
   }
+}
+
+int32_t Scene::addMesh(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount,
+                       int32_t material, const Affined* worldFromObject, const ColorArray& colors) {
+  requireTransform(worldFromObject);
+  const Reach mesh = requireMesh(vertices, vertexCount, faces, faceCount, material, colors);
+  requirePrimitiveRoom(faceCount);
+  const Reach placed = requireReach(mesh.magnitude, mesh.field, worldFromObject);
+  const int32_t id = takeObjectIds(1);
+  const auto lock = changeGeometry();
+  addMeshTo(groupFor(worldFromObject).triangles(), vertices, faces, faceCount, material, id, colors);
+  noteReach(placed);
+  return id;
+}
+
+int32_t Scene::addMeshInstances(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount,
+                                int32_t material, const Affined* worldFromObject, size_t count,
+                                const ColorArray& colors) {
+  if (count == 0) fail("transforms must hold at least one matrix");
+  for (size_t i = 0; i < count; ++i) requireTransform(&worldFromObject[i], "transforms[" + std::to_string(i) + "]");
+  const Reach mesh = requireMesh(vertices, vertexCount, faces, faceCount, material, colors);
+  if (faceCount > 0 && count > static_cast<size_t>(std::numeric_limits<int32_t>::max()) / faceCount) {
+    fail("the scene cannot hold more than 2^31 - 1 primitives");
+  }
+  requirePrimitiveRoom(faceCount * count);  // each instance has its own range of packed indices
+  Reach placed = mesh;
+  placed.world = 0;
+  for (size_t i = 0; i < count; ++i) {
+    placed.world = std::fmax(placed.world, requireReach(mesh.magnitude, mesh.field, &worldFromObject[i]).world);
+  }
+  const int32_t id = takeObjectIds(1);
+  const auto lock = changeGeometry();
+  auto shared = std::make_shared<Group<double>>();
+  addMeshTo(shared->triangles(), vertices, faces, faceCount, material, id, colors);
+  for (size_t i = 0; i < count; ++i) m_group.addInstance(worldFromObject[i], inverse(worldFromObject[i]), shared);
   noteReach(placed);
   return id;
 }
@@ -452,15 +485,15 @@ void Scene::requirePrimitiveRoom(size_t count) const {
   }
 }
 
-void Scene::requireTransform(const Affined* m) {
+void Scene::requireTransform(const Affined* m, const std::string& field) {
   if (!m) return;
   for (int i = 0; i < 3; ++i) {
     const Vec3d row(m->row[i]);
     if (!(std::isfinite(row.x) && std::isfinite(row.y) && std::isfinite(row.z) && std::isfinite(m->offset[i]))) {
-      fail("transform must be finite");
+      fail(field + " must be finite");
     }
   }
-  if (!isInvertible(*m)) fail("transform must be invertible (it is singular, or its inverse overflows)");
+  if (!isInvertible(*m)) fail(field + " must be invertible (it is singular, or its inverse overflows)");
 }
 
 namespace {

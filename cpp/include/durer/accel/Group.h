@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <set>
 #include <vector>
 
 #include "durer/math/Affine.h"
@@ -27,7 +28,10 @@ template <typename Real>
 struct Instance {
   Affine<Real> worldFromObject;
   Affine<Real> objectFromWorld;
-  std::unique_ptr<Group<Real>> child;  // no instances of its own: nested transforms are composed
+  // No instances of its own (nested transforms are composed); shared by the instances of one mesh
+  // (Group::addInstance), whose primitives and hierarchy then exist once.
+  std::shared_ptr<Group<Real>> child;
+  bool shared = false;                 // an instance of a shared child: never the group of its map
   int32_t primBase = 0;                // packed index of the child's first primitive in the parent
   bool bounded = false;                // whether [lo, hi] holds everything (no infinite plane)
   Vec3<Real> lo{0}, hi{0};             // world-space bounds, widened for rounding
@@ -52,7 +56,8 @@ struct Instance {
 };
 
 struct PrimitiveCounts {
-  size_t spheres = 0, planes = 0, triangles = 0, boxes = 0, instances = 0;
+  size_t spheres = 0, planes = 0, triangles = 0, boxes = 0, instances = 0;  // as traced: per instance
+  size_t storedTriangles = 0;  // as stored: a shared child's once
 };
 
 // A group of objects, one contiguous set per primitive kind (no virtual call per primitive per ray),
@@ -89,9 +94,22 @@ class Group {
     Instance<Real> instance;
     instance.worldFromObject = worldFromObject;
     instance.objectFromWorld = objectFromWorld;
-    instance.child = std::make_unique<Group>();
+    instance.child = std::make_shared<Group>();
     m_instances.push_back(std::move(instance));
     return *m_instances.back().child;
+  }
+
+  // Another instance of `child`, seen through worldFromObject: its instances share its primitives
+  // and hierarchy (each still has its own range of packed indices). Never merged with the group
+  // transformed() makes for the same map.
+  void addInstance(const Affine<Real>& worldFromObject, const Affine<Real>& objectFromWorld,
+                   std::shared_ptr<Group<Real>> child) {
+    Instance<Real> instance;
+    instance.worldFromObject = worldFromObject;
+    instance.objectFromWorld = objectFromWorld;
+    instance.child = std::move(child);
+    instance.shared = true;
+    m_instances.push_back(std::move(instance));
   }
 
   size_t ownPrimitiveCount() const {
@@ -103,10 +121,13 @@ class Group {
     return n;
   }
   PrimitiveCounts counts() const {
-    PrimitiveCounts c{m_spheres.size(), m_planes.size(), m_triangles.size(), m_boxes.size(), m_instances.size()};
+    PrimitiveCounts c{m_spheres.size(), m_planes.size(), m_triangles.size(), m_boxes.size(), m_instances.size(),
+                      m_triangles.size()};
+    std::set<const Group*> stored;
     for (const Instance<Real>& inst : m_instances) {
       const PrimitiveCounts d = inst.child->counts();
       c.spheres += d.spheres, c.planes += d.planes, c.triangles += d.triangles, c.boxes += d.boxes;
+      if (stored.insert(inst.child.get()).second) c.storedTriangles += d.storedTriangles;
     }
     return c;
   }
@@ -120,8 +141,9 @@ class Group {
     if (m_triangles.size() >= kBvhMinPrimitives) m_triangles.buildBvh(threads);
     if (m_boxes.size() >= kBvhMinPrimitives) m_boxes.buildBvh(threads);
     size_t base = ownPrimitiveCount();
+    std::set<const Group*> prepared;  // a shared child once
     for (Instance<Real>& inst : m_instances) {
-      inst.child->prepare(threads);
+      if (prepared.insert(inst.child.get()).second) inst.child->prepare(threads);
       inst.primBase = static_cast<int32_t>(base);
       base += inst.child->primitiveCount();
       inst.bounded = inst.child->worldBounds(inst.worldFromObject, inst.lo, inst.hi);
@@ -136,9 +158,10 @@ class Group {
   template <typename Other>
   int refitFrom(const Group<Other>& source, int threads) {
     int rebuilt = m_spheres.refitFrom(source.spheres(), threads) ? 1 : 0;
+    std::set<const Group*> refitted;  // a shared child once
     for (size_t i = 0; i < m_instances.size(); ++i) {
       Instance<Real>& inst = m_instances[i];
-      rebuilt += inst.child->refitFrom(*source.instances()[i].child, threads);
+      if (refitted.insert(inst.child.get()).second) rebuilt += inst.child->refitFrom(*source.instances()[i].child, threads);
       inst.bounded = inst.child->worldBounds(inst.worldFromObject, inst.lo, inst.hi);
     }
     buildInstanceBvh(threads);
@@ -207,12 +230,16 @@ class Group {
     m_planes = PlaneSet<Real>(other.planes());
     m_triangles = TriangleSet<Real>(other.triangles());
     m_boxes = BoxSet<Real>(other.boxes());
+    std::map<const Group<Other>*, std::shared_ptr<Group>> converted;  // shared children stay shared
     for (const Instance<Other>& source : other.instances()) {
       Instance<Real> inst;
       inst.worldFromObject = Affine<Real>::from(source.worldFromObject);
       inst.objectFromWorld = Affine<Real>::from(source.objectFromWorld);
-      inst.child = std::make_unique<Group>(*source.child);
-      m_instanceOf.emplace(keyOf(inst.worldFromObject), m_instances.size());
+      std::shared_ptr<Group>& child = converted[source.child.get()];
+      if (!child) child = std::make_shared<Group>(*source.child);
+      inst.child = child;
+      inst.shared = source.shared;
+      if (!inst.shared) m_instanceOf.emplace(keyOf(inst.worldFromObject), m_instances.size());
       m_instances.push_back(std::move(inst));
     }
   }

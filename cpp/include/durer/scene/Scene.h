@@ -62,6 +62,12 @@ class Scene {
   // One object: faceCount triangles indexing vertexCount x 3 doubles by 0-based faces (faceCount x 3).
   int32_t addMesh(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount, int32_t material,
                   const Affined* worldFromObject = nullptr, const ColorArray& colors = {});
+  // The mesh of addMesh seen through each of `count` transforms (worldFromObject: count maps, each
+  // invertible): one object whose triangles and hierarchy are stored once and shared by its
+  // instances (Group::addInstance), however many there are.
+  int32_t addMeshInstances(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount,
+                           int32_t material, const Affined* worldFromObject, size_t count,
+                           const ColorArray& colors = {});
   // lo, hi: count x 3 doubles, lo < hi in each axis; one object per box.
   int32_t addBoxes(const double* lo, const double* hi, const int32_t* materials, size_t count, bool perBox,
                    const Affined* worldFromObject = nullptr, const ColorArray& colors = {});
@@ -121,7 +127,7 @@ class Scene {
   int32_t takeObjectIds(size_t count);
   // The group objects seen through worldFromObject go into (validated first); the world if null or identity.
   Group<double>& groupFor(const Affined* worldFromObject);
-  static void requireTransform(const Affined* worldFromObject);
+  static void requireTransform(const Affined* worldFromObject, const std::string& field = "transform");
   // An add's largest |coordinate| (object space) and the field it came from: checked against the
   // widest limits, in world space too under worldFromObject, before the add changes anything;
   // recorded by noteReach once it has.
@@ -132,6 +138,12 @@ class Scene {
   };
   static Reach requireReach(double magnitude, std::string field, const Affined* worldFromObject);
   void noteReach(const Reach& reach);
+  // addMesh's checks of its arguments but the transform; returns the reach of its vertices (object space).
+  Reach requireMesh(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount,
+                    int32_t material, const ColorArray& colors) const;
+  // The mesh's triangles, object `id`, into `triangles` (the checks passed).
+  void addMeshTo(TriangleSet<double>& triangles, const double* vertices, const int64_t* faces, size_t faceCount,
+                 int32_t material, int32_t id, const ColorArray& colors);
 
   // Drops the prepared geometry and holds the lock while the caller changes m_group.
   std::unique_lock<std::mutex> changeGeometry();
