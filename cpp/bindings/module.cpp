@@ -128,6 +128,18 @@ struct OptionalAffine {
   const Affined* get() const { return present ? &value : nullptr; }
 };
 
+// (N, 3, 4) world-from-object matrices (the package checks shapes) as Affines.
+std::vector<Affined> affines(const DoubleArray& matrices, const char* field) {
+  requireShape(matrices, field, {kAny, 3, 4});
+  const auto t = matrices.unchecked<3>();
+  std::vector<Affined> maps(static_cast<size_t>(matrices.shape(0)));
+  for (py::ssize_t n = 0; n < matrices.shape(0); ++n) {
+    Affined& m = maps[static_cast<size_t>(n)];
+    for (int i = 0; i < 3; ++i) m.row[i] = Vec3d(t(n, i, 0), t(n, i, 1), t(n, i, 2)), m.offset[i] = t(n, i, 3);
+  }
+  return maps;
+}
+
 // Whether `materials` holds one id for all n primitives (false) or one each (true).
 bool perPrimitive(const IdArray& materials, size_t n) {
   if (materials.ndim() == 1 && materials.shape(0) == 1) return false;
@@ -424,15 +436,7 @@ PYBIND11_MODULE(_core, m) {
              const DoubleArray& transforms, const std::optional<DoubleArray>& colors) {
             requireShape(vertices, "vertices", {kAny, 3});
             requireShape(faces, "faces", {kAny, 3});
-            requireShape(transforms, "transforms", {kAny, 3, 4});
-            const auto t = transforms.unchecked<3>();
-            std::vector<Affined> maps(static_cast<size_t>(transforms.shape(0)));
-            for (size_t n = 0; n < maps.size(); ++n) {
-              for (int i = 0; i < 3; ++i) {
-                const auto k = static_cast<py::ssize_t>(n);
-                maps[n].row[i] = Vec3d(t(k, i, 0), t(k, i, 1), t(k, i, 2)), maps[n].offset[i] = t(k, i, 3);
-              }
-            }
+            const std::vector<Affined> maps = affines(transforms, "transforms");
             return s.addMeshInstances(vertices.data(), static_cast<size_t>(vertices.shape(0)), faces.data(),
                                       static_cast<size_t>(faces.shape(0)), material, maps.data(), maps.size(),
                                       cornerColorArray(colors, vertices.shape(0), faces.shape(0)));
@@ -505,6 +509,15 @@ PYBIND11_MODULE(_core, m) {
         py::arg("precision"));
   m.def("default_thread_count", &defaultThreadCount);
   m.def("is_invertible", [](const DoubleArray& m) { return isInvertible(OptionalAffine(m).value); }, py::arg("matrix"));
+  m.def(
+      "are_invertible",
+      [](const DoubleArray& matrices) {
+        const std::vector<Affined> maps = affines(matrices, "matrices");
+        py::array_t<bool> out(static_cast<py::ssize_t>(maps.size()));
+        for (size_t i = 0; i < maps.size(); ++i) out.mutable_data()[i] = isInvertible(maps[i]);
+        return out;
+      },
+      py::arg("matrices"));
 
   m.attr("KERNEL_SET") = kernels().isa;  // the instruction set of the hot kernels this CPU runs
   m.attr("PRECISIONS") = names(kPrecisionNames);

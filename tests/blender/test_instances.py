@@ -10,7 +10,7 @@ from helpers.blender import cube, export, link, uv_sphere
 
 bpy = pytest.importorskip("bpy")
 
-from durer.blender import point_cloud
+from durer.blender import build, point_cloud
 
 pytestmark = pytest.mark.blender
 
@@ -48,7 +48,8 @@ def test_instance_on_points_of_a_uv_sphere_gives_one_sphere_per_instance(scene):
 
 def test_collection_instances_with_a_squashed_one_and_instanced_cubes(scene):
     """Empties instancing a collection of one sphere: uniform ones give spheres, a squashed one an
-    exact ellipsoid; a cube instanced on points is a mesh per instance, as before."""
+    exact ellipsoid; a cube instanced on points is one mesh with a matrix per instance, stored once
+    in the core scene."""
     collection = bpy.data.collections.new("Ball collection")
     ball = uv_sphere(scene, "Ball", radius=0.5)
     scene.collection.objects.unlink(ball)
@@ -66,7 +67,14 @@ def test_collection_instances_with_a_squashed_one_and_instanced_cubes(scene):
     points = point_cloud.vertex_object(scene.collection, "Points", np.random.default_rng(1).uniform(-3, 3, (20, 3)))
     point_cloud.instance_on_points(points, box)
     data = export(scene)
-    assert data.sphere_count == 2 and len(data.meshes) == 20 and data.triangle_count == 20 * 12
+    assert data.sphere_count == 2 and len(data.meshes) == 1 and data.triangle_count == 20 * 12
+    (mesh,) = data.meshes
+    assert mesh.instances.shape == (20, 4, 4) and np.array_equal(mesh.instances[0], mesh.matrix)
+    centres = np.sort(mesh.instances[:, :3, 3], axis=0)
+    expected = np.array([np.array(points.matrix_world) @ (*v.co, 1) for v in points.data.vertices])[:, :3]
+    np.testing.assert_allclose(centres, np.sort(expected, axis=0), atol=1e-5)
+    core = build.make_scene(data)
+    assert core.triangle_count == 20 * 12 and core.stored_triangle_count == 12
 
 
 def test_an_instancer_inside_instanced_collections_gives_each_copy_its_spheres(scene):

@@ -112,3 +112,14 @@ def test_far_instances_are_checked_against_the_precision():
     durer.render(scene, CAMERA, 8, 8, precision="double")
     with pytest.raises(ValueError, match="precision='float'"):
         durer.render(scene, CAMERA, 8, 8, precision="float")
+
+
+def test_are_invertible_is_is_invertible_for_each_matrix():
+    rng = np.random.default_rng(8)
+    matrices = rng.normal(size=(200, 3, 4))
+    matrices[::7, 2] = matrices[::7, 0]            # singular: two equal rows
+    matrices[::11, :, :3] *= 1e-200                 # an inverse that overflows
+    matrices[5, 1, 1] = np.nan
+    expected = [durer._core.is_invertible(np.ascontiguousarray(m)) for m in matrices]
+    assert sum(expected) < 170 and any(expected)
+    np.testing.assert_array_equal(durer._core.are_invertible(matrices), expected)

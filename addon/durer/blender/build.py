@@ -59,8 +59,12 @@ def make_scene(data: SceneData) -> durer.Scene:
     for p in data.planes:
         scene.add_plane(p.normal, p.offset, material=int(table[p.material]), bounds=p.bounds)
     for mesh in data.meshes:
-        scene.add_mesh(mesh.vertices, mesh.faces, material=int(table[mesh.material]), transform=mesh.transform,
-                       colors=mesh.colors)
+        if mesh.instances is not None:
+            scene.add_mesh_instances(mesh.vertices, mesh.faces, mesh.instances, material=int(table[mesh.material]),
+                                     colors=mesh.colors)
+        else:
+            scene.add_mesh(mesh.vertices, mesh.faces, material=int(table[mesh.material]), transform=mesh.transform,
+                           colors=mesh.colors)
     for light in data.lights:
         attenuation = light.attenuation
         if light.kind == "sun":

@@ -32,6 +32,9 @@ class Builder:
         self.color_sources: dict[int, ColorSource | None] = {}  # by Blender material pointer
         self.fallbacks: set[str] = set()  # materials whose attribute colours were not used, noted once
         self.mesh_colors: dict[tuple, tuple] = {}  # (part, its colours) by (mesh, part, material)
+        # A mesh part of one object and material met again under another matrix (an instance) goes
+        # into the MeshData first made of it: the core stores it once for all its matrices.
+        self.instanced: dict[tuple, tuple[MeshData, list[np.ndarray]]] = {}
 
     # materials
     def material(self, mat, obj) -> int:
@@ -178,13 +181,32 @@ class Builder:
         flat = not is_invertible(m)
         for part in parts:
             mat = mats[min(part.slot, len(mats) - 1)] if mats else None
-            vertices, matrix = part.vertices, m
-            if flat:  # the core needs an invertible transform: a mesh scaled flat goes in world space
-                vertices, matrix = transform_points(m, vertices.astype(np.float64)), IDENTITY
+            material = self.material(mat, obj)
             colors = self.part_colors(me, part, mat)
-            self.data.meshes.append(MeshData(obj.name, owner, vertices, part.faces, self.material(mat, obj), matrix,
-                                             colors))
             self.data.sources[obj.name] += 1
+            if flat:  # the core needs an invertible transform: a mesh scaled flat goes in world space
+                vertices = transform_points(m, part.vertices.astype(np.float64))
+                self.data.meshes.append(MeshData(obj.name, owner, vertices, part.faces, material, IDENTITY, colors))
+                continue
+            key = (id(part), owner, material, id(colors))
+            if key in self.instanced:
+                self.instanced[key][1].append(m)
+                continue
+            mesh = MeshData(obj.name, owner, part.vertices, part.faces, material, m, colors)
+            self.data.meshes.append(mesh)
+            self.instanced[key] = (mesh, [m])
+
+    def mesh_instances(self, obj, owner: int, parts: list[TrianglePart], me, mats: list,
+                       matrices: np.ndarray) -> None:
+        """Mesh `me`'s triangles (its `parts`, slot materials `mats`) under each of `matrices` ((K, 4, 4)
+        world-from-object, invertible), owned by `owner`: one MeshData per part, stored once for all
+        K instances (Scene.add_mesh_instances)."""
+        for part in parts:
+            mat = mats[min(part.slot, len(mats) - 1)] if mats else None
+            mesh = MeshData(obj.name, owner, part.vertices, part.faces, self.material(mat, obj), matrices[0],
+                            self.part_colors(me, part, mat), matrices if len(matrices) > 1 else None)
+            self.data.meshes.append(mesh)
+            self.data.sources[obj.name] += len(matrices)
 
     def plane(self, owner: int, m: np.ndarray, shape: MeshShape, material: int, infinite: bool) -> None:
         corner = transform_points(m, shape.corner.reshape(1, 3))[0]
@@ -204,6 +226,9 @@ class Builder:
 
     def finish(self) -> SceneData:
         d = self.data
+        for mesh, matrices in self.instanced.values():
+            if len(matrices) > 1:
+                mesh.instances = np.array(matrices, np.float64)
         if self.centers:  # at most one copy into float64, however many objects contributed
             d.sphere_centers = _join(self.centers, np.float64)
             d.sphere_radii = _join(self.radii, np.float64)

@@ -90,6 +90,9 @@ class MeshData:
     material: int  # index into SceneData.materials
     matrix: np.ndarray  # (4, 4) world-from-object
     colors: np.ndarray | None = None  # kd from attributes: (V, 3) per vertex or (F, 3, 3) per corner, or None
+    #: (K, 4, 4) world-from-object matrices, `matrix` first, when the part is instanced K >= 2 times
+    #: (Scene.add_mesh_instances: stored once); None for one.
+    instances: np.ndarray | None = None
 
     @property
     def transform(self) -> np.ndarray | None:
@@ -194,7 +197,8 @@ class SceneData:
 
     @property
     def triangle_count(self) -> int:
-        return sum(len(m.faces) for m in self.meshes)
+        """Triangles as rendered: an instanced part's once per instance."""
+        return sum(len(m.faces) * (1 if m.instances is None else len(m.instances)) for m in self.meshes)
 
     @property
     def warnings(self) -> list[str]:

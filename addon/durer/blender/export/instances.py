@@ -13,7 +13,7 @@ import numpy as np
 
 from .builder import Builder
 from .materials import object_materials
-from .matrices import uniform_scales
+from .matrices import are_invertible, uniform_scales
 from .shapes import MeshShape, mesh_shape
 
 
@@ -36,10 +36,11 @@ class InstanceBatches:
 
     def take_instancer(self, obj, mode: str) -> None:
         """At object `obj` itself (the walk meets it before its instances): if every instance its
-        geometry nodes make is a sphere-shaped mesh, its spheres now, from Blender's own arrays of
-        instance transforms (one foreach_get, not a matrix per instance), and `obj` remembered so
-        that the walk skips those instances. Anything else (collections, objects or non-sphere meshes
-        among the references) is left to the walk."""
+        geometry nodes make is a mesh, its instances now, from Blender's own arrays of instance
+        transforms (one foreach_get, not a matrix per instance), and `obj` remembered so that the
+        walk skips those instances: spheres for sphere-shaped meshes, other meshes stored once with
+        every instance's matrix. Anything else (collections, objects, point clouds, curves, meshes
+        detected as planes, instances scaled flat) is left to the walk."""
         original = obj.original or obj
         if not any(modifier.type == "NODES" for modifier in getattr(original, "modifiers", ())):
             return
@@ -50,15 +51,16 @@ class InstanceBatches:
         cloud = geometry.instances_pointcloud()
         if cloud is None or len(cloud.points) == 0:
             return
-        kinds, mats = [], []
+        kinds, mats, meshes = [], [], []
         for reference in geometry.instance_references():
             mesh = reference.mesh if isinstance(reference, bpy.types.GeometrySet) else None
             if mesh is None or reference.pointcloud is not None or reference.curves is not None or \
                     reference.instances_pointcloud() is not None:
                 return
             shape = self._shape(mesh, mode)
-            if shape.kind != "sphere":
+            if shape.kind not in ("sphere", "triangles"):
                 return
+            meshes.append(mesh)
             mats.append(mesh.materials[0] if len(mesh.materials) else None)
             kinds.append((shape, self.builder.material(mats[-1], obj)))
         n = len(cloud.points)
@@ -69,13 +71,24 @@ class InstanceBatches:
             cloud.attributes[".reference_index"].data.foreach_get("value", index)
         # Blender's matrices are stored by column; the instancer's world matrix goes first.
         world = np.array(obj.matrix_world, np.float64) @ values.reshape(n, 4, 4).transpose(0, 2, 1)
+        meshed = [i for i, (shape, _) in enumerate(kinds) if shape.kind == "triangles"]
+        if meshed and not are_invertible(world[np.isin(index, meshed)]).all():
+            return  # a mesh instance scaled flat: the walk puts it in world space
         # Instance attributes (an Attribute node of type Instancer) colour each instance's sphere.
         materials = np.array([material for _, material in kinds], np.int32)[index]
-        colors = self.builder.attribute_colors(cloud, mats, index if len(kinds) > 1 else None, materials, n,
+        sphere_mats = [mat if shape.kind == "sphere" else None for mat, (shape, _) in zip(mats, kinds)]
+        colors = self.builder.attribute_colors(cloud, sphere_mats, index if len(kinds) > 1 else None, materials, n,
                                                {"POINT": n}, where="INSTANCER")
+        owner = self.builder.owner(obj)
         for i, (shape, material) in enumerate(kinds):
             chosen = index == i
-            self._add_spheres(self.builder.owner(obj), world[chosen][:, :3, :], shape, material,
+            if not chosen.any():
+                continue
+            if shape.kind == "triangles":  # coloured by the mesh's own attributes, if at all
+                self.builder.mesh_instances(obj, owner, shape.parts, meshes[i], list(meshes[i].materials),
+                                            world[chosen])
+                continue
+            self._add_spheres(owner, world[chosen][:, :3, :], shape, material,
                               None if colors is None else colors[chosen])
         self.instancers.add(obj.as_pointer())
 

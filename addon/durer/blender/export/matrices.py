@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ... import _checks
+from ... import _checks, _core
 
 #: Relative spread of an object's axis scales above which its scale counts as non-uniform.
 SCALE_TOLERANCE = 1e-4
@@ -41,6 +41,11 @@ def is_invertible(m: np.ndarray) -> bool:
     except ValueError:
         return False
     return True
+
+
+def are_invertible(matrices: np.ndarray) -> np.ndarray:
+    """is_invertible of each of (N, 4, 4) matrices at once: the core's rule, one call."""
+    return _core.are_invertible(np.ascontiguousarray(matrices[:, :3, :], dtype=np.float64))
 
 
 def transform_points(m: np.ndarray, p: np.ndarray) -> np.ndarray:
