@@ -102,3 +102,25 @@ def test_an_instancer_inside_instanced_collections_gives_each_copy_its_spheres(s
     assert data.sphere_count == 150
     red = [i for i, m in enumerate(data.materials) if np.allclose(m.diffuse, (0.9, 0.1, 0.1), atol=1e-6)]
     assert len(red) == 1 and (data.sphere_materials == red[0]).all()
+
+
+def test_point_cloud_instances_are_read_in_bulk(scene):
+    """Instance on Points of a point cloud (Mesh to Points): every instance's points become spheres
+    at once from the instancer's transform arrays, where the instance puts them, scaled with it."""
+    cloud = point_cloud.vertex_object(scene.collection, "Cloud", np.array([[0, 0, 0], [0.3, 0, 0], [0, 0.3, 0]], float))
+    point_cloud.mesh_to_points(cloud, 0.05)
+    cloud.hide_render = cloud.hide_viewport = True
+    where = np.random.default_rng(4).uniform(-5, 5, (40, 3))
+    points = point_cloud.vertex_object(scene.collection, "Points", where)
+    point_cloud.instance_on_points(points, cloud, rotate=False, scale=(0.5, 2.0))
+    data = export(scene)
+    assert data.sphere_count == 120 and data.ellipsoid_count == 0 and not data.meshes
+    # Each instance: a uniform scale s about its point; its three spheres at p, p + 0.3 s x, p + 0.3 s y.
+    radii = data.sphere_radii.reshape(40, 3)
+    scales = radii[:, 0] / 0.05
+    assert np.all((scales >= 0.5 - 1e-6) & (scales <= 2.0 + 1e-6)) and np.ptp(scales) > 0.5
+    np.testing.assert_allclose(radii, 0.05 * scales[:, None] * np.ones(3), rtol=1e-6)
+    centres = data.sphere_centers.reshape(40, 3, 3)
+    np.testing.assert_allclose(centres[:, 0], where, atol=1e-5)
+    np.testing.assert_allclose(centres[:, 1] - centres[:, 0], 0.3 * scales[:, None] * [1, 0, 0], atol=1e-5)
+    np.testing.assert_allclose(centres[:, 2] - centres[:, 0], 0.3 * scales[:, None] * [0, 1, 0], atol=1e-5)

@@ -12,7 +12,7 @@ from .lights import light_data
 from .materials import object_materials
 from .matrices import uniform_scale, world_matrix
 from .nodes import rgb
-from .shapes import MeshShape, mesh_shape, metaball_iso_radius
+from .shapes import MeshShape, cloud_points, mesh_shape, metaball_iso_radius
 from .world import ambient_occlusion, world_colors
 
 # Object types whose evaluated mesh also appears among the depsgraph's instances.
@@ -35,15 +35,7 @@ def _pointcloud(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> No
     if n == 0:
         return
     attrs = pc.attributes
-    pos = np.empty(n * 3, np.float32)
-    attrs["position"].data.foreach_get("vector", pos)
-    pos = pos.reshape(n, 3)
-    radius_attr = attrs.get("radius")
-    if radius_attr is not None:
-        radii = np.empty(n, np.float32)
-        radius_attr.data.foreach_get("value", radii)
-    else:
-        radii = np.full(n, 0.01, np.float32)  # Blender's default point radius
+    pos, radii = cloud_points(pc)
     mats = object_materials(obj)
     index_attr = attrs.get("material_index")
     slots = None

@@ -14,7 +14,16 @@ import numpy as np
 from .builder import Builder
 from .materials import object_materials
 from .matrices import are_invertible, uniform_scales
-from .shapes import MeshShape, mesh_shape
+from .shapes import MeshShape, cloud_points, mesh_shape
+
+
+@dataclass
+class _Cloud:
+    """A point cloud that geometry-nodes instances reference: its points (object space)."""
+
+    positions: np.ndarray  # (N, 3)
+    radii: np.ndarray  # (N,), > 0
+    kind: str = "points"
 
 
 @dataclass
@@ -38,9 +47,9 @@ class InstanceBatches:
         """At object `obj` itself (the walk meets it before its instances): if every instance its
         geometry nodes make is a mesh, its instances now, from Blender's own arrays of instance
         transforms (one foreach_get, not a matrix per instance), and `obj` remembered so that the
-        walk skips those instances: spheres for sphere-shaped meshes, other meshes stored once with
-        every instance's matrix. Anything else (collections, objects, point clouds, curves, meshes
-        detected as planes, instances scaled flat) is left to the walk."""
+        walk skips those instances: spheres for sphere-shaped meshes and for point clouds' points,
+        other meshes stored once with every instance's matrix. Anything else (collections, objects,
+        curves, meshes detected as planes, mesh instances scaled flat) is left to the walk."""
         original = obj.original or obj
         if not any(modifier.type == "NODES" for modifier in getattr(original, "modifiers", ())):
             return
@@ -53,15 +62,22 @@ class InstanceBatches:
             return
         kinds, mats, meshes = [], [], []
         for reference in geometry.instance_references():
-            mesh = reference.mesh if isinstance(reference, bpy.types.GeometrySet) else None
-            if mesh is None or reference.pointcloud is not None or reference.curves is not None or \
+            if not isinstance(reference, bpy.types.GeometrySet) or reference.curves is not None or \
                     reference.instances_pointcloud() is not None:
                 return
-            shape = self._shape(mesh, mode)
-            if shape.kind not in ("sphere", "triangles"):
+            mesh, points = reference.mesh, reference.pointcloud
+            if points is not None:
+                if mesh is not None and len(mesh.polygons):  # faces beside the points: left to the walk
+                    return
+                shape, data = self._cloud(points), points
+            elif mesh is not None:
+                shape, data = self._shape(mesh, mode), mesh
+                if shape.kind not in ("sphere", "triangles"):
+                    return
+            else:
                 return
-            meshes.append(mesh)
-            mats.append(mesh.materials[0] if len(mesh.materials) else None)
+            meshes.append(data)
+            mats.append(data.materials[0] if len(data.materials) else None)
             kinds.append((shape, self.builder.material(mats[-1], obj)))
         n = len(cloud.points)
         values = np.empty(n * 16, np.float32)
@@ -87,6 +103,10 @@ class InstanceBatches:
             if shape.kind == "triangles":  # coloured by the mesh's own attributes, if at all
                 self.builder.mesh_instances(obj, owner, shape.parts, meshes[i], list(meshes[i].materials),
                                             world[chosen])
+                continue
+            if shape.kind == "points":
+                self.builder.uncolored(mats[i], f"the instances of point cloud '{meshes[i].name}' take one colour")
+                self._add_cloud(owner, world[chosen][:, :3, :], shape, material)
                 continue
             self._add_spheres(owner, world[chosen][:, :3, :], shape, material,
                               None if colors is None else colors[chosen])
@@ -115,6 +135,23 @@ class InstanceBatches:
         mats = object_materials(obj)
         self.builder.uncolored(mats[0] if mats else None, f"the instances of '{obj.name}' are spheres of one colour each")
         return _Batch(self.builder.owner(obj), shape, self.builder.object_material(obj))
+
+    @staticmethod
+    def _cloud(pc) -> _Cloud:
+        positions, radii = cloud_points(pc)
+        keep = radii > 0
+        return _Cloud(positions[keep].astype(np.float64), radii[keep].astype(np.float64))
+
+    def _add_cloud(self, owner: int, rows: np.ndarray, cloud: _Cloud, material: int) -> None:
+        """Cloud's spheres under each matrix (rows: (K, 3, 4)): world-space spheres where a matrix is
+        a uniform scale times a rotation (all K x N at once), ellipsoids where it is not."""
+        linear, offset = rows[:, :, :3], rows[:, :, 3]
+        scale, uniform = uniform_scales(linear)
+        centers = np.einsum("kij,pj->kpi", linear[uniform], cloud.positions) + offset[uniform][:, None, :]
+        self.builder.spheres(owner, centers.reshape(-1, 3), (scale[uniform][:, None] * cloud.radii).ravel(), material)
+        for i in np.flatnonzero(~uniform & (scale > 0)):  # sheared or squashed: exact ellipsoids
+            m = np.vstack([rows[i], [0.0, 0.0, 0.0, 1.0]])
+            self.builder.transformed_spheres(owner, m, cloud.positions, cloud.radii, material)
 
     def _shape(self, me, mode: str) -> MeshShape:
         key = (me.as_pointer(), len(me.vertices), len(me.polygons), mode, None)

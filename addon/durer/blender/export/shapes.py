@@ -38,6 +38,20 @@ class MeshShape:
     parts: list[TrianglePart] = field(default_factory=list)  # triangles: one part per material slot
 
 
+def cloud_points(pc) -> tuple[np.ndarray, np.ndarray]:
+    """A point cloud's (N, 3) float32 positions and (N,) radii (Blender's default 0.01 without a
+    `radius` attribute), in object space, each read in one foreach_get."""
+    n = len(pc.points)
+    positions = np.empty(n * 3, np.float32)
+    pc.attributes["position"].data.foreach_get("vector", positions)
+    radius = pc.attributes.get("radius")
+    if radius is None:
+        return positions.reshape(n, 3), np.full(n, 0.01, np.float32)
+    radii = np.empty(n, np.float32)
+    radius.data.foreach_get("value", radii)
+    return positions.reshape(n, 3), radii
+
+
 def _mesh_arrays(me) -> tuple[np.ndarray, int]:
     n = len(me.vertices)
     co = foreach_array(me.vertices, "co", n, 3).astype(np.float64)
