@@ -64,16 +64,22 @@ struct NodeLanes<double> {
   typedef double Type __attribute__((vector_size(32)));
 };
 
+// f(chunk, begin, end) over [0, count) in `chunks` chunks, chunk 0 on this thread.
+template <typename F>
+void forChunks(size_t count, size_t chunks, const F& f) {
+  std::vector<std::thread> workers;
+  for (size_t c = 1; c < chunks; ++c) workers.emplace_back(f, c, count * c / chunks, count * (c + 1) / chunks);
+  f(size_t(0), size_t(0), count / chunks);
+  for (std::thread& w : workers) w.join();
+}
+
 // f(begin, end) over [0, count) in one chunk per thread (on this thread alone below kMin items,
 // where starting threads costs more than it saves).
 template <typename F>
 void parallelChunks(size_t count, int threads, const F& f) {
   constexpr size_t kMin = size_t(1) << 16;
   const size_t chunks = count < kMin ? 1 : std::min<size_t>(static_cast<size_t>(std::max(threads, 1)), count / kMin);
-  std::vector<std::thread> workers;
-  for (size_t c = 1; c < chunks; ++c) workers.emplace_back(f, count * c / chunks, count * (c + 1) / chunks);
-  f(size_t(0), count / chunks);
-  for (std::thread& w : workers) w.join();
+  forChunks(count, chunks, [&](size_t, size_t begin, size_t end) { f(begin, end); });
 }
 
 template <typename Real>
@@ -426,9 +432,16 @@ struct Bvh<Real>::Builder {
   static constexpr F kInf = std::numeric_limits<Real>::infinity();
   std::vector<Ref> refs;
   std::vector<Subtree> trees;  // tree 0: the top levels
+  int threads;
+  // Ranges above this many refs are split one at a time, each pass over them on all threads; those
+  // below are subtrees, one per thread at a time.
+  uint32_t grain;
 
   template <typename BoxOf>
-  Builder(size_t count, const BoxOf& boxOf, int threads) : refs(count) {
+  Builder(size_t count, const BoxOf& boxOf, int threads_)
+      : refs(count),
+        threads(std::max(threads_, 1)),
+        grain(std::max<uint32_t>(kParallelMin, static_cast<uint32_t>(count / (4 * static_cast<size_t>(threads))))) {
     parallelChunks(count, threads, [&](size_t begin, size_t end) {
       for (size_t i = begin; i < end; ++i) {
         Vec3<Real> lo, hi;
@@ -453,29 +466,32 @@ struct Bvh<Real>::Builder {
   // A child reference: >= 0 a node of the same tree; < 0 the root of tree -(ref + 1).
   static int32_t treeRef(size_t tree) { return -static_cast<int32_t>(tree) - 1; }
 
-  void run(int threads) {
+  void run() {
     trees.resize(1);
     struct Task {
       size_t tree;
       Range range;
     };
     std::vector<Task> tasks;
-    // The top levels split serially until there is a subtree per thread and then some (for balance).
+    // The top levels split one range at a time until there is a subtree per thread and then some
+    // (for balance). Node vectors are reserved for a node per ref, more than a tree of leaves of
+    // kMaxLeafSize needs: growing them cost a quarter of the build in page faults.
     const uint32_t n = static_cast<uint32_t>(refs.size());
-    const uint32_t grain = std::max<uint32_t>(kParallelMin, n / (4 * std::max(threads, 1)));
     trees.reserve(n / kParallelMin + 2);  // a task per disjoint range of >= kParallelMin: no reallocation
+    trees[0].nodes.reserve(threads <= 1 ? n : n / grain * 4 + kParallelMin);
     const auto spawn = [&](const Range& r) {
       if (threads <= 1 || r.count() < kParallelMin || r.count() > grain) return false;
       trees.emplace_back();
       tasks.push_back({trees.size() - 1, r});
       return true;
     };
-    buildNode(trees[0].nodes, measured(0, n), 0, spawn);
+    buildNode(trees[0].nodes, measured(0, n, threads), 0, spawn);
     std::vector<std::thread> workers;
     std::atomic<size_t> next{0};
     const auto work = [&] {
       for (size_t t; (t = next.fetch_add(1)) < tasks.size();) {
         const auto never = [](const Range&) { return false; };
+        trees[tasks[t].tree].nodes.reserve(tasks[t].range.count());
         buildNode(trees[tasks[t].tree].nodes, tasks[t].range, 0, never);
       }
     };
@@ -495,12 +511,20 @@ struct Bvh<Real>::Builder {
     Box box, centroids;
     uint32_t count() const { return end - begin; }
     void grow(const Ref& r) { box.grow(r.box), centroids.grow(r.centroid(), r.centroid()); }
+    void grow(const Range& r) { box.grow(r.box), centroids.grow(r.centroids); }
   };
 
-  Range measured(uint32_t begin, uint32_t end) const {
+  // The threads a pass over range r takes: all of them in the top levels, else this one.
+  int threadsFor(const Range& r) const { return r.count() > grain ? threads : 1; }
+
+  Range measured(uint32_t begin, uint32_t end, int passThreads = 1) const {
+    std::vector<Range> parts(static_cast<size_t>(passThreads));
+    forChunks(end - begin, parts.size(), [&](size_t c, size_t b, size_t e) {
+      for (size_t i = begin + b; i < begin + e; ++i) parts[c].grow(refs[i]);
+    });
     Range r;
+    for (const Range& part : parts) r.grow(part);
     r.begin = begin, r.end = end;
-    for (uint32_t i = begin; i < end; ++i) r.grow(refs[i]);
     return r;
   }
 
@@ -551,8 +575,9 @@ struct Bvh<Real>::Builder {
     const int widest = extent[0] >= extent[1] && extent[0] >= extent[2] ? 0 : extent[1] >= extent[2] ? 1 : 2;
     const bool oneAxis = count >= kOneAxisMin;
     Bins perAxis[3];
+    const int passThreads = threadsFor(r);
     if (oneAxis) {
-      binOneAxis(begin, end, widest, centroids.lower(widest), scale[widest], bins, perAxis[widest]);
+      binOneAxis(begin, end, widest, centroids.lower(widest), scale[widest], bins, perAxis[widest], passThreads);
     } else {
       binThreeAxes(begin, end, centroids, scale, bins, perAxis);
     }
@@ -581,10 +606,61 @@ struct Bvh<Real>::Builder {
     if (bestAxis < 0) return false;
     if (count <= 2 * static_cast<uint32_t>(kMaxLeafSize) && bestCost / box.area() + 1 >= F(count)) return false;
     const F axisLo = centroids.lower(bestAxis), axisScale = scale[bestAxis];
-    partition(begin, end, [&](const Ref& ref) { return binOf(lane(ref.centroid(), bestAxis), axisLo, axisScale, bins) < bestBin; },
-              leftRange, rightRange);
+    const auto isLeft = [&](const Ref& ref) { return binOf(lane(ref.centroid(), bestAxis), axisLo, axisScale, bins) < bestBin; };
+    if (passThreads > 1) {
+      partitionParallel(begin, end, isLeft, leftRange, rightRange, passThreads);
+    } else {
+      partition(begin, end, isLeft, leftRange, rightRange);
+    }
     return true;
   }
+
+  // A run [first, second) of refs on the wrong side of a parallel partition's middle.
+  using Span = std::pair<uint32_t, uint32_t>;
+
+  // Each thread partitions a chunk of its own; then the refs on the wrong side of the middle (right
+  // ones of the first chunks, left ones of the last) are swapped pairwise, also on all threads.
+  template <typename Left>
+  void partitionParallel(uint32_t begin, uint32_t end, const Left& isLeft, Range& left, Range& right, int passThreads) {
+    const size_t chunks = static_cast<size_t>(passThreads);
+    std::vector<Range> lefts(chunks), rights(chunks);
+    forChunks(end - begin, chunks, [&](size_t c, size_t b, size_t e) {
+      partition(begin + static_cast<uint32_t>(b), begin + static_cast<uint32_t>(e), isLeft, lefts[c], rights[c]);
+    });
+    uint32_t middle = begin;
+    for (size_t c = 0; c < chunks; ++c) left.grow(lefts[c]), right.grow(rights[c]), middle += lefts[c].count();
+    std::vector<Span> strayRights, strayLefts;
+    uint32_t strays = 0;
+    for (size_t c = 0; c < chunks; ++c) {
+      if (rights[c].begin < middle) strayRights.emplace_back(rights[c].begin, std::min(rights[c].end, middle));
+      if (lefts[c].end > middle) {
+        strayLefts.emplace_back(std::max(lefts[c].begin, middle), lefts[c].end);
+        strays += strayLefts.back().second - strayLefts.back().first;
+      }
+    }
+    forChunks(strays, chunks, [&](size_t, size_t b, size_t e) {
+      if (b == e) return;
+      SpanCursor r(strayRights, static_cast<uint32_t>(b)), l(strayLefts, static_cast<uint32_t>(b));
+      for (size_t k = b; k < e; ++k) std::swap(refs[r.next()], refs[l.next()]);
+    });
+    left.begin = begin, left.end = middle, right.begin = middle, right.end = end;
+  }
+
+  // Walks the refs of a list of spans, from the k-th on.
+  struct SpanCursor {
+    const std::vector<Span>& spans;
+    size_t span = 0;
+    uint32_t at;
+    SpanCursor(const std::vector<Span>& s, uint32_t k) : spans(s) {
+      while (k >= spans[span].second - spans[span].first) k -= spans[span].second - spans[span].first, ++span;
+      at = spans[span].first + k;
+    }
+    uint32_t next() {
+      const uint32_t i = at++;
+      if (at == spans[span].second && span + 1 < spans.size()) at = spans[++span].first;
+      return i;
+    }
+  };
 
   // std::partition's swaps (so the same order), measuring each side's boxes on the way: the
   // children's boxes without another pass over their refs.
@@ -622,7 +698,16 @@ struct Bvh<Real>::Builder {
 
   // Large ranges: two sets of bins, for even and odd refs, so that neighbours (often in the same
   // bin) do not wait for each other's update of it.
-  void binOneAxis(uint32_t begin, uint32_t end, int axis, F lo, F scale, int bins, Bins& out) const {
+  void binOneAxis(uint32_t begin, uint32_t end, int axis, F lo, F scale, int bins, Bins& out, int passThreads) const {
+    if (passThreads > 1) {
+      std::vector<Bins> parts(static_cast<size_t>(passThreads));
+      forChunks(end - begin, parts.size(), [&](size_t c, size_t b, size_t e) {
+        binOneAxis(begin + static_cast<uint32_t>(b), begin + static_cast<uint32_t>(e), axis, lo, scale, bins, parts[c], 1);
+      });
+      out = parts[0];
+      for (size_t c = 1; c < parts.size(); ++c) out.merge(parts[c], bins);
+      return;
+    }
     Bins odd;
     out.clear(bins), odd.clear(bins);
     uint32_t i = begin;
@@ -706,7 +791,7 @@ std::vector<uint32_t> Bvh<Real>::build(size_t count, const BoxOf& boxOf, int thr
   m_nodes.clear();
   if (count == 0) return {};
   Builder builder(count, boxOf, threads);
-  builder.run(threads);
+  builder.run();
   const typename Builder::Node& root = builder.trees[0].nodes[0];
   if (root.count > 0) {  // a single leaf: a root node with one child
     BvhNode<Real> wide;
