@@ -607,11 +607,14 @@ struct Bvh<Real>::Builder {
     if (count <= 2 * static_cast<uint32_t>(kMaxLeafSize) && bestCost / box.area() + 1 >= F(count)) return false;
     const F axisLo = centroids.lower(bestAxis), axisScale = scale[bestAxis];
     const auto isLeft = [&](const Ref& ref) { return binOf(lane(ref.centroid(), bestAxis), axisLo, axisScale, bins) < bestBin; };
-    if (passThreads > 1) {
-      partitionParallel(begin, end, isLeft, leftRange, rightRange, passThreads);
-    } else {
-      partition(begin, end, isLeft, leftRange, rightRange);
+    const uint32_t middle = passThreads > 1 ? partitionParallel(begin, end, isLeft, passThreads) : partition(begin, end, isLeft);
+    // The children's boxes are their bins' (the partition puts each ref on its bin's side).
+    const Bins& b = perAxis[bestAxis];
+    for (int i = 0; i < bins; ++i) {
+      Range& side = i < bestBin ? leftRange : rightRange;
+      side.box.grow(b.lo[i], b.hi[i]), side.centroids.grow(b.centroidLo[i], b.centroidHi[i]);
     }
+    leftRange.begin = begin, leftRange.end = middle, rightRange.begin = middle, rightRange.end = end;
     return true;
   }
 
@@ -621,20 +624,21 @@ struct Bvh<Real>::Builder {
   // Each thread partitions a chunk of its own; then the refs on the wrong side of the middle (right
   // ones of the first chunks, left ones of the last) are swapped pairwise, also on all threads.
   template <typename Left>
-  void partitionParallel(uint32_t begin, uint32_t end, const Left& isLeft, Range& left, Range& right, int passThreads) {
+  uint32_t partitionParallel(uint32_t begin, uint32_t end, const Left& isLeft, int passThreads) {
     const size_t chunks = static_cast<size_t>(passThreads);
-    std::vector<Range> lefts(chunks), rights(chunks);
+    std::vector<uint32_t> firsts(chunks), middles(chunks), lasts(chunks);  // [first, middle): left, [middle, last): right
     forChunks(end - begin, chunks, [&](size_t c, size_t b, size_t e) {
-      partition(begin + static_cast<uint32_t>(b), begin + static_cast<uint32_t>(e), isLeft, lefts[c], rights[c]);
+      firsts[c] = begin + static_cast<uint32_t>(b), lasts[c] = begin + static_cast<uint32_t>(e);
+      middles[c] = partition(firsts[c], lasts[c], isLeft);
     });
     uint32_t middle = begin;
-    for (size_t c = 0; c < chunks; ++c) left.grow(lefts[c]), right.grow(rights[c]), middle += lefts[c].count();
+    for (size_t c = 0; c < chunks; ++c) middle += middles[c] - firsts[c];
     std::vector<Span> strayRights, strayLefts;
     uint32_t strays = 0;
     for (size_t c = 0; c < chunks; ++c) {
-      if (rights[c].begin < middle) strayRights.emplace_back(rights[c].begin, std::min(rights[c].end, middle));
-      if (lefts[c].end > middle) {
-        strayLefts.emplace_back(std::max(lefts[c].begin, middle), lefts[c].end);
+      if (middles[c] < middle && middles[c] < lasts[c]) strayRights.emplace_back(middles[c], std::min(lasts[c], middle));
+      if (middles[c] > middle && firsts[c] < middles[c]) {
+        strayLefts.emplace_back(std::max(firsts[c], middle), middles[c]);
         strays += strayLefts.back().second - strayLefts.back().first;
       }
     }
@@ -643,7 +647,7 @@ struct Bvh<Real>::Builder {
       SpanCursor r(strayRights, static_cast<uint32_t>(b)), l(strayLefts, static_cast<uint32_t>(b));
       for (size_t k = b; k < e; ++k) std::swap(refs[r.next()], refs[l.next()]);
     });
-    left.begin = begin, left.end = middle, right.begin = middle, right.end = end;
+    return middle;
   }
 
   // Walks the refs of a list of spans, from the k-th on.
@@ -662,35 +666,42 @@ struct Bvh<Real>::Builder {
     }
   };
 
-  // std::partition's swaps (so the same order), measuring each side's boxes on the way: the
-  // children's boxes without another pass over their refs.
+  // Moves the refs of [begin, end) that go left before the others; returns the first of the others.
+  // Lomuto's partition with a swap at every step, so no branch on the side: which side a ref goes
+  // is unpredictable, and the branches of std::partition's swaps were most of the build.
   template <typename Left>
-  void partition(uint32_t begin, uint32_t end, const Left& isLeft, Range& left, Range& right) {
-    uint32_t i = begin, j = end;
-    for (;;) {
-      while (i < j && isLeft(refs[i])) left.grow(refs[i++]);
-      while (i < j && !isLeft(refs[j - 1])) right.grow(refs[--j]);
-      if (i >= j) break;
-      std::swap(refs[i], refs[j - 1]);
-      left.grow(refs[i++]);
-      right.grow(refs[--j]);
+  uint32_t partition(uint32_t begin, uint32_t end, const Left& isLeft) {
+    uint32_t middle = begin;
+    for (uint32_t k = begin; k < end; ++k) {
+      const Ref ref = refs[k];
+      const bool left = isLeft(ref);
+      refs[k] = refs[middle];
+      refs[middle] = ref;
+      middle += left ? 1 : 0;
     }
-    left.begin = begin, left.end = i, right.begin = i, right.end = end;
+    return middle;
   }
 
-  // The boxes and counts of the refs in each bin along an axis; only the first `bins` are set.
+  // The boxes, boxes of centres and counts of the refs in each bin along an axis; only the first
+  // `bins` are set.
   struct Bins {
-    Lanes lo[kBins], hi[kBins];
+    Lanes lo[kBins], hi[kBins], centroidLo[kBins], centroidHi[kBins];
     uint32_t count[kBins];
     void clear(int bins) {
-      for (int i = 0; i < bins; ++i) lo[i] = broadcast(kInf), hi[i] = broadcast(-kInf), count[i] = 0;
+      for (int i = 0; i < bins; ++i) {
+        lo[i] = centroidLo[i] = broadcast(kInf), hi[i] = centroidHi[i] = broadcast(-kInf), count[i] = 0;
+      }
     }
-    void add(int i, const Box& box) {
+    void add(int i, const Box& box, const Lanes& centroid) {
       lo[i] = box.lo < lo[i] ? box.lo : lo[i], hi[i] = box.hi > hi[i] ? box.hi : hi[i], ++count[i];
+      centroidLo[i] = centroid < centroidLo[i] ? centroid : centroidLo[i];
+      centroidHi[i] = centroid > centroidHi[i] ? centroid : centroidHi[i];
     }
     void merge(const Bins& other, int bins) {
       for (int i = 0; i < bins; ++i) {
         lo[i] = other.lo[i] < lo[i] ? other.lo[i] : lo[i], hi[i] = other.hi[i] > hi[i] ? other.hi[i] : hi[i];
+        centroidLo[i] = other.centroidLo[i] < centroidLo[i] ? other.centroidLo[i] : centroidLo[i];
+        centroidHi[i] = other.centroidHi[i] > centroidHi[i] ? other.centroidHi[i] : centroidHi[i];
         count[i] += other.count[i];
       }
     }
@@ -710,32 +721,34 @@ struct Bvh<Real>::Builder {
     }
     Bins odd;
     out.clear(bins), odd.clear(bins);
+    const auto add = [&](Bins& to, const Ref& ref) {
+      const Lanes centroid = ref.centroid();
+      to.add(binOf(lane(centroid, axis), lo, scale, bins), ref.box, centroid);
+    };
     uint32_t i = begin;
-    for (; i + 1 < end; i += 2) {
-      out.add(binOf(lane(refs[i].centroid(), axis), lo, scale, bins), refs[i].box);
-      odd.add(binOf(lane(refs[i + 1].centroid(), axis), lo, scale, bins), refs[i + 1].box);
-    }
-    if (i < end) out.add(binOf(lane(refs[i].centroid(), axis), lo, scale, bins), refs[i].box);
+    for (; i + 1 < end; i += 2) add(out, refs[i]), add(odd, refs[i + 1]);
+    if (i < end) add(out, refs[i]);
     out.merge(odd, bins);
   }
 
-  // Small ranges: each ref's three bins from one vector of its centre.
+  // Small ranges: each ref's three bins from one vector of its centre (lane by lane the same
+  // operations as binOf, so the partition puts each ref where it was binned).
   void binThreeAxes(uint32_t begin, uint32_t end, const Box& centroids, const F* scale, int bins, Bins* out) const {
     typedef int32_t IntLanes __attribute__((vector_size(16)));
     for (int a = 0; a < 3; ++a) out[a].clear(bins);
     const Lanes lo = centroids.lo, scales = Lanes{scale[0], scale[1], scale[2], 0};
     const IntLanes last = IntLanes{} + (bins - 1);
     for (uint32_t i = begin; i < end; ++i) {
-      IntLanes b = __builtin_convertvector((refs[i].centroid() - lo) * scales, IntLanes);
+      const Lanes centroid = refs[i].centroid();
+      IntLanes b = __builtin_convertvector((centroid - lo) * scales, IntLanes);
       b = b < 0 ? IntLanes{} : b;
       b = b > last ? last : b;
-      out[0].add(b[0], refs[i].box), out[1].add(b[1], refs[i].box), out[2].add(b[2], refs[i].box);
+      for (int a = 0; a < 3; ++a) out[a].add(b[a], refs[i].box, centroid);
     }
   }
 
   static int binOf(F c, F lo, F scale, int bins) {
-    const int b = static_cast<int>((c - lo) * scale);
-    return b < 0 ? 0 : b >= bins ? bins - 1 : b;
+    return std::min(std::max(static_cast<int>((c - lo) * scale), 0), bins - 1);
   }
 
   // The 4-wide node of binary inner node `ref` of `tree`, and those below it, appended to out.
