@@ -73,6 +73,16 @@ void forChunks(size_t count, size_t chunks, const F& f) {
   for (std::thread& w : workers) w.join();
 }
 
+// f() on `threads` threads at once, this one among them (none when 0).
+template <typename F>
+void runOnThreads(size_t threads, const F& f) {
+  if (threads == 0) return;
+  std::vector<std::thread> workers;
+  for (size_t t = 1; t < threads; ++t) workers.emplace_back(f);
+  f();
+  for (std::thread& w : workers) w.join();
+}
+
 // f(begin, end) over [0, count) in one chunk per thread (on this thread alone below kMin items,
 // where starting threads costs more than it saves).
 template <typename F>
@@ -486,18 +496,14 @@ struct Bvh<Real>::Builder {
       return true;
     };
     buildNode(trees[0].nodes, measured(0, n, threads), 0, spawn);
-    std::vector<std::thread> workers;
     std::atomic<size_t> next{0};
-    const auto work = [&] {
+    runOnThreads(std::min(tasks.size(), static_cast<size_t>(threads)), [&] {
       for (size_t t; (t = next.fetch_add(1)) < tasks.size();) {
         const auto never = [](const Range&) { return false; };
         trees[tasks[t].tree].nodes.reserve(tasks[t].range.count());
         buildNode(trees[tasks[t].tree].nodes, tasks[t].range, 0, never);
       }
-    };
-    for (int t = 1; t < threads && static_cast<size_t>(t) < tasks.size(); ++t) workers.emplace_back(work);
-    work();
-    for (std::thread& w : workers) w.join();
+    });
   }
 
   const Node& node(size_t tree, int32_t ref) const {
@@ -751,8 +757,18 @@ struct Bvh<Real>::Builder {
     return std::min(std::max(static_cast<int>((c - lo) * scale), 0), bins - 1);
   }
 
-  // The 4-wide node of binary inner node `ref` of `tree`, and those below it, appended to out.
-  int32_t collapse(size_t tree, int32_t ref, std::vector<BvhNode<Real>>& out) const {
+  // A slot of a top-level wide node whose child is a node of a subtree: that node is collapsed on
+  // its own, on some thread, and the slot then points at it.
+  struct Link {
+    int32_t node;
+    int slot;
+    size_t tree;
+    int32_t ref;
+  };
+
+  // The 4-wide node of binary inner node `ref` of `tree`, and those below it, appended to out. With
+  // links, only tree 0's part: the wide nodes of the subtrees' nodes are left to the links.
+  int32_t collapse(size_t tree, int32_t ref, std::vector<BvhNode<Real>>& out, std::vector<Link>* links = nullptr) const {
     const int32_t index = static_cast<int32_t>(out.size());
     out.emplace_back();
     // Open the largest inner child until there are four (or only leaves).
@@ -791,10 +807,50 @@ struct Bvh<Real>::Builder {
     }
     for (int s = 0; s < used; ++s) {
       const Node& c = node(slots[s].tree, slots[s].ref);
-      if (c.count == 0) wide.child[s] = collapse(slots[s].tree, slots[s].ref, out);
+      if (c.count > 0) continue;
+      const size_t ct = treeOf(slots[s].tree, slots[s].ref);
+      if (links && ct != 0) {
+        links->push_back({index, s, ct, slots[s].ref < 0 ? 0 : slots[s].ref});
+      } else {
+        wide.child[s] = collapse(slots[s].tree, slots[s].ref, out, links);
+      }
     }
     out[static_cast<size_t>(index)] = wide;
     return index;
+  }
+
+  // The tree collapsed to 4-wide nodes into out: the top's nodes on this thread, then each subtree
+  // node a link of theirs points at, with those below it, on all threads, appended in the links'
+  // order (each block's inner children moved by its offset there).
+  void collapseAll(std::vector<BvhNode<Real>>& out) const {
+    std::vector<Link> links;
+    collapse(0, 0, out, &links);
+    std::vector<std::vector<BvhNode<Real>>> blocks(links.size());
+    std::atomic<size_t> next{0};
+    runOnThreads(std::min(links.size(), static_cast<size_t>(threads)), [&] {
+      for (size_t l; (l = next.fetch_add(1)) < links.size();) {
+        blocks[l].reserve(trees[links[l].tree].nodes.size() / 2 + 1);
+        collapse(links[l].tree, links[l].ref, blocks[l]);
+      }
+    });
+    std::vector<size_t> offsets(links.size());
+    size_t total = out.size();
+    for (size_t l = 0; l < links.size(); ++l) {
+      offsets[l] = total, total += blocks[l].size();
+      out[static_cast<size_t>(links[l].node)].child[links[l].slot] = static_cast<int32_t>(offsets[l]);
+    }
+    out.resize(total);
+    next = 0;
+    runOnThreads(std::min(links.size(), static_cast<size_t>(threads)), [&] {
+      for (size_t l; (l = next.fetch_add(1)) < links.size();) {
+        const int32_t offset = static_cast<int32_t>(offsets[l]);
+        BvhNode<Real>* to = &out[offsets[l]];
+        for (BvhNode<Real> n : blocks[l]) {
+          for (int s = 0; s < BvhNode<Real>::kWidth; ++s) n.child[s] += n.count[s] == 0 && n.child[s] >= 0 ? offset : 0;
+          *to++ = n;
+        }
+      }
+    });
   }
 };
 
@@ -818,10 +874,8 @@ std::vector<uint32_t> Bvh<Real>::build(size_t count, const BoxOf& boxOf, int thr
     }
     m_nodes.push_back(wide);
   } else {
-    size_t binaryNodes = 0;
-    for (const auto& t : builder.trees) binaryNodes += t.nodes.size();
-    m_nodes.reserve(binaryNodes / 2 + 1);
-    builder.collapse(0, 0, m_nodes);
+    m_nodes.reserve(builder.trees[0].nodes.size() / 2 + 1);
+    builder.collapseAll(m_nodes);
   }
   m_builtCost = sahCost();
   return builder.order(threads);
