@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <thread>
 #include <utility>
@@ -83,13 +84,17 @@ void runOnThreads(size_t threads, const F& f) {
   for (std::thread& w : workers) w.join();
 }
 
-// f(begin, end) over [0, count) in one chunk per thread (on this thread alone below kMin items,
-// where starting threads costs more than it saves).
+// How parallelChunks divides `count` items: a chunk per thread, or fewer so that each holds at least
+// kMin items (below that starting threads costs more than it saves).
+inline size_t chunksFor(size_t count, int threads) {
+  constexpr size_t kMin = size_t(1) << 16;
+  return count < kMin ? 1 : std::min<size_t>(static_cast<size_t>(std::max(threads, 1)), count / kMin);
+}
+
+// f(begin, end) over [0, count) in chunksFor(count, threads) chunks.
 template <typename F>
 void parallelChunks(size_t count, int threads, const F& f) {
-  constexpr size_t kMin = size_t(1) << 16;
-  const size_t chunks = count < kMin ? 1 : std::min<size_t>(static_cast<size_t>(std::max(threads, 1)), count / kMin);
-  forChunks(count, chunks, [&](size_t, size_t begin, size_t end) { f(begin, end); });
+  forChunks(count, chunksFor(count, threads), [&](size_t, size_t begin, size_t end) { f(begin, end); });
 }
 
 template <typename Real>
@@ -421,11 +426,17 @@ struct Bvh<Real>::Builder {
   };
   // A primitive's box and index, moved (not referred to through an index) as ranges are
   // partitioned, so that every pass over a range streams through memory. The index rides in the
-  // boxes' spare lanes as two exact integers below 2^24 (low and high bits).
+  // boxes' spare lanes as two exact integers below 2^24 (low and high bits). No initialiser: the
+  // refs are first written by the setup, on all threads (zeroing them first took a serial pass).
   struct Ref {
-    Box box;
-    Lanes centroid() const { return box.lo + box.hi; }  // twice the centre: only compared
-    uint32_t id() const { return static_cast<uint32_t>(lane(box.lo, 3)) | static_cast<uint32_t>(lane(box.hi, 3)) << 24; }
+    Lanes lo, hi;
+    Box box() const {
+      Box b;
+      b.lo = lo, b.hi = hi;
+      return b;
+    }
+    Lanes centroid() const { return lo + hi; }  // twice the centre: only compared
+    uint32_t id() const { return static_cast<uint32_t>(lane(lo, 3)) | static_cast<uint32_t>(lane(hi, 3)) << 24; }
   };
   // A binary node: inner (count 0) with children left and right, or a leaf of primitives
   // refs[first, first + count).
@@ -440,7 +451,8 @@ struct Bvh<Real>::Builder {
   };
 
   static constexpr F kInf = std::numeric_limits<Real>::infinity();
-  std::vector<Ref> refs;
+  size_t refCount;
+  std::unique_ptr<Ref[]> refs;
   std::vector<Subtree> trees;  // tree 0: the top levels
   int threads;
   // Ranges above this many refs are split one at a time, each pass over them on all threads; those
@@ -449,25 +461,31 @@ struct Bvh<Real>::Builder {
 
   template <typename BoxOf>
   Builder(size_t count, const BoxOf& boxOf, int threads_)
-      : refs(count),
+      : refCount(count),
+        refs(new Ref[count]),
         threads(std::max(threads_, 1)),
         grain(std::max<uint32_t>(kParallelMin, static_cast<uint32_t>(count / (4 * static_cast<size_t>(threads))))) {
-    parallelChunks(count, threads, [&](size_t begin, size_t end) {
+    std::vector<Range> parts(chunksFor(count, threads));
+    forChunks(count, parts.size(), [&](size_t c, size_t begin, size_t end) {
+      Range& part = parts[c];
       for (size_t i = begin; i < end; ++i) {
         Vec3<Real> lo, hi;
         boxOf(i, lo, hi);
         const F low = static_cast<Real>(i & 0xFFFFFF), high = static_cast<Real>(i >> 24);
         const F l[4] = {toRealDown<F>(lo.x), toRealDown<F>(lo.y), toRealDown<F>(lo.z), low};
         const F h[4] = {toRealUp<F>(hi.x), toRealUp<F>(hi.y), toRealUp<F>(hi.z), high};
-        std::memcpy(&refs[i].box.lo, l, sizeof l);
-        std::memcpy(&refs[i].box.hi, h, sizeof h);
+        std::memcpy(&refs[i].lo, l, sizeof l);
+        std::memcpy(&refs[i].hi, h, sizeof h);
+        part.grow(refs[i]);
       }
     });
+    for (const Range& part : parts) all.grow(part);
+    all.begin = 0, all.end = static_cast<uint32_t>(count);
   }
 
   std::vector<uint32_t> order(int threads) const {
-    std::vector<uint32_t> out(refs.size());
-    parallelChunks(refs.size(), threads, [&](size_t begin, size_t end) {
+    std::vector<uint32_t> out(refCount);
+    parallelChunks(refCount, threads, [&](size_t begin, size_t end) {
       for (size_t i = begin; i < end; ++i) out[i] = refs[i].id();
     });
     return out;
@@ -486,7 +504,7 @@ struct Bvh<Real>::Builder {
     // The top levels split one range at a time until there is a subtree per thread and then some
     // (for balance). Node vectors are reserved for a node per ref, more than a tree of leaves of
     // kMaxLeafSize needs: growing them cost a quarter of the build in page faults.
-    const uint32_t n = static_cast<uint32_t>(refs.size());
+    const uint32_t n = static_cast<uint32_t>(refCount);
     trees.reserve(n / kParallelMin + 2);  // a task per disjoint range of >= kParallelMin: no reallocation
     trees[0].nodes.reserve(threads <= 1 ? n : n / grain * 4 + kParallelMin);
     const auto spawn = [&](const Range& r) {
@@ -495,7 +513,7 @@ struct Bvh<Real>::Builder {
       tasks.push_back({trees.size() - 1, r});
       return true;
     };
-    buildNode(trees[0].nodes, measured(0, n, threads), 0, spawn);
+    buildNode(trees[0].nodes, all, 0, spawn);
     std::atomic<size_t> next{0};
     runOnThreads(std::min(tasks.size(), static_cast<size_t>(threads)), [&] {
       for (size_t t; (t = next.fetch_add(1)) < tasks.size();) {
@@ -516,21 +534,18 @@ struct Bvh<Real>::Builder {
     uint32_t begin = 0, end = 0;
     Box box, centroids;
     uint32_t count() const { return end - begin; }
-    void grow(const Ref& r) { box.grow(r.box), centroids.grow(r.centroid(), r.centroid()); }
+    void grow(const Ref& r) { box.grow(r.lo, r.hi), centroids.grow(r.centroid(), r.centroid()); }
     void grow(const Range& r) { box.grow(r.box), centroids.grow(r.centroids); }
   };
+  Range all;  // every ref, measured by the setup
 
   // The threads a pass over range r takes: all of them in the top levels, else this one.
   int threadsFor(const Range& r) const { return r.count() > grain ? threads : 1; }
 
-  Range measured(uint32_t begin, uint32_t end, int passThreads = 1) const {
-    std::vector<Range> parts(static_cast<size_t>(passThreads));
-    forChunks(end - begin, parts.size(), [&](size_t c, size_t b, size_t e) {
-      for (size_t i = begin + b; i < begin + e; ++i) parts[c].grow(refs[i]);
-    });
+  Range measured(uint32_t begin, uint32_t end) const {
     Range r;
-    for (const Range& part : parts) r.grow(part);
     r.begin = begin, r.end = end;
+    for (uint32_t i = begin; i < end; ++i) r.grow(refs[i]);
     return r;
   }
 
@@ -729,7 +744,7 @@ struct Bvh<Real>::Builder {
     out.clear(bins), odd.clear(bins);
     const auto add = [&](Bins& to, const Ref& ref) {
       const Lanes centroid = ref.centroid();
-      to.add(binOf(lane(centroid, axis), lo, scale, bins), ref.box, centroid);
+      to.add(binOf(lane(centroid, axis), lo, scale, bins), ref.box(), centroid);
     };
     uint32_t i = begin;
     for (; i + 1 < end; i += 2) add(out, refs[i]), add(odd, refs[i + 1]);
@@ -749,7 +764,8 @@ struct Bvh<Real>::Builder {
       IntLanes b = __builtin_convertvector((centroid - lo) * scales, IntLanes);
       b = b < 0 ? IntLanes{} : b;
       b = b > last ? last : b;
-      for (int a = 0; a < 3; ++a) out[a].add(b[a], refs[i].box, centroid);
+      const Box box = refs[i].box();
+      for (int a = 0; a < 3; ++a) out[a].add(b[a], box, centroid);
     }
   }
 
