@@ -539,8 +539,10 @@ struct Bvh<Real>::Builder {
   };
   Range all;  // every ref, measured by the setup
 
-  // The threads a pass over range r takes: all of them in the top levels, else this one.
-  int threadsFor(const Range& r) const { return r.count() > grain ? threads : 1; }
+  // The threads a pass over range r takes: in the top levels, all of them with at least 2^16 refs
+  // each (each pass starts and joins them: on a loaded machine a join can wait for a time slice),
+  // else this one.
+  int threadsFor(const Range& r) const { return r.count() > grain ? static_cast<int>(chunksFor(r.count(), threads)) : 1; }
 
   Range measured(uint32_t begin, uint32_t end) const {
     Range r;
