@@ -585,7 +585,7 @@ struct Bvh<Real>::Builder {
   // same plane in practice. Small ones are binned along all three axes in one pass, into fewer bins:
   // the sweep over the bins costs per node, and near the leaves it cost more than the binning.
   bool split(const Range& r, Range& leftRange, Range& rightRange) {
-    constexpr uint32_t kOneAxisMin = 64;  // 1024 before: SAH cost within 0.2 %, 8 % fewer instructions
+    constexpr uint32_t kOneAxisMin = 64;  // 8 % fewer instructions than 1024 for SAH cost within 0.2 %
     const uint32_t begin = r.begin, end = r.end, count = r.count();
     const Box& box = r.box;
     const Box& centroids = r.centroids;
