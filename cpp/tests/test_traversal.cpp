@@ -123,6 +123,30 @@ TEST_CASE_TEMPLATE("hierarchy searches find what brute force finds, bit for bit"
   }
 }
 
+TEST_CASE_TEMPLATE("a hierarchy whose top ranges were split on all threads at once finds what brute force finds", Real,
+                   float, double) {
+  // Ranges above the builder's grain are binned and partitioned by every thread, each a chunk of at
+  // least 2^16 refs; 3 threads so that the refs on the wrong side of the middle lie in several runs.
+  SphereSet<Real> spheres[2];
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-10, 10), size(0.01, 0.3);
+  for (int32_t i = 0; i < 200000; ++i) {
+    const Sphere<Real> s{toReal<Real>(Vec3d(u(rng), u(rng), u(rng))), static_cast<Real>(size(rng))};
+    for (SphereSet<Real>& set : spheres) set.add(s, 0, i);
+  }
+  spheres[0].buildBvh(3);
+  for (Rays kind : {Rays::TightGrid, Rays::Fan, Rays::Random}) {
+    for (int trial = 0; trial < 2; ++trial) {
+      CAPTURE(int(kind));
+      const RayPacket<Real> rays = packetOf<Real>(kind, rng, Real(0));
+      checkAgainstBruteForce(spheres, rays, [](const SphereSet<Real>& s, RayPacket<Real>& p, bool anyHit) {
+        anyHit ? s.template intersect<SphereMethod::Robust, true>(p, 0, nullptr)
+               : s.template intersect<SphereMethod::Robust, false>(p, 0, nullptr);
+      });
+    }
+  }
+}
+
 TEST_CASE_TEMPLATE("the top-level hierarchy over instances finds the nearest instance's hit, bit for bit", Real, float,
                    double) {
   // 60 transformed clusters of spheres in one group (hierarchy over their world boxes), and each
