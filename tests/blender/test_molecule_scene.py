@@ -24,12 +24,16 @@ from mathutils import Vector  # noqa: E402
 pytestmark = pytest.mark.blender
 
 
-@pytest.fixture(scope="module")
-def make_molecule():
-    spec = importlib.util.spec_from_file_location("make_molecule", SCENES / "make_molecule.py")
+def load_script(path):
+    spec = importlib.util.spec_from_file_location(path.stem, path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+@pytest.fixture(scope="module")
+def make_molecule():
+    return load_script(SCENES / "make_molecule.py")
 
 
 def open_molecule(path=SCENES / "molecule.blend"):
@@ -180,3 +184,14 @@ def test_ambient_occlusion_darkens_the_atoms_and_nothing_far_from_them(molecule,
     assert luminance["on"][atoms].mean() < 0.85 * luminance["off"][atoms].mean()
     # The ground at the top of the image lies metres behind the molecule: nothing occludes it.
     np.testing.assert_allclose(on["color"][:10], off["color"][:10], rtol=1e-6)
+
+
+def test_the_bench_renders_it_with_both_engines_and_saves_their_images(tmp_path):
+    bench = load_script(SCENES.parent / "bench" / "showcase_vs_cycles.py")
+    out = bench.compare_engines(SCENES / "molecule.blend", 64, 36, samples=1, cycles_samples=2, images=tmp_path)
+    assert out["samples"] == 1 and out["cycles_samples"] == 2 and bpy.context.scene.cycles.samples == 2
+    assert out["durer"]["spheres"] == 3519 and out["durer"]["ao_rays"] == 16 * 64 * 36
+    assert bench.report(out, None)[0] == "molecule.blend at 64x36, Dürer 1, Cycles 2 sample(s); median of 1 runs"
+    for name in ("durer", "cycles"):
+        image = bpy.data.images.load(str(tmp_path / f"molecule-{name}.png"))
+        assert tuple(image.size) == (64, 36) and image.file_format == "PNG"
