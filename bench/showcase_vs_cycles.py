@@ -59,7 +59,8 @@ def compare_engines(
             c = s.cycles
             c.device, c.samples, c.use_denoising, c.use_adaptive_sampling = "CPU", cycles_samples, False, False
         if images is not None:
-            s.render.image_settings.file_format = "PNG"
+            settings = s.render.image_settings
+            settings.file_format, settings.color_mode, settings.compression = "PNG", "RGB", 100
             s.render.use_file_extension = False
             s.render.filepath = str(Path(images).resolve() / f"{Path(path).stem}-{name.lower()}.png")
         # warm-up: first-render set-up (kernels, caches) is not measured

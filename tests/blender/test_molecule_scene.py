@@ -193,5 +193,7 @@ def test_the_bench_renders_it_with_both_engines_and_saves_their_images(tmp_path)
     assert out["durer"]["spheres"] == 3519 and out["durer"]["ao_rays"] == 16 * 64 * 36
     assert bench.report(out, None)[0] == "molecule.blend at 64x36, Dürer 1, Cycles 2 sample(s); median of 1 runs"
     for name in ("durer", "cycles"):
-        image = bpy.data.images.load(str(tmp_path / f"molecule-{name}.png"))
+        path = tmp_path / f"molecule-{name}.png"
+        image = bpy.data.images.load(str(path))
         assert tuple(image.size) == (64, 36) and image.file_format == "PNG"
+        assert path.read_bytes()[25] == 2  # the PNG header's colour type: RGB, no alpha
