@@ -53,6 +53,8 @@ SIDE_CHAIN_END = (("C", 0.55), ("N", 0.17), ("O", 0.23), ("S", 0.05))
 HYDROGENS = {"C": 2, "N": 1, "O": 0, "S": 0}  # on a side chain's atoms; the backbone's CA and N carry one
 
 AMBIENT = (0.30, 0.32, 0.36)
+GROUND = (0.8, 0.78, 0.74)
+SUN_STRENGTH = 2.0  # irradiance: a white diffuse surface facing the sun is 2/pi
 SUN_TRAVEL = (0.6, 0.5, -1.0)  # the way the light travels: from the camera's upper left
 CAMERA_FROM = (0.35, -1.0, 0.6)  # where the camera sits, seen from the molecule's centre
 AO_DISTANCE = 1.0  # Blender units: 10 Å, a few atoms deep
@@ -198,7 +200,7 @@ def build(residues: int = RESIDUES, seed: int = SEED) -> bpy.types.Scene:
 
     ground_mat = bpy.data.materials.new("Ground")
     bsdf = ground_mat.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (0.8, 0.78, 0.74, 1.0)
+    bsdf.inputs["Base Color"].default_value = (*GROUND, 1.0)
     bsdf.inputs["Roughness"].default_value = 1.0
     bsdf.inputs["Specular IOR Level"].default_value = 0.0
     mesh = bpy.data.meshes.new("Ground")
@@ -213,7 +215,7 @@ def build(residues: int = RESIDUES, seed: int = SEED) -> bpy.types.Scene:
     atoms_object(coll, positions, elements)
 
     sun = bpy.data.lights.new("Sun", "SUN")
-    sun.energy = 2.0
+    sun.energy = SUN_STRENGTH
     sun.angle = 0.0  # a point-like sun: hard shadows, as Dürer's
     sun.use_shadow = True
     sun_obj = aimed(bpy.data.objects.new("Sun", sun), SUN_TRAVEL)

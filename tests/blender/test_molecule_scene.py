@@ -140,12 +140,28 @@ def atom_centre_pixels(s, element: int) -> tuple[np.ndarray, np.ndarray]:
     return ((1 - xy[:, 1]) * h).astype(int), (xy[:, 0] * w).astype(int)
 
 
-def test_element_colours_show_in_the_render_with_shadows(molecule, tmp_path):
-    passes = render_passes(molecule, tmp_path / "molecule.exr", normal=False)
+def test_element_colours_show_in_the_render_with_the_suns_shadow(make_molecule, molecule, tmp_path):
+    passes = render_passes(molecule, tmp_path / "molecule.exr", normal=False, indexes=True)
     info = engine.last_render
     assert info.error is None and info.warnings == [] and (info.planes, info.spheres) == (1, 3519)
     assert {"colors", "shadows", "ambient_occlusion"} <= set(info.stats["effects"])
     assert info.stats["shadow_rays"] > 0.5 * info.stats["rays"]
+    # The ground far behind the molecule: its colour times the ambient light and the sun's (Dürer's
+    # Sun of strength S lights as S/pi, at cos 1/|travel| here). Where the ray from the atom nearest
+    # the molecule's centre along the sun's light meets the ground: the ambient light alone, as
+    # much of it as occlusion leaves (proportional to ground × ambient: no white sunlight in it).
+    m = make_molecule
+    ground, ambient, travel = (np.array(v) for v in (m.GROUND, m.AMBIENT, m.SUN_TRAVEL))
+    lit = ground * (ambient + m.SUN_STRENGTH / np.pi / np.linalg.norm(travel))
+    np.testing.assert_allclose(passes["color"][:10, :10, :3], np.broadcast_to(lit, (10, 10, 3)), rtol=1e-5)
+    centres = atom_attributes()["co"].reshape(-1, 3)
+    inner = centres[np.argmin(np.linalg.norm(centres - centres.mean(axis=0), axis=1))]
+    x, y, _ = world_to_camera_view(molecule, molecule.camera, Vector(inner + inner[2] / -travel[2] * travel))
+    h, w = image_size(molecule)
+    row, col = int((1 - y) * h), int(x * w)
+    assert passes["IndexOB"][row, col] == 0  # the ground
+    share = passes["color"][row, col, :3] / (ground * ambient)
+    assert 0.3 < share[0] < 1 + 1e-6 and np.allclose(share, share[0], rtol=1e-5)
     elements = atom_attributes()["element"]
     rgb = passes["color"][..., :3]
 
