@@ -3,7 +3,7 @@ lit by a sun casting shadows and by the world's ambient light with ambient occlu
 molecule showcase).
 
 The protein is made from a seed, nothing is downloaded: a backbone of residues whose alpha carbons
-follow a self-avoiding random walk of 3.8 Å steps held in a globule, each residue's N, C and O
+follow a (mostly) self-avoiding random walk of 3.8 Å steps held in a globule, each residue's N, C and O
 around its alpha carbon, a side chain of 0-4 heavy atoms pointing away from the globule's centre
 (mostly carbon, ending in N, O or S as lysine, serine or cysteine do), and hydrogens on the
 carbons and nitrogens. Elements C, N, O, S, H with their van der Waals radii (space-filling) and CPK
@@ -70,14 +70,15 @@ def random_units(rng: np.random.Generator, n: int) -> np.ndarray:
 
 def alpha_carbons(rng: np.random.Generator, residues: int) -> np.ndarray:
     """(residues, 3) Å: a random walk of CA_STEP steps that keeps its direction a little, is pulled
-    back towards the origin beyond a protein's radius of gyration and never comes within 4 Å of an
-    earlier alpha carbon (a step that would is drawn again)."""
+    back towards the origin beyond half a protein's radius of gyration and draws a step again, up to
+    50 times, while it would come within 4 Å of an earlier alpha carbon (where the walk is boxed in,
+    the last draw stands: 26 pairs of the default 300 end closer)."""
     gyration = 2.2 * residues**0.38  # Å, the radius of gyration of globular proteins
     ca = np.zeros((residues, 3))
     heading = random_units(rng, 1)[0]
     for i in range(1, residues):
+        pull = -ca[i - 1] / gyration * max(np.linalg.norm(ca[i - 1]) / gyration - 0.5, 0.0)
         for _ in range(50):
-            pull = -ca[i - 1] / gyration * max(np.linalg.norm(ca[i - 1]) / gyration - 0.5, 0.0)
             step = unit(0.8 * heading + random_units(rng, 1)[0] + pull)
             candidate = ca[i - 1] + CA_STEP * step
             if np.min(np.linalg.norm(ca[: i - 1] - candidate, axis=1), initial=np.inf) >= 4.0:
@@ -87,13 +88,14 @@ def alpha_carbons(rng: np.random.Generator, residues: int) -> np.ndarray:
 
 
 def molecule(residues: int = RESIDUES, seed: int = SEED) -> tuple[np.ndarray, list[str]]:
-    """The atoms' centres ((N, 3), Blender units, z up, the molecule's lowest atom resting 2 Å
-    above z = 0 and its centre over the origin) and their element symbols."""
+    """The atoms' centres ((N, 3), Blender units, z up, the lowest atom's surface 2 Å above z = 0
+    and the atoms' mean over the origin) and their element symbols."""
     rng = np.random.default_rng(seed)
     ca = alpha_carbons(rng, residues)
     centre = ca.mean(axis=0)
     positions: list[np.ndarray] = []
     elements: list[str] = []
+    ends, end_weights = zip(*SIDE_CHAIN_END)
 
     def atom(element: str, at: np.ndarray) -> np.ndarray:
         positions.append(at)
@@ -120,9 +122,7 @@ def molecule(residues: int = RESIDUES, seed: int = SEED) -> tuple[np.ndarray, li
         for k in range(length):
             zigzag = across * (0.5 if k % 2 else -0.5) + 0.3 * rng.normal(size=3)
             at = at + 1.53 * unit(side + zigzag)
-            last = k == length - 1
-            names, weights = zip(*SIDE_CHAIN_END)
-            element = str(rng.choice(names, p=weights)) if last else "C"
+            element = str(rng.choice(ends, p=end_weights)) if k == length - 1 else "C"
             atom(element, at)
             hydrogens(at, side, HYDROGENS[element])
     atoms = np.array(positions) * ANGSTROM
