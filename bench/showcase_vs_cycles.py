@@ -1,15 +1,16 @@
 """End-to-end render time of .blend files with Dürer and with Cycles, in the same process.
 
     python bench/showcase_vs_cycles.py [FILE.blend ...] [--points 1000000] [--size 1920x1080] [--samples 1]
-                                       [--repeats 5]
+                                       [--cycles-samples N] [--repeats 5] [--images DIR]
 
 Without files: scenes/showcase.blend (65 spheres and a plane) and a point cloud of --points spheres in
 a slab over a ground plane, lit by a sun casting shadows, made by scenes/make_point_cloud.py (a mesh
 through geometry nodes' "Mesh to Points", as users make point clouds) into a temporary folder;
 `--points 0` leaves it out. Both engines go through bpy.ops.render.render() (what F12 runs), so
 the times include scene export and Blender's own overhead; Cycles renders on the CPU with the same
-samples, no denoising. Each engine's figure is the median of --repeats renders after one warm-up;
-the machine is printed.
+samples (or --cycles-samples), no denoising. Each engine's figure is the median of --repeats renders
+after one warm-up; the machine is printed. With --images, the warm-up renders are saved as
+DIR/<file>-durer.png and DIR/<file>-cycles.png through the file's colour management.
 """
 
 from __future__ import annotations
@@ -32,8 +33,12 @@ def compare_engines(
     samples: int = 1,
     engines: Sequence[str] = ("DURER", "CYCLES"),
     repeats: int = 1,
+    cycles_samples: int | None = None,
+    images: Path | None = None,
 ) -> dict:
-    """{engine: {"seconds": median wall time, ...}} for rendering `path` at width x height."""
+    """{engine: {"seconds": median wall time, ...}} for rendering `path` at width x height, Dürer at
+    `samples` and Cycles at `cycles_samples` (default: `samples`); the warm-up renders saved as PNGs
+    into `images` if given."""
     import bpy
 
     from durer.blender import engine as durer_engine
@@ -45,13 +50,21 @@ def compare_engines(
     s.render.resolution_x, s.render.resolution_y = width, height
     s.render.resolution_percentage = 100
     s.durer.samples = samples
-    out: dict = {"file": str(path), "width": width, "height": height, "samples": samples}
+    cycles_samples = samples if cycles_samples is None else cycles_samples
+    out: dict = {"file": str(path), "width": width, "height": height, "samples": samples,
+                 "cycles_samples": cycles_samples}
     for name in engines:
         s.render.engine = name
         if name == "CYCLES":
             c = s.cycles
-            c.device, c.samples, c.use_denoising, c.use_adaptive_sampling = "CPU", samples, False, False
-        bpy.ops.render.render()  # warm-up: first-render set-up (kernels, caches) is not measured
+            c.device, c.samples, c.use_denoising, c.use_adaptive_sampling = "CPU", cycles_samples, False, False
+        if images is not None:
+            settings = s.render.image_settings
+            settings.file_format, settings.color_mode, settings.compression = "PNG", "RGB", 100
+            s.render.use_file_extension = False
+            s.render.filepath = str(Path(images).resolve() / f"{Path(path).stem}-{name.lower()}.png")
+        # warm-up: first-render set-up (kernels, caches) is not measured
+        bpy.ops.render.render(write_still=images is not None)
         times, parts = [], []
         for _ in range(repeats):
             t0 = time.perf_counter()
@@ -70,6 +83,7 @@ def compare_engines(
                 mrays_per_s=info.stats.get("mrays_per_s"),
                 camera_rays=info.stats.get("rays"),
                 shadow_rays=info.stats.get("shadow_rays"),
+                ao_rays=info.stats.get("ao_rays"),
                 spheres=info.spheres,
                 planes=info.planes,
             )
@@ -97,12 +111,15 @@ def make_point_cloud(folder: Path, points: int) -> Path:
 
 def report(out: dict, target: float | None) -> list[str]:
     d, c = out["durer"], out["cycles"]
+    samples = f"{out['samples']} sample(s)"
+    if out["cycles_samples"] != out["samples"]:
+        samples = f"Dürer {out['samples']}, Cycles {out['cycles_samples']} sample(s)"
+    ao = f" + {d['ao_rays']:,} AO" if d["ao_rays"] else ""
     lines = [
-        f"{Path(out['file']).name} at {out['width']}x{out['height']}, {out['samples']} sample(s); median of "
-        f"{d['runs']} runs",
+        f"{Path(out['file']).name} at {out['width']}x{out['height']}, {samples}; median of {d['runs']} runs",
         f"  Dürer:  {d['seconds']:.3f} s end to end (median export {d['export_seconds']:.3f} s, render "
         f"{d['render_seconds']:.3f} s; {d['spheres']} spheres, {d['planes']} planes; {d['camera_rays']:,} camera + "
-        f"{d['shadow_rays']:,} shadow rays; min {d['min']:.3f}, max {d['max']:.3f} s)",
+        f"{d['shadow_rays']:,} shadow{ao} rays; min {d['min']:.3f}, max {d['max']:.3f} s)",
         f"  Cycles: {c['seconds']:.3f} s end to end (CPU; min {c['min']:.3f}, max {c['max']:.3f} s)",
         f"  Cycles / Dürer: {out['speedup']:.1f}x",
     ]
@@ -118,18 +135,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--points", type=int, default=1_000_000, help="spheres in the point cloud (0: leave it out)")
     p.add_argument("--size", default="1920x1080")
     p.add_argument("--samples", type=int, default=1)
+    p.add_argument("--cycles-samples", type=int, help="Cycles' samples (default: --samples)")
     p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--images", type=Path, help="save each engine's image into this folder (PNG)")
     p.add_argument("--json", action="store_true", help="print the raw figures as JSON")
     args = p.parse_args(argv)
-    for name in ("samples", "repeats"):
-        if getattr(args, name) < 1:
-            p.error(f"--{name} must be >= 1, got {getattr(args, name)}")
+    for name in ("samples", "cycles_samples", "repeats"):
+        if getattr(args, name) is not None and getattr(args, name) < 1:
+            p.error(f"--{name.replace('_', '-')} must be >= 1, got {getattr(args, name)}")
     w, h = (int(v) for v in args.size.lower().split("x"))
     with tempfile.TemporaryDirectory(prefix="durer-bench-") as folder:
         files = [(path, None) for path in args.files] or [(SHOWCASE, None)]
         if not args.files and args.points > 0:
             files.append((make_point_cloud(Path(folder), args.points), POINT_CLOUD_TARGET))
-        results = [(compare_engines(path, w, h, args.samples, repeats=args.repeats), target) for path, target in files]
+        results = [(compare_engines(path, w, h, args.samples, repeats=args.repeats, cycles_samples=args.cycles_samples,
+                                    images=args.images), target) for path, target in files]
     if args.json:
         print(json.dumps([out for out, _ in results], indent=2))
         return 0
