@@ -206,15 +206,19 @@ class Scene:
         material: int = 0,
         *,
         colors: ArrayLike | None = None,
+        instance_colors: ArrayLike | None = None,
     ) -> int:
         """Add the mesh of add_mesh seen through each of `transforms` ((N, 4, 4) or (N, 3, 4)
         world-from-object matrices, each invertible): one object whose triangles and hierarchy are
         stored once and shared by its N instances (instancing a rock a hundred thousand times costs
-        one rock and a hierarchy over the instances). Returns its object id, which every instance's
-        hits report."""
+        one rock and a hierarchy over the instances). `instance_colors` (N, 3): each instance's
+        diffuse colour, in place of the material's and of `colors`. Returns its object id, which
+        every instance's hits report."""
         mesh = _mesh_arguments(vertices, faces, material, colors)
-        return self._add("add_mesh_instances", *mesh[:3], _owned(_checks.transforms(transforms), transforms),
-                         colors=mesh[3])
+        matrices = _checks.transforms(transforms)
+        per_instance = _checks.one_of_shapes(instance_colors, "instance_colors", (matrices.shape[0], 3))
+        return self._add("add_mesh_instances", *mesh[:3], _owned(matrices, transforms), colors=mesh[3],
+                         instance_colors=_owned(per_instance, instance_colors))
 
     def add_boxes(
         self,

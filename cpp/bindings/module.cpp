@@ -433,16 +433,19 @@ PYBIND11_MODULE(_core, m) {
       .def(
           "add_mesh_instances",
           [](Scene& s, const DoubleArray& vertices, const IndexArray& faces, int32_t material,
-             const DoubleArray& transforms, const std::optional<DoubleArray>& colors) {
+             const DoubleArray& transforms, const std::optional<DoubleArray>& colors,
+             const std::optional<DoubleArray>& instanceColors) {
             requireShape(vertices, "vertices", {kAny, 3});
             requireShape(faces, "faces", {kAny, 3});
             const std::vector<Affined> maps = affines(transforms, "transforms");
+            if (instanceColors) requireShape(*instanceColors, "instance_colors", {transforms.shape(0), 3});
             return s.addMeshInstances(vertices.data(), static_cast<size_t>(vertices.shape(0)), faces.data(),
                                       static_cast<size_t>(faces.shape(0)), material, maps.data(), maps.size(),
-                                      cornerColorArray(colors, vertices.shape(0), faces.shape(0)));
+                                      cornerColorArray(colors, vertices.shape(0), faces.shape(0)),
+                                      instanceColors ? instanceColors->data() : nullptr);
           },
           py::arg("vertices"), py::arg("faces"), py::arg("material"), py::arg("transforms"),
-          py::arg("colors") = py::none())
+          py::arg("colors") = py::none(), py::arg("instance_colors") = py::none())
       .def(
           "add_boxes",
           [](Scene& s, const DoubleArray& lo, const DoubleArray& hi, const IdArray& materials,

@@ -416,10 +416,11 @@ int32_t Scene::addMesh(const double* vertices, size_t vertexCount, const int64_t
 
 int32_t Scene::addMeshInstances(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount,
                                 int32_t material, const Affined* worldFromObject, size_t count,
-                                const ColorArray& colors) {
+                                const ColorArray& colors, const double* instanceColors) {
   if (count == 0) fail("transforms must hold at least one matrix");
   for (size_t i = 0; i < count; ++i) requireTransform(&worldFromObject[i], "transforms[" + std::to_string(i) + "]");
   const Reach mesh = requireMesh(vertices, vertexCount, faces, faceCount, material, colors);
+  requireColors(instanceColors, count, [](size_t i) { return "instance_colors[" + std::to_string(i) + "]"; });
   if (faceCount > 0 && count > static_cast<size_t>(std::numeric_limits<int32_t>::max()) / faceCount) {
     fail("the scene cannot hold more than 2^31 - 1 primitives");
   }
@@ -433,7 +434,11 @@ int32_t Scene::addMeshInstances(const double* vertices, size_t vertexCount, cons
   const auto lock = changeGeometry();
   auto shared = std::make_shared<Group<double>>();
   addMeshTo(shared->triangles(), vertices, faces, faceCount, material, id, colors);
-  for (size_t i = 0; i < count; ++i) m_group.addInstance(worldFromObject[i], inverse(worldFromObject[i]), shared);
+  for (size_t i = 0; i < count; ++i) {
+    const Vec3d color = instanceColors ? vec3At(instanceColors, i) : Vec3d(0);
+    m_group.addInstance(worldFromObject[i], inverse(worldFromObject[i]), shared, instanceColors ? &color : nullptr);
+  }
+  m_colored = m_colored || instanceColors != nullptr;
   noteReach(placed);
   return id;
 }

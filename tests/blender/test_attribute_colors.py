@@ -12,6 +12,7 @@ from helpers.blender import (
     aim_camera,
     both,
     compare_shading,
+    cube,
     grid,
     light,
     material,
@@ -299,6 +300,33 @@ def test_geometry_nodes_instances_take_their_instance_colour_read_by_an_instance
     c, d = both(scene, tmp_path, normal=False)
     # Each instance's centre pixel (the UV sphere's smooth normals there face the camera, as the sphere's do).
     for x, z in positions[:, [0, 2]]:
+        row, col = int(60 - z * 160 / 6), int(80 + x * 160 / 6)
+        np.testing.assert_allclose(d["color"][row, col, :3], c["color"][row, col, :3], rtol=0.02, atol=1e-3)
+
+
+def test_instanced_meshes_take_their_instance_colour_read_by_an_instancer_attribute(scene, tmp_path):
+    """Geometry-nodes instances of a cube (a mesh shared by the instances in the core) with an
+    Instancer attribute colour: each instance's kd, as Cycles renders it."""
+    from durer.blender import point_cloud
+
+    positions = grid_positions(3, spacing=1.5)
+    points = point_cloud.vertex_object(scene.collection, "Points", positions)
+    colors = np.random.default_rng(8).uniform(0.1, 1, (9, 4))
+    set_attribute(points.data, "Color", "FLOAT_COLOR", "POINT", colors)  # carried to the instances
+    box = cube(scene, "Box", size=0.8)
+    box.hide_render = box.hide_viewport = True
+    box.data.materials.append(attribute_material("Per instance", instancer_attribute))
+    point_cloud.instance_on_points(points, box, rotate=False)
+    front_view(scene)
+    data = export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    assert data.warnings == [] and len(data.meshes) == 1
+    (mesh,) = data.meshes
+    assert mesh.instances.shape == (9, 4, 4) and mesh.colors is None
+    order = np.lexsort((mesh.instances[:, 2, 3], mesh.instances[:, 0, 3]))
+    np.testing.assert_allclose(mesh.instance_colors[order], colors[np.lexsort((positions[:, 2], positions[:, 0])), :3],
+                               rtol=1e-7)
+    c, d = both(scene, tmp_path, normal=False)
+    for x, z in positions[:, [0, 2]]:  # each cube's front face, flat and facing the camera
         row, col = int(60 - z * 160 / 6), int(80 + x * 160 / 6)
         np.testing.assert_allclose(d["color"][row, col, :3], c["color"][row, col, :3], rtol=0.02, atol=1e-3)
 

@@ -123,3 +123,38 @@ def test_are_invertible_is_is_invertible_for_each_matrix():
     expected = [durer._core.is_invertible(np.ascontiguousarray(m)) for m in matrices]
     assert sum(expected) < 170 and any(expected)
     np.testing.assert_array_equal(durer._core.are_invertible(matrices), expected)
+
+
+@pytest.mark.parametrize("lit", [False, True])
+def test_instance_colours_replace_the_mesh_colours(lit):
+    vertices, faces = icosphere(2)
+    n = 12
+    matrices = np.tile(np.eye(4), (n, 1, 1))
+    matrices[:, 0, 3] = np.arange(n) * 2.5 - 14  # a row of unit balls along x
+    colours = np.random.default_rng(2).uniform(0.05, 1.0, (n, 3))
+    shared, copies = durer.Scene(), durer.Scene()
+    for scene in (shared, copies):
+        if lit:
+            scene.add_directional_light((0, 0, -1), (0.8, 0.8, 0.8))
+            scene.ambient = (0.2, 0.2, 0.2)
+    shared.add_mesh_instances(vertices, faces, matrices, colors=np.zeros_like(vertices), instance_colors=colours)
+    for m, c in zip(matrices, colours):
+        copies.add_mesh(vertices, faces, transform=m, colors=np.tile(c, (len(vertices), 1)))
+    camera = durer.OrthographicCamera((0, 0, 10), (0, 0, -1), (0, 1, 0), 32.0)
+    a = durer.render(shared, camera, 256, 24, passes="color")
+    b = durer.render(copies, camera, 256, 24, passes="color")
+    np.testing.assert_allclose(a.color, b.color, atol=1e-6)
+    if not lit:  # flat: the centre pixel of ball i is its colour
+        centres = ((np.arange(n) * 2.5 - 14 + 16) / 32 * 256).astype(int)
+        np.testing.assert_allclose(a.color[12, centres, :3], colours, rtol=1e-6)
+    assert "colors" in a.stats["effects"]
+
+
+def test_bad_instance_colours_name_the_field():
+    vertices, faces = icosphere(0)
+    scene = durer.Scene()
+    with pytest.raises(ValueError, match=r"instance_colors must have shape \(2, 3\)"):
+        scene.add_mesh_instances(vertices, faces, np.stack([np.eye(4)] * 2), instance_colors=np.ones((3, 3)))
+    with pytest.raises(ValueError, match=r"instance_colors\[1\]"):
+        scene.add_mesh_instances(vertices, faces, np.stack([np.eye(4)] * 2), instance_colors=[[1, 1, 1], [1, -1, 1]])
+    assert scene.object_count == 0

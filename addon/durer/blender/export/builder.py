@@ -196,15 +196,26 @@ class Builder:
             self.data.meshes.append(mesh)
             self.instanced[key] = (mesh, [m])
 
-    def mesh_instances(self, obj, owner: int, parts: list[TrianglePart], me, mats: list,
-                       matrices: np.ndarray) -> None:
+    def mesh_instances(self, obj, owner: int, parts: list[TrianglePart], me, mats: list, matrices: np.ndarray,
+                       instancer=None, chosen: np.ndarray | None = None) -> None:
         """Mesh `me`'s triangles (its `parts`, slot materials `mats`) under each of `matrices` ((K, 4, 4)
         world-from-object, invertible), owned by `owner`: one MeshData per part, stored once for all
-        K instances (Scene.add_mesh_instances)."""
+        K instances (Scene.add_mesh_instances). A part whose material reads Instancer attributes
+        takes each instance's colour from `instancer` (the instances' point cloud; `chosen`: which
+        of its points these K are), else the mesh's own attribute colours."""
         for part in parts:
             mat = mats[min(part.slot, len(mats) - 1)] if mats else None
-            mesh = MeshData(obj.name, owner, part.vertices, part.faces, self.material(mat, obj), matrices[0],
-                            self.part_colors(me, part, mat), matrices if len(matrices) > 1 else None)
+            material = self.material(mat, obj)
+            source = self.color_source(mat)
+            per_instance = None
+            if source is not None and instancer is not None and \
+                    all(place == "INSTANCER" for place, _ in source.attributes):
+                n = len(instancer.points)
+                colors = self.attribute_colors(instancer, [mat], None, material, n, {"POINT": n}, where="INSTANCER")
+                per_instance = None if colors is None else colors[chosen]
+            mesh = MeshData(obj.name, owner, part.vertices, part.faces, material, matrices[0],
+                            None if per_instance is not None else self.part_colors(me, part, mat),
+                            matrices if len(matrices) > 1 or per_instance is not None else None, per_instance)
             self.data.meshes.append(mesh)
             self.data.sources[obj.name] += len(matrices)
 

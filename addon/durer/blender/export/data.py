@@ -93,6 +93,8 @@ class MeshData:
     #: (K, 4, 4) world-from-object matrices, `matrix` first, when the part is instanced K >= 2 times
     #: (Scene.add_mesh_instances: stored once); None for one.
     instances: np.ndarray | None = None
+    #: (K, 3) kd of each instance (geometry-nodes instance attributes), in place of `colors`; or None.
+    instance_colors: np.ndarray | None = None
 
     @property
     def transform(self) -> np.ndarray | None:

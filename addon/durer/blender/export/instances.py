@@ -102,7 +102,7 @@ class InstanceBatches:
                 continue
             if shape.kind == "triangles":  # coloured by the mesh's own attributes, if at all
                 self.builder.mesh_instances(obj, owner, shape.parts, meshes[i], list(meshes[i].materials),
-                                            world[chosen])
+                                            world[chosen], cloud, chosen)
                 continue
             if shape.kind == "points":
                 self.builder.uncolored(mats[i], f"the instances of point cloud '{meshes[i].name}' take one colour")

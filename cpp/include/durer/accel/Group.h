@@ -32,6 +32,8 @@ struct Instance {
   // (Group::addInstance), whose primitives and hierarchy then exist once.
   std::shared_ptr<Group<Real>> child;
   bool shared = false;                 // an instance of a shared child: never the group of its map
+  bool colored = false;                // every hit through it takes `color` as kd (per-instance colours)
+  Vec3<Real> color{0};
   int32_t primBase = 0;                // packed index of the child's first primitive in the parent
   bool bounded = false;                // whether [lo, hi] holds everything (no infinite plane)
   Vec3<Real> lo{0}, hi{0};             // world-space bounds, widened for rounding
@@ -102,13 +104,15 @@ class Group {
   // Another instance of `child`, seen through worldFromObject: its instances share its primitives
   // and hierarchy (each still has its own range of packed indices). Never merged with the group
   // transformed() makes for the same map.
+  // `color`, if given, is every hit's kd through this instance, in place of the child's own.
   void addInstance(const Affine<Real>& worldFromObject, const Affine<Real>& objectFromWorld,
-                   std::shared_ptr<Group<Real>> child) {
+                   std::shared_ptr<Group<Real>> child, const Vec3<Real>* color = nullptr) {
     Instance<Real> instance;
     instance.worldFromObject = worldFromObject;
     instance.objectFromWorld = objectFromWorld;
     instance.child = std::move(child);
     instance.shared = true;
+    if (color) instance.colored = true, instance.color = *color;
     m_instances.push_back(std::move(instance));
   }
 
@@ -239,6 +243,8 @@ class Group {
       if (!child) child = std::make_shared<Group>(*source.child);
       inst.child = child;
       inst.shared = source.shared;
+      inst.colored = source.colored;
+      inst.color = Vec3<Real>(source.color);
       if (!inst.shared) m_instanceOf.emplace(keyOf(inst.worldFromObject), m_instances.size());
       m_instances.push_back(std::move(inst));
     }
@@ -337,6 +343,7 @@ class Group {
     local.tHit[0] = packet.tHit[k];
     local.prim[0] = packet.prim[k] - inst.primBase;
     Hit<Real> h = inst.child->hitOwn(local, 0);
+    if (inst.colored) h.colored = true, h.color = inst.color;
     const Vec3<Real> n = wellScaled(inst.objectFromWorld.transposed(h.normal), h.normal);
     h.normal = n / glm::length(n);
     h.pointError = inst.worldFromObject.pointError(h.point, h.pointError);

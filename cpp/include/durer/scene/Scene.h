@@ -64,10 +64,11 @@ class Scene {
                   const Affined* worldFromObject = nullptr, const ColorArray& colors = {});
   // The mesh of addMesh seen through each of `count` transforms (worldFromObject: count maps, each
   // invertible): one object whose triangles and hierarchy are stored once and shared by its
-  // instances (Group::addInstance), however many there are.
+  // instances (Group::addInstance), however many there are. instanceColors (count x 3, or null):
+  // each instance's kd, in place of the material's and the mesh's colours.
   int32_t addMeshInstances(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount,
                            int32_t material, const Affined* worldFromObject, size_t count,
-                           const ColorArray& colors = {});
+                           const ColorArray& colors = {}, const double* instanceColors = nullptr);
   // lo, hi: count x 3 doubles, lo < hi in each axis; one object per box.
   int32_t addBoxes(const double* lo, const double* hi, const int32_t* materials, size_t count, bool perBox,
                    const Affined* worldFromObject = nullptr, const ColorArray& colors = {});
