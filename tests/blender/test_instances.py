@@ -124,3 +124,27 @@ def test_point_cloud_instances_are_read_in_bulk(scene):
     np.testing.assert_allclose(centres[:, 0], where, atol=1e-5)
     np.testing.assert_allclose(centres[:, 1] - centres[:, 0], 0.3 * scales[:, None] * [1, 0, 0], atol=1e-5)
     np.testing.assert_allclose(centres[:, 2] - centres[:, 0], 0.3 * scales[:, None] * [0, 1, 0], atol=1e-5)
+
+
+def test_instances_render_as_the_equivalent_point_cloud(scene):
+    """Instance on Points of a UV sphere renders, pixel for pixel, as a point cloud of the same
+    centres and radius (Mesh to Points) does: the instances are spheres, not meshes."""
+    import durer
+
+    positions = np.random.default_rng(9).uniform(-3, 3, (300, 3))
+    points = point_cloud.vertex_object(scene.collection, "Points", positions)
+    ball = uv_sphere(scene, "Ball", radius=0.25)
+    ball.hide_render = ball.hide_viewport = True
+    point_cloud.instance_on_points(points, ball)  # random rotations: still the same spheres
+    instanced = build.make_scene(export(scene))
+    points.modifiers.clear()
+    point_cloud.mesh_to_points(points, 0.25)
+    cloud = build.make_scene(export(scene))
+    assert instanced.sphere_count == cloud.sphere_count == 300
+    camera = durer.PerspectiveCamera((0, -12, 4), (0, 3, -1), (0, 0, 1), 50.0)
+    a = durer.render(instanced, camera, 160, 120)
+    b = durer.render(cloud, camera, 160, 120)
+    assert np.isfinite(a.depth).mean() > 0.05
+    np.testing.assert_allclose(a.depth, b.depth, rtol=1e-6)
+    np.testing.assert_allclose(a.color, b.color, atol=1e-5)
+    np.testing.assert_allclose(a.normal, b.normal, atol=1e-4)
