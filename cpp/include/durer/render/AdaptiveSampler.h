@@ -90,13 +90,28 @@ class AdaptiveSampler {
         stats.timeLimitReached = true;
         break;
       }
+      // A tile is marked for the next round as soon as every tile around it has been sampled in this
+      // one (its marking reads nothing else), by the worker that sampled the last of them: no pass
+      // of its own. Tiles with no sampled tile around them keep their decision: nothing to add.
+      const bool last = round == m_rounds;
+      const int level = last ? m_maxSamples : std::min(m_maxSamples, m_firstSamples << (round + 1));
+      std::vector<std::atomic<int>> pending(m_state.size());
+      for (std::atomic<int>& p : pending) p.store(0, std::memory_order_relaxed);
+      for (TileState& t : m_state) t.priority = 0;
+      for (const int64_t u : order) forTilesAround(static_cast<size_t>(u), [&](size_t t) { pending[t].fetch_add(1); });
       std::atomic<bool> late{false};
       const auto work = [&](int64_t i, RayCounters& c) {
         if (overTime(round)) {
           late = true;
           return;
         }
-        sampleTile(m_state[static_cast<size_t>(order[static_cast<size_t>(i)])], round, c);
+        const size_t u = static_cast<size_t>(order[static_cast<size_t>(i)]);
+        sampleTile(m_state[u], round, c);
+        if (!control.cancel.load(std::memory_order_relaxed)) {
+          forTilesAround(u, [&](size_t t) {
+            if (pending[t].fetch_sub(1, std::memory_order_acq_rel) == 1 && !last) mark(t, level, round);
+          });
+        }
       };
       counters += inParallel(static_cast<int64_t>(order.size()), threads, control, poll, round, work);
       ++stats.rounds;
@@ -104,10 +119,7 @@ class AdaptiveSampler {
         stats.timeLimitReached = late.load();
         break;
       }
-      if (round == m_rounds) break;
-      const int level = std::min(m_maxSamples, m_firstSamples << (round + 1));
-      inParallel(static_cast<int64_t>(m_state.size()), threads, control, poll, round,
-                 [&](int64_t i, RayCounters&) { mark(static_cast<size_t>(i), level, round); });
+      if (last) break;
       order = tilesToRefine();
     }
     if (!control.cancel.load()) write(stats);
@@ -251,12 +263,10 @@ class AdaptiveSampler {
 
   static int slotOf(const TileState& t, int x, int y) { return (y - t.y0) * t.w + (x - t.x0); }
 
-  // Decides add[k] for every pixel of tile `index` from the state the last round left. A pixel (or a
-  // tile) whose neighbourhood the last round did not sample decides as before it: nothing to add.
+  // Decides add[k] for every pixel of tile `index` from the state the last round left. A pixel whose
+  // neighbourhood the last round did not sample decides as before it: nothing to add.
   void mark(size_t index, int level, int round) {
     TileState& t = m_state[index];
-    t.priority = 0;
-    if (quiet(index, round)) return;
     for (int k = 0; k < t.w * t.h; ++k) {
       const int taken = t.taken[k];
       if (taken >= level) continue;
@@ -297,16 +307,14 @@ class AdaptiveSampler {
     return false;
   }
 
-  // Whether no tile around tile `index` (itself included) was sampled in `round`.
-  bool quiet(size_t index, int round) const {
+  // f(t) for each tile t around tile `index` (itself included).
+  template <typename F>
+  void forTilesAround(size_t index, const F& f) const {
     const int tx = static_cast<int>(index % m_tilesX), ty = static_cast<int>(index / m_tilesX);
     const int tilesY = static_cast<int>(m_state.size() / m_tilesX);
     for (int y = std::max(ty - 1, 0); y <= std::min(ty + 1, tilesY - 1); ++y) {
-      for (int x = std::max(tx - 1, 0); x <= std::min(tx + 1, m_tilesX - 1); ++x) {
-        if (m_state[static_cast<size_t>(y) * m_tilesX + x].sampledIn == round) return false;
-      }
+      for (int x = std::max(tx - 1, 0); x <= std::min(tx + 1, m_tilesX - 1); ++x) f(static_cast<size_t>(y) * m_tilesX + x);
     }
-    return true;
   }
 
   // Whether pixels k of t and q of u see different geometry: their first samples met other
