@@ -71,25 +71,25 @@ def colored_wavy_grid(bpy, scene, n: int) -> None:
 
 def scattered_spheres(bpy, scene, n: int) -> None:
     """n instances of a UV sphere object on a vertex mesh's points (geometry nodes)."""
-    from durer.blender.point_cloud import instance_on_points, vertex_object
-
-    points = vertex_object(scene.collection, "Points", np.random.default_rng(0).uniform(-10, 10, (n, 3)))
-    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.05)
-    ball = bpy.context.active_object
-    ball.hide_render = ball.hide_viewport = True
-    instance_on_points(points, ball, scale=(0.5, 2.0))
+    _scatter(bpy, scene, n, lambda: bpy.ops.mesh.primitive_uv_sphere_add(radius=0.05))
 
 
 def scattered_cubes(bpy, scene, n: int) -> None:
     """n instances of a cube object on a vertex mesh's points (geometry nodes): not spheres, so
     each is a matrix of one shared mesh."""
+    _scatter(bpy, scene, n, lambda: bpy.ops.mesh.primitive_cube_add(size=0.1))
+
+
+def _scatter(bpy, scene, n: int, add_instanced) -> None:
+    """n instances, randomly scaled, of the (hidden) object `add_instanced()` makes active, on the
+    points of a vertex mesh."""
     from durer.blender.point_cloud import instance_on_points, vertex_object
 
     points = vertex_object(scene.collection, "Points", np.random.default_rng(0).uniform(-10, 10, (n, 3)))
-    bpy.ops.mesh.primitive_cube_add(size=0.1)
-    box = bpy.context.active_object
-    box.hide_render = box.hide_viewport = True
-    instance_on_points(points, box, scale=(0.5, 2.0))
+    add_instanced()
+    instanced = bpy.context.active_object
+    instanced.hide_render = instanced.hide_viewport = True
+    instance_on_points(points, instanced, scale=(0.5, 2.0))
 
 
 def wavy_grid(bpy, scene, n: int) -> None:
