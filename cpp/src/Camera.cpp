@@ -65,6 +65,8 @@ double requireRaysWithin(const CameraSpec& spec, int width, int height, const Nu
 template <typename Real>
 Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
     : m_perspective(spec.projection == Projection::Perspective),
+      m_width(width),
+      m_height(height),
       m_tMin(static_cast<Real>(spec.tMin)),
       m_tMax(static_cast<Real>(spec.tMax)) {
   const Vec3d forward = safeNormalize(spec.direction);
@@ -79,6 +81,65 @@ Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
   m_pixelHeight = static_cast<Real>(window.pixelHeight);
   m_xOffset = static_cast<Real>(window.xOffset);
   m_yOffset = static_cast<Real>(window.yOffset);
+}
+
+namespace {
+// The range of x/z over the disk of radius r around (x, z) in the half plane z > 0, the tangents of
+// the angles under which an eye at the origin sees it; infinite ends where it reaches z = 0 on that
+// side. `angle`: widening of those angles. False if it lies wholly in z <= 0.
+bool seenRange(double x, double z, double r, double angle, double& lo, double& hi) {
+  constexpr double halfPi = kPi / 2, inf = std::numeric_limits<double>::infinity();
+  const double distance = std::hypot(x, z);
+  if (!(distance > r)) {  // the eye is inside: every direction
+    lo = -inf, hi = inf;
+    return true;
+  }
+  const double centre = std::atan2(x, z), half = std::asin(r / distance) + angle;
+  // The disk's angles [centre - half, centre + half] (at most pi wide) against (-pi/2, pi/2), also
+  // shifted by a turn either way.
+  bool seen = false;
+  lo = inf, hi = -inf;
+  for (const double turn : {-2 * kPi, 0.0, 2 * kPi}) {
+    const double a = centre + turn - half, b = centre + turn + half;
+    if (b <= -halfPi || a >= halfPi) continue;
+    seen = true;
+    lo = std::min(lo, a <= -halfPi ? -inf : std::tan(a));
+    hi = std::max(hi, b >= halfPi ? inf : std::tan(b));
+  }
+  return seen;
+}
+}  // namespace
+
+template <typename Real>
+bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box, double& tLow) const {
+  // In double from the frame as rounded to Real (what generate uses). The rays' own rounding: each
+  // coordinate of an orthographic origin within a few units in the last place of its magnitude, a
+  // direction within a few of its angle; the robust test's roots within a few of t (docs/numerics.md).
+  // 64 epsilons of every magnitude involved bounds all of them with room to spare.
+  const double eps = 64 * static_cast<double>(std::numeric_limits<Real>::epsilon());
+  const Vec3d c(m_center), f(m_forward), h(m_horizontal), u(m_up);
+  const Vec3d q = center - c;
+  const double x = glm::dot(q, h), y = glm::dot(q, u), z = glm::dot(q, f);
+  const double pixelWidth = m_pixelWidth, pixelHeight = m_pixelHeight, xOffset = m_xOffset, yOffset = m_yOffset;
+  if (!m_perspective) {
+    const double window = std::max(std::fabs(xOffset), std::fabs(xOffset + m_width * pixelWidth)) +
+                          std::max(std::fabs(yOffset), std::fabs(yOffset - m_height * pixelHeight));
+    const double slack = eps * (maxAbs(c) + window + std::fabs(z) + radius);
+    const double reach = radius + slack;
+    if (z + reach < static_cast<double>(m_tMin)) return false;  // wholly behind the image plane
+    box = {(x - reach - xOffset) / pixelWidth - 1, (x + reach - xOffset) / pixelWidth + 1,
+           (yOffset - y - reach) / pixelHeight - 1, (yOffset - y + reach) / pixelHeight + 1};
+    tLow = z - reach;
+    return true;
+  }
+  const double distance = glm::length(q);
+  const double reach = radius + eps * (distance + radius);
+  double x0, x1, y0, y1;
+  if (!seenRange(x, z, reach, eps, x0, x1) || !seenRange(y, z, reach, eps, y0, y1)) return false;
+  box = {(x0 - xOffset) / pixelWidth - 1, (x1 - xOffset) / pixelWidth + 1, (yOffset - y1) / pixelHeight - 1,
+         (yOffset - y0) / pixelHeight + 1};
+  tLow = distance - reach;
+  return true;
 }
 
 template class Camera<float>;

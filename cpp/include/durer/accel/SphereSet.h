@@ -2,6 +2,8 @@
 #include <algorithm>
 #include <atomic>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <cstdint>
 #include <vector>
 
@@ -11,6 +13,7 @@
 #include "durer/geometry/RayOffset.h"
 #include "durer/geometry/RayPacket.h"
 #include "durer/accel/Bvh.h"
+#include "durer/accel/SphereView.h"
 #include "durer/geometry/SphereIntersection.h"
 #include "durer/math/Vec.h"
 
@@ -39,7 +42,21 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   // The spheres of `source`, the set this one was made from, after they moved (Base::refitFrom).
   template <typename Other>
   bool refitFrom(const SphereSet<Other>& source, int threads) {
+    m_views.clear();
     return Base::refitFrom(source, convert<Other>, boxOf, threads);
+  }
+
+  // The view of these spheres made for `key` (SphereView): the last one made, if made for this key,
+  // else make()'s (null where a view would not pay).
+  template <typename Make>
+  std::shared_ptr<const SphereView<Real>> view(const ViewKey& key, const Make& make) const {
+    const std::lock_guard<std::mutex> lock(m_views.mutex);
+    if (!m_views.made || !(m_views.key == key)) {
+      m_views.view = make();
+      m_views.key = key;
+      m_views.made = true;
+    }
+    return m_views.view;
   }
 
   void setSphere(size_t i, const Sphere<Real>& sphere) { this->m_primitives[i] = sphere; }
@@ -61,6 +78,13 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     if (this->m_primitives.empty()) return 0;
     PacketRayTerms<Real> terms;
     terms.template compute<M>(packet.dx, packet.dy, packet.dz, packet.count);
+    if constexpr (!AnyHit) {
+      if (packet.view) {
+        const int64_t tests = packet.view->search(
+            packet, [&](uint32_t i) { intersectOne<M>(packet, terms, static_cast<size_t>(i), primBase); });
+        if (tests >= 0) return tests;
+      }
+    }
     return this->template search<AnyHit>(
         packet, cancel,
         [&](int32_t first, int32_t count) {
@@ -155,6 +179,27 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
 
  private:
   using Base = PrimitiveSet<Sphere<Real>, Real>;
+
+  // The last view made (a render's; the next render of the same camera reuses it). A copy of the
+  // set starts without one.
+  struct ViewCache {
+    std::mutex mutex;
+    bool made = false;
+    ViewKey key;
+    std::shared_ptr<const SphereView<Real>> view;
+    ViewCache() = default;
+    ViewCache(const ViewCache&) {}
+    ViewCache& operator=(const ViewCache&) {
+      clear();
+      return *this;
+    }
+    void clear() {
+      const std::lock_guard<std::mutex> lock(mutex);
+      made = false;
+      view.reset();
+    }
+  };
+  mutable ViewCache m_views;
 
   template <typename Other>
   static Sphere<Real> convert(const Sphere<Other>& s) {

@@ -7,6 +7,14 @@ namespace durer {
 // 64 rays (an 8x8 pixel tile) keep every array of a packet in L1 while a primitive list streams by.
 constexpr int kPacketSize = 64;
 
+template <typename Real>
+class SphereView;
+
+// A box of sample positions on the image, in pixels (x right, y down; see Camera).
+struct SampleBox {
+  double x0, x1, y0, y1;
+};
+
 // Packed index of a primitive during the search (Group packs every primitive set's indices into one range).
 constexpr int32_t kNoPrimitive = -1;
 
@@ -17,6 +25,10 @@ struct RayPacket {
   Real tMax = 0;
   bool commonOrigin = false;           // every ray starts at ox[0], oy[0], oz[0] (a perspective camera's)
   bool coherent = false;               // neighbouring rays of one camera tile: worth traversing together
+  // Camera rays only: the render's index of the sphere set it searches by where spheres appear on
+  // the image (SphereView), or null; and the box of the rays' sample positions [x0, x1, y0, y1].
+  const SphereView<Real>* view = nullptr;
+  Real sampleBox[4] = {0, 0, 0, 0};
   alignas(64) Real ox[kPacketSize];    // origin, in the frame of the group searched
   alignas(64) Real oy[kPacketSize];
   alignas(64) Real oz[kPacketSize];

@@ -1,4 +1,5 @@
 #pragma once
+#include <algorithm>
 #include <cmath>
 
 #include "durer/Options.h"
@@ -48,6 +49,13 @@ class Camera {
 
   void generate(RayPacket<Real>& packet, const Real* sampleX, const Real* sampleY, int count) const;
 
+  // Where camera rays may meet the sphere (center, radius): the box [x0, x1] x [y0, y1] of the
+  // sample positions (pixels, as generate takes them) whose rays may meet it, and a lower bound on
+  // the t they would meet it at. False if no camera ray can meet it. Conservative for the rays
+  // generate makes in Real and the robust sphere test's roots (widened by bounds on both roundings
+  // and by a pixel); infinite ends where the sphere reaches the plane of a perspective eye.
+  bool footprint(const Vec3d& center, double radius, SampleBox& box, double& tLow) const;
+
   // The factor that turns t along a unit camera ray with direction (dx, dy, dz) into the distance
   // along the view axis: the cosine to it for perspective rays, exactly 1 for orthographic ones.
   Real planarScale(Real dx, Real dy, Real dz) const {
@@ -56,6 +64,7 @@ class Camera {
 
  private:
   bool m_perspective;
+  int m_width, m_height;
   Vec3<Real> m_center, m_forward, m_horizontal, m_up;  // unit, orthonormal frame
   Real m_pixelWidth, m_pixelHeight;                    // image-plane units per pixel (at distance 1 for perspective)
   Real m_xOffset, m_yOffset;                           // image-plane position of sample (0, 0)
@@ -70,6 +79,13 @@ inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX,
   packet.tMax = m_tMax;
   packet.commonOrigin = m_perspective;
   packet.coherent = true;
+  packet.view = nullptr;
+  Real x0 = sampleX[0], x1 = x0, y0 = sampleY[0], y1 = y0;
+  for (int k = 1; k < count; ++k) {
+    x0 = std::min(x0, sampleX[k]), x1 = std::max(x1, sampleX[k]);
+    y0 = std::min(y0, sampleY[k]), y1 = std::max(y1, sampleY[k]);
+  }
+  packet.sampleBox[0] = x0, packet.sampleBox[1] = x1, packet.sampleBox[2] = y0, packet.sampleBox[3] = y1;
   // Plain component arithmetic so that the loop vectorises.
   const Vec3<Real> c = m_center, f = m_forward, h = m_horizontal, u = m_up;
   if (m_perspective) {

@@ -50,7 +50,8 @@ class TileRenderer {
         m_region(regionOf(settings)),
         m_firstTileX(m_region.x / kTileSize),
         m_firstTileY(m_region.y / kTileSize),
-        m_tilesX((m_region.x + m_region.width + kTileSize - 1) / kTileSize - m_firstTileX) {}
+        m_tilesX((m_region.x + m_region.width + kTileSize - 1) / kTileSize - m_firstTileX),
+        m_view(viewOf(group.spheres(), spec, settings, m_camera)) {}
 
   // The whole image's tiles that meet the region (a region's tiles are the image's, clipped).
   int64_t tileCount() const {
@@ -81,6 +82,7 @@ class TileRenderer {
         for (int col = 0; col < w; ++col, ++k) samplePosition(x0 + col, y0 + row, s, sampleX[k], sampleY[k]);
       }
       m_camera.generate(packet, sampleX, sampleY, count);
+      packet.view = m_view.get();
       counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
       if (m_cancel.load(std::memory_order_relaxed)) return {};
       accumulate(packet, acc, counters);
@@ -151,6 +153,7 @@ class TileRenderer {
              RayCounters& counters) const {
     RayPacket<Real> packet;
     m_camera.generate(packet, sampleX, sampleY, count);
+    packet.view = m_view.get();
     counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
     if (m_cancel.load(std::memory_order_relaxed)) return false;
     out.clear(count);
@@ -344,6 +347,29 @@ class TileRenderer {
     acc.a[k] += a;
   }
 
+  // The view of the scene's own spheres for this camera and region (SphereView; shared with the
+  // renders before if the same), from a few dozen spheres on.
+  static std::shared_ptr<const SphereView<Real>> viewOf(const SphereSet<Real>& spheres, const CameraSpec& spec,
+                                                        const RenderSettings& settings, const Camera<Real>& camera) {
+    constexpr size_t kViewMinSpheres = 16;
+    if (spheres.size() < kViewMinSpheres) return nullptr;
+    const RenderSettings::Region region = regionOf(settings);
+    const ViewKey key{{double(spec.projection), spec.center.x, spec.center.y, spec.center.z, spec.direction.x,
+                       spec.direction.y, spec.direction.z, spec.up.x, spec.up.y, spec.up.z, spec.size, double(spec.fit),
+                       spec.shiftX, spec.shiftY, spec.pixelAspect, spec.tMin, spec.tMax, double(settings.width),
+                       double(settings.height), double(region.x), double(region.y), double(region.width),
+                       double(region.height)}};
+    const int threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
+    return spheres.view(key, [&] {
+      const auto footprint = [&](size_t i, SampleBox& box, double& tLow) {
+        const Sphere<Real>& sphere = spheres.primitive(i);
+        return camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow);
+      };
+      return std::shared_ptr<const SphereView<Real>>(
+          SphereView<Real>::make(key, spheres.size(), footprint, region.x, region.y, region.width, region.height, threads));
+    });
+  }
+
   void write(const Accumulator& acc, int x0, int y0, int w, int h) const {
     for (int row = 0; row < h; ++row) {
       writeRow(acc, row * w, w, static_cast<size_t>(y0 + row - m_region.y) * m_region.width + (x0 - m_region.x));
@@ -367,6 +393,7 @@ class TileRenderer {
   RenderSettings::Region m_region;
   int m_firstTileX, m_firstTileY;
   int m_tilesX;
+  std::shared_ptr<const SphereView<Real>> m_view;  // of the scene's own spheres; null: none made
 };
 
 }  // namespace tiles

@@ -1,0 +1,200 @@
+#pragma once
+// One render's index of a sphere set by where the spheres appear on the image: the image is cut into
+// cells of a camera tile (8x8 pixels), and each cell lists the spheres whose footprint
+// (Camera::footprint, conservative) meets it, nearest first by a lower bound on the t at which a
+// camera ray meets them. A camera packet then tests its cell's spheres in that order, all its rays
+// at once, and stops at the first sphere that lies beyond every ray's hit so far: no hierarchy walk,
+// and the spheres hidden behind the first layer are never touched. Made once per camera and image
+// (the sphere set keeps the last one), in O(spheres + entries) on the render's threads.
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <vector>
+
+#include "durer/Inline.h"
+#include "durer/accel/Bvh.h"
+#include "durer/geometry/RayPacket.h"
+
+namespace durer {
+
+// What a view is made for: the camera as given, the image size and the region rendered. Two renders
+// with equal keys of the same prepared spheres share the view.
+struct ViewKey {
+  static constexpr int kSize = 24;
+  double values[kSize] = {};
+  bool operator==(const ViewKey& other) const { return std::memcmp(values, other.values, sizeof values) == 0; }
+};
+
+template <typename Real>
+class SphereView {
+ public:
+  static constexpr int kCell = 8;  // pixels: a camera tile, so that a tile's packet reads one cell
+  // Above this many entries per sphere (spheres covering many cells) the view costs more memory
+  // than the hierarchy it stands in for: not made.
+  static constexpr double kMaxEntriesPerSphere = 16;
+
+  struct Entry {
+    uint32_t sphere;  // index in the sphere set
+    float tLow;       // no camera ray in the cell meets it before this t
+  };
+
+  const ViewKey& key() const { return m_key; }
+  size_t bytes() const { return m_entries.size() * sizeof(Entry) + m_first.size() * sizeof(uint32_t); }
+
+  // The view of `count` spheres over the cells of the pixels [x, x + width) x [y, y + height):
+  // footprint(i, box, tLow) gives sphere i's sample box and lower bound (false: no camera ray
+  // meets it). Null if it would not pay (see kMaxEntriesPerSphere).
+  template <typename Footprint>
+  static std::unique_ptr<SphereView> make(const ViewKey& key, size_t count, const Footprint& footprint, int x, int y,
+                                          int width, int height, int threads);
+
+  // Calls test(sphere) for the spheres of the packet's cell that some ray may meet before its hit
+  // so far, nearest first (test lowers the packet's tHit), and returns the ray-sphere tests made;
+  // -1 if the packet's samples fall outside the cells (then the caller searches otherwise).
+  template <typename Test>
+  DURER_INLINE int64_t search(const RayPacket<Real>& packet, const Test& test) const {
+    const Real* box = packet.sampleBox;
+    const Real cx0 = std::floor(box[0] / kCell) - m_cellX, cx1 = std::floor(box[1] / kCell) - m_cellX;
+    const Real cy0 = std::floor(box[2] / kCell) - m_cellY, cy1 = std::floor(box[3] / kCell) - m_cellY;
+    if (!(cx0 >= 0 && cy0 >= 0 && cx1 < m_cellsX && cy1 < m_cellsY)) return -1;
+    int64_t tested = 0;
+    for (int cy = int(cy0); cy <= int(cy1); ++cy) {
+      for (int cx = int(cx0); cx <= int(cx1); ++cx) {
+        const size_t cell = size_t(cy) * size_t(m_cellsX) + size_t(cx);
+        const Entry* entry = m_entries.data() + m_first[cell];
+        const Entry* end = m_entries.data() + m_first[cell + 1];
+        Real farthest = farthestHit(packet);
+        for (; entry != end; ++entry) {
+          if (entry->tLow > farthest) break;
+          test(entry->sphere);
+          ++tested;
+          farthest = farthestHit(packet);
+        }
+      }
+    }
+    return tested * packet.count;
+  }
+
+ private:
+  // The largest t any ray of the packet may still be lowered from (NaN-free: tHit never is NaN).
+  DURER_INLINE static Real farthestHit(const RayPacket<Real>& packet) {
+    Real farthest = packet.tHit[0];
+    for (int k = 1; k < packet.count; ++k) farthest = farthest > packet.tHit[k] ? farthest : packet.tHit[k];
+    return farthest;
+  }
+
+  // A float's bits as an unsigned key in the float's order (negative below positive).
+  static uint32_t orderKey(float value) {
+    uint32_t bits;
+    std::memcpy(&bits, &value, sizeof bits);
+    return (bits & 0x80000000u) ? ~bits : (bits | 0x80000000u);
+  }
+
+  // The largest float at most `value` (a lower bound stays one when rounded).
+  static float floatBelow(double value) {
+    if (!(value > -std::numeric_limits<double>::infinity())) return -std::numeric_limits<float>::infinity();
+    float f = static_cast<float>(value);
+    if (static_cast<double>(f) > value) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+    return f;
+  }
+
+  // Sorts `items` by keys[item] (LSD radix, 11 bits a pass), stable.
+  static void sortByKey(std::vector<uint32_t>& items, const std::vector<uint32_t>& keys) {
+    constexpr int kBits = 11, kBuckets = 1 << kBits;
+    std::vector<uint32_t> other(items.size());
+    for (int shift = 0; shift < 32; shift += kBits) {
+      std::vector<size_t> start(kBuckets + 1, 0);
+      for (const uint32_t item : items) ++start[((keys[item] >> shift) & (kBuckets - 1)) + 1];
+      for (int b = 0; b < kBuckets; ++b) start[b + 1] += start[b];
+      for (const uint32_t item : items) other[start[(keys[item] >> shift) & (kBuckets - 1)]++] = item;
+      items.swap(other);
+    }
+  }
+
+  ViewKey m_key;
+  int m_cellX = 0, m_cellY = 0;       // the first cell's column and row in the image's cells
+  int m_cellsX = 0, m_cellsY = 0;
+  std::vector<uint32_t> m_first;      // cell c's entries: [m_first[c], m_first[c + 1]), cells row by row
+  std::vector<Entry> m_entries;
+};
+
+template <typename Real>
+template <typename Footprint>
+std::unique_ptr<SphereView<Real>> SphereView<Real>::make(const ViewKey& key, size_t count, const Footprint& footprint,
+                                                         int x, int y, int width, int height, int threads) {
+  auto view = std::make_unique<SphereView>();
+  view->m_key = key;
+  view->m_cellX = x / kCell, view->m_cellY = y / kCell;
+  view->m_cellsX = (x + width + kCell - 1) / kCell - view->m_cellX;
+  view->m_cellsY = (y + height + kCell - 1) / kCell - view->m_cellY;
+  struct Cells {
+    int32_t x0, x1, y0, y1;  // inclusive; x0 > x1: none
+  };
+  std::vector<Cells> cells(count);
+  std::vector<uint32_t> keys(count);
+  std::vector<float> tLows(count);
+  const double cellsX = view->m_cellsX, cellsY = view->m_cellsY;
+  std::atomic<double> entries{0};
+  parallelChunks(count, threads, [&](size_t begin, size_t end) {
+    double made = 0;
+    for (size_t i = begin; i < end; ++i) {
+      SampleBox box;
+      double tLow;
+      Cells& c = cells[i];
+      c = {1, 0, 1, 0};
+      if (!footprint(i, box, tLow)) continue;
+      // Cell coordinates relative to the view's first cell, clamped to it (in double: infinite
+      // ends and huge boxes stay ordered).
+      const double x0 = std::max(std::floor(box.x0 / kCell) - view->m_cellX, 0.0);
+      const double x1 = std::min(std::floor(box.x1 / kCell) - view->m_cellX, cellsX - 1);
+      const double y0 = std::max(std::floor(box.y0 / kCell) - view->m_cellY, 0.0);
+      const double y1 = std::min(std::floor(box.y1 / kCell) - view->m_cellY, cellsY - 1);
+      if (!(x0 <= x1 && y0 <= y1)) continue;
+      c = {int32_t(x0), int32_t(x1), int32_t(y0), int32_t(y1)};
+      tLows[i] = floatBelow(tLow);
+      keys[i] = orderKey(tLows[i]);
+      made += (x1 - x0 + 1) * (y1 - y0 + 1);
+    }
+    double total = entries.load();
+    while (!entries.compare_exchange_weak(total, total + made)) {
+    }
+  });
+  const double most = kMaxEntriesPerSphere * double(count) + double(view->m_cellsX) * view->m_cellsY;
+  if (entries.load() > std::min(most, double(std::numeric_limits<uint32_t>::max() - 1))) {
+    return nullptr;
+  }
+  std::vector<uint32_t> order;
+  order.reserve(count);
+  for (size_t i = 0; i < count; ++i) {
+    if (cells[i].x0 <= cells[i].x1) order.push_back(uint32_t(i));
+  }
+  sortByKey(order, keys);
+  // Entries cell by cell, each cell's in the order's (nearest first): counted, then placed.
+  const size_t cellCount = size_t(view->m_cellsX) * size_t(view->m_cellsY);
+  std::vector<uint32_t>& first = view->m_first;
+  first.assign(cellCount + 1, 0);
+  for (const uint32_t i : order) {
+    const Cells& c = cells[i];
+    for (int32_t cy = c.y0; cy <= c.y1; ++cy) {
+      for (int32_t cx = c.x0; cx <= c.x1; ++cx) ++first[size_t(cy) * size_t(view->m_cellsX) + size_t(cx) + 1];
+    }
+  }
+  for (size_t cell = 0; cell < cellCount; ++cell) first[cell + 1] += first[cell];
+  view->m_entries.resize(first[cellCount]);
+  std::vector<uint32_t> next(first.begin(), first.end() - 1);
+  for (const uint32_t i : order) {
+    const Cells& c = cells[i];
+    for (int32_t cy = c.y0; cy <= c.y1; ++cy) {
+      for (int32_t cx = c.x0; cx <= c.x1; ++cx) {
+        view->m_entries[next[size_t(cy) * size_t(view->m_cellsX) + size_t(cx)]++] = {i, tLows[i]};
+      }
+    }
+  }
+  return view;
+}
+
+}  // namespace durer
