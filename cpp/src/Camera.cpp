@@ -84,6 +84,11 @@ Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
 }
 
 namespace {
+// Added to a footprint's box on every side, in pixels, beyond the rounding bounds. The box bounds the
+// rays' own (rounded) sample positions; a margin above 0 also keeps a ray whose position rounded up
+// onto its pixel's far edge in its pixel's row (SphereView's rows: floor of the box's ends).
+constexpr double kMarginPixels = 1.0 / 64;
+
 // The range of x/z over the disk of radius r around (x, z) in the half plane z > 0, the tangents of
 // the angles under which an eye at the origin sees it; infinite ends where it reaches z = 0 on that
 // side. `angle`: widening of those angles. False if it lies wholly in z <= 0.
@@ -127,8 +132,8 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
     const double slack = eps * (maxAbs(c) + window + std::fabs(z) + radius);
     const double reach = radius + slack;
     if (z + reach < static_cast<double>(m_tMin)) return false;  // wholly behind the image plane
-    box = {(x - reach - xOffset) / pixelWidth - 1, (x + reach - xOffset) / pixelWidth + 1,
-           (yOffset - y - reach) / pixelHeight - 1, (yOffset - y + reach) / pixelHeight + 1};
+    box = {(x - reach - xOffset) / pixelWidth - kMarginPixels, (x + reach - xOffset) / pixelWidth + kMarginPixels,
+           (yOffset - y - reach) / pixelHeight - kMarginPixels, (yOffset - y + reach) / pixelHeight + kMarginPixels};
     tLow = z - reach;
     return true;
   }
@@ -136,8 +141,8 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
   const double reach = radius + eps * (distance + radius);
   double x0, x1, y0, y1;
   if (!seenRange(x, z, reach, eps, x0, x1) || !seenRange(y, z, reach, eps, y0, y1)) return false;
-  box = {(x0 - xOffset) / pixelWidth - 1, (x1 - xOffset) / pixelWidth + 1, (yOffset - y1) / pixelHeight - 1,
-         (yOffset - y0) / pixelHeight + 1};
+  box = {(x0 - xOffset) / pixelWidth - kMarginPixels, (x1 - xOffset) / pixelWidth + kMarginPixels,
+         (yOffset - y1) / pixelHeight - kMarginPixels, (yOffset - y0) / pixelHeight + kMarginPixels};
   tLow = distance - reach;
   return true;
 }

@@ -80,8 +80,9 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     terms.template compute<M>(packet.dx, packet.dy, packet.dz, packet.count);
     if constexpr (!AnyHit) {
       if (packet.view) {
-        const int64_t tests = packet.view->search(
-            packet, [&](uint32_t i) { intersectOne<M>(packet, terms, static_cast<size_t>(i), primBase); });
+        const int64_t tests = packet.view->search(packet, [&](uint32_t i, int kBegin, int kEnd) {
+          intersectOne<M>(packet, terms, static_cast<size_t>(i), primBase, kBegin, kEnd);
+        });
         if (tests >= 0) return tests;
       }
     }
@@ -111,15 +112,16 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     recordHit(packet, k, firstRootFrom(roots, packet.tMin), primBase + static_cast<int32_t>(i));
   }
 
-  // One sphere against every ray of the packet: the vectorised inner loop.
+  // One sphere against the packet's rays [kBegin, kEnd) (all by default): the vectorised inner loop.
   template <SphereMethod M>
-  DURER_INLINE void intersectOne(RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, size_t i, int32_t primBase) const {
+  DURER_INLINE void intersectOne(RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, size_t i, int32_t primBase,
+                                 int kBegin = 0, int kEnd = -1) const {
     const Vec3<Real> c = this->m_primitives[i].center;
     const Real r = this->m_primitives[i].radius;
+    const int n = kEnd < 0 ? packet.count : kEnd;
     if constexpr (M == SphereMethod::Robust) {
-      if (!anyRayMayMeet(packet, terms, c, r)) return;
+      if (!anyRayMayMeet(packet, terms, c, r, kBegin, n)) return;
     }
-    const int n = packet.count;
     const Real tMin = packet.tMin;
     const int32_t id = primBase + static_cast<int32_t>(i);
     const Real* __restrict ox = packet.ox;
@@ -131,11 +133,11 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     if constexpr (M == SphereMethod::Robust) {
       if (packet.commonOrigin) {  // the origin's part once per sphere, not once per ray
         const RobustOrigin<Real> origin = robustOrigin(ox[0], oy[0], oz[0], c, r);
-        for (int k = 0; k < n; ++k) recordHit(packet, k, firstRootFrom(robustRoots(origin, terms[k], r), tMin), id);
+        for (int k = kBegin; k < n; ++k) recordHit(packet, k, firstRootFrom(robustRoots(origin, terms[k], r), tMin), id);
         return;
       }
     }
-    for (int k = 0; k < n; ++k) {
+    for (int k = kBegin; k < n; ++k) {
       const SphereRoots<Real> roots = sphereRoots<M>(ox[k], oy[k], oz[k], c, dx[k], dy[k], dz[k], terms[k], r, tMin);
       recordHit(packet, k, firstRootFrom(roots, tMin), id);
     }
@@ -144,9 +146,9 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   // Whether the robust test may find a hit for any ray (robustMayMeet, implied by the full test).
   // Most spheres miss most packets; this skips their square roots and divisions.
   DURER_INLINE static bool anyRayMayMeet(const RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, const Vec3<Real>& c,
-                            Real r) {
+                                         Real r, int kBegin, int kEnd) {
     int meeting = 0;  // an integer count, not a bool: the reduction then vectorises
-    for (int k = 0; k < packet.count; ++k) {
+    for (int k = kBegin; k < kEnd; ++k) {
       const Real fx = packet.ox[k] - c.x, fy = packet.oy[k] - c.y, fz = packet.oz[k] - c.z;
       const Real fL1 = std::fabs(fx) + std::fabs(fy) + std::fabs(fz);
       meeting += robustMayMeet(r, lineDistanceSq(fx, fy, fz, terms[k]), fL1) ? 1 : 0;

@@ -43,7 +43,9 @@ class SphereView {
   };
 
   const ViewKey& key() const { return m_key; }
-  size_t bytes() const { return m_entries.size() * sizeof(Entry) + m_first.size() * sizeof(uint32_t); }
+  size_t bytes() const {
+    return m_entries.size() * (sizeof(Entry) + sizeof(uint8_t)) + m_first.size() * sizeof(uint32_t);
+  }
 
   // The view of `count` spheres over the cells of the pixels [x, x + width) x [y, y + height):
   // footprint(i, box, tLow) gives sphere i's sample box and lower bound (false: no camera ray
@@ -52,31 +54,43 @@ class SphereView {
   static std::unique_ptr<SphereView> make(const ViewKey& key, size_t count, const Footprint& footprint, int x, int y,
                                           int width, int height, int threads);
 
-  // Calls test(sphere) for the spheres of the packet's cell that some ray may meet before its hit
-  // so far, nearest first (test lowers the packet's tHit), and returns the ray-sphere tests made;
-  // -1 if the packet's samples fall outside the cells (then the caller searches otherwise).
+  // Calls test(sphere, kBegin, kEnd) for the spheres of the packet's cell that some ray may meet
+  // before its hit so far, nearest first, with the rays [kBegin, kEnd) that may meet it (test lowers
+  // their tHit): those of the pixel rows the sphere covers when the packet is laid out by pixel
+  // (tileWidth), else all. Returns the ray-sphere tests made; -1 if the packet's samples fall outside
+  // the cells (then the caller searches otherwise).
   template <typename Test>
   DURER_INLINE int64_t search(const RayPacket<Real>& packet, const Test& test) const {
     const Real* box = packet.sampleBox;
     const Real cx0 = std::floor(box[0] / kCell) - m_cellX, cx1 = std::floor(box[1] / kCell) - m_cellX;
     const Real cy0 = std::floor(box[2] / kCell) - m_cellY, cy1 = std::floor(box[3] / kCell) - m_cellY;
     if (!(cx0 >= 0 && cy0 >= 0 && cx1 < m_cellsX && cy1 < m_cellsY)) return -1;
+    const bool byRow = packet.tileWidth > 0 && cx0 == cx1 && cy0 == cy1;
     int64_t tested = 0;
     for (int cy = int(cy0); cy <= int(cy1); ++cy) {
       for (int cx = int(cx0); cx <= int(cx1); ++cx) {
         const size_t cell = size_t(cy) * size_t(m_cellsX) + size_t(cx);
-        const Entry* entry = m_entries.data() + m_first[cell];
-        const Entry* end = m_entries.data() + m_first[cell + 1];
+        // Pixel row y of the cell is packet row y + rowShift.
+        const int rowShift = (m_cellY + cy) * kCell - packet.tileY;
+        const int rows = byRow ? packet.count / packet.tileWidth : 0;
         Real farthest = farthestHit(packet);
-        for (; entry != end; ++entry) {
-          if (entry->tLow > farthest) break;
-          test(entry->sphere);
-          ++tested;
+        for (uint32_t e = m_first[cell]; e != m_first[cell + 1]; ++e) {
+          const Entry& entry = m_entries[e];
+          if (entry.tLow > farthest) break;
+          int kBegin = 0, kEnd = packet.count;
+          if (byRow) {
+            const int first = std::max(int(m_rows[e] >> 3) + rowShift, 0);
+            const int last = std::min(int(m_rows[e] & 7) + rowShift, rows - 1);
+            if (first > last) continue;
+            kBegin = first * packet.tileWidth, kEnd = (last + 1) * packet.tileWidth;
+          }
+          test(entry.sphere, kBegin, kEnd);
+          tested += kEnd - kBegin;
           farthest = farthestHit(packet);
         }
       }
     }
-    return tested * packet.count;
+    return tested;
   }
 
  private:
@@ -120,6 +134,7 @@ class SphereView {
   int m_cellsX = 0, m_cellsY = 0;
   std::vector<uint32_t> m_first;      // cell c's entries: [m_first[c], m_first[c + 1]), cells row by row
   std::vector<Entry> m_entries;
+  std::vector<uint8_t> m_rows;        // entry e's sphere covers pixel rows m_rows[e] >> 3 to m_rows[e] & 7 of its cell
 };
 
 template <typename Real>
@@ -133,6 +148,7 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(const ViewKey& key, siz
   view->m_cellsY = (y + height + kCell - 1) / kCell - view->m_cellY;
   struct Cells {
     int32_t x0, x1, y0, y1;  // inclusive; x0 > x1: none
+    double row0, row1;       // the pixel rows it covers (from the view's first cell's first row)
   };
   std::vector<Cells> cells(count);
   std::vector<uint32_t> keys(count);
@@ -145,7 +161,7 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(const ViewKey& key, siz
       SampleBox box;
       double tLow;
       Cells& c = cells[i];
-      c = {1, 0, 1, 0};
+      c = {1, 0, 1, 0, 0, 0};
       if (!footprint(i, box, tLow)) continue;
       // Cell coordinates relative to the view's first cell, clamped to it (in double: infinite
       // ends and huge boxes stay ordered).
@@ -154,7 +170,8 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(const ViewKey& key, siz
       const double y0 = std::max(std::floor(box.y0 / kCell) - view->m_cellY, 0.0);
       const double y1 = std::min(std::floor(box.y1 / kCell) - view->m_cellY, cellsY - 1);
       if (!(x0 <= x1 && y0 <= y1)) continue;
-      c = {int32_t(x0), int32_t(x1), int32_t(y0), int32_t(y1)};
+      c = {int32_t(x0), int32_t(x1), int32_t(y0), int32_t(y1), std::floor(box.y0) - view->m_cellY * kCell,
+           std::floor(box.y1) - view->m_cellY * kCell};
       tLows[i] = floatBelow(tLow);
       keys[i] = orderKey(tLows[i]);
       made += (x1 - x0 + 1) * (y1 - y0 + 1);
@@ -185,12 +202,17 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(const ViewKey& key, siz
   }
   for (size_t cell = 0; cell < cellCount; ++cell) first[cell + 1] += first[cell];
   view->m_entries.resize(first[cellCount]);
+  view->m_rows.resize(first[cellCount]);
   std::vector<uint32_t> next(first.begin(), first.end() - 1);
   for (const uint32_t i : order) {
     const Cells& c = cells[i];
     for (int32_t cy = c.y0; cy <= c.y1; ++cy) {
+      const int row0 = int(std::clamp(c.row0 - cy * kCell, 0.0, kCell - 1.0));
+      const int row1 = int(std::clamp(c.row1 - cy * kCell, 0.0, kCell - 1.0));
       for (int32_t cx = c.x0; cx <= c.x1; ++cx) {
-        view->m_entries[next[size_t(cy) * size_t(view->m_cellsX) + size_t(cx)]++] = {i, tLows[i]};
+        const uint32_t e = next[size_t(cy) * size_t(view->m_cellsX) + size_t(cx)]++;
+        view->m_entries[e] = {i, tLows[i]};
+        view->m_rows[e] = uint8_t(row0 << 3 | row1);
       }
     }
   }

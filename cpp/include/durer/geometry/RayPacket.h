@@ -29,6 +29,9 @@ struct RayPacket {
   // the image (SphereView), or null; and the box of the rays' sample positions [x0, x1, y0, y1].
   const SphereView<Real>* view = nullptr;
   Real sampleBox[4] = {0, 0, 0, 0};
+  // Camera rays one per pixel of the pixels [tileX, tileX + tileWidth) x [tileY, ...), row by row
+  // (ray k at pixel (k % tileWidth, k / tileWidth) of them); tileWidth 0: in no such order.
+  int tileX = 0, tileY = 0, tileWidth = 0;
   alignas(64) Real ox[kPacketSize];    // origin, in the frame of the group searched
   alignas(64) Real oy[kPacketSize];
   alignas(64) Real oz[kPacketSize];

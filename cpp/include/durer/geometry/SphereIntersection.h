@@ -3,6 +3,7 @@
 // Inputs: the ray origin o and direction d (any non-zero length), the centre c and radius r, and
 // the per-ray terms of d (sphereRayTerms); f = o - c.
 // Output: both roots in units of d, near <= far; NaN roots mean a miss (a NaN never compares as a hit).
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -109,7 +110,9 @@ DURER_INLINE SphereRoots<Real> sphereGeometric(Real fx, Real fy, Real fz, Real d
   const Real d2 = l2 - tp * tp;                   // squared distance from the centre to the ray
   const bool behind = tMin >= 0 && l2 > r2 && tp < 0;
   const Real nan = std::numeric_limits<Real>::quiet_NaN();
-  const Real tq = (behind || d2 > r2) ? nan : std::sqrt(r2 - d2);
+  const bool miss = behind || d2 > r2;
+  const Real squareRoot = std::sqrt(std::max(r2 - d2, Real(0)));  // unconditional: see robustRoots
+  const Real tq = miss ? nan : squareRoot;
   return {(tp - tq) * invLength, (tp + tq) * invLength};
 }
 
@@ -146,8 +149,13 @@ DURER_INLINE SphereRoots<Real> robustRoots(const RobustOrigin<Real>& f, const Sp
   const Real cz = differenceOfProducts(f.fx, t.sy, f.fy, t.sx) + (f.ex * t.sy - f.ey * t.sx);
   const Real lineDistance2 = (cx * cx + cy * cy + cz * cz) * t.invA;
   const Real r2 = r * r;
-  const Real nan = std::numeric_limits<Real>::quiet_NaN();
-  const Real root = robustMeets(r2, lineDistance2) ? std::sqrt(t.a * (r2 - lineDistance2)) : nan;
+  // Every operation done whatever the outcome, the miss chosen after: no operation that may raise a
+  // floating-point exception depends on a condition, so the loops over a packet vectorise without
+  // masked instructions (AVX2 as well as AVX-512).
+  const bool meets = robustMeets(r2, lineDistance2);
+  const Real discriminant = t.a * (r2 - lineDistance2);
+  const Real squareRoot = std::sqrt(std::max(discriminant, Real(0)));  // discriminant > 0 where it meets
+  const Real root = meets ? squareRoot : std::numeric_limits<Real>::quiet_NaN();
   const Real b = (f.fx * t.sx + f.fy * t.sy + f.fz * t.sz) + (f.ex * t.sx + f.ey * t.sy + f.ez * t.sz);
   const Real q = -(b + std::copysign(root, b));
   const Real t0 = q * t.invA * t.scale;

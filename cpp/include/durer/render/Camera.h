@@ -80,6 +80,7 @@ inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX,
   packet.commonOrigin = m_perspective;
   packet.coherent = true;
   packet.view = nullptr;
+  packet.tileWidth = 0;
   Real x0 = sampleX[0], x1 = x0, y0 = sampleY[0], y1 = y0;
   for (int k = 1; k < count; ++k) {
     x0 = std::min(x0, sampleX[k]), x1 = std::max(x1, sampleX[k]);

@@ -83,6 +83,7 @@ class TileRenderer {
       }
       m_camera.generate(packet, sampleX, sampleY, count);
       packet.view = m_view.get();
+      packet.tileX = x0, packet.tileY = y0, packet.tileWidth = w;
       counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
       if (m_cancel.load(std::memory_order_relaxed)) return {};
       accumulate(packet, acc, counters);
