@@ -172,3 +172,93 @@ def test_camera_rays_test_the_front_spheres_only():
     res = durer.render(scene, camera, width=64, height=64, passes=("depth",))
     assert np.all(np.isclose(res.depth, 1.0, atol=0.09))  # every pixel sees the first layer
     assert res.stats["intersection_tests"] / res.stats["rays"] < 32  # of 16,000 spheres
+
+
+def _sun_scene(rng, n, direction):
+    scene = durer.Scene()
+    white = scene.add_material(diffuse=(1.0, 1.0, 1.0))
+    centers = np.column_stack([rng.uniform(-1, 1, n), rng.uniform(0.0, 0.4, n), rng.uniform(-1, 1, n)])
+    radii = rng.uniform(0.01, 0.04, n)
+    scene.add_spheres(centers, radii, material=white)
+    scene.add_plane((0, 1, 0), 0.0, material=white)
+    scene.add_directional_light(direction, (1, 1, 1), shadows=True)
+    scene.ambient = (0.0, 0.0, 0.0)
+    return scene, centers, radii
+
+
+@pytest.mark.parametrize("precision", ["float", "double"])
+@pytest.mark.parametrize("direction", [(1, -2, -1), (0.05, -1, 0.02), (-3, -1, 0.5)])
+def test_sun_shadows_are_where_a_brute_force_puts_them(precision, direction):
+    """Shadow rays toward a sun go through the sun's own view of the spheres: a pixel is lit exactly
+    where a brute force over every sphere finds nothing between its hit point and the sun (pixels
+    whose shadow ray grazes a sphere, or whose surface turns from the light, set aside: the two may
+    round them either way)."""
+    rng = np.random.default_rng(21)
+    scene, centers, radii = _sun_scene(rng, 1500, direction)
+    camera = durer.OrthographicCamera((0, 3, 3), (0, -1, -1), (0, 1, 0), size=2.4)
+    size = 96
+    res = durer.render(scene, camera, width=size, height=size, passes=("color", "object_id"), precision=precision,
+                       threads=2)
+    origins, directions = camera.rays(size, size)
+    cast = durer.cast(scene, origins.reshape(-1, 3), directions.reshape(-1, 3), t_min=camera.t_min)
+    hit = cast.object_id >= 0
+    np.testing.assert_array_equal(res.object_id.reshape(-1), cast.object_id)
+    points = origins.reshape(-1, 3)[hit] + cast.t[hit, None] * directions.reshape(-1, 3)[hit]
+    to_sun = -np.asarray(direction, float) / np.linalg.norm(direction)
+    cosine = cast.normal[hit] @ to_sun
+    blocked, unclear = _brute_force_shadows(points, to_sun, centers, radii, cast.object_id[hit])
+    unclear |= np.abs(cosine) < 1e-4
+    expected_lit = (cosine > 0) & ~blocked
+    lit = res.color.reshape(-1, 4)[hit, :3].sum(axis=1) > 0
+    clear = ~unclear
+    assert clear.mean() > 0.99
+    assert 0.1 < expected_lit[clear].mean() < 0.9  # both lit and shadowed pixels
+    np.testing.assert_array_equal(lit[clear], expected_lit[clear])
+
+
+def _brute_force_shadows(points, to_sun, centers, radii, own_ids, chunk=500):
+    """Whether each point's ray toward the sun meets a sphere other than its own past the point (its
+    far root beyond it), and whether that is unclear (the ray grazes one, or starts on another)."""
+    blocked = np.zeros(len(points), bool)
+    unclear = np.zeros(len(points), bool)
+    ids = np.arange(len(radii))
+    for start in range(0, len(points), chunk):
+        p = points[start:start + chunk]
+        f = p[:, None, :] - centers[None, :, :]
+        b = f @ to_sun
+        ff = np.einsum("ijk,ijk->ij", f, f)
+        disc = b * b - (ff - radii ** 2)
+        far = -b + np.sqrt(np.maximum(disc, 0))
+        others = own_ids[start:start + chunk, None] != ids[None, :]
+        line = np.sqrt(np.maximum(ff - b * b, 0))
+        blocked[start:start + chunk] = ((disc > 0) & (far > 1e-9) & others).any(axis=1)
+        unclear[start:start + chunk] = (((np.abs(line - radii) < 1e-4 * radii) & others).any(axis=1)
+                                        | ((disc > 0) & (np.abs(far) < 1e-6) & others).any(axis=1))
+    return blocked, unclear
+
+
+def test_sun_views_with_other_lights_and_after_a_move():
+    """Two suns and a point light (its shadow rays walk the hierarchy): the render equals the one of a
+    fresh scene, also after the spheres move (every view of the old positions dropped)."""
+    rng = np.random.default_rng(8)
+    centers = rng.uniform(-1, 1, (800, 3))
+
+    def build(points):
+        scene = durer.Scene()
+        ids = scene.add_spheres(points, 0.06)
+        scene.add_directional_light((1, -2, -1), (0.5, 0.5, 0.5), shadows=True)
+        scene.add_directional_light((-1, -1, 0.3), (0.3, 0.4, 0.5), shadows=True)
+        scene.add_point_light((0, 3, 0), (2, 2, 2), shadows=True)
+        return scene, ids
+
+    camera = durer.PerspectiveCamera((0, 0, 4), (0, 0, -1), (0, 1, 0), fov_degrees=45)
+    scene, ids = build(centers)
+    before = durer.render(scene, camera, width=64, height=48, passes=("color",))
+    again = durer.render(scene, camera, width=64, height=48, passes=("color",))
+    np.testing.assert_array_equal(before.color, again.color)
+    moved = centers * 0.9 + 0.05
+    scene.move_spheres(ids, moved)
+    after = durer.render(scene, camera, width=64, height=48, passes=("color",))
+    fresh = durer.render(build(moved)[0], camera, width=64, height=48, passes=("color",))
+    np.testing.assert_array_equal(after.color, fresh.color)
+    assert not np.array_equal(before.color, after.color)

@@ -46,17 +46,11 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     return Base::refitFrom(source, convert<Other>, boxOf, threads);
   }
 
-  // The view of these spheres made for `key` (SphereView): the last one made, if made for this key,
-  // else make()'s (null where a view would not pay).
+  // The view of these spheres made for `key` (SphereView): one of the last few made, if made for
+  // this key, else make()'s (null where a view would not pay).
   template <typename Make>
   std::shared_ptr<const SphereView<Real>> view(const ViewKey& key, const Make& make) const {
-    const std::lock_guard<std::mutex> lock(m_views.mutex);
-    if (!m_views.made || !(m_views.key == key)) {
-      m_views.view = make();
-      m_views.key = key;
-      m_views.made = true;
-    }
-    return m_views.view;
+    return m_views.find(key, make);
   }
 
   void setSphere(size_t i, const Sphere<Real>& sphere) { this->m_primitives[i] = sphere; }
@@ -78,8 +72,19 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     if (this->m_primitives.empty()) return 0;
     PacketRayTerms<Real> terms;
     terms.template compute<M>(packet.dx, packet.dy, packet.dz, packet.count);
-    if constexpr (!AnyHit) {
-      if (packet.view) {
+    if (packet.view) {
+      if constexpr (AnyHit) {  // shadow rays toward a directional light, through its view
+        int64_t tests = 0;
+        for (int k = 0; k < packet.count; ++k) {
+          if (packet.prim[k] != kNoPrimitive) continue;
+          const SphereRayTerms<Real> rayTerms = terms[k];
+          tests += packet.view->occluders(packet, k, [&](uint32_t i) {
+            intersectRay<M>(packet, rayTerms, k, static_cast<size_t>(i), primBase);
+            return packet.prim[k] != kNoPrimitive;
+          });
+        }
+        return tests;
+      } else {  // camera rays, through the camera's view
         const int64_t tests = packet.view->search(packet, [&](uint32_t i, int kBegin, int kEnd) {
           intersectOne<M>(packet, terms, static_cast<size_t>(i), primBase, kBegin, kEnd);
         });
@@ -182,13 +187,12 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
  private:
   using Base = PrimitiveSet<Sphere<Real>, Real>;
 
-  // The last view made (a render's; the next render of the same camera reuses it). A copy of the
-  // set starts without one.
+  // The last few views made (a render's camera and lights; the next render of the same camera
+  // reuses them). A copy of the set starts without any.
   struct ViewCache {
+    static constexpr size_t kViews = 4;
     std::mutex mutex;
-    bool made = false;
-    ViewKey key;
-    std::shared_ptr<const SphereView<Real>> view;
+    std::vector<std::pair<ViewKey, std::shared_ptr<const SphereView<Real>>>> views;  // oldest first
     ViewCache() = default;
     ViewCache(const ViewCache&) {}
     ViewCache& operator=(const ViewCache&) {
@@ -197,8 +201,17 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     }
     void clear() {
       const std::lock_guard<std::mutex> lock(mutex);
-      made = false;
-      view.reset();
+      views.clear();
+    }
+    template <typename Make>
+    std::shared_ptr<const SphereView<Real>> find(const ViewKey& key, const Make& make) {
+      const std::lock_guard<std::mutex> lock(mutex);
+      for (const auto& [made, view] : views) {
+        if (made == key) return view;
+      }
+      if (views.size() == kViews) views.erase(views.begin());
+      views.emplace_back(key, make());
+      return views.back().second;
     }
   };
   mutable ViewCache m_views;

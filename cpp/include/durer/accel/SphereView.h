@@ -15,11 +15,33 @@
 #include <memory>
 #include <vector>
 
+#include "durer/math/Float.h"
+
 #include "durer/Inline.h"
 #include "durer/accel/Bvh.h"
 #include "durer/geometry/RayPacket.h"
+#include "durer/math/Vec.h"
 
 namespace durer {
+
+// A box of sample positions on an image, in pixels (x right, y down; see Camera).
+struct SampleBox {
+  double x0, x1, y0, y1;
+};
+
+// An image's frame in double (from a camera's frame as rounded to its precision): where a world
+// point lies on an orthographic image, in pixels, and how deep along its view direction.
+struct ParallelProjection {
+  Vec3d center, horizontal, up, forward;  // unit, orthonormal up to rounding
+  double pixelWidth = 1, pixelHeight = 1, xOffset = 0, yOffset = 0;
+
+  void locate(const Vec3d& point, double& x, double& y, double& depth) const {
+    const Vec3d q = point - center;
+    x = (glm::dot(q, horizontal) - xOffset) / pixelWidth;
+    y = (yOffset - glm::dot(q, up)) / pixelHeight;
+    depth = glm::dot(q, forward);
+  }
+};
 
 // What a view is made for: the camera as given, the image size and the region rendered. Two renders
 // with equal keys of the same prepared spheres share the view.
@@ -93,6 +115,35 @@ class SphereView {
     return tested;
   }
 
+  // The light's view (made by makeLight): calls test(sphere) for the spheres of ray k's cell that
+  // reach nearer the light than its origin, nearest the origin first, until test returns true (an
+  // occluder found). Ray k travels toward the light, opposite the view's direction. Returns the
+  // ray-sphere tests made.
+  template <typename Test>
+  int64_t occluders(const RayPacket<Real>& packet, int k, const Test& test) const {
+    double x, y, depth;
+    m_light.locate(Vec3d(double(packet.ox[k]), double(packet.oy[k]), double(packet.oz[k])), x, y, depth);
+    const double cx = std::floor(x / kCell) - m_cellX, cy = std::floor(y / kCell) - m_cellY;
+    // The view's cells hold every sphere's footprint with a cell to spare: beyond them, no sphere.
+    if (!(cx >= 0 && cy >= 0 && cx < m_cellsX && cy < m_cellsY)) return 0;
+    const size_t cell = size_t(cy) * size_t(m_cellsX) + size_t(cx);
+    const Entry* first = m_entries.data() + m_first[cell];
+    // Spheres whose nearest depth lies beyond the origin's (widened by its rounding) cannot block it.
+    const double reach = depth + 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(depth) + maxAbs(m_light.center));
+    const Entry* end = std::upper_bound(first, m_entries.data() + m_first[cell + 1], reach,
+                                        [](double bound, const Entry& e) { return bound < double(e.tLow); });
+    int64_t tested = 0;
+    while (end != first) {
+      ++tested;
+      if (test((--end)->sphere)) break;
+    }
+    return tested;
+  }
+
+  // The view from a directional light travelling along `projection.forward` (SphereView::make over
+  // the light's orthographic image), searched by occluders().
+  void setLight(const ParallelProjection& projection) { m_light = projection; }
+
  private:
   // The largest t any ray of the packet may still be lowered from (NaN-free: tHit never is NaN).
   DURER_INLINE static Real farthestHit(const RayPacket<Real>& packet) {
@@ -135,6 +186,7 @@ class SphereView {
   std::vector<uint32_t> m_first;      // cell c's entries: [m_first[c], m_first[c + 1]), cells row by row
   std::vector<Entry> m_entries;
   std::vector<uint8_t> m_rows;        // entry e's sphere covers pixel rows m_rows[e] >> 3 to m_rows[e] & 7 of its cell
+  ParallelProjection m_light;         // a light's view: its image
 };
 
 template <typename Real>

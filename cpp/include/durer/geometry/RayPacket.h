@@ -10,11 +10,6 @@ constexpr int kPacketSize = 64;
 template <typename Real>
 class SphereView;
 
-// A box of sample positions on the image, in pixels (x right, y down; see Camera).
-struct SampleBox {
-  double x0, x1, y0, y1;
-};
-
 // Packed index of a primitive during the search (Group packs every primitive set's indices into one range).
 constexpr int32_t kNoPrimitive = -1;
 
@@ -25,8 +20,9 @@ struct RayPacket {
   Real tMax = 0;
   bool commonOrigin = false;           // every ray starts at ox[0], oy[0], oz[0] (a perspective camera's)
   bool coherent = false;               // neighbouring rays of one camera tile: worth traversing together
-  // Camera rays only: the render's index of the sphere set it searches by where spheres appear on
-  // the image (SphereView), or null; and the box of the rays' sample positions [x0, x1, y0, y1].
+  // The render's index of the sphere set searched by where the spheres appear (SphereView), or null:
+  // for camera rays the camera's, for shadow rays toward a directional light the light's. Camera rays
+  // also give the box of their sample positions [x0, x1, y0, y1].
   const SphereView<Real>* view = nullptr;
   Real sampleBox[4] = {0, 0, 0, 0};
   // Camera rays one per pixel of the pixels [tileX, tileX + tileWidth) x [tileY, ...), row by row

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "durer/Options.h"
+#include "durer/accel/SphereView.h"
 #include "durer/geometry/RayPacket.h"
 #include "durer/math/Vec.h"
 #include "durer/scene/Limits.h"
@@ -55,6 +56,13 @@ class Camera {
   // generate makes in Real and the robust sphere test's roots (widened by bounds on both roundings
   // and by a pixel); infinite ends where the sphere reaches the plane of a perspective eye.
   bool footprint(const Vec3d& center, double radius, SampleBox& box, double& tLow) const;
+
+  // The frame and image window in double, as rounded to Real (orthographic: where a point lies on
+  // the image).
+  ParallelProjection projection() const {
+    return {Vec3d(m_center), Vec3d(m_horizontal), Vec3d(m_up), Vec3d(m_forward), m_pixelWidth, m_pixelHeight,
+            m_xOffset, m_yOffset};
+  }
 
   // The factor that turns t along a unit camera ray with direction (dx, dy, dz) into the distance
   // along the view axis: the cosine to it for perspective rays, exactly 1 for orthographic ones.

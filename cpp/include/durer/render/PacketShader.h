@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <vector>
 
 #include "durer/accel/Group.h"
 #include "durer/render/RayCounters.h"
@@ -51,6 +52,10 @@ class PacketShader {
                const std::atomic<bool>& cancel)
       : m_group(group), m_shading(shading), m_effects(effects), m_limits(limits), m_occlusion(occlusion),
         m_background(background), m_cancel(cancel), m_minWeight(static_cast<Real>(limits.minWeight)) {}
+
+  // The views of the scene's own spheres from its lights (SphereView), in the order of the shading's
+  // lights: null where none (a point or spot light, no shadows, too few spheres).
+  void useLightViews(std::vector<const SphereView<Real>*> views) { m_lightViews = std::move(views); }
 
   // The shading normal of a hit (Hit.h decides the side).
   Vec3<Real> shadingNormal(const Hit<Real>& hit, const Vec3<Real>& direction) const {
@@ -116,7 +121,8 @@ class PacketShader {
     RayPacket<Real> shadow;
     alignas(64) int pixelOf[kPacketSize];
     alignas(64) Vec3<Real> term[kPacketSize];
-    for (const ShadingLight<Real>& light : m_shading.lights()) {
+    for (size_t l = 0; l < m_shading.lights().size(); ++l) {
+      const ShadingLight<Real>& light = m_shading.lights()[l];
       shadow.count = 0;
       for (int k = 0; k < packet.count; ++k) {
         if (!hits[k].isHit()) continue;
@@ -149,6 +155,7 @@ class PacketShader {
       // t > 0: an offset of a few ulps of a number near 0 can underflow to t = -0 in the plane test.
       shadow.tMin = std::numeric_limits<Real>::denorm_min();
       shadow.tMax = light.shadowTMax();
+      shadow.view = l < m_lightViews.size() ? m_lightViews[l] : nullptr;
       counters.intersectionTests += m_group.template occluded<M>(shadow, &m_cancel);
       counters.shadow += shadow.count;
       for (int j = 0; j < shadow.count; ++j) {
@@ -357,6 +364,7 @@ class PacketShader {
   OcclusionSettings m_occlusion;
   Vec3<Real> m_background;  // what a secondary ray that misses sees (RGB)
   const std::atomic<bool>& m_cancel;
+  std::vector<const SphereView<Real>*> m_lightViews;
   Real m_minWeight;
 };
 

@@ -51,7 +51,18 @@ class TileRenderer {
         m_firstTileX(m_region.x / kTileSize),
         m_firstTileY(m_region.y / kTileSize),
         m_tilesX((m_region.x + m_region.width + kTileSize - 1) / kTileSize - m_firstTileX),
-        m_view(viewOf(group.spheres(), spec, settings, m_camera)) {}
+        m_view(viewOf(group.spheres(), spec, settings, m_camera)) {
+    if (effects.shadows) {
+      std::vector<const SphereView<Real>*> views;
+      for (const ShadingLight<Real>& light : m_shading.lights()) {
+        m_lightViews.push_back(light.kind == ShadingLight<Real>::Kind::Directional && light.shadows
+                                   ? lightViewOf(group.spheres(), -Vec3d(light.vector), settings)
+                                   : nullptr);
+        views.push_back(m_lightViews.back().get());
+      }
+      m_shader.useLightViews(std::move(views));
+    }
+  }
 
   // The whole image's tiles that meet the region (a region's tiles are the image's, clipped).
   int64_t tileCount() const {
@@ -371,6 +382,49 @@ class TileRenderer {
     });
   }
 
+  // The view of the scene's own spheres from a directional light travelling along `direction`, for
+  // its shadow rays (SphereView::occluders): an orthographic image along it over the spheres' bounds
+  // with a cell to spare, its cells four mean radii across (at most 2048 a side).
+  static std::shared_ptr<const SphereView<Real>> lightViewOf(const SphereSet<Real>& spheres, const Vec3d& direction,
+                                                             const RenderSettings& settings) {
+    constexpr size_t kViewMinSpheres = 16;
+    constexpr double kRadiiPerCell = 4;
+    constexpr double kMaxCellsAcross = 2048;
+    if (spheres.size() < kViewMinSpheres) return nullptr;
+    const ViewKey key{{-1, direction.x, direction.y, direction.z}};  // -1: no camera's projection
+    const int threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
+    return spheres.view(key, [&]() -> std::shared_ptr<const SphereView<Real>> {
+      constexpr Real inf = std::numeric_limits<Real>::infinity();
+      Vec3<Real> lo(inf), hi(-inf);
+      spheres.bounds(lo, hi);
+      double radii = 0;
+      for (size_t i = 0; i < spheres.size(); ++i) radii += double(spheres.primitive(i).radius);
+      const double across = glm::length(Vec3d(hi) - Vec3d(lo));
+      const double cell = std::max(kRadiiPerCell * radii / double(spheres.size()), across / kMaxCellsAcross);
+      if (!(std::isfinite(across) && cell > 0)) return nullptr;
+      const int cells = int(std::ceil(across / cell)) + 2;
+      CameraSpec spec;
+      spec.projection = Projection::Orthographic;
+      spec.center = 0.5 * (Vec3d(lo) + Vec3d(hi));
+      spec.direction = direction;
+      const Vec3d a = glm::abs(direction);
+      spec.up = a.x <= a.y && a.x <= a.z ? Vec3d(1, 0, 0) : a.y <= a.z ? Vec3d(0, 1, 0) : Vec3d(0, 0, 1);
+      spec.size = cells * cell;
+      spec.tMin = -std::numeric_limits<double>::infinity();
+      spec.tMax = std::numeric_limits<double>::infinity();
+      const int pixels = cells * SphereView<Real>::kCell;
+      const Camera<Real> light(spec, pixels, pixels);
+      const auto footprint = [&](size_t i, SampleBox& box, double& tLow) {
+        const Sphere<Real>& sphere = spheres.primitive(i);
+        return light.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow);
+      };
+      std::unique_ptr<SphereView<Real>> view =
+          SphereView<Real>::make(key, spheres.size(), footprint, 0, 0, pixels, pixels, threads);
+      if (view) view->setLight(light.projection());
+      return view;
+    });
+  }
+
   void write(const Accumulator& acc, int x0, int y0, int w, int h) const {
     for (int row = 0; row < h; ++row) {
       writeRow(acc, row * w, w, static_cast<size_t>(y0 + row - m_region.y) * m_region.width + (x0 - m_region.x));
@@ -395,6 +449,7 @@ class TileRenderer {
   int m_firstTileX, m_firstTileY;
   int m_tilesX;
   std::shared_ptr<const SphereView<Real>> m_view;  // of the scene's own spheres; null: none made
+  std::vector<std::shared_ptr<const SphereView<Real>>> m_lightViews;  // from each light (Shading's order)
 };
 
 }  // namespace tiles
