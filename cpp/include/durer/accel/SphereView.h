@@ -167,16 +167,16 @@ class SphereView {
     return f;
   }
 
-  // Sorts `items` by keys[item] (LSD radix, 11 bits a pass), stable.
-  static void sortByKey(std::vector<uint32_t>& items, const std::vector<uint32_t>& keys) {
+  // Sorts records (key << 32 | item) by key (LSD radix, 11 bits a pass), stable.
+  static void sortByKey(std::vector<uint64_t>& records) {
     constexpr int kBits = 11, kBuckets = 1 << kBits;
-    std::vector<uint32_t> other(items.size());
-    for (int shift = 0; shift < 32; shift += kBits) {
+    std::vector<uint64_t> other(records.size());
+    for (int shift = 32; shift < 64; shift += kBits) {
       std::vector<size_t> start(kBuckets + 1, 0);
-      for (const uint32_t item : items) ++start[((keys[item] >> shift) & (kBuckets - 1)) + 1];
+      for (const uint64_t r : records) ++start[((r >> shift) & (kBuckets - 1)) + 1];
       for (int b = 0; b < kBuckets; ++b) start[b + 1] += start[b];
-      for (const uint32_t item : items) other[start[(keys[item] >> shift) & (kBuckets - 1)]++] = item;
-      items.swap(other);
+      for (const uint64_t r : records) other[start[(r >> shift) & (kBuckets - 1)]++] = r;
+      records.swap(other);
     }
   }
 
@@ -236,38 +236,45 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(const ViewKey& key, siz
   if (entries.load() > std::min(most, double(std::numeric_limits<uint32_t>::max() - 1))) {
     return nullptr;
   }
-  std::vector<uint32_t> order;
+  std::vector<uint64_t> order;  // nearest first: (key << 32 | sphere)
   order.reserve(count);
   for (size_t i = 0; i < count; ++i) {
-    if (cells[i].x0 <= cells[i].x1) order.push_back(uint32_t(i));
+    if (cells[i].x0 <= cells[i].x1) order.push_back(uint64_t(keys[i]) << 32 | i);
   }
-  sortByKey(order, keys);
-  // Entries cell by cell, each cell's in the order's (nearest first): counted, then placed.
+  sortByKey(order);
+  // Entries cell by cell, each cell's in the order's (nearest first): counted, then placed, each
+  // thread for a band of cell rows (its own cells, so no two threads write the same).
   const size_t cellCount = size_t(view->m_cellsX) * size_t(view->m_cellsY);
+  const size_t cellsWide = size_t(view->m_cellsX);
+  const size_t bands = std::min<size_t>(size_t(std::max(threads, 1)), size_t(view->m_cellsY));
+  const auto overBands = [&](const auto& place) {
+    forChunks(size_t(view->m_cellsY), bands, [&](size_t, size_t rowBegin, size_t rowEnd) {
+      for (const uint64_t record : order) {
+        const uint32_t i = uint32_t(record);
+        const Cells& c = cells[i];
+        const int32_t y0 = std::max(c.y0, int32_t(rowBegin)), y1 = std::min(c.y1, int32_t(rowEnd) - 1);
+        for (int32_t cy = y0; cy <= y1; ++cy) place(i, c, cy);
+      }
+    });
+  };
   std::vector<uint32_t>& first = view->m_first;
   first.assign(cellCount + 1, 0);
-  for (const uint32_t i : order) {
-    const Cells& c = cells[i];
-    for (int32_t cy = c.y0; cy <= c.y1; ++cy) {
-      for (int32_t cx = c.x0; cx <= c.x1; ++cx) ++first[size_t(cy) * size_t(view->m_cellsX) + size_t(cx) + 1];
-    }
-  }
+  overBands([&](uint32_t, const Cells& c, int32_t cy) {
+    for (int32_t cx = c.x0; cx <= c.x1; ++cx) ++first[size_t(cy) * cellsWide + size_t(cx) + 1];
+  });
   for (size_t cell = 0; cell < cellCount; ++cell) first[cell + 1] += first[cell];
   view->m_entries.resize(first[cellCount]);
   view->m_rows.resize(first[cellCount]);
   std::vector<uint32_t> next(first.begin(), first.end() - 1);
-  for (const uint32_t i : order) {
-    const Cells& c = cells[i];
-    for (int32_t cy = c.y0; cy <= c.y1; ++cy) {
-      const int row0 = int(std::clamp(c.row0 - cy * kCell, 0.0, kCell - 1.0));
-      const int row1 = int(std::clamp(c.row1 - cy * kCell, 0.0, kCell - 1.0));
-      for (int32_t cx = c.x0; cx <= c.x1; ++cx) {
-        const uint32_t e = next[size_t(cy) * size_t(view->m_cellsX) + size_t(cx)]++;
-        view->m_entries[e] = {i, tLows[i]};
-        view->m_rows[e] = uint8_t(row0 << 3 | row1);
-      }
+  overBands([&](uint32_t i, const Cells& c, int32_t cy) {
+    const int row0 = int(std::clamp(c.row0 - cy * kCell, 0.0, kCell - 1.0));
+    const int row1 = int(std::clamp(c.row1 - cy * kCell, 0.0, kCell - 1.0));
+    for (int32_t cx = c.x0; cx <= c.x1; ++cx) {
+      const uint32_t e = next[size_t(cy) * cellsWide + size_t(cx)]++;
+      view->m_entries[e] = {i, tLows[i]};
+      view->m_rows[e] = uint8_t(row0 << 3 | row1);
     }
-  }
+  });
   return view;
 }
 
