@@ -86,7 +86,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
         return tests;
       } else {  // camera rays, through the camera's view
         const int64_t tests = packet.view->search(packet, [&](uint32_t i, int kBegin, int kEnd) {
-          intersectOne<M>(packet, terms, static_cast<size_t>(i), primBase, kBegin, kEnd);
+          intersectOne<M, false>(packet, terms, static_cast<size_t>(i), primBase, kBegin, kEnd);
         });
         if (tests >= 0) return tests;
       }
@@ -118,13 +118,15 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   }
 
   // One sphere against the packet's rays [kBegin, kEnd) (all by default): the vectorised inner loop.
-  template <SphereMethod M>
+  // Prefilter: first whether any ray may meet it (worth it where most spheres tested meet no ray, as
+  // in a hierarchy's leaves; a view lists only spheres over the rays tested).
+  template <SphereMethod M, bool Prefilter = true>
   DURER_INLINE void intersectOne(RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, size_t i, int32_t primBase,
                                  int kBegin = 0, int kEnd = -1) const {
     const Vec3<Real> c = this->m_primitives[i].center;
     const Real r = this->m_primitives[i].radius;
     const int n = kEnd < 0 ? packet.count : kEnd;
-    if constexpr (M == SphereMethod::Robust) {
+    if constexpr (M == SphereMethod::Robust && Prefilter) {
       if (!anyRayMayMeet(packet, terms, c, r, kBegin, n)) return;
     }
     const Real tMin = packet.tMin;
