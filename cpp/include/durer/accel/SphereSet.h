@@ -85,8 +85,12 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
         }
         return tests;
       } else {  // camera rays, through the camera's view
-        const int64_t tests = packet.view->search(packet, [&](uint32_t i, int kBegin, int kEnd) {
-          intersectOne<M, false>(packet, terms, static_cast<size_t>(i), primBase, kBegin, kEnd);
+        const int64_t tests = packet.view->search(packet, [&](uint32_t i, int kBegin, int kEnd, bool all) {
+          if (all) {
+            intersectOne<M>(packet, terms, static_cast<size_t>(i), primBase, kBegin, kEnd);
+          } else {  // the rays under the sphere's rows: the prefilter would rarely spare the test
+            intersectOne<M, false>(packet, terms, static_cast<size_t>(i), primBase, kBegin, kEnd);
+          }
         });
         if (tests >= 0) return tests;
       }
@@ -119,7 +123,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
 
   // One sphere against the packet's rays [kBegin, kEnd) (all by default): the vectorised inner loop.
   // Prefilter: first whether any ray may meet it (worth it where most spheres tested meet no ray, as
-  // in a hierarchy's leaves; a view lists only spheres over the rays tested).
+  // in a hierarchy's leaves, not for a view's sphere against the rays under it).
   template <SphereMethod M, bool Prefilter = true>
   DURER_INLINE void intersectOne(RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, size_t i, int32_t primBase,
                                  int kBegin = 0, int kEnd = -1) const {

@@ -76,11 +76,13 @@ class SphereView {
   static std::unique_ptr<SphereView> make(const ViewKey& key, size_t count, const Footprint& footprint, int x, int y,
                                           int width, int height, int threads);
 
-  // Calls test(sphere, kBegin, kEnd) for the spheres of the packet's cell that some ray may meet
+  // Calls test(sphere, kBegin, kEnd, all) for the spheres of the packet's cell that some ray may meet
   // before its hit so far, nearest first, with the rays [kBegin, kEnd) that may meet it (test lowers
   // their tHit): those of the pixel rows the sphere covers when the packet is laid out by pixel
-  // (tileWidth), else all. Returns the ray-sphere tests made; -1 if the packet's samples fall outside
-  // the cells (then the caller searches otherwise).
+  // (tileWidth; `all` false: each of them under the sphere's rows), else all of them (`all` true:
+  // any, none or some may meet it), skipping spheres off the rows the packet's samples lie in.
+  // Returns the ray-sphere tests made; -1 if the packet's samples fall outside the cells (then the
+  // caller searches otherwise).
   template <typename Test>
   DURER_INLINE int64_t search(const RayPacket<Real>& packet, const Test& test) const {
     const Real* box = packet.sampleBox;
@@ -92,22 +94,27 @@ class SphereView {
     for (int cy = int(cy0); cy <= int(cy1); ++cy) {
       for (int cx = int(cx0); cx <= int(cx1); ++cx) {
         const size_t cell = size_t(cy) * size_t(m_cellsX) + size_t(cx);
-        // Pixel row y of the cell is packet row y + rowShift.
-        const int rowShift = (m_cellY + cy) * kCell - packet.tileY;
+        const int cellRow = (m_cellY + cy) * kCell;  // the image row of the cell's first pixel row
+        // Laid out: pixel row y of the cell is packet row y + rowShift. Else: the cell's pixel rows
+        // [firstRow, lastRow] hold the packet's samples.
+        const int rowShift = cellRow - packet.tileY;
         const int rows = byRow ? packet.count / packet.tileWidth : 0;
+        const int firstRow = int(std::floor(box[2])) - cellRow, lastRow = int(std::floor(box[3])) - cellRow;
         Real farthest = farthestHit(packet);
         for (uint32_t e = m_first[cell]; e != m_first[cell + 1]; ++e) {
           const Entry& entry = m_entries[e];
           if (entry.tLow > farthest) break;
-          int kBegin = 0, kEnd = packet.count;
+          const int row0 = m_rows[e] >> 3, row1 = m_rows[e] & 7;
           if (byRow) {
-            const int first = std::max(int(m_rows[e] >> 3) + rowShift, 0);
-            const int last = std::min(int(m_rows[e] & 7) + rowShift, rows - 1);
+            const int first = std::max(row0 + rowShift, 0), last = std::min(row1 + rowShift, rows - 1);
             if (first > last) continue;
-            kBegin = first * packet.tileWidth, kEnd = (last + 1) * packet.tileWidth;
+            test(entry.sphere, first * packet.tileWidth, (last + 1) * packet.tileWidth, false);
+            tested += (last - first + 1) * packet.tileWidth;
+          } else {
+            if (row1 < firstRow || row0 > lastRow) continue;
+            test(entry.sphere, 0, packet.count, true);
+            tested += packet.count;
           }
-          test(entry.sphere, kBegin, kEnd);
-          tested += kEnd - kBegin;
           farthest = farthestHit(packet);
         }
       }
