@@ -4,8 +4,8 @@
 #   bash bench/fuzz_sanitized.sh [MINUTES]        # default 5; DURER_SANITIZE=address,undefined
 #
 # Builds the package with -DDURER_SANITIZE (cmake/Sanitize.cmake) into its own virtual environment
-# and build directory (build/sanitize/, never .venv), then runs tests/core/test_traversal_fuzz.py
-# and bench/fuzz_traversal.py for MINUTES under it. Python itself is not instrumented, so the ASan
+# and build directory (build/sanitize/, never .venv), then runs tests/core/test_traversal_fuzz.py,
+# tests/core/test_sphere_view.py and bench/fuzz_traversal.py for MINUTES under it. Python itself is not instrumented, so the ASan
 # runtime is preloaded (it must come first) and leak detection is off (the interpreter's own
 # allocations at exit are not leaks of ours). The first sanitizer report aborts the run with its
 # stack; the exit status is non-zero then. Set DURER_NATIVE=1 to build one native code path only
@@ -42,7 +42,7 @@ if ! ldd "$module" | grep -q "san\."; then
 fi
 say "module $module; LD_PRELOAD=$LD_PRELOAD ASAN_OPTIONS=$ASAN_OPTIONS UBSAN_OPTIONS=$UBSAN_OPTIONS"
 
-"$venv/bin/python" -m pytest -q -p no:cacheprovider tests/core/test_traversal_fuzz.py
+"$venv/bin/python" -m pytest -q -p no:cacheprovider tests/core/test_traversal_fuzz.py tests/core/test_sphere_view.py
 seed=()
 [ -n "${DURER_FUZZ_SEED:-}" ] && seed=(--seed "$DURER_FUZZ_SEED")
 "$venv/bin/python" bench/fuzz_traversal.py --minutes "$minutes" "${seed[@]}"

@@ -3,9 +3,10 @@
     python bench/fuzz_traversal.py --minutes 10 [--seed 1] [--max-primitives 300]
 
 Runs rounds of fresh random cases (hypothesis, seeded by --seed + round when --seed is given, so a
-run can be repeated) until the time is up, printing after each round what it has tried: cases,
-primitives, rays of the full scenes and their hits, rays cast in all (the brute force casts each
-ray once per primitive). On the first difference from the brute force it stops, prints hypothesis's
+run can be repeated) until the time is up, each round also as many camera views of random sphere
+clouds (tests/helpers/view_fuzz.py: a render's camera rays against a cast of the same rays),
+printing after each round what it has tried: cases, primitives, rays of the full scenes and their
+hits, rays cast in all (the brute force casts each ray once per primitive), view cases. On the first difference from the brute force it stops, prints hypothesis's
 shrunk case reduced further and a reproduction script, and exits with status 1.
 docs/reliability.md says what the fuzz checks; bench/fuzz_sanitized.sh runs it under ASan/UBSan.
 """
@@ -21,6 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the fu
 
 from hypothesis import HealthCheck, settings  # noqa: E402
 
+from helpers import view_fuzz  # noqa: E402
 from helpers.traversal_fuzz import Tally, fuzz  # noqa: E402
 
 
@@ -34,6 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     cfg = settings(database=None, deadline=None, max_examples=args.per_round,
                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
     tally = Tally()
+    views = 0
     start = time.monotonic()
     end = start + 60 * args.minutes
     rounds = 0
@@ -41,13 +44,14 @@ def main(argv: list[str] | None = None) -> int:
         seed = None if args.seed is None else args.seed + rounds
         try:
             fuzz(cfg, tally, args.max_primitives, seed)
+            views += view_fuzz.fuzz(cfg, seed)
         except AssertionError as difference:
             print(f"round {rounds + 1} (seed {seed}): DIFFERENCE\n{difference}", flush=True)
-            print(f"before it: {tally}")
+            print(f"before it: {tally}; {views} view cases")
             return 1
         rounds += 1
-        print(f"{time.monotonic() - start:7.0f} s  round {rounds}: {tally}", flush=True)
-    print(f"no difference in {time.monotonic() - start:.0f} s, {rounds} rounds: {tally}")
+        print(f"{time.monotonic() - start:7.0f} s  round {rounds}: {tally}; {views} view cases", flush=True)
+    print(f"no difference in {time.monotonic() - start:.0f} s, {rounds} rounds: {tally}; {views} view cases")
     return 0
 
 

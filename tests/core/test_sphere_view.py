@@ -7,80 +7,17 @@ after the spheres move."""
 
 from __future__ import annotations
 
-import math
-
 import durer
 import numpy as np
 import pytest
+from helpers.view_fuzz import PASSES, assert_render_matches_cast, check, cloud, view_cases
 from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
-
-PASSES = ("depth", "normal", "object_id")
-
-
-def _assert_render_matches_cast(scene, camera, width, height, precision, region=None):
-    res = durer.render(scene, camera, width=width, height=height, spp=1, passes=PASSES, precision=precision,
-                       region=region, threads=2)
-    origins, directions = camera.rays(width, height, precision)
-    if region is not None:
-        x, y, w, h = region
-        origins, directions = origins[y:y + h, x:x + w], directions[y:y + h, x:x + w]
-    shape = origins.shape[:2]
-    cast = durer.cast(scene, origins.reshape(-1, 3), directions.reshape(-1, 3), t_min=camera.t_min,
-                      t_max=camera.t_max, precision=precision, threads=1)
-    np.testing.assert_array_equal(res.object_id, cast.object_id.reshape(shape))
-    hit = cast.object_id.reshape(shape) >= 0
-    np.testing.assert_array_equal(res.depth[hit], cast.t.reshape(shape)[hit].astype(np.float32))
-    np.testing.assert_array_equal(res.normal[hit], cast.normal.reshape(*shape, 3)[hit].astype(np.float32))
-    return res, hit
-
-
-def _cloud(rng, n, scale, offset, radius):
-    scene = durer.Scene()
-    material = scene.add_material(diffuse=(0.5, 0.5, 0.5))
-    centers = offset + scale * rng.uniform(-1, 1, (n, 3))
-    radii = radius * scale * rng.uniform(0.2, 1.0, n)
-    scene.add_spheres(centers, radii, material=material)
-    return scene
-
-
-@st.composite
-def view_cases(draw):
-    seed = draw(st.integers(0, 2**32 - 1))
-    rng = np.random.default_rng(seed)
-    n = draw(st.integers(16, 400))
-    scale = 10.0 ** draw(st.floats(-3, 4))
-    offset = 10.0 ** draw(st.floats(-2, 6)) * rng.normal(size=3) if draw(st.booleans()) else np.zeros(3)
-    radius = 10.0 ** draw(st.floats(-3, -0.3))
-    perspective = draw(st.booleans())
-    inside = draw(st.booleans())  # the eye among the spheres, else looking at them from outside
-    direction = rng.normal(size=3)
-    direction /= np.linalg.norm(direction)
-    center = offset + (0.3 * scale * rng.uniform(-1, 1, 3) if inside else -3 * scale * direction)
-    up = rng.normal(size=3)
-    shift = tuple(draw(st.sampled_from([(0.0, 0.0), (0.3, -0.2)])))
-    aspect = draw(st.sampled_from([1.0, 0.75]))
-    if perspective:
-        camera = durer.PerspectiveCamera(tuple(center), tuple(direction), tuple(up),
-                                         fov_degrees=draw(st.floats(5, 150)), shift=shift, pixel_aspect=aspect)
-    else:
-        camera = durer.OrthographicCamera(tuple(center), tuple(direction), tuple(up), size=2.5 * scale,
-                                          shift=shift, pixel_aspect=aspect,
-                                          t_min=draw(st.sampled_from([-math.inf, 0.0])))
-    width, height = draw(st.integers(1, 40)), draw(st.integers(1, 40))
-    region = None
-    if draw(st.booleans()):
-        x, y = draw(st.integers(0, width - 1)), draw(st.integers(0, height - 1))
-        region = (x, y, draw(st.integers(1, width - x)), draw(st.integers(1, height - y)))
-    precision = draw(st.sampled_from(["float", "double"]))
-    return _cloud(rng, n, scale, offset, radius), camera, width, height, precision, region
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(view_cases())
 def test_camera_rays_find_what_a_cast_finds(case):
-    scene, camera, width, height, precision, region = case
-    _assert_render_matches_cast(scene, camera, width, height, precision, region)
+    check(case)
 
 
 @pytest.mark.parametrize("precision", ["float", "double"])
@@ -89,12 +26,12 @@ def test_a_dense_cloud_seen_from_inside_and_outside(precision):
     some crossing the plane through it) and from outside, and an orthographic view that also sees
     the spheres behind its image plane (t_min = -inf)."""
     rng = np.random.default_rng(7)
-    scene = _cloud(rng, 10_000, 1.0, np.zeros(3), 0.04)
+    scene = cloud(rng, 10_000, 1.0, np.zeros(3), 0.04)
     cameras = [durer.PerspectiveCamera((0.01, -0.02, 0.03), (0.2, 0.1, -1), (0, 1, 0), fov_degrees=100),
                durer.PerspectiveCamera((0, 0, 4), (0, 0, -1), (0, 1, 0), fov_degrees=40),
                durer.OrthographicCamera((0, 0, 0), (1, 1, -1), (0, 1, 0), size=2.5)]
     for camera in cameras:
-        _, hit = _assert_render_matches_cast(scene, camera, 96, 64, precision)
+        _, hit = assert_render_matches_cast(scene, camera, 96, 64, precision)
         assert hit.mean() > 0.5
 
 
@@ -103,10 +40,10 @@ def test_spheres_a_pixel_across_or_less(precision):
     """50,000 spheres of 0.2 to 1.5 pixels across: each lists only the pixel rows it covers, and a
     ray must still meet every sphere over its own pixel, also with several samples per pixel."""
     rng = np.random.default_rng(11)
-    scene = _cloud(rng, 50_000, 1.0, np.zeros(3), 0.006)
+    scene = cloud(rng, 50_000, 1.0, np.zeros(3), 0.006)
     for camera in (durer.OrthographicCamera((0, 0, 3), (0.1, -0.2, -1), (0, 1, 0), size=2.2),
                    durer.PerspectiveCamera((0.3, 0.2, 3), (-0.1, -0.05, -1), (0, 1, 0), fov_degrees=45)):
-        _, hit = _assert_render_matches_cast(scene, camera, 200, 150, precision)
+        _, hit = assert_render_matches_cast(scene, camera, 200, 150, precision)
         assert 0.2 < hit.mean() < 0.99
     assert np.all(_spread_samples_agree(rng, 50_000, 0.006, precision))
 
@@ -131,7 +68,7 @@ def _spread_samples_agree(rng, n, radius, precision):
 
 def test_a_region_is_the_whole_render_cut_out():
     rng = np.random.default_rng(3)
-    scene = _cloud(rng, 3000, 1.0, np.zeros(3), 0.05)
+    scene = cloud(rng, 3000, 1.0, np.zeros(3), 0.05)
     camera = durer.PerspectiveCamera((0, 0, 3), (0, 0, -1), (0, 1, 0), fov_degrees=50)
     whole = durer.render(scene, camera, width=70, height=50, spp=4, passes=PASSES + ("color",), threads=2)
     part = durer.render(scene, camera, width=70, height=50, spp=4, passes=PASSES + ("color",), threads=2,
@@ -157,7 +94,7 @@ def test_moved_spheres_are_seen_where_they_moved_to():
     assert not np.array_equal(first.depth, again.depth)
     for name in PASSES:
         np.testing.assert_array_equal(getattr(again, name), getattr(expected, name))
-    _assert_render_matches_cast(scene, camera, 48, 48, "double")
+    assert_render_matches_cast(scene, camera, 48, 48, "double")
 
 
 def test_camera_rays_test_the_front_spheres_only():

@@ -1,11 +1,13 @@
 #pragma once
-// One render's index of a sphere set by where the spheres appear on the image: the image is cut into
+// One render's index of a sphere set by where the spheres appear on an image: the image is cut into
 // cells of a camera tile (8x8 pixels), and each cell lists the spheres whose footprint
-// (Camera::footprint, conservative) meets it, nearest first by a lower bound on the t at which a
-// camera ray meets them. A camera packet then tests its cell's spheres in that order, all its rays
-// at once, and stops at the first sphere that lies beyond every ray's hit so far: no hierarchy walk,
-// and the spheres hidden behind the first layer are never touched. Made once per camera and image
-// (the sphere set keeps the last one), in O(spheres + entries) on the render's threads.
+// (Camera::footprint, conservative) meets it, nearest first by a lower bound on the t at which a ray
+// meets them. A camera packet then tests its cell's spheres in that order, each against the rays of
+// the pixel rows it covers, and stops at the first sphere that lies beyond every ray's hit so far:
+// no hierarchy walk, and the spheres hidden behind the first layer are never touched. A directional
+// light's view is the same index over an orthographic image along the light, for its shadow rays.
+// Made once per camera (or light) and image, in O(spheres + entries) on the render's threads; the
+// sphere set keeps the last few (SphereSet::view).
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -15,11 +17,10 @@
 #include <memory>
 #include <vector>
 
-#include "durer/math/Float.h"
-
 #include "durer/Inline.h"
 #include "durer/accel/Bvh.h"
 #include "durer/geometry/RayPacket.h"
+#include "durer/math/Float.h"
 #include "durer/math/Vec.h"
 
 namespace durer {
@@ -43,8 +44,7 @@ struct ParallelProjection {
   }
 };
 
-// What a view is made for: the camera as given, the image size and the region rendered. Two renders
-// with equal keys of the same prepared spheres share the view.
+// What a view is made for: the camera as given and the image size (a light's: its direction). Two renders with equal keys of the same prepared spheres share the view.
 struct ViewKey {
   static constexpr int kSize = 24;
   double values[kSize] = {};
@@ -61,20 +61,15 @@ class SphereView {
 
   struct Entry {
     uint32_t sphere;  // index in the sphere set
-    float tLow;       // no camera ray in the cell meets it before this t
+    float tLow;       // no ray of the cell meets it before this t (a light's view: no point nearer the light)
   };
-
-  const ViewKey& key() const { return m_key; }
-  size_t bytes() const {
-    return m_entries.size() * (sizeof(Entry) + sizeof(uint8_t)) + m_first.size() * sizeof(uint32_t);
-  }
 
   // The view of `count` spheres over the cells of the pixels [x, x + width) x [y, y + height):
   // footprint(i, box, tLow) gives sphere i's sample box and lower bound (false: no camera ray
   // meets it). Null if it would not pay (see kMaxEntriesPerSphere).
   template <typename Footprint>
-  static std::unique_ptr<SphereView> make(const ViewKey& key, size_t count, const Footprint& footprint, int x, int y,
-                                          int width, int height, int threads);
+  static std::unique_ptr<SphereView> make(size_t count, const Footprint& footprint, int x, int y, int width,
+                                          int height, int threads);
 
   // Calls test(sphere, kBegin, kEnd, all) for the spheres of the packet's cell that some ray may meet
   // before its hit so far, nearest first, with the rays [kBegin, kEnd) that may meet it (test lowers
@@ -122,7 +117,7 @@ class SphereView {
     return tested;
   }
 
-  // The light's view (made by makeLight): calls test(sphere) for the spheres of ray k's cell that
+  // A light's view (setLight): calls test(sphere) for the spheres of ray k's cell that
   // reach nearer the light than its origin, nearest the origin first, until test returns true (an
   // occluder found). Ray k travels toward the light, opposite the view's direction. Returns the
   // ray-sphere tests made.
@@ -147,8 +142,8 @@ class SphereView {
     return tested;
   }
 
-  // The view from a directional light travelling along `projection.forward` (SphereView::make over
-  // the light's orthographic image), searched by occluders().
+  // Makes this the view from a directional light travelling along `projection.forward` (made over
+  // the light's orthographic image, `projection` its frame), searched by occluders().
   void setLight(const ParallelProjection& projection) { m_light = projection; }
 
  private:
@@ -187,7 +182,6 @@ class SphereView {
     }
   }
 
-  ViewKey m_key;
   int m_cellX = 0, m_cellY = 0;       // the first cell's column and row in the image's cells
   int m_cellsX = 0, m_cellsY = 0;
   std::vector<uint32_t> m_first;      // cell c's entries: [m_first[c], m_first[c + 1]), cells row by row
@@ -198,10 +192,9 @@ class SphereView {
 
 template <typename Real>
 template <typename Footprint>
-std::unique_ptr<SphereView<Real>> SphereView<Real>::make(const ViewKey& key, size_t count, const Footprint& footprint,
-                                                         int x, int y, int width, int height, int threads) {
+std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Footprint& footprint, int x, int y,
+                                                         int width, int height, int threads) {
   auto view = std::make_unique<SphereView>();
-  view->m_key = key;
   view->m_cellX = x / kCell, view->m_cellY = y / kCell;
   view->m_cellsX = (x + width + kCell - 1) / kCell - view->m_cellX;
   view->m_cellsY = (y + height + kCell - 1) / kCell - view->m_cellY;

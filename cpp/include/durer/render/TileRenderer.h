@@ -359,18 +359,17 @@ class TileRenderer {
     acc.a[k] += a;
   }
 
-  // The view of the scene's own spheres for this camera and region (SphereView; shared with the
-  // renders before if the same), from a few dozen spheres on.
+  // The view of the scene's own spheres for this camera over the whole image (SphereView), shared
+  // with the renders before of the same camera and size, whatever their regions (a distributed
+  // render's tiles, an adaptive render's margins), from 16 spheres on.
   static std::shared_ptr<const SphereView<Real>> viewOf(const SphereSet<Real>& spheres, const CameraSpec& spec,
                                                         const RenderSettings& settings, const Camera<Real>& camera) {
     constexpr size_t kViewMinSpheres = 16;
     if (spheres.size() < kViewMinSpheres) return nullptr;
-    const RenderSettings::Region region = regionOf(settings);
     const ViewKey key{{double(spec.projection), spec.center.x, spec.center.y, spec.center.z, spec.direction.x,
                        spec.direction.y, spec.direction.z, spec.up.x, spec.up.y, spec.up.z, spec.size, double(spec.fit),
                        spec.shiftX, spec.shiftY, spec.pixelAspect, spec.tMin, spec.tMax, double(settings.width),
-                       double(settings.height), double(region.x), double(region.y), double(region.width),
-                       double(region.height)}};
+                       double(settings.height)}};
     const int threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
     return spheres.view(key, [&] {
       const auto footprint = [&](size_t i, SampleBox& box, double& tLow) {
@@ -378,7 +377,7 @@ class TileRenderer {
         return camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow);
       };
       return std::shared_ptr<const SphereView<Real>>(
-          SphereView<Real>::make(key, spheres.size(), footprint, region.x, region.y, region.width, region.height, threads));
+          SphereView<Real>::make(spheres.size(), footprint, 0, 0, settings.width, settings.height, threads));
     });
   }
 
@@ -419,7 +418,7 @@ class TileRenderer {
         return light.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow);
       };
       std::unique_ptr<SphereView<Real>> view =
-          SphereView<Real>::make(key, spheres.size(), footprint, 0, 0, pixels, pixels, threads);
+          SphereView<Real>::make(spheres.size(), footprint, 0, 0, pixels, pixels, threads);
       if (view) view->setLight(light.projection());
       return view;
     });
