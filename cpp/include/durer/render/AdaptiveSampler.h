@@ -194,7 +194,10 @@ class AdaptiveSampler {
     int n = 0;
     const auto flush = [&] {
       if (!m_tiles.trace(sampleX, sampleY, n, one, prim, along, counters)) return false;
-      for (int j = 0; j < n; ++j) record(t, pixel[j], s[j], slot[j], first, one, j, prim[j], along[j]);
+      for (int j = 0, end; j < n; j = end) {  // a pixel's samples are consecutive: one run each
+        for (end = j + 1; end < n && pixel[end] == pixel[j];) ++end;
+        record(t, pixel[j], j, end, s, slot, first, one, prim, along);
+      }
       n = 0;
       return true;
     };
@@ -221,21 +224,30 @@ class AdaptiveSampler {
     }
   }
 
-  // Adds sample j of `one` (sample number s of pixel k, its slot-th this round, which met `prim` at
-  // `along` on its ray) to the pixel.
-  void record(TileState& t, int k, int s, int slot, bool first, const Sums& one, int j, int32_t prim,
-              Real along) const {
-    t.sums.add(k, one, j);
+  // Adds samples [j0, j1) of `one` (sample numbers s[j] of pixel k, its slot[j]-th this round, which
+  // met prim[j] at along[j] on its ray) to the pixel, in order: the same sums, bit for bit, as adding
+  // them one at a time, with the pixel's running sums kept in registers over the run.
+  void record(TileState& t, int k, int j0, int j1, const int* s, const int* slot, bool first, const Sums& one,
+              const int32_t* prim, const Real* along) const {
+    t.sums.addRun(k, one, j0, j1);
     // The last round's samples are the second half of the pixel's: all of a refining round's, the
     // later half of the first pass's.
     const int firstOfLast = first ? t.add[k] - t.add[k] / 2 : 0;
-    if (slot == firstOfLast) t.lastR[k] = t.lastG[k] = t.lastB[k] = 0;
-    if (slot >= firstOfLast) t.lastR[k] += one.r[j], t.lastG[k] += one.g[j], t.lastB[k] += one.b[j];
-    if (s == 0) {
-      t.firstPrim[k] = prim, t.firstT[k] = static_cast<float>(along);
-    } else if (prim != t.firstPrim[k]) {
-      t.mixed[k] = t.mixed[k] || depthJump(along, t.firstT[k]);
+    Real lastR = t.lastR[k], lastG = t.lastG[k], lastB = t.lastB[k];
+    int32_t firstPrim = t.firstPrim[k];
+    float firstT = t.firstT[k];
+    bool mixed = t.mixed[k];
+    for (int j = j0; j < j1; ++j) {
+      if (slot[j] == firstOfLast) lastR = lastG = lastB = 0;
+      if (slot[j] >= firstOfLast) lastR += one.r[j], lastG += one.g[j], lastB += one.b[j];
+      if (s[j] == 0) {
+        firstPrim = prim[j], firstT = static_cast<float>(along[j]);
+      } else if (prim[j] != firstPrim) {
+        mixed = mixed || depthJump(along[j], firstT);
+      }
     }
+    t.lastR[k] = lastR, t.lastG[k] = lastG, t.lastB[k] = lastB;
+    t.firstPrim[k] = firstPrim, t.firstT[k] = firstT, t.mixed[k] = mixed;
   }
 
   static bool depthJump(Real a, Real b) {

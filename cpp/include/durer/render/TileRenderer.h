@@ -139,15 +139,22 @@ class TileRenderer {
       const bool nearer = addNearest(k, hit, t, prim);
       fx[k] = nearer ? x : fx[k], fy[k] = nearer ? y : fy[k], fz[k] = nearer ? z : fz[k];
     }
-    // Adds entry j of `other` (one sample's values) to pixel k.
-    void add(int k, const Accumulator& other, int j) {
-      r[k] += other.r[j], g[k] += other.g[j], b[k] += other.b[j], a[k] += other.a[j];
-      nx[k] += other.nx[j], ny[k] += other.ny[j], nz[k] += other.nz[j], hits[k] += other.hits[j];
-      depth[k] = std::min(depth[k], other.depth[j]);
-      if (other.nearestT[j] < nearestT[k]) {
-        nearestT[k] = other.nearestT[j], fx[k] = other.fx[j], fy[k] = other.fy[j], fz[k] = other.fz[j];
-        nearestPrim[k] = other.nearestPrim[j];
+    // Adds entries [j0, j1) of `other` (one sample's values each) to pixel k, in order (the same sums
+    // as one at a time, bit for bit), the running sums in registers.
+    void addRun(int k, const Accumulator& other, int j0, int j1) {
+      Real sr = r[k], sg = g[k], sb = b[k], sa = a[k], sx = nx[k], sy = ny[k], sz = nz[k], sh = hits[k];
+      Real d = depth[k], t = nearestT[k], x = fx[k], y = fy[k], z = fz[k];
+      int32_t p = nearestPrim[k];
+      for (int j = j0; j < j1; ++j) {
+        sr += other.r[j], sg += other.g[j], sb += other.b[j], sa += other.a[j];
+        sx += other.nx[j], sy += other.ny[j], sz += other.nz[j], sh += other.hits[j];
+        d = std::min(d, other.depth[j]);
+        const bool nearer = other.nearestT[j] < t;
+        t = nearer ? other.nearestT[j] : t, p = nearer ? other.nearestPrim[j] : p;
+        x = nearer ? other.fx[j] : x, y = nearer ? other.fy[j] : y, z = nearer ? other.fz[j] : z;
       }
+      r[k] = sr, g[k] = sg, b[k] = sb, a[k] = sa, nx[k] = sx, ny[k] = sy, nz[k] = sz, hits[k] = sh;
+      depth[k] = d, nearestT[k] = t, fx[k] = x, fy[k] = y, fz[k] = z, nearestPrim[k] = p;
     }
   };
 
