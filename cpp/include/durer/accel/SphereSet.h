@@ -46,8 +46,8 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     return Base::refitFrom(source, convert<Other>, boxOf, threads);
   }
 
-  // The view of these spheres made for `key` (SphereView): one of the last few made, if made for
-  // this key, else make()'s (null where a view would not pay).
+  // The view of these spheres made for `key` (SphereView): the one kept for this key (see ViewCache),
+  // else make()'s (null where a view would not pay).
   template <typename Make>
   std::shared_ptr<const SphereView<Real>> view(const ViewKey& key, const Make& make) const {
     return m_views.find(key, make);
@@ -193,10 +193,11 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
  private:
   using Base = PrimitiveSet<Sphere<Real>, Real>;
 
-  // The last few views made (a render's camera and lights; the next render of the same camera
-  // reuses them). A copy of the set starts without any.
+  // The views last made: the last camera's (an animation's moving camera leaves no trail of stale
+  // views) and the last few lights'. The next render of the same camera and lights reuses them. A copy
+  // of the set starts without any.
   struct ViewCache {
-    static constexpr size_t kViews = 4;
+    static constexpr size_t kLightViews = 3;
     std::mutex mutex;
     std::vector<std::pair<ViewKey, std::shared_ptr<const SphereView<Real>>>> views;  // oldest first
     ViewCache() = default;
@@ -215,7 +216,17 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       for (const auto& [made, view] : views) {
         if (made == key) return view;
       }
-      if (views.size() == kViews) views.erase(views.begin());
+      const size_t kept = key.light ? kLightViews - 1 : 0;  // of the same kind, besides the new one
+      size_t same = 0;
+      for (auto it = views.end(); it != views.begin();) {
+        --it;
+        if (it->first.light != key.light) continue;
+        if (same < kept) {
+          ++same;
+        } else {
+          it = views.erase(it);
+        }
+      }
       views.emplace_back(key, make());
       return views.back().second;
     }

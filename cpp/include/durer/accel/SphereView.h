@@ -48,7 +48,10 @@ struct ParallelProjection {
 struct ViewKey {
   static constexpr int kSize = 24;
   double values[kSize] = {};
-  bool operator==(const ViewKey& other) const { return std::memcmp(values, other.values, sizeof values) == 0; }
+  bool light = false;  // a light's view, not a camera's
+  bool operator==(const ViewKey& other) const {
+    return light == other.light && std::memcmp(values, other.values, sizeof values) == 0;
+  }
 };
 
 template <typename Real>

@@ -397,7 +397,7 @@ class TileRenderer {
     constexpr double kRadiiPerCell = 4;
     constexpr double kMaxCellsAcross = 2048;
     if (spheres.size() < kViewMinSpheres) return nullptr;
-    const ViewKey key{{-1, direction.x, direction.y, direction.z}};  // -1: no camera's projection
+    const ViewKey key{{direction.x, direction.y, direction.z}, true};
     const int threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
     return spheres.view(key, [&]() -> std::shared_ptr<const SphereView<Real>> {
       constexpr Real inf = std::numeric_limits<Real>::infinity();
