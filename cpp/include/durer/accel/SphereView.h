@@ -58,6 +58,9 @@ template <typename Real>
 class SphereView {
  public:
   static constexpr int kCell = 8;  // pixels: a camera tile, so that a tile's packet reads one cell
+  // Below this many spheres a packet tests them all faster than it reads a view (as the hierarchy's
+  // threshold in Group::prepare).
+  static constexpr size_t kMinSpheres = 16;
   // Above this many entries per sphere (spheres covering many cells) the view costs more memory
   // than the hierarchy it stands in for: not made.
   static constexpr double kMaxEntriesPerSphere = 16;

@@ -54,7 +54,7 @@ class Camera {
   // sample positions (pixels, as generate takes them) whose rays may meet it, and a lower bound on
   // the t they would meet it at. False if no camera ray can meet it. Conservative for the rays
   // generate makes in Real and the robust sphere test's roots (widened by bounds on both roundings
-  // and by a pixel); infinite ends where the sphere reaches the plane of a perspective eye.
+  // and by 1/64 pixel); infinite ends where the sphere reaches the plane of a perspective eye.
   bool footprint(const Vec3d& center, double radius, SampleBox& box, double& tLow) const;
 
   // The frame and image window in double, as rounded to Real (orthographic: where a point lies on

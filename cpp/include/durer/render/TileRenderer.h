@@ -368,11 +368,10 @@ class TileRenderer {
 
   // The view of the scene's own spheres for this camera over the whole image (SphereView), shared
   // with the renders before of the same camera and size, whatever their regions (a distributed
-  // render's tiles, an adaptive render's margins), from 16 spheres on.
+  // render's tiles, an adaptive render's margins).
   static std::shared_ptr<const SphereView<Real>> viewOf(const SphereSet<Real>& spheres, const CameraSpec& spec,
                                                         const RenderSettings& settings, const Camera<Real>& camera) {
-    constexpr size_t kViewMinSpheres = 16;
-    if (spheres.size() < kViewMinSpheres) return nullptr;
+    if (spheres.size() < SphereView<Real>::kMinSpheres) return nullptr;
     const ViewKey key{{double(spec.projection), spec.center.x, spec.center.y, spec.center.z, spec.direction.x,
                        spec.direction.y, spec.direction.z, spec.up.x, spec.up.y, spec.up.z, spec.size, double(spec.fit),
                        spec.shiftX, spec.shiftY, spec.pixelAspect, spec.tMin, spec.tMax, double(settings.width),
@@ -393,10 +392,9 @@ class TileRenderer {
   // with a cell to spare, its cells four mean radii across (at most 2048 a side).
   static std::shared_ptr<const SphereView<Real>> lightViewOf(const SphereSet<Real>& spheres, const Vec3d& direction,
                                                              const RenderSettings& settings) {
-    constexpr size_t kViewMinSpheres = 16;
     constexpr double kRadiiPerCell = 4;
     constexpr double kMaxCellsAcross = 2048;
-    if (spheres.size() < kViewMinSpheres) return nullptr;
+    if (spheres.size() < SphereView<Real>::kMinSpheres) return nullptr;
     const ViewKey key{{direction.x, direction.y, direction.z}, true};
     const int threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
     return spheres.view(key, [&]() -> std::shared_ptr<const SphereView<Real>> {
