@@ -122,27 +122,25 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
   // direction within a few of its angle; the robust test's roots within a few of t (docs/numerics.md).
   // 64 epsilons of every magnitude involved bounds all of them with room to spare.
   const double eps = 64 * static_cast<double>(std::numeric_limits<Real>::epsilon());
-  const Vec3d c(m_center), f(m_forward), h(m_horizontal), u(m_up);
-  const Vec3d q = center - c;
-  const double x = glm::dot(q, h), y = glm::dot(q, u), z = glm::dot(q, f);
-  const double pixelWidth = m_pixelWidth, pixelHeight = m_pixelHeight, xOffset = m_xOffset, yOffset = m_yOffset;
+  const ParallelProjection image = projection();
+  const Vec3d q = image.inFrame(center);
+  constexpr double m = kMarginPixels;
   if (!m_perspective) {
-    const double window = std::max(std::fabs(xOffset), std::fabs(xOffset + m_width * pixelWidth)) +
-                          std::max(std::fabs(yOffset), std::fabs(yOffset - m_height * pixelHeight));
-    const double slack = eps * (maxAbs(c) + window + std::fabs(z) + radius);
-    const double reach = radius + slack;
-    if (z + reach < static_cast<double>(m_tMin)) return false;  // wholly behind the image plane
-    box = {(x - reach - xOffset) / pixelWidth - kMarginPixels, (x + reach - xOffset) / pixelWidth + kMarginPixels,
-           (yOffset - y - reach) / pixelHeight - kMarginPixels, (yOffset - y + reach) / pixelHeight + kMarginPixels};
-    tLow = z - reach;
+    const double window =
+        std::max(std::fabs(image.xOffset), std::fabs(image.xOffset + m_width * image.pixelWidth)) +
+        std::max(std::fabs(image.yOffset), std::fabs(image.yOffset - m_height * image.pixelHeight));
+    const double reach = radius + eps * (maxAbs(image.center) + window + std::fabs(q.z) + radius);
+    if (q.z + reach < static_cast<double>(m_tMin)) return false;  // wholly behind the image plane
+    box = {image.sampleX(q.x - reach) - m, image.sampleX(q.x + reach) + m, image.sampleY(q.y + reach) - m,
+           image.sampleY(q.y - reach) + m};
+    tLow = q.z - reach;
     return true;
   }
-  const double distance = glm::length(q);
+  const double distance = glm::length(center - image.center);
   const double reach = radius + eps * (distance + radius);
   double x0, x1, y0, y1;
-  if (!seenRange(x, z, reach, eps, x0, x1) || !seenRange(y, z, reach, eps, y0, y1)) return false;
-  box = {(x0 - xOffset) / pixelWidth - kMarginPixels, (x1 - xOffset) / pixelWidth + kMarginPixels,
-         (yOffset - y1) / pixelHeight - kMarginPixels, (yOffset - y0) / pixelHeight + kMarginPixels};
+  if (!seenRange(q.x, q.z, reach, eps, x0, x1) || !seenRange(q.y, q.z, reach, eps, y0, y1)) return false;
+  box = {image.sampleX(x0) - m, image.sampleX(x1) + m, image.sampleY(y1) - m, image.sampleY(y0) + m};
   tLow = distance - reach;
   return true;
 }

@@ -30,21 +30,30 @@ struct SampleBox {
   double x0, x1, y0, y1;
 };
 
-// An image's frame in double (from a camera's frame as rounded to its precision): where a world
-// point lies on an orthographic image, in pixels, and how deep along its view direction.
+// An image's frame in double (from a camera's frame as rounded to its precision), the one home of
+// the map from the image plane to sample positions (Camera::generate's inverse).
 struct ParallelProjection {
   Vec3d center, horizontal, up, forward;  // unit, orthonormal up to rounding
   double pixelWidth = 1, pixelHeight = 1, xOffset = 0, yOffset = 0;
 
-  void locate(const Vec3d& point, double& x, double& y, double& depth) const {
+  // A world point in the frame: along horizontal, up and forward from the centre.
+  Vec3d inFrame(const Vec3d& point) const {
     const Vec3d q = point - center;
-    x = (glm::dot(q, horizontal) - xOffset) / pixelWidth;
-    y = (yOffset - glm::dot(q, up)) / pixelHeight;
-    depth = glm::dot(q, forward);
+    return {glm::dot(q, horizontal), glm::dot(q, up), glm::dot(q, forward)};
+  }
+  // The sample position (pixels: x right, y down) of image-plane position x or y (orthographic: from
+  // the centre, in world units; perspective: at distance 1).
+  double sampleX(double x) const { return (x - xOffset) / pixelWidth; }
+  double sampleY(double y) const { return (yOffset - y) / pixelHeight; }
+  // Where a world point lies on an orthographic image, in pixels, and how deep along its view direction.
+  void locate(const Vec3d& point, double& x, double& y, double& depth) const {
+    const Vec3d q = inFrame(point);
+    x = sampleX(q.x), y = sampleY(q.y), depth = q.z;
   }
 };
 
-// What a view is made for: the camera as given and the image size (a light's: its direction). Two renders with equal keys of the same prepared spheres share the view.
+// What a view is made for: the camera as given and the image size (a light's: its direction). Two
+// renders with equal keys of the same prepared spheres share the view.
 struct ViewKey {
   static constexpr int kSize = 24;
   double values[kSize] = {};
@@ -137,7 +146,8 @@ class SphereView {
     const size_t cell = size_t(cy) * size_t(m_cellsX) + size_t(cx);
     const Entry* first = m_entries.data() + m_first[cell];
     // Spheres whose nearest depth lies beyond the origin's (widened by its rounding) cannot block it.
-    const double reach = depth + 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(depth) + maxAbs(m_light.center));
+    const double slack = 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(depth) + maxAbs(m_light.center));
+    const double reach = depth + slack;
     const Entry* end = std::upper_bound(first, m_entries.data() + m_first[cell + 1], reach,
                                         [](double bound, const Entry& e) { return bound < double(e.tLow); });
     int64_t tested = 0;

@@ -376,15 +376,21 @@ class TileRenderer {
                        spec.direction.y, spec.direction.z, spec.up.x, spec.up.y, spec.up.z, spec.size, double(spec.fit),
                        spec.shiftX, spec.shiftY, spec.pixelAspect, spec.tMin, spec.tMax, double(settings.width),
                        double(settings.height)}};
-    const int threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
     return spheres.view(key, [&] {
-      const auto footprint = [&](size_t i, SampleBox& box, double& tLow) {
-        const Sphere<Real>& sphere = spheres.primitive(i);
-        return camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow);
-      };
       return std::shared_ptr<const SphereView<Real>>(
-          SphereView<Real>::make(spheres.size(), footprint, 0, 0, settings.width, settings.height, threads));
+          viewThrough(spheres, camera, settings.width, settings.height, settings));
     });
+  }
+
+  // The view of `spheres` over a width x height image seen through `camera`, on the render's threads.
+  static std::unique_ptr<SphereView<Real>> viewThrough(const SphereSet<Real>& spheres, const Camera<Real>& camera,
+                                                       int width, int height, const RenderSettings& settings) {
+    const auto footprint = [&](size_t i, SampleBox& box, double& tLow) {
+      const Sphere<Real>& sphere = spheres.primitive(i);
+      return camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow);
+    };
+    const int threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
+    return SphereView<Real>::make(spheres.size(), footprint, 0, 0, width, height, threads);
   }
 
   // The view of the scene's own spheres from a directional light travelling along `direction`, for
@@ -396,7 +402,6 @@ class TileRenderer {
     constexpr double kMaxCellsAcross = 2048;
     if (spheres.size() < SphereView<Real>::kMinSpheres) return nullptr;
     const ViewKey key{{direction.x, direction.y, direction.z}, true};
-    const int threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
     return spheres.view(key, [&]() -> std::shared_ptr<const SphereView<Real>> {
       constexpr Real inf = std::numeric_limits<Real>::infinity();
       Vec3<Real> lo(inf), hi(-inf);
@@ -418,12 +423,7 @@ class TileRenderer {
       spec.tMax = std::numeric_limits<double>::infinity();
       const int pixels = cells * SphereView<Real>::kCell;
       const Camera<Real> light(spec, pixels, pixels);
-      const auto footprint = [&](size_t i, SampleBox& box, double& tLow) {
-        const Sphere<Real>& sphere = spheres.primitive(i);
-        return light.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow);
-      };
-      std::unique_ptr<SphereView<Real>> view =
-          SphereView<Real>::make(spheres.size(), footprint, 0, 0, pixels, pixels, threads);
+      std::unique_ptr<SphereView<Real>> view = viewThrough(spheres, light, pixels, pixels, settings);
       if (view) view->setLight(light.projection());
       return view;
     });
