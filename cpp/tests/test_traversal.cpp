@@ -5,9 +5,12 @@
 // wide enough to split, perspective fans and incoherent rays.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include "durer/accel/BoxSet.h"
 #include "durer/accel/Group.h"
@@ -119,6 +122,58 @@ TEST_CASE_TEMPLATE("hierarchy searches find what brute force finds, bit for bit"
           anyHit ? s.template intersect<true>(p, 0, nullptr) : s.template intersect<false>(p, 0, nullptr);
         });
       }
+    }
+  }
+}
+
+TEST_CASE_TEMPLATE("rays walking interleaved visit the leaves each visits alone, in the same order", Real, float, double) {
+  // Bvh::traverseInterleaved against Bvh::traverse, ray by ray: the same leaves in the same order,
+  // with each leaf lowering the ray's tHit (so later culling depends on it), some rays stopping at a
+  // leaf (a shadow ray's any hit), fewer rays than lanes and many more, and rays skipped.
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-10, 10), size(0.01, 0.6);
+  std::vector<Vec3<Real>> lo, hi;
+  for (int i = 0; i < 5000; ++i) {
+    const Vec3d c(u(rng), u(rng), u(rng)), e(size(rng), size(rng), size(rng));
+    lo.push_back(toReal<Real>(c - e)), hi.push_back(toReal<Real>(c + e));
+  }
+  Bvh<Real> bvh;
+  bvh.build(lo.size(), [&](size_t i, Vec3<Real>& l, Vec3<Real>& h) { l = lo[i], h = hi[i], roundOutward(l, h); }, 2);
+  using Visits = std::vector<std::pair<int32_t, int32_t>>;
+  // Leaf visit j of ray k: lowers tHit (to t = 30 − 2j, as if a hit were found) and stops the walk at
+  // visit k % 7 for rays with k % 3 == 0.
+  const auto visit = [](RayPacket<Real>& p, Visits& visits, int k, int32_t first, int32_t count) {
+    visits.emplace_back(first, count);
+    const Real t = Real(30) - Real(2 * visits.size());
+    p.tHit[k] = std::min(p.tHit[k], t);
+    return k % 3 == 0 && int(visits.size()) == k % 7 + 1;
+  };
+  for (int count : {1, 3, 8, 9, 64}) {
+    for (int trial = 0; trial < 10; ++trial) {
+      RayPacket<Real> p = packetOf<Real>(Rays::Random, rng, Real(0));
+      p.count = count;
+      RayPacket<Real> alone = p, together = p;
+      std::vector<Visits> expected(static_cast<size_t>(count)), visited(static_cast<size_t>(count));
+      std::vector<int> rays;
+      for (int k = 0; k < count; ++k) {
+        if (k % 5 == 4) continue;  // skipped (a shadow ray blocked by another set)
+        rays.push_back(k);
+        const BvhRay<Real> ray(p.ox[k], p.oy[k], p.oz[k], p.dx[k], p.dy[k], p.dz[k], p.tMin);
+        bvh.traverse(ray, alone.tHit[k], [&](int32_t first, int32_t n) { return visit(alone, expected[size_t(k)], k, first, n); });
+      }
+      int32_t touched = 0;
+      bvh.traverseInterleaved(
+          together, rays.data(), int(rays.size()),
+          [&](int32_t first, int32_t n, int k) { return visit(together, visited[size_t(k)], k, first, n); },
+          [&](int32_t, int32_t) { ++touched; });
+      size_t leaves = 0;
+      for (int k = 0; k < count; ++k) {
+        CAPTURE(k);
+        CHECK(visited[size_t(k)] == expected[size_t(k)]);
+        CHECK(sameBits(together.tHit[k], alone.tHit[k]));
+        leaves += expected[size_t(k)].size();
+      }
+      CHECK(size_t(touched) == leaves);  // every leaf was prefetched before it was tested
     }
   }
 }

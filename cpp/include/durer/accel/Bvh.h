@@ -15,8 +15,13 @@
 #include <memory>
 #include <numeric>
 #include <thread>
+#include <type_traits>
 #include <utility>
 #include <vector>
+
+#if defined(__SSE__)
+#include <immintrin.h>
+#endif
 
 #include "durer/Inline.h"
 #include "durer/geometry/Slab.h"
@@ -36,19 +41,25 @@ struct alignas(64) BvhNode {
 };
 
 // One ray as the traversal sees it, set up once per ray: origin, reciprocal direction, which bound
-// of each axis it meets first, and the range of t it counts.
+// of each axis it meets first (as the index of that bound's lanes in a node), how that bound minus
+// the origin is moved outward (Bvh::childEntries), and the range of t it counts.
 template <typename Real>
 struct BvhRay {
   Real o[3];
   Real inv[3];
-  int nearBound[3];  // 0: lo is entered first on this axis (inv >= 0, +0 included), 1: hi
+  Real nearShift[3];  // -tiny where lo is entered first (inv >= 0, +0 included), +tiny where hi is
+  int nearLanes[3], farLanes[3];  // offsets in floats of the near and far bounds' lanes in BvhNode::bounds
   Real tMin;
 
+  BvhRay() = default;
   BvhRay(Real ox, Real oy, Real oz, Real dx, Real dy, Real dz, Real tMin_) : o{ox, oy, oz}, tMin(tMin_) {
+    constexpr Real tiny = std::numeric_limits<Real>::min();
     const Real d[3] = {dx, dy, dz};
     for (int a = 0; a < 3; ++a) {
       inv[a] = 1 / d[a];
-      nearBound[a] = std::signbit(inv[a]) ? 1 : 0;
+      const int nearBound = std::signbit(inv[a]) ? 1 : 0;
+      nearShift[a] = nearBound ? tiny : -tiny;
+      nearLanes[a] = (nearBound * 3 + a) * 4, farLanes[a] = ((1 - nearBound) * 3 + a) * 4;
     }
   }
 };
@@ -101,6 +112,7 @@ template <typename Real>
 class Bvh {
  public:
   static constexpr int kMaxLeafSize = 4;
+  static constexpr int kLanes = 4;  // rays walking at once in traverseInterleaved
 
   bool empty() const { return m_nodes.empty(); }
   size_t size() const { return m_nodes.size(); }
@@ -140,6 +152,72 @@ class Bvh {
       }
     }
   }
+  // traverse() for the packet's rays rays[0 .. count), several at once: one ray's walk is a chain of
+  // dependent loads, and incoherent rays (shadows, reflections) through a tree larger than the cache
+  // wait on each one. Here kLanes rays walk in turns, a turn ending where its ray needs a node or a
+  // leaf's primitives not read yet; those are prefetched (touch(first, count) for a leaf) and read on
+  // its next turn, so the misses of several rays overlap. A lane whose ray is done takes the next
+  // one. Each ray visits the same nodes and leaves in the same order as with traverse(), calling
+  // leaf(first, count, k) for ray k: the same hits. Returns the primitives visited.
+  template <typename Leaf, typename Touch>
+  int64_t traverseInterleaved(const RayPacket<Real>& p, const int* rays, int count, const Leaf& leaf,
+                              const Touch& touch) const {
+    struct Lane {
+      BvhRay<Real> ray;
+      Stack stack;
+      int k;
+      int32_t node;                 // >= 0: visit this node next
+      int32_t leafFirst, leafCount;  // leafCount > 0: test this leaf next
+    };
+    Lane lanes[kLanes];
+    int next = 0, active = 0;
+    const auto start = [&](Lane& lane) {
+      if (next == count) return false;
+      const int k = lane.k = rays[next++];
+      lane.ray = BvhRay<Real>(p.ox[k], p.oy[k], p.oz[k], p.dx[k], p.dy[k], p.dz[k], p.tMin);
+      lane.stack.top = 0, lane.node = 0, lane.leafCount = 0;
+      return true;
+    };
+    while (active < kLanes && start(lanes[active])) ++active;
+    int64_t visited = 0;
+    while (active > 0) {
+      for (int l = 0; l < active; ++l) {
+        Lane& lane = lanes[l];
+        const Real limit = p.tHit[lane.k];
+        bool done = false;
+        if (lane.leafCount > 0) {
+          visited += lane.leafCount;
+          done = leaf(lane.leafFirst, lane.leafCount, lane.k);
+          lane.leafCount = 0;
+        } else {
+          pushChildren(m_nodes[static_cast<size_t>(lane.node)], lane.ray, limit, lane.stack);
+        }
+        lane.node = -1;
+        const Real now = p.tHit[lane.k];
+        Stack& stack = lane.stack;
+        while (!done) {
+          if (stack.top == 0) {
+            done = true;
+            break;
+          }
+          const int e = --stack.top;
+          if (stack.tNear[e] > now) continue;
+          if (stack.count[e] == 0) {
+            lane.node = stack.child[e];
+            const char* p = reinterpret_cast<const char*>(&m_nodes[static_cast<size_t>(lane.node)]);
+            __builtin_prefetch(p), __builtin_prefetch(p + 64);
+          } else {
+            lane.leafFirst = stack.child[e], lane.leafCount = stack.count[e];
+            touch(lane.leafFirst, lane.leafCount);
+          }
+          break;
+        }
+        if (done && !start(lane)) lane = lanes[--active], --l;  // the last lane's turn moves here
+      }
+    }
+    return visited;
+  }
+
   // A coherent packet (a camera tile's rays) walks the tree together while its rays still agree,
   // and each ray alone below that: a child the packet enters (any of its rays, tested a few rays
   // at a time with an early exit) is visited by the packet while its box is large next to the
@@ -226,29 +304,57 @@ class Bvh {
   // for double where the kernel set has it, two SSE halves otherwise).
   using Lanes = typename NodeLanes<Real>::Type;
   // A node's four bounds of one axis, in Real's lanes (exact: every float is a double).
-  static Lanes load(const float* p) {
+  DURER_INLINE static Lanes load(const float* p) {
+#if defined(__AVX__)
+    if constexpr (std::is_same_v<Real, double>) {  // one conversion (GCC splits the generic one in halves)
+      const __m256d v = _mm256_cvtps_pd(_mm_loadu_ps(p));
+      Lanes out;
+      std::memcpy(&out, &v, sizeof out);
+      return out;
+    }
+#endif
     typename NodeLanes<float>::Type v;
     std::memcpy(&v, p, sizeof v);
     return __builtin_convertvector(v, Lanes);
   }
   static Lanes broadcast(Real x) { return Lanes{} + x; }
 
+  // A bit per lane where the comparison `lanes` (GCC's vector of all-ones or zeros) holds.
+  DURER_INLINE static unsigned maskOf(const decltype(Lanes{} < Lanes{})& lanes) {
+#if defined(__AVX__)
+    if constexpr (std::is_same_v<Real, double>) {
+      __m256d v;
+      std::memcpy(&v, &lanes, sizeof v);
+      return unsigned(_mm256_movemask_pd(v));
+    }
+#endif
+#if defined(__SSE__)
+    if constexpr (std::is_same_v<Real, float>) {
+      __m128 v;
+      std::memcpy(&v, &lanes, sizeof v);
+      return unsigned(_mm_movemask_ps(v));
+    }
+#endif
+    unsigned mask = 0;
+    for (int i = 0; i < BvhNode<Real>::kWidth; ++i) mask |= unsigned(lanes[i] != 0) << i;
+    return mask;
+  }
+
   // Each child's entry t along the ray, clamped to [tMin, tHit]; NaN for a child it misses (or an
-  // empty slot), which fails every comparison. Each axis' near and far bound are picked once per ray, so a slab costs a
-  // subtraction and a product per bound and no min/max. A bound minus the origin is moved outward
-  // by the least normal number (lo down, hi up; it rounds back unless the difference is below
-  // ~1e-31 or 1e-292), so that a ray parallel to an axis (inv = ±inf) whose origin lies on a box
-  // face gets ∓inf, inside, never 0·inf = NaN. (Not a subnormal: those cost microcode assists.)
-  DURER_INLINE static void childEntries(const BvhNode<Real>& node, const BvhRay<Real>& ray, Real tHit, Real* out) {
-    constexpr Real tiny = std::numeric_limits<Real>::min();
+  // empty slot); returns a bit per child it enters. Each axis' near and far bound are picked once
+  // per ray (BvhRay), so a slab costs a subtraction and a product per bound and no min/max. A bound
+  // minus the origin is moved outward by the least normal number (lo down, hi up; it rounds back
+  // unless the difference is below ~1e-31 or 1e-292), so that a ray parallel to an axis (inv = ±inf)
+  // whose origin lies on a box face gets ∓inf, inside, never 0·inf = NaN. (Not a subnormal: those
+  // cost microcode assists.)
+  DURER_INLINE static unsigned childEntries(const BvhNode<Real>& node, const BvhRay<Real>& ray, Real tHit, Real* out) {
+    const float* bounds = &node.bounds[0][0][0];
     Lanes tn = broadcast(ray.tMin), tf = broadcast(tHit);
     Lanes nearT[3], farT[3];
     for (int a = 0; a < 3; ++a) {
-      const int n = ray.nearBound[a];
-      const Real shift = n ? tiny : -tiny;
-      const Lanes o = broadcast(ray.o[a]), inv = broadcast(ray.inv[a]);
-      nearT[a] = ((load(node.bounds[n][a]) - o) + shift) * inv;
-      farT[a] = ((load(node.bounds[1 - n][a]) - o) - shift) * inv;
+      const Lanes o = broadcast(ray.o[a]), inv = broadcast(ray.inv[a]), shift = broadcast(ray.nearShift[a]);
+      nearT[a] = ((load(bounds + ray.nearLanes[a]) - o) + shift) * inv;
+      farT[a] = ((load(bounds + ray.farLanes[a]) - o) - shift) * inv;
     }
     Lanes entry = nearT[0] > nearT[1] ? nearT[0] : nearT[1];
     entry = nearT[2] > entry ? nearT[2] : entry;
@@ -258,23 +364,26 @@ class Bvh {
     exit *= exit > 0 ? broadcast(1 + kWiden) : broadcast(1 - kWiden);
     tn = tn > entry ? tn : entry;
     tf = tf < exit ? tf : exit;
-    const Lanes result = tn <= tf ? tn : broadcast(std::numeric_limits<Real>::quiet_NaN());
+    const auto entered = tn <= tf;
+    const Lanes result = entered ? tn : broadcast(std::numeric_limits<Real>::quiet_NaN());
     std::memcpy(out, &result, sizeof result);
+    return maskOf(entered);
   }
 
-  // Pushes the children of `node` that the ray enters in [tMin, tHit], farthest first.
+  // Pushes the children of `node` that the ray enters in [tMin, tHit], farthest first (an empty
+  // slot's inverted box is never entered). The entered ones, usually one or two of four, come from
+  // a mask without a branch per child; among equal entries the later child is popped first.
   DURER_INLINE static void pushChildren(const BvhNode<Real>& node, const BvhRay<Real>& ray, Real tHit, Stack& stack) {
     Real entry[BvhNode<Real>::kWidth];
-    childEntries(node, ray, tHit, entry);
-    // Insertion by entry t: the nearest child ends on top of the stack.
     const int base = stack.top;
-    for (int i = 0; i < BvhNode<Real>::kWidth; ++i) {
-      if (!(entry[i] <= tHit) || node.child[i] < 0) continue;
+    for (unsigned entered = childEntries(node, ray, tHit, entry); entered != 0; entered &= entered - 1) {
+      const int i = __builtin_ctz(entered);
+      const Real t = entry[i];
       int j = stack.top++;
-      for (; j > base && stack.tNear[j - 1] < entry[i]; --j) {
+      for (; j > base && stack.tNear[j - 1] < t; --j) {
         stack.tNear[j] = stack.tNear[j - 1], stack.child[j] = stack.child[j - 1], stack.count[j] = stack.count[j - 1];
       }
-      stack.tNear[j] = entry[i], stack.child[j] = node.child[i], stack.count[j] = node.count[i];
+      stack.tNear[j] = t, stack.child[j] = node.child[i], stack.count[j] = node.count[i];
     }
   }
 

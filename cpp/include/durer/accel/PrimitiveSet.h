@@ -123,9 +123,9 @@ class PrimitiveSet {
   }
 
   // Finds each ray's hits among the primitives it may meet. With a hierarchy, a coherent packet
-  // (camera rays) walks it together where its rays agree (Bvh::traversePacket), any other one ray at
-  // a time: testRay(first, count, k) for ray k and each leaf it may meet before its current hit
-  // (with AnyHit, none after its first hit). Without one, the whole packet against every primitive,
+  // (camera rays) walks it together where its rays agree (Bvh::traversePacket), any other ray by ray,
+  // several at once (Bvh::traverseInterleaved): testRay(first, count, k) for ray k and each leaf it
+  // may meet before its current hit (with AnyHit, none after its first hit). Without one, the whole packet against every primitive,
   // kCancelBatch at a time: testRange(first, count). Gives up once *cancel is set (the packet is
   // then garbage).
   // Returns the ray-primitive tests made.
@@ -137,18 +137,23 @@ class PrimitiveSet {
       if (cancel && cancel->load(std::memory_order_relaxed)) return 0;
       return m_bvh.traversePacket(packet, testRange, testRay);
     }
-    int64_t visited = 0;
+    if (cancel && cancel->load(std::memory_order_relaxed)) return 0;
+    // AnyHit: the rays with a hit already (from another set) are done.
+    int rays[kPacketSize], count = 0;
     for (int k = 0; k < packet.count; ++k) {
-      if (cancel && cancel->load(std::memory_order_relaxed)) break;
-      if (AnyHit && packet.prim[k] != kNoPrimitive) continue;
-      const BvhRay<Real> ray(packet.ox[k], packet.oy[k], packet.oz[k], packet.dx[k], packet.dy[k], packet.dz[k],
-                             packet.tMin);
-      visited += m_bvh.traverse(ray, packet.tHit[k], [&](int32_t first, int32_t count) {
-        testRay(first, count, k);
-        return AnyHit && packet.prim[k] != kNoPrimitive;
-      });
+      if (!AnyHit || packet.prim[k] == kNoPrimitive) rays[count++] = k;
     }
-    return visited;
+    return m_bvh.traverseInterleaved(
+        packet, rays, count,
+        [&](int32_t first, int32_t n, int k) {
+          testRay(first, n, k);
+          return AnyHit && packet.prim[k] != kNoPrimitive;
+        },
+        [&](int32_t first, int32_t n) {
+          const uintptr_t begin = reinterpret_cast<uintptr_t>(&m_primitives[size_t(first)]) & ~uintptr_t(63);
+          const uintptr_t end = reinterpret_cast<uintptr_t>(&m_primitives[size_t(first + n - 1)] + 1);
+          for (uintptr_t line = begin; line < end; line += 64) __builtin_prefetch(reinterpret_cast<const void*>(line));
+        });
   }
 
   // The whole packet against every primitive (sets without a hierarchy), kCancelBatch at a time.
