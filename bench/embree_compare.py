@@ -1,4 +1,4 @@
-"""Dürer against Intel Embree 3 on the same spheres and the same camera rays, in one run.
+"""Dürer against Intel Embree 3 on the same spheres and the same camera rays (or given rays), in one run.
 
     python bench/embree_compare.py [--quick] [--workloads cube-1k,slab-1m] [--runs N] [--markdown FILE]
 
@@ -7,7 +7,9 @@ build folder, then runs each workload in its own process, which checks that both
 before it times anything and reports JSON. Embree traces Dürer's own float camera rays
 (RTC_GEOMETRY_TYPE_SPHERE_POINT, rtcIntersect8 packets, rtcOccluded8 shadow rays) on 2 threads;
 Dürer renders through its public C++ API `durer::render` (depth only; colour with the sun), float
-and double, 2 threads. Every time is a median over interleaved rounds (Embree, Dürer float, Dürer
+and double, 2 threads. The bounce workload gives both a ray per pixel instead, leaving a random
+sphere's surface in a random direction (incoherent, as reflection and shadow rays are): Embree
+traces each with rtcIntersect1, Dürer casts them all with `durer::cast`. Every time is a median over interleaved rounds (Embree, Dürer float, Dürer
 double) after an untimed first pass. Dürer's core is compiled as the package's own build was (its
 compiler and DURER_NATIVE, so that ccache reuses its objects; set DURER_NATIVE=0/1 to choose), in
 build/bench-embree or build/bench-embree-native. Needs Embree 3 (Debian: `apt-get install libembree-dev`);
@@ -70,6 +72,7 @@ WORKLOADS = (
     Workload("slab-1m", "slab", 1_000_000),
     Workload("slab-sun-1m", "slab-sun", 1_000_000),
     Workload("inside-1m", "inside", 1_000_000),
+    Workload("bounce-200k", "bounce", 200_000),
 )
 
 
@@ -352,7 +355,8 @@ def legend_lines(size: tuple[int, int], runs: int) -> list[str]:
         f"{size[0]}x{size[1]}, 1 ray per pixel, {THREADS} threads; every time is the median of {runs} interleaved "
         "rounds after an untimed first pass that checks agreement and measures memory.",
         "Embree build + trace: rtcCommitScene, then rtcIntersect8 (+ rtcOccluded8 with the sun) over Dürer's 8x8 "
-        "tiles in strips of 8, on 2 std::threads; Mrays/s counts camera + shadow rays.",
+        "tiles in strips of 8, on 2 std::threads; Mrays/s counts camera + shadow rays. bounce: a given ray per pixel "
+        "(leaving a random sphere in a random direction), rtcIntersect1 each against Dürer's durer::cast.",
         "Dürer cached: the same Scene rendered again (hierarchy reused); first: a fresh Scene's first render, "
         "hierarchy build included. Depth pass only; colour + depth with the sun.",
         "Dürer / Embree: Embree trace time / Dürer cached time (above 1: Dürer faster); First render: "

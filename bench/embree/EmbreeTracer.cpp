@@ -186,6 +186,10 @@ void EmbreeScene::commit() {
 }
 
 void EmbreeScene::trace(int threads, Image& image) const {
+  if (m_workload.givenRays()) {
+    traceGivenRays(threads, image);
+    return;
+  }
   const int64_t tiles = static_cast<int64_t>((m_workload.width + kTileSize - 1) / kTileSize) *
                         ((m_workload.height + kTileSize - 1) / kTileSize);
   const int64_t strips = (tiles + kStripTiles - 1) / kStripTiles;
@@ -201,6 +205,42 @@ void EmbreeScene::trace(int threads, Image& image) const {
   }
   for (std::thread& thread : pool) thread.join();
   image.rays = static_cast<int64_t>(m_workload.width) * m_workload.height + shadowRays.load();
+}
+
+}  // namespace bench
+
+namespace bench {
+
+void EmbreeScene::traceGivenRays(int threads, Image& image) const {
+  constexpr int64_t kChunk = 1024;  // rays a thread takes at a time
+  const int64_t count = static_cast<int64_t>(image.depth.size());
+  std::atomic<int64_t> next{0};
+  std::vector<std::thread> pool;
+  for (int i = 0; i < threads; ++i) {
+    pool.emplace_back([&] {
+      RTCIntersectContext context;
+      rtcInitIntersectContext(&context);
+      for (int64_t first; (first = next.fetch_add(kChunk)) < count;) {
+        for (int64_t r = first; r < std::min(count, first + kChunk); ++r) {
+          const double* o = &m_workload.rayOrigins[static_cast<size_t>(3 * r)];
+          const double* d = &m_workload.rayDirections[static_cast<size_t>(3 * r)];
+          RTCRayHit ray{};
+          ray.ray.org_x = static_cast<float>(o[0]), ray.ray.org_y = static_cast<float>(o[1]);
+          ray.ray.org_z = static_cast<float>(o[2]);
+          ray.ray.dir_x = static_cast<float>(d[0]), ray.ray.dir_y = static_cast<float>(d[1]);
+          ray.ray.dir_z = static_cast<float>(d[2]);
+          ray.ray.tfar = kInfinity;
+          ray.ray.mask = ~0u;
+          ray.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+          ray.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+          rtcIntersect1(m_scene, &context, &ray);
+          image.depth[static_cast<size_t>(r)] = ray.hit.geomID == RTC_INVALID_GEOMETRY_ID ? kInfinity : ray.ray.tfar;
+        }
+      }
+    });
+  }
+  for (std::thread& thread : pool) thread.join();
+  image.rays = count;
 }
 
 }  // namespace bench

@@ -64,6 +64,32 @@ void makeSlabWithSun(Workload& w, size_t n) {
   w.sunDirection = glm::normalize(durer::Vec3d(1, -2, -1));
 }
 
+// Radius-0.05 spheres uniform in a 20-unit cube (bench/secondary_rays.py's), and a ray per pixel
+// leaving a random sphere's surface in a random direction: reflection and shadow rays, incoherent.
+void makeBounce(Workload& w, size_t n) {
+  constexpr double kHalf = 10, kRadius = 0.05, kOffset = 1.001;  // origins just outside their sphere
+  addUniformSpheres(w, n, durer::Vec3d(-kHalf), durer::Vec3d(kHalf), kRadius);
+  // Centres in float, so that both tracers in both precisions meet the same spheres: many hits are a
+  // few radii from the ray's origin, where rounding a centre to float (up to 5e-7) would move a hit by
+  // more than the agreement's 1e-4 relative.
+  for (double& c : w.centers) c = static_cast<float>(c);
+  w.camera.projection = durer::Projection::Orthographic;  // not traced; a valid camera all the same
+  std::mt19937_64 random(kSeed + 1);
+  std::uniform_int_distribution<size_t> sphere(0, n - 1);
+  std::normal_distribution<double> normal;
+  const size_t count = static_cast<size_t>(w.width) * static_cast<size_t>(w.height);
+  w.rayOrigins.reserve(3 * count), w.rayDirections.reserve(3 * count);
+  for (size_t i = 0; i < count; ++i) {
+    durer::Vec3d d(0);
+    while (!(glm::length(d) > 1e-3)) d = durer::Vec3d(normal(random), normal(random), normal(random));
+    const durer::Vec3<float> direction = glm::normalize(durer::Vec3<float>(d));
+    const size_t s = sphere(random);
+    const durer::Vec3d center(w.centers[3 * s], w.centers[3 * s + 1], w.centers[3 * s + 2]);
+    const durer::Vec3<float> origin(center + kOffset * kRadius * durer::Vec3d(direction));
+    for (int a = 0; a < 3; ++a) w.rayOrigins.push_back(origin[a]), w.rayDirections.push_back(direction[a]);
+  }
+}
+
 using Maker = void (*)(Workload&, size_t);
 
 struct Kind {
@@ -77,6 +103,8 @@ const Kind kKinds[] = {
     {"slab", "radius-0.02 spheres in a 20x20x4 slab on a ground plane, orthographic view from 45 degrees", makeSlab},
     {"slab-sun", "the slab lit by a sun casting shadows (colour render; Embree adds occlusion rays)", makeSlabWithSun},
     {"inside", "the cube's spheres seen from its centre, 60-degree perspective view", makeInside},
+    {"bounce", "radius-0.05 spheres in a 20-unit cube, a ray per pixel leaving a random sphere in a random direction",
+     makeBounce},
 };
 
 }  // namespace

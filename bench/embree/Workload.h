@@ -11,7 +11,7 @@ namespace bench {
 
 // What both ray tracers are given: the same spheres (kept in double, as Dürer's scene keeps them;
 // Embree gets them rounded to float), an optional ground plane y = 0 facing up, an optional sun, and
-// the camera whose rays both trace.
+// the camera whose rays both trace, or rays given one per pixel instead.
 struct Workload {
   std::string kind;
   std::vector<double> centers;  // count x 3
@@ -21,8 +21,12 @@ struct Workload {
   durer::CameraSpec camera;
   int width = 0;
   int height = 0;
+  // Rays given instead of the camera's, one per pixel (width x height, row by row): origins and unit
+  // directions, count x 3 each, float values (Embree's rays exactly; Dürer casts them with durer::cast).
+  std::vector<double> rayOrigins, rayDirections;
 
   size_t sphereCount() const { return radii.size(); }
+  bool givenRays() const { return !rayOrigins.empty(); }
 };
 
 // The workload kinds, one sentence each, for --help and the error on an unknown name.

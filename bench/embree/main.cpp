@@ -1,5 +1,6 @@
 // durer_embree_bench: one workload, the same spheres and camera rays given to Intel Embree 3 and to
-// Dürer's render, their images compared, then both timed in interleaved rounds. The report is one
+// Dürer's render (or the same given rays to rtcIntersect1 and durer::cast), their images compared,
+// then both timed in interleaved rounds. The report is one
 // JSON object on stdout (bench/embree_compare.py reads it); progress and the agreement go to stderr.
 //
 //   durer_embree_bench --workload KIND [--spheres N] [--size WxH] [--runs R] [--threads T]
@@ -8,13 +9,16 @@
 // 1 when Embree or Dürer fails.
 #include <malloc.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <functional>
 #include <iostream>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "Agreement.h"
@@ -22,6 +26,7 @@
 #include "Image.h"
 #include "Memory.h"
 #include "Workload.h"
+#include "durer/render/Cast.h"
 #include "durer/render/Renderer.h"
 
 namespace bench {
@@ -85,8 +90,51 @@ double millisecondsOf(const std::function<void()>& work) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
-// Dürer's render of the workload through its public API: depth only, or colour + depth with a sun.
-void renderDurer(const durer::Scene& scene, const Workload& w, durer::Precision precision, int threads, Image& image) {
+// What durer::cast writes for every given ray, in both precisions; made before the memory probes,
+// as the images are, so that they count only what each tracer's scene and hierarchy take.
+struct CastBuffers {
+  std::vector<float> tFloat, normalsFloat;
+  std::vector<double> tDouble, normalsDouble;
+  std::vector<int32_t> objects, materials;
+
+  explicit CastBuffers(size_t count)
+      : tFloat(count), normalsFloat(3 * count), tDouble(count), normalsDouble(3 * count), objects(count), materials(count) {}
+};
+
+// Dürer's durer::cast of the workload's given rays (one per pixel) in `precision`: each ray's t.
+void castDurer(const durer::Scene& scene, const Workload& w, durer::Precision precision, int threads,
+               CastBuffers& buffers, Image& image) {
+  durer::CastInput input;
+  input.origins = w.rayOrigins.data();
+  input.directions = w.rayDirections.data();
+  input.count = image.depth.size();
+  input.tMax = INFINITY;
+  input.threads = threads;
+  durer::JobControl control;
+  const auto castInto = [&](auto& t, auto& normals) {
+    using Real = typename std::decay_t<decltype(t)>::value_type;
+    durer::CastOutput<Real> output;
+    output.t = t.data(), output.normal = normals.data();
+    output.objectId = buffers.objects.data(), output.materialId = buffers.materials.data();
+    durer::cast<Real>(scene, input, output, control, [] {});
+    std::copy(t.begin(), t.end(), image.depth.begin());
+  };
+  if (precision == durer::Precision::Float) {
+    castInto(buffers.tFloat, buffers.normalsFloat);
+  } else {
+    castInto(buffers.tDouble, buffers.normalsDouble);
+  }
+  image.rays = static_cast<int64_t>(input.count);
+}
+
+// Dürer's render of the workload through its public API: depth only, or colour + depth with a sun;
+// given rays are cast instead.
+void renderDurer(const durer::Scene& scene, const Workload& w, durer::Precision precision, int threads,
+                 CastBuffers& buffers, Image& image) {
+  if (w.givenRays()) {
+    castDurer(scene, w, precision, threads, buffers, image);
+    return;
+  }
   durer::RenderSettings settings;
   settings.width = w.width;
   settings.height = w.height;
@@ -120,15 +168,15 @@ struct FirstPass {
   Agreement agreement[2];
 };
 
-FirstPass firstPass(const Workload& w, const EmbreeDevice& device, int threads, Image& embreeImage,
-                    Image (&durerImages)[2]) {
+FirstPass firstPass(const Workload& w, const EmbreeDevice& device, int threads, CastBuffers& buffers,
+                    Image& embreeImage, Image (&durerImages)[2]) {
   FirstPass pass;
   for (int p = 0; p < 2; ++p) {
     const MemoryProbe probe;
     durer::Scene scene;
     addToScene(w, scene);
     pass.durerScene[p] = probe.growth().retained;
-    renderDurer(scene, w, kPrecisions[p], threads, durerImages[p]);
+    renderDurer(scene, w, kPrecisions[p], threads, buffers, durerImages[p]);
     pass.durer[p] = probe.growth();
     litFromColor(durerImages[p]);
   }
@@ -145,8 +193,8 @@ FirstPass firstPass(const Workload& w, const EmbreeDevice& device, int threads, 
 
 // One timed round: Embree (build, trace), then Dürer in each precision (first render of a fresh
 // scene, which builds its hierarchy, then the same scene again, which reuses it).
-void timeRound(const Workload& w, const EmbreeDevice& device, int threads, Image& embreeImage,
-               Image (&durerImages)[2], Timings& t) {
+void timeRound(const Workload& w, const EmbreeDevice& device, int threads, CastBuffers& buffers,
+               Image& embreeImage, Image (&durerImages)[2], Timings& t) {
   {
     EmbreeScene scene(device, w);
     t.embreeBuild.push_back(millisecondsOf([&] { scene.commit(); }));
@@ -155,7 +203,7 @@ void timeRound(const Workload& w, const EmbreeDevice& device, int threads, Image
   for (int p = 0; p < 2; ++p) {
     durer::Scene scene;
     addToScene(w, scene);
-    const auto render = [&] { renderDurer(scene, w, kPrecisions[p], threads, durerImages[p]); };
+    const auto render = [&] { renderDurer(scene, w, kPrecisions[p], threads, buffers, durerImages[p]); };
     t.durerFirst[p].push_back(millisecondsOf(render));
     t.durerCached[p].push_back(millisecondsOf(render));
   }
@@ -230,12 +278,13 @@ int run(const Options& o) {
   Image embreeImage(w.width, w.height, sun);
   Image durerImages[2] = {Image(w.width, w.height, sun), Image(w.width, w.height, sun)};
   std::cerr << o.kind << ", " << w.sphereCount() << " spheres, " << w.width << "x" << w.height << "\n";
-  const FirstPass first = firstPass(w, device, o.threads, embreeImage, durerImages);
+  CastBuffers buffers(w.givenRays() ? embreeImage.depth.size() : 0);
+  const FirstPass first = firstPass(w, device, o.threads, buffers, embreeImage, durerImages);
   logAgreement(first);
   const bool agree = first.agreement[0].passed() && first.agreement[1].passed();
   Timings timings;
   for (int round = 0; agree && round < o.runs; ++round) {
-    timeRound(w, device, o.threads, embreeImage, durerImages, timings);
+    timeRound(w, device, o.threads, buffers, embreeImage, durerImages, timings);
   }
   std::cout << report(o, w, first, timings, embreeImage, durerImages);
   return agree ? 0 : 3;

@@ -150,7 +150,8 @@ EMBREE = bench.find_embree()
 @pytest.mark.skipif(shutil.which("ccache") is None, reason="without ccache, building Dürer's core again takes ~10 min")
 def test_the_benchmark_checks_that_embree_and_durer_agree():
     executable = bench.build_executable(EMBREE, bench.native_flags())
-    for workload in (bench.Workload("cube-1k", "cube", 1000), bench.Workload("slab-sun", "slab-sun", 3000)):
+    for workload in (bench.Workload("cube-1k", "cube", 1000), bench.Workload("slab-sun", "slab-sun", 3000),
+                     bench.Workload("bounce", "bounce", 20_000)):
         result = bench.run_workload(executable, workload, (160, 96), runs=2)
         report = result.report
         assert result.exit_code == 0 and result.agrees, report["agreement"]
@@ -161,8 +162,10 @@ def test_the_benchmark_checks_that_embree_and_durer_agree():
             assert agreement["pixels"] == 160 * 96
             assert agreement["hit_mismatches"] + agreement["depth_mismatches"] <= 0.001 * 160 * 96
             assert report["memory"][f"durer_{precision}"]["retained_bytes"] > 0
-        if workload.kind == "cube":
+        if workload.kind in ("cube", "bounce"):
             assert report["rays"]["embree"] == report["rays"]["durer_double"] == 160 * 96
+            if workload.kind == "bounce":  # rays leaving spheres: a fair share meets another
+                assert 0.1 * 160 * 96 < report["agreement"]["double"]["both_hit"] < 0.9 * 160 * 96
         else:  # camera rays + one shadow ray per hit facing the sun, counted by each tracer
             shadow = {name: rays - 160 * 96 for name, rays in report["rays"].items()}
             assert shadow["embree"] > 0.3 * 160 * 96
