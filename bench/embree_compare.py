@@ -9,8 +9,8 @@ before it times anything and reports JSON. Embree traces Dürer's own float came
 Dürer renders through its public C++ API `durer::render` (depth only; colour with the sun), float
 and double, 2 threads. The bounce workload gives both a ray per pixel instead, leaving a random
 sphere's surface in a random direction (incoherent, as reflection and shadow rays are): Embree
-traces each with rtcIntersect1, Dürer casts them all with `durer::cast`. Every time is a median over interleaved rounds (Embree, Dürer float, Dürer
-double) after an untimed first pass. Dürer's core is compiled as the package's own build was (its
+traces each with rtcIntersect1, Dürer casts them all with `durer::cast`. Every time is a median
+over interleaved rounds (Embree, Dürer float, Dürer double) after an untimed first pass. Dürer's core is compiled as the package's own build was (its
 compiler and DURER_NATIVE, so that ccache reuses its objects; set DURER_NATIVE=0/1 to choose), in
 build/bench-embree or build/bench-embree-native. Needs Embree 3 (Debian: `apt-get install libembree-dev`);
 exit status 2 without it, 1 when a workload's images disagree.
