@@ -112,7 +112,7 @@ template <typename Real>
 class Bvh {
  public:
   static constexpr int kMaxLeafSize = 4;
-  static constexpr int kLanes = 4;  // rays walking at once in traverseInterleaved
+  static constexpr int kInterleaved = 4;  // rays walking at once in traverseInterleaved
 
   bool empty() const { return m_nodes.empty(); }
   size_t size() const { return m_nodes.size(); }
@@ -152,49 +152,49 @@ class Bvh {
       }
     }
   }
+
   // traverse() for the packet's rays rays[0 .. count), several at once: one ray's walk is a chain of
   // dependent loads, and incoherent rays (shadows, reflections) through a tree larger than the cache
-  // wait on each one. Here kLanes rays walk in turns, a turn ending where its ray needs a node or a
-  // leaf's primitives not read yet; those are prefetched (touch(first, count) for a leaf) and read on
-  // its next turn, so the misses of several rays overlap. A lane whose ray is done takes the next
+  // wait on each one. Here kInterleaved walks take turns, a turn ending where its ray needs a node or
+  // a leaf's primitives not read yet; those are prefetched (touch(first, count) for a leaf) and read
+  // on its next turn, so the misses of several rays overlap. A walk whose ray is done takes the next
   // one. Each ray visits the same nodes and leaves in the same order as with traverse(), calling
   // leaf(first, count, k) for ray k: the same hits. Returns the primitives visited.
   template <typename Leaf, typename Touch>
   int64_t traverseInterleaved(const RayPacket<Real>& p, const int* rays, int count, const Leaf& leaf,
                               const Touch& touch) const {
-    struct Lane {
+    struct Walk {
       BvhRay<Real> ray;
       Stack stack;
       int k;
-      int32_t node;                 // >= 0: visit this node next
       int32_t leafFirst, leafCount;  // leafCount > 0: test this leaf next
+      int32_t node;                  // else: visit this node next
     };
-    Lane lanes[kLanes];
+    Walk walks[kInterleaved];
     int next = 0, active = 0;
-    const auto start = [&](Lane& lane) {
+    const auto start = [&](Walk& walk) {
       if (next == count) return false;
-      const int k = lane.k = rays[next++];
-      lane.ray = BvhRay<Real>(p.ox[k], p.oy[k], p.oz[k], p.dx[k], p.dy[k], p.dz[k], p.tMin);
-      lane.stack.top = 0, lane.node = 0, lane.leafCount = 0;
+      const int k = walk.k = rays[next++];
+      walk.ray = BvhRay<Real>(p.ox[k], p.oy[k], p.oz[k], p.dx[k], p.dy[k], p.dz[k], p.tMin);
+      walk.stack.top = 0, walk.node = 0, walk.leafCount = 0;
       return true;
     };
-    while (active < kLanes && start(lanes[active])) ++active;
+    while (active < kInterleaved && start(walks[active])) ++active;
     int64_t visited = 0;
     while (active > 0) {
-      for (int l = 0; l < active; ++l) {
-        Lane& lane = lanes[l];
-        const Real limit = p.tHit[lane.k];
+      for (int w = 0; w < active; ++w) {
+        Walk& walk = walks[w];
+        const Real limit = p.tHit[walk.k];
         bool done = false;
-        if (lane.leafCount > 0) {
-          visited += lane.leafCount;
-          done = leaf(lane.leafFirst, lane.leafCount, lane.k);
-          lane.leafCount = 0;
+        if (walk.leafCount > 0) {
+          visited += walk.leafCount;
+          done = leaf(walk.leafFirst, walk.leafCount, walk.k);
+          walk.leafCount = 0;
         } else {
-          pushChildren(m_nodes[static_cast<size_t>(lane.node)], lane.ray, limit, lane.stack);
+          pushChildren(m_nodes[static_cast<size_t>(walk.node)], walk.ray, limit, walk.stack);
         }
-        lane.node = -1;
-        const Real now = p.tHit[lane.k];
-        Stack& stack = lane.stack;
+        const Real now = p.tHit[walk.k];
+        Stack& stack = walk.stack;
         while (!done) {
           if (stack.top == 0) {
             done = true;
@@ -203,16 +203,16 @@ class Bvh {
           const int e = --stack.top;
           if (stack.tNear[e] > now) continue;
           if (stack.count[e] == 0) {
-            lane.node = stack.child[e];
-            const char* p = reinterpret_cast<const char*>(&m_nodes[static_cast<size_t>(lane.node)]);
-            __builtin_prefetch(p), __builtin_prefetch(p + 64);
+            walk.node = stack.child[e];
+            const char* bytes = reinterpret_cast<const char*>(&m_nodes[static_cast<size_t>(walk.node)]);
+            __builtin_prefetch(bytes), __builtin_prefetch(bytes + 64);  // a node is two cache lines
           } else {
-            lane.leafFirst = stack.child[e], lane.leafCount = stack.count[e];
-            touch(lane.leafFirst, lane.leafCount);
+            walk.leafFirst = stack.child[e], walk.leafCount = stack.count[e];
+            touch(walk.leafFirst, walk.leafCount);
           }
           break;
         }
-        if (done && !start(lane)) lane = lanes[--active], --l;  // the last lane's turn moves here
+        if (done && !start(walk)) walk = walks[--active], --w;  // the last walk's turn moves here
       }
     }
     return visited;

@@ -125,9 +125,9 @@ class PrimitiveSet {
   // Finds each ray's hits among the primitives it may meet. With a hierarchy, a coherent packet
   // (camera rays) walks it together where its rays agree (Bvh::traversePacket), any other ray by ray,
   // several at once (Bvh::traverseInterleaved): testRay(first, count, k) for ray k and each leaf it
-  // may meet before its current hit (with AnyHit, none after its first hit). Without one, the whole packet against every primitive,
-  // kCancelBatch at a time: testRange(first, count). Gives up once *cancel is set (the packet is
-  // then garbage).
+  // may meet before its current hit (with AnyHit, none after its first hit); touching a leaf
+  // prefetches its primitives. Without one, the whole packet against every primitive, kCancelBatch
+  // at a time: testRange(first, count). Gives up once *cancel is set (the packet is then garbage).
   // Returns the ray-primitive tests made.
   template <bool AnyHit, typename TestRange, typename TestRay>
   int64_t search(RayPacket<Real>& packet, const std::atomic<bool>* cancel, TestRange&& testRange,
