@@ -496,6 +496,15 @@ def bullet(line: str) -> str:
     return f"  - {line[2:]}" if line.startswith("  ") else f"- {line}"
 
 
+def print_report(intro: Sequence[str], table: str, markdown: str, notes: Sequence[str], path: Path | None) -> None:
+    """Prints the intro lines, the table and the notes; with a path, writes them there as Markdown too
+    (the lines as bullets around the Markdown table). Shared by the other bench scripts."""
+    print("\n".join([*intro, "", table, "", *notes]))
+    if path:
+        bullets = [f"- {line}" for line in intro], [f"- {line}" for line in notes]
+        path.write_text("\n".join([*bullets[0], "", markdown, "", *bullets[1], ""]), encoding="utf-8")
+
+
 def positive_int(value: str) -> int:
     number = int(value)
     if number < 1:

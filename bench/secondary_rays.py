@@ -37,7 +37,7 @@ from pathlib import Path  # noqa: E402
 import durer  # noqa: E402
 import numpy as np  # noqa: E402
 from durer.reports.machine import machine  # noqa: E402
-from primary_rays import BUSY_OTHERS, CONTENDED_SHARE, CpuClock, positive_int  # noqa: E402
+from primary_rays import BUSY_OTHERS, CONTENDED_SHARE, CpuClock, positive_int, print_report  # noqa: E402
 
 SPHERES = 200_000
 RADIUS = 0.05
@@ -198,12 +198,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{machine()}; {time.strftime('%Y-%m-%d %H:%M %Z')}; other processes used "
         + ("n/a" if others is None else f"{others:.2f} cores") + " meanwhile",
     ]
-    notes = summary(rows, size, others, args.threads)
-    print("\n".join([*intro, "", text_table(rows), "", *notes]))
-    if args.markdown:
-        bullets = [f"- {line}" for line in (*intro, *notes)]
-        args.markdown.write_text("\n".join([*bullets[:2], "", markdown_table(rows), "", *bullets[2:], ""]),
-                                 encoding="utf-8")
+    print_report(intro, text_table(rows), markdown_table(rows), summary(rows, size, others, args.threads), args.markdown)
     return 0
 
 

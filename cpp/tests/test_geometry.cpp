@@ -68,6 +68,27 @@ TEST_CASE("outward conversion brackets the value and is exact where it can be") 
   CHECK(hi.z > 0);
 }
 
+TEST_CASE("outward conversion steps as std::nextafter would, at the extremes too") {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  constexpr float finf = std::numeric_limits<float>::infinity();
+  const double fmax = std::numeric_limits<float>::max();
+  for (const double x : {0.1, -0.1, 1e39, -1e39, std::numeric_limits<double>::max(), -std::numeric_limits<double>::max(),
+                         fmax, std::nextafter(fmax, inf), -std::nextafter(fmax, inf), 1e-50, -1e-50, 1e-45, -1e-45,
+                         0.0, -0.0, inf, -inf, 3.0, -7.25}) {
+    CAPTURE(x);
+    const float r = static_cast<float>(x);
+    const float down = double(r) > x ? std::nextafter(r, -finf) : r, up = double(r) < x ? std::nextafter(r, finf) : r;
+    CHECK(toRealDown<float>(x) == down);
+    CHECK(std::signbit(toRealDown<float>(x)) == std::signbit(down));
+    CHECK(toRealUp<float>(x) == up);
+    CHECK(std::signbit(toRealUp<float>(x)) == std::signbit(up));
+    CHECK(double(toRealDown<float>(x)) <= x);
+    CHECK(double(toRealUp<float>(x)) >= x);
+  }
+  CHECK(std::isnan(toRealDown<float>(std::nan(""))));
+  CHECK(std::isnan(toRealUp<float>(std::nan(""))));
+}
+
 TEST_CASE("widening keeps the range's ends on their sides, inf stays inf") {
   const double f = 1e-10;
   for (double t : {-3.0, -1e-300, 0.5, 7.0}) {

@@ -12,11 +12,8 @@ from helpers import ROOT
 
 
 @pytest.fixture
-def bench(monkeypatch):
-    monkeypatch.syspath_prepend(str(ROOT / "bench"))
-    import fuzz_hardening
-
-    return fuzz_hardening
+def bench(import_bench):
+    return import_bench("fuzz_hardening")
 
 
 @pytest.mark.slow

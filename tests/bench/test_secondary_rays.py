@@ -7,16 +7,11 @@ import numpy as np
 import pytest
 
 import durer
-from helpers import ROOT
 
 
 @pytest.fixture
-def bench(monkeypatch):
-    monkeypatch.syspath_prepend(str(ROOT / "bench"))  # it imports primary_rays, as when run as a script
-    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "1")  # what importing them sets, undone after the test
-    import secondary_rays
-
-    return secondary_rays
+def bench(import_bench):
+    return import_bench("secondary_rays")
 
 
 def test_scene_is_the_issues(bench):

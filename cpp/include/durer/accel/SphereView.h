@@ -177,12 +177,10 @@ class SphereView {
     return (bits & 0x80000000u) ? ~bits : (bits | 0x80000000u);
   }
 
-  // The largest float at most `value` (a lower bound stays one when rounded).
+  // The largest float at most `value` (a lower bound stays one when rounded); NaN: -inf.
   static float floatBelow(double value) {
-    if (!(value > -std::numeric_limits<double>::infinity())) return -std::numeric_limits<float>::infinity();
-    float f = static_cast<float>(value);
-    if (static_cast<double>(f) > value) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
-    return f;
+    return value > -std::numeric_limits<double>::infinity() ? toRealDown<float>(value)
+                                                            : -std::numeric_limits<float>::infinity();
   }
 
   // Sorts records (key << 32 | item) by key (LSD radix, 11 bits a pass), stable.

@@ -32,19 +32,6 @@ DURER_INLINE Real widenUp(Real t, Real factor) {
 }
 
 
-// x converted to Real, rounded down (toward -inf) or up (toward +inf) where the conversion is inexact:
-// the converted value then still bounds the given one from that side.
-template <typename Real, typename Other>
-Real toRealDown(Other x) {
-  const Real r = static_cast<Real>(x);
-  return static_cast<Other>(r) > x ? std::nextafter(r, -std::numeric_limits<Real>::infinity()) : r;
-}
-template <typename Real, typename Other>
-Real toRealUp(Other x) {
-  const Real r = static_cast<Real>(x);
-  return static_cast<Other>(r) < x ? std::nextafter(r, std::numeric_limits<Real>::infinity()) : r;
-}
-
 template <typename Real, typename Other>
 Vec3<Real> toReal(const Vec3<Other>& v) {
   return Vec3<Real>(static_cast<Real>(v.x), static_cast<Real>(v.y), static_cast<Real>(v.z));
@@ -81,6 +68,27 @@ DURER_INLINE Real nextUp(Real x) {
 template <typename Real>
 DURER_INLINE Real nextDown(Real x) {
   return -nextUp(-x);
+}
+
+// x converted to Real, rounded down (toward -inf) or up (toward +inf) where the conversion is inexact:
+// the converted value then still bounds the given one from that side. As the nearest conversion
+// stepped by nextDown / nextUp, but the step is a select on the bits, not a branch: which way a
+// conversion rounded is a coin toss, and boxes are converted in loops over millions of primitives.
+// (Stepping down is only asked of r > x, so never of -inf or NaN; a -0 from a tiny negative x steps
+// to the least negative subnormal; +inf from a huge x to the largest finite Real.)
+template <typename Real, typename Other>
+DURER_INLINE Real toRealDown(Other x) {
+  using Bits = typename FloatBits<Real>::Bits;
+  Real r = static_cast<Real>(x);
+  Bits bits;
+  std::memcpy(&bits, &r, sizeof r);
+  bits += static_cast<Other>(r) > x ? (r > 0 ? Bits(-1) : Bits(1)) : Bits(0);
+  std::memcpy(&r, &bits, sizeof r);
+  return r;
+}
+template <typename Real, typename Other>
+DURER_INLINE Real toRealUp(Other x) {
+  return -toRealDown<Real>(-x);  // negation is exact, and rounding to nearest symmetric
 }
 
 // The box [lo, hi] rounded outward by one ulp per side: a primitive's box computed in Real
