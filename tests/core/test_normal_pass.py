@@ -62,3 +62,39 @@ def test_a_pixel_half_missed_keeps_its_hit_normal(precision):
     result = durer.render(scene, DOWN, 3, 1, spp=4, precision=precision)
     np.testing.assert_array_equal(result.normal[0], [[0, 0, 1], [0, 0, 1], [0, 0, 0]])
     np.testing.assert_array_equal(result.depth[0], [5, 5, np.inf])
+
+
+def mixed_scene() -> durer.Scene:
+    """Spheres and planes (the normal pass's own branch-free loop: unbounded planes, and a bounded one
+    seen from behind) beside a triangle, a box and an ellipsoid (their hit records)."""
+    rng = np.random.default_rng(18)
+    scene = durer.Scene()
+    scene.add_spheres(rng.uniform((-3, -1, -6), (3, 2, -1), (30, 3)), rng.uniform(0.1, 0.6, 30))
+    scene.add_plane((0, 1, 0), -1.0)
+    scene.add_plane((0.2, 0.1, 1.0), -8.0)
+    scene.add_plane((0, 0, -1), 2.0, bounds=((-3, 1.2, -2), (1.5, 0, 0), (0, 1, 0)))  # faces away from the camera
+    scene.add_triangles([[[-3, -1, -3], [-1, -1, -3], [-2, 1, -4]]])
+    scene.add_boxes([[1.0, -1.0, -2.5]], [[1.8, -0.2, -1.7]])
+    scene.add_spheres([[0.0, 0.0, 0.0]], 0.5, transform=np.diag([1.0, 2.0, 1.0, 1.0]))
+    return scene
+
+
+@pytest.mark.parametrize("shade_back", [False, True])
+@pytest.mark.parametrize("precision", PRECISIONS)
+def test_one_sample_normals_are_the_hit_records_bit_for_bit(precision, shade_back):
+    # The pass computes its spheres' and planes' normals itself, over a packet at a time; durer.cast
+    # takes every normal from a hit record. At one sample per pixel (its centre) they are the same
+    # bits, turned towards the ray where shade_back asks for it.
+    scene = mixed_scene()
+    camera = durer.PerspectiveCamera((0.3, 0.8, 4.0), (0, -0.1, -1), (0, 1, 0), fov_degrees=75)
+    width, height = 64, 40
+    result = durer.render(scene, camera, width, height, passes=("normal",), precision=precision, shade_back=shade_back)
+    origins, directions = camera.rays(width, height, precision)
+    hits = durer.cast(scene, origins.reshape(-1, 3), directions.reshape(-1, 3), precision=precision)
+    normals = hits.normal
+    if shade_back:
+        facing_away = np.einsum("ij,ij->i", directions.reshape(-1, 3).astype(normals.dtype), normals) > 0
+        normals = np.where(facing_away[:, None], -normals, normals)
+    seen = set(np.unique(hits.object_id).tolist())
+    assert set(range(30, 36)) <= seen and len(seen & set(range(30))) > 15  # every plane and the rest, most spheres
+    np.testing.assert_array_equal(result.normal.reshape(-1, 3), normals.astype(np.float32))

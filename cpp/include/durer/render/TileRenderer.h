@@ -302,35 +302,57 @@ class TileRenderer {
     }
   }
 
-  // Normals of the packet's hits, branch-free over the spheres of the top-level group (so the loop
-  // vectorises, gathers and all), then the other hits through their hit records.
+  // Normals of the packet's hits: those on the top-level group's own spheres and planes in one
+  // branch-free loop (so it vectorises, gathers and all), the others through their hit records.
   void accumulateNormals(const RayPacket<Real>& packet, Accumulator& acc) const {
-    const SphereSet<Real>& spheres = m_group.spheres();
-    const int32_t sphereCount = static_cast<int32_t>(spheres.size());
-    if (sphereCount > 0) {
-      const Sphere<Real>* sphere = &spheres.primitive(0);
-      for (int k = 0; k < packet.count; ++k) {
-        const int32_t prim = packet.prim[k];
-        const bool isSphere = (prim >= 0) & (prim < sphereCount);
+    const bool spheres = m_group.spheres().size() > 0, planes = m_group.planes().size() > 0;
+    if (spheres && planes) {
+      accumulateOwnNormals<true, true>(packet, acc);
+    } else if (spheres) {
+      accumulateOwnNormals<true, false>(packet, acc);
+    } else if (planes) {
+      accumulateOwnNormals<false, true>(packet, acc);
+    }
+    const int32_t ownEnd = static_cast<int32_t>(m_group.spheres().size() + m_group.planes().size());
+    for (int k = 0; k < packet.count; ++k) {
+      if (packet.prim[k] < ownEnd) continue;
+      const Vec3<Real> n =
+          shadingNormal(m_group.hit(packet, k).normal, Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]), m_shadeBack);
+      acc.addNormal(k, true, packet.tHit[k], packet.prim[k], n.x, n.y, n.z);
+    }
+  }
+
+  // Each ray adds the normal of its hit if that is one of the group's own spheres (Spheres) or planes
+  // (Planes), else nothing; the same normals as SphereSet's and PlaneSet's hit records, turned by
+  // shadingNormal's rule.
+  template <bool Spheres, bool Planes>
+  void accumulateOwnNormals(const RayPacket<Real>& packet, Accumulator& acc) const {
+    const int32_t sphereCount = static_cast<int32_t>(m_group.spheres().size());
+    const int32_t planeEnd = sphereCount + static_cast<int32_t>(m_group.planes().size());
+    const Sphere<Real>* sphere = Spheres ? &m_group.spheres().primitive(0) : nullptr;
+    const Plane<Real>* plane = Planes ? &m_group.planes().primitive(0) : nullptr;
+    for (int k = 0; k < packet.count; ++k) {
+      const int32_t prim = packet.prim[k];
+      const Vec3<Real> d(packet.dx[k], packet.dy[k], packet.dz[k]);
+      const bool isSphere = Spheres && (prim >= 0) & (prim < sphereCount);
+      const bool isPlane = Planes && (prim >= sphereCount) & (prim < planeEnd);
+      Vec3<Real> n(0);
+      if constexpr (Spheres) {
         const Sphere<Real>& s = sphere[isSphere ? prim : 0];
         const Real t = isSphere ? packet.tHit[k] : Real(0);  // a miss's t is tMax, maybe inf
         // As SphereSet::normal: p - c scaled by a power of two, -d where it is 0 or subnormal.
-        const Vec3<Real> v = wellScaled(Vec3<Real>(packet.ox[k] + t * packet.dx[k] - s.center.x,
-                                                   packet.oy[k] + t * packet.dy[k] - s.center.y,
-                                                   packet.oz[k] + t * packet.dz[k] - s.center.z),
-                                        -Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]));
-        const Real vx = v.x, vy = v.y, vz = v.z;
-        const Real side = facingSign(vx * packet.dx[k] + vy * packet.dy[k] + vz * packet.dz[k], m_shadeBack);
-        const Real length = std::sqrt(vx * vx + vy * vy + vz * vz);
-        const Real scale = isSphere ? side / length : Real(0);
-        acc.addNormal(k, isSphere, packet.tHit[k], prim, vx * scale, vy * scale, vz * scale);
+        const Vec3<Real> v = wellScaled(Vec3<Real>(packet.ox[k] + t * d.x - s.center.x, packet.oy[k] + t * d.y - s.center.y,
+                                                   packet.oz[k] + t * d.z - s.center.z),
+                                        -d);
+        const Real side = facingSign(v.x * d.x + v.y * d.y + v.z * d.z, m_shadeBack);
+        const Real scale = side / std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
+        n = isSphere ? v * scale : n;
       }
-    }
-    for (int k = 0; k < packet.count; ++k) {
-      if (packet.prim[k] < sphereCount) continue;
-      const Vec3<Real> n =
-          shadingNormal(m_group.hit(packet, k).normal, Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]), m_shadeBack);
-      acc.addNormal(k, packet.prim[k] != kNoPrimitive, packet.tHit[k], packet.prim[k], n.x, n.y, n.z);
+      if constexpr (Planes) {
+        const Vec3<Real>& normal = plane[isPlane ? prim - sphereCount : 0].normal;
+        n = isPlane ? normal * facingSign(glm::dot(d, normal), m_shadeBack) : n;
+      }
+      acc.addNormal(k, isSphere | isPlane, packet.tHit[k], prim, n.x, n.y, n.z);
     }
   }
 
