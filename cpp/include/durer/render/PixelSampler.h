@@ -38,7 +38,7 @@ class PixelSampler {
 
  private:
   static uint32_t reverseBits(uint32_t x);
-  static uint32_t sobolSecondDimension(uint32_t index);
+  static uint32_t reversedSobolSecondDimension(uint32_t index);
   static uint32_t laineKarras(uint32_t x, uint32_t seed);
   static uint32_t nestedUniformScramble(uint32_t x, uint32_t seed);
   uint64_t pixelSeed(uint64_t pixel) const { return mixBits(m_seed + pixel * 0x2545f4914f6cdd1dull); }
@@ -60,22 +60,25 @@ inline PixelSampler::PixelSampler(SamplerKind kind, int samplesPerPixel, uint64_
 }
 
 inline uint32_t PixelSampler::reverseBits(uint32_t x) {
-  x = (x << 16) | (x >> 16);
-  x = ((x & 0x00ff00ffu) << 8) | ((x & 0xff00ff00u) >> 8);
+  x = __builtin_bswap32(x);  // one instruction (a byte shuffle when vectorised) for the first two steps
   x = ((x & 0x0f0f0f0fu) << 4) | ((x & 0xf0f0f0f0u) >> 4);
   x = ((x & 0x33333333u) << 2) | ((x & 0xccccccccu) >> 2);
   x = ((x & 0x55555555u) << 1) | ((x & 0xaaaaaaaau) >> 1);
   return x;
 }
 
-// The second Sobol dimension (its generator matrix as in Burley 2020); the first is reverseBits. The
-// matrix product over GF(2) is a XOR of one column per set index bit; kSobolBytes holds those XORs
-// for each byte of the index, so a point costs four lookups instead of a loop over 32 bits.
+// The second Sobol dimension (its generator matrix as in Burley 2020), bit-reversed: the scramble
+// reverses it first, and reversal, a permutation of bits, commutes with XOR, so the table holds the
+// reversed columns. The matrix product over GF(2) is a XOR of one column per set index bit;
+// kSobolBytes holds those XORs for each byte of the index, so a point costs four lookups instead of
+// a loop over 32 bits.
 struct SobolByteTable {
   uint32_t xors[4][256];
   constexpr SobolByteTable() : xors() {
     uint32_t column[32] = {};
-    for (uint32_t bit = 0, v = 1u << 31; bit < 32; ++bit, v ^= v >> 1) column[bit] = v;
+    for (uint32_t bit = 0, v = 1u << 31; bit < 32; ++bit, v ^= v >> 1) {
+      for (int b = 0; b < 32; ++b) column[bit] |= ((v >> b) & 1u) << (31 - b);
+    }
     for (int byte = 0; byte < 4; ++byte) {
       for (uint32_t value = 0; value < 256; ++value) {
         uint32_t x = 0;
@@ -89,7 +92,7 @@ struct SobolByteTable {
 };
 inline constexpr SobolByteTable kSobolBytes{};
 
-inline uint32_t PixelSampler::sobolSecondDimension(uint32_t index) {
+inline uint32_t PixelSampler::reversedSobolSecondDimension(uint32_t index) {
   return kSobolBytes.xors[0][index & 0xffu] ^ kSobolBytes.xors[1][(index >> 8) & 0xffu] ^
          kSobolBytes.xors[2][(index >> 16) & 0xffu] ^ kSobolBytes.xors[3][index >> 24];
 }
@@ -112,7 +115,8 @@ inline uint32_t PixelSampler::laineKarras(uint32_t x, uint32_t seed) {
 inline void PixelSampler::scrambledSobol(uint32_t index, uint32_t seed, double& u, double& v) {
   constexpr double k32 = 1.0 / 4294967296.0;  // 2^-32
   u = reverseBits(laineKarras(index, seed)) * k32;  // nestedUniformScramble(reverseBits(index), seed)
-  v = nestedUniformScramble(sobolSecondDimension(index), seed ^ 0x5bd1e995u) * k32;
+  // nestedUniformScramble of the second dimension, its first reversal in the table.
+  v = reverseBits(laineKarras(reversedSobolSecondDimension(index), seed ^ 0x5bd1e995u)) * k32;
 }
 
 inline void PixelSampler::offset(uint64_t pixel, int s, double& u, double& v) const {
