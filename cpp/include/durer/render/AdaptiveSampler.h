@@ -210,12 +210,17 @@ class AdaptiveSampler {
       }
     }
     if (n > 0 && !flush()) return;
+    int fresh[kPacketSize], freshCount = 0;
     for (int k = 0; k < count; ++k) {
       t.taken[k] += t.add[k];
       t.last[k] = t.add[k] == 0 ? t.last[k] : first ? t.add[k] / 2 : t.add[k];
       t.fresh[k] = t.add[k] > 0;
+      fresh[freshCount] = k, freshCount += t.fresh[k];
       t.add[k] = 0;
       t.sums.samples[k] = static_cast<Real>(t.taken[k]);
+    }
+    for (int i = 0; i < freshCount; ++i) {  // the others' error and mean are as their samples left them
+      const int k = fresh[i];
       t.error[k] = estimatedError(t, k);
       const Real inverse = 1 / t.sums.samples[k];
       t.meanR[k] = static_cast<float>(t.sums.r[k] * inverse);
@@ -288,6 +293,7 @@ class AdaptiveSampler {
         const int x = t.x0 + k % t.w, y = t.y0 + k / t.w;
         if (!freshAround(x, y, round)) continue;
         double neighbourhood = 0;
+        float squaredContrast = 0;
         int around = 0;
         bool edge = t.mixed[k];
         for (int ny = std::max(y - 1, m_work.y); ny <= std::min(y + 1, m_work.y + m_work.height - 1); ++ny) {
@@ -297,9 +303,10 @@ class AdaptiveSampler {
             neighbourhood += static_cast<double>(u.error[q]) * u.error[q];
             ++around;
             edge = edge || differ(t, k, u, q);
-            contrast = std::max(contrast, colourDifference(t, k, u, q));
+            squaredContrast = std::max(squaredContrast, squaredColourDifference(t, k, u, q));
           }
         }
+        contrast = std::sqrt(squaredContrast);  // one root: the largest difference's
         error = std::sqrt(std::max(own * own, neighbourhood / around));
         if (error <= m_target && taken >= std::max(edge ? double(kEdgeSamples) : 0.0, contrast / m_target)) continue;
       }
@@ -342,10 +349,11 @@ class AdaptiveSampler {
     return la > 0 && lb > 0 && dot < kCreaseCosine * std::sqrt(la * lb);  // no normals summed: no crease test
   }
 
-  // The RMS over the colour channels of the difference of two pixels' mean colours.
-  static double colourDifference(const TileState& t, int k, const TileState& u, int q) {
+  // The mean over the colour channels of the squared difference of two pixels' mean colours: the
+  // square of their RMS difference.
+  static float squaredColourDifference(const TileState& t, int k, const TileState& u, int q) {
     const float dr = t.meanR[k] - u.meanR[q], dg = t.meanG[k] - u.meanG[q], db = t.meanB[k] - u.meanB[q];
-    return std::sqrt((dr * dr + dg * dg + db * db) / 3);
+    return (dr * dr + dg * dg + db * db) / 3;
   }
 
   // The tiles with pixels to refine, the worst first (what a time limit cuts is the least needed).
