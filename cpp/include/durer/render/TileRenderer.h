@@ -185,13 +185,15 @@ class TileRenderer {
     return true;
   }
 
-  // Writes entries [k0, k0 + count) of `acc` to the region's pixels [first, first + count).
+  // Writes entries [k0, k0 + count) of `acc` to the region's pixels [first, first + count). The
+  // targets are numpy buffers, never the accumulator: __restrict spares each short loop the
+  // compiler's run-time overlap checks.
   void writeRow(const Accumulator& acc, int k0, int count, size_t first) const {
     if (m_targets.samples) {
       for (int i = 0; i < count; ++i) m_targets.samples[first + i] = static_cast<int32_t>(acc.samples[k0 + i]);
     }
     if (m_targets.color) {
-      float* out = m_targets.color + 4 * first;
+      float* __restrict out = m_targets.color + 4 * first;
       // A pixel brighter than float32 holds saturates at its largest number (the sums never hold NaN).
       const Real brightest = std::numeric_limits<float>::max();
       for (int i = 0; i < count; ++i) {
@@ -204,11 +206,11 @@ class TileRenderer {
       }
     }
     if (m_targets.depth) {
-      float* out = m_targets.depth + first;
+      float* __restrict out = m_targets.depth + first;
       for (int i = 0; i < count; ++i) out[i] = static_cast<float>(acc.depth[k0 + i]);
     }
     if (m_targets.normal) {
-      float* out = m_targets.normal + 3 * first;
+      float* __restrict out = m_targets.normal + 3 * first;
       for (int i = 0; i < count; ++i) {
         const int k = k0 + i;
         // One sample's normal is unit already; a mean of several is renormalised. Where the hit
