@@ -181,18 +181,20 @@ class AdaptiveSampler {
   }
 
   // Takes each pixel's add[k] samples, pixel by pixel in packets of up to kPacketSize rays: a pixel's
-  // samples are the most coherent rays there are.
+  // samples are the most coherent rays there are. A packet's sample positions are made together.
   void sampleTile(TileState& t, int round, RayCounters& counters) const {
     const int count = t.w * t.h;
     const bool first = round == 0;
     t.sampledIn = round;
     alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
-    alignas(64) int s[kPacketSize], pixel[kPacketSize], slot[kPacketSize];
+    alignas(64) int pixel[kPacketSize], slot[kPacketSize], px[kPacketSize], py[kPacketSize];
+    alignas(64) uint32_t s[kPacketSize], order[kPacketSize], points[kPacketSize];  // sample numbers, seeds
     alignas(64) int32_t prim[kPacketSize];
     alignas(64) Real along[kPacketSize];
     Sums one;
     int n = 0;
     const auto flush = [&] {
+      m_tiles.sobolPositions(px, py, order, points, s, n, sampleX, sampleY);
       if (!m_tiles.trace(sampleX, sampleY, n, one, prim, along, counters)) return false;
       for (int j = 0, end; j < n; j = end) {  // a pixel's samples are consecutive: one run each
         for (end = j + 1; end < n && pixel[end] == pixel[j];) ++end;
@@ -202,11 +204,14 @@ class AdaptiveSampler {
       return true;
     };
     for (int k = 0; k < count; ++k) {
-      for (int i = 0; i < t.add[k];) {
-        const int run = std::min(t.add[k] - i, kPacketSize - n);
-        m_tiles.samplePositions(t.x0 + k % t.w, t.y0 + k / t.w, t.taken[k] + i, run, sampleX + n, sampleY + n);
-        for (int r = 0; r < run; ++r, ++n, ++i) s[n] = t.taken[k] + i, slot[n] = i, pixel[n] = k;
-        if (n == kPacketSize && !flush()) return;
+      if (t.add[k] == 0) continue;
+      const int x = t.x0 + k % t.w, y = t.y0 + k / t.w;
+      uint32_t pixelOrder, pixelPoints;
+      m_tiles.sobolSeeds(x, y, pixelOrder, pixelPoints);
+      for (int i = 0; i < t.add[k]; ++i) {
+        s[n] = static_cast<uint32_t>(t.taken[k] + i), slot[n] = i, pixel[n] = k;
+        px[n] = x, py[n] = y, order[n] = pixelOrder, points[n] = pixelPoints;
+        if (++n == kPacketSize && !flush()) return;
       }
     }
     if (n > 0 && !flush()) return;
@@ -232,7 +237,7 @@ class AdaptiveSampler {
   // Adds samples [j0, j1) of `one` (sample numbers s[j] of pixel k, its slot[j]-th this round, which
   // met prim[j] at along[j] on its ray) to the pixel, in order: the same sums, bit for bit, as adding
   // them one at a time, with the pixel's running sums kept in registers over the run.
-  void record(TileState& t, int k, int j0, int j1, const int* s, const int* slot, bool first, const Sums& one,
+  void record(TileState& t, int k, int j0, int j1, const uint32_t* s, const int* slot, bool first, const Sums& one,
               const int32_t* prim, const Real* along) const {
     t.sums.addRun(k, one, j0, j1);
     // The last round's samples are the second half of the pixel's: all of a refining round's, the

@@ -28,9 +28,17 @@ class PixelSampler {
 
   // Offset in [0, 1)^2 of sample s of the pixel with linear index `pixel`.
   void offset(uint64_t pixel, int s, double& u, double& v) const;
-  // Offsets of samples [first, first + count) of a pixel: offset(pixel, first + i, u[i], v[i]), the
-  // Sobol points (Sobol and Adaptive) in one loop over the samples that the compiler vectorises.
-  void offsets(uint64_t pixel, int first, int count, double* u, double* v) const;
+
+  // The Sobol samplers' two scrambling seeds of the pixel with linear index `pixel` (sample order,
+  // then the points'): sobolOffsets of them gives offset(pixel, index) for each index.
+  void sobolSeeds(uint64_t pixel, uint32_t& order, uint32_t& points) const {
+    const uint64_t seed = pixelSeed(pixel);
+    order = static_cast<uint32_t>(seed), points = static_cast<uint32_t>(seed >> 32);
+  }
+  // Offsets of samples indices[j] of the pixels whose sobolSeeds are order[j], points[j], for j <
+  // count: samples of several pixels in one loop that the compiler vectorises.
+  static void sobolOffsets(const uint32_t* order, const uint32_t* points, const uint32_t* indices, int count,
+                           double* u, double* v);
 
   // Point `index` in [0, 1)^2 of the 2-D Sobol sequence, Owen-scrambled by `seed`: indices 0 to
   // 2^k - 1 are stratified in every dyadic box of 2^k cells.
@@ -42,7 +50,6 @@ class PixelSampler {
   static uint32_t laineKarras(uint32_t x, uint32_t seed);
   static uint32_t nestedUniformScramble(uint32_t x, uint32_t seed);
   uint64_t pixelSeed(uint64_t pixel) const { return mixBits(m_seed + pixel * 0x2545f4914f6cdd1dull); }
-  static void sobolOffsets(uint64_t pixelSeed, int first, int count, double* u, double* v);
 
   SamplerKind m_kind;
   int m_spp;
@@ -126,7 +133,10 @@ inline void PixelSampler::offset(uint64_t pixel, int s, double& u, double& v) co
     return;
   }
   if (m_kind == SamplerKind::Sobol || m_kind == SamplerKind::Adaptive) {
-    sobolOffsets(pixelSeed(pixel), s, 1, &u, &v);
+    uint32_t order, points;
+    sobolSeeds(pixel, order, points);
+    const uint32_t index = static_cast<uint32_t>(s);
+    sobolOffsets(&order, &points, &index, 1, &u, &v);
     return;
   }
   // Random, or Stratified with several strata.
@@ -141,20 +151,12 @@ inline void PixelSampler::offset(uint64_t pixel, int s, double& u, double& v) co
   }
 }
 
-inline void PixelSampler::offsets(uint64_t pixel, int first, int count, double* u, double* v) const {
-  if (m_kind == SamplerKind::Sobol || m_kind == SamplerKind::Adaptive) {
-    sobolOffsets(pixelSeed(pixel), first, count, u, v);
-    return;
-  }
-  for (int i = 0; i < count; ++i) offset(pixel, first + i, u[i], v[i]);
+inline void PixelSampler::sobolOffsets(const uint32_t* order, const uint32_t* points, const uint32_t* indices,
+                                       int count, double* u, double* v) {
+  // Each pixel's samples in a shuffled order (still stratified by powers of two): adaptive sampling
+  // stops at any count.
+  for (int j = 0; j < count; ++j) scrambledSobol(nestedUniformScramble(indices[j], order[j]), points[j], u[j], v[j]);
 }
 
-inline void PixelSampler::sobolOffsets(uint64_t pixelSeed, int first, int count, double* u, double* v) {
-  const uint32_t seed = static_cast<uint32_t>(pixelSeed), seedX = static_cast<uint32_t>(pixelSeed >> 32);
-  // Samples in a shuffled order (still stratified by powers of two): adaptive stops at any count.
-  for (int i = 0; i < count; ++i) {
-    scrambledSobol(nestedUniformScramble(static_cast<uint32_t>(first + i), seed), seedX, u[i], v[i]);
-  }
-}
 
 }  // namespace durer

@@ -158,11 +158,18 @@ class TileRenderer {
     }
   };
 
-  // Positions in the image of samples [first, first + count) of pixel (x, y).
-  void samplePositions(int x, int y, int first, int count, Real* sampleX, Real* sampleY) const {
+  // The Sobol scrambling seeds of pixel (x, y) (PixelSampler::sobolSeeds), for sobolPositions.
+  void sobolSeeds(int x, int y, uint32_t& order, uint32_t& points) const {
+    m_sampler.sobolSeeds(static_cast<uint64_t>(y) * m_settings.width + x, order, points);
+  }
+
+  // Positions in the image of Sobol samples indices[j] of pixels (x[j], y[j]) with those seeds, for
+  // j < count (up to a packet): several pixels' samples in one vectorised loop.
+  void sobolPositions(const int* x, const int* y, const uint32_t* order, const uint32_t* points,
+                      const uint32_t* indices, int count, Real* sampleX, Real* sampleY) const {
     alignas(64) double u[kPacketSize], v[kPacketSize];
-    m_sampler.offsets(static_cast<uint64_t>(y) * m_settings.width + x, first, count, u, v);
-    for (int i = 0; i < count; ++i) sampleX[i] = static_cast<Real>(x + u[i]), sampleY[i] = static_cast<Real>(y + v[i]);
+    PixelSampler::sobolOffsets(order, points, indices, count, u, v);
+    for (int j = 0; j < count; ++j) sampleX[j] = static_cast<Real>(x[j] + u[j]), sampleY[j] = static_cast<Real>(y[j] + v[j]);
   }
 
   // Traces the samples at (sampleX[j], sampleY[j]) for j < count as one packet: entry j of `out`
