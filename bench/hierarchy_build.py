@@ -31,7 +31,7 @@ from pathlib import Path  # noqa: E402
 import durer  # noqa: E402
 import numpy as np  # noqa: E402
 from durer.reports.machine import machine  # noqa: E402
-from primary_rays import BUSY_OTHERS, CpuClock, positive_int, print_report  # noqa: E402
+from primary_rays import BUSY_OTHERS, CpuClock, markdown_table, positive_int, print_report, text_table  # noqa: E402
 
 SPHERES = 1_000_000
 RADIUS = 0.01
@@ -94,19 +94,6 @@ def cells(row: Row) -> tuple[str, ...]:
             f"{min(row.milliseconds):.1f}", f"{max(row.milliseconds):.1f}", f"{statistics.median(row.cpu_use):.2f}")
 
 
-def text_table(rows: Sequence[Row]) -> str:
-    lines = [HEADER, *map(cells, rows)]
-    widths = [max(len(line[i]) for line in lines) for i in range(len(HEADER))]
-    rendered = ["  ".join(v.ljust(w) if i == 0 else v.rjust(w) for i, (v, w) in enumerate(zip(line, widths)))
-                for line in lines]
-    return "\n".join([rendered[0], "  ".join("-" * w for w in widths), *rendered[1:]])
-
-
-def markdown_table(rows: Sequence[Row]) -> str:
-    rule = ["---", *["---:"] * (len(HEADER) - 1)]
-    return "\n".join("| " + " | ".join(line) + " |" for line in (HEADER, rule, *map(cells, rows)))
-
-
 def summary(rows: Sequence[Row], spheres: int, others: float | None) -> list[str]:
     lines = []
     for row in rows:
@@ -138,7 +125,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{machine()}; {time.strftime('%Y-%m-%d %H:%M %Z')}; other processes used "
         + ("n/a" if others is None else f"{others:.2f} cores") + " meanwhile",
     ]
-    print_report(intro, text_table(rows), markdown_table(rows), summary(rows, args.spheres, others), args.markdown)
+    table = [cells(row) for row in rows]
+    print_report(intro, text_table(HEADER, table, 1), markdown_table(HEADER, table, 1),
+                 summary(rows, args.spheres, others), args.markdown)
     return 0
 
 

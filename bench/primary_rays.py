@@ -378,22 +378,21 @@ def mrays(value: float) -> str:
     return f"{value:.2f}" if value < 10 else f"{value:.1f}"
 
 
-def text_table(cells: Sequence[tuple[str, ...]]) -> str:
-    widths = [max(len(line[i]) for line in (HEADER, *cells)) for i in range(len(HEADER))]
-    numeric = range(HEADER.index("Median Mrays/s"), len(HEADER))
+# Tables shared by the bench scripts: labels left-aligned, the columns from numeric_from on numbers.
+def text_table(header: Sequence[str], cells: Sequence[Sequence[str]], numeric_from: int) -> str:
+    widths = [max(len(line[i]) for line in (header, *cells)) for i in range(len(header))]
 
     def line(values: Sequence[str]) -> str:
         return "  ".join(
-            v.rjust(w) if i in numeric else v.ljust(w) for i, (v, w) in enumerate(zip(values, widths, strict=True))
+            v.rjust(w) if i >= numeric_from else v.ljust(w) for i, (v, w) in enumerate(zip(values, widths, strict=True))
         )
 
-    return "\n".join([line(HEADER), "  ".join("-" * w for w in widths), *(line(c) for c in cells)])
+    return "\n".join([line(header), "  ".join("-" * w for w in widths), *(line(c) for c in cells)])
 
 
-def markdown_table(cells: Sequence[tuple[str, ...]]) -> str:
-    numeric = range(HEADER.index("Median Mrays/s"), len(HEADER))
-    rule = ["---:" if i in numeric else "---" for i in range(len(HEADER))]
-    return "\n".join("| " + " | ".join(values) + " |" for values in (HEADER, rule, *cells))
+def markdown_table(header: Sequence[str], cells: Sequence[Sequence[str]], numeric_from: int) -> str:
+    rule = ["---:" if i >= numeric_from else "---" for i in range(len(header))]
+    return "\n".join("| " + " | ".join(values) + " |" for values in (header, rule, *cells))
 
 
 def machine_lines() -> list[str]:
@@ -484,9 +483,11 @@ def report(
     ]
     cells = table_cells([*rows, baseline])
     summary = summary_lines([*rows, baseline], baseline, check)
-    text = "\n".join([*intro, "", text_table(cells), "", *summary])
+    numeric_from = HEADER.index("Median Mrays/s")
+    text = "\n".join([*intro, "", text_table(HEADER, cells, numeric_from), "", *summary])
     markdown = "\n".join(
-        ["## Primary rays", "", *map(bullet, intro), "", markdown_table(cells), "", *map(bullet, summary), ""]
+        ["## Primary rays", "", *map(bullet, intro), "", markdown_table(HEADER, cells, numeric_from), "",
+         *map(bullet, summary), ""]
     )
     return text, markdown
 

@@ -37,7 +37,8 @@ from pathlib import Path  # noqa: E402
 import durer  # noqa: E402
 import numpy as np  # noqa: E402
 from durer.reports.machine import machine  # noqa: E402
-from primary_rays import BUSY_OTHERS, CONTENDED_SHARE, CpuClock, positive_int, print_report  # noqa: E402
+from primary_rays import (  # noqa: E402
+    BUSY_OTHERS, CONTENDED_SHARE, CpuClock, markdown_table, positive_int, print_report, text_table)
 
 SPHERES = 200_000
 RADIUS = 0.05
@@ -142,19 +143,6 @@ def cells(row: Row) -> tuple[str, ...]:
             f"{statistics.median(row.cpu_use):.2f}", f"{row.mrays_per_cpu_second:.3g}")
 
 
-def text_table(rows: Sequence[Row]) -> str:
-    lines = [HEADER, *map(cells, rows)]
-    widths = [max(len(line[i]) for line in lines) for i in range(len(HEADER))]
-    fmt = [(lambda v, w: v.ljust(w)) if i < 2 else (lambda v, w: v.rjust(w)) for i in range(len(HEADER))]
-    rendered = ["  ".join(f(v, w) for f, v, w in zip(fmt, line, widths, strict=True)) for line in lines]
-    return "\n".join([rendered[0], "  ".join("-" * w for w in widths), *rendered[1:]])
-
-
-def markdown_table(rows: Sequence[Row]) -> str:
-    rule = ["---" if i < 2 else "---:" for i in range(len(HEADER))]
-    return "\n".join("| " + " | ".join(line) + " |" for line in (HEADER, rule, *map(cells, rows)))
-
-
 def summary(rows: Sequence[Row], size: tuple[int, int], others: float | None, threads: int) -> list[str]:
     lines = []
     for precision in PRECISIONS:
@@ -198,7 +186,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{machine()}; {time.strftime('%Y-%m-%d %H:%M %Z')}; other processes used "
         + ("n/a" if others is None else f"{others:.2f} cores") + " meanwhile",
     ]
-    print_report(intro, text_table(rows), markdown_table(rows), summary(rows, size, others, args.threads), args.markdown)
+    table = [cells(row) for row in rows]
+    print_report(intro, text_table(HEADER, table, 2), markdown_table(HEADER, table, 2),
+                 summary(rows, size, others, args.threads), args.markdown)
     return 0
 
 

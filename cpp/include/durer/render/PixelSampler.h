@@ -158,5 +158,4 @@ inline void PixelSampler::sobolOffsets(const uint32_t* order, const uint32_t* po
   for (int j = 0; j < count; ++j) scrambledSobol(nestedUniformScramble(indices[j], order[j]), points[j], u[j], v[j]);
 }
 
-
 }  // namespace durer
