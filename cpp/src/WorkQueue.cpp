@@ -1,18 +1,15 @@
 #include "durer/render/WorkQueue.h"
 
-#include <pthread.h>
+#include <sched.h>
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstring>
+#include <exception>
 #include <stdexcept>
 #include <string>
-#include <chrono>
-#include <condition_variable>
-#include <exception>
-#include <mutex>
 #include <thread>
-#include <vector>
 
 namespace durer {
 
@@ -24,7 +21,7 @@ namespace {
 // Only the pages a render touches are committed.
 constexpr size_t kThreadStackBytes = size_t(64) << 20;
 
-void* runBody(void* body) {
+void* serveBody(void* body) {
   (*static_cast<const std::function<void()>*>(body))();
   return nullptr;
 }
@@ -34,7 +31,7 @@ int startThread(pthread_t& id, const std::function<void()>& body) {
   pthread_attr_t attributes;
   if (pthread_attr_init(&attributes) != 0) return EAGAIN;
   int error = pthread_attr_setstacksize(&attributes, kThreadStackBytes);
-  if (error == 0) error = pthread_create(&id, &attributes, runBody, const_cast<std::function<void()>*>(&body));
+  if (error == 0) error = pthread_create(&id, &attributes, serveBody, const_cast<std::function<void()>*>(&body));
   pthread_attr_destroy(&attributes);
   return error;
 }
@@ -43,64 +40,92 @@ int startThread(pthread_t& id, const std::function<void()>& body) {
 
 int defaultThreadCount() { return std::max(1u, std::thread::hardware_concurrency()); }
 
-void runParallel(int64_t items, int threads, JobControl& control, const std::function<void(int64_t)>& work,
-                 const std::function<void()>& poll, int pollMilliseconds) {
-  control.total = items;
-  control.done = 0;
-  std::atomic<int64_t> next{0};
-  std::atomic<int> running{0};
-  std::mutex mutex;
-  std::condition_variable finished;
-
-  poll();  // reports 0 and sees a cancel that came before the start
-  const int workers = static_cast<int>(std::max<int64_t>(1, std::min<int64_t>(threads, items)));
-  const std::function<void()> body = [&] {
-    for (int64_t item = next++; item < items; item = next++) {
-      if (control.cancel.load(std::memory_order_relaxed)) break;
-      work(item);
-      control.done.fetch_add(1, std::memory_order_relaxed);
-    }
-    std::lock_guard<std::mutex> lock(mutex);
-    if (--running == 0) finished.notify_all();
-  };
-  std::vector<pthread_t> pool;
+void WorkerPool::start() {
   int error = 0;
-  for (int w = 0; w < workers && error == 0; ++w) {
-    {
-      std::lock_guard<std::mutex> lock(mutex);
-      ++running;  // before the thread exists: it may finish before pthread_create returns
-    }
+  for (int w = 0; w < m_wanted && error == 0; ++w) {
     pthread_t id;
-    error = startThread(id, body);
-    if (error == 0) {
-      pool.push_back(id);
-    } else {
-      std::lock_guard<std::mutex> lock(mutex);
-      --running;  // a smaller pool does the work; none at all is an error (below)
-    }
+    error = startThread(id, m_serve);
+    if (error == 0) m_threads.push_back(id);  // a smaller pool does the work; none at all is an error
   }
-  if (pool.empty()) {
+  if (m_threads.empty()) {
     throw std::runtime_error(std::string("threads: could not start a render thread: ") + std::strerror(error));
   }
+}
 
-  std::exception_ptr failure;
+WorkerPool::~WorkerPool() {
   {
-    std::unique_lock<std::mutex> lock(mutex);
-    while (running > 0) {
-      finished.wait_for(lock, std::chrono::milliseconds(pollMilliseconds));
-      if (running == 0 || failure) continue;
-      lock.unlock();
-      try {
-        poll();
-      } catch (...) {
-        failure = std::current_exception();
-        control.cancel = true;
-      }
-      lock.lock();
-    }
+    std::lock_guard<std::mutex> lock(m_mutex);
+    m_closing = true;
   }
-  for (pthread_t id : pool) pthread_join(id, nullptr);
+  m_wake.notify_all();
+  for (pthread_t id : m_threads) pthread_join(id, nullptr);
+}
+
+// True once the job after `served` is posted, false when the pool closes first. A worker yields in a
+// loop for a while before it sleeps: the next round comes within microseconds, and a thread woken from
+// sleep is often put on the CPU of the thread that woke it, beside its fellow worker, for milliseconds.
+bool WorkerPool::waitForJob(uint64_t served) {
+  constexpr auto kAwake = std::chrono::microseconds(500);
+  const auto until = std::chrono::steady_clock::now() + kAwake;
+  for (int i = 1;; ++i) {
+    if (m_jobs.load(std::memory_order_acquire) != served) return true;
+    if (m_closing.load(std::memory_order_acquire)) return false;
+    if (i % 16 == 0 && std::chrono::steady_clock::now() >= until) break;
+    sched_yield();
+  }
+  std::unique_lock<std::mutex> lock(m_mutex);
+  m_wake.wait(lock, [&] { return m_closing || m_jobs != served; });
+  return m_jobs != served;
+}
+
+void WorkerPool::serve() {
+  for (uint64_t served = 0; waitForJob(served);) {
+    served = m_jobs.load(std::memory_order_acquire);
+    for (int64_t item = m_next++; item < m_items; item = m_next++) {
+      if (m_control->cancel.load(std::memory_order_relaxed)) break;
+      (*m_work)(item);
+      m_control->done.fetch_add(1, std::memory_order_relaxed);
+    }
+    std::lock_guard<std::mutex> lock(m_mutex);
+    if (--m_busy == 0) m_idle.notify_all();
+  }
+}
+
+void WorkerPool::run(int64_t items, JobControl& control, const std::function<void(int64_t)>& work,
+                     const std::function<void()>& poll, int pollMilliseconds) {
+  control.total = items;
+  control.done = 0;
+  poll();  // reports 0 and sees a cancel that came before the start
+  if (m_threads.empty()) start();
+  std::unique_lock<std::mutex> lock(m_mutex);
+  m_work = &work;
+  m_control = &control;
+  m_items = items;
+  m_next = 0;
+  m_busy = m_threads.size();
+  ++m_jobs;
+  m_wake.notify_all();
+  std::exception_ptr failure;
+  while (m_busy > 0) {
+    m_idle.wait_for(lock, std::chrono::milliseconds(pollMilliseconds));
+    if (m_busy == 0 || failure) continue;
+    lock.unlock();
+    try {
+      poll();
+    } catch (...) {
+      failure = std::current_exception();
+      control.cancel = true;
+    }
+    lock.lock();
+  }
+  lock.unlock();
   if (failure) std::rethrow_exception(failure);
+}
+
+void runParallel(int64_t items, int threads, JobControl& control, const std::function<void(int64_t)>& work,
+                 const std::function<void()>& poll, int pollMilliseconds) {
+  WorkerPool pool(static_cast<int>(std::max<int64_t>(1, std::min<int64_t>(threads, items))));
+  pool.run(items, control, work, poll, pollMilliseconds);
 }
 
 }  // namespace durer

@@ -72,7 +72,7 @@ class AdaptiveSampler {
     }
   }
 
-  // Runs the rounds on `threads` workers, then writes the output region; returns what was traced.
+  // Runs the rounds on one pool of `threads` workers, then writes the output region; returns what was traced.
   RayCounters render(int threads, JobControl& control, const std::function<void()>& poll, AdaptiveStats& stats) {
     // A limit of more than a year is none: the clock's integer ticks would overflow.
     constexpr double kYear = 365.25 * 24 * 3600;
@@ -83,6 +83,7 @@ class AdaptiveSampler {
     // The time limit spares the first pass: every pixel gets its first samples.
     const auto overTime = [&](int round) { return round > 0 && limited && std::chrono::steady_clock::now() >= deadline; };
     RayCounters counters;
+    WorkerPool pool(static_cast<int>(std::min<size_t>(static_cast<size_t>(std::max(1, threads)), m_state.size())));
     std::vector<int64_t> order(m_state.size());
     for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int64_t>(i);
     for (int round = 0; !order.empty(); ++round) {
@@ -113,7 +114,7 @@ class AdaptiveSampler {
           });
         }
       };
-      counters += inParallel(static_cast<int64_t>(order.size()), threads, control, poll, round, work);
+      counters += inParallel(static_cast<int64_t>(order.size()), pool, control, poll, round, work);
       ++stats.rounds;
       if (control.cancel.load() || late.load()) {
         stats.timeLimitReached = late.load();
@@ -160,7 +161,7 @@ class AdaptiveSampler {
 
   // Runs work(item, counters) over [0, items) with progress reported as the share of rounds done.
   template <typename Work>
-  RayCounters inParallel(int64_t items, int threads, JobControl& control, const std::function<void()>& poll,
+  RayCounters inParallel(int64_t items, WorkerPool& pool, JobControl& control, const std::function<void()>& poll,
                          int round, const Work& work) {
     JobControl roundControl;
     RayCounters total;
@@ -171,7 +172,7 @@ class AdaptiveSampler {
       poll();
       if (control.cancel.load()) roundControl.cancel = true;
     };
-    runParallel(items, threads, roundControl, [&](int64_t item) {
+    pool.run(items, roundControl, [&](int64_t item) {
       RayCounters c;
       work(item, c);
       const std::lock_guard<std::mutex> lock(totalMutex);
