@@ -286,32 +286,63 @@ class AdaptiveSampler {
 
   static int slotOf(const TileState& t, int x, int y) { return (y - t.y0) * t.w + (x - t.x0); }
 
+  // What mark() reads of a pixel, for the pixels of a tile and the ring around it: gathered once
+  // per tile, so that the nine-pixel neighbourhoods read one small array instead of the tiles around.
+  struct Neighbour {
+    Real nx, ny, nz;                              // normal sums
+    float error, firstT, meanR, meanG, meanB;
+    int32_t firstPrim;
+    bool present;                                 // inside the work region
+    bool fresh;                                   // took samples in the round marked from
+  };
+  static constexpr int kGridWidth = kTileSize + 2;
+
+  // grid[(y - t.y0 + 1) * kGridWidth + (x - t.x0 + 1)]: pixel (x, y) of t or of the ring around it.
+  void gather(const TileState& t, int round, Neighbour* grid) const {
+    for (int y = t.y0 - 1; y <= t.y0 + t.h; ++y) {
+      for (int x = t.x0 - 1; x <= t.x0 + t.w; ++x) {
+        Neighbour& n = grid[(y - t.y0 + 1) * kGridWidth + (x - t.x0 + 1)];
+        n.present = x >= m_work.x && x < m_work.x + m_work.width && y >= m_work.y && y < m_work.y + m_work.height;
+        n.fresh = false;
+        if (!n.present) continue;
+        const TileState& u = tileAt(x, y);
+        const int q = slotOf(u, x, y);
+        n.nx = u.sums.nx[q], n.ny = u.sums.ny[q], n.nz = u.sums.nz[q];
+        n.error = u.error[q], n.firstT = u.firstT[q];
+        n.meanR = u.meanR[q], n.meanG = u.meanG[q], n.meanB = u.meanB[q];
+        n.firstPrim = u.firstPrim[q];
+        n.fresh = u.sampledIn == round && u.fresh[q];
+      }
+    }
+  }
+
   // Decides add[k] for every pixel of tile `index` from the state the last round left. A pixel whose
   // neighbourhood the last round did not sample decides as before it: nothing to add.
   void mark(size_t index, int level, int round) {
     TileState& t = m_state[index];
+    Neighbour grid[kGridWidth * kGridWidth];
+    bool gathered = false;  // only once a pixel looks at its neighbours
     for (int k = 0; k < t.w * t.h; ++k) {
       const int taken = t.taken[k];
       if (taken >= level) continue;
       const double own = t.error[k];
       double error = own, contrast = 0;
       if (own <= m_target) {
-        const int x = t.x0 + k % t.w, y = t.y0 + k / t.w;
-        if (!freshAround(x, y, round)) continue;
+        if (!gathered) gather(t, round, grid), gathered = true;
+        const Neighbour& self = grid[(k / t.w + 1) * kGridWidth + k % t.w + 1];
+        bool fresh = false;
+        forAround(self, [&](const Neighbour& u) { fresh = fresh || u.fresh; });
+        if (!fresh) continue;
         double neighbourhood = 0;
         float squaredContrast = 0;
         int around = 0;
         bool edge = t.mixed[k];
-        for (int ny = std::max(y - 1, m_work.y); ny <= std::min(y + 1, m_work.y + m_work.height - 1); ++ny) {
-          for (int nx = std::max(x - 1, m_work.x); nx <= std::min(x + 1, m_work.x + m_work.width - 1); ++nx) {
-            const TileState& u = tileAt(nx, ny);
-            const int q = slotOf(u, nx, ny);
-            neighbourhood += static_cast<double>(u.error[q]) * u.error[q];
-            ++around;
-            edge = edge || differ(t, k, u, q);
-            squaredContrast = std::max(squaredContrast, squaredColourDifference(t, k, u, q));
-          }
-        }
+        forAround(self, [&](const Neighbour& u) {
+          neighbourhood += static_cast<double>(u.error) * u.error;
+          ++around;
+          edge = edge || differ(self, u);
+          squaredContrast = std::max(squaredContrast, squaredColourDifference(self, u));
+        });
         contrast = std::sqrt(squaredContrast);  // one root: the largest difference's
         error = std::sqrt(std::max(own * own, neighbourhood / around));
         if (error <= m_target && taken >= std::max(edge ? double(kEdgeSamples) : 0.0, contrast / m_target)) continue;
@@ -321,15 +352,15 @@ class AdaptiveSampler {
     }
   }
 
-  // Whether a pixel around (x, y), itself included, took samples in `round`.
-  bool freshAround(int x, int y, int round) const {
-    for (int ny = std::max(y - 1, m_work.y); ny <= std::min(y + 1, m_work.y + m_work.height - 1); ++ny) {
-      for (int nx = std::max(x - 1, m_work.x); nx <= std::min(x + 1, m_work.x + m_work.width - 1); ++nx) {
-        const TileState& u = tileAt(nx, ny);
-        if (u.sampledIn == round && u.fresh[slotOf(u, nx, ny)]) return true;
+  // f(u) for the pixels u of the work region around `self` (itself included), row by row, in a gathered grid.
+  template <typename F>
+  static void forAround(const Neighbour& self, const F& f) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        const Neighbour& u = (&self)[dy * kGridWidth + dx];
+        if (u.present) f(u);
       }
     }
-    return false;
   }
 
   // f(t) for each tile t around tile `index` (itself included).
@@ -342,23 +373,21 @@ class AdaptiveSampler {
     }
   }
 
-  // Whether pixels k of t and q of u see different geometry: their first samples met other
-  // primitives, one of them nothing, or both at a depth discontinuity or a crease.
-  static bool differ(const TileState& t, int k, const TileState& u, int q) {
-    if (t.firstPrim[k] == u.firstPrim[q]) return false;
-    if (depthJump(t.firstT[k], u.firstT[q])) return true;
-    const Sums& a = t.sums;
-    const Sums& b = u.sums;
-    const double dot = double(a.nx[k]) * b.nx[q] + double(a.ny[k]) * b.ny[q] + double(a.nz[k]) * b.nz[q];
-    const double la = double(a.nx[k]) * a.nx[k] + double(a.ny[k]) * a.ny[k] + double(a.nz[k]) * a.nz[k];
-    const double lb = double(b.nx[q]) * b.nx[q] + double(b.ny[q]) * b.ny[q] + double(b.nz[q]) * b.nz[q];
+  // Whether two pixels see different geometry: their first samples met other primitives, one of
+  // them nothing, or both at a depth discontinuity or a crease.
+  static bool differ(const Neighbour& a, const Neighbour& b) {
+    if (a.firstPrim == b.firstPrim) return false;
+    if (depthJump(a.firstT, b.firstT)) return true;
+    const double dot = double(a.nx) * b.nx + double(a.ny) * b.ny + double(a.nz) * b.nz;
+    const double la = double(a.nx) * a.nx + double(a.ny) * a.ny + double(a.nz) * a.nz;
+    const double lb = double(b.nx) * b.nx + double(b.ny) * b.ny + double(b.nz) * b.nz;
     return la > 0 && lb > 0 && dot < kCreaseCosine * std::sqrt(la * lb);  // no normals summed: no crease test
   }
 
   // The mean over the colour channels of the squared difference of two pixels' mean colours: the
   // square of their RMS difference.
-  static float squaredColourDifference(const TileState& t, int k, const TileState& u, int q) {
-    const float dr = t.meanR[k] - u.meanR[q], dg = t.meanG[k] - u.meanG[q], db = t.meanB[k] - u.meanB[q];
+  static float squaredColourDifference(const Neighbour& a, const Neighbour& b) {
+    const float dr = a.meanR - b.meanR, dg = a.meanG - b.meanG, db = a.meanB - b.meanB;
     return (dr * dr + dg * dg + db * db) / 3;
   }
 
