@@ -37,7 +37,9 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
 
   // Builds the bounding-volume hierarchy (and reorders the spheres and their ids to its order);
   // worth it above a few dozen spheres, after which intersect() traverses it.
-  void buildBvh(int threads) { Base::buildBvh(boxOf, threads); }
+  void buildBvh(int threads) {
+    Base::buildBvh([](const Sphere<Real>& s, Vec3<Real>& lo, Vec3<Real>& hi) { boxOf(s, lo, hi); }, threads);
+  }
 
   // The spheres of `source`, the set this one was made from, after they moved (Base::refitFrom).
   template <typename Other>
