@@ -124,11 +124,11 @@ class Bvh {
   std::vector<uint32_t> build(size_t count, const BoxOf& boxOf, int threads);
 
   // Keeps the tree and recomputes its boxes from the primitives' boxes boxOf(i, lo, hi) (the
-  // primitives in the order build returned, moved since): an animation frame's refit instead of a
-  // rebuild. Returns the tree's SAH cost now over its cost when built: moved primitives stretch
+  // primitives in the order build returned, moved since) on up to `threads` threads: an animation
+  // frame's refit instead of a rebuild. Returns the tree's SAH cost now over its cost when built: moved primitives stretch
   // boxes that were tight, and a caller rebuilds once the traversal would pay more than a build.
   template <typename BoxOf>
-  double refit(const BoxOf& boxOf);
+  double refit(const BoxOf& boxOf, int threads);
 
   // Calls leaf(first, count) for every leaf the ray may meet before tHit (which leaf may lower),
   // nearest first, from the root or from inner node `node`; stops early when leaf returns true (a
@@ -1027,28 +1027,43 @@ std::vector<uint32_t> Bvh<Real>::build(size_t count, const BoxOf& boxOf, int thr
 
 template <typename Real>
 template <typename BoxOf>
-double Bvh<Real>::refit(const BoxOf& boxOf) {
+double Bvh<Real>::refit(const BoxOf& boxOf, int threads) {
   constexpr Real kInf = std::numeric_limits<Real>::infinity();
-  for (size_t i = m_nodes.size(); i-- > 0;) {  // children come after their parent
-    BvhNode<Real>& n = m_nodes[i];
-    for (int s = 0; s < BvhNode<Real>::kWidth; ++s) {
-      if (n.child[s] < 0) continue;
-      Vec3<Real> lo(kInf), hi(-kInf);
-      if (n.count[s] > 0) {
+  const auto store = [](BvhNode<Real>& n, int s, const Vec3<Real>& lo, const Vec3<Real>& hi) {
+    for (int a = 0; a < 3; ++a) n.bounds[0][a][s] = toRealDown<float>(lo[a]), n.bounds[1][a][s] = toRealUp<float>(hi[a]);
+  };
+  // The leaves' boxes first, from their primitives alone: nodes in chunks on all threads (a chunk of
+  // nodes holds thousands of primitives, unlike parallelChunks' minimum of items).
+  constexpr size_t kNodesPerChunk = 4096;
+  const size_t chunks = std::max<size_t>(1, std::min(static_cast<size_t>(std::max(threads, 1)), m_nodes.size() / kNodesPerChunk));
+  forChunks(m_nodes.size(), chunks, [&](size_t, size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      BvhNode<Real>& n = m_nodes[i];
+      for (int s = 0; s < BvhNode<Real>::kWidth; ++s) {
+        if (n.child[s] < 0 || n.count[s] == 0) continue;
+        Vec3<Real> lo(kInf), hi(-kInf);
         for (int32_t p = n.child[s]; p < n.child[s] + n.count[s]; ++p) {
           Vec3<Real> pLo, pHi;
           boxOf(static_cast<size_t>(p), pLo, pHi);
           lo = glm::min(lo, pLo), hi = glm::max(hi, pHi);
         }
-      } else {
-        const BvhNode<Real>& c = m_nodes[static_cast<size_t>(n.child[s])];
-        for (int cs = 0; cs < BvhNode<Real>::kWidth; ++cs) {
-          if (c.child[cs] < 0) continue;
-          lo = glm::min(lo, Vec3<Real>(c.bounds[0][0][cs], c.bounds[0][1][cs], c.bounds[0][2][cs]));
-          hi = glm::max(hi, Vec3<Real>(c.bounds[1][0][cs], c.bounds[1][1][cs], c.bounds[1][2][cs]));
-        }
+        store(n, s, lo, hi);
       }
-      for (int a = 0; a < 3; ++a) n.bounds[0][a][s] = toRealDown<float>(lo[a]), n.bounds[1][a][s] = toRealUp<float>(hi[a]);
+    }
+  });
+  // Then the inner children's, bottom-up: a node's children come after it.
+  for (size_t i = m_nodes.size(); i-- > 0;) {
+    BvhNode<Real>& n = m_nodes[i];
+    for (int s = 0; s < BvhNode<Real>::kWidth; ++s) {
+      if (n.child[s] < 0 || n.count[s] > 0) continue;
+      const BvhNode<Real>& c = m_nodes[static_cast<size_t>(n.child[s])];
+      Vec3<Real> lo(kInf), hi(-kInf);
+      for (int cs = 0; cs < BvhNode<Real>::kWidth; ++cs) {
+        if (c.child[cs] < 0) continue;
+        lo = glm::min(lo, Vec3<Real>(c.bounds[0][0][cs], c.bounds[0][1][cs], c.bounds[0][2][cs]));
+        hi = glm::max(hi, Vec3<Real>(c.bounds[1][0][cs], c.bounds[1][1][cs], c.bounds[1][2][cs]));
+      }
+      store(n, s, lo, hi);
     }
   }
   return m_builtCost > 0 ? sahCost() / m_builtCost : 1;

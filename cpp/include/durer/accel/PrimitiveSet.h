@@ -111,12 +111,15 @@ class PrimitiveSet {
   // refitting has made it kRebuildCost times as costly as when built. Returns whether it was rebuilt.
   template <typename OtherSet, typename Convert, typename BoxOf>
   bool refitFrom(const OtherSet& source, Convert&& convert, const BoxOf& boxOf, int threads) {
-    for (size_t i = 0; i < m_primitives.size(); ++i) {
-      m_primitives[i] = convert(source.primitive(m_sourceIndex.empty() ? i : m_sourceIndex[i]));
-    }
+    parallelChunks(m_primitives.size(), threads, [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i) {
+        m_primitives[i] = convert(source.primitive(m_sourceIndex.empty() ? i : m_sourceIndex[i]));
+      }
+    });
     if (m_bvh.empty()) return false;
     constexpr double kRebuildCost = 1.5;
-    const double cost = m_bvh.refit([&](size_t i, Vec3<Real>& lo, Vec3<Real>& hi) { boxOf(m_primitives[i], lo, hi); });
+    const double cost =
+        m_bvh.refit([&](size_t i, Vec3<Real>& lo, Vec3<Real>& hi) { boxOf(m_primitives[i], lo, hi); }, threads);
     if (cost <= kRebuildCost) return false;
     buildBvh(boxOf, threads);
     return true;

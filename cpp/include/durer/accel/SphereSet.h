@@ -37,15 +37,13 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
 
   // Builds the bounding-volume hierarchy (and reorders the spheres and their ids to its order);
   // worth it above a few dozen spheres, after which intersect() traverses it.
-  void buildBvh(int threads) {
-    Base::buildBvh([](const Sphere<Real>& s, Vec3<Real>& lo, Vec3<Real>& hi) { boxOf(s, lo, hi); }, threads);
-  }
+  void buildBvh(int threads) { Base::buildBvh(kBoxOf, threads); }
 
   // The spheres of `source`, the set this one was made from, after they moved (Base::refitFrom).
   template <typename Other>
   bool refitFrom(const SphereSet<Other>& source, int threads) {
     m_views.clear();
-    return Base::refitFrom(source, convert<Other>, boxOf, threads);
+    return Base::refitFrom(source, convert<Other>, kBoxOf, threads);
   }
 
   // The view of these spheres made for `key` (SphereView): the one kept for this key (see ViewCache),
@@ -243,6 +241,9 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     lo = s.center - s.radius, hi = s.center + s.radius;
     roundOutward(lo, hi);
   }
+  // boxOf as the hierarchy's builds and refits take it: a lambda, inlined where a function
+  // reference was called per sphere.
+  static constexpr auto kBoxOf = [](const Sphere<Real>& s, Vec3<Real>& lo, Vec3<Real>& hi) { boxOf(s, lo, hi); };
 };
 
 }  // namespace durer
