@@ -1,6 +1,8 @@
 #pragma once
 #include <cstdint>
 #include <limits>
+#include <new>
+#include <type_traits>
 
 #include "durer/math/Vec.h"
 
@@ -18,6 +20,25 @@ struct Hit {
   bool colored = false;                            // whether the primitive has its own colour:
   Vec3<Real> color;                                // then its kd at the hit, in place of the material's (else unset)
   bool isHit() const { return objectId >= 0; }
+};
+
+// Room for a packet's hit records, record k made in place by make(k, f) from the record f() returns:
+// no default record first and no copy after (copying a returned record read it back in wider
+// pieces than it had just been written in, a store-forwarding stall per piece).
+template <typename Real, int N>
+class HitRecords {
+  static_assert(std::is_trivially_destructible_v<Hit<Real>>, "records are never destroyed");
+
+ public:
+  template <typename F>
+  void make(int k, const F& f) {
+    ::new (static_cast<void*>(m_bytes + static_cast<size_t>(k) * sizeof(Hit<Real>))) Hit<Real>(f());
+  }
+  Hit<Real>* data() { return std::launder(reinterpret_cast<Hit<Real>*>(m_bytes)); }
+  Hit<Real>& operator[](int k) { return data()[k]; }
+
+ private:
+  alignas(64) unsigned char m_bytes[N * sizeof(Hit<Real>)];
 };
 
 // Which side of a surface is shaded, decided here for every pass and every bounce: -1 flips the

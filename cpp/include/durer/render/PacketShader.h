@@ -322,10 +322,10 @@ class PacketShader {
     }
     counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
     if (m_cancel.load(std::memory_order_relaxed)) return;
-    alignas(64) Hit<Real> hits[kPacketSize];
-    for (int j = 0; j < count; ++j) hits[j] = m_group.hit(packet, j);
+    HitRecords<Real, kPacketSize> hits;
+    for (int j = 0; j < count; ++j) hits.make(j, [&] { return m_group.hit(packet, j); });
     alignas(64) Vec3<Real> seen[kPacketSize];
-    shade(packet, hits, weights, depth, seen, counters);
+    shade(packet, hits.data(), weights, depth, seen, counters);
     for (int j = 0; j < count; ++j) rgb[children[j].parent] += children[j].factor * seen[j];
   }
 

@@ -294,9 +294,9 @@ class TileRenderer {
       }
       return;
     }
-    alignas(64) Hit<Real> hits[kPacketSize];
+    HitRecords<Real, kPacketSize> hits;
     for (int k = 0; k < packet.count; ++k) {
-      hits[k] = m_group.hit(packet, k);
+      hits.make(k, [&] { return m_group.hit(packet, k); });
       if (!hits[k].isHit()) continue;
       acc.depth[k] = std::min(acc.depth[k], m_planarDepth ? hits[k].t * planarScale(packet, k) : hits[k].t);
       const Vec3<Real> n = m_shader.shadingNormal(hits[k], Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]));
@@ -305,7 +305,7 @@ class TileRenderer {
     alignas(64) Vec3<Real> rgb[kPacketSize];
     alignas(64) Real weights[kPacketSize];
     std::fill(weights, weights + packet.count, Real(1));
-    m_shader.shade(packet, hits, weights, 0, rgb, counters);
+    m_shader.shade(packet, hits.data(), weights, 0, rgb, counters);
     for (int k = 0; k < packet.count; ++k) {
       addColor(acc, k, rgb[k].r, rgb[k].g, rgb[k].b, hits[k].isHit() ? Real(1) : m_flat.a.back());
     }
