@@ -237,13 +237,12 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   static Sphere<Real> convert(const Sphere<Other>& s) {
     return Sphere<Real>{toReal<Real>(s.center), static_cast<Real>(s.radius)};
   }
-  static void boxOf(const Sphere<Real>& s, Vec3<Real>& lo, Vec3<Real>& hi) {
+  // A sphere's box, rounded outward, for the hierarchy's builds and refits: a lambda, so that it
+  // inlines into their loops (a function reference was called per sphere).
+  static constexpr auto kBoxOf = [](const Sphere<Real>& s, Vec3<Real>& lo, Vec3<Real>& hi) {
     lo = s.center - s.radius, hi = s.center + s.radius;
     roundOutward(lo, hi);
-  }
-  // boxOf as the hierarchy's builds and refits take it: a lambda, inlined where a function
-  // reference was called per sphere.
-  static constexpr auto kBoxOf = [](const Sphere<Real>& s, Vec3<Real>& lo, Vec3<Real>& hi) { boxOf(s, lo, hi); };
+  };
 };
 
 }  // namespace durer
