@@ -125,8 +125,9 @@ class Bvh {
 
   // Keeps the tree and recomputes its boxes from the primitives' boxes boxOf(i, lo, hi) (the
   // primitives in the order build returned, moved since) on up to `threads` threads: an animation
-  // frame's refit instead of a rebuild. Returns the tree's SAH cost now over its cost when built: moved primitives stretch
-  // boxes that were tight, and a caller rebuilds once the traversal would pay more than a build.
+  // frame's refit instead of a rebuild. Returns the tree's SAH cost now over its cost when built:
+  // moved primitives stretch boxes that were tight, and a caller rebuilds once the traversal would
+  // pay more than a build.
   template <typename BoxOf>
   double refit(const BoxOf& boxOf, int threads);
 
