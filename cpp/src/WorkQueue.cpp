@@ -65,7 +65,7 @@ WorkerPool::~WorkerPool() {
 // loop for a while before it sleeps: the next round comes within microseconds, and a thread woken from
 // sleep is often put on the CPU of the thread that woke it, beside its fellow worker, for milliseconds.
 bool WorkerPool::waitForJob(uint64_t served) {
-  constexpr auto kAwake = std::chrono::microseconds(500);
+  constexpr auto kAwake = std::chrono::microseconds(200);
   const auto until = std::chrono::steady_clock::now() + kAwake;
   for (int i = 1;; ++i) {
     if (m_jobs.load(std::memory_order_acquire) != served) return true;
