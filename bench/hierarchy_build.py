@@ -30,8 +30,7 @@ from pathlib import Path  # noqa: E402
 
 import durer  # noqa: E402
 import numpy as np  # noqa: E402
-from durer.reports.machine import machine  # noqa: E402
-from primary_rays import BUSY_OTHERS, CpuClock, markdown_table, positive_int, print_report, text_table  # noqa: E402
+from primary_rays import BUSY_OTHERS, CpuClock, machine_line, positive_int, print_report  # noqa: E402
 
 SPHERES = 1_000_000
 RADIUS = 0.01
@@ -122,12 +121,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     intro = [
         f"Build: {args.spheres:,} random spheres (r {RADIUS}, seed {SEED}) prepared for tracing "
         f"(Scene.hierarchy_counts['milliseconds']); median of {args.runs} runs after the first",
-        f"{machine()}; {time.strftime('%Y-%m-%d %H:%M %Z')}; other processes used "
-        + ("n/a" if others is None else f"{others:.2f} cores") + " meanwhile",
+        machine_line(others),
     ]
-    table = [cells(row) for row in rows]
-    print_report(intro, text_table(HEADER, table, 1), markdown_table(HEADER, table, 1),
-                 summary(rows, args.spheres, others), args.markdown)
+    print_report(intro, HEADER, [cells(row) for row in rows], 1, summary(rows, args.spheres, others), args.markdown)
     return 0
 
 

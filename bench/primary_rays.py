@@ -31,6 +31,7 @@ from pathlib import Path  # noqa: E402
 import durer  # noqa: E402
 import numpy as np  # noqa: E402
 from durer.render import DEFAULT_PASSES  # noqa: E402
+from durer.reports.machine import machine  # noqa: E402
 
 DEFAULT_RUNS = 7
 MIN_RUNS_FOR_MEDIAN = 5
@@ -497,12 +498,21 @@ def bullet(line: str) -> str:
     return f"  - {line[2:]}" if line.startswith("  ") else f"- {line}"
 
 
-def print_report(intro: Sequence[str], table: str, markdown: str, notes: Sequence[str], path: Path | None) -> None:
-    """Prints the intro lines, the table and the notes; with a path, writes them there as Markdown too
-    (the lines as bullets around the Markdown table). Shared by the other bench scripts."""
-    print("\n".join([*intro, "", table, "", *notes]))
+def machine_line(others: float | None) -> str:
+    """The machine, the time, and the cores other processes used while measuring (None: unknown)."""
+    used = "n/a" if others is None else f"{others:.2f} cores"
+    return f"{machine()}; {time.strftime('%Y-%m-%d %H:%M %Z')}; other processes used {used} meanwhile"
+
+
+def print_report(intro: Sequence[str], header: Sequence[str], cells: Sequence[Sequence[str]], numeric_from: int,
+                 notes: Sequence[str], path: Path | None) -> None:
+    """Prints the intro lines, the table of `cells` under `header` and the notes; with a path, writes
+    them there as Markdown too (the lines as bullets around the Markdown table). Shared by the other
+    bench scripts."""
+    print("\n".join([*intro, "", text_table(header, cells, numeric_from), "", *notes]))
     if path:
         bullets = [f"- {line}" for line in intro], [f"- {line}" for line in notes]
+        markdown = markdown_table(header, cells, numeric_from)
         path.write_text("\n".join([*bullets[0], "", markdown, "", *bullets[1], ""]), encoding="utf-8")
 
 

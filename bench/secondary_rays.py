@@ -36,9 +36,8 @@ from pathlib import Path  # noqa: E402
 
 import durer  # noqa: E402
 import numpy as np  # noqa: E402
-from durer.reports.machine import machine  # noqa: E402
 from primary_rays import (  # noqa: E402
-    BUSY_OTHERS, CONTENDED_SHARE, CpuClock, markdown_table, positive_int, print_report, text_table)
+    BUSY_OTHERS, CONTENDED_SHARE, CpuClock, machine_line, positive_int, print_report)
 
 SPHERES = 200_000
 RADIUS = 0.05
@@ -183,12 +182,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     intro = [
         f"Secondary rays: {args.spheres:,} spheres (r {RADIUS}, seed {SEED}) + plane, sun with shadows, 50 % "
         f"reflective, perspective, {size[0]}x{size[1]}, 1 spp, {args.threads} threads; median of {runs} rounds",
-        f"{machine()}; {time.strftime('%Y-%m-%d %H:%M %Z')}; other processes used "
-        + ("n/a" if others is None else f"{others:.2f} cores") + " meanwhile",
+        machine_line(others),
     ]
-    table = [cells(row) for row in rows]
-    print_report(intro, text_table(HEADER, table, 2), markdown_table(HEADER, table, 2),
-                 summary(rows, size, others, args.threads), args.markdown)
+    print_report(intro, HEADER, [cells(row) for row in rows], 2, summary(rows, size, others, args.threads),
+                 args.markdown)
     return 0
 
 
