@@ -311,8 +311,9 @@ class TileRenderer {
     }
   }
 
-  // Normals of the packet's hits: those on the top-level group's own spheres and planes in one
-  // branch-free loop (so it vectorises, gathers and all), the others through their hit records.
+  // Normals of the packet's hits: those on the top-level group's own spheres and planes in one loop
+  // without a hit record per ray (written branch-free, though GCC 12 keeps it scalar: the selects
+  // follow a division and a root; docs/benchmarks.md), the others through their hit records.
   void accumulateNormals(const RayPacket<Real>& packet, Accumulator& acc) const {
     const bool spheres = m_group.spheres().size() > 0, planes = m_group.planes().size() > 0;
     if (spheres && planes) {
