@@ -1,6 +1,6 @@
-// The worker pool (doctest): every item of every job runs exactly once, on a pool kept across jobs
-// as adaptive sampling's rounds keep it; a poll that throws cancels the job, reaches the caller, and
-// leaves the pool ready for the next job.
+// Phased jobs (doctest): every item of every phase runs exactly once, next() only once a phase is
+// done, as adaptive sampling's rounds need; a throw from poll, work or next cancels the job and
+// reaches the caller.
 #include <doctest/doctest.h>
 
 #include <atomic>
@@ -11,45 +11,69 @@
 
 using namespace durer;
 
-TEST_CASE("a pool kept across jobs runs every item of each exactly once") {
-  WorkerPool pool(3);
-  for (const int64_t items : {int64_t(0), int64_t(1), int64_t(2), int64_t(1000), int64_t(5), int64_t(37)}) {
-    std::vector<std::atomic<int>> runs(static_cast<size_t>(items));
-    for (std::atomic<int>& r : runs) r = 0;
+TEST_CASE("every item of every phase runs exactly once, and next() runs between the phases") {
+  for (const int threads : {1, 2, 3, 8}) {
+    const std::vector<int64_t> phases{1000, 1, 2, 0, 5};  // no items: the end of the job
+    std::vector<std::vector<std::atomic<int>>> runs;
+    for (const int64_t items : phases) runs.emplace_back(static_cast<size_t>(items));
+    for (auto& phase : runs) for (std::atomic<int>& r : phase) r = 0;
+    std::atomic<int> current{0};
+    int nexts = 0;
+    bool everyItemDoneBeforeNext = true;
     JobControl control;
     int polls = 0;
-    pool.run(items, control, [&](int64_t item) { runs[static_cast<size_t>(item)].fetch_add(1); }, [&] { ++polls; });
-    for (const std::atomic<int>& r : runs) CHECK(r.load() == 1);
-    CHECK(control.total == items);
-    CHECK(control.done.load() == items);
+    runPhases(phases[0], threads, control,
+              [&](int64_t item) { runs[static_cast<size_t>(current.load())][static_cast<size_t>(item)].fetch_add(1); },
+              [&]() -> int64_t {
+                ++nexts;
+                for (const std::atomic<int>& r : runs[static_cast<size_t>(current.load())]) everyItemDoneBeforeNext &= r == 1;
+                current.fetch_add(1);
+                return phases[static_cast<size_t>(current.load())];
+              },
+              [&] { ++polls; });
+    CHECK(nexts == 3);  // after the phases of 1000, 1 and 2 items; returning 0 ended the job
+    CHECK(everyItemDoneBeforeNext);
+    for (size_t p = 0; p < 3; ++p) {
+      for (const std::atomic<int>& r : runs[p]) CHECK(r.load() == 1);
+    }
+    for (const std::atomic<int>& r : runs[4]) CHECK(r.load() == 0);  // after the end
     CHECK(polls >= 1);
   }
 }
 
-TEST_CASE("a throwing poll cancels the job, reaches the caller, and the pool runs the next job") {
-  WorkerPool pool(2);
+TEST_CASE("a throwing poll cancels the job and reaches the caller once the workers stopped") {
   JobControl control;
   std::atomic<int64_t> ran{0};
-  int polls = 0;
+  int polls = 0, nexts = 0;
   const auto slowItem = [&](int64_t) {
     ran.fetch_add(1);
     while (!control.cancel.load()) {
     }
   };
   // The first poll comes before any item; the second, 1 ms later, throws while items spin.
-  CHECK_THROWS_AS(pool.run(100, control, slowItem, [&] { if (++polls == 2) throw std::runtime_error("stop"); }, 1),
+  CHECK_THROWS_AS(runPhases(100, 2, control, slowItem, [&]() -> int64_t { return ++nexts, 100; },
+                            [&] { if (++polls == 2) throw std::runtime_error("stop"); }, 1),
                   std::runtime_error);
   CHECK(control.cancel.load());
   CHECK(ran.load() <= 2);  // each worker stops after the item it was in
-
-  JobControl next;
-  std::atomic<int64_t> sum{0};
-  pool.run(10, next, [&](int64_t item) { sum.fetch_add(item); }, [] {});
-  CHECK(sum.load() == 45);
-  CHECK(next.done.load() == 10);
+  CHECK(nexts == 0);       // no phase after a cancel
 }
 
-TEST_CASE("runParallel: one job on a pool of its own") {
+TEST_CASE("a throw from work or next cancels the job and reaches the caller") {
+  JobControl control;
+  CHECK_THROWS_AS(runPhases(50, 3, control, [](int64_t item) { if (item == 7) throw std::logic_error("work"); },
+                            [] { return int64_t(0); }, [] {}),
+                  std::logic_error);
+  CHECK(control.cancel.load());
+  JobControl other;
+  int phase = 0;
+  CHECK_THROWS_AS(runPhases(4, 2, other, [](int64_t) {},
+                            [&]() -> int64_t { if (++phase == 2) throw std::out_of_range("next"); return 3; }, [] {}),
+                  std::out_of_range);
+  CHECK(phase == 2);
+}
+
+TEST_CASE("runParallel: one phase") {
   JobControl control;
   std::atomic<int64_t> sum{0};
   runParallel(64, 4, control, [&](int64_t item) { sum.fetch_add(item); }, [] {});

@@ -17,7 +17,8 @@
 //     area may not have been seen yet, and would be off by at most about that times the contrast.
 // A time limit stops the refining rounds (never the first pass) when spent; each round takes its
 // tiles worst first (the largest estimated error), so what the limit cuts is what matters least.
-// Every pixel's state is kept until the end (TileState: 179 bytes a pixel in double, 111 in float).
+// Every pixel's state is kept until the end (TileState and Summary: 211 bytes a pixel in double, 127
+// in float).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
 // threads; a pixel's result depends on the pixels within `rounds` of it, so a region is rendered
 // with that margin around it and equals the whole render's pixels bit for bit.
@@ -27,6 +28,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <mutex>
 #include <vector>
 
@@ -54,25 +56,25 @@ class AdaptiveSampler {
         m_target(settings.targetError),
         m_timeLimit(settings.timeLimit),
         m_rounds(roundsFor(m_firstSamples, m_maxSamples)),
-        m_work(workRegion(m_output, m_rounds, settings.width, settings.height)) {
-    m_firstTileX = m_work.x / kTileSize, m_firstTileY = m_work.y / kTileSize;
-    m_tilesX = (m_work.x + m_work.width - 1) / kTileSize - m_firstTileX + 1;
-    const int tilesY = (m_work.y + m_work.height - 1) / kTileSize - m_firstTileY + 1;
-    m_state.resize(static_cast<size_t>(m_tilesX) * tilesY);
-    for (int ty = 0; ty < tilesY; ++ty) {
-      for (int tx = 0; tx < m_tilesX; ++tx) {
-        TileState& t = m_state[static_cast<size_t>(ty) * m_tilesX + tx];
-        t.x0 = std::max((m_firstTileX + tx) * kTileSize, m_work.x);
-        t.y0 = std::max((m_firstTileY + ty) * kTileSize, m_work.y);
-        t.w = std::min((m_firstTileX + tx + 1) * kTileSize, m_work.x + m_work.width) - t.x0;
-        t.h = std::min((m_firstTileY + ty + 1) * kTileSize, m_work.y + m_work.height) - t.y0;
-        t.sums.clear(t.w * t.h);
-        std::fill(t.add, t.add + t.w * t.h, m_firstSamples);
-      }
+        m_work(workRegion(m_output, m_rounds, settings.width, settings.height)),
+        m_stride(m_work.width + 2),
+        m_firstTileX(m_work.x / kTileSize),
+        m_firstTileY(m_work.y / kTileSize),
+        m_tilesX((m_work.x + m_work.width - 1) / kTileSize - m_firstTileX + 1),
+        m_tileCount(static_cast<size_t>(m_tilesX) * ((m_work.y + m_work.height - 1) / kTileSize - m_firstTileY + 1)),
+        // Left unset: each tile sets its own state and its pixels' summaries in the first pass, on
+        // the worker that samples it (the last render's workers may hold these lines in their caches).
+        m_state(new TileState[m_tileCount]),
+        m_summary(new Summary[static_cast<size_t>(m_stride) * (m_work.height + 2)]) {
+    const int rows = m_work.height + 2;
+    for (int x = 0; x < m_stride; ++x) m_summary[x].present = m_summary[static_cast<size_t>(rows - 1) * m_stride + x].present = false;
+    for (int y = 1; y < rows - 1; ++y) {
+      m_summary[static_cast<size_t>(y) * m_stride].present = m_summary[static_cast<size_t>(y) * m_stride + m_stride - 1].present = false;
     }
   }
 
-  // Runs the rounds on one pool of `threads` workers, then writes the output region; returns what was traced.
+  // Runs the rounds as the phases of one job on `threads` workers, then writes the output region;
+  // returns what was traced.
   RayCounters render(int threads, JobControl& control, const std::function<void()>& poll, AdaptiveStats& stats) {
     // A limit of more than a year is none: the clock's integer ticks would overflow.
     constexpr double kYear = 365.25 * 24 * 3600;
@@ -82,69 +84,106 @@ class AdaptiveSampler {
                               std::chrono::duration<double>(limited ? m_timeLimit : 0.0));
     // The time limit spares the first pass: every pixel gets its first samples.
     const auto overTime = [&](int round) { return round > 0 && limited && std::chrono::steady_clock::now() >= deadline; };
-    RayCounters counters;
-    WorkerPool pool(static_cast<int>(std::min<size_t>(static_cast<size_t>(std::max(1, threads)), m_state.size())));
-    std::vector<int64_t> order(m_state.size());
+    // The round's tiles, and for each tile how many tiles around it (itself included) the round has
+    // yet to sample. Written between rounds by the worker that calls `next`, read by all in a round.
+    std::vector<int64_t> order(m_tileCount);
     for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int64_t>(i);
-    for (int round = 0; !order.empty(); ++round) {
-      if (overTime(round)) {
-        stats.timeLimitReached = true;
-        break;
-      }
-      // A tile is marked for the next round as soon as every tile around it has been sampled in this
-      // one (its marking reads nothing else), by the worker that sampled the last of them: no pass
-      // of its own. Tiles with no sampled tile around them keep their decision: nothing to add.
-      const bool last = round == m_rounds;
-      const int level = last ? m_maxSamples : std::min(m_maxSamples, m_firstSamples << (round + 1));
-      std::vector<std::atomic<int>> pending(m_state.size());
+    std::vector<std::atomic<int>> pending(m_tileCount);
+    const auto countPending = [&] {
       for (std::atomic<int>& p : pending) p.store(0, std::memory_order_relaxed);
-      for (TileState& t : m_state) t.priority = 0;
       for (const int64_t u : order) forTilesAround(static_cast<size_t>(u), [&](size_t t) { pending[t].fetch_add(1); });
-      std::atomic<bool> late{false};
-      const auto work = [&](int64_t i, RayCounters& c) {
-        if (overTime(round)) {
-          late = true;
-          return;
-        }
-        const size_t u = static_cast<size_t>(order[static_cast<size_t>(i)]);
-        sampleTile(m_state[u], round, c);
-        if (!control.cancel.load(std::memory_order_relaxed)) {
-          forTilesAround(u, [&](size_t t) {
-            if (pending[t].fetch_sub(1, std::memory_order_acq_rel) == 1 && !last) mark(t, level, round);
-          });
-        }
-      };
-      counters += inParallel(static_cast<int64_t>(order.size()), pool, control, poll, round, work);
-      ++stats.rounds;
-      if (control.cancel.load() || late.load()) {
-        stats.timeLimitReached = late.load();
-        break;
+    };
+    countPending();
+    std::atomic<int> round{0};
+    std::atomic<bool> late{false};
+    RayCounters counters;
+    std::mutex countersMutex;
+    // A tile is marked for the next round as soon as every tile around it has been sampled in this
+    // one (its marking reads nothing else), by the worker that sampled the last of them: no pass
+    // of its own. Tiles with no sampled tile around them keep their decision: nothing to add.
+    const std::function<void(int64_t)> work = [&](int64_t i) {
+      const int r = round.load(std::memory_order_relaxed);
+      if (overTime(r)) {
+        late = true;
+        return;
       }
-      if (last) break;
+      const bool last = r == m_rounds;
+      const int level = last ? m_maxSamples : std::min(m_maxSamples, m_firstSamples << (r + 1));
+      const size_t u = static_cast<size_t>(order[static_cast<size_t>(i)]);
+      if (r == 0) start(u);
+      RayCounters c;
+      sampleTile(m_state[u], r, c);
+      if (!control.cancel.load(std::memory_order_relaxed)) {
+        forTilesAround(u, [&](size_t t) {
+          if (pending[t].fetch_sub(1, std::memory_order_acq_rel) == 1 && !last) mark(t, level, r);
+        });
+      }
+      const std::lock_guard<std::mutex> lock(countersMutex);
+      counters += c;
+    };
+    // Between rounds (not after a cancel): the next round's tiles, none when the work is done.
+    const std::function<int64_t()> next = [&]() -> int64_t {
+      ++stats.rounds;
+      const int r = round.load(std::memory_order_relaxed);
+      if (late.load()) stats.timeLimitReached = true;
+      if (late.load() || r == m_rounds) return 0;
       order = tilesToRefine();
+      if (order.empty()) return 0;
+      if (overTime(r + 1)) {
+        stats.timeLimitReached = true;
+        return 0;
+      }
+      round.store(r + 1, std::memory_order_relaxed);
+      countPending();
+      return static_cast<int64_t>(order.size());
+    };
+    JobControl rounds;  // counts the current round's tiles
+    const std::function<void()> roundPoll = [&] {
+      control.total = 1000;
+      control.done = static_cast<int64_t>(1000 * (round.load() + rounds.fraction()) / (m_rounds + 1));
+      poll();
+      if (control.cancel.load()) rounds.cancel = true;
+    };
+    const int workers = static_cast<int>(std::min<size_t>(static_cast<size_t>(std::max(1, threads)), m_tileCount));
+    runPhases(static_cast<int64_t>(order.size()), workers, rounds, work, next, roundPoll);
+    if (control.cancel.load()) {
+      ++stats.rounds;  // the round cancelled
+      stats.timeLimitReached = late.load();
+    } else {
+      write(stats);
     }
-    if (!control.cancel.load()) write(stats);
     return counters;
   }
 
  private:
   // A tile's pixels (clipped to the work region) and what adaptive sampling keeps of them.
   struct TileState {
-    int x0 = 0, y0 = 0, w = 0, h = 0;
+    int x0, y0, w, h;
     Sums sums;                                            // every sample so far
-    Real lastR[kPacketSize], lastG[kPacketSize], lastB[kPacketSize];  // colour sums of the last round
-    int32_t taken[kPacketSize] = {};                      // samples so far
-    int32_t last[kPacketSize] = {};                       // of which the last round's (the second half)
-    int32_t add[kPacketSize] = {};                        // samples the next round takes
-    int32_t firstPrim[kPacketSize];                       // the primitive the pixel's first sample met
-    float firstT[kPacketSize];                            // and how far along its ray (inf: a miss)
-    bool mixed[kPacketSize] = {};                         // a later sample met geometry that differs
-    float error[kPacketSize] = {};                        // estimated RMS error of the mean colour
-    float meanR[kPacketSize], meanG[kPacketSize], meanB[kPacketSize];  // the mean colour
-    int sampledIn = -1;                                   // the last round that sampled the tile
-    bool fresh[kPacketSize] = {};                         // the pixel took samples in that round
-    float priority = 0;                                   // the worst marked pixel's (time limit: first)
+    Real lastR[kPacketSize], lastG[kPacketSize], lastB[kPacketSize];  // colour sums of the second half
+    int32_t taken[kPacketSize];                           // samples so far
+    int32_t last[kPacketSize];                            // of which the last round's (the second half)
+    int32_t add[kPacketSize];                             // samples the next round takes
+    bool mixed[kPacketSize];                              // a later sample met geometry that differs
+    float priority;                                       // the worst marked pixel's (time limit: first)
   };
+
+  // What marking reads of a pixel, in one array over the work region and a ring of absent pixels
+  // around it: a 3x3 neighbourhood is three short rows of one compact array (a tile's ring lies in
+  // other tiles), with no bounds tests.
+  struct Summary {
+    Real nx, ny, nz;                // normal sums
+    float error;                    // estimated RMS error of the mean colour
+    float firstT;                   // how far along its ray the first sample met (inf: a miss)
+    float meanR, meanG, meanB;      // the mean colour
+    int32_t firstPrim;              // the primitive the first sample met
+    int16_t sampledIn;              // the last round the pixel took samples in
+    bool present;                   // inside the work region
+  };
+
+  Summary& summaryAt(int x, int y) {
+    return m_summary[static_cast<size_t>(y - m_work.y + 1) * m_stride + (x - m_work.x + 1)];
+  }
 
   static int roundsFor(int first, int max) {
     int rounds = 0;
@@ -159,47 +198,44 @@ class AdaptiveSampler {
     return {x0, y0, x1 - x0, y1 - y0};
   }
 
-  // Runs work(item, counters) over [0, items) with progress reported as the share of rounds done.
-  template <typename Work>
-  RayCounters inParallel(int64_t items, WorkerPool& pool, JobControl& control, const std::function<void()>& poll,
-                         int round, const Work& work) {
-    JobControl roundControl;
-    RayCounters total;
-    std::mutex totalMutex;
-    const auto roundPoll = [&] {
-      control.total = 1000;
-      control.done = static_cast<int64_t>(1000 * (round + roundControl.fraction()) / (m_rounds + 1));
-      poll();
-      if (control.cancel.load()) roundControl.cancel = true;
-    };
-    pool.run(items, roundControl, [&](int64_t item) {
-      RayCounters c;
-      work(item, c);
-      const std::lock_guard<std::mutex> lock(totalMutex);
-      total += c;
-    }, roundPoll);
-    return total;
-  }
+  // Where a packet's samples go (TileRenderer::trace): sample j to pixel pixel[j] of the tile, in
+  // order, and its colour also to the pixel's last-round sums if inLast[j]. The pixel's sums are then
+  // those of adding its samples one at a time, whatever the packets.
+  struct PixelSink {
+    TileState& t;
+    const int* pixel;
+    const bool* inLast;
+    void addColor(int j, Real r, Real g, Real b, Real a) {
+      const int k = pixel[j];
+      t.sums.addColor(k, r, g, b, a);
+      if (inLast[j]) t.lastR[k] += r, t.lastG[k] += g, t.lastB[k] += b;
+    }
+    void addDepth(int j, Real d) { t.sums.addDepth(pixel[j], d); }
+    void addNormal(int j, bool hit, Real along, int32_t prim, Real x, Real y, Real z) {
+      t.sums.addNormal(pixel[j], hit, along, prim, x, y, z);
+    }
+    bool addNearest(int j, bool hit, Real along, int32_t prim) { return t.sums.addNearest(pixel[j], hit, along, prim); }
+  };
 
   // Takes each pixel's add[k] samples, pixel by pixel in packets of up to kPacketSize rays: a pixel's
   // samples are the most coherent rays there are. A packet's sample positions are made together.
-  void sampleTile(TileState& t, int round, RayCounters& counters) const {
+  void sampleTile(TileState& t, int round, RayCounters& counters) {
     const int count = t.w * t.h;
     const bool first = round == 0;
-    t.sampledIn = round;
     alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
-    alignas(64) int pixel[kPacketSize], slot[kPacketSize], px[kPacketSize], py[kPacketSize];
+    alignas(64) int pixel[kPacketSize], px[kPacketSize], py[kPacketSize];
     alignas(64) uint32_t s[kPacketSize], order[kPacketSize], points[kPacketSize];  // sample numbers, seeds
     alignas(64) int32_t prim[kPacketSize];
     alignas(64) Real along[kPacketSize];
-    Sums one;
+    bool inLast[kPacketSize];
+    PixelSink sink{t, pixel, inLast};
     int n = 0;
     const auto flush = [&] {
       m_tiles.sobolPositions(px, py, order, points, s, n, sampleX, sampleY);
-      if (!m_tiles.trace(sampleX, sampleY, n, one, prim, along, counters)) return false;
+      if (!m_tiles.trace(sampleX, sampleY, n, sink, prim, along, counters)) return false;
       for (int j = 0, end; j < n; j = end) {  // a pixel's samples are consecutive: one run each
         for (end = j + 1; end < n && pixel[end] == pixel[j];) ++end;
-        record(t, pixel[j], j, end, s, slot, first, one, prim, along);
+        noteGeometry(t, pixel[j], j, end, s, prim, along);
       }
       n = 0;
       return true;
@@ -209,10 +245,17 @@ class AdaptiveSampler {
       const int x = t.x0 + k % t.w, y = t.y0 + k / t.w;
       uint32_t pixelOrder, pixelPoints;
       m_tiles.sobolSeeds(x, y, pixelOrder, pixelPoints);
-      for (int i = 0; i < t.add[k]; ++i) {
-        s[n] = static_cast<uint32_t>(t.taken[k] + i), slot[n] = i, pixel[n] = k;
-        px[n] = x, py[n] = y, order[n] = pixelOrder, points[n] = pixelPoints;
-        if (++n == kPacketSize && !flush()) return;
+      // The last round's samples are the second half of the pixel's: all of a refining round's, the
+      // later half of the first pass's.
+      const int firstOfLast = first ? t.add[k] - t.add[k] / 2 : 0;
+      t.lastR[k] = t.lastG[k] = t.lastB[k] = 0;
+      for (int i = 0; i < t.add[k];) {  // as many of its samples as the packet has room for
+        const int end = std::min(t.add[k], i + kPacketSize - n);
+        for (; i < end; ++i, ++n) {
+          s[n] = static_cast<uint32_t>(t.taken[k] + i), inLast[n] = i >= firstOfLast, pixel[n] = k;
+          px[n] = x, py[n] = y, order[n] = pixelOrder, points[n] = pixelPoints;
+        }
+        if (n == kPacketSize && !flush()) return;
       }
     }
     if (n > 0 && !flush()) return;
@@ -220,45 +263,64 @@ class AdaptiveSampler {
     for (int k = 0; k < count; ++k) {
       t.taken[k] += t.add[k];
       t.last[k] = t.add[k] == 0 ? t.last[k] : first ? t.add[k] / 2 : t.add[k];
-      t.fresh[k] = t.add[k] > 0;
-      fresh[freshCount] = k, freshCount += t.fresh[k];
+      fresh[freshCount] = k, freshCount += t.add[k] > 0;
       t.add[k] = 0;
       t.sums.samples[k] = static_cast<Real>(t.taken[k]);
     }
-    for (int i = 0; i < freshCount; ++i) {  // the others' error and mean are as their samples left them
+    for (int i = 0; i < freshCount; ++i) {  // the others' summaries are as their samples left them
       const int k = fresh[i];
-      t.error[k] = estimatedError(t, k);
+      Summary& p = summaryOf(t, k);
+      p.error = estimatedError(t, k);
       const Real inverse = 1 / t.sums.samples[k];
-      t.meanR[k] = static_cast<float>(t.sums.r[k] * inverse);
-      t.meanG[k] = static_cast<float>(t.sums.g[k] * inverse);
-      t.meanB[k] = static_cast<float>(t.sums.b[k] * inverse);
+      p.meanR = static_cast<float>(t.sums.r[k] * inverse);
+      p.meanG = static_cast<float>(t.sums.g[k] * inverse);
+      p.meanB = static_cast<float>(t.sums.b[k] * inverse);
+      p.nx = t.sums.nx[k], p.ny = t.sums.ny[k], p.nz = t.sums.nz[k];
+      p.sampledIn = static_cast<int16_t>(round);
     }
   }
 
-  // Adds samples [j0, j1) of `one` (sample numbers s[j] of pixel k, its slot[j]-th this round, which
-  // met prim[j] at along[j] on its ray) to the pixel, in order: the same sums, bit for bit, as adding
-  // them one at a time, with the pixel's running sums kept in registers over the run.
-  void record(TileState& t, int k, int j0, int j1, const uint32_t* s, const int* slot, bool first, const Sums& one,
-              const int32_t* prim, const Real* along) const {
-    t.sums.addRun(k, one, j0, j1);
-    // The last round's samples are the second half of the pixel's: all of a refining round's, the
-    // later half of the first pass's.
-    const int firstOfLast = first ? t.add[k] - t.add[k] / 2 : 0;
-    Real lastR = t.lastR[k], lastG = t.lastG[k], lastB = t.lastB[k];
-    int32_t firstPrim = t.firstPrim[k];
-    float firstT = t.firstT[k];
+  // Sets tile u's state and its pixels' summaries for the first pass.
+  void start(size_t u) {
+    TileState& t = m_state[u];
+    const int tx = m_firstTileX + static_cast<int>(u % m_tilesX), ty = m_firstTileY + static_cast<int>(u / m_tilesX);
+    t.x0 = std::max(tx * kTileSize, m_work.x), t.y0 = std::max(ty * kTileSize, m_work.y);
+    t.w = std::min((tx + 1) * kTileSize, m_work.x + m_work.width) - t.x0;
+    t.h = std::min((ty + 1) * kTileSize, m_work.y + m_work.height) - t.y0;
+    const int count = t.w * t.h;
+    t.sums.clear(count);
+    std::fill(t.taken, t.taken + count, 0);
+    std::fill(t.last, t.last + count, 0);
+    std::fill(t.add, t.add + count, m_firstSamples);
+    std::fill(t.mixed, t.mixed + count, false);
+    t.priority = 0;
+    for (int k = 0; k < count; ++k) {
+      Summary& p = summaryOf(t, k);
+      p.nx = p.ny = p.nz = 0;
+      p.error = p.firstT = p.meanR = p.meanG = p.meanB = 0;
+      p.firstPrim = kNoPrimitive, p.sampledIn = -1, p.present = true;
+    }
+  }
+
+  Summary& summaryOf(const TileState& t, int k) { return summaryAt(t.x0 + k % t.w, t.y0 + k / t.w); }
+
+  // Notes what samples [j0, j1) of pixel k (sample numbers s[j], which met prim[j] at along[j] on
+  // their rays) saw: the first sample's primitive and distance, and whether a later one met other
+  // geometry beyond a depth discontinuity.
+  void noteGeometry(TileState& t, int k, int j0, int j1, const uint32_t* s, const int32_t* prim, const Real* along) {
+    Summary& p = summaryOf(t, k);
+    int32_t firstPrim = p.firstPrim;
+    float firstT = p.firstT;
     bool mixed = t.mixed[k];
+    if (mixed && s[j0] > 0) return;  // nothing left to note
     for (int j = j0; j < j1; ++j) {
-      if (slot[j] == firstOfLast) lastR = lastG = lastB = 0;
-      if (slot[j] >= firstOfLast) lastR += one.r[j], lastG += one.g[j], lastB += one.b[j];
       if (s[j] == 0) {
         firstPrim = prim[j], firstT = static_cast<float>(along[j]);
       } else if (prim[j] != firstPrim) {
         mixed = mixed || depthJump(along[j], firstT);
       }
     }
-    t.lastR[k] = lastR, t.lastG[k] = lastG, t.lastB[k] = lastB;
-    t.firstPrim[k] = firstPrim, t.firstT[k] = firstT, t.mixed[k] = mixed;
+    p.firstPrim = firstPrim, p.firstT = firstT, t.mixed[k] = mixed;
   }
 
   static bool depthJump(Real a, Real b) {
@@ -269,75 +331,38 @@ class AdaptiveSampler {
 
   // The RMS over the colour channels of the difference of the two halves' means, scaled to the
   // standard error of the whole mean: for a and b samples, E[(mA - mB)^2] = var (1/a + 1/b) and the
-  // mean's variance is var / (a + b).
+  // mean's variance is var / (a + b). Over the common denominator ab: one division.
   static float estimatedError(const TileState& t, int k) {
     const double b = t.last[k], a = t.taken[k] - b;
     if (a == 0 || b == 0) return 0;  // one sample: nothing to compare
-    const double dr = (t.sums.r[k] - t.lastR[k]) / a - t.lastR[k] / b;
-    const double dg = (t.sums.g[k] - t.lastG[k]) / a - t.lastG[k] / b;
-    const double db = (t.sums.b[k] - t.lastB[k]) / a - t.lastB[k] / b;
-    const double squared = (dr * dr + dg * dg + db * db) / 3 * a * b / ((a + b) * (a + b));
-    return static_cast<float>(std::sqrt(squared));
-  }
-
-  const TileState& tileAt(int x, int y) const {
-    return m_state[static_cast<size_t>(y / kTileSize - m_firstTileY) * m_tilesX + (x / kTileSize - m_firstTileX)];
+    const double dr = (t.sums.r[k] - t.lastR[k]) * b - t.lastR[k] * a;  // (mA - mB) ab
+    const double dg = (t.sums.g[k] - t.lastG[k]) * b - t.lastG[k] * a;
+    const double db = (t.sums.b[k] - t.lastB[k]) * b - t.lastB[k] * a;
+    return static_cast<float>(std::sqrt((dr * dr + dg * dg + db * db) / (3 * a * b * (a + b) * (a + b))));
   }
 
   static int slotOf(const TileState& t, int x, int y) { return (y - t.y0) * t.w + (x - t.x0); }
-
-  // What mark() reads of a pixel, for the pixels of a tile and the ring around it: gathered once
-  // per tile, so that the nine-pixel neighbourhoods read one small array instead of the tiles around.
-  struct Neighbour {
-    Real nx, ny, nz;                              // normal sums
-    float error, firstT, meanR, meanG, meanB;
-    int32_t firstPrim;
-    bool present;                                 // inside the work region
-    bool fresh;                                   // took samples in the round marked from
-  };
-  static constexpr int kGridWidth = kTileSize + 2;
-
-  // grid[(y - t.y0 + 1) * kGridWidth + (x - t.x0 + 1)]: pixel (x, y) of t or of the ring around it.
-  void gather(const TileState& t, int round, Neighbour* grid) const {
-    for (int y = t.y0 - 1; y <= t.y0 + t.h; ++y) {
-      for (int x = t.x0 - 1; x <= t.x0 + t.w; ++x) {
-        Neighbour& n = grid[(y - t.y0 + 1) * kGridWidth + (x - t.x0 + 1)];
-        n.present = x >= m_work.x && x < m_work.x + m_work.width && y >= m_work.y && y < m_work.y + m_work.height;
-        n.fresh = false;
-        if (!n.present) continue;
-        const TileState& u = tileAt(x, y);
-        const int q = slotOf(u, x, y);
-        n.nx = u.sums.nx[q], n.ny = u.sums.ny[q], n.nz = u.sums.nz[q];
-        n.error = u.error[q], n.firstT = u.firstT[q];
-        n.meanR = u.meanR[q], n.meanG = u.meanG[q], n.meanB = u.meanB[q];
-        n.firstPrim = u.firstPrim[q];
-        n.fresh = u.sampledIn == round && u.fresh[q];
-      }
-    }
-  }
 
   // Decides add[k] for every pixel of tile `index` from the state the last round left. A pixel whose
   // neighbourhood the last round did not sample decides as before it: nothing to add.
   void mark(size_t index, int level, int round) {
     TileState& t = m_state[index];
-    Neighbour grid[kGridWidth * kGridWidth];
-    bool gathered = false;  // only once a pixel looks at its neighbours
+    t.priority = 0;
     for (int k = 0; k < t.w * t.h; ++k) {
       const int taken = t.taken[k];
       if (taken >= level) continue;
-      const double own = t.error[k];
+      const Summary& self = summaryOf(t, k);
+      const double own = self.error;
       double error = own, contrast = 0;
       if (own <= m_target) {
-        if (!gathered) gather(t, round, grid), gathered = true;
-        const Neighbour& self = grid[(k / t.w + 1) * kGridWidth + k % t.w + 1];
         bool fresh = false;
-        forAround(self, [&](const Neighbour& u) { fresh = fresh || u.fresh; });
+        forAround(self, [&](const Summary& u) { fresh = fresh || u.sampledIn == round; });
         if (!fresh) continue;
         double neighbourhood = 0;
         float squaredContrast = 0;
         int around = 0;
         bool edge = t.mixed[k];
-        forAround(self, [&](const Neighbour& u) {
+        forAround(self, [&](const Summary& u) {
           neighbourhood += static_cast<double>(u.error) * u.error;
           ++around;
           edge = edge || differ(self, u);
@@ -352,12 +377,12 @@ class AdaptiveSampler {
     }
   }
 
-  // f(u) for the pixels u of the work region around `self` (itself included), row by row, in a gathered grid.
+  // f(u) for the pixels u of the work region around `self` (itself included), row by row.
   template <typename F>
-  static void forAround(const Neighbour& self, const F& f) {
+  void forAround(const Summary& self, const F& f) const {
     for (int dy = -1; dy <= 1; ++dy) {
       for (int dx = -1; dx <= 1; ++dx) {
-        const Neighbour& u = (&self)[dy * kGridWidth + dx];
+        const Summary& u = (&self)[dy * m_stride + dx];
         if (u.present) f(u);
       }
     }
@@ -367,7 +392,7 @@ class AdaptiveSampler {
   template <typename F>
   void forTilesAround(size_t index, const F& f) const {
     const int tx = static_cast<int>(index % m_tilesX), ty = static_cast<int>(index / m_tilesX);
-    const int tilesY = static_cast<int>(m_state.size() / m_tilesX);
+    const int tilesY = static_cast<int>(m_tileCount / m_tilesX);
     for (int y = std::max(ty - 1, 0); y <= std::min(ty + 1, tilesY - 1); ++y) {
       for (int x = std::max(tx - 1, 0); x <= std::min(tx + 1, m_tilesX - 1); ++x) f(static_cast<size_t>(y) * m_tilesX + x);
     }
@@ -375,7 +400,7 @@ class AdaptiveSampler {
 
   // Whether two pixels see different geometry: their first samples met other primitives, one of
   // them nothing, or both at a depth discontinuity or a crease.
-  static bool differ(const Neighbour& a, const Neighbour& b) {
+  static bool differ(const Summary& a, const Summary& b) {
     if (a.firstPrim == b.firstPrim) return false;
     if (depthJump(a.firstT, b.firstT)) return true;
     const double dot = double(a.nx) * b.nx + double(a.ny) * b.ny + double(a.nz) * b.nz;
@@ -386,7 +411,7 @@ class AdaptiveSampler {
 
   // The mean over the colour channels of the squared difference of two pixels' mean colours: the
   // square of their RMS difference.
-  static float squaredColourDifference(const Neighbour& a, const Neighbour& b) {
+  static float squaredColourDifference(const Summary& a, const Summary& b) {
     const float dr = a.meanR - b.meanR, dg = a.meanG - b.meanG, db = a.meanB - b.meanB;
     return (dr * dr + dg * dg + db * db) / 3;
   }
@@ -394,7 +419,7 @@ class AdaptiveSampler {
   // The tiles with pixels to refine, the worst first (what a time limit cuts is the least needed).
   std::vector<int64_t> tilesToRefine() const {
     std::vector<int64_t> order;
-    for (size_t i = 0; i < m_state.size(); ++i) {
+    for (size_t i = 0; i < m_tileCount; ++i) {
       const TileState& t = m_state[i];
       if (std::any_of(t.add, t.add + t.w * t.h, [](int32_t a) { return a > 0; })) order.push_back(static_cast<int64_t>(i));
     }
@@ -405,10 +430,11 @@ class AdaptiveSampler {
   }
 
   // Writes the output region's pixels, their error estimates, and the image's summary of them.
-  void write(AdaptiveStats& stats) const {
+  void write(AdaptiveStats& stats) {
     const RenderSettings::Region& r = m_output;
     double squares = 0, worst = 0;
-    for (const TileState& t : m_state) {
+    for (size_t u = 0; u < m_tileCount; ++u) {
+      const TileState& t = m_state[u];
       const int x0 = std::max(t.x0, r.x), x1 = std::min(t.x0 + t.w, r.x + r.width);
       for (int y = std::max(t.y0, r.y); y < std::min(t.y0 + t.h, r.y + r.height); ++y) {
         if (x0 >= x1) break;
@@ -416,7 +442,7 @@ class AdaptiveSampler {
         const int k0 = slotOf(t, x0, y);
         m_tiles.writeRow(t.sums, k0, x1 - x0, first);
         for (int i = 0; i < x1 - x0; ++i) {
-          const double e = t.error[k0 + i];
+          const double e = summaryAt(x0 + i, y).error;
           squares += e * e, worst = std::max(worst, e);
           if (m_targets.error) m_targets.error[first + i] = static_cast<float>(e);
         }
@@ -433,8 +459,11 @@ class AdaptiveSampler {
   double m_target, m_timeLimit;
   int m_rounds;                     // refining rounds at most: the margin a region is rendered with
   RenderSettings::Region m_work;    // the pixels sampled: the output and its margin
-  int m_firstTileX = 0, m_firstTileY = 0, m_tilesX = 0;
-  std::vector<TileState> m_state;
+  int m_stride;                     // of m_summary's rows
+  int m_firstTileX, m_firstTileY, m_tilesX;
+  size_t m_tileCount;
+  std::unique_ptr<TileState[]> m_state;    // by tile, row by row
+  std::unique_ptr<Summary[]> m_summary;   // the work region's pixels and a ring around them, row by row
 };
 
 }  // namespace tiles

@@ -106,7 +106,9 @@ class TileRenderer {
     return counters;
   }
 
-  // Per-pixel sums over the samples of a tile, structure-of-arrays.
+  // Per-pixel sums over the samples of a tile, structure-of-arrays. It is also the sink the
+  // accumulate functions add a packet's samples to, ray k to pixel k (AdaptiveSampler's sink maps the
+  // rays to pixels its own way): the add* functions below.
  public:
   struct Accumulator {
     alignas(64) Real r[kPacketSize], g[kPacketSize], b[kPacketSize], a[kPacketSize];  // colour sums
@@ -124,6 +126,10 @@ class TileRenderer {
         nearestPrim[k] = kNoPrimitive;
       }
     }
+    void addColor(int k, Real red, Real green, Real blue, Real alpha) {
+      r[k] += red, g[k] += green, b[k] += blue, a[k] += alpha;
+    }
+    void addDepth(int k, Real t) { depth[k] = std::min(depth[k], t); }
     // Makes a hit sample of primitive `prim` at t along its ray pixel k's nearest if it is nearer than
     // those before it (the first taken among equally near ones); returns whether it did. Branch-free.
     bool addNearest(int k, bool hit, Real t, int32_t prim) {
@@ -138,23 +144,6 @@ class TileRenderer {
       nx[k] += x * weight, ny[k] += y * weight, nz[k] += z * weight, hits[k] += weight;
       const bool nearer = addNearest(k, hit, t, prim);
       fx[k] = nearer ? x : fx[k], fy[k] = nearer ? y : fy[k], fz[k] = nearer ? z : fz[k];
-    }
-    // Adds entries [j0, j1) of `other` (one sample's values each) to pixel k, in order (the same sums
-    // as one at a time, bit for bit), the running sums in registers.
-    void addRun(int k, const Accumulator& other, int j0, int j1) {
-      Real sr = r[k], sg = g[k], sb = b[k], sa = a[k], sx = nx[k], sy = ny[k], sz = nz[k], sh = hits[k];
-      Real d = depth[k], t = nearestT[k], x = fx[k], y = fy[k], z = fz[k];
-      int32_t p = nearestPrim[k];
-      for (int j = j0; j < j1; ++j) {
-        sr += other.r[j], sg += other.g[j], sb += other.b[j], sa += other.a[j];
-        sx += other.nx[j], sy += other.ny[j], sz += other.nz[j], sh += other.hits[j];
-        d = std::min(d, other.depth[j]);
-        const bool nearer = other.nearestT[j] < t;
-        t = nearer ? other.nearestT[j] : t, p = nearer ? other.nearestPrim[j] : p;
-        x = nearer ? other.fx[j] : x, y = nearer ? other.fy[j] : y, z = nearer ? other.fz[j] : z;
-      }
-      r[k] = sr, g[k] = sg, b[k] = sb, a[k] = sa, nx[k] = sx, ny[k] = sy, nz[k] = sz, hits[k] = sh;
-      depth[k] = d, nearestT[k] = t, fx[k] = x, fy[k] = y, fz[k] = z, nearestPrim[k] = p;
     }
   };
 
@@ -172,18 +161,19 @@ class TileRenderer {
     for (int j = 0; j < count; ++j) sampleX[j] = static_cast<Real>(x[j] + u[j]), sampleY[j] = static_cast<Real>(y[j] + v[j]);
   }
 
-  // Traces the samples at (sampleX[j], sampleY[j]) for j < count as one packet: entry j of `out`
-  // (cleared first) gets that sample's values, prim[j] the primitive it met and t[j] how far along
-  // its ray (inf on a miss, whatever the depth pass measures). False if cancelled.
-  bool trace(const Real* sampleX, const Real* sampleY, int count, Accumulator& out, int32_t* prim, Real* t,
+  // Traces the samples at (sampleX[j], sampleY[j]) for j < count as one packet and adds them to
+  // `sink` (an Accumulator's interface, entry j for sample j, in order); prim[j] gets the primitive
+  // sample j met and t[j] how far along its ray (inf on a miss, whatever the depth pass measures).
+  // False if cancelled.
+  template <typename Sink>
+  bool trace(const Real* sampleX, const Real* sampleY, int count, Sink& sink, int32_t* prim, Real* t,
              RayCounters& counters) const {
     RayPacket<Real> packet;
     m_camera.generate(packet, sampleX, sampleY, count);
     packet.view = m_view.get();
     counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
     if (m_cancel.load(std::memory_order_relaxed)) return false;
-    out.clear(count);
-    accumulate(packet, out, counters);
+    accumulate(packet, sink, counters);
     counters.camera += count;
     std::copy(packet.prim, packet.prim + count, prim);
     for (int j = 0; j < count; ++j) {
@@ -281,8 +271,9 @@ class TileRenderer {
     sampleY = static_cast<Real>(y + v);
   }
 
-  // Adds one sample per ray of the packet to the tile's sums.
-  void accumulate(const RayPacket<Real>& packet, Accumulator& acc, RayCounters& counters) const {
+  // Adds one sample per ray of the packet to `acc` (an Accumulator, or a sink with its add* functions).
+  template <typename Sink>
+  void accumulate(const RayPacket<Real>& packet, Sink& acc, RayCounters& counters) const {
     if (!m_needHits) {  // flat colours, depth and normals: no hit records
       accumulateFlat(packet, acc);
       if (m_targets.normal) {
@@ -298,7 +289,7 @@ class TileRenderer {
     for (int k = 0; k < packet.count; ++k) {
       hits.make(k, [&] { return m_group.hit(packet, k); });
       if (!hits[k].isHit()) continue;
-      acc.depth[k] = std::min(acc.depth[k], m_planarDepth ? hits[k].t * planarScale(packet, k) : hits[k].t);
+      acc.addDepth(k, m_planarDepth ? hits[k].t * planarScale(packet, k) : hits[k].t);
       const Vec3<Real> n = m_shader.shadingNormal(hits[k], Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]));
       acc.addNormal(k, true, hits[k].t, packet.prim[k], n.x, n.y, n.z);
     }
@@ -307,14 +298,15 @@ class TileRenderer {
     std::fill(weights, weights + packet.count, Real(1));
     m_shader.shade(packet, hits.data(), weights, 0, rgb, counters);
     for (int k = 0; k < packet.count; ++k) {
-      addColor(acc, k, rgb[k].r, rgb[k].g, rgb[k].b, hits[k].isHit() ? Real(1) : m_flat.a.back());
+      acc.addColor(k, rgb[k].r, rgb[k].g, rgb[k].b, hits[k].isHit() ? Real(1) : m_flat.a.back());
     }
   }
 
   // Normals of the packet's hits: those on the top-level group's own spheres and planes in one loop
   // without a hit record per ray (written branch-free, though GCC 12 keeps it scalar: the selects
   // follow a division and a root; docs/benchmarks.md), the others through their hit records.
-  void accumulateNormals(const RayPacket<Real>& packet, Accumulator& acc) const {
+  template <typename Sink>
+  void accumulateNormals(const RayPacket<Real>& packet, Sink& acc) const {
     const bool spheres = m_group.spheres().size() > 0, planes = m_group.planes().size() > 0;
     if (spheres && planes) {
       accumulateOwnNormals<true, true>(packet, acc);
@@ -335,8 +327,8 @@ class TileRenderer {
   // Each ray adds the normal of its hit if that is one of the group's own spheres (Spheres) or planes
   // (Planes), else nothing; the same normals as SphereSet's and PlaneSet's hit records, turned by
   // shadingNormal's rule.
-  template <bool Spheres, bool Planes>
-  void accumulateOwnNormals(const RayPacket<Real>& packet, Accumulator& acc) const {
+  template <bool Spheres, bool Planes, typename Sink>
+  void accumulateOwnNormals(const RayPacket<Real>& packet, Sink& acc) const {
     const int32_t sphereCount = static_cast<int32_t>(m_group.spheres().size());
     const int32_t planeEnd = sphereCount + static_cast<int32_t>(m_group.planes().size());
     const Sphere<Real>* sphere = Spheres ? &m_group.spheres().primitive(0) : nullptr;
@@ -367,35 +359,29 @@ class TileRenderer {
   }
 
   // Unlit colour and depth need no hit record: a branch-free table lookup per ray.
-  void accumulateFlat(const RayPacket<Real>& packet, Accumulator& acc) const {
+  template <typename Sink>
+  void accumulateFlat(const RayPacket<Real>& packet, Sink& acc) const {
     const Real inf = std::numeric_limits<Real>::infinity();
     if (m_planarDepth) {
       for (int k = 0; k < packet.count; ++k) {
         const Real t = packet.tHit[k] * planarScale(packet, k);
-        acc.depth[k] = std::min(acc.depth[k], packet.prim[k] != kNoPrimitive ? t : inf);
+        acc.addDepth(k, packet.prim[k] != kNoPrimitive ? t : inf);
       }
     } else {
       for (int k = 0; k < packet.count; ++k) {
-        acc.depth[k] = std::min(acc.depth[k], packet.prim[k] != kNoPrimitive ? packet.tHit[k] : inf);
+        acc.addDepth(k, packet.prim[k] != kNoPrimitive ? packet.tHit[k] : inf);
       }
     }
     if (!m_targets.color) return;  // a depth (or normal) render computes t and nothing else
     const int32_t* materialOf = m_flat.primMaterial.data() + 1;  // materialOf[kNoPrimitive]: the background
     for (int k = 0; k < packet.count; ++k) {
       const size_t m = static_cast<size_t>(materialOf[packet.prim[k]]);
-      addColor(acc, k, m_flat.r[m], m_flat.g[m], m_flat.b[m], m_flat.a[m]);
+      acc.addColor(k, m_flat.r[m], m_flat.g[m], m_flat.b[m], m_flat.a[m]);
     }
   }
 
   Real planarScale(const RayPacket<Real>& packet, int k) const {
     return m_camera.planarScale(packet.dx[k], packet.dy[k], packet.dz[k]);
-  }
-
-  static void addColor(Accumulator& acc, int k, Real r, Real g, Real b, Real a) {
-    acc.r[k] += r;
-    acc.g[k] += g;
-    acc.b[k] += b;
-    acc.a[k] += a;
   }
 
   // The view of the scene's own spheres for this camera over the whole image (SphereView), shared
