@@ -38,11 +38,15 @@ inline void spinPause() {
 #endif
 }
 
+int64_t checked(int64_t items) {
+  if (items >= (int64_t(1) << 31)) throw std::length_error("runPhases: 2^31 items or more in a phase");
+  return items;
+}
+
 // One job's workers and what they share.
 class PhasedJob {
  public:
-  PhasedJob(int64_t items, JobControl& control, const std::function<void(int64_t)>& work,
-            const std::function<int64_t()>& next)
+  PhasedJob(int64_t items, JobControl& control, const WorkItem& work, const std::function<int64_t()>& next)
       : m_control(control), m_work(work), m_next(next), m_items(items) {
     control.total = items;
     control.done = 0;
@@ -50,18 +54,22 @@ class PhasedJob {
 
   // Starts up to `threads` workers, then lets them begin; returns how many started (0: the error).
   int start(int threads, int& error) {
+    m_workerIds.resize(static_cast<size_t>(threads));
+    m_shares = std::vector<Share>(static_cast<size_t>(threads));
     for (int w = 0; w < threads && error == 0; ++w) {
+      m_workerIds[static_cast<size_t>(w)] = {this, w};
       pthread_t id;
       pthread_attr_t attributes;
       error = pthread_attr_init(&attributes);
       if (error != 0) break;
       error = pthread_attr_setstacksize(&attributes, kThreadStackBytes);
-      if (error == 0) error = pthread_create(&id, &attributes, &PhasedJob::body, this);
+      if (error == 0) error = pthread_create(&id, &attributes, &PhasedJob::body, &m_workerIds[static_cast<size_t>(w)]);
       pthread_attr_destroy(&attributes);
       if (error == 0) m_threads.push_back(id);  // fewer workers do the work; none at all is an error
     }
     m_workers = static_cast<int>(m_threads.size());
     m_busy = m_workers;
+    share(m_items.load());
     release(1);  // the barrier counts the workers that started: none begins before it knows them
     return m_workers;
   }
@@ -92,18 +100,23 @@ class PhasedJob {
   }
 
  private:
-  static void* body(void* job) {
-    static_cast<PhasedJob*>(job)->serve();
+  struct WorkerId {
+    PhasedJob* job;
+    int index;
+  };
+
+  static void* body(void* id) {
+    const WorkerId& worker = *static_cast<const WorkerId*>(id);
+    worker.job->serve(worker.index);
     return nullptr;
   }
 
-  void serve() {
+  void serve(int worker) {
     for (uint64_t phase = 1; waitFor(phase); ++phase) {
-      const int64_t items = m_items.load(std::memory_order_relaxed);
-      for (int64_t item = m_nextItem++; item < items; item = m_nextItem++) {
+      for (int64_t item = take(worker); item >= 0; item = take(worker)) {
         if (m_control.cancel.load(std::memory_order_relaxed)) break;
         try {
-          m_work(item);
+          m_work(item, worker);
         } catch (...) {
           fail(std::current_exception());
           break;
@@ -114,13 +127,13 @@ class PhasedJob {
         m_arrived.store(0, std::memory_order_relaxed);
         int64_t following = 0;
         try {
-          if (!m_control.cancel.load()) following = m_next();
+          if (!m_control.cancel.load()) following = checked(m_next());
         } catch (...) {
           fail(std::current_exception());
           following = 0;
         }
         m_items.store(following, std::memory_order_relaxed);
-        m_nextItem.store(0, std::memory_order_relaxed);
+        share(following);
         if (following > 0) m_control.total = following, m_control.done = 0;
         release(following > 0 ? phase + 1 : kDone);
       }
@@ -146,6 +159,46 @@ class PhasedJob {
     return m_phase.load(std::memory_order_acquire) == phase;
   }
 
+  // A worker's share of the phase's items: [front, back), packed in one word so that its owner
+  // (from the front) and a thief (from the back) take items with one compare-and-swap each.
+  struct alignas(64) Share {
+    std::atomic<uint64_t> ends{0};
+  };
+  static uint64_t pack(uint64_t front, uint64_t back) { return front | back << 32; }
+
+  void share(int64_t items) {
+    const auto workers = static_cast<int64_t>(m_workers);
+    for (int64_t w = 0; w < workers; ++w) {
+      m_shares[static_cast<size_t>(w)].ends.store(pack(static_cast<uint64_t>(items * w / workers),
+                                                      static_cast<uint64_t>(items * (w + 1) / workers)),
+                                                 std::memory_order_relaxed);
+    }
+  }
+
+  // The worker's next item: from the front of its share, else from the back of the largest share
+  // left; -1 when none is left.
+  int64_t take(int worker) {
+    std::atomic<uint64_t>& own = m_shares[static_cast<size_t>(worker)].ends;
+    for (uint64_t ends = own.load(std::memory_order_relaxed);;) {
+      const uint64_t front = ends & 0xffffffffu, back = ends >> 32;
+      if (front >= back) break;
+      if (own.compare_exchange_weak(ends, pack(front + 1, back), std::memory_order_relaxed)) return static_cast<int64_t>(front);
+    }
+    for (;;) {
+      Share* victim = nullptr;
+      uint64_t most = 0, seen = 0;
+      for (Share& s : m_shares) {
+        const uint64_t ends = s.ends.load(std::memory_order_relaxed), front = ends & 0xffffffffu, back = ends >> 32;
+        if (back > front && back - front > most) most = back - front, victim = &s, seen = ends;
+      }
+      if (victim == nullptr) return -1;
+      const uint64_t back = seen >> 32;
+      if (victim->ends.compare_exchange_weak(seen, pack(seen & 0xffffffffu, back - 1), std::memory_order_relaxed)) {
+        return static_cast<int64_t>(back - 1);
+      }
+    }
+  }
+
   void release(uint64_t phase) {
     {
       const std::lock_guard<std::mutex> lock(m_mutex);
@@ -165,12 +218,13 @@ class PhasedJob {
   static constexpr uint64_t kDone = ~uint64_t(0);
 
   JobControl& m_control;
-  const std::function<void(int64_t)>& m_work;
+  const WorkItem& m_work;
   const std::function<int64_t()>& m_next;
   std::vector<pthread_t> m_threads;
+  std::vector<WorkerId> m_workerIds;
   int m_workers = 0;
   std::atomic<int64_t> m_items;           // in the current phase
-  std::atomic<int64_t> m_nextItem{0};     // the next one to take
+  std::vector<Share> m_shares;            // of the current phase's items, by worker
   std::atomic<int> m_arrived{0};          // workers done with the current phase
   std::atomic<uint64_t> m_phase{0};       // released so far (kDone: the job is over)
   std::mutex m_mutex;
@@ -184,8 +238,9 @@ class PhasedJob {
 
 int defaultThreadCount() { return std::max(1u, std::thread::hardware_concurrency()); }
 
-void runPhases(int64_t items, int threads, JobControl& control, const std::function<void(int64_t)>& work,
+void runPhases(int64_t items, int threads, JobControl& control, const WorkItem& work,
                const std::function<int64_t()>& next, const std::function<void()>& poll, int pollMilliseconds) {
+  checked(items);
   control.total = items;
   control.done = 0;
   poll();  // reports 0 and sees a cancel that came before the start
@@ -202,7 +257,7 @@ void runPhases(int64_t items, int threads, JobControl& control, const std::funct
   if (failure) std::rethrow_exception(failure);
 }
 
-void runParallel(int64_t items, int threads, JobControl& control, const std::function<void(int64_t)>& work,
+void runParallel(int64_t items, int threads, JobControl& control, const WorkItem& work,
                  const std::function<void()>& poll, int pollMilliseconds) {
   const std::function<int64_t()> none = [] { return int64_t(0); };
   runPhases(items, static_cast<int>(std::max<int64_t>(1, std::min<int64_t>(threads, items))), control, work, none,

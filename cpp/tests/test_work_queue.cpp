@@ -23,7 +23,7 @@ TEST_CASE("every item of every phase runs exactly once, and next() runs between 
     JobControl control;
     int polls = 0;
     runPhases(phases[0], threads, control,
-              [&](int64_t item) { runs[static_cast<size_t>(current.load())][static_cast<size_t>(item)].fetch_add(1); },
+              [&](int64_t item, int) { runs[static_cast<size_t>(current.load())][static_cast<size_t>(item)].fetch_add(1); },
               [&]() -> int64_t {
                 ++nexts;
                 for (const std::atomic<int>& r : runs[static_cast<size_t>(current.load())]) everyItemDoneBeforeNext &= r == 1;
@@ -41,11 +41,43 @@ TEST_CASE("every item of every phase runs exactly once, and next() runs between 
   }
 }
 
+TEST_CASE("each worker takes its own share from the front, and others' from the back") {
+  // Worker w's share of n items is [n w / W, n (w + 1) / W): in each share, the items its owner ran
+  // are a prefix taken in order, and the ones thieves ran the rest.
+  for (const int threads : {2, 3, 4}) {
+    const int64_t items = 301;
+    std::vector<std::atomic<int>> ranBy(static_cast<size_t>(items));
+    std::vector<std::vector<int64_t>> sequence(static_cast<size_t>(threads));
+    JobControl control;
+    runPhases(items, threads, control,
+              [&](int64_t item, int worker) {
+                REQUIRE(worker >= 0);
+                REQUIRE(worker < threads);
+                ranBy[static_cast<size_t>(item)] = worker;
+                sequence[static_cast<size_t>(worker)].push_back(item);
+                for (volatile int spin = 0; spin < 2000 * (item % 7); spin = spin + 1) {
+                }
+              },
+              [] { return int64_t(0); }, [] {});
+    for (int w = 0; w < threads; ++w) {
+      const int64_t begin = items * w / threads, end = items * (w + 1) / threads;
+      int64_t own = begin;
+      while (own < end && ranBy[static_cast<size_t>(own)] == w) ++own;
+      for (int64_t i = own; i < end; ++i) CHECK(ranBy[static_cast<size_t>(i)] != w);
+      std::vector<int64_t> mine;
+      for (const int64_t item : sequence[static_cast<size_t>(w)]) {
+        if (item >= begin && item < end) mine.push_back(item);
+      }
+      for (size_t k = 0; k < mine.size(); ++k) CHECK(mine[k] == begin + static_cast<int64_t>(k));
+    }
+  }
+}
+
 TEST_CASE("a throwing poll cancels the job and reaches the caller once the workers stopped") {
   JobControl control;
   std::atomic<int64_t> ran{0};
   int polls = 0, nexts = 0;
-  const auto slowItem = [&](int64_t) {
+  const auto slowItem = [&](int64_t, int) {
     ran.fetch_add(1);
     while (!control.cancel.load()) {
     }
@@ -61,13 +93,13 @@ TEST_CASE("a throwing poll cancels the job and reaches the caller once the worke
 
 TEST_CASE("a throw from work or next cancels the job and reaches the caller") {
   JobControl control;
-  CHECK_THROWS_AS(runPhases(50, 3, control, [](int64_t item) { if (item == 7) throw std::logic_error("work"); },
+  CHECK_THROWS_AS(runPhases(50, 3, control, [](int64_t item, int) { if (item == 7) throw std::logic_error("work"); },
                             [] { return int64_t(0); }, [] {}),
                   std::logic_error);
   CHECK(control.cancel.load());
   JobControl other;
   int phase = 0;
-  CHECK_THROWS_AS(runPhases(4, 2, other, [](int64_t) {},
+  CHECK_THROWS_AS(runPhases(4, 2, other, [](int64_t, int) {},
                             [&]() -> int64_t { if (++phase == 2) throw std::out_of_range("next"); return 3; }, [] {}),
                   std::out_of_range);
   CHECK(phase == 2);
@@ -76,7 +108,7 @@ TEST_CASE("a throw from work or next cancels the job and reaches the caller") {
 TEST_CASE("runParallel: one phase") {
   JobControl control;
   std::atomic<int64_t> sum{0};
-  runParallel(64, 4, control, [&](int64_t item) { sum.fetch_add(item); }, [] {});
+  runParallel(64, 4, control, [&](int64_t item, int) { sum.fetch_add(item); }, [] {});
   CHECK(sum.load() == 64 * 63 / 2);
   CHECK(control.done.load() == 64);
 }

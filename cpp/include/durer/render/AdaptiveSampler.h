@@ -29,7 +29,6 @@
 #include <functional>
 #include <limits>
 #include <memory>
-#include <mutex>
 #include <vector>
 
 #include "durer/render/TileRenderer.h"
@@ -73,8 +72,8 @@ class AdaptiveSampler {
     }
   }
 
-  // Runs the rounds as the phases of one job on `threads` workers, then writes the output region;
-  // returns what was traced.
+  // Runs the rounds, then the writing of the output region, as the phases of one job on `threads`
+  // workers; returns what was traced.
   RayCounters render(int threads, JobControl& control, const std::function<void()>& poll, AdaptiveStats& stats) {
     // A limit of more than a year is none: the clock's integer ticks would overflow.
     constexpr double kYear = 365.25 * 24 * 3600;
@@ -95,13 +94,14 @@ class AdaptiveSampler {
     };
     countPending();
     std::atomic<int> round{0};
-    std::atomic<bool> late{false};
-    RayCounters counters;
-    std::mutex countersMutex;
+    std::atomic<bool> late{false}, writing{false};
+    const int workers = static_cast<int>(std::min<size_t>(static_cast<size_t>(std::max(1, threads)), m_tileCount));
+    std::vector<WorkerCounters> traced(static_cast<size_t>(workers));
     // A tile is marked for the next round as soon as every tile around it has been sampled in this
     // one (its marking reads nothing else), by the worker that sampled the last of them: no pass
     // of its own. Tiles with no sampled tile around them keep their decision: nothing to add.
-    const std::function<void(int64_t)> work = [&](int64_t i) {
+    const WorkItem work = [&](int64_t i, int worker) {
+      if (writing.load(std::memory_order_relaxed)) return writeTile(m_state[static_cast<size_t>(i)]);
       const int r = round.load(std::memory_order_relaxed);
       if (overTime(r)) {
         late = true;
@@ -118,24 +118,30 @@ class AdaptiveSampler {
           if (pending[t].fetch_sub(1, std::memory_order_acq_rel) == 1 && !last) mark(t, level, r);
         });
       }
-      const std::lock_guard<std::mutex> lock(countersMutex);
-      counters += c;
+      traced[static_cast<size_t>(worker)].counters += c;
     };
-    // Between rounds (not after a cancel): the next round's tiles, none when the work is done.
-    const std::function<int64_t()> next = [&]() -> int64_t {
-      ++stats.rounds;
+    // Whether another round follows the one just done: if so, its tiles are in `order`.
+    const auto anotherRound = [&] {
       const int r = round.load(std::memory_order_relaxed);
       if (late.load()) stats.timeLimitReached = true;
-      if (late.load() || r == m_rounds) return 0;
-      order = tilesToRefine();
-      if (order.empty()) return 0;
+      if (late.load() || r == m_rounds) return false;
+      order = tilesToRefine(workers);
+      if (order.empty()) return false;
       if (overTime(r + 1)) {
         stats.timeLimitReached = true;
-        return 0;
+        return false;
       }
       round.store(r + 1, std::memory_order_relaxed);
       countPending();
-      return static_cast<int64_t>(order.size());
+      return true;
+    };
+    // Between phases (not after a cancel): the next round's tiles, then every tile to write.
+    const std::function<int64_t()> next = [&]() -> int64_t {
+      if (writing.load()) return 0;
+      ++stats.rounds;
+      if (anotherRound()) return static_cast<int64_t>(order.size());
+      writing = true;
+      return static_cast<int64_t>(m_tileCount);
     };
     JobControl rounds;  // counts the current round's tiles
     const std::function<void()> roundPoll = [&] {
@@ -144,14 +150,15 @@ class AdaptiveSampler {
       poll();
       if (control.cancel.load()) rounds.cancel = true;
     };
-    const int workers = static_cast<int>(std::min<size_t>(static_cast<size_t>(std::max(1, threads)), m_tileCount));
     runPhases(static_cast<int64_t>(order.size()), workers, rounds, work, next, roundPoll);
     if (control.cancel.load()) {
-      ++stats.rounds;  // the round cancelled
+      if (!writing.load()) ++stats.rounds;  // the round cancelled
       stats.timeLimitReached = late.load();
     } else {
-      write(stats);
+      summarise(stats);
     }
+    RayCounters counters;
+    for (const WorkerCounters& w : traced) counters += w.counters;
     return counters;
   }
 
@@ -166,6 +173,7 @@ class AdaptiveSampler {
     int32_t add[kPacketSize];                             // samples the next round takes
     bool mixed[kPacketSize];                              // a later sample met geometry that differs
     float priority;                                       // the worst marked pixel's (time limit: first)
+    double squares, worst;                                // its output pixels' error estimates: sum of squares, largest
   };
 
   // What marking reads of a pixel, in one array over the work region and a ring of absent pixels
@@ -416,38 +424,49 @@ class AdaptiveSampler {
     return (dr * dr + dg * dg + db * db) / 3;
   }
 
-  // The tiles with pixels to refine, the worst first (what a time limit cuts is the least needed).
-  std::vector<int64_t> tilesToRefine() const {
+  // The tiles with pixels to refine, in the order of the image, so that each of the `workers`
+  // shares runPhases makes is a band of the image, which its worker's caches hold from the rounds
+  // before; each share the worst first (what a time limit cuts is the least needed).
+  std::vector<int64_t> tilesToRefine(int workers) const {
     std::vector<int64_t> order;
     for (size_t i = 0; i < m_tileCount; ++i) {
       const TileState& t = m_state[i];
       if (std::any_of(t.add, t.add + t.w * t.h, [](int32_t a) { return a > 0; })) order.push_back(static_cast<int64_t>(i));
     }
-    std::stable_sort(order.begin(), order.end(), [&](int64_t a, int64_t b) {
-      return m_state[static_cast<size_t>(a)].priority > m_state[static_cast<size_t>(b)].priority;
-    });
+    const auto n = static_cast<int64_t>(order.size());
+    for (int64_t w = 0; w < workers; ++w) {
+      std::stable_sort(order.begin() + n * w / workers, order.begin() + n * (w + 1) / workers, [&](int64_t a, int64_t b) {
+        return m_state[static_cast<size_t>(a)].priority > m_state[static_cast<size_t>(b)].priority;
+      });
+    }
     return order;
   }
 
-  // Writes the output region's pixels, their error estimates, and the image's summary of them.
-  void write(AdaptiveStats& stats) {
+  // Writes the tile's pixels of the output region and their error estimates; keeps the sum of the
+  // estimates' squares and the largest for summarise().
+  void writeTile(TileState& t) {
     const RenderSettings::Region& r = m_output;
     double squares = 0, worst = 0;
-    for (size_t u = 0; u < m_tileCount; ++u) {
-      const TileState& t = m_state[u];
-      const int x0 = std::max(t.x0, r.x), x1 = std::min(t.x0 + t.w, r.x + r.width);
-      for (int y = std::max(t.y0, r.y); y < std::min(t.y0 + t.h, r.y + r.height); ++y) {
-        if (x0 >= x1) break;
-        const size_t first = static_cast<size_t>(y - r.y) * r.width + (x0 - r.x);
-        const int k0 = slotOf(t, x0, y);
-        m_tiles.writeRow(t.sums, k0, x1 - x0, first);
-        for (int i = 0; i < x1 - x0; ++i) {
-          const double e = summaryAt(x0 + i, y).error;
-          squares += e * e, worst = std::max(worst, e);
-          if (m_targets.error) m_targets.error[first + i] = static_cast<float>(e);
-        }
+    const int x0 = std::max(t.x0, r.x), x1 = std::min(t.x0 + t.w, r.x + r.width);
+    for (int y = std::max(t.y0, r.y); y < std::min(t.y0 + t.h, r.y + r.height) && x0 < x1; ++y) {
+      const size_t first = static_cast<size_t>(y - r.y) * r.width + (x0 - r.x);
+      const int k0 = slotOf(t, x0, y);
+      m_tiles.writeRow(t.sums, k0, x1 - x0, first);
+      for (int i = 0; i < x1 - x0; ++i) {
+        const double e = summaryAt(x0 + i, y).error;
+        squares += e * e, worst = std::max(worst, e);
+        if (m_targets.error) m_targets.error[first + i] = static_cast<float>(e);
       }
     }
+    t.squares = squares, t.worst = worst;
+  }
+
+  // The image's estimated RMS error and worst pixel, from the tiles' (in tile order: the same sums
+  // on any number of threads).
+  void summarise(AdaptiveStats& stats) const {
+    const RenderSettings::Region& r = m_output;
+    double squares = 0, worst = 0;
+    for (size_t u = 0; u < m_tileCount; ++u) squares += m_state[u].squares, worst = std::max(worst, m_state[u].worst);
     stats.estimatedRmse = std::sqrt(squares / (static_cast<double>(r.width) * r.height));
     stats.estimatedWorst = worst;
   }

@@ -61,7 +61,7 @@ CastStats castWith(const CastJob<Real>& job) {
   std::atomic<int64_t> tests{0};
   runParallel(
       items, threads, control,
-      [&](int64_t item) {
+      [&](int64_t item, int) {
         tests.fetch_add(castRays<Real, M>(group, in, out, item, control.cancel));
       },
       job.poll);

@@ -26,4 +26,10 @@ struct RayCounters {
   }
 };
 
+// One worker's counters, alone on their cache lines: each worker of a job (runPhases' worker
+// number) adds to its own without a lock; the render sums them at the end.
+struct alignas(64) WorkerCounters {
+  RayCounters counters;
+};
+
 }  // namespace durer

@@ -4,7 +4,7 @@
 // (src/kernels), each compiled once per instruction set.
 #include <algorithm>
 #include <memory>
-#include <mutex>
+#include <vector>
 
 #include "durer/render/AdaptiveSampler.h"
 #include "durer/render/TileRenderer.h"
@@ -31,22 +31,16 @@ RenderStats renderWith(const RenderJob& job) {
     stats.cancelled = control.cancel.load();
     return stats;
   }
-  // A work item is a strip of kStripTiles tiles along a row: threads then rarely write to the same
-  // cache line of the outputs, and the shared totals see one update per strip, not per tile.
-  constexpr int64_t kStripTiles = 8;
+  // A work item is a tile. The workers' shares are bands of the image (runPhases), so threads
+  // rarely write to the same cache line of the outputs, and only where the bands meet does one
+  // worker take another's tiles, a tile at a time.
   const int64_t tileCount = tiles.tileCount();
-  std::mutex totalsMutex;
+  const int workers = static_cast<int>(std::max<int64_t>(1, std::min<int64_t>(stats.threads, tileCount)));
+  std::vector<WorkerCounters> traced(static_cast<size_t>(workers));
   runParallel(
-      (tileCount + kStripTiles - 1) / kStripTiles, stats.threads, control,
-      [&](int64_t strip) {
-        RayCounters counters;
-        for (int64_t tile = strip * kStripTiles; tile < std::min(tileCount, (strip + 1) * kStripTiles); ++tile) {
-          counters += tiles.render(tile);
-        }
-        const std::lock_guard<std::mutex> lock(totalsMutex);
-        stats.counters += counters;
-      },
-      job.poll);
+      tileCount, workers, control,
+      [&](int64_t tile, int worker) { traced[static_cast<size_t>(worker)].counters += tiles.render(tile); }, job.poll);
+  for (const WorkerCounters& w : traced) stats.counters += w.counters;
   stats.cancelled = control.cancel.load();
   return stats;
 }

@@ -18,20 +18,27 @@ struct JobControl {
   }
 };
 
+// work(item, worker): an item of the current phase, on worker number `worker` (0, 1, ... for the
+// whole job: per-worker totals need no lock).
+using WorkItem = std::function<void(int64_t item, int worker)>;
+
 // Runs a job in phases on up to `threads` workers (fewer when the system refuses more; none is a
-// runtime_error): work(item) for item in [0, items), the workers taking items in order; when every
-// item of a phase is done, the last worker to finish one calls next(), which returns the next phase's
-// item count (0: the job is done). The workers wait for each other between phases on their own, so
-// the calling thread sleeps through the whole job (adaptive sampling's rounds: a caller woken at each
-// round would take a CPU from a worker). control.total and control.done count the current phase's
-// items. The calling thread does no work: it calls poll() once first, then about every
-// `pollMilliseconds` until the job ends. A throw from poll cancels the job (control.cancel), as does
-// one from work or next; the first one thrown reaches the caller once every worker has stopped.
-void runPhases(int64_t items, int threads, JobControl& control, const std::function<void(int64_t)>& work,
+// runtime_error). Each phase's items [0, items) are split into one contiguous share per worker, in
+// worker order; a worker takes its share from the front, then the back of the largest share left
+// (so a caller that lays out items by place keeps each worker on the same part of its data from
+// phase to phase). When every item of a phase is done, the last worker to finish one calls next(),
+// which returns the next phase's item count (0: the job is done). The workers wait for each other
+// between phases on their own, so the calling thread sleeps through the whole job (adaptive
+// sampling's rounds: a caller woken at each round would take a CPU from a worker). control.total
+// and control.done count the current phase's items. The calling thread does no work: it calls
+// poll() once first, then about every `pollMilliseconds` until the job ends. A throw from poll
+// cancels the job (control.cancel), as does one from work or next; the first one thrown reaches the
+// caller once every worker has stopped. Items of a phase: fewer than 2^31.
+void runPhases(int64_t items, int threads, JobControl& control, const WorkItem& work,
                const std::function<int64_t()>& next, const std::function<void()>& poll, int pollMilliseconds = 10);
 
-// One phase: work(item) for item in [0, items) on up to min(threads, items) workers.
-void runParallel(int64_t items, int threads, JobControl& control, const std::function<void(int64_t)>& work,
+// One phase: work(item, worker) for item in [0, items) on up to min(threads, items) workers.
+void runParallel(int64_t items, int threads, JobControl& control, const WorkItem& work,
                  const std::function<void()>& poll, int pollMilliseconds = 10);
 
 int defaultThreadCount();  // the hardware's thread count, at least 1
