@@ -218,6 +218,21 @@ class AdaptiveSampler {
       t.sums.addColor(k, r, g, b, a);
       if (inLast[j]) t.lastR[k] += r, t.lastG[k] += g, t.lastB[k] += b;
     }
+    // The shaded path's colours: each run of one pixel's samples summed in registers (the same
+    // sums, in the same order, as addColor one at a time, without a store and reload per sample).
+    void addColors(const Vec3<Real>* rgb, const Real* alpha, int count) {
+      for (int j = 0, end; j < count; j = end) {
+        const int k = pixel[j];
+        Real r = t.sums.r[k], g = t.sums.g[k], b = t.sums.b[k], a = t.sums.a[k];
+        Real lr = t.lastR[k], lg = t.lastG[k], lb = t.lastB[k];
+        for (end = j; end < count && pixel[end] == k; ++end) {
+          r += rgb[end].r, g += rgb[end].g, b += rgb[end].b, a += alpha[end];
+          if (inLast[end]) lr += rgb[end].r, lg += rgb[end].g, lb += rgb[end].b;
+        }
+        t.sums.r[k] = r, t.sums.g[k] = g, t.sums.b[k] = b, t.sums.a[k] = a;
+        t.lastR[k] = lr, t.lastG[k] = lg, t.lastB[k] = lb;
+      }
+    }
     void addDepth(int j, Real d) { t.sums.addDepth(pixel[j], d); }
     void addNormal(int j, bool hit, Real along, int32_t prim, Real x, Real y, Real z) {
       t.sums.addNormal(pixel[j], hit, along, prim, x, y, z);
@@ -376,9 +391,16 @@ class AdaptiveSampler {
           edge = edge || differ(self, u);
           squaredContrast = std::max(squaredContrast, squaredColourDifference(self, u));
         });
-        contrast = std::sqrt(squaredContrast);  // one root: the largest difference's
-        error = std::sqrt(std::max(own * own, neighbourhood / around));
-        if (error <= m_target && taken >= std::max(edge ? double(kEdgeSamples) : 0.0, contrast / m_target)) continue;
+        // error <= target and taken >= contrast / target, compared as squares: the roots only for a
+        // pixel marked (an infinite square is never settled, as its root would not be).
+        const double squaredError = std::max(own * own, neighbourhood / around);
+        const double resolved = taken * m_target;  // the contrast `taken` samples resolve
+        const double inf = std::numeric_limits<double>::infinity();
+        if (squaredError <= m_target * m_target && squaredError < inf && (!edge || taken >= kEdgeSamples) &&
+            squaredContrast <= resolved * resolved && squaredContrast < inf) {
+          continue;
+        }
+        error = std::sqrt(squaredError), contrast = std::sqrt(squaredContrast);
       }
       t.add[k] = level - taken;
       t.priority = std::max(t.priority, static_cast<float>(std::max(error, contrast / taken)));

@@ -129,6 +129,9 @@ class TileRenderer {
     void addColor(int k, Real red, Real green, Real blue, Real alpha) {
       r[k] += red, g[k] += green, b[k] += blue, a[k] += alpha;
     }
+    void addColors(const Vec3<Real>* rgb, const Real* alpha, int count) {
+      for (int k = 0; k < count; ++k) addColor(k, rgb[k].r, rgb[k].g, rgb[k].b, alpha[k]);
+    }
     void addDepth(int k, Real t) { depth[k] = std::min(depth[k], t); }
     // Makes a hit sample of primitive `prim` at t along its ray pixel k's nearest if it is nearer than
     // those before it (the first taken among equally near ones); returns whether it did. Branch-free.
@@ -297,9 +300,9 @@ class TileRenderer {
     alignas(64) Real weights[kPacketSize];
     std::fill(weights, weights + packet.count, Real(1));
     m_shader.shade(packet, hits.data(), weights, 0, rgb, counters);
-    for (int k = 0; k < packet.count; ++k) {
-      acc.addColor(k, rgb[k].r, rgb[k].g, rgb[k].b, hits[k].isHit() ? Real(1) : m_flat.a.back());
-    }
+    alignas(64) Real alpha[kPacketSize];
+    for (int k = 0; k < packet.count; ++k) alpha[k] = hits[k].isHit() ? Real(1) : m_flat.a.back();
+    acc.addColors(rgb, alpha, packet.count);
   }
 
   // Normals of the packet's hits: those on the top-level group's own spheres and planes in one loop
