@@ -94,14 +94,12 @@ int64_t checked(int64_t items) {
 // One job's workers and what they share.
 class PhasedJob {
  public:
-  PhasedJob(int64_t items, JobControl& control, const WorkItem& work, const std::function<int64_t()>& next)
-      : m_control(control), m_work(work), m_next(next), m_items(items) {
-    control.total = items;
-    control.done = 0;
-  }
+  PhasedJob(JobControl& control, const WorkItem& work, const std::function<int64_t()>& next)
+      : m_control(control), m_work(work), m_next(next) {}
 
-  // Starts up to `threads` workers, then lets them begin; returns how many started (0: the error).
-  int start(int threads, int& error) {
+  // Starts up to `threads` workers, then lets them begin on the first phase's `items`; returns how
+  // many started (0: the error).
+  int start(int threads, int64_t items, int& error) {
     m_workerIds.resize(static_cast<size_t>(threads));
     m_shares = std::vector<Share>(static_cast<size_t>(threads));
     for (int w = 0; w < threads && error == 0; ++w) {
@@ -128,7 +126,7 @@ class PhasedJob {
     }
     m_workers = static_cast<int>(m_threads.size());
     m_busy = m_workers;
-    share(m_items.load());
+    share(items);
     release(1);  // the barrier counts the workers that started: none begins before it knows them
     return m_workers;
   }
@@ -192,7 +190,6 @@ class PhasedJob {
           fail(std::current_exception());
           following = 0;
         }
-        m_items.store(following, std::memory_order_relaxed);
         share(following);
         if (following > 0) m_control.total = following, m_control.done = 0;
         release(following > 0 ? phase + 1 : kDone);
@@ -284,7 +281,6 @@ class PhasedJob {
   std::vector<void*> m_stacks;            // the threads', returned to the pool once they have ended
   std::vector<WorkerId> m_workerIds;
   int m_workers = 0;
-  std::atomic<int64_t> m_items;           // in the current phase
   std::vector<Share> m_shares;            // of the current phase's items, by worker
   std::atomic<int> m_arrived{0};          // workers done with the current phase
   std::atomic<uint64_t> m_phase{0};       // released so far (kDone: the job is over)
@@ -307,9 +303,9 @@ void runPhases(int64_t items, int threads, JobControl& control, const WorkItem& 
   poll();  // reports 0 and sees a cancel that came before the start
   std::exception_ptr failure;
   {
-    PhasedJob job(items, control, work, next);
+    PhasedJob job(control, work, next);
     int error = 0;
-    if (job.start(std::max(1, threads), error) == 0) {
+    if (job.start(std::max(1, threads), items, error) == 0) {
       throw std::runtime_error(std::string("threads: could not start a render thread: ") + std::strerror(error));
     }
     job.watch(poll, pollMilliseconds);

@@ -15,8 +15,8 @@
 //   - it has fewer than contrast / targetError samples, where contrast is the RMS difference of its
 //     mean colour from a neighbour's: an edge inside it covering less than about 1 / samples of its
 //     area may not have been seen yet, and would be off by at most about that times the contrast.
-// A time limit stops the refining rounds (never the first pass) when spent; each round takes its
-// tiles worst first (the largest estimated error), so what the limit cuts is what matters least.
+// A time limit stops the refining rounds (never the first pass) when spent; each worker takes its
+// band's tiles worst first (the largest estimated error), so what the limit cuts matters least.
 // Every pixel's state is kept until the end (TileState and Summary: 211 bytes a pixel in double, 127
 // in float).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
