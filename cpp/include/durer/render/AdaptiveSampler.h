@@ -17,7 +17,7 @@
 //     area may not have been seen yet, and would be off by at most about that times the contrast.
 // A time limit stops the refining rounds (never the first pass) when spent; each worker takes its
 // band's tiles worst first (the largest estimated error), so what the limit cuts matters least.
-// Every pixel's state is kept until the end (TileState and Summary: 211 bytes a pixel in double, 127
+// Every pixel's state is kept until the end (TileState and Summary: 183 bytes a pixel in double, 115
 // in float).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
 // threads; a pixel's result depends on the pixels within `rounds` of it, so a region is rendered
@@ -178,9 +178,9 @@ class AdaptiveSampler {
 
   // What marking reads of a pixel, in one array over the work region and a ring of absent pixels
   // around it: a 3x3 neighbourhood is three short rows of one compact array (a tile's ring lies in
-  // other tiles), with no bounds tests.
+  // other tiles), with no bounds tests. (The normal sums, which only the rare crease test reads, stay
+  // in the tiles' sums.)
   struct Summary {
-    Real nx, ny, nz;                // normal sums
     float error;                    // estimated RMS error of the mean colour
     float firstT;                   // how far along its ray the first sample met (inf: a miss)
     float meanR, meanG, meanB;      // the mean colour
@@ -298,7 +298,6 @@ class AdaptiveSampler {
       p.meanR = static_cast<float>(t.sums.r[k] * inverse);
       p.meanG = static_cast<float>(t.sums.g[k] * inverse);
       p.meanB = static_cast<float>(t.sums.b[k] * inverse);
-      p.nx = t.sums.nx[k], p.ny = t.sums.ny[k], p.nz = t.sums.nz[k];
       p.sampledIn = static_cast<int16_t>(round);
     }
   }
@@ -319,7 +318,6 @@ class AdaptiveSampler {
     t.priority = 0;
     for (int k = 0; k < count; ++k) {
       Summary& p = summaryOf(t, k);
-      p.nx = p.ny = p.nz = 0;
       p.error = p.firstT = p.meanR = p.meanG = p.meanB = 0;
       p.firstPrim = kNoPrimitive, p.sampledIn = -1, p.present = true;
     }
@@ -430,13 +428,21 @@ class AdaptiveSampler {
 
   // Whether two pixels see different geometry: their first samples met other primitives, one of
   // them nothing, or both at a depth discontinuity or a crease.
-  static bool differ(const Summary& a, const Summary& b) {
+  bool differ(const Summary& a, const Summary& b) const {
     if (a.firstPrim == b.firstPrim) return false;
     if (depthJump(a.firstT, b.firstT)) return true;
-    const double dot = double(a.nx) * b.nx + double(a.ny) * b.ny + double(a.nz) * b.nz;
-    const double la = double(a.nx) * a.nx + double(a.ny) * a.ny + double(a.nz) * a.nz;
-    const double lb = double(b.nx) * b.nx + double(b.ny) * b.ny + double(b.nz) * b.nz;
-    return la > 0 && lb > 0 && dot < kCreaseCosine * std::sqrt(la * lb);  // no normals summed: no crease test
+    const Vec3d na = normalSums(a), nb = normalSums(b);
+    const double la = glm::dot(na, na), lb = glm::dot(nb, nb);
+    return la > 0 && lb > 0 && glm::dot(na, nb) < kCreaseCosine * std::sqrt(la * lb);  // no normals summed: no crease test
+  }
+
+  // The normal sums of the pixel whose summary p is, from its tile's sums.
+  Vec3d normalSums(const Summary& p) const {
+    const auto index = static_cast<size_t>(&p - m_summary.get());
+    const int x = static_cast<int>(index % m_stride) - 1 + m_work.x, y = static_cast<int>(index / m_stride) - 1 + m_work.y;
+    const TileState& t = m_state[static_cast<size_t>(y / kTileSize - m_firstTileY) * m_tilesX + (x / kTileSize - m_firstTileX)];
+    const int k = slotOf(t, x, y);
+    return Vec3d(double(t.sums.nx[k]), double(t.sums.ny[k]), double(t.sums.nz[k]));
   }
 
   // The mean over the colour channels of the squared difference of two pixels' mean colours: the
