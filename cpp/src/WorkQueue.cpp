@@ -317,8 +317,7 @@ void runPhases(int64_t items, int threads, JobControl& control, const WorkItem& 
 void runParallel(int64_t items, int threads, JobControl& control, const WorkItem& work,
                  const std::function<void()>& poll, int pollMilliseconds) {
   const std::function<int64_t()> none = [] { return int64_t(0); };
-  runPhases(items, static_cast<int>(std::max<int64_t>(1, std::min<int64_t>(threads, items))), control, work, none,
-            poll, pollMilliseconds);
+  runPhases(items, workersFor(threads, items), control, work, none, poll, pollMilliseconds);
 }
 
 }  // namespace durer

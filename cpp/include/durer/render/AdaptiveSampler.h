@@ -95,7 +95,7 @@ class AdaptiveSampler {
     countPending();
     std::atomic<int> round{0};
     std::atomic<bool> late{false}, writing{false};
-    const int workers = static_cast<int>(std::min<size_t>(static_cast<size_t>(std::max(1, threads)), m_tileCount));
+    const int workers = workersFor(threads, static_cast<int64_t>(m_tileCount));
     std::vector<WorkerCounters> traced(static_cast<size_t>(workers));
     // A tile is marked for the next round as soon as every tile around it has been sampled in this
     // one (its marking reads nothing else), by the worker that sampled the last of them: no pass

@@ -35,7 +35,7 @@ RenderStats renderWith(const RenderJob& job) {
   // rarely write to the same cache line of the outputs, and only where the bands meet does one
   // worker take another's tiles, a tile at a time.
   const int64_t tileCount = tiles.tileCount();
-  const int workers = static_cast<int>(std::max<int64_t>(1, std::min<int64_t>(stats.threads, tileCount)));
+  const int workers = workersFor(stats.threads, tileCount);
   std::vector<WorkerCounters> traced(static_cast<size_t>(workers));
   runParallel(
       tileCount, workers, control,

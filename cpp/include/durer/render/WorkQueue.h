@@ -43,4 +43,10 @@ void runParallel(int64_t items, int threads, JobControl& control, const WorkItem
 
 int defaultThreadCount();  // the hardware's thread count, at least 1
 
+// The workers a job of `items` items is given for `threads` asked: no more than it has items, at
+// least one (what runParallel starts, and what per-worker totals are sized by).
+inline int workersFor(int threads, int64_t items) {
+  return static_cast<int>(std::max<int64_t>(1, std::min<int64_t>(threads, items)));
+}
+
 }  // namespace durer
