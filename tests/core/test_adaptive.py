@@ -75,6 +75,36 @@ def test_a_pixel_whose_samples_agree_but_whose_neighbours_differ_is_refined():
     assert np.all(result.samples[beside] >= 0.1 / 0.01)
 
 
+def test_a_crease_between_equally_lit_planes_is_refined():
+    # Two planes meeting at a ridge 60 degrees apart, lit alike from straight above: one colour
+    # everywhere and no depth jump across the ridge; only the first samples' normals tell the planes
+    # apart there, and the pixels beside the ridge take kEdgeSamples (16) samples, the rest min_spp.
+    a = math.radians(30)
+    scene = durer.Scene()
+    scene.add_plane((math.sin(a), math.cos(a), 0), 0.0)
+    scene.add_plane((-math.sin(a), math.cos(a), 0), 0.0)
+    scene.add_directional_light((0, -1, 0), (1, 1, 1))
+    camera = durer.PerspectiveCamera((0, 5, 0), (0, -1, 0), (0, 0, -1), 40)
+    result = adaptive(scene, 24, 16, camera, spp=64, min_spp=4, target_error=0.01)
+    assert np.ptp(result.color[..., :3]) < 1e-6  # nothing for the colour rules to see
+    ridge = np.zeros(result.samples.shape, bool)
+    ridge[:, 11:13] = True  # the ridge runs down the middle of the image, between columns 11 and 12
+    assert np.all(result.samples[ridge] == 16) and np.all(result.samples[~ridge] == 4)
+
+
+@pytest.mark.parametrize("sampler", ["adaptive", "stratified"])
+def test_the_passes_asked_for_do_not_change_the_colour(sampler):
+    # The normal and id passes keep sums a colour render skips; the colour and the samples taken
+    # are the same bit for bit with or without them (adaptive's crease test reads the first
+    # samples' normals in both).
+    scene, camera = durer.showcase_scene(small_spheres=20)
+    options = {"spp": 16, "sampler": sampler, "seed": 5}
+    alone = durer.render(scene, camera, 48, 32, passes="color", **options)
+    together = durer.render(scene, camera, 48, 32, passes=("color", "depth", "normal", "object_id"), **options)
+    assert np.array_equal(alone.color, together.color)
+    assert np.array_equal(alone.samples, together.samples)
+
+
 def test_a_time_limit_stops_after_the_first_pass_and_says_so():
     scene, camera = durer.showcase_scene(small_spheres=20)
     rushed = adaptive(scene, 64, 48, camera, target_error=1e-6, time_limit=1e-9)

@@ -17,7 +17,7 @@
 //     area may not have been seen yet, and would be off by at most about that times the contrast.
 // A time limit stops the refining rounds (never the first pass) when spent; each worker takes its
 // band's tiles worst first (the largest estimated error), so what the limit cuts matters least.
-// Every pixel's state is kept until the end (TileState and Summary: 183 bytes a pixel in double, 115
+// Every pixel's state is kept until the end (TileState and Summary: 195 bytes a pixel in double, 127
 // in float).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
 // threads; a pixel's result depends on the pixels within `rounds` of it, so a region is rendered
@@ -49,6 +49,7 @@ class AdaptiveSampler {
   AdaptiveSampler(const Tiles& tiles, const RenderSettings& settings, const RenderTargets& targets)
       : m_tiles(tiles),
         m_targets(targets),
+        m_normalPass(tiles.needsNormals()),
         m_output(regionOf(settings)),
         m_maxSamples(settings.samplesPerPixel),
         m_firstSamples(std::min(settings.minSamples, settings.samplesPerPixel)),
@@ -172,14 +173,15 @@ class AdaptiveSampler {
     int32_t last[kPacketSize];                            // of which the last round's (the second half)
     int32_t add[kPacketSize];                             // samples the next round takes
     bool mixed[kPacketSize];                              // a later sample met geometry that differs
+    float firstNx[kPacketSize], firstNy[kPacketSize], firstNz[kPacketSize];  // the first sample's shading normal (0: none)
     float priority;                                       // the worst marked pixel's (time limit: first)
     double squares, worst;                                // its output pixels' error estimates: sum of squares, largest
   };
 
   // What marking reads of a pixel, in one array over the work region and a ring of absent pixels
   // around it: a 3x3 neighbourhood is three short rows of one compact array (a tile's ring lies in
-  // other tiles), with no bounds tests. (The normal sums, which only the rare crease test reads, stay
-  // in the tiles' sums.)
+  // other tiles), with no bounds tests. (The first samples' normals, which only the rare crease test
+  // reads, stay in the tiles.)
   struct Summary {
     float error;                    // estimated RMS error of the mean colour
     float firstT;                   // how far along its ray the first sample met (inf: a miss)
@@ -212,7 +214,9 @@ class AdaptiveSampler {
   struct PixelSink {
     TileState& t;
     const int* pixel;
+    const uint32_t* sample;  // the pixel's sample number of each entry
     const bool* inLast;
+    bool normalPass;  // the normal or id passes: the pixels' normals' and nearest hit's sums are kept
     void addColor(int j, Real r, Real g, Real b, Real a) {
       const int k = pixel[j];
       t.sums.addColor(k, r, g, b, a);
@@ -234,8 +238,12 @@ class AdaptiveSampler {
       }
     }
     void addDepth(int j, Real d) { t.sums.addDepth(pixel[j], d); }
+    // The normals of every sample for the passes, and of each pixel's first for the crease test.
+    bool wantsNormal(int j) const { return normalPass || sample[j] == 0; }
     void addNormal(int j, bool hit, Real along, int32_t prim, Real x, Real y, Real z) {
-      t.sums.addNormal(pixel[j], hit, along, prim, x, y, z);
+      const int k = pixel[j];
+      if (normalPass) t.sums.addNormal(k, hit, along, prim, x, y, z);
+      if (sample[j] == 0 && hit) t.firstNx[k] = float(x), t.firstNy[k] = float(y), t.firstNz[k] = float(z);
     }
     bool addNearest(int j, bool hit, Real along, int32_t prim) { return t.sums.addNearest(pixel[j], hit, along, prim); }
   };
@@ -251,7 +259,7 @@ class AdaptiveSampler {
     alignas(64) int32_t prim[kPacketSize];
     alignas(64) Real along[kPacketSize];
     bool inLast[kPacketSize];
-    PixelSink sink{t, pixel, inLast};
+    PixelSink sink{t, pixel, s, inLast, m_normalPass};
     int n = 0;
     const auto flush = [&] {
       m_tiles.sobolPositions(px, py, order, points, s, n, sampleX, sampleY);
@@ -310,11 +318,14 @@ class AdaptiveSampler {
     t.w = std::min((tx + 1) * kTileSize, m_work.x + m_work.width) - t.x0;
     t.h = std::min((ty + 1) * kTileSize, m_work.y + m_work.height) - t.y0;
     const int count = t.w * t.h;
-    t.sums.clear(count);
+    t.sums.clear(count, m_normalPass);
     std::fill(t.taken, t.taken + count, 0);
     std::fill(t.last, t.last + count, 0);
     std::fill(t.add, t.add + count, m_firstSamples);
     std::fill(t.mixed, t.mixed + count, false);
+    std::fill(t.firstNx, t.firstNx + count, 0.0f);
+    std::fill(t.firstNy, t.firstNy + count, 0.0f);
+    std::fill(t.firstNz, t.firstNz + count, 0.0f);
     t.priority = 0;
     for (int k = 0; k < count; ++k) {
       Summary& p = summaryOf(t, k);
@@ -431,18 +442,18 @@ class AdaptiveSampler {
   bool differ(const Summary& a, const Summary& b) const {
     if (a.firstPrim == b.firstPrim) return false;
     if (depthJump(a.firstT, b.firstT)) return true;
-    const Vec3d na = normalSums(a), nb = normalSums(b);
+    const Vec3d na = firstNormal(a), nb = firstNormal(b);
     const double la = glm::dot(na, na), lb = glm::dot(nb, nb);
-    return la > 0 && lb > 0 && glm::dot(na, nb) < kCreaseCosine * std::sqrt(la * lb);  // no normals summed: no crease test
+    return la > 0 && lb > 0 && glm::dot(na, nb) < kCreaseCosine * std::sqrt(la * lb);  // no normal made: no crease test
   }
 
-  // The normal sums of the pixel whose summary p is, from its tile's sums.
-  Vec3d normalSums(const Summary& p) const {
+  // The first sample's shading normal of the pixel whose summary p is, from its tile.
+  Vec3d firstNormal(const Summary& p) const {
     const auto index = static_cast<size_t>(&p - m_summary.get());
     const int x = static_cast<int>(index % m_stride) - 1 + m_work.x, y = static_cast<int>(index / m_stride) - 1 + m_work.y;
     const TileState& t = m_state[static_cast<size_t>(y / kTileSize - m_firstTileY) * m_tilesX + (x / kTileSize - m_firstTileX)];
     const int k = slotOf(t, x, y);
-    return Vec3d(double(t.sums.nx[k]), double(t.sums.ny[k]), double(t.sums.nz[k]));
+    return Vec3d(double(t.firstNx[k]), double(t.firstNy[k]), double(t.firstNz[k]));
   }
 
   // The mean over the colour channels of the squared difference of two pixels' mean colours: the
@@ -501,6 +512,7 @@ class AdaptiveSampler {
 
   const Tiles& m_tiles;
   RenderTargets m_targets;
+  bool m_normalPass;  // the normal or id passes: the pixels' normals' and nearest hit's sums are kept whole
   RenderSettings::Region m_output;  // the pixels written
   int m_maxSamples, m_firstSamples;
   double m_target, m_timeLimit;
