@@ -94,9 +94,9 @@ def test_a_crease_between_equally_lit_planes_is_refined():
 
 @pytest.mark.parametrize("sampler", ["adaptive", "stratified"])
 def test_the_passes_asked_for_do_not_change_the_colour(sampler):
-    # The normal and id passes keep sums a colour render skips; the colour and the samples taken
-    # are the same bit for bit with or without them (adaptive's crease test reads the first
-    # samples' normals in both).
+    # The normal and id passes keep sums a colour render skips; in a lit scene the colour and the
+    # samples taken are the same bit for bit with or without them (adaptive's crease test reads the
+    # first samples' normals in both).
     scene, camera = durer.showcase_scene(small_spheres=20)
     options = {"spp": 16, "sampler": sampler, "seed": 5}
     alone = durer.render(scene, camera, 48, 32, passes="color", **options)
