@@ -391,15 +391,17 @@ class AdaptiveSampler {
         forAround(self, [&](const Summary& u) { fresh = fresh || u.sampledIn == round; });
         if (!fresh) continue;
         double neighbourhood = 0;
-        float squaredContrast = 0;
+        float largestDifference = 0;
         int around = 0;
         bool edge = t.mixed[k];
         forAround(self, [&](const Summary& u) {
           neighbourhood += static_cast<double>(u.error) * u.error;
           ++around;
           edge = edge || differ(self, u);
-          squaredContrast = std::max(squaredContrast, squaredColourDifference(self, u));
+          largestDifference = std::max(largestDifference, colourDifference(self, u));
         });
+        // The mean over the channels, divided once: a rounded division keeps the order of its operands.
+        const float squaredContrast = largestDifference / 3;
         // error <= target and taken >= contrast / target, compared as squares: the roots only for a
         // pixel marked (an infinite square is never settled, as its root would not be).
         const double squaredError = std::max(own * own, neighbourhood / around);
@@ -456,11 +458,11 @@ class AdaptiveSampler {
     return Vec3d(double(t.firstNx[k]), double(t.firstNy[k]), double(t.firstNz[k]));
   }
 
-  // The mean over the colour channels of the squared difference of two pixels' mean colours: the
-  // square of their RMS difference.
-  static float squaredColourDifference(const Summary& a, const Summary& b) {
+  // The sum over the colour channels of the squared difference of two pixels' mean colours: three
+  // times the square of their RMS difference.
+  static float colourDifference(const Summary& a, const Summary& b) {
     const float dr = a.meanR - b.meanR, dg = a.meanG - b.meanG, db = a.meanB - b.meanB;
-    return (dr * dr + dg * dg + db * db) / 3;
+    return dr * dr + dg * dg + db * db;
   }
 
   // The tiles with pixels to refine, in the order of the image, so that each of the `workers`

@@ -302,7 +302,7 @@ class TileRenderer {
     for (int k = 0; k < packet.count; ++k) {
       hits.make(k, [&] { return m_group.hit(packet, k); });
       if (!hits[k].isHit()) continue;
-      acc.addDepth(k, m_planarDepth ? hits[k].t * planarScale(packet, k) : hits[k].t);
+      if (m_targets.depth) acc.addDepth(k, m_planarDepth ? hits[k].t * planarScale(packet, k) : hits[k].t);
       if (!acc.wantsNormal(k)) continue;
       const Vec3<Real> n = m_shader.shadingNormal(hits[k], Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]));
       acc.addNormal(k, true, hits[k].t, packet.prim[k], n.x, n.y, n.z);
