@@ -75,33 +75,19 @@ inline uint32_t PixelSampler::reverseBits(uint32_t x) {
 }
 
 // The second Sobol dimension (its generator matrix as in Burley 2020), bit-reversed: the scramble
-// reverses it first, and reversal, a permutation of bits, commutes with XOR, so the table holds the
-// reversed columns. The matrix product over GF(2) is a XOR of one column per set index bit;
-// kSobolBytes holds those XORs for each byte of the index, so a point costs four lookups instead of
-// a loop over 32 bits.
-struct SobolByteTable {
-  uint32_t xors[4][256];
-  constexpr SobolByteTable() : xors() {
-    uint32_t column[32] = {};
-    for (uint32_t bit = 0, v = 1u << 31; bit < 32; ++bit, v ^= v >> 1) {
-      for (int b = 0; b < 32; ++b) column[bit] |= ((v >> b) & 1u) << (31 - b);
-    }
-    for (int byte = 0; byte < 4; ++byte) {
-      for (uint32_t value = 0; value < 256; ++value) {
-        uint32_t x = 0;
-        for (int bit = 0; bit < 8; ++bit) {
-          if (value & (1u << bit)) x ^= column[8 * byte + bit];
-        }
-        xors[byte][value] = x;
-      }
-    }
-  }
-};
-inline constexpr SobolByteTable kSobolBytes{};
-
+// reverses it first, and reversal, a permutation of bits, commutes with XOR. The matrix product over
+// GF(2) is a XOR of one column per set index bit; index bit k's column, reversed, is (1 + x)^k:
+// bit i set where C(k, i) is odd, that is where i's bits are among k's (Lucas). So output bit i is
+// the parity of the index bits k whose bits hold i's: a sum over supersets, five shifted XORs (no
+// table to look up, so a loop over points vectorises without gathers).
 inline uint32_t PixelSampler::reversedSobolSecondDimension(uint32_t index) {
-  return kSobolBytes.xors[0][index & 0xffu] ^ kSobolBytes.xors[1][(index >> 8) & 0xffu] ^
-         kSobolBytes.xors[2][(index >> 16) & 0xffu] ^ kSobolBytes.xors[3][index >> 24];
+  uint32_t x = index;
+  x ^= (x & 0xaaaaaaaau) >> 1;  // bit k into bit k - 1 for the k with bit 0 set
+  x ^= (x & 0xccccccccu) >> 2;  // ... with bit 1 set, and so on over the five bits of a position
+  x ^= (x & 0xf0f0f0f0u) >> 4;
+  x ^= (x & 0xff00ff00u) >> 8;
+  x ^= (x & 0xffff0000u) >> 16;
+  return x;
 }
 
 // Owen scrambling by hashing (Burley 2020): Laine & Karras's permutation, which scrambles each bit by
