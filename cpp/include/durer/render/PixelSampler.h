@@ -108,7 +108,7 @@ inline uint32_t PixelSampler::laineKarras(uint32_t x, uint32_t seed) {
 inline void PixelSampler::scrambledSobol(uint32_t index, uint32_t seed, double& u, double& v) {
   constexpr double k32 = 1.0 / 4294967296.0;  // 2^-32
   u = reverseBits(laineKarras(index, seed)) * k32;  // nestedUniformScramble(reverseBits(index), seed)
-  // nestedUniformScramble of the second dimension, its first reversal in the table.
+  // nestedUniformScramble of the second dimension, its first reversal made by reversedSobolSecondDimension.
   v = reverseBits(laineKarras(reversedSobolSecondDimension(index), seed ^ 0x5bd1e995u)) * k32;
 }
 
