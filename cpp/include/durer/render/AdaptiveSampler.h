@@ -387,8 +387,9 @@ class AdaptiveSampler {
       const double own = self.error;
       double error = own, contrast = 0;
       if (own <= m_target) {
-        bool fresh = false;
-        forAround(self, [&](const Summary& u) { fresh = fresh || u.sampledIn == round; });
+        // Its decision stands unless a pixel around it took samples this round (in the first, all did).
+        bool fresh = round == 0;
+        if (!fresh) forAround(self, [&](const Summary& u) { fresh = fresh || u.sampledIn == round; });
         if (!fresh) continue;
         double neighbourhood = 0;
         float largestDifference = 0;
