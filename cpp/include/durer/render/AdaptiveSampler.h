@@ -266,27 +266,29 @@ class AdaptiveSampler {
       if (!m_tiles.trace(sampleX, sampleY, n, sink, prim, along, counters)) return false;
       for (int j = 0, end; j < n; j = end) {  // a pixel's samples are consecutive: one run each
         for (end = j + 1; end < n && pixel[end] == pixel[j];) ++end;
-        noteGeometry(t, pixel[j], j, end, s, prim, along);
+        noteGeometry(t, pixel[j], summaryAt(px[j], py[j]), j, end, s, prim, along);
       }
       n = 0;
       return true;
     };
-    for (int k = 0; k < count; ++k) {
-      if (t.add[k] == 0) continue;
-      const int x = t.x0 + k % t.w, y = t.y0 + k / t.w;
-      uint32_t pixelOrder, pixelPoints;
-      m_tiles.sobolSeeds(x, y, pixelOrder, pixelPoints);
-      // The last round's samples are the second half of the pixel's: all of a refining round's, the
-      // later half of the first pass's.
-      const int firstOfLast = first ? t.add[k] - t.add[k] / 2 : 0;
-      t.lastR[k] = t.lastG[k] = t.lastB[k] = 0;
-      for (int i = 0; i < t.add[k];) {  // as many of its samples as the packet has room for
-        const int end = std::min(t.add[k], i + kPacketSize - n);
-        for (; i < end; ++i, ++n) {
-          s[n] = static_cast<uint32_t>(t.taken[k] + i), inLast[n] = i >= firstOfLast, pixel[n] = k;
-          px[n] = x, py[n] = y, order[n] = pixelOrder, points[n] = pixelPoints;
+    for (int row = 0, k = 0; row < t.h; ++row) {  // by rows: no division to find a pixel's position
+      for (int col = 0; col < t.w; ++col, ++k) {
+        if (t.add[k] == 0) continue;
+        const int x = t.x0 + col, y = t.y0 + row;
+        uint32_t pixelOrder, pixelPoints;
+        m_tiles.sobolSeeds(x, y, pixelOrder, pixelPoints);
+        // The last round's samples are the second half of the pixel's: all of a refining round's, the
+        // later half of the first pass's.
+        const int firstOfLast = first ? t.add[k] - t.add[k] / 2 : 0;
+        t.lastR[k] = t.lastG[k] = t.lastB[k] = 0;
+        for (int i = 0; i < t.add[k];) {  // as many of its samples as the packet has room for
+          const int end = std::min(t.add[k], i + kPacketSize - n);
+          for (; i < end; ++i, ++n) {
+            s[n] = static_cast<uint32_t>(t.taken[k] + i), inLast[n] = i >= firstOfLast, pixel[n] = k;
+            px[n] = x, py[n] = y, order[n] = pixelOrder, points[n] = pixelPoints;
+          }
+          if (n == kPacketSize && !flush()) return;
         }
-        if (n == kPacketSize && !flush()) return;
       }
     }
     if (n > 0 && !flush()) return;
@@ -336,11 +338,11 @@ class AdaptiveSampler {
 
   Summary& summaryOf(const TileState& t, int k) { return summaryAt(t.x0 + k % t.w, t.y0 + k / t.w); }
 
-  // Notes what samples [j0, j1) of pixel k (sample numbers s[j], which met prim[j] at along[j] on
-  // their rays) saw: the first sample's primitive and distance, and whether a later one met other
-  // geometry beyond a depth discontinuity.
-  void noteGeometry(TileState& t, int k, int j0, int j1, const uint32_t* s, const int32_t* prim, const Real* along) {
-    Summary& p = summaryOf(t, k);
+  // Notes what samples [j0, j1) of pixel k (its summary p; sample numbers s[j], which met prim[j] at
+  // along[j] on their rays) saw: the first sample's primitive and distance, and whether a later one
+  // met other geometry beyond a depth discontinuity.
+  void noteGeometry(TileState& t, int k, Summary& p, int j0, int j1, const uint32_t* s, const int32_t* prim,
+                    const Real* along) {
     int32_t firstPrim = p.firstPrim;
     float firstT = p.firstT;
     bool mixed = t.mixed[k];
@@ -380,42 +382,46 @@ class AdaptiveSampler {
   void mark(size_t index, int level, int round) {
     TileState& t = m_state[index];
     t.priority = 0;
-    for (int k = 0; k < t.w * t.h; ++k) {
-      const int taken = t.taken[k];
-      if (taken >= level) continue;
-      const Summary& self = summaryOf(t, k);
-      const double own = self.error;
-      double error = own, contrast = 0;
-      if (own <= m_target) {
-        // Its decision stands unless a pixel around it took samples this round (in the first, all did).
-        bool fresh = round == 0;
-        if (!fresh) forAround(self, [&](const Summary& u) { fresh = fresh || u.sampledIn == round; });
-        if (!fresh) continue;
-        double neighbourhood = 0;
-        float largestDifference = 0;
-        int around = 0;
-        bool edge = t.mixed[k];
-        forAround(self, [&](const Summary& u) {
-          neighbourhood += static_cast<double>(u.error) * u.error;
-          ++around;
-          edge = edge || differ(self, u);
-          largestDifference = std::max(largestDifference, colourDifference(self, u));
-        });
-        // The mean over the channels, divided once: a rounded division keeps the order of its operands.
-        const float squaredContrast = largestDifference / 3;
-        // error <= target and taken >= contrast / target, compared as squares: the roots only for a
-        // pixel marked (an infinite square is never settled, as its root would not be).
-        const double squaredError = std::max(own * own, neighbourhood / around);
-        const double resolved = taken * m_target;  // the contrast `taken` samples resolve
-        const double inf = std::numeric_limits<double>::infinity();
-        if (squaredError <= m_target * m_target && squaredError < inf && (!edge || taken >= kEdgeSamples) &&
-            squaredContrast <= resolved * resolved && squaredContrast < inf) {
-          continue;
+    for (int row = 0; row < t.h; ++row) {  // by rows: no division to find a pixel's summary
+      const Summary* line = &summaryAt(t.x0, t.y0 + row);
+      for (int col = 0; col < t.w; ++col) {
+        const int k = row * t.w + col;
+        const int taken = t.taken[k];
+        if (taken >= level) continue;
+        const Summary& self = line[col];
+        const double own = self.error;
+        double error = own, contrast = 0;
+        if (own <= m_target) {
+          // Its decision stands unless a pixel around it took samples this round (in the first, all did).
+          bool fresh = round == 0;
+          if (!fresh) forAround(self, [&](const Summary& u) { fresh = fresh || u.sampledIn == round; });
+          if (!fresh) continue;
+          double neighbourhood = 0;
+          float largestDifference = 0;
+          int around = 0;
+          bool edge = t.mixed[k];
+          forAround(self, [&](const Summary& u) {
+            neighbourhood += static_cast<double>(u.error) * u.error;
+            ++around;
+            edge = edge || differ(self, u);
+            largestDifference = std::max(largestDifference, colourDifference(self, u));
+          });
+          // The mean over the channels, divided once: a rounded division keeps the order of its operands.
+          const float squaredContrast = largestDifference / 3;
+          // error <= target and taken >= contrast / target, compared as squares: the roots only for a
+          // pixel marked (an infinite square is never settled, as its root would not be).
+          const double squaredError = std::max(own * own, neighbourhood / around);
+          const double resolved = taken * m_target;  // the contrast `taken` samples resolve
+          const double inf = std::numeric_limits<double>::infinity();
+          if (squaredError <= m_target * m_target && squaredError < inf && (!edge || taken >= kEdgeSamples) &&
+              squaredContrast <= resolved * resolved && squaredContrast < inf) {
+            continue;
+          }
+          error = std::sqrt(squaredError), contrast = std::sqrt(squaredContrast);
         }
-        error = std::sqrt(squaredError), contrast = std::sqrt(squaredContrast);
+        t.add[k] = level - taken;
+        t.priority = std::max(t.priority, static_cast<float>(std::max(error, contrast / taken)));
       }
-      t.add[k] = level - taken;
-      t.priority = std::max(t.priority, static_cast<float>(std::max(error, contrast / taken)));
     }
   }
 
