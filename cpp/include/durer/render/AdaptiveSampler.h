@@ -49,7 +49,6 @@ class AdaptiveSampler {
   AdaptiveSampler(const Tiles& tiles, const RenderSettings& settings, const RenderTargets& targets)
       : m_tiles(tiles),
         m_targets(targets),
-        m_normalPass(tiles.needsNormals()),
         m_output(regionOf(settings)),
         m_maxSamples(settings.samplesPerPixel),
         m_firstSamples(std::min(settings.minSamples, settings.samplesPerPixel)),
@@ -259,7 +258,7 @@ class AdaptiveSampler {
     alignas(64) int32_t prim[kPacketSize];
     alignas(64) Real along[kPacketSize];
     bool inLast[kPacketSize];
-    PixelSink sink{t, pixel, s, inLast, m_normalPass};
+    PixelSink sink{t, pixel, s, inLast, m_tiles.needsNormals()};
     int n = 0;
     const auto flush = [&] {
       m_tiles.sobolPositions(px, py, order, points, s, n, sampleX, sampleY);
@@ -320,7 +319,7 @@ class AdaptiveSampler {
     t.w = std::min((tx + 1) * kTileSize, m_work.x + m_work.width) - t.x0;
     t.h = std::min((ty + 1) * kTileSize, m_work.y + m_work.height) - t.y0;
     const int count = t.w * t.h;
-    t.sums.clear(count, m_normalPass);
+    t.sums.clear(count, m_tiles.needsNormals());
     std::fill(t.taken, t.taken + count, 0);
     std::fill(t.last, t.last + count, 0);
     std::fill(t.add, t.add + count, m_firstSamples);
@@ -521,7 +520,6 @@ class AdaptiveSampler {
 
   const Tiles& m_tiles;
   RenderTargets m_targets;
-  bool m_normalPass;  // the normal or id passes: the pixels' normals' and nearest hit's sums are kept whole
   RenderSettings::Region m_output;  // the pixels written
   int m_maxSamples, m_firstSamples;
   double m_target, m_timeLimit;

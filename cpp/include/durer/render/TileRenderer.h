@@ -123,10 +123,11 @@ class TileRenderer {
     alignas(64) Real fx[kPacketSize], fy[kPacketSize], fz[kPacketSize];           // and its normal
     alignas(64) int32_t nearestPrim[kPacketSize];                                 // and its packed primitive
     alignas(64) Real samples[kPacketSize];                                        // samples taken
-    bool normals = true;  // whether the normals' and nearest hit's sums are kept
+    bool normals;  // whether the normals' and nearest hit's sums are kept (set by clear: adaptive's
+                   // tile states are left unset until a worker clears them)
     // Clears the sums of `count` pixels; the normals' and nearest hit's only if `keepNormals`: no
     // pass reads them otherwise, and clearing them took 8 % of a depth render.
-    void clear(int count, bool keepNormals = true) {
+    void clear(int count, bool keepNormals) {
       normals = keepNormals;
       const Real inf = std::numeric_limits<Real>::infinity();
       for (int k = 0; k < count; ++k) {
