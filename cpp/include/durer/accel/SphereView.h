@@ -214,7 +214,7 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
   view->m_cellsY = (y + height + kCell - 1) / kCell - view->m_cellY;
   struct Cells {
     int32_t x0, x1, y0, y1;  // inclusive; x0 > x1: none
-    double row0, row1;       // the pixel rows it covers (from the view's first cell's first row)
+    int32_t row0, row1;      // the pixel rows it covers (from the view's first cell's first row), within its cells' rows
   };
   std::vector<Cells> cells(count);
   std::vector<uint32_t> keys(count);
@@ -236,8 +236,10 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
       const double y0 = std::max(std::floor(box.y0 / kCell) - view->m_cellY, 0.0);
       const double y1 = std::min(std::floor(box.y1 / kCell) - view->m_cellY, cellsY - 1);
       if (!(x0 <= x1 && y0 <= y1)) continue;
-      c = {int32_t(x0), int32_t(x1), int32_t(y0), int32_t(y1), std::floor(box.y0) - view->m_cellY * kCell,
-           std::floor(box.y1) - view->m_cellY * kCell};
+      const double firstRow = y0 * kCell, lastRow = y1 * kCell + kCell - 1;
+      c = {int32_t(x0), int32_t(x1), int32_t(y0), int32_t(y1),
+           int32_t(std::clamp(std::floor(box.y0) - view->m_cellY * kCell, firstRow, lastRow)),
+           int32_t(std::clamp(std::floor(box.y1) - view->m_cellY * kCell, firstRow, lastRow))};
       tLows[i] = floatBelow(tLow);
       keys[i] = orderKey(tLows[i]);
       made += (x1 - x0 + 1) * (y1 - y0 + 1);
@@ -256,6 +258,20 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
     if (cells[i].x0 <= cells[i].x1) order.push_back(uint64_t(keys[i]) << 32 | i);
   }
   sortByKey(order);
+  // The spheres' cells in that order, gathered once: the placing passes below then read them as one
+  // stream, each thread all of them (reading `cells` by sphere there missed the cache at every one).
+  struct Placed {
+    Cells cells;
+    uint32_t sphere;
+    float tLow;
+  };
+  std::vector<Placed> placed(order.size());
+  parallelChunks(order.size(), threads, [&](size_t begin, size_t end) {
+    for (size_t j = begin; j < end; ++j) {
+      const uint32_t i = uint32_t(order[j]);
+      placed[j] = {cells[i], i, tLows[i]};
+    }
+  });
   // Entries cell by cell, each cell's in the order's (nearest first): counted, then placed, each
   // thread for a band of cell rows (its own cells, so no two threads write the same).
   const size_t cellCount = size_t(view->m_cellsX) * size_t(view->m_cellsY);
@@ -263,29 +279,29 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
   const size_t bands = std::min<size_t>(size_t(std::max(threads, 1)), size_t(view->m_cellsY));
   const auto overBands = [&](const auto& place) {
     forChunks(size_t(view->m_cellsY), bands, [&](size_t, size_t rowBegin, size_t rowEnd) {
-      for (const uint64_t record : order) {
-        const uint32_t i = uint32_t(record);
-        const Cells& c = cells[i];
+      for (const Placed& p : placed) {
+        const Cells& c = p.cells;
         const int32_t y0 = std::max(c.y0, int32_t(rowBegin)), y1 = std::min(c.y1, int32_t(rowEnd) - 1);
-        for (int32_t cy = y0; cy <= y1; ++cy) place(i, c, cy);
+        for (int32_t cy = y0; cy <= y1; ++cy) place(p, cy);
       }
     });
   };
   std::vector<uint32_t>& first = view->m_first;
   first.assign(cellCount + 1, 0);
-  overBands([&](uint32_t, const Cells& c, int32_t cy) {
-    for (int32_t cx = c.x0; cx <= c.x1; ++cx) ++first[size_t(cy) * cellsWide + size_t(cx) + 1];
+  overBands([&](const Placed& p, int32_t cy) {
+    for (int32_t cx = p.cells.x0; cx <= p.cells.x1; ++cx) ++first[size_t(cy) * cellsWide + size_t(cx) + 1];
   });
   for (size_t cell = 0; cell < cellCount; ++cell) first[cell + 1] += first[cell];
   view->m_entries.resize(first[cellCount]);
   view->m_rows.resize(first[cellCount]);
   std::vector<uint32_t> next(first.begin(), first.end() - 1);
-  overBands([&](uint32_t i, const Cells& c, int32_t cy) {
-    const int row0 = int(std::clamp(c.row0 - cy * kCell, 0.0, kCell - 1.0));
-    const int row1 = int(std::clamp(c.row1 - cy * kCell, 0.0, kCell - 1.0));
+  overBands([&](const Placed& p, int32_t cy) {
+    const Cells& c = p.cells;
+    const int row0 = std::clamp(c.row0 - cy * kCell, 0, kCell - 1);
+    const int row1 = std::clamp(c.row1 - cy * kCell, 0, kCell - 1);
     for (int32_t cx = c.x0; cx <= c.x1; ++cx) {
       const uint32_t e = next[size_t(cy) * cellsWide + size_t(cx)]++;
-      view->m_entries[e] = {i, tLows[i]};
+      view->m_entries[e] = {p.sphere, p.tLow};
       view->m_rows[e] = uint8_t(row0 << 3 | row1);
     }
   });

@@ -1,0 +1,136 @@
+// Camera::footprint against the rays Camera::generate makes: every sample whose ray meets a sphere
+// lies in the sphere's box, no nearer than its lower bound on t, and a sphere wholly in front gets
+// a box no more than a pixel wider than its hit samples on each side.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "durer/render/Camera.h"
+
+using namespace durer;
+
+namespace {
+
+// The ray's nearest t >= 0 on the sphere, in double from the ray as rounded; inf if it misses.
+double meetAt(const RayPacket<double>& ray, int k, const Vec3d& c, double r) {
+  const Vec3d o(ray.ox[k], ray.oy[k], ray.oz[k]), d(ray.dx[k], ray.dy[k], ray.dz[k]);
+  const Vec3d f = o - c;
+  const double b = glm::dot(f, d), a = glm::dot(d, d);
+  const Vec3d across = f - (b / a) * d;  // the line's nearest point to the centre, less rounding than b² - ac
+  const double h = a * (r * r - glm::dot(across, across));
+  if (h < 0) return std::numeric_limits<double>::infinity();
+  const double root = std::sqrt(h);
+  const double near = (-b - root) / a, far = (-b + root) / a;
+  return near >= 0 ? near : far >= 0 ? far : std::numeric_limits<double>::infinity();
+}
+
+template <typename Real>
+void checkCamera(const CameraSpec& spec, std::mt19937_64& random) {
+  constexpr int kWidth = 48, kHeight = 32, kPerPixel = 4;
+  const Camera<Real> camera(spec, kWidth, kHeight);
+  std::uniform_real_distribution<double> unit(-1, 1), radius(0.01, 2.5), distance(0, 12);
+  for (int sphere = 0; sphere < 60; ++sphere) {
+    const Vec3d c = spec.center + distance(random) * glm::normalize(Vec3d(unit(random), unit(random), unit(random)));
+    const double r = radius(random);
+    SampleBox box{};
+    double tLow = 0;
+    const bool seen = camera.footprint(c, r, box, tLow);
+    double hitX0 = std::numeric_limits<double>::infinity(), hitX1 = -hitX0, hitY0 = hitX0, hitY1 = -hitX0;
+    for (int row = 0; row < kHeight * kPerPixel; ++row) {
+      Real sampleX[kWidth * kPerPixel], sampleY[kWidth * kPerPixel];
+      for (int col = 0; col < kWidth * kPerPixel; ++col) {
+        sampleX[col] = Real((col + 0.5) / kPerPixel), sampleY[col] = Real((row + 0.5) / kPerPixel);
+      }
+      RayPacket<double> rays;
+      for (int start = 0; start < kWidth * kPerPixel; start += kPacketSize) {
+        RayPacket<Real> packet;
+        const int count = std::min(kPacketSize, kWidth * kPerPixel - start);
+        camera.generate(packet, sampleX + start, sampleY + start, count);
+        for (int k = 0; k < count; ++k) {
+          rays.ox[k] = double(packet.ox[k]), rays.oy[k] = double(packet.oy[k]), rays.oz[k] = double(packet.oz[k]);
+          rays.dx[k] = double(packet.dx[k]), rays.dy[k] = double(packet.dy[k]), rays.dz[k] = double(packet.dz[k]);
+          const double t = meetAt(rays, k, c, r);
+          if (!(t < std::numeric_limits<double>::infinity())) continue;
+          const double x = double(sampleX[start + k]), y = double(sampleY[start + k]);
+          CAPTURE(sphere);
+          REQUIRE(seen);
+          REQUIRE(box.x0 <= x);
+          REQUIRE(x <= box.x1);
+          REQUIRE(box.y0 <= y);
+          REQUIRE(y <= box.y1);
+          REQUIRE(tLow <= t * (1 + 1e-9));
+          hitX0 = std::min(hitX0, x), hitX1 = std::max(hitX1, x), hitY0 = std::min(hitY0, y), hitY1 = std::max(hitY1, y);
+        }
+      }
+    }
+    // Rays just outside the box's sides miss (a grid's samples rarely come that close to a silhouette).
+    const bool bounded = std::isfinite(box.x0) && std::isfinite(box.x1) && std::isfinite(box.y0) && std::isfinite(box.y1);
+    if (seen && bounded) {
+      constexpr int kProbes = 512;
+      const double outside = 1e-3;  // pixels: float sample positions round by at most 4e-6 here
+      for (int side = 0; side < 4; ++side) {
+        Real sampleX[kPacketSize], sampleY[kPacketSize];
+        RayPacket<double> rays;
+        for (int start = 0; start < kProbes; start += kPacketSize) {
+          for (int k = 0; k < kPacketSize; ++k) {
+            const double along = (start + k + 0.5) / kProbes;
+            const double x = side == 0 ? box.x0 - outside : side == 1 ? box.x1 + outside : box.x0 + along * (box.x1 - box.x0);
+            const double y = side == 2 ? box.y0 - outside : side == 3 ? box.y1 + outside : box.y0 + along * (box.y1 - box.y0);
+            sampleX[k] = Real(x), sampleY[k] = Real(y);
+          }
+          RayPacket<Real> packet;
+          camera.generate(packet, sampleX, sampleY, kPacketSize);
+          for (int k = 0; k < kPacketSize; ++k) {
+            rays.ox[k] = double(packet.ox[k]), rays.oy[k] = double(packet.oy[k]), rays.oz[k] = double(packet.oz[k]);
+            rays.dx[k] = double(packet.dx[k]), rays.dy[k] = double(packet.dy[k]), rays.dz[k] = double(packet.dz[k]);
+            CAPTURE(sphere);
+            CAPTURE(side);
+            REQUIRE(!(meetAt(rays, k, c, r) < std::numeric_limits<double>::infinity()));
+          }
+        }
+      }
+    }
+    // Wholly in front, its projection inside the image: the box is the projection's, within a pixel.
+    const ParallelProjection frame = camera.projection();
+    const Vec3d q = frame.inFrame(c);
+    const bool inside = q.z > 2 * r && box.x0 > 1 && box.x1 < kWidth - 1 && box.y0 > 1 && box.y1 < kHeight - 1;
+    if (seen && inside && hitX0 <= hitX1) {
+      CAPTURE(sphere);
+      CHECK(box.x0 >= hitX0 - 1);
+      CHECK(box.x1 <= hitX1 + 1);
+      CHECK(box.y0 >= hitY0 - 1);
+      CHECK(box.y1 <= hitY1 + 1);
+    }
+  }
+}
+
+}  // namespace
+
+TEST_CASE_TEMPLATE("a footprint holds every sample whose camera ray meets the sphere, and little more", Real, float,
+                   double) {
+  std::mt19937_64 random(7);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  for (const double fov : {20.0, 60.0, 110.0, 170.0}) {
+    for (int camera = 0; camera < 4; ++camera) {
+      CameraSpec spec;
+      spec.projection = Projection::Perspective;
+      spec.center = Vec3d(unit(random), unit(random), unit(random)) * 5.0;
+      spec.direction = Vec3d(unit(random), unit(random), unit(random));
+      spec.up = Vec3d(0, 1, 0);
+      spec.size = fov;
+      spec.tMin = 0;
+      spec.tMax = std::numeric_limits<double>::infinity();
+      CAPTURE(fov);
+      checkCamera<Real>(spec, random);
+    }
+  }
+  CameraSpec ortho;
+  ortho.center = Vec3d(0.5, -1, 2);
+  ortho.direction = Vec3d(0.2, -0.3, -1);
+  ortho.size = 6;
+  ortho.tMin = -std::numeric_limits<double>::infinity();
+  ortho.tMax = std::numeric_limits<double>::infinity();
+  checkCamera<Real>(ortho, random);
+}
