@@ -6,8 +6,8 @@
 // the pixel rows it covers, and stops at the first sphere that lies beyond every ray's hit so far:
 // no hierarchy walk, and the spheres hidden behind the first layer are never touched. A directional
 // light's view is the same index over an orthographic image along the light, for its shadow rays.
-// Made once per camera (or light) and image, in O(spheres + entries) on the render's threads; the
-// sphere set keeps the last few (SphereSet::view).
+// Made once per camera (or light) and image, in O(spheres + entries log(entries per cell)) on the
+// render's threads; the sphere set keeps the last few (SphereSet::view).
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -183,18 +183,10 @@ class SphereView {
                                                             : -std::numeric_limits<float>::infinity();
   }
 
-  // Sorts records (key << 32 | item) by key (LSD radix, 11 bits a pass), stable.
-  static void sortByKey(std::vector<uint64_t>& records) {
-    constexpr int kBits = 11, kBuckets = 1 << kBits;
-    std::vector<uint64_t> other(records.size());
-    for (int shift = 32; shift < 64; shift += kBits) {
-      std::vector<size_t> start(kBuckets + 1, 0);
-      for (const uint64_t r : records) ++start[((r >> shift) & (kBuckets - 1)) + 1];
-      for (int b = 0; b < kBuckets; ++b) start[b + 1] += start[b];
-      for (const uint64_t r : records) other[start[(r >> shift) & (kBuckets - 1)]++] = r;
-      records.swap(other);
-    }
-  }
+  // Sorts entries [begin, end), placed in the spheres' order, nearest first (their tLow, then
+  // the sphere), with their rows; the vectors are scratch space.
+  void sortCell(uint32_t begin, uint32_t end, std::vector<uint64_t>& order, std::vector<Entry>& entries,
+                std::vector<uint8_t>& rows);
 
   int m_cellX = 0, m_cellY = 0;       // the first cell's column and row in the image's cells
   int m_cellsX = 0, m_cellsY = 0;
@@ -217,7 +209,6 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
     int32_t row0, row1;      // the pixel rows it covers (from the view's first cell's first row), within its cells' rows
   };
   std::vector<Cells> cells(count);
-  std::vector<uint32_t> keys(count);
   std::vector<float> tLows(count);
   const double cellsX = view->m_cellsX, cellsY = view->m_cellsY;
   std::atomic<double> entries{0};
@@ -241,7 +232,6 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
            int32_t(std::clamp(std::floor(box.y0) - view->m_cellY * kCell, firstRow, lastRow)),
            int32_t(std::clamp(std::floor(box.y1) - view->m_cellY * kCell, firstRow, lastRow))};
       tLows[i] = floatBelow(tLow);
-      keys[i] = orderKey(tLows[i]);
       made += (x1 - x0 + 1) * (y1 - y0 + 1);
     }
     double total = entries.load();
@@ -252,60 +242,65 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
   if (entries.load() > std::min(most, double(std::numeric_limits<uint32_t>::max() - 1))) {
     return nullptr;
   }
-  std::vector<uint64_t> order;  // nearest first: (key << 32 | sphere)
-  order.reserve(count);
-  for (size_t i = 0; i < count; ++i) {
-    if (cells[i].x0 <= cells[i].x1) order.push_back(uint64_t(keys[i]) << 32 | i);
-  }
-  sortByKey(order);
-  // The spheres' cells in that order, gathered once: the placing passes below then read them as one
-  // stream, each thread all of them (reading `cells` by sphere there missed the cache at every one).
-  struct Placed {
-    Cells cells;
-    uint32_t sphere;
-    float tLow;
-  };
-  std::vector<Placed> placed(order.size());
-  parallelChunks(order.size(), threads, [&](size_t begin, size_t end) {
-    for (size_t j = begin; j < end; ++j) {
-      const uint32_t i = uint32_t(order[j]);
-      placed[j] = {cells[i], i, tLows[i]};
-    }
-  });
-  // Entries cell by cell, each cell's in the order's (nearest first): counted, then placed, each
-  // thread for a band of cell rows (its own cells, so no two threads write the same).
+  // Entries cell by cell: counted, placed in the spheres' order, then each cell's sorted nearest
+  // first; each thread for a band of cell rows (its own cells, so no two threads write the same),
+  // reading the spheres' cells as one stream and sorting its own cells.
   const size_t cellCount = size_t(view->m_cellsX) * size_t(view->m_cellsY);
   const size_t cellsWide = size_t(view->m_cellsX);
   const size_t bands = std::min<size_t>(size_t(std::max(threads, 1)), size_t(view->m_cellsY));
   const auto overBands = [&](const auto& place) {
     forChunks(size_t(view->m_cellsY), bands, [&](size_t, size_t rowBegin, size_t rowEnd) {
-      for (const Placed& p : placed) {
-        const Cells& c = p.cells;
+      for (size_t i = 0; i < count; ++i) {
+        const Cells& c = cells[i];
         const int32_t y0 = std::max(c.y0, int32_t(rowBegin)), y1 = std::min(c.y1, int32_t(rowEnd) - 1);
-        for (int32_t cy = y0; cy <= y1; ++cy) place(p, cy);
+        for (int32_t cy = y0; cy <= y1; ++cy) place(uint32_t(i), c, cy);
       }
     });
   };
   std::vector<uint32_t>& first = view->m_first;
   first.assign(cellCount + 1, 0);
-  overBands([&](const Placed& p, int32_t cy) {
-    for (int32_t cx = p.cells.x0; cx <= p.cells.x1; ++cx) ++first[size_t(cy) * cellsWide + size_t(cx) + 1];
+  overBands([&](uint32_t, const Cells& c, int32_t cy) {
+    for (int32_t cx = c.x0; cx <= c.x1; ++cx) ++first[size_t(cy) * cellsWide + size_t(cx) + 1];
   });
   for (size_t cell = 0; cell < cellCount; ++cell) first[cell + 1] += first[cell];
   view->m_entries.resize(first[cellCount]);
   view->m_rows.resize(first[cellCount]);
   std::vector<uint32_t> next(first.begin(), first.end() - 1);
-  overBands([&](const Placed& p, int32_t cy) {
-    const Cells& c = p.cells;
+  overBands([&](uint32_t i, const Cells& c, int32_t cy) {
     const int row0 = std::clamp(c.row0 - cy * kCell, 0, kCell - 1);
     const int row1 = std::clamp(c.row1 - cy * kCell, 0, kCell - 1);
     for (int32_t cx = c.x0; cx <= c.x1; ++cx) {
       const uint32_t e = next[size_t(cy) * cellsWide + size_t(cx)]++;
-      view->m_entries[e] = {p.sphere, p.tLow};
+      view->m_entries[e] = {i, tLows[i]};
       view->m_rows[e] = uint8_t(row0 << 3 | row1);
     }
   });
+  forChunks(size_t(view->m_cellsY), bands, [&](size_t, size_t rowBegin, size_t rowEnd) {
+    std::vector<uint64_t> order;
+    std::vector<Entry> cellEntries;
+    std::vector<uint8_t> cellRows;
+    for (size_t cell = rowBegin * cellsWide; cell < rowEnd * cellsWide; ++cell) {
+      view->sortCell(first[cell], first[cell + 1], order, cellEntries, cellRows);
+    }
+  });
   return view;
+}
+
+template <typename Real>
+void SphereView<Real>::sortCell(uint32_t begin, uint32_t end, std::vector<uint64_t>& order, std::vector<Entry>& entries,
+                                std::vector<uint8_t>& rows) {
+  if (end - begin < 2) return;
+  // Placed in the spheres' order, so (key, place) sorts equal bounds by sphere: one order for any threads.
+  order.clear();
+  for (uint32_t e = begin; e < end; ++e) order.push_back(uint64_t(orderKey(m_entries[e].tLow)) << 32 | (e - begin));
+  std::sort(order.begin(), order.end());
+  entries.assign(m_entries.begin() + begin, m_entries.begin() + end);
+  rows.assign(m_rows.begin() + begin, m_rows.begin() + end);
+  for (uint32_t j = 0; j < end - begin; ++j) {
+    const uint32_t from = uint32_t(order[j]);
+    m_entries[begin + j] = entries[from];
+    m_rows[begin + j] = rows[from];
+  }
 }
 
 }  // namespace durer
