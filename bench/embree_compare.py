@@ -219,7 +219,8 @@ class Result:
 
     @property
     def agrees(self) -> bool:
-        return self.exit_code == 0 and all(self.report["agreement"][p]["passed"] for p in ("float", "double"))
+        checks = [self.report["agreement"], self.report.get("frame_agreement", {})]
+        return self.exit_code == 0 and all(c[p]["passed"] for c in checks if c for p in ("float", "double"))
 
 
 def machine_busy_seconds() -> float | None:
@@ -258,7 +259,7 @@ def children_cpu_seconds() -> float:
 HEADER = (
     "Workload", "Spheres", "Embree build + trace ms", "Embree Mrays/s", "Dürer float ms: cached (first)",
     "Dürer double ms: cached (first)", "Dürer Mrays/s f / d", "Dürer / Embree f / d", "First render f / d",
-    "Hits agree f / d", "B/sphere: Dürer f / d + scene (Embree)", "Peak RSS MB", "Others",
+    "Moved frame ms: Embree, Dürer f / d", "Moved frame f / d", "Hits agree f / d", "B/sphere: Dürer f / d + scene (Embree)", "Peak RSS MB", "Others",
 )
 NUMERIC_FROM = 1
 
@@ -267,7 +268,7 @@ def row_cells(result: Result) -> tuple[str, ...]:
     r = result.report
     n = r["spheres"]
     if not result.agrees:
-        return (result.workload.name, f"{n:,}", *["-"] * 7, agreement_cell(r), "-", "-", others_cell(result.others))
+        return (result.workload.name, f"{n:,}", *["-"] * 9, agreement_cell(r), "-", "-", others_cell(result.others))
     build, trace = result.median("embree", "build_ms"), result.median("embree", "trace_ms")
     cached = {p: result.median(f"durer_{p}", "cached_ms") for p in ("float", "double")}
     first = {p: result.median(f"durer_{p}", "first_ms") for p in ("float", "double")}
@@ -283,11 +284,23 @@ def row_cells(result: Result) -> tuple[str, ...]:
         f"{mrays['float']:.1f} / {mrays['double']:.1f}",
         f"{trace / cached['float']:.2f}x / {trace / cached['double']:.2f}x",
         f"{(build + trace) / first['float']:.2f}x / {(build + trace) / first['double']:.2f}x",
+        *frame_cells(result),
         agreement_cell(r),
         memory_cell(memory, n),
         f"{memory['process_peak_rss_bytes'] / 2**20:.0f}",
         others_cell(result.others),
     )
+
+
+def frame_cells(result: Result) -> tuple[str, str]:
+    """An animation's next frame (every sphere moved): Embree's refit + trace and Dürer's move + render
+    in ms, and Embree's time over Dürer's ("-" for given rays, which leave the spheres' surfaces)."""
+    if not result.report["embree"].get("frame_ms"):
+        return "-", "-"
+    embree = result.median("embree", "frame_ms")
+    durer = {p: result.median(f"durer_{p}", "frame_ms") for p in ("float", "double")}
+    return (f"{embree:.0f}, {durer['float']:.0f} / {durer['double']:.0f}",
+            f"{embree / durer['float']:.2f}x / {embree / durer['double']:.2f}x")
 
 
 def memory_cell(memory: dict, spheres: int) -> str:
@@ -361,6 +374,10 @@ def legend_lines(size: tuple[int, int], runs: int) -> list[str]:
         "hierarchy build included. Depth pass only; colour + depth with the sun.",
         "Dürer / Embree: Embree trace time / Dürer cached time (above 1: Dürer faster); First render: "
         "Embree build + trace / Dürer first render.",
+        "Moved frame: an animation's next frame, every sphere moved a quarter radius (seeded directions). Embree: "
+        "its animated scene (RTC_SCENE_FLAG_DYNAMIC, spheres at RTC_BUILD_QUALITY_REFIT) gets the new centres, "
+        "rtcCommitScene (a refit) and the trace; Dürer: Scene::moveSpheres and the render (hierarchy refitted, "
+        "views made again). Ratio: Embree's time / Dürer's.",
         "Hits agree: pixels where both hit or both miss and the depths agree to 1e-4 relative (below 99.9 %: FAIL, "
         "not timed); light: pixels both light or both leave dark (sun; below 99.5 %: FAIL).",
         "B/sphere (from 100k spheres): resident memory (VmRSS) added, per sphere: by Dürer's first render in float / "

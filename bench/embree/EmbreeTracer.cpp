@@ -139,17 +139,22 @@ void EmbreeDevice::check(const char* what) const {
   }
 }
 
-EmbreeScene::EmbreeScene(const EmbreeDevice& device, const Workload& workload)
+EmbreeScene::EmbreeScene(const EmbreeDevice& device, const Workload& workload, bool animated)
     : m_device(device), m_workload(workload), m_scene(rtcNewScene(device.handle())) {
-  addSpheres();
+  if (animated) rtcSetSceneFlags(m_scene, RTC_SCENE_FLAG_DYNAMIC);
+  addSpheres(animated);
   if (workload.groundPlane) addGround();
   device.check("building the Embree geometry");
 }
 
-EmbreeScene::~EmbreeScene() { rtcReleaseScene(m_scene); }
+EmbreeScene::~EmbreeScene() {
+  rtcReleaseGeometry(m_spheres);
+  rtcReleaseScene(m_scene);
+}
 
-void EmbreeScene::addSpheres() {
+void EmbreeScene::addSpheres(bool animated) {
   const RTCGeometry geometry = rtcNewGeometry(m_device.handle(), RTC_GEOMETRY_TYPE_SPHERE_POINT);
+  if (animated) rtcSetGeometryBuildQuality(geometry, RTC_BUILD_QUALITY_REFIT);
   const size_t n = m_workload.sphereCount();
   auto* spheres = static_cast<float*>(
       rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), n));
@@ -161,7 +166,17 @@ void EmbreeScene::addSpheres() {
   }
   rtcCommitGeometry(geometry);
   rtcAttachGeometry(m_scene, geometry);
-  rtcReleaseGeometry(geometry);
+  m_spheres = geometry;  // kept (released with the scene) for moveSpheres
+}
+
+void EmbreeScene::moveSpheres(const std::vector<double>& centers) {
+  auto* spheres = static_cast<float*>(rtcGetGeometryBufferData(m_spheres, RTC_BUFFER_TYPE_VERTEX, 0));
+  for (size_t i = 0; i < m_workload.sphereCount(); ++i) {
+    for (size_t axis = 0; axis < 3; ++axis) spheres[4 * i + axis] = static_cast<float>(centers[3 * i + axis]);
+  }
+  rtcUpdateGeometryBuffer(m_spheres, RTC_BUFFER_TYPE_VERTEX, 0);
+  rtcCommitGeometry(m_spheres);
+  m_device.check("moving the Embree spheres");
 }
 
 void EmbreeScene::addGround() {

@@ -25,12 +25,17 @@ class EmbreeDevice {
 // and its ground plane as a quad far larger than anything the camera sees.
 class EmbreeScene {
  public:
-  EmbreeScene(const EmbreeDevice& device, const Workload& workload);  // fills the buffers; no build
+  // Fills the buffers; no build. `animated`: Embree's set-up for geometry that moves between
+  // frames (RTC_SCENE_FLAG_DYNAMIC, the spheres refitted: RTC_BUILD_QUALITY_REFIT).
+  EmbreeScene(const EmbreeDevice& device, const Workload& workload, bool animated = false);
   ~EmbreeScene();
   EmbreeScene(const EmbreeScene&) = delete;
   EmbreeScene& operator=(const EmbreeScene&) = delete;
 
   void commit();  // rtcCommitScene: the hierarchy build
+  // Writes the spheres' new centres (count x 3) into their buffer and marks it updated; the next
+  // commit refits (animated) or rebuilds.
+  void moveSpheres(const std::vector<double>& centers);
 
   // Traces the camera's rays (Dürer's Camera<float>: the rays Dürer's float render makes) with
   // rtcIntersect8 on `threads` std::threads, and with a sun the occlusion rays of the hits facing it
@@ -39,12 +44,13 @@ class EmbreeScene {
 
  private:
   void traceGivenRays(int threads, Image& image) const;
-  void addSpheres();
+  void addSpheres(bool animated);
   void addGround();
 
   const EmbreeDevice& m_device;
   const Workload& m_workload;
   RTCScene m_scene;
+  RTCGeometry m_spheres;
   unsigned m_groundId = RTC_INVALID_GEOMETRY_ID;
 };
 

@@ -133,11 +133,28 @@ Workload makeWorkload(const std::string& kind, size_t spheres, int width, int he
   throw std::invalid_argument("unknown workload '" + kind + "'");
 }
 
-void addToScene(const Workload& w, durer::Scene& scene) {
+std::vector<double> Workload::frameCenters(int frame) const {
+  std::vector<double> moved = centers;
+  if (frame % 2 == 0) return moved;
+  std::mt19937_64 random(kSeed + 1);
+  std::normal_distribution<double> normal;
+  for (size_t i = 0; i < sphereCount(); ++i) {
+    durer::Vec3d d(0);
+    while (!(glm::length(d) > 1e-3)) d = durer::Vec3d(normal(random), normal(random), normal(random));
+    const durer::Vec3d direction = glm::normalize(d);
+    for (int axis = 0; axis < 3; ++axis) moved[3 * i + axis] += 0.25 * radii[i] * direction[axis];
+  }
+  return moved;
+}
+
+std::vector<int32_t> addToScene(const Workload& w, durer::Scene& scene) {
   const int32_t defaultMaterial = 0;
-  scene.addSpheres(w.centers.data(), w.radii.data(), &defaultMaterial, w.sphereCount(), false);
+  const int32_t first = scene.addSpheres(w.centers.data(), w.radii.data(), &defaultMaterial, w.sphereCount(), false);
   if (w.groundPlane) scene.addPlane({0, 1, 0}, 0, defaultMaterial, nullptr);
   if (w.sunDirection) scene.addDirectionalLight(*w.sunDirection, {1, 1, 1}, true);
+  std::vector<int32_t> ids(w.sphereCount());
+  for (size_t i = 0; i < ids.size(); ++i) ids[i] = first + static_cast<int32_t>(i);
+  return ids;
 }
 
 }  // namespace bench

@@ -26,6 +26,9 @@ struct Workload {
   std::vector<double> rayOrigins, rayDirections;
 
   size_t sphereCount() const { return radii.size(); }
+  // The centres of an animation's frame `frame`: odd frames move every sphere by a quarter of its
+  // radius in a direction of its own (seeded), even frames put them back.
+  std::vector<double> frameCenters(int frame) const;
   bool givenRays() const { return !rayOrigins.empty(); }
 };
 
@@ -37,6 +40,7 @@ const std::vector<std::pair<std::string, std::string>>& workloadKinds();
 Workload makeWorkload(const std::string& kind, size_t spheres, int width, int height);
 
 // Dürer's scene of the workload: its spheres with the default material, the plane, the sun.
-void addToScene(const Workload& workload, durer::Scene& scene);
+// Returns the spheres' object ids (for moveSpheres).
+std::vector<int32_t> addToScene(const Workload& workload, durer::Scene& scene);
 
 }  // namespace bench

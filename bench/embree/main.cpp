@@ -155,8 +155,8 @@ void litFromColor(Image& image) {
 }
 
 struct Timings {
-  std::vector<double> embreeBuild, embreeTrace;
-  std::vector<double> durerFirst[2], durerCached[2];  // [0] float, [1] double
+  std::vector<double> embreeBuild, embreeTrace, embreeFrame;
+  std::vector<double> durerFirst[2], durerCached[2], durerFrame[2];  // [0] float, [1] double
 };
 
 constexpr durer::Precision kPrecisions[2] = {durer::Precision::Float, durer::Precision::Double};
@@ -166,10 +166,33 @@ struct FirstPass {
   MemoryProbe::Growth embree, durer[2];
   int64_t durerScene[2] = {};  // what the Scene alone holds, before a render prepares it
   Agreement agreement[2];
+  Agreement frameAgreement[2];  // on an animation's next frame (not for given rays)
 };
 
+// The images of an animation's next frame (Workload::frameCenters(1)), each tracer as timeRound
+// times it, compared.
+void compareFrames(const Workload& w, const EmbreeDevice& device, int threads, CastBuffers& buffers,
+                   Image (&frameImages)[3], FirstPass& pass) {
+  const std::vector<double> moved = w.frameCenters(1);
+  EmbreeScene animated(device, w, true);
+  animated.commit();
+  animated.moveSpheres(moved);
+  animated.commit();
+  animated.trace(threads, frameImages[0]);
+  for (int p = 0; p < 2; ++p) {
+    Image& image = frameImages[1 + p];
+    durer::Scene scene;
+    const std::vector<int32_t> ids = addToScene(w, scene);
+    renderDurer(scene, w, kPrecisions[p], threads, buffers, image);
+    scene.moveSpheres(ids.data(), moved.data(), nullptr, ids.size());
+    renderDurer(scene, w, kPrecisions[p], threads, buffers, image);
+    litFromColor(image);
+    pass.frameAgreement[p] = compare(frameImages[0], image);
+  }
+}
+
 FirstPass firstPass(const Workload& w, const EmbreeDevice& device, int threads, CastBuffers& buffers,
-                    Image& embreeImage, Image (&durerImages)[2]) {
+                    Image& embreeImage, Image (&durerImages)[2], Image (&frameImages)[3]) {
   FirstPass pass;
   for (int p = 0; p < 2; ++p) {
     const MemoryProbe probe;
@@ -188,24 +211,45 @@ FirstPass firstPass(const Workload& w, const EmbreeDevice& device, int threads, 
     pass.embree = probe.growth();
   }
   for (int p = 0; p < 2; ++p) pass.agreement[p] = compare(embreeImage, durerImages[p]);
+  if (!w.givenRays()) compareFrames(w, device, threads, buffers, frameImages, pass);
   return pass;
 }
 
 // One timed round: Embree (build, trace), then Dürer in each precision (first render of a fresh
-// scene, which builds its hierarchy, then the same scene again, which reuses it).
+// scene, which builds its hierarchy, then the same scene again, which reuses it). Unless the rays
+// are given, then an animation's next frame (every sphere moved, Workload::frameCenters): Embree's
+// animated scene (built and traced untimed) updated, committed (a refit) and traced; Dürer's scene
+// moved (Scene::moveSpheres) and rendered (its hierarchy refitted, its views made again).
 void timeRound(const Workload& w, const EmbreeDevice& device, int threads, CastBuffers& buffers,
-               Image& embreeImage, Image (&durerImages)[2], Timings& t) {
+               Image& embreeImage, Image (&durerImages)[2], Image (&frameImages)[3], Timings& t) {
+  const bool frames = !w.givenRays();
+  const std::vector<double> moved = frames ? w.frameCenters(1) : std::vector<double>{};
   {
     EmbreeScene scene(device, w);
     t.embreeBuild.push_back(millisecondsOf([&] { scene.commit(); }));
     t.embreeTrace.push_back(millisecondsOf([&] { scene.trace(threads, embreeImage); }));
   }
+  if (frames) {
+    EmbreeScene scene(device, w, true);
+    scene.commit();
+    scene.trace(threads, embreeImage);
+    t.embreeFrame.push_back(millisecondsOf([&] {
+      scene.moveSpheres(moved);
+      scene.commit();
+      scene.trace(threads, frameImages[0]);
+    }));
+  }
   for (int p = 0; p < 2; ++p) {
     durer::Scene scene;
-    addToScene(w, scene);
+    const std::vector<int32_t> ids = addToScene(w, scene);
     const auto render = [&] { renderDurer(scene, w, kPrecisions[p], threads, buffers, durerImages[p]); };
     t.durerFirst[p].push_back(millisecondsOf(render));
     t.durerCached[p].push_back(millisecondsOf(render));
+    if (!frames) continue;
+    t.durerFrame[p].push_back(millisecondsOf([&] {
+      scene.moveSpheres(ids.data(), moved.data(), nullptr, ids.size());
+      renderDurer(scene, w, kPrecisions[p], threads, buffers, frameImages[1 + p]);
+    }));
   }
 }
 
@@ -242,25 +286,30 @@ std::string report(const Options& o, const Workload& w, const FirstPass& first, 
       << ", \"height\": " << w.height << ", \"threads\": " << o.threads << ", \"runs\": " << t.embreeTrace.size()
       << ",\n \"rays\": {\"embree\": " << embreeImage.rays << ", \"durer_float\": " << durerImages[0].rays
       << ", \"durer_double\": " << durerImages[1].rays << "},\n \"embree\": {\"build_ms\": " << list(t.embreeBuild)
-      << ", \"trace_ms\": " << list(t.embreeTrace) << "},\n";
+      << ", \"trace_ms\": " << list(t.embreeTrace) << ", \"frame_ms\": " << list(t.embreeFrame) << "},\n";
   const char* names[2] = {"float", "double"};
   for (int p = 0; p < 2; ++p) {
     out << " \"durer_" << names[p] << "\": {\"first_ms\": " << list(t.durerFirst[p])
-        << ", \"cached_ms\": " << list(t.durerCached[p]) << "},\n";
+        << ", \"cached_ms\": " << list(t.durerCached[p]) << ", \"frame_ms\": " << list(t.durerFrame[p]) << "},\n";
   }
   out << " \"agreement\": {\"float\": " << json(first.agreement[0]) << ",\n               \"double\": "
-      << json(first.agreement[1]) << "},\n \"memory\": {\"embree\": " << json(first.embree)
+      << json(first.agreement[1]) << "},\n";
+  if (!w.givenRays()) {
+    out << " \"frame_agreement\": {\"float\": " << json(first.frameAgreement[0]) << ",\n                     \"double\": "
+        << json(first.frameAgreement[1]) << "},\n";
+  }
+  out << " \"memory\": {\"embree\": " << json(first.embree)
       << ",\n            \"durer_float\": " << json(first.durer[0], sceneBytes(first.durerScene[0]))
       << ",\n            \"durer_double\": " << json(first.durer[1], sceneBytes(first.durerScene[1]))
       << ", \"process_peak_rss_bytes\": " << processPeakRss() << "}}\n";
   return out.str();
 }
 
-void logAgreement(const FirstPass& first) {
+void logAgreement(const Agreement (&agreement)[2], const char* what) {
   const char* names[2] = {"float", "double"};
   for (int p = 0; p < 2; ++p) {
-    const Agreement& a = first.agreement[p];
-    std::cerr << "  agreement, Dürer " << names[p] << " vs Embree: " << (a.passed() ? "OK" : "FAILED") << "; hit/miss "
+    const Agreement& a = agreement[p];
+    std::cerr << "  " << what << ", Dürer " << names[p] << " vs Embree: " << (a.passed() ? "OK" : "FAILED") << "; hit/miss "
               << a.pixels - a.hitMismatches << " of " << a.pixels << " pixels agree, depth beyond "
               << Agreement::kDepthTolerance << " relative at " << a.depthMismatches << " of " << a.bothHit
               << " (99.9th percentile " << a.depthDifference999 << ", max " << a.maxDepthDifference << "), lit "
@@ -277,14 +326,19 @@ int run(const Options& o) {
   const bool sun = w.sunDirection.has_value();
   Image embreeImage(w.width, w.height, sun);
   Image durerImages[2] = {Image(w.width, w.height, sun), Image(w.width, w.height, sun)};
+  const int frameWidth = w.givenRays() ? 0 : w.width, frameHeight = w.givenRays() ? 0 : w.height;
+  Image frameImages[3] = {Image(frameWidth, frameHeight, sun), Image(frameWidth, frameHeight, sun),
+                          Image(frameWidth, frameHeight, sun)};
   std::cerr << o.kind << ", " << w.sphereCount() << " spheres, " << w.width << "x" << w.height << "\n";
   CastBuffers buffers(w.givenRays() ? embreeImage.depth.size() : 0);
-  const FirstPass first = firstPass(w, device, o.threads, buffers, embreeImage, durerImages);
-  logAgreement(first);
-  const bool agree = first.agreement[0].passed() && first.agreement[1].passed();
+  const FirstPass first = firstPass(w, device, o.threads, buffers, embreeImage, durerImages, frameImages);
+  logAgreement(first.agreement, "agreement");
+  if (!w.givenRays()) logAgreement(first.frameAgreement, "next frame's agreement");
+  const bool agree = first.agreement[0].passed() && first.agreement[1].passed() &&
+                     (w.givenRays() || (first.frameAgreement[0].passed() && first.frameAgreement[1].passed()));
   Timings timings;
   for (int round = 0; agree && round < o.runs; ++round) {
-    timeRound(w, device, o.threads, buffers, embreeImage, durerImages, timings);
+    timeRound(w, device, o.threads, buffers, embreeImage, durerImages, frameImages, timings);
   }
   std::cout << report(o, w, first, timings, embreeImage, durerImages);
   return agree ? 0 : 3;
