@@ -116,6 +116,10 @@ def test_spheres_under_transforms_move_with_the_hierarchy_over_instances(rng, pr
     scene.move_spheres(np.arange(12 * per)[group], centers[group])
     assert_casts_equal(scene, build(centers), origins, directions, precision)
     assert scene.hierarchy_counts["refitted"] == 1
+    order = rng.permutation(12 * per)  # every run's ids interleaved: each lookup leaves the run before it
+    centers[order] += rng.normal(0, 0.05, (12 * per, 3))
+    scene.move_spheres(order, centers[order])
+    assert_casts_equal(scene, build(centers), origins, directions, precision)
 
 
 def test_images_after_a_move_equal_a_fresh_scene_pixel_for_pixel(rng):
