@@ -97,12 +97,13 @@ constexpr double kMarginPixels = 1.0 / 64;
 // length L = sqrt(d^2 - r^2), are its extreme directions. Their z decides each end: at or behind
 // z = 0 the range reaches that side's infinity. The disk spans less than half a turn (d > r), so
 // the directions between them lie in front wherever both ends do, and behind wherever neither does.
-// A radius grown by 1.25 angle d widens the angles by at least 1.25 angle (asin's slope is at least
-// 1): `angle`, and room for the few units in the last place the products here round by.
-bool seenRange(double x, double z, double r, double angle, double& lo, double& hi) {
+// A radius grown by 1.25 angle D, for any D >= d (the caller's distance in three dimensions), widens
+// the angles by at least 1.25 angle (asin's slope is at least 1): `angle`, and room for the few units
+// in the last place the products here round by.
+bool seenRange(double x, double z, double r, double angle, double distance, double& lo, double& hi) {
   constexpr double inf = std::numeric_limits<double>::infinity();
   const double distanceSq = x * x + z * z;
-  const double reach = r + 1.25 * angle * std::sqrt(distanceSq);
+  const double reach = r + 1.25 * angle * distance;
   const double tangentSq = distanceSq - reach * reach;
   if (!(tangentSq > 0)) {  // the eye is inside (or on) the widened disk: every direction
     lo = -inf, hi = inf;
@@ -142,7 +143,9 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
   const double distance = glm::length(center - image.center);
   const double reach = radius + eps * (distance + radius);
   double x0, x1, y0, y1;
-  if (!seenRange(q.x, q.z, reach, eps, x0, x1) || !seenRange(q.y, q.z, reach, eps, y0, y1)) return false;
+  if (!seenRange(q.x, q.z, reach, eps, distance, x0, x1) || !seenRange(q.y, q.z, reach, eps, distance, y0, y1)) {
+    return false;
+  }
   box = {image.sampleX(x0) - m, image.sampleX(x1) + m, image.sampleY(y1) - m, image.sampleY(y0) + m};
   tLow = distance - reach;
   return true;
