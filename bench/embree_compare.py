@@ -219,8 +219,8 @@ class Result:
 
     @property
     def agrees(self) -> bool:
-        checks = [self.report["agreement"], self.report.get("frame_agreement", {})]
-        return self.exit_code == 0 and all(c[p]["passed"] for c in checks if c for p in ("float", "double"))
+        checks = [self.report[key] for key in ("agreement", "pose_agreement", "frame_agreement") if key in self.report]
+        return self.exit_code == 0 and all(c[p]["passed"] for c in checks for p in ("float", "double"))
 
 
 def machine_busy_seconds() -> float | None:
@@ -259,7 +259,8 @@ def children_cpu_seconds() -> float:
 HEADER = (
     "Workload", "Spheres", "Embree build + trace ms", "Embree Mrays/s", "Dürer float ms: cached (first)",
     "Dürer double ms: cached (first)", "Dürer Mrays/s f / d", "Dürer / Embree f / d", "First render f / d",
-    "Moved frame ms: Embree, Dürer f / d", "Moved frame f / d", "Hits agree f / d", "B/sphere: Dürer f / d + scene (Embree)", "Peak RSS MB", "Others",
+    "New pose ms: Embree, Dürer f / d", "New pose f / d", "Moved frame ms: Embree, Dürer f / d", "Moved frame f / d",
+    "Hits agree f / d", "B/sphere: Dürer f / d + scene (Embree)", "Peak RSS MB", "Others",
 )
 NUMERIC_FROM = 1
 
@@ -268,7 +269,7 @@ def row_cells(result: Result) -> tuple[str, ...]:
     r = result.report
     n = r["spheres"]
     if not result.agrees:
-        return (result.workload.name, f"{n:,}", *["-"] * 9, agreement_cell(r), "-", "-", others_cell(result.others))
+        return (result.workload.name, f"{n:,}", *["-"] * 11, agreement_cell(r), "-", "-", others_cell(result.others))
     build, trace = result.median("embree", "build_ms"), result.median("embree", "trace_ms")
     cached = {p: result.median(f"durer_{p}", "cached_ms") for p in ("float", "double")}
     first = {p: result.median(f"durer_{p}", "first_ms") for p in ("float", "double")}
@@ -284,7 +285,8 @@ def row_cells(result: Result) -> tuple[str, ...]:
         f"{mrays['float']:.1f} / {mrays['double']:.1f}",
         f"{trace / cached['float']:.2f}x / {trace / cached['double']:.2f}x",
         f"{(build + trace) / first['float']:.2f}x / {(build + trace) / first['double']:.2f}x",
-        *frame_cells(result),
+        *later_cells(result, "pose_ms"),
+        *later_cells(result, "frame_ms"),
         agreement_cell(r),
         memory_cell(memory, n),
         f"{memory['process_peak_rss_bytes'] / 2**20:.0f}",
@@ -292,13 +294,14 @@ def row_cells(result: Result) -> tuple[str, ...]:
     )
 
 
-def frame_cells(result: Result) -> tuple[str, str]:
-    """An animation's next frame (every sphere moved): Embree's refit + trace and Dürer's move + render
-    in ms, and Embree's time over Dürer's ("-" for given rays, which leave the spheres' surfaces)."""
-    if not result.report["embree"].get("frame_ms"):
+def later_cells(result: Result, key: str) -> tuple[str, str]:
+    """The camera's other pose ("pose_ms": Embree's trace, Dürer's render with the pose's new view) or
+    an animation's next frame ("frame_ms": Embree's refit + trace, Dürer's move + render), in ms, and
+    Embree's time over Dürer's; "-" for given rays, which have neither."""
+    if not result.report["embree"].get(key):
         return "-", "-"
-    embree = result.median("embree", "frame_ms")
-    durer = {p: result.median(f"durer_{p}", "frame_ms") for p in ("float", "double")}
+    embree = result.median("embree", key)
+    durer = {p: result.median(f"durer_{p}", key) for p in ("float", "double")}
     return (f"{embree:.0f}, {durer['float']:.0f} / {durer['double']:.0f}",
             f"{embree / durer['float']:.2f}x / {embree / durer['double']:.2f}x")
 
@@ -374,6 +377,9 @@ def legend_lines(size: tuple[int, int], runs: int) -> list[str]:
         "hierarchy build included. Depth pass only; colour + depth with the sun.",
         "Dürer / Embree: Embree trace time / Dürer cached time (above 1: Dürer faster); First render: "
         "Embree build + trace / Dürer first render.",
+        "New pose: the camera turned 2 degrees about its up vector (a synthetic data set's next view), the scenes "
+        "as built for the first pose: Embree's trace of its rays; Dürer's render, which makes the pose's view of the "
+        "spheres. Ratio: Embree's time / Dürer's.",
         "Moved frame: an animation's next frame, every sphere moved a quarter radius (seeded directions). Embree: "
         "its animated scene (RTC_SCENE_FLAG_DYNAMIC, spheres at RTC_BUILD_QUALITY_REFIT) gets the new centres, "
         "rtcCommitScene (a refit) and the trace; Dürer: Scene::moveSpheres and the render (hierarchy refitted, "

@@ -33,8 +33,8 @@ constexpr float kInfinity = std::numeric_limits<float>::infinity();
 // One thread's tracer: it generates a tile's rays with Dürer's camera and traces them row by row.
 class TileTracer {
  public:
-  TileTracer(const Workload& w, RTCScene scene, unsigned groundId, Image& image)
-      : m_workload(w), m_scene(scene), m_groundId(groundId), m_camera(w.camera, w.width, w.height), m_image(image) {
+  TileTracer(const Workload& w, const durer::CameraSpec& camera, RTCScene scene, unsigned groundId, Image& image)
+      : m_workload(w), m_scene(scene), m_groundId(groundId), m_camera(camera, w.width, w.height), m_image(image) {
     rtcInitIntersectContext(&m_context);
     if (w.sunDirection) m_towardSun = -durer::toReal<float>(*w.sunDirection);
   }
@@ -200,7 +200,7 @@ void EmbreeScene::commit() {
   m_device.check("rtcCommitScene");
 }
 
-void EmbreeScene::trace(int threads, Image& image) const {
+void EmbreeScene::trace(int threads, Image& image, const durer::CameraSpec& camera) const {
   if (m_workload.givenRays()) {
     traceGivenRays(threads, image);
     return;
@@ -213,7 +213,7 @@ void EmbreeScene::trace(int threads, Image& image) const {
   std::vector<std::thread> pool;
   for (int i = 0; i < threads; ++i) {
     pool.emplace_back([&] {
-      TileTracer tracer(m_workload, m_scene, m_groundId, image);
+      TileTracer tracer(m_workload, camera, m_scene, m_groundId, image);
       for (int64_t strip; (strip = nextStrip++) < strips;) tracer.traceStrip(strip);
       shadowRays += tracer.shadowRays();
     });

@@ -40,7 +40,8 @@ class EmbreeScene {
   // Traces the camera's rays (Dürer's Camera<float>: the rays Dürer's float render makes) with
   // rtcIntersect8 on `threads` std::threads, and with a sun the occlusion rays of the hits facing it
   // with rtcOccluded8; given rays one at a time with rtcIntersect1 (Embree's call for incoherent rays).
-  void trace(int threads, Image& image) const;
+  void trace(int threads, Image& image) const { trace(threads, image, m_workload.camera); }
+  void trace(int threads, Image& image, const durer::CameraSpec& camera) const;  // another pose's rays
 
  private:
   void traceGivenRays(int threads, Image& image) const;

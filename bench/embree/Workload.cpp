@@ -147,6 +147,16 @@ std::vector<double> Workload::frameCenters(int frame) const {
   return moved;
 }
 
+durer::CameraSpec Workload::posedCamera() const {
+  constexpr double kTurn = 2 * 3.14159265358979323846 / 180;
+  durer::CameraSpec posed = camera;
+  const durer::Vec3d u = glm::normalize(camera.up), d = camera.direction;
+  // Rodrigues' rotation of the direction about the unit up vector.
+  posed.direction = d * std::cos(kTurn) + glm::cross(u, d) * std::sin(kTurn) + u * glm::dot(u, d) * (1 - std::cos(kTurn));
+  durer::validate(posed);
+  return posed;
+}
+
 std::vector<int32_t> addToScene(const Workload& w, durer::Scene& scene) {
   const int32_t defaultMaterial = 0;
   const int32_t first = scene.addSpheres(w.centers.data(), w.radii.data(), &defaultMaterial, w.sphereCount(), false);

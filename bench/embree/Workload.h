@@ -29,6 +29,9 @@ struct Workload {
   // The centres of an animation's frame `frame`: odd frames move every sphere by a quarter of its
   // radius in a direction of its own (seeded), even frames put them back.
   std::vector<double> frameCenters(int frame) const;
+  // Another pose of the camera (a synthetic data set's next view): turned 2 degrees about its up
+  // vector, its centre kept.
+  durer::CameraSpec posedCamera() const;
   bool givenRays() const { return !rayOrigins.empty(); }
 };
 

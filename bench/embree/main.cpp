@@ -130,7 +130,7 @@ void castDurer(const durer::Scene& scene, const Workload& w, durer::Precision pr
 // Dürer's render of the workload through its public API: depth only, or colour + depth with a sun;
 // given rays are cast instead.
 void renderDurer(const durer::Scene& scene, const Workload& w, durer::Precision precision, int threads,
-                 CastBuffers& buffers, Image& image) {
+                 CastBuffers& buffers, Image& image, const durer::CameraSpec& camera) {
   if (w.givenRays()) {
     castDurer(scene, w, precision, threads, buffers, image);
     return;
@@ -145,8 +145,13 @@ void renderDurer(const durer::Scene& scene, const Workload& w, durer::Precision 
   targets.depth = image.depth.data();
   targets.color = w.sunDirection ? image.color.data() : nullptr;
   durer::JobControl control;
-  const durer::RenderStats stats = durer::render(scene, w.camera, settings, targets, control, [] {});
+  const durer::RenderStats stats = durer::render(scene, camera, settings, targets, control, [] {});
   image.rays = stats.counters.camera + stats.counters.shadow;
+}
+
+void renderDurer(const durer::Scene& scene, const Workload& w, durer::Precision precision, int threads,
+                 CastBuffers& buffers, Image& image) {
+  renderDurer(scene, w, precision, threads, buffers, image, w.camera);
 }
 
 // With no ambient light and no emission, a pixel has colour exactly where its hit is lit by the sun.
@@ -155,8 +160,8 @@ void litFromColor(Image& image) {
 }
 
 struct Timings {
-  std::vector<double> embreeBuild, embreeTrace, embreeFrame;
-  std::vector<double> durerFirst[2], durerCached[2], durerFrame[2];  // [0] float, [1] double
+  std::vector<double> embreeBuild, embreeTrace, embreePose, embreeFrame;
+  std::vector<double> durerFirst[2], durerCached[2], durerPose[2], durerFrame[2];  // [0] float, [1] double
 };
 
 constexpr durer::Precision kPrecisions[2] = {durer::Precision::Float, durer::Precision::Double};
@@ -166,8 +171,29 @@ struct FirstPass {
   MemoryProbe::Growth embree, durer[2];
   int64_t durerScene[2] = {};  // what the Scene alone holds, before a render prepares it
   Agreement agreement[2];
+  Agreement poseAgreement[2];   // on the camera's other pose (not for given rays)
   Agreement frameAgreement[2];  // on an animation's next frame (not for given rays)
 };
+
+// The images of the camera's other pose (Workload::posedCamera), each tracer's scene as timeRound
+// times it (built and traced from the first pose), compared.
+void comparePoses(const Workload& w, const EmbreeDevice& device, int threads, CastBuffers& buffers,
+                  Image (&poseImages)[3], FirstPass& pass) {
+  const durer::CameraSpec posed = w.posedCamera();
+  EmbreeScene embree(device, w);
+  embree.commit();
+  embree.trace(threads, poseImages[0]);
+  embree.trace(threads, poseImages[0], posed);
+  for (int p = 0; p < 2; ++p) {
+    Image& image = poseImages[1 + p];
+    durer::Scene scene;
+    addToScene(w, scene);
+    renderDurer(scene, w, kPrecisions[p], threads, buffers, image);
+    renderDurer(scene, w, kPrecisions[p], threads, buffers, image, posed);
+    litFromColor(image);
+    pass.poseAgreement[p] = compare(poseImages[0], image);
+  }
+}
 
 // The images of an animation's next frame (Workload::frameCenters(1)), each tracer as timeRound
 // times it, compared.
@@ -211,23 +237,29 @@ FirstPass firstPass(const Workload& w, const EmbreeDevice& device, int threads, 
     pass.embree = probe.growth();
   }
   for (int p = 0; p < 2; ++p) pass.agreement[p] = compare(embreeImage, durerImages[p]);
-  if (!w.givenRays()) compareFrames(w, device, threads, buffers, frameImages, pass);
+  if (!w.givenRays()) {
+    comparePoses(w, device, threads, buffers, frameImages, pass);
+    compareFrames(w, device, threads, buffers, frameImages, pass);
+  }
   return pass;
 }
 
 // One timed round: Embree (build, trace), then Dürer in each precision (first render of a fresh
 // scene, which builds its hierarchy, then the same scene again, which reuses it). Unless the rays
-// are given, then an animation's next frame (every sphere moved, Workload::frameCenters): Embree's
+// are given, then the camera's other pose (Workload::posedCamera: Embree's trace of its rays, Dürer's
+// render, which makes the pose's view of the spheres), then an animation's next frame (every sphere moved, Workload::frameCenters): Embree's
 // animated scene (built and traced untimed) updated, committed (a refit) and traced; Dürer's scene
 // moved (Scene::moveSpheres) and rendered (its hierarchy refitted, its views made again).
 void timeRound(const Workload& w, const EmbreeDevice& device, int threads, CastBuffers& buffers,
                Image& embreeImage, Image (&durerImages)[2], Image (&frameImages)[3], Timings& t) {
   const bool frames = !w.givenRays();
   const std::vector<double> moved = frames ? w.frameCenters(1) : std::vector<double>{};
+  const durer::CameraSpec posed = frames ? w.posedCamera() : w.camera;
   {
     EmbreeScene scene(device, w);
     t.embreeBuild.push_back(millisecondsOf([&] { scene.commit(); }));
     t.embreeTrace.push_back(millisecondsOf([&] { scene.trace(threads, embreeImage); }));
+    if (frames) t.embreePose.push_back(millisecondsOf([&] { scene.trace(threads, frameImages[0], posed); }));
   }
   if (frames) {
     EmbreeScene scene(device, w, true);
@@ -246,6 +278,8 @@ void timeRound(const Workload& w, const EmbreeDevice& device, int threads, CastB
     t.durerFirst[p].push_back(millisecondsOf(render));
     t.durerCached[p].push_back(millisecondsOf(render));
     if (!frames) continue;
+    t.durerPose[p].push_back(
+        millisecondsOf([&] { renderDurer(scene, w, kPrecisions[p], threads, buffers, frameImages[1 + p], posed); }));
     t.durerFrame[p].push_back(millisecondsOf([&] {
       scene.moveSpheres(ids.data(), moved.data(), nullptr, ids.size());
       renderDurer(scene, w, kPrecisions[p], threads, buffers, frameImages[1 + p]);
@@ -286,15 +320,19 @@ std::string report(const Options& o, const Workload& w, const FirstPass& first, 
       << ", \"height\": " << w.height << ", \"threads\": " << o.threads << ", \"runs\": " << t.embreeTrace.size()
       << ",\n \"rays\": {\"embree\": " << embreeImage.rays << ", \"durer_float\": " << durerImages[0].rays
       << ", \"durer_double\": " << durerImages[1].rays << "},\n \"embree\": {\"build_ms\": " << list(t.embreeBuild)
-      << ", \"trace_ms\": " << list(t.embreeTrace) << ", \"frame_ms\": " << list(t.embreeFrame) << "},\n";
+      << ", \"trace_ms\": " << list(t.embreeTrace) << ", \"pose_ms\": " << list(t.embreePose)
+      << ", \"frame_ms\": " << list(t.embreeFrame) << "},\n";
   const char* names[2] = {"float", "double"};
   for (int p = 0; p < 2; ++p) {
     out << " \"durer_" << names[p] << "\": {\"first_ms\": " << list(t.durerFirst[p])
-        << ", \"cached_ms\": " << list(t.durerCached[p]) << ", \"frame_ms\": " << list(t.durerFrame[p]) << "},\n";
+        << ", \"cached_ms\": " << list(t.durerCached[p]) << ", \"pose_ms\": " << list(t.durerPose[p])
+        << ", \"frame_ms\": " << list(t.durerFrame[p]) << "},\n";
   }
   out << " \"agreement\": {\"float\": " << json(first.agreement[0]) << ",\n               \"double\": "
       << json(first.agreement[1]) << "},\n";
   if (!w.givenRays()) {
+    out << " \"pose_agreement\": {\"float\": " << json(first.poseAgreement[0]) << ",\n                    \"double\": "
+        << json(first.poseAgreement[1]) << "},\n";
     out << " \"frame_agreement\": {\"float\": " << json(first.frameAgreement[0]) << ",\n                     \"double\": "
         << json(first.frameAgreement[1]) << "},\n";
   }
@@ -333,9 +371,13 @@ int run(const Options& o) {
   CastBuffers buffers(w.givenRays() ? embreeImage.depth.size() : 0);
   const FirstPass first = firstPass(w, device, o.threads, buffers, embreeImage, durerImages, frameImages);
   logAgreement(first.agreement, "agreement");
-  if (!w.givenRays()) logAgreement(first.frameAgreement, "next frame's agreement");
-  const bool agree = first.agreement[0].passed() && first.agreement[1].passed() &&
-                     (w.givenRays() || (first.frameAgreement[0].passed() && first.frameAgreement[1].passed()));
+  if (!w.givenRays()) {
+    logAgreement(first.poseAgreement, "other pose's agreement");
+    logAgreement(first.frameAgreement, "next frame's agreement");
+  }
+  const auto both = [](const Agreement (&a)[2]) { return a[0].passed() && a[1].passed(); };
+  const bool agree = both(first.agreement) &&
+                     (w.givenRays() || (both(first.poseAgreement) && both(first.frameAgreement)));
   Timings timings;
   for (int round = 0; agree && round < o.runs; ++round) {
     timeRound(w, device, o.threads, buffers, embreeImage, durerImages, frameImages, timings);

@@ -90,9 +90,12 @@ def _report(spheres: int = 1_000_000, disagreeing: int = 13) -> dict:
     return {
         "spheres": spheres,
         "rays": {"embree": 2_073_600, "durer_float": 2_073_600, "durer_double": 2_073_600},
-        "embree": {"build_ms": [12.0, 10.0, 11.0], "trace_ms": [90.0, 100.0, 110.0], "frame_ms": [300.0, 310.0, 290.0]},
-        "durer_float": {"first_ms": [111.0, 120.0, 100.0], "cached_ms": [40.0, 50.0, 60.0], "frame_ms": [150.0] * 3},
-        "durer_double": {"first_ms": [222.0, 222.0, 222.0], "cached_ms": [200.0, 200.0, 200.0], "frame_ms": [600.0] * 3},
+        "embree": {"build_ms": [12.0, 10.0, 11.0], "trace_ms": [90.0, 100.0, 110.0], "pose_ms": [100.0] * 3,
+                   "frame_ms": [300.0, 310.0, 290.0]},
+        "durer_float": {"first_ms": [111.0, 120.0, 100.0], "cached_ms": [40.0, 50.0, 60.0], "pose_ms": [80.0] * 3,
+                        "frame_ms": [150.0] * 3},
+        "durer_double": {"first_ms": [222.0, 222.0, 222.0], "cached_ms": [200.0, 200.0, 200.0], "pose_ms": [250.0] * 3,
+                         "frame_ms": [600.0] * 3},
         "agreement": {"float": agreement, "double": agreement},
         "memory": {
             "embree": {"retained_bytes": 56_000_000, "peak_bytes": 60_000_000},
@@ -112,6 +115,8 @@ def test_a_row_shows_medians_ratios_agreement_and_memory():
     assert row["Dürer Mrays/s f / d"] == "41.5 / 10.4"
     assert row["Dürer / Embree f / d"] == "2.00x / 0.50x"  # Embree's 100 ms trace over Dürer's cached render
     assert row["First render f / d"] == "1.00x / 0.50x"  # Embree's 111 ms build + trace over Dürer's first render
+    assert row["New pose ms: Embree, Dürer f / d"] == "100, 80 / 250"
+    assert row["New pose f / d"] == "1.25x / 0.40x"  # Embree's trace of the pose over Dürer's render with its view
     assert row["Moved frame ms: Embree, Dürer f / d"] == "300, 150 / 600"
     assert row["Moved frame f / d"] == "2.00x / 0.50x"  # Embree's refit + trace over Dürer's move + render
     assert row["Hits agree f / d"] == "99.999% / 99.999%"
@@ -137,15 +142,20 @@ def test_a_row_whose_images_disagree_shows_no_timings():
     assert "DISAGREEMENT in cube-1m" in text
 
 
-def test_given_rays_have_no_moved_frame_and_a_frame_disagreement_stops_the_timings():
+def test_given_rays_have_no_pose_or_frame_and_a_pose_or_frame_disagreement_stops_the_timings():
     report = _report()
     for tracer in ("embree", "durer_float", "durer_double"):
-        report[tracer]["frame_ms"] = []  # given rays: no frames timed
+        report[tracer]["pose_ms"] = report[tracer]["frame_ms"] = []  # given rays: no poses or frames timed
     row = dict(zip(bench.HEADER, bench.row_cells(bench.Result(bench.WORKLOADS[8], report, 0.0, 0)), strict=True))
     assert row["Moved frame ms: Embree, Dürer f / d"] == "-" and row["Moved frame f / d"] == "-"
+    assert row["New pose ms: Embree, Dürer f / d"] == "-" and row["New pose f / d"] == "-"
     moved = _report()
     moved["frame_agreement"] = {"float": {**moved["agreement"]["float"], "passed": False}, "double": moved["agreement"]["double"]}
     assert not bench.Result(bench.WORKLOADS[3], moved, 0.0, 3).agrees
+    posed = _report()
+    posed["pose_agreement"] = {"float": posed["agreement"]["float"], "double": {**posed["agreement"]["double"], "passed": False}}
+    assert not bench.Result(bench.WORKLOADS[3], posed, 0.0, 3).agrees
+    assert bench.Result(bench.WORKLOADS[3], _report(), 0.0, 0).agrees
 
 
 def test_memory_per_sphere_is_left_out_for_small_scenes():
@@ -172,7 +182,8 @@ def test_the_benchmark_checks_that_embree_and_durer_agree():
         assert all(len(report["embree"][key]) == 2 for key in ("build_ms", "trace_ms"))
         frames = 0 if workload.kind == "bounce" else 2  # given rays leave the spheres: no frame to move
         assert len(report["embree"]["frame_ms"]) == len(report["durer_double"]["frame_ms"]) == frames
-        assert ("frame_agreement" in report) == (frames > 0)
+        assert len(report["embree"]["pose_ms"]) == len(report["durer_float"]["pose_ms"]) == frames
+        assert ("frame_agreement" in report) == ("pose_agreement" in report) == (frames > 0)
         for precision in ("float", "double"):
             agreement = report["agreement"][precision]
             assert agreement["pixels"] == 160 * 96
