@@ -244,3 +244,49 @@ def test_secondary_rays_never_meet_the_triangle_they_leave(precision, as_mesh):
     np.testing.assert_allclose(result.color[grey_pixels][:, :3], 0.5 * cosine, rtol=1e-5)  # never shadowed
     np.testing.assert_array_equal(result.color[mirror_pixels][:, :3], [[0, 0, 1]] * mirror_pixels.sum())
     assert result.stats["shadow_rays"] > 1000 and result.stats["reflection_rays"] > 1000
+
+
+# Two slivers about 1e-9 across, 1e6 from the origin, under a transform: the traversal fuzz's case
+# (bench/fuzz_sanitized.sh, 2026-11-26). The ray's line passes ~2e6 from them, where their edge
+# functions are rounding noise; all three once shared a sign and the ray hit at t = 10642.
+SLIVERS = np.array([
+    [[-288644.5614894652, -956041.8290800145, -51655.95969921923], [-288644.56148946466, -956041.8290800136, -51655.95969921969],
+     [-288644.56148946437, -956041.8290800129, -51655.959699219886]],
+    [[-288644.5614886783, -956041.8290803473, -51655.95969927017], [-288644.5614886864, -956041.8290803558, -51655.959699261424],
+     [-288644.56148867216, -956041.8290803569, -51655.95969926647]]])
+SLIVER_TRANSFORM = np.array([
+    [0.4159374897992043, 0.6631454252694189, -1.363329222165041, 394984.2188243123],
+    [0.14028285737057308, 0.21223348864794273, 0.6040985095047653, -681440.5642888768],
+    [0.8985080547816388, -0.852940964842535, -0.5539660805938679, -636369.3858920503],
+    [0, 0, 0, 1]])
+
+
+def test_slivers_far_from_a_ray_are_never_hit():
+    scene = durer.Scene()
+    scene.add_triangles(SLIVERS, transform=SLIVER_TRANSFORM)
+    origin = [0.01273474385517384, -0.0024086237677881876, -51655.95969974432]
+    # The second ray, aimed at the slivers, enters their group's box, so the packet searches the group.
+    aimed = [-288644.5614895, -956041.8290794, -51655.9597] - np.array(origin)
+    hit = durer.cast(scene, [origin, origin], [[149.37088159014405, -32.2156084412135, 0.0], aimed], t_min=-math.inf)
+    assert hit.t[0] == math.inf and hit.object_id[0] == -1
+
+
+@pytest.mark.parametrize("precision", ["float", "double"])
+def test_rays_passing_far_from_tiny_far_triangles_all_miss(rng, precision):
+    """Triangles 1e-9 (double) or 1e-3 (float) across, 1e6 from the rays' origins: a ray whose line
+    passes a unit or more from every triangle must miss them all, however noisy their edge functions."""
+    size = 1e-9 if precision == "double" else 1e-3
+    centres = rng.normal(size=(200, 3)) * 1e6
+    triangles = centres[:, None, :] + rng.normal(size=(200, 3, 3)) * size
+    scene = durer.Scene()
+    scene.add_triangles(triangles)
+    origins = rng.normal(size=(40000, 3))
+    directions = rng.normal(size=(40000, 3))
+    unit = directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    offsets = centres[None, :, :] - origins[:, None, :]
+    along = np.einsum("rcj,rj->rc", offsets, unit)
+    distance = np.linalg.norm(offsets - along[:, :, None] * unit[:, None, :], axis=2)
+    far = distance.min(axis=1) > 1.0
+    hit = durer.cast(scene, origins[far], directions[far], t_min=-math.inf, precision=precision)
+    assert far.sum() > 39000
+    assert (hit.object_id == -1).all(), f"{(hit.object_id != -1).sum()} rays hit a triangle more than a unit away"

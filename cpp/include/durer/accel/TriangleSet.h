@@ -173,6 +173,8 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real, 3> {
     const bool outside = (h.u < 0 || h.v < 0 || h.w < 0) && (h.u > 0 || h.v > 0 || h.w > 0);
     h.det = h.u + h.v + h.w;
     if (outside || h.det == 0 || h.det != h.det) return h;  // h.hit stays false
+    const Real rawZ = max3(a[s.kz], b[s.kz], c[s.kz]);
+    if (!rayInShearedBox(ax, bx, cx, rawZ) || !rayInShearedBox(ay, by, cy, rawZ)) return h;
     const Real az = s.sz * a[s.kz], bz = s.sz * b[s.kz], cz = s.sz * c[s.kz];
     // U, V, W and det are products of two coordinates: scaled by a power of two (exact, so t keeps
     // its bits) before they meet a third, t's numerator cannot overflow where coordinates fit Limits.h.
@@ -181,7 +183,6 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real, 3> {
     h.t = (h.u * scale * az + h.v * scale * bz + h.w * scale * cz) / (h.det * scale);
     h.hit = h.t == h.t;
     if (positiveT && h.hit) {
-      const Real rawZ = max3(a[s.kz], b[s.kz], c[s.kz]);
       h.hit = h.t > tErrorBound(h, scale, max3(ax, bx, cx), max3(ay, by, cy), rawZ, max3(az, bz, cz));
     }
     return h;
@@ -200,6 +201,16 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real, 3> {
     const Real deltaE = 2 * (errorGamma<Real>(2) * maxX * maxY + deltaY * maxX + deltaX * maxY) * scale;
     const Real maxE = max3(h.u, h.v, h.w) * scale;
     return 3 * (errorGamma<Real>(3) * maxE * maxZ + deltaE * maxZ + deltaZ * maxE) / std::fabs(h.det * scale);
+  }
+
+  // Whether the ray, at 0 in the sheared plane, lies within the sheared vertices' range p, q, r on
+  // one axis, widened by their rounding (tErrorBound's deltaX, twice). Every true hit does. Where a
+  // triangle is many orders of magnitude smaller than its distance from the ray in that plane, all
+  // three edge functions are rounding noise and may share a sign by chance: a hit millions of sizes
+  // away from the triangle (found by the traversal fuzz: a 1e-9 sliver 2e6 from the ray).
+  DURER_INLINE static bool rayInShearedBox(Real p, Real q, Real r, Real rawZ) {
+    const Real slack = 2 * errorGamma<Real>(5) * (max3(p, q, r) + rawZ);
+    return std::min(p, std::min(q, r)) <= slack && std::max(p, std::max(q, r)) >= -slack;
   }
 
   DURER_INLINE static Real max3(Real p, Real q, Real r) {
