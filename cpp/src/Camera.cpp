@@ -92,7 +92,7 @@ constexpr double kMarginPixels = 1.0 / 64;
 // The range of x/z over the disk of radius r around (x, z) in the half plane z > 0, the tangents of
 // the angles under which an eye at the origin sees it; infinite ends where it reaches z = 0 on that
 // side. `angle`: widening of those angles. False if it lies wholly in z <= 0.
-// Without trigonometry (tan, atan2 and asin took a third of a 1M-sphere view's making): the disk's
+// Without trigonometry (tan, atan2 and asin per sphere would dominate a view's making): the disk's
 // two tangents from the eye, (x L + z r, z L - x r) and (x L - z r, z L + x r) for the tangent
 // length L = sqrt(d^2 - r^2), are its extreme directions. Their z decides each end: at or behind
 // z = 0 the range reaches that side's infinity. The disk spans less than half a turn (d > r), so

@@ -215,3 +215,24 @@ def test_bad_transforms_name_the_argument(matrix, error, message):
         with pytest.raises(error, match=message):
             add()
     assert scene.object_count == 0 and scene.transform_count == 0
+
+
+def test_a_spheres_verdict_does_not_depend_on_the_other_spheres_of_its_group():
+    """A map whose rotation and offset cancel puts a sphere 0.8 from the origin from terms of ~250:
+    in float the group's world box, made from the corners' mapped positions, was off by more than its
+    slack and culled the ray alone; beside any other sphere it did not (the traversal fuzz's case).
+    The box now carries each corner's own rounding."""
+    transform = [[-2.676875592679573, -1.6914481592251143, -1.9665689137607794, 38.81770854240598],
+                 [1.22679362372765, -3.31549094684753, 1.1817572901205808, 27.000530930031907],
+                 [2.285468786200647, -0.2014348843322086, -2.9377048049925816, -454.56787247926235], [0, 0, 0, 1]]
+    centre, radius = [55.429426222324125, -0.7773917093174076, -83.22844721966948], 1.3630745522475062e-07
+    origin = [[55.42942568732757, -0.7773916334122676, -83.22844683703717]]
+    direction = [[-0.4659956274188303, -0.5734954655311147, 0.5194099980806174]]
+    verdicts = []
+    for others in ([], [[55.0, 10.0, -80.0]], [[centre[0] + 1e-6, centre[1], centre[2]]]):
+        scene = durer.Scene()
+        scene.add_spheres([centre, *others], [radius] * (1 + len(others)), transform=transform)
+        hit = durer.cast(scene, origin, direction, precision="float")
+        verdicts.append((float(hit.t[0]), int(hit.object_id[0])))
+    # Which verdict is rounding's (the sphere is 400 times below float's spacing there); it must be one.
+    assert verdicts[1] == verdicts[0] and verdicts[2] == verdicts[0]

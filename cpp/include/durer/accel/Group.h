@@ -365,8 +365,11 @@ class Group {
     for (int corner = 0; corner < 8; ++corner) {
       const Vec3<Real> c((corner & 1) ? objHi.x : objLo.x, (corner & 2) ? objHi.y : objLo.y,
                          (corner & 4) ? objHi.z : objLo.z);
-      const Vec3<Real> p = worldFromObject.point(c);
-      lo = glm::min(lo, p), hi = glm::max(hi, p);
+      // The corner's own rounding, from the products' magnitudes: a map whose rotation and offset
+      // cancel puts a corner near 0 with an error of its terms' size (a float box 0.8 from the origin
+      // was 1e-5 off, and culled rays that met the sphere inside it).
+      const Vec3<Real> p = worldFromObject.point(c), e = worldFromObject.pointError(c, Vec3<Real>(0));
+      lo = glm::min(lo, p - e), hi = glm::max(hi, p + e);
     }
     // Generous slack: the box only culls, and the object-space ray carries the map's rounding.
     const Vec3<Real> widen = Real(1e-3) * (hi - lo) + errorGamma<Real>(32) * (glm::abs(lo) + glm::abs(hi));

@@ -206,8 +206,8 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real, 3> {
   // Whether the ray, at 0 in the sheared plane, lies within the sheared vertices' range p, q, r on
   // one axis, widened by their rounding (tErrorBound's deltaX, twice). Every true hit does. Where a
   // triangle is many orders of magnitude smaller than its distance from the ray in that plane, all
-  // three edge functions are rounding noise and may share a sign by chance: a hit millions of sizes
-  // away from the triangle (found by the traversal fuzz: a 1e-9 sliver 2e6 from the ray).
+  // three edge functions are rounding noise and may share a sign by chance, which would make a hit
+  // millions of sizes away from the triangle (a 1e-9 sliver 2e6 from the ray).
   DURER_INLINE static bool rayInShearedBox(Real p, Real q, Real r, Real rawZ) {
     const Real slack = 2 * errorGamma<Real>(5) * (max3(p, q, r) + rawZ);
     return std::min(p, std::min(q, r)) <= slack && std::max(p, std::max(q, r)) >= -slack;
