@@ -246,25 +246,26 @@ FirstPass firstPass(const Workload& w, const EmbreeDevice& device, int threads, 
 
 // One timed round: Embree (build, trace), then Dürer in each precision (first render of a fresh
 // scene, which builds its hierarchy, then the same scene again, which reuses it). Unless the rays
-// are given, then the camera's other pose (Workload::posedCamera: Embree's trace of its rays, Dürer's
-// render, which makes the pose's view of the spheres), then an animation's next frame (every sphere moved, Workload::frameCenters): Embree's
-// animated scene (built and traced untimed) updated, committed (a refit) and traced; Dürer's scene
-// moved (Scene::moveSpheres) and rendered (its hierarchy refitted, its views made again).
+// are given: then the camera's other pose (Workload::posedCamera: Embree's trace of its rays, Dürer's
+// render, which makes the pose's view of the spheres), and an animation's next frame (every sphere
+// moved, Workload::frameCenters: Embree's animated scene, built and traced untimed, updated,
+// committed (a refit) and traced; Dürer's scene moved (Scene::moveSpheres) and rendered, its
+// hierarchy refitted and its views made again).
 void timeRound(const Workload& w, const EmbreeDevice& device, int threads, CastBuffers& buffers,
                Image& embreeImage, Image (&durerImages)[2], Image (&frameImages)[3], Timings& t) {
-  const bool frames = !w.givenRays();
-  const std::vector<double> moved = frames ? w.frameCenters(1) : std::vector<double>{};
-  const durer::CameraSpec posed = frames ? w.posedCamera() : w.camera;
+  const bool cameraRays = !w.givenRays();
+  const std::vector<double> moved = cameraRays ? w.frameCenters(1) : std::vector<double>{};
+  const durer::CameraSpec posed = cameraRays ? w.posedCamera() : w.camera;
   {
     EmbreeScene scene(device, w);
     t.embreeBuild.push_back(millisecondsOf([&] { scene.commit(); }));
     t.embreeTrace.push_back(millisecondsOf([&] { scene.trace(threads, embreeImage); }));
-    if (frames) t.embreePose.push_back(millisecondsOf([&] { scene.trace(threads, frameImages[0], posed); }));
+    if (cameraRays) t.embreePose.push_back(millisecondsOf([&] { scene.trace(threads, frameImages[0], posed); }));
   }
-  if (frames) {
+  if (cameraRays) {
     EmbreeScene scene(device, w, true);
     scene.commit();
-    scene.trace(threads, embreeImage);
+    scene.trace(threads, frameImages[0]);
     t.embreeFrame.push_back(millisecondsOf([&] {
       scene.moveSpheres(moved);
       scene.commit();
@@ -277,7 +278,7 @@ void timeRound(const Workload& w, const EmbreeDevice& device, int threads, CastB
     const auto render = [&] { renderDurer(scene, w, kPrecisions[p], threads, buffers, durerImages[p]); };
     t.durerFirst[p].push_back(millisecondsOf(render));
     t.durerCached[p].push_back(millisecondsOf(render));
-    if (!frames) continue;
+    if (!cameraRays) continue;
     t.durerPose[p].push_back(
         millisecondsOf([&] { renderDurer(scene, w, kPrecisions[p], threads, buffers, frameImages[1 + p], posed); }));
     t.durerFrame[p].push_back(millisecondsOf([&] {
