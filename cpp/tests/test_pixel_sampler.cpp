@@ -60,3 +60,48 @@ TEST_CASE("a pixel's Sobol offsets: its samples in shuffled order, still a net a
     }
   }
 }
+
+TEST_CASE("exactDouble53 converts every integer below 2^53 as static_cast does") {
+  const uint64_t top = (uint64_t(1) << 53) - 1;
+  for (const uint64_t x : {uint64_t(0), uint64_t(1), uint64_t(0x3ffffff), uint64_t(0x4000000), uint64_t(1) << 52,
+                           (uint64_t(1) << 52) - 1, (uint64_t(1) << 52) + 1, top, top - 1}) {
+    REQUIRE(exactDouble53(x) == static_cast<double>(x));
+  }
+  uint64_t state = 12345;
+  for (int i = 0; i < 100000; ++i) {
+    state = mixBits(state + 0x9e3779b97f4a7c15ull);
+    const uint64_t x = state >> 11;
+    REQUIRE(exactDouble53(x) == static_cast<double>(x));
+  }
+}
+
+// offsets() for a packet against offset() one pixel at a time (the vectorised loop against the
+// scalar one), and the strata they fall in.
+TEST_CASE("a packet's offsets are each pixel's offset, for every sampler") {
+  const SamplerKind kinds[] = {SamplerKind::Center, SamplerKind::Random, SamplerKind::Stratified, SamplerKind::Sobol,
+                               SamplerKind::Adaptive};
+  for (const SamplerKind kind : kinds) {
+    for (const int spp : {1, 2, 6, 7, 64}) {
+      const PixelSampler sampler(kind, spp, 99);
+      std::vector<uint64_t> pixels, seeds(61);
+      for (uint64_t p = 0; p < 61; ++p) pixels.push_back(p * p * 7919 + (uint64_t(1) << (p % 41)));
+      sampler.pixelSeeds(pixels.data(), 61, seeds.data());
+      for (int s = 0; s < spp; ++s) {
+        std::vector<double> u(61), v(61);
+        sampler.offsets(seeds.data(), 61, s, u.data(), v.data());
+        for (size_t j = 0; j < pixels.size(); ++j) {
+          double ui, vi;
+          sampler.offset(pixels[j], s, ui, vi);
+          REQUIRE(ui == u[j]);
+          REQUIRE(vi == v[j]);
+          REQUIRE((u[j] >= 0 && u[j] < 1 && v[j] >= 0 && v[j] < 1));
+          if (kind == SamplerKind::Stratified) {  // sample s in its stratum: column s % nx, row s / nx
+            const int nx = spp == 6 ? 2 : spp == 64 ? 8 : 1, ny = spp / nx;
+            REQUIRE(int(u[j] * nx) == s % nx);
+            REQUIRE(int(v[j] * ny) == s / nx);
+          }
+        }
+      }
+    }
+  }
+}

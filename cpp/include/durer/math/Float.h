@@ -165,6 +165,18 @@ DURER_INLINE Real sumOfSquaresMinus(Real x, Real y, Real z, Real r) {
   return sum + error;
 }
 
+// x < 2^53 as a double, exactly as static_cast gives it, in steps that vectorise without AVX-512
+// (which alone converts 64-bit integers): each 26-bit half placed in the mantissa of 2^52, then joined.
+DURER_INLINE double exactDouble53(uint64_t x) {
+  constexpr uint64_t kTwo52Bits = 0x4330000000000000ull;
+  constexpr double kTwo52 = 4503599627370496.0, kTwo26 = 67108864.0;
+  uint64_t highBits = kTwo52Bits | (x >> 26), lowBits = kTwo52Bits | (x & 0x3ffffffu);
+  double high, low;
+  std::memcpy(&high, &highBits, sizeof high);
+  std::memcpy(&low, &lowBits, sizeof low);
+  return (high - kTwo52) * kTwo26 + (low - kTwo52);  // every step exact: the sum is below 2^53
+}
+
 // The largest |component|: a vector's infinity norm (NaN components are skipped).
 inline double maxAbs(const Vec3d& v) { return std::fmax(std::fabs(v.x), std::fmax(std::fabs(v.y), std::fabs(v.z))); }
 

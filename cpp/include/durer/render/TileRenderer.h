@@ -92,10 +92,18 @@ class TileRenderer {
     RayCounters counters;
     RayPacket<Real> packet;
     alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
-    for (int s = 0; s < m_sampler.samplesPerPixel(); ++s) {
-      for (int row = 0, k = 0; row < h; ++row) {
-        for (int col = 0; col < w; ++col, ++k) samplePosition(x0 + col, y0 + row, s, sampleX[k], sampleY[k]);
+    alignas(64) uint64_t seeds[kPacketSize];
+    alignas(64) double u[kPacketSize], v[kPacketSize], pixelX[kPacketSize], pixelY[kPacketSize];
+    for (int row = 0, k = 0; row < h; ++row) {
+      for (int col = 0; col < w; ++col, ++k) {
+        seeds[k] = static_cast<uint64_t>(y0 + row) * m_settings.width + (x0 + col);
+        pixelX[k] = x0 + col, pixelY[k] = y0 + row;
       }
+    }
+    m_sampler.pixelSeeds(seeds, count, seeds);
+    for (int s = 0; s < m_sampler.samplesPerPixel(); ++s) {
+      m_sampler.offsets(seeds, count, s, u, v);
+      for (int k = 0; k < count; ++k) sampleX[k] = static_cast<Real>(pixelX[k] + u[k]), sampleY[k] = static_cast<Real>(pixelY[k] + v[k]);
       m_camera.generate(packet, sampleX, sampleY, count);
       packet.view = m_view.get();
       packet.tileX = x0, packet.tileY = y0, packet.tileWidth = w;
@@ -276,13 +284,6 @@ class TileRenderer {
     std::vector<int32_t> table{-1};
     group.appendObjectIds(table);
     return table;
-  }
-
-  void samplePosition(int x, int y, int s, Real& sampleX, Real& sampleY) const {
-    double u, v;
-    m_sampler.offset(static_cast<uint64_t>(y) * m_settings.width + x, s, u, v);
-    sampleX = static_cast<Real>(x + u);
-    sampleY = static_cast<Real>(y + v);
   }
 
   // Adds one sample per ray of the packet to `acc` (an Accumulator, or a sink with its add* functions).
