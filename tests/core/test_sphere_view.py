@@ -10,7 +10,8 @@ from __future__ import annotations
 import durer
 import numpy as np
 import pytest
-from helpers.view_fuzz import PASSES, assert_render_matches_cast, check, cloud, view_cases
+from helpers.view_fuzz import (PASSES, assert_render_matches_cast, brute_force_shadows, check, check_sun, cloud,
+                               sun_cases, view_cases)
 from hypothesis import HealthCheck, given, settings
 
 
@@ -143,7 +144,7 @@ def test_sun_shadows_are_where_a_brute_force_puts_them(precision, direction):
     points = origins.reshape(-1, 3)[hit] + cast.t[hit, None] * directions.reshape(-1, 3)[hit]
     to_sun = -np.asarray(direction, float) / np.linalg.norm(direction)
     cosine = cast.normal[hit] @ to_sun
-    blocked, unclear = _brute_force_shadows(points, to_sun, centers, radii, cast.object_id[hit])
+    blocked, unclear = brute_force_shadows(points, to_sun, centers, radii, cast.object_id[hit])
     unclear |= np.abs(cosine) < 1e-4
     expected_lit = (cosine > 0) & ~blocked
     lit = res.color.reshape(-1, 4)[hit, :3].sum(axis=1) > 0
@@ -153,25 +154,10 @@ def test_sun_shadows_are_where_a_brute_force_puts_them(precision, direction):
     np.testing.assert_array_equal(lit[clear], expected_lit[clear])
 
 
-def _brute_force_shadows(points, to_sun, centers, radii, own_ids, chunk=500):
-    """Whether each point's ray toward the sun meets a sphere other than its own past the point (its
-    far root beyond it), and whether that is unclear (the ray grazes one, or starts on another)."""
-    blocked = np.zeros(len(points), bool)
-    unclear = np.zeros(len(points), bool)
-    ids = np.arange(len(radii))
-    for start in range(0, len(points), chunk):
-        p = points[start:start + chunk]
-        f = p[:, None, :] - centers[None, :, :]
-        b = f @ to_sun
-        ff = np.einsum("ijk,ijk->ij", f, f)
-        disc = b * b - (ff - radii ** 2)
-        far = -b + np.sqrt(np.maximum(disc, 0))
-        others = own_ids[start:start + chunk, None] != ids[None, :]
-        line = np.sqrt(np.maximum(ff - b * b, 0))
-        blocked[start:start + chunk] = ((disc > 0) & (far > 1e-9) & others).any(axis=1)
-        unclear[start:start + chunk] = (((np.abs(line - radii) < 1e-4 * radii) & others).any(axis=1)
-                                        | ((disc > 0) & (np.abs(far) < 1e-6) & others).any(axis=1))
-    return blocked, unclear
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(sun_cases())
+def test_sun_shadows_at_any_scale_find_what_a_brute_force_finds(case):
+    check_sun(case)
 
 
 def test_sun_views_with_other_lights_and_after_a_move():

@@ -1,7 +1,8 @@
 """Random cases for the views of the spheres (cpp/include/durer/accel/SphereView.h): sphere clouds
 at scales from 1e-3 to 1e4 and offsets to 1e6, seen by orthographic and perspective cameras from
 inside and outside, at odd image sizes and regions, in both precisions; a render's camera rays must
-find exactly what a cast of the same rays finds (tests/core/test_sphere_view.py runs a fixed number,
+find exactly what a cast of the same rays finds, and its sun's shadow rays (through the sun's view)
+what a brute force over every sphere finds (tests/core/test_sphere_view.py runs a fixed number,
 bench/fuzz_traversal.py --views as many as time allows, docs/reliability.md)."""
 
 from __future__ import annotations
@@ -76,6 +77,88 @@ def view_cases(draw):
 
 
 
+@st.composite
+def sun_cases(draw):
+    """Spheres resting over a ground plane, lit by a sun with shadows (its shadow rays search the sun's
+    view), at scales from 1e-2 to 1e3 and offsets to 1e3 scales, seen from above."""
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    n = draw(st.integers(16, 400))
+    scale = 10.0 ** draw(st.floats(-2, 3))
+    offset = scale * 10.0 ** draw(st.floats(-1, 3)) * rng.normal(size=3) if draw(st.booleans()) else np.zeros(3)
+    radius = 10.0 ** draw(st.floats(-1.7, -0.6))
+    scene = durer.Scene()
+    white = scene.add_material(diffuse=(1.0, 1.0, 1.0))
+    centers = offset + scale * np.column_stack([rng.uniform(-1, 1, n), rng.uniform(0.0, 0.5, n), rng.uniform(-1, 1, n)])
+    radii = scale * radius * rng.uniform(0.3, 1.0, n)
+    scene.add_spheres(centers, radii, material=white)
+    scene.add_plane((0, 1, 0), float(offset[1]), material=white)
+    sun = rng.normal(size=3)
+    sun[1] = -abs(sun[1]) - 0.05  # from above the plane
+    scene.add_directional_light(tuple(sun), (1, 1, 1), shadows=True)
+    scene.ambient = (0.0, 0.0, 0.0)
+    eye = offset + scale * np.array([rng.uniform(-0.5, 0.5), 3.0, rng.uniform(-0.5, 0.5)])
+    look = (offset - eye) / np.linalg.norm(offset - eye)
+    if draw(st.booleans()):
+        camera = durer.PerspectiveCamera(tuple(eye), tuple(look), (0, 0, -1), fov_degrees=draw(st.floats(20, 70)))
+    else:
+        camera = durer.OrthographicCamera(tuple(eye), tuple(look), (0, 0, -1), size=2.4 * scale)
+    size = draw(st.integers(8, 48))
+    precision = draw(st.sampled_from(["float", "double"]))
+    return scene, centers, radii, sun / np.linalg.norm(sun), camera, size, precision
+
+
+def check_sun(case: tuple[Any, ...]) -> None:
+    """One case of sun_cases(): a pixel is lit exactly where a brute force over every sphere finds
+    nothing between its hit point and the sun. Pixels the two may round either way are set aside:
+    shadow rays grazing a sphere or starting on another, surfaces turned edge-on to the sun (within
+    the precision's rounding of the scene's coordinates)."""
+    scene, centers, radii, direction, camera, size, precision = case
+    res = durer.render(scene, camera, width=size, height=size, passes=("color", "object_id"), precision=precision,
+                       threads=2)
+    origins, directions = camera.rays(size, size, precision)
+    cast = durer.cast(scene, origins.reshape(-1, 3), directions.reshape(-1, 3), t_min=camera.t_min,
+                      precision=precision, threads=1)
+    np.testing.assert_array_equal(res.object_id.reshape(-1), cast.object_id)
+    hit = cast.object_id >= 0
+    if not hit.any():
+        return
+    points = origins.reshape(-1, 3)[hit].astype(float) + cast.t[hit, None] * directions.reshape(-1, 3)[hit]
+    to_sun = -np.asarray(direction, float)
+    epsilon = float(np.finfo(np.float32 if precision == "float" else np.float64).eps)
+    # How far the scene's rounding may move a shadow ray or a surface, relative to its size.
+    rounding = 1e4 * epsilon * (np.abs(points).max() + np.abs(centers).max() + radii.max()) / radii.min()
+    cosine = cast.normal[hit] @ to_sun
+    blocked, unclear = brute_force_shadows(points, to_sun, centers, radii, cast.object_id[hit], 1e-4 + rounding)
+    unclear |= np.abs(cosine) < 1e-3 + rounding
+    expected_lit = (cosine > 0) & ~blocked
+    lit = res.color.reshape(-1, 4)[hit, :3].sum(axis=1) > 0
+    clear = ~unclear
+    np.testing.assert_array_equal(lit[clear], expected_lit[clear])
+
+
+def brute_force_shadows(points, to_sun, centers, radii, own_ids, tolerance=1e-4, chunk=500):
+    """Whether each point's ray toward the sun meets a sphere other than its own past the point (its
+    far root beyond it), and whether that is unclear (within `tolerance` radii: the ray grazes one,
+    or starts on another)."""
+    blocked = np.zeros(len(points), bool)
+    unclear = np.zeros(len(points), bool)
+    ids = np.arange(len(radii))
+    for start in range(0, len(points), chunk):
+        p = points[start:start + chunk]
+        f = p[:, None, :] - centers[None, :, :]
+        b = f @ to_sun
+        ff = np.einsum("ijk,ijk->ij", f, f)
+        disc = b * b - (ff - radii ** 2)
+        far = -b + np.sqrt(np.maximum(disc, 0))
+        others = own_ids[start:start + chunk, None] != ids[None, :]
+        line = np.sqrt(np.maximum(ff - b * b, 0))
+        blocked[start:start + chunk] = ((disc > 0) & (far > 1e-9 * radii) & others).any(axis=1)
+        unclear[start:start + chunk] = (((np.abs(line - radii) < tolerance * radii) & others).any(axis=1)
+                                        | ((disc > 0) & (np.abs(far) < 1e-2 * tolerance * radii) & others).any(axis=1))
+    return blocked, unclear
+
+
 def check(case: tuple[Any, ...]) -> None:
     """One case of view_cases(): raises AssertionError where the render and the cast differ."""
     scene, camera, width, height, precision, region = case
@@ -83,8 +166,8 @@ def check(case: tuple[Any, ...]) -> None:
 
 
 def fuzz(cfg: Any, seed: int | None = None) -> int:
-    """Runs hypothesis with settings `cfg` (and `seed`, if given) over view_cases(); returns the
-    cases run. On a difference hypothesis raises its shrunk case's AssertionError."""
+    """Runs hypothesis with settings `cfg` (and `seed`, if given) over view_cases(), then
+    sun_cases(); returns the cases run. On a difference hypothesis raises its shrunk case's AssertionError."""
     import hypothesis
 
     ran = 0
@@ -96,7 +179,13 @@ def fuzz(cfg: Any, seed: int | None = None) -> int:
         ran += 1
         check(case)
 
-    if seed is not None:
-        one = hypothesis.seed(seed)(one)
-    one()
+    @cfg
+    @hypothesis.given(sun_cases())
+    def one_sun(case: tuple[Any, ...]) -> None:
+        nonlocal ran
+        ran += 1
+        check_sun(case)
+
+    for run in (one, one_sun):
+        (hypothesis.seed(seed)(run) if seed is not None else run)()
     return ran

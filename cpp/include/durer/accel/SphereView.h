@@ -90,7 +90,8 @@ class SphereView {
   // before its hit so far, nearest first, with the rays [kBegin, kEnd) that may meet it (test lowers
   // their tHit): those of the pixel rows the sphere covers when the packet is laid out by pixel
   // (tileWidth; `all` false: each of them under the sphere's rows), else all of them (`all` true:
-  // any, none or some may meet it), skipping spheres off the rows the packet's samples lie in.
+  // any, none or some may meet it), skipping spheres off the pixel rows and columns the packet's
+  // samples lie in.
   // Returns the ray-sphere tests made; -1 if the packet's samples fall outside the cells (then the
   // caller searches otherwise).
   template <typename Test>
@@ -110,18 +111,21 @@ class SphereView {
         const int rowShift = cellRow - packet.tileY;
         const int rows = byRow ? packet.count / packet.tileWidth : 0;
         const int firstRow = int(std::floor(box[2])) - cellRow, lastRow = int(std::floor(box[3])) - cellRow;
+        const int cellColumn = (m_cellX + cx) * kCell;
+        const int firstColumn = int(std::floor(box[0])) - cellColumn, lastColumn = int(std::floor(box[1])) - cellColumn;
         Real farthest = farthestHit(packet);
         for (uint32_t e = m_first[cell]; e != m_first[cell + 1]; ++e) {
           const Entry& entry = m_entries[e];
           if (entry.tLow > farthest) break;
-          const int row0 = m_rows[e] >> 3, row1 = m_rows[e] & 7;
+          const int row0 = firstRowOf(m_spans[e]), row1 = lastRowOf(m_spans[e]);
           if (byRow) {
             const int first = std::max(row0 + rowShift, 0), last = std::min(row1 + rowShift, rows - 1);
             if (first > last) continue;
             test(entry.sphere, first * packet.tileWidth, (last + 1) * packet.tileWidth, false);
             tested += (last - first + 1) * packet.tileWidth;
           } else {
-            if (row1 < firstRow || row0 > lastRow) continue;
+            const int column0 = firstColumnOf(m_spans[e]), column1 = lastColumnOf(m_spans[e]);
+            if (row1 < firstRow || row0 > lastRow || column1 < firstColumn || column0 > lastColumn) continue;
             test(entry.sphere, 0, packet.count, true);
             tested += packet.count;
           }
@@ -132,9 +136,9 @@ class SphereView {
     return tested;
   }
 
-  // A light's view (setLight): calls test(sphere) for the spheres of ray k's cell that
-  // reach nearer the light than its origin, nearest the origin first, until test returns true (an
-  // occluder found). Ray k travels toward the light, opposite the view's direction. Returns the
+  // A light's view (setLight): calls test(sphere) for the spheres of ray k's cell that cover its
+  // pixel and reach nearer the light than its origin, nearest the origin first, until test returns
+  // true (an occluder found). Ray k travels toward the light, opposite the view's direction. Returns the
   // ray-sphere tests made.
   template <typename Test>
   int64_t occluders(const RayPacket<Real>& packet, int k, const Test& test) const {
@@ -150,10 +154,19 @@ class SphereView {
     const double reach = depth + slack;
     const Entry* end = std::upper_bound(first, m_entries.data() + m_first[cell + 1], reach,
                                         [](double bound, const Entry& e) { return bound < double(e.tLow); });
+    // The ray travels along the view's axis: it stays in its pixel, and meets only spheres whose
+    // footprint covers that pixel. Their spans are read in a stream; the others' spheres never are.
+    const int row = int(std::floor(y) - (m_cellY + cy) * kCell), column = int(std::floor(x) - (m_cellX + cx) * kCell);
+    const uint16_t* span = m_spans.data();
     int64_t tested = 0;
-    while (end != first) {
+    for (auto e = uint32_t(end - m_entries.data()); e != m_first[cell];) {
+      --e;
+      if (row < firstRowOf(span[e]) || row > lastRowOf(span[e]) || column < firstColumnOf(span[e]) ||
+          column > lastColumnOf(span[e])) {
+        continue;
+      }
       ++tested;
-      if (test((--end)->sphere)) break;
+      if (test(m_entries[e].sphere)) break;
     }
     return tested;
   }
@@ -169,6 +182,16 @@ class SphereView {
     for (int k = 1; k < packet.count; ++k) farthest = farthest > packet.tHit[k] ? farthest : packet.tHit[k];
     return farthest;
   }
+
+  // A sphere's pixel rows [row0, row1] and columns [column0, column1] within a cell, each 0 to 7,
+  // in 12 bits: a box of its footprint's pixels that a ray's own pixel must fall in to meet it.
+  static uint16_t spanOf(int row0, int row1, int column0, int column1) {
+    return uint16_t(column0 << 9 | column1 << 6 | row0 << 3 | row1);
+  }
+  static int firstRowOf(uint16_t span) { return (span >> 3) & 7; }
+  static int lastRowOf(uint16_t span) { return span & 7; }
+  static int firstColumnOf(uint16_t span) { return span >> 9; }
+  static int lastColumnOf(uint16_t span) { return (span >> 6) & 7; }
 
   // A float's bits as an unsigned key in the float's order (negative below positive).
   static uint32_t orderKey(float value) {
@@ -186,13 +209,13 @@ class SphereView {
   // Sorts entries [begin, end), placed in the spheres' order, nearest first (their tLow, then
   // the sphere), with their rows; the vectors are scratch space.
   void sortCell(uint32_t begin, uint32_t end, std::vector<uint64_t>& order, std::vector<Entry>& entries,
-                std::vector<uint8_t>& rows);
+                std::vector<uint16_t>& spans);
 
   int m_cellX = 0, m_cellY = 0;       // the first cell's column and row in the image's cells
   int m_cellsX = 0, m_cellsY = 0;
   std::vector<uint32_t> m_first;      // cell c's entries: [m_first[c], m_first[c + 1]), cells row by row
   std::vector<Entry> m_entries;
-  std::vector<uint8_t> m_rows;        // entry e's sphere covers pixel rows m_rows[e] >> 3 to m_rows[e] & 7 of its cell
+  std::vector<uint16_t> m_spans;      // the pixel rows and columns of its cell entry e's sphere covers (spanOf)
   ParallelProjection m_light;         // a light's view: its image
 };
 
@@ -207,6 +230,7 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
   struct Cells {
     int32_t x0, x1, y0, y1;  // inclusive; x0 > x1: none
     int32_t row0, row1;      // the pixel rows it covers (from the view's first cell's first row), within its cells' rows
+    int32_t column0, column1;  // and columns (from the first cell's first column), within its cells' columns
   };
   std::vector<Cells> cells(count);
   std::vector<float> tLows(count);
@@ -218,7 +242,7 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
       SampleBox box;
       double tLow;
       Cells& c = cells[i];
-      c = {1, 0, 1, 0, 0, 0};
+      c = {1, 0, 1, 0, 0, 0, 0, 0};
       if (!footprint(i, box, tLow)) continue;
       // Cell coordinates relative to the view's first cell, clamped to it (in double: infinite
       // ends and huge boxes stay ordered).
@@ -228,9 +252,12 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
       const double y1 = std::min(std::floor(box.y1 / kCell) - view->m_cellY, cellsY - 1);
       if (!(x0 <= x1 && y0 <= y1)) continue;
       const double firstRow = y0 * kCell, lastRow = y1 * kCell + kCell - 1;
+      const double firstColumn = x0 * kCell, lastColumn = x1 * kCell + kCell - 1;
       c = {int32_t(x0), int32_t(x1), int32_t(y0), int32_t(y1),
            int32_t(std::clamp(std::floor(box.y0) - view->m_cellY * kCell, firstRow, lastRow)),
-           int32_t(std::clamp(std::floor(box.y1) - view->m_cellY * kCell, firstRow, lastRow))};
+           int32_t(std::clamp(std::floor(box.y1) - view->m_cellY * kCell, firstRow, lastRow)),
+           int32_t(std::clamp(std::floor(box.x0) - view->m_cellX * kCell, firstColumn, lastColumn)),
+           int32_t(std::clamp(std::floor(box.x1) - view->m_cellX * kCell, firstColumn, lastColumn))};
       tLows[i] = floatBelow(tLow);
       made += (x1 - x0 + 1) * (y1 - y0 + 1);
     }
@@ -264,23 +291,25 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
   });
   for (size_t cell = 0; cell < cellCount; ++cell) first[cell + 1] += first[cell];
   view->m_entries.resize(first[cellCount]);
-  view->m_rows.resize(first[cellCount]);
+  view->m_spans.resize(first[cellCount]);
   std::vector<uint32_t> next(first.begin(), first.end() - 1);
   overBands([&](uint32_t i, const Cells& c, int32_t cy) {
     const int row0 = std::clamp(c.row0 - cy * kCell, 0, kCell - 1);
     const int row1 = std::clamp(c.row1 - cy * kCell, 0, kCell - 1);
     for (int32_t cx = c.x0; cx <= c.x1; ++cx) {
       const uint32_t e = next[size_t(cy) * cellsWide + size_t(cx)]++;
+      const int column0 = std::clamp(c.column0 - cx * kCell, 0, kCell - 1);
+      const int column1 = std::clamp(c.column1 - cx * kCell, 0, kCell - 1);
       view->m_entries[e] = {i, tLows[i]};
-      view->m_rows[e] = uint8_t(row0 << 3 | row1);
+      view->m_spans[e] = spanOf(row0, row1, column0, column1);
     }
   });
   forChunks(size_t(view->m_cellsY), bands, [&](size_t, size_t rowBegin, size_t rowEnd) {
     std::vector<uint64_t> order;
     std::vector<Entry> cellEntries;
-    std::vector<uint8_t> cellRows;
+    std::vector<uint16_t> cellSpans;
     for (size_t cell = rowBegin * cellsWide; cell < rowEnd * cellsWide; ++cell) {
-      view->sortCell(first[cell], first[cell + 1], order, cellEntries, cellRows);
+      view->sortCell(first[cell], first[cell + 1], order, cellEntries, cellSpans);
     }
   });
   return view;
@@ -288,18 +317,18 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
 
 template <typename Real>
 void SphereView<Real>::sortCell(uint32_t begin, uint32_t end, std::vector<uint64_t>& order, std::vector<Entry>& entries,
-                                std::vector<uint8_t>& rows) {
+                                std::vector<uint16_t>& spans) {
   if (end - begin < 2) return;
   // Placed in the spheres' order, so (key, place) sorts equal bounds by sphere: one order for any threads.
   order.clear();
   for (uint32_t e = begin; e < end; ++e) order.push_back(uint64_t(orderKey(m_entries[e].tLow)) << 32 | (e - begin));
   std::sort(order.begin(), order.end());
   entries.assign(m_entries.begin() + begin, m_entries.begin() + end);
-  rows.assign(m_rows.begin() + begin, m_rows.begin() + end);
+  spans.assign(m_spans.begin() + begin, m_spans.begin() + end);
   for (uint32_t j = 0; j < end - begin; ++j) {
     const uint32_t from = uint32_t(order[j]);
     m_entries[begin + j] = entries[from];
-    m_rows[begin + j] = rows[from];
+    m_spans[begin + j] = spans[from];
   }
 }
 
