@@ -172,20 +172,13 @@ def fuzz(cfg: Any, seed: int | None = None) -> int:
 
     ran = 0
 
-    @cfg
-    @hypothesis.given(view_cases())
-    def one(case: tuple[Any, ...]) -> None:
-        nonlocal ran
-        ran += 1
-        check(case)
+    for cases, checker in ((view_cases(), check), (sun_cases(), check_sun)):
+        @cfg
+        @hypothesis.given(cases)
+        def one(case: tuple[Any, ...]) -> None:
+            nonlocal ran
+            ran += 1
+            checker(case)  # noqa: B023 (called within its own iteration)
 
-    @cfg
-    @hypothesis.given(sun_cases())
-    def one_sun(case: tuple[Any, ...]) -> None:
-        nonlocal ran
-        ran += 1
-        check_sun(case)
-
-    for run in (one, one_sun):
-        (hypothesis.seed(seed)(run) if seed is not None else run)()
+        (hypothesis.seed(seed)(one) if seed is not None else one)()
     return ran
