@@ -250,7 +250,6 @@ class AdaptiveSampler {
   // Takes each pixel's add[k] samples, pixel by pixel in packets of up to kPacketSize rays: a pixel's
   // samples are the most coherent rays there are. A packet's sample positions are made together.
   void sampleTile(TileState& t, int round, RayCounters& counters) {
-    const int count = t.w * t.h;
     const bool first = round == 0;
     alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
     alignas(64) int pixel[kPacketSize], px[kPacketSize], py[kPacketSize];
@@ -291,23 +290,22 @@ class AdaptiveSampler {
       }
     }
     if (n > 0 && !flush()) return;
-    int fresh[kPacketSize], freshCount = 0;
-    for (int k = 0; k < count; ++k) {
-      t.taken[k] += t.add[k];
-      t.last[k] = t.add[k] == 0 ? t.last[k] : first ? t.add[k] / 2 : t.add[k];
-      fresh[freshCount] = k, freshCount += t.add[k] > 0;
-      t.add[k] = 0;
-      t.sums.samples[k] = static_cast<Real>(t.taken[k]);
-    }
-    for (int i = 0; i < freshCount; ++i) {  // the others' summaries are as their samples left them
-      const int k = fresh[i];
-      Summary& p = summaryOf(t, k);
-      p.error = estimatedError(t, k);
-      const Real inverse = 1 / t.sums.samples[k];
-      p.meanR = static_cast<float>(t.sums.r[k] * inverse);
-      p.meanG = static_cast<float>(t.sums.g[k] * inverse);
-      p.meanB = static_cast<float>(t.sums.b[k] * inverse);
-      p.sampledIn = static_cast<int16_t>(round);
+    for (int row = 0, k = 0; row < t.h; ++row) {  // by rows: no division to find a pixel's summary
+      Summary* line = &summaryAt(t.x0, t.y0 + row);
+      for (int col = 0; col < t.w; ++col, ++k) {
+        if (t.add[k] == 0) continue;  // its sums and summary are as its samples left them
+        t.taken[k] += t.add[k];
+        t.last[k] = first ? t.add[k] / 2 : t.add[k];
+        t.add[k] = 0;
+        t.sums.samples[k] = static_cast<Real>(t.taken[k]);
+        Summary& p = line[col];
+        p.error = estimatedError(t, k);
+        const Real inverse = 1 / t.sums.samples[k];
+        p.meanR = static_cast<float>(t.sums.r[k] * inverse);
+        p.meanG = static_cast<float>(t.sums.g[k] * inverse);
+        p.meanB = static_cast<float>(t.sums.b[k] * inverse);
+        p.sampledIn = static_cast<int16_t>(round);
+      }
     }
   }
 
@@ -328,14 +326,15 @@ class AdaptiveSampler {
     std::fill(t.firstNy, t.firstNy + count, 0.0f);
     std::fill(t.firstNz, t.firstNz + count, 0.0f);
     t.priority = 0;
-    for (int k = 0; k < count; ++k) {
-      Summary& p = summaryOf(t, k);
-      p.error = p.firstT = p.meanR = p.meanG = p.meanB = 0;
-      p.firstPrim = kNoPrimitive, p.sampledIn = -1, p.present = true;
+    for (int row = 0; row < t.h; ++row) {
+      Summary* line = &summaryAt(t.x0, t.y0 + row);
+      for (int col = 0; col < t.w; ++col) {
+        Summary& p = line[col];
+        p.error = p.firstT = p.meanR = p.meanG = p.meanB = 0;
+        p.firstPrim = kNoPrimitive, p.sampledIn = -1, p.present = true;
+      }
     }
   }
-
-  Summary& summaryOf(const TileState& t, int k) { return summaryAt(t.x0 + k % t.w, t.y0 + k / t.w); }
 
   // Notes what samples [j0, j1) of pixel k (its summary p; sample numbers s[j], which met prim[j] at
   // along[j] on their rays) saw: the first sample's primitive and distance, and whether a later one
