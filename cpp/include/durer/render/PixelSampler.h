@@ -34,8 +34,9 @@ class PixelSampler {
   }
 
   // The seeds of pixels with linear indices pixel[j], j < count, for offsets(): a pixel's hash,
-  // made once for all its samples.
+  // made once for all its samples. A centred sampler's offsets read none: left as they are.
   void pixelSeeds(const uint64_t* pixel, int count, uint64_t* seed) const {
+    if (centred()) return;
     for (int j = 0; j < count; ++j) seed[j] = pixelSeed(pixel[j]);
   }
   // Offsets in [0, 1)^2 of sample s of the pixels whose pixelSeeds are seed[j], j < count: one
