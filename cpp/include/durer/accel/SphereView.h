@@ -138,8 +138,8 @@ class SphereView {
 
   // A light's view (setLight): calls test(sphere) for the spheres of ray k's cell that cover its
   // pixel and reach nearer the light than its origin, nearest the origin first, until test returns
-  // true (an occluder found). Ray k travels toward the light, opposite the view's direction. Returns the
-  // ray-sphere tests made.
+  // true (an occluder found). Ray k travels toward the light, opposite the view's direction.
+  // Returns the ray-sphere tests made.
   template <typename Test>
   int64_t occluders(const RayPacket<Real>& packet, int k, const Test& test) const {
     double x, y, depth;
@@ -207,7 +207,7 @@ class SphereView {
   }
 
   // Sorts entries [begin, end), placed in the spheres' order, nearest first (their tLow, then
-  // the sphere), with their rows; the vectors are scratch space.
+  // the sphere), with their spans; the vectors are scratch space.
   void sortCell(uint32_t begin, uint32_t end, std::vector<uint64_t>& order, std::vector<Entry>& entries,
                 std::vector<uint16_t>& spans);
 

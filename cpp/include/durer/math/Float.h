@@ -170,7 +170,7 @@ DURER_INLINE Real sumOfSquaresMinus(Real x, Real y, Real z, Real r) {
 DURER_INLINE double exactDouble53(uint64_t x) {
   constexpr uint64_t kTwo52Bits = 0x4330000000000000ull;
   constexpr double kTwo52 = 4503599627370496.0, kTwo26 = 67108864.0;
-  uint64_t highBits = kTwo52Bits | (x >> 26), lowBits = kTwo52Bits | (x & 0x3ffffffu);
+  const uint64_t highBits = kTwo52Bits | (x >> 26), lowBits = kTwo52Bits | (x & 0x3ffffffu);
   double high, low;
   std::memcpy(&high, &highBits, sizeof high);
   std::memcpy(&low, &lowBits, sizeof low);

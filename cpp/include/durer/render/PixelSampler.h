@@ -60,6 +60,10 @@ class PixelSampler {
   static void scrambledSobol(uint32_t index, uint32_t seed, double& u, double& v);
 
  private:
+  // Sample `index` of the pixel whose sobolSeeds are `order` and `points`.
+  static void sobolPoint(uint32_t index, uint32_t order, uint32_t points, double& u, double& v) {
+    scrambledSobol(nestedUniformScramble(index, order), points, u, v);
+  }
   static uint32_t reverseBits(uint32_t x);
   static uint32_t reversedSobolSecondDimension(uint32_t index);
   static uint32_t laineKarras(uint32_t x, uint32_t seed);
@@ -136,7 +140,7 @@ inline void PixelSampler::offsets(const uint64_t* seed, int count, int s, double
   if (m_kind == SamplerKind::Sobol || m_kind == SamplerKind::Adaptive) {
     const auto index = static_cast<uint32_t>(s);
     for (int j = 0; j < count; ++j) {
-      scrambledSobol(nestedUniformScramble(index, static_cast<uint32_t>(seed[j])), static_cast<uint32_t>(seed[j] >> 32), u[j], v[j]);
+      sobolPoint(index, static_cast<uint32_t>(seed[j]), static_cast<uint32_t>(seed[j] >> 32), u[j], v[j]);
     }
     return;
   }
@@ -156,7 +160,7 @@ inline void PixelSampler::sobolOffsets(const uint32_t* order, const uint32_t* po
                                        int count, double* u, double* v) {
   // Each pixel's samples in a shuffled order (still stratified by powers of two): adaptive sampling
   // stops at any count.
-  for (int j = 0; j < count; ++j) scrambledSobol(nestedUniformScramble(indices[j], order[j]), points[j], u[j], v[j]);
+  for (int j = 0; j < count; ++j) sobolPoint(indices[j], order[j], points[j], u[j], v[j]);
 }
 
 }  // namespace durer

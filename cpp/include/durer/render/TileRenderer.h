@@ -92,7 +92,7 @@ class TileRenderer {
     RayCounters counters;
     RayPacket<Real> packet;
     alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
-    alignas(64) uint64_t seeds[kPacketSize];
+    alignas(64) uint64_t seeds[kPacketSize];  // the pixels' linear indices, then their seeds
     alignas(64) double u[kPacketSize], v[kPacketSize], pixelX[kPacketSize], pixelY[kPacketSize];
     for (int row = 0, k = 0; row < h; ++row) {
       for (int col = 0; col < w; ++col, ++k) {
@@ -103,7 +103,9 @@ class TileRenderer {
     m_sampler.pixelSeeds(seeds, count, seeds);
     for (int s = 0; s < m_sampler.samplesPerPixel(); ++s) {
       m_sampler.offsets(seeds, count, s, u, v);
-      for (int k = 0; k < count; ++k) sampleX[k] = static_cast<Real>(pixelX[k] + u[k]), sampleY[k] = static_cast<Real>(pixelY[k] + v[k]);
+      for (int k = 0; k < count; ++k) {
+        sampleX[k] = static_cast<Real>(pixelX[k] + u[k]), sampleY[k] = static_cast<Real>(pixelY[k] + v[k]);
+      }
       m_camera.generate(packet, sampleX, sampleY, count);
       packet.view = m_view.get();
       packet.tileX = x0, packet.tileY = y0, packet.tileWidth = w;
