@@ -117,15 +117,14 @@ class SphereView {
         for (uint32_t e = m_first[cell]; e != m_first[cell + 1]; ++e) {
           const Entry& entry = m_entries[e];
           if (entry.tLow > farthest) break;
-          const int row0 = firstRowOf(m_spans[e]), row1 = lastRowOf(m_spans[e]);
           if (byRow) {
-            const int first = std::max(row0 + rowShift, 0), last = std::min(row1 + rowShift, rows - 1);
+            const int first = std::max(firstRowOf(m_spans[e]) + rowShift, 0);
+            const int last = std::min(lastRowOf(m_spans[e]) + rowShift, rows - 1);
             if (first > last) continue;
             test(entry.sphere, first * packet.tileWidth, (last + 1) * packet.tileWidth, false);
             tested += (last - first + 1) * packet.tileWidth;
           } else {
-            const int column0 = firstColumnOf(m_spans[e]), column1 = lastColumnOf(m_spans[e]);
-            if (row1 < firstRow || row0 > lastRow || column1 < firstColumn || column0 > lastColumn) continue;
+            if (!spanMeets(m_spans[e], firstRow, lastRow, firstColumn, lastColumn)) continue;
             test(entry.sphere, 0, packet.count, true);
             tested += packet.count;
           }
@@ -157,14 +156,10 @@ class SphereView {
     // The ray travels along the view's axis: it stays in its pixel, and meets only spheres whose
     // footprint covers that pixel. Their spans are read in a stream; the others' spheres never are.
     const int row = int(std::floor(y) - (m_cellY + cy) * kCell), column = int(std::floor(x) - (m_cellX + cx) * kCell);
-    const uint16_t* span = m_spans.data();
     int64_t tested = 0;
     for (auto e = uint32_t(end - m_entries.data()); e != m_first[cell];) {
       --e;
-      if (row < firstRowOf(span[e]) || row > lastRowOf(span[e]) || column < firstColumnOf(span[e]) ||
-          column > lastColumnOf(span[e])) {
-        continue;
-      }
+      if (!spanMeets(m_spans[e], row, row, column, column)) continue;
       ++tested;
       if (test(m_entries[e].sphere)) break;
     }
@@ -192,6 +187,11 @@ class SphereView {
   static int lastRowOf(uint16_t span) { return span & 7; }
   static int firstColumnOf(uint16_t span) { return span >> 9; }
   static int lastColumnOf(uint16_t span) { return (span >> 6) & 7; }
+  // Whether a span meets the pixel rows [row0, row1] and columns [column0, column1] of its cell.
+  static bool spanMeets(uint16_t span, int row0, int row1, int column0, int column1) {
+    return firstRowOf(span) <= row1 && lastRowOf(span) >= row0 && firstColumnOf(span) <= column1 &&
+           lastColumnOf(span) >= column0;
+  }
 
   // A float's bits as an unsigned key in the float's order (negative below positive).
   static uint32_t orderKey(float value) {
