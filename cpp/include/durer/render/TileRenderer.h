@@ -206,7 +206,9 @@ class TileRenderer {
     return true;
   }
 
-  // Writes entries [k0, k0 + count) of `acc` to the region's pixels [first, first + count). The
+  // Writes entries [k0, k0 + count) of `acc` (count <= kPacketSize) to the region's pixels
+  // [first, first + count). The colours are clamped in a loop of their own, which GCC vectorises
+  // (not with the conversion to float32 in it), then converted and interleaved in another. The
   // targets are numpy buffers, never the accumulator: __restrict spares each short loop the
   // compiler's run-time overlap checks.
   void writeRow(const Accumulator& acc, int k0, int count, size_t first) const {
@@ -214,16 +216,20 @@ class TileRenderer {
       for (int i = 0; i < count; ++i) m_targets.samples[first + i] = static_cast<int32_t>(acc.samples[k0 + i]);
     }
     if (m_targets.color) {
-      float* __restrict out = m_targets.color + 4 * first;
       // A pixel brighter than float32 holds saturates at its largest number (the sums never hold NaN).
       const Real brightest = std::numeric_limits<float>::max();
+      alignas(64) Real values[4][kPacketSize];
       for (int i = 0; i < count; ++i) {
         const int k = k0 + i;
         const Real invSpp = 1 / acc.samples[k];
-        out[4 * i + 0] = static_cast<float>(std::min(acc.r[k] * invSpp, brightest));
-        out[4 * i + 1] = static_cast<float>(std::min(acc.g[k] * invSpp, brightest));
-        out[4 * i + 2] = static_cast<float>(std::min(acc.b[k] * invSpp, brightest));
-        out[4 * i + 3] = static_cast<float>(acc.a[k] * invSpp);
+        values[0][i] = std::min(acc.r[k] * invSpp, brightest);
+        values[1][i] = std::min(acc.g[k] * invSpp, brightest);
+        values[2][i] = std::min(acc.b[k] * invSpp, brightest);
+        values[3][i] = acc.a[k] * invSpp;
+      }
+      float* __restrict out = m_targets.color + 4 * first;
+      for (int i = 0; i < count; ++i) {
+        for (int c = 0; c < 4; ++c) out[4 * i + c] = static_cast<float>(values[c][i]);
       }
     }
     if (m_targets.depth) {
@@ -321,58 +327,37 @@ class TileRenderer {
   }
 
   // Normals of the packet's hits: those on the top-level group's own spheres and planes in one loop
-  // without a hit record per ray (written branch-free, though GCC 12 keeps it scalar: the selects
-  // follow a division and a root; docs/benchmarks.md), the others through their hit records.
+  // without a hit record per ray, the others through their hit records. The same normals as
+  // SphereSet's and PlaneSet's hit records, turned by shadingNormal's rule. A branch per ray: a tile's
+  // rays mostly meet one kind of primitive, and a branch-free loop, which made both kinds' normals
+  // for every ray (GCC kept it scalar), took longer even where the kinds alternate at random.
   template <typename Sink>
   void accumulateNormals(const RayPacket<Real>& packet, Sink& acc) const {
-    const bool spheres = m_group.spheres().size() > 0, planes = m_group.planes().size() > 0;
-    if (spheres && planes) {
-      accumulateOwnNormals<true, true>(packet, acc);
-    } else if (spheres) {
-      accumulateOwnNormals<true, false>(packet, acc);
-    } else if (planes) {
-      accumulateOwnNormals<false, true>(packet, acc);
+    const int32_t sphereCount = static_cast<int32_t>(m_group.spheres().size());
+    const int32_t ownEnd = sphereCount + static_cast<int32_t>(m_group.planes().size());
+    for (int k = 0; k < packet.count; ++k) {
+      const int32_t prim = packet.prim[k];
+      if (prim == kNoPrimitive || prim >= ownEnd) continue;  // a miss adds nothing
+      const Vec3<Real> d(packet.dx[k], packet.dy[k], packet.dz[k]);
+      Vec3<Real> n;
+      if (prim < sphereCount) {
+        const Vec3<Real>& c = m_group.spheres().primitive(static_cast<size_t>(prim)).center;
+        const Real t = packet.tHit[k];
+        // As SphereSet::normal: p - c scaled by a power of two, -d where it is 0 or subnormal.
+        const Vec3<Real> v = wellScaled(
+            Vec3<Real>(packet.ox[k] + t * d.x - c.x, packet.oy[k] + t * d.y - c.y, packet.oz[k] + t * d.z - c.z), -d);
+        n = v * (facingSign(v.x * d.x + v.y * d.y + v.z * d.z, m_shadeBack) / std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z));
+      } else {
+        const Vec3<Real>& normal = m_group.planes().primitive(static_cast<size_t>(prim - sphereCount)).normal;
+        n = normal * facingSign(glm::dot(d, normal), m_shadeBack);
+      }
+      acc.addNormal(k, true, packet.tHit[k], prim, n.x, n.y, n.z);
     }
-    const int32_t ownEnd = static_cast<int32_t>(m_group.spheres().size() + m_group.planes().size());
     for (int k = 0; k < packet.count; ++k) {
       if (packet.prim[k] < ownEnd) continue;
       const Vec3<Real> n =
           shadingNormal(m_group.hit(packet, k).normal, Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]), m_shadeBack);
       acc.addNormal(k, true, packet.tHit[k], packet.prim[k], n.x, n.y, n.z);
-    }
-  }
-
-  // Each ray adds the normal of its hit if that is one of the group's own spheres (Spheres) or planes
-  // (Planes), else nothing; the same normals as SphereSet's and PlaneSet's hit records, turned by
-  // shadingNormal's rule.
-  template <bool Spheres, bool Planes, typename Sink>
-  void accumulateOwnNormals(const RayPacket<Real>& packet, Sink& acc) const {
-    const int32_t sphereCount = static_cast<int32_t>(m_group.spheres().size());
-    const int32_t planeEnd = sphereCount + static_cast<int32_t>(m_group.planes().size());
-    const Sphere<Real>* sphere = Spheres ? &m_group.spheres().primitive(0) : nullptr;
-    const Plane<Real>* plane = Planes ? &m_group.planes().primitive(0) : nullptr;
-    for (int k = 0; k < packet.count; ++k) {
-      const int32_t prim = packet.prim[k];
-      const Vec3<Real> d(packet.dx[k], packet.dy[k], packet.dz[k]);
-      const bool isSphere = Spheres && (prim >= 0) & (prim < sphereCount);
-      const bool isPlane = Planes && (prim >= sphereCount) & (prim < planeEnd);
-      Vec3<Real> n(0);
-      if constexpr (Spheres) {
-        const Sphere<Real>& s = sphere[isSphere ? prim : 0];
-        const Real t = isSphere ? packet.tHit[k] : Real(0);  // a miss's t is tMax, maybe inf
-        // As SphereSet::normal: p - c scaled by a power of two, -d where it is 0 or subnormal.
-        const Vec3<Real> v = wellScaled(Vec3<Real>(packet.ox[k] + t * d.x - s.center.x, packet.oy[k] + t * d.y - s.center.y,
-                                                   packet.oz[k] + t * d.z - s.center.z),
-                                        -d);
-        const Real side = facingSign(v.x * d.x + v.y * d.y + v.z * d.z, m_shadeBack);
-        const Real scale = side / std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
-        n = isSphere ? v * scale : n;
-      }
-      if constexpr (Planes) {
-        const Vec3<Real>& normal = plane[isPlane ? prim - sphereCount : 0].normal;
-        n = isPlane ? normal * facingSign(glm::dot(d, normal), m_shadeBack) : n;
-      }
-      acc.addNormal(k, isSphere | isPlane, packet.tHit[k], prim, n.x, n.y, n.z);
     }
   }
 
