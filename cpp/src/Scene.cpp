@@ -517,8 +517,8 @@ void Scene::requireTransform(const Affined* m, const std::string& field) {
 namespace {
 // ‖A‖∞, the largest row sum of |A|: |A·p| <= ‖A‖∞·|p| in the largest-component norm.
 double rowSumNorm(const Affined& m) {
-  return std::fmax(glm::dot(glm::abs(m.row[0]), Vec3d(1)),
-                   std::fmax(glm::dot(glm::abs(m.row[1]), Vec3d(1)), glm::dot(glm::abs(m.row[2]), Vec3d(1))));
+  return std::fmax(glm::dot(absolute(m.row[0]), Vec3d(1)),
+                   std::fmax(glm::dot(absolute(m.row[1]), Vec3d(1)), glm::dot(absolute(m.row[2]), Vec3d(1))));
 }
 }  // namespace
 

@@ -83,7 +83,7 @@ class BoxSet : public PrimitiveSet<Box<Real>, Real> {
     h.point = p;
     // The other two coordinates carry t's error: a few roundings of |o| + |t·d| each.
     const Vec3<Real> o(packet.ox[k], packet.oy[k], packet.oz[k]), d(packet.dx[k], packet.dy[k], packet.dz[k]);
-    h.pointError = errorGamma<Real>(8) * (glm::abs(o) + glm::abs(t * d) + glm::abs(p));
+    h.pointError = errorGamma<Real>(8) * (absolute(o) + absolute(t * d) + absolute(p));
     h.pointError[axis] = 0;
     this->recordIds(h, index);
     return h;

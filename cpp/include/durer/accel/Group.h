@@ -15,6 +15,7 @@
 #include "durer/accel/PlaneSet.h"
 #include "durer/accel/SphereSet.h"
 #include "durer/accel/TriangleSet.h"
+#include "durer/math/Float.h"
 
 namespace durer {
 
@@ -372,7 +373,7 @@ class Group {
       lo = glm::min(lo, p - e), hi = glm::max(hi, p + e);
     }
     // Generous slack: the box only culls, and the object-space ray carries the map's rounding.
-    const Vec3<Real> widen = Real(1e-3) * (hi - lo) + errorGamma<Real>(32) * (glm::abs(lo) + glm::abs(hi));
+    const Vec3<Real> widen = Real(1e-3) * (hi - lo) + errorGamma<Real>(32) * (absolute(lo) + absolute(hi));
     lo -= widen, hi += widen;
     roundOutward(lo, hi);
     return std::isfinite(lo.x + lo.y + lo.z + hi.x + hi.y + hi.z);

@@ -10,6 +10,7 @@
 #include "durer/accel/PrimitiveSet.h"
 #include "durer/geometry/RayOffset.h"
 #include "durer/geometry/RayPacket.h"
+#include "durer/math/Float.h"
 #include "durer/math/Vec.h"
 #include "durer/scene/Limits.h"
 
@@ -72,7 +73,7 @@ class PlaneSet : public PrimitiveSet<Plane<Real>, Real> {
     // One projection step back onto the plane, measured from its point: the error is then a few
     // roundings of the coordinates' magnitude, whatever t's error was.
     h.point = p - glm::dot(pl.normal, p - pl.point) * pl.normal;
-    h.pointError = errorGamma<Real>(8) * (glm::abs(h.point) + glm::abs(pl.point));
+    h.pointError = errorGamma<Real>(8) * (absolute(h.point) + absolute(pl.point));
     this->recordIds(h, index);
     return h;
   }

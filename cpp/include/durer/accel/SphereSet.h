@@ -15,6 +15,7 @@
 #include "durer/accel/Bvh.h"
 #include "durer/accel/SphereView.h"
 #include "durer/geometry/SphereIntersection.h"
+#include "durer/math/Float.h"
 #include "durer/math/Vec.h"
 
 namespace durer {
@@ -185,7 +186,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     h.normal = normal(packet, k, index);
     // Reprojection onto the sphere (pbrt-v4): the point's error no longer depends on t's error.
     h.point = c + this->m_primitives[index].radius * h.normal;
-    h.pointError = errorGamma<Real>(6) * (glm::abs(h.point - c) + glm::abs(c));
+    h.pointError = errorGamma<Real>(6) * (absolute(h.point - c) + absolute(c));
     this->recordIds(h, index);
     return h;
   }

@@ -20,6 +20,7 @@
 #include "durer/accel/PrimitiveSet.h"
 #include "durer/geometry/RayOffset.h"
 #include "durer/geometry/RayPacket.h"
+#include "durer/math/Float.h"
 #include "durer/math/Vec.h"
 
 namespace durer {
@@ -145,7 +146,7 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real, 3> {
     out.t = packet.tHit[k];
     out.normal = tri.normal;
     out.point = p0 + p1 + p2;
-    out.pointError = errorGamma<Real>(7) * (glm::abs(p0) + glm::abs(p1) + glm::abs(p2));
+    out.pointError = errorGamma<Real>(7) * (absolute(p0) + absolute(p1) + absolute(p2));
     this->recordIds(out, index);
     if (this->colored()) {
       const typename Base::Colors& c = this->colors()[index];

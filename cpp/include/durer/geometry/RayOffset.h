@@ -17,7 +17,7 @@ Vec3<Real> offsetRayOrigin(const Vec3<Real>& point, const Vec3<Real>& normal, co
                            const Vec3<Real>& w) {
   const Real side = glm::dot(w, normal) < 0 ? Real(-1) : Real(1);
   const Vec3<Real> away = side * normal;
-  const Vec3<Real> origin = point + glm::dot(glm::abs(normal), error) * away;
+  const Vec3<Real> origin = point + glm::dot(absolute(normal), error) * away;
   Vec3<Real> result;
   for (int i = 0; i < 3; ++i) {
     result[i] = away[i] > 0 ? nextUp(origin[i]) : away[i] < 0 ? nextDown(origin[i]) : origin[i];

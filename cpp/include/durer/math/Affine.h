@@ -40,8 +40,8 @@ struct Affine {
   Vec3<Real> pointError(const Vec3<Real>& p, const Vec3<Real>& error) const {
     Vec3<Real> e;
     for (int i = 0; i < 3; ++i) {
-      const Vec3<Real> a = glm::abs(row[i]);
-      e[i] = errorGamma<Real>(3) * (glm::dot(a, glm::abs(p)) + std::fabs(offset[i])) +
+      const Vec3<Real> a = absolute(row[i]);
+      e[i] = errorGamma<Real>(3) * (glm::dot(a, absolute(p)) + std::fabs(offset[i])) +
              (1 + errorGamma<Real>(3)) * glm::dot(a, error);
     }
     return e;

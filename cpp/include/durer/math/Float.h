@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "durer/Inline.h"
+#include "durer/math/Float.h"
 #include "durer/math/Vec.h"
 
 namespace durer {
@@ -35,6 +36,13 @@ DURER_INLINE Real widenUp(Real t, Real factor) {
 template <typename Real, typename Other>
 Vec3<Real> toReal(const Vec3<Other>& v) {
   return Vec3<Real>(static_cast<Real>(v.x), static_cast<Real>(v.y), static_cast<Real>(v.z));
+}
+
+// |v| component by component, by std::fabs: glm::abs is x >= 0 ? x : -x, a compare and a branch
+// per component, which mispredicts where the signs vary (a hit point's, for its error bound).
+template <typename Real>
+DURER_INLINE Vec3<Real> absolute(const Vec3<Real>& v) {
+  return Vec3<Real>(std::fabs(v.x), std::fabs(v.y), std::fabs(v.z));
 }
 
 template <typename Real>

@@ -8,6 +8,7 @@
 #include <mutex>
 #include <vector>
 
+#include "durer/math/Float.h"
 #include "durer/render/Kernels.h"
 #include "durer/render/PacketShader.h"
 #include "durer/render/PixelSampler.h"
@@ -437,7 +438,7 @@ class TileRenderer {
       spec.projection = Projection::Orthographic;
       spec.center = 0.5 * (Vec3d(lo) + Vec3d(hi));
       spec.direction = direction;
-      const Vec3d a = glm::abs(direction);
+      const Vec3d a = absolute(direction);
       spec.up = a.x <= a.y && a.x <= a.z ? Vec3d(1, 0, 0) : a.y <= a.z ? Vec3d(0, 1, 0) : Vec3d(0, 0, 1);
       spec.size = cells * cell;
       spec.tMin = -std::numeric_limits<double>::infinity();
