@@ -239,10 +239,10 @@ class AdaptiveSampler {
     void addDepth(int j, Real d) { t.sums.addDepth(pixel[j], d); }
     // The normals of every sample for the passes, and of each pixel's first for the crease test.
     bool wantsNormal(int j) const { return normalPass || sample[j] == 0; }
-    void addNormal(int j, bool hit, Real along, int32_t prim, Real x, Real y, Real z) {
+    void addNormal(int j, Real along, int32_t prim, Real x, Real y, Real z) {
       const int k = pixel[j];
-      if (normalPass) t.sums.addNormal(k, hit, along, prim, x, y, z);
-      if (sample[j] == 0 && hit) t.firstNx[k] = float(x), t.firstNy[k] = float(y), t.firstNz[k] = float(z);
+      if (normalPass) t.sums.addNormal(k, along, prim, x, y, z);
+      if (sample[j] == 0) t.firstNx[k] = float(x), t.firstNy[k] = float(y), t.firstNz[k] = float(z);
     }
     bool addNearest(int j, bool hit, Real along, int32_t prim) { return t.sums.addNearest(pixel[j], hit, along, prim); }
   };
@@ -317,7 +317,7 @@ class AdaptiveSampler {
     t.w = std::min((tx + 1) * kTileSize, m_work.x + m_work.width) - t.x0;
     t.h = std::min((ty + 1) * kTileSize, m_work.y + m_work.height) - t.y0;
     const int count = t.w * t.h;
-    t.sums.clear(count, m_tiles.needsNormals());
+    t.sums.clear(count, m_tiles.needsNormals(), true);
     std::fill(t.taken, t.taken + count, 0);
     std::fill(t.last, t.last + count, 0);
     std::fill(t.add, t.add + count, m_firstSamples);

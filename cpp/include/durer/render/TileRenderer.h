@@ -89,7 +89,7 @@ class TileRenderer {
     const int h = std::min(tileY + kTileSize, m_region.y + m_region.height) - y0;
     const int count = w * h;
     Accumulator acc;
-    acc.clear(count, m_needNormals);
+    acc.clear(count, m_needNormals, m_needNearest || m_sampler.samplesPerPixel() > 1);
     RayCounters counters;
     RayPacket<Real> packet;
     alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
@@ -136,10 +136,12 @@ class TileRenderer {
     alignas(64) Real samples[kPacketSize];                                        // samples taken
     bool normals;  // whether the normals' and nearest hit's sums are kept (set by clear: adaptive's
                    // tile states are left unset until a worker clears them)
+    bool nearest;  // whether addNormal keeps the nearest hit sample: the id passes read it, and the
+                   // normal pass where a pixel's samples' normals cancel (never with one sample)
     // Clears the sums of `count` pixels; the normals' and nearest hit's only if `keepNormals`: no
     // pass reads them otherwise, and clearing them took 8 % of a depth render.
-    void clear(int count, bool keepNormals) {
-      normals = keepNormals;
+    void clear(int count, bool keepNormals, bool keepNearest) {
+      normals = keepNormals, nearest = keepNearest;
       const Real inf = std::numeric_limits<Real>::infinity();
       for (int k = 0; k < count; ++k) {
         r[k] = g[k] = b[k] = a[k] = samples[k] = 0, depth[k] = inf;
@@ -163,11 +165,11 @@ class TileRenderer {
       nearestPrim[k] = nearer ? prim : nearestPrim[k];
       return nearer;
     }
-    // Adds one hit sample's unit normal, at t along its ray, to pixel k (branch-free: `hit` false adds nothing).
-    void addNormal(int k, bool hit, Real t, int32_t prim, Real x, Real y, Real z) {
-      const Real weight = hit ? Real(1) : Real(0);
-      nx[k] += x * weight, ny[k] += y * weight, nz[k] += z * weight, hits[k] += weight;
-      const bool nearer = addNearest(k, hit, t, prim);
+    // Adds one hit sample's unit normal, at t along its ray, to pixel k (a miss adds nothing).
+    void addNormal(int k, Real t, int32_t prim, Real x, Real y, Real z) {
+      nx[k] += x, ny[k] += y, nz[k] += z, hits[k] += 1;
+      if (!nearest) return;
+      const bool nearer = addNearest(k, true, t, prim);
       fx[k] = nearer ? x : fx[k], fy[k] = nearer ? y : fy[k], fz[k] = nearer ? z : fz[k];
     }
   };
@@ -316,7 +318,7 @@ class TileRenderer {
       if (m_targets.depth) acc.addDepth(k, m_planarDepth ? hits[k].t * planarScale(packet, k) : hits[k].t);
       if (!acc.wantsNormal(k)) continue;
       const Vec3<Real> n = m_shader.shadingNormal(hits[k], Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]));
-      acc.addNormal(k, true, hits[k].t, packet.prim[k], n.x, n.y, n.z);
+      acc.addNormal(k, hits[k].t, packet.prim[k], n.x, n.y, n.z);
     }
     alignas(64) Vec3<Real> rgb[kPacketSize];
     alignas(64) Real weights[kPacketSize];
@@ -352,13 +354,13 @@ class TileRenderer {
         const Vec3<Real>& normal = m_group.planes().primitive(static_cast<size_t>(prim - sphereCount)).normal;
         n = normal * facingSign(glm::dot(d, normal), m_shadeBack);
       }
-      acc.addNormal(k, true, packet.tHit[k], prim, n.x, n.y, n.z);
+      acc.addNormal(k, packet.tHit[k], prim, n.x, n.y, n.z);
     }
     for (int k = 0; k < packet.count; ++k) {
       if (packet.prim[k] < ownEnd) continue;
       const Vec3<Real> n =
           shadingNormal(m_group.hit(packet, k).normal, Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]), m_shadeBack);
-      acc.addNormal(k, true, packet.tHit[k], packet.prim[k], n.x, n.y, n.z);
+      acc.addNormal(k, packet.tHit[k], packet.prim[k], n.x, n.y, n.z);
     }
   }
 
