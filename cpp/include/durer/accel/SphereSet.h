@@ -76,6 +76,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     if (packet.view) {
       if constexpr (AnyHit) {  // shadow rays toward a directional light, through its view
         int64_t tests = 0;
+        packet.view->prefetchOccluders(packet);
         for (int k = 0; k < packet.count; ++k) {
           if (packet.prim[k] != kNoPrimitive) continue;
           const SphereRayTerms<Real> rayTerms = terms[k];

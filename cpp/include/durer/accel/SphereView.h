@@ -141,11 +141,8 @@ class SphereView {
   // Returns the ray-sphere tests made.
   template <typename Test>
   int64_t occluders(const RayPacket<Real>& packet, int k, const Test& test) const {
-    double x, y, depth;
-    m_light.locate(Vec3d(double(packet.ox[k]), double(packet.oy[k]), double(packet.oz[k])), x, y, depth);
-    const double cx = std::floor(x / kCell) - m_cellX, cy = std::floor(y / kCell) - m_cellY;
-    // The view's cells hold every sphere's footprint with a cell to spare: beyond them, no sphere.
-    if (!(cx >= 0 && cy >= 0 && cx < m_cellsX && cy < m_cellsY)) return 0;
+    double x, y, depth, cx, cy;
+    if (!lightCellOf(packet, k, x, y, depth, cx, cy)) return 0;
     const size_t cell = size_t(cy) * size_t(m_cellsX) + size_t(cx);
     const Entry* first = m_entries.data() + m_first[cell];
     // Spheres whose nearest depth lies beyond the origin's (widened by its rounding) cannot block it.
@@ -166,11 +163,44 @@ class SphereView {
     return tested;
   }
 
+  // Fetches into the cache what occluders() will read for the packet's rays without a hit: a shadow
+  // ray's cell is a random place in the view, and alone its search waits on a chain of misses (the
+  // cell's bounds, then the entries its binary search reads, then its spans). For a packet, each
+  // ray's cell bounds are fetched, then its entries (their first 512 bytes) and first spans, before
+  // the rays search in turn.
+  void prefetchOccluders(const RayPacket<Real>& packet) const {
+    size_t cells[kPacketSize];
+    int n = 0;
+    for (int k = 0; k < packet.count; ++k) {
+      double x, y, depth, cx, cy;
+      if (packet.prim[k] != kNoPrimitive || !lightCellOf(packet, k, x, y, depth, cx, cy)) continue;
+      cells[n] = size_t(cy) * size_t(m_cellsX) + size_t(cx);
+      __builtin_prefetch(&m_first[cells[n++]]);
+    }
+    for (int j = 0; j < n; ++j) {
+      const uint32_t begin = m_first[cells[j]], end = m_first[cells[j] + 1];
+      const char* entries = reinterpret_cast<const char*>(m_entries.data() + begin);
+      const size_t bytes = (end - begin) * sizeof(Entry);
+      for (size_t b = 0; b < std::min<size_t>(bytes, 512); b += 64) __builtin_prefetch(entries + b);
+      __builtin_prefetch(m_spans.data() + begin);
+    }
+  }
+
   // Makes this the view from a directional light travelling along `projection.forward` (made over
   // the light's orthographic image, `projection` its frame), searched by occluders().
   void setLight(const ParallelProjection& projection) { m_light = projection; }
 
  private:
+  // Where ray k's origin lies on a light's view: its image position x, y, its depth along the light's
+  // direction and its cell (cx, cy); false beyond the cells, which hold every sphere's footprint with
+  // a cell to spare: no sphere there.
+  bool lightCellOf(const RayPacket<Real>& packet, int k, double& x, double& y, double& depth, double& cx,
+                   double& cy) const {
+    m_light.locate(Vec3d(double(packet.ox[k]), double(packet.oy[k]), double(packet.oz[k])), x, y, depth);
+    cx = std::floor(x / kCell) - m_cellX, cy = std::floor(y / kCell) - m_cellY;
+    return cx >= 0 && cy >= 0 && cx < m_cellsX && cy < m_cellsY;
+  }
+
   // The largest t any ray of the packet may still be lowered from (NaN-free: tHit never is NaN).
   DURER_INLINE static Real farthestHit(const RayPacket<Real>& packet) {
     Real farthest = packet.tHit[0];
