@@ -200,7 +200,9 @@ class Group {
   // The full hit record of ray k, once its search is over (a miss gives the default record).
   Hit<Real> hit(const RayPacket<Real>& packet, int k) const {
     const int32_t prim = packet.prim[k];
-    if (prim == kNoPrimitive || static_cast<size_t>(prim) < ownPrimitiveCount()) return hitOwn(packet, k);
+    // Spheres, most scenes' primitives, first: one count to compare with, not the four of ownPrimitiveCount.
+    const auto index = static_cast<size_t>(prim);
+    if (prim == kNoPrimitive || index < m_spheres.size() || index < ownPrimitiveCount()) return hitOwn(packet, k);
     const auto after = std::upper_bound(m_instances.begin(), m_instances.end(), prim,
                                         [](int32_t p, const Instance<Real>& inst) { return p < inst.primBase; });
     return instanceHit(*(after - 1), packet, k);
