@@ -141,6 +141,17 @@ TEST_CASE_TEMPLATE("wellScaled keeps a unit vector's bits, and stands in where t
         Vec3<Real>(0, 0, -1));
 }
 
+TEST_CASE_TEMPLATE("absolute is std::fabs per component: no sign survives, not even zero's", Real, float, double) {
+  const Real inf = std::numeric_limits<Real>::infinity(), nan = std::numeric_limits<Real>::quiet_NaN();
+  const Vec3<Real> a = absolute(Vec3<Real>(Real(-2.5), -inf, Real(-0.0)));
+  CHECK(a == Vec3<Real>(Real(2.5), inf, 0));
+  CHECK(!std::signbit(a.z));                               // glm::abs keeps -0 (x >= 0 holds for it)
+  CHECK(std::signbit(glm::abs(Vec3<Real>(Real(-0.0))).x));
+  const Vec3<Real> n = absolute(Vec3<Real>(-nan, Real(1), std::numeric_limits<Real>::denorm_min()));
+  CHECK((std::isnan(n.x) && !std::signbit(n.x)));
+  CHECK(n.z == std::numeric_limits<Real>::denorm_min());
+}
+
 TEST_CASE("error-free transformations recover what plain arithmetic rounds away") {
   // 1 - 2^-60 rounds to 1; the lost part is exactly -2^-60.
   CHECK(twoDiffError(1.0, std::ldexp(1.0, -60), 1.0) == -std::ldexp(1.0, -60));
