@@ -8,7 +8,6 @@
 #include <limits>
 
 #include "durer/Inline.h"
-#include "durer/math/Float.h"
 #include "durer/math/Vec.h"
 
 namespace durer {
