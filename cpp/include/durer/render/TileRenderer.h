@@ -330,10 +330,10 @@ class TileRenderer {
   }
 
   // Normals of the packet's hits: those on the top-level group's own spheres and planes in one loop
-  // without a hit record per ray, the others through their hit records. The same normals as
-  // SphereSet's and PlaneSet's hit records, turned by shadingNormal's rule. A branch per ray: a tile's
-  // rays mostly meet one kind of primitive, and a branch-free loop, which made both kinds' normals
-  // for every ray (GCC kept it scalar), took longer even where the kinds alternate at random.
+  // without a hit record per ray (SphereSet::normal, a plane's own), the others through their hit
+  // records; each turned by shadingNormal's rule. A branch per ray: a tile's rays mostly meet one kind
+  // of primitive, and a branch-free loop, which made both kinds' normals for every ray (GCC kept it
+  // scalar), took longer even where the kinds alternate at random.
   template <typename Sink>
   void accumulateNormals(const RayPacket<Real>& packet, Sink& acc) const {
     const int32_t sphereCount = static_cast<int32_t>(m_group.spheres().size());
@@ -341,19 +341,10 @@ class TileRenderer {
     for (int k = 0; k < packet.count; ++k) {
       const int32_t prim = packet.prim[k];
       if (prim == kNoPrimitive || prim >= ownEnd) continue;  // a miss adds nothing
-      const Vec3<Real> d(packet.dx[k], packet.dy[k], packet.dz[k]);
-      Vec3<Real> n;
-      if (prim < sphereCount) {
-        const Vec3<Real>& c = m_group.spheres().primitive(static_cast<size_t>(prim)).center;
-        const Real t = packet.tHit[k];
-        // As SphereSet::normal: p - c scaled by a power of two, -d where it is 0 or subnormal.
-        const Vec3<Real> v = wellScaled(
-            Vec3<Real>(packet.ox[k] + t * d.x - c.x, packet.oy[k] + t * d.y - c.y, packet.oz[k] + t * d.z - c.z), -d);
-        n = v * (facingSign(v.x * d.x + v.y * d.y + v.z * d.z, m_shadeBack) / std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z));
-      } else {
-        const Vec3<Real>& normal = m_group.planes().primitive(static_cast<size_t>(prim - sphereCount)).normal;
-        n = normal * facingSign(glm::dot(d, normal), m_shadeBack);
-      }
+      const Vec3<Real> normal = prim < sphereCount
+                                    ? m_group.spheres().normal(packet, k, static_cast<size_t>(prim))
+                                    : m_group.planes().primitive(static_cast<size_t>(prim - sphereCount)).normal;
+      const Vec3<Real> n = shadingNormal(normal, Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]), m_shadeBack);
       acc.addNormal(k, packet.tHit[k], prim, n.x, n.y, n.z);
     }
     for (int k = 0; k < packet.count; ++k) {
