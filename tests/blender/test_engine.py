@@ -19,6 +19,7 @@ from helpers.blender import (
     aim_camera,
     ball_scene,
     cube,
+    light,
     link,
     pointcloud_object,
     quad,
@@ -196,8 +197,9 @@ def test_escape_cancels_quickly_and_blender_stays_usable(scene):
     rng = np.random.default_rng(0)
     pointcloud_object(scene, "Many", rng.uniform(-3, 3, (50, 3)), radius=0.3)
     aim_camera(scene, (0, -12, 0))
-    scene.render.resolution_x, scene.render.resolution_y = 320, 240
-    scene.durer.samples = 500  # several seconds: far longer than the 0.3 s before "Esc"
+    light(scene, "SUN", rotation=(0.4, 0.3, 0))  # a shadow ray per sample too
+    scene.render.resolution_x, scene.render.resolution_y = 640, 480
+    scene.durer.samples = 4096  # over 10 s at 250 Mrays/s: far longer than the 0.3 s before "Esc"
     bpy.utils.register_class(_CancellingEngine)
     try:
         for panel in engine._compatible_panels():
