@@ -317,7 +317,7 @@ class AdaptiveSampler {
     t.w = std::min((tx + 1) * kTileSize, m_work.x + m_work.width) - t.x0;
     t.h = std::min((ty + 1) * kTileSize, m_work.y + m_work.height) - t.y0;
     const int count = t.w * t.h;
-    t.sums.clear(count, m_tiles.needsNormals(), true);
+    t.sums.clear(count, true, m_tiles.needsNormals(), true);  // colours too: the error estimates read them
     std::fill(t.taken, t.taken + count, 0);
     std::fill(t.last, t.last + count, 0);
     std::fill(t.add, t.add + count, m_firstSamples);
