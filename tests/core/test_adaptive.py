@@ -92,6 +92,21 @@ def test_a_crease_between_equally_lit_planes_is_refined():
     assert np.all(result.samples[ridge] == 16) and np.all(result.samples[~ridge] == 4)
 
 
+def test_normals_are_unit_in_tile_rows_of_one_and_of_several_samples():
+    # With min_spp 1 a tile's row of 8 pixels can hold pixels of one sample (their normal written as
+    # it is) beside pixels of several (their mean renormalised): every hit pixel's normal is unit
+    # (the ground plane fills the background), whichever the row.
+    scene, camera = durer.showcase_scene(small_spheres=20)
+    result = durer.render(scene, camera, 64, 48, spp=16, min_spp=1, sampler="adaptive", target_error=0.01, seed=3,
+                          passes=("depth", "normal"))
+    rows = result.samples.reshape(48, 8, 8)  # (image row, tile column, pixel in the tile's row)
+    single = rows == 1
+    assert np.any(single.any(axis=2) & ~single.all(axis=2))  # rows of both kinds exist
+    hit = np.isfinite(result.depth)
+    assert hit.any()
+    np.testing.assert_allclose(np.linalg.norm(result.normal[hit], axis=1), 1, atol=1e-6)
+
+
 @pytest.mark.parametrize("sampler", ["adaptive", "stratified"])
 def test_the_passes_asked_for_do_not_change_the_colour(sampler):
     # The normal and id passes keep sums a colour render skips; in a lit scene the colour and the
