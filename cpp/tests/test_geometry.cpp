@@ -152,6 +152,20 @@ TEST_CASE_TEMPLATE("absolute is std::fabs per component: no sign survives, not e
   CHECK(n.z == std::numeric_limits<Real>::denorm_min());
 }
 
+TEST_CASE_TEMPLATE("non-negative numbers' bits order as the numbers do, and come back the same", Real, float, double) {
+  const Real values[] = {Real(0), std::numeric_limits<Real>::denorm_min(), std::numeric_limits<Real>::min(),
+                         Real(0.5), std::nextafter(Real(1), Real(0)), Real(1), Real(1919.75),
+                         std::numeric_limits<Real>::max(), std::numeric_limits<Real>::infinity()};
+  for (const Real a : values) {
+    CHECK(fromNonNegativeBits<Real>(nonNegativeBits(a)) == a);
+    for (const Real b : values) {
+      CHECK((nonNegativeBits(a) < nonNegativeBits(b)) == (a < b));
+      CHECK(fromNonNegativeBits<Real>(std::min(nonNegativeBits(a), nonNegativeBits(b))) == std::min(a, b));
+    }
+  }
+  CHECK(nonNegativeBits(Real(-1)) < 0);  // a negative number's bits do not order as it does: not for them
+}
+
 TEST_CASE("error-free transformations recover what plain arithmetic rounds away") {
   // 1 - 2^-60 rounds to 1; the lost part is exactly -2^-60.
   CHECK(twoDiffError(1.0, std::ldexp(1.0, -60), 1.0) == -std::ldexp(1.0, -60));

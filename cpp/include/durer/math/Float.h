@@ -49,15 +49,33 @@ struct FloatBits;
 template <>
 struct FloatBits<double> {
   using Bits = uint64_t;
+  using SignedBits = int64_t;
   static constexpr int kMantissaBits = 52;
   static constexpr int kBias = 1023;
 };
 template <>
 struct FloatBits<float> {
   using Bits = uint32_t;
+  using SignedBits = int32_t;
   static constexpr int kMantissaBits = 23;
   static constexpr int kBias = 127;
 };
+
+// The bits of x >= +0 (not NaN) as a signed integer, and back: for such numbers the integers order
+// as the values do, so a loop of integer minima and maxima over them vectorises where one over the
+// values stays a serial chain (GCC keeps a floating-point min in order under -ftrapping-math).
+template <typename Real>
+DURER_INLINE typename FloatBits<Real>::SignedBits nonNegativeBits(Real x) {
+  typename FloatBits<Real>::SignedBits bits;
+  std::memcpy(&bits, &x, sizeof x);
+  return bits;
+}
+template <typename Real>
+DURER_INLINE Real fromNonNegativeBits(typename FloatBits<Real>::SignedBits bits) {
+  Real x;
+  std::memcpy(&x, &bits, sizeof x);
+  return x;
+}
 
 // The next Real above (nextUp) or below (nextDown) x, as std::nextafter toward ±inf but inline
 // from the bits (pbrt-v4's NextFloatUp/Down): ±inf and NaN stay, -0 and +0 step to the least subnormal.

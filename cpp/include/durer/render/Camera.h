@@ -5,6 +5,7 @@
 #include "durer/Options.h"
 #include "durer/accel/SphereView.h"
 #include "durer/geometry/RayPacket.h"
+#include "durer/math/Float.h"
 #include "durer/math/Vec.h"
 #include "durer/scene/Limits.h"
 
@@ -89,12 +90,14 @@ inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX,
   packet.coherent = true;
   packet.view = nullptr;
   packet.tileWidth = 0;
-  Real x0 = sampleX[0], x1 = x0, y0 = sampleY[0], y1 = y0;
+  // The samples' box, over their bits: image positions are >= +0.
+  auto x0 = nonNegativeBits(sampleX[0]), x1 = x0, y0 = nonNegativeBits(sampleY[0]), y1 = y0;
   for (int k = 1; k < count; ++k) {
-    x0 = std::min(x0, sampleX[k]), x1 = std::max(x1, sampleX[k]);
-    y0 = std::min(y0, sampleY[k]), y1 = std::max(y1, sampleY[k]);
+    x0 = std::min(x0, nonNegativeBits(sampleX[k])), x1 = std::max(x1, nonNegativeBits(sampleX[k]));
+    y0 = std::min(y0, nonNegativeBits(sampleY[k])), y1 = std::max(y1, nonNegativeBits(sampleY[k]));
   }
-  packet.sampleBox[0] = x0, packet.sampleBox[1] = x1, packet.sampleBox[2] = y0, packet.sampleBox[3] = y1;
+  packet.sampleBox[0] = fromNonNegativeBits<Real>(x0), packet.sampleBox[1] = fromNonNegativeBits<Real>(x1);
+  packet.sampleBox[2] = fromNonNegativeBits<Real>(y0), packet.sampleBox[3] = fromNonNegativeBits<Real>(y1);
   // Plain component arithmetic so that the loop vectorises.
   const Vec3<Real> c = m_center, f = m_forward, h = m_horizontal, u = m_up;
   if (m_perspective) {
