@@ -134,8 +134,8 @@ class TileRenderer {
     alignas(64) Real fx[kPacketSize], fy[kPacketSize], fz[kPacketSize];           // and its normal
     alignas(64) int32_t nearestPrim[kPacketSize];                                 // and its packed primitive
     alignas(64) Real samples[kPacketSize];                                        // samples taken
-    bool normals;  // whether the normals' and nearest hit's sums are kept (set by clear: adaptive's
-                   // tile states are left unset until a worker clears them)
+    bool normals;  // whether the normals' sums are kept (set by clear: adaptive's tile states are
+                   // left unset until a worker clears them)
     bool nearest;  // whether addNormal keeps the nearest hit sample: the id passes read it, and the
                    // normal pass where a pixel's samples' normals cancel (never with one sample)
     // Clears the sums of `count` pixels; the colours' only if `keepColors`, the normals' only if
