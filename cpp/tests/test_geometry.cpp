@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <random>
 
 #include "durer/accel/BoxSet.h"
 #include "durer/accel/PlaneSet.h"
@@ -236,6 +237,43 @@ TEST_CASE_TEMPLATE("spheres: every method finds the closed-form roots", Real, fl
   check(std::integral_constant<SphereMethod, SphereMethod::Geometric>{});
   check(std::integral_constant<SphereMethod, SphereMethod::Robust>{});
 }
+
+#if defined(__AVX2__) && defined(__FMA__)
+TEST_CASE_TEMPLATE("a leaf's prefilter, four spheres at once, decides for each as robustMayMeet does", Real, float, double) {
+  // Rays aimed at spheres' silhouettes (line distance r·(1 + k·epsilon), k from -64 to 64, so the
+  // outcome turns on the last bits), at scales from 2^-20 to 2^19, in leaves of one to four spheres
+  // (lanes past the leaf are masked off): every lane's bit must be the scalar test's.
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> unit(-1, 1), radius(0.01, 1), along(-20, 20);
+  std::uniform_int_distribution<int> ulps(-64, 64), exponent(-20, 19);
+  const double eps = std::numeric_limits<Real>::epsilon();
+  int met = 0, missed = 0;
+  for (int trial = 0; trial < 40000; ++trial) {
+    const double scale = std::ldexp(1.0, exponent(rng));
+    const Vec3d d = glm::normalize(Vec3d(unit(rng), unit(rng), unit(rng)) + Vec3d(0, 0, 1e-3));
+    const Vec3d o = scale * 10.0 * Vec3d(unit(rng), unit(rng), unit(rng));
+    const Vec3<Real> oR = toReal<Real>(o), dR = toReal<Real>(d);
+    const SphereRayTerms<Real> terms = sphereRayTerms<SphereMethod::Robust>(dR.x, dR.y, dR.z);
+    const int count = 1 + trial % 4;
+    Sphere<Real> leaf[4];
+    unsigned expected = 0;
+    for (int i = 0; i < count; ++i) {
+      const double r = scale * radius(rng);
+      const Vec3d side = glm::normalize(glm::cross(d, Vec3d(unit(rng), unit(rng), unit(rng))));
+      const Vec3d c = o + scale * along(rng) * d + side * (r * (1 + ulps(rng) * eps));
+      leaf[i] = {toReal<Real>(c), static_cast<Real>(r)};
+      const Real fx = oR.x - leaf[i].center.x, fy = oR.y - leaf[i].center.y, fz = oR.z - leaf[i].center.z;
+      const bool may = robustMayMeet(leaf[i].radius, lineDistanceSq(fx, fy, fz, terms), std::fabs(fx) + std::fabs(fy) + std::fabs(fz));
+      expected |= unsigned(may) << i;
+      (may ? met : missed) += 1;
+    }
+    CAPTURE(trial);
+    CHECK(SphereSet<Real>::leafMayMeet(leaf, count, oR.x, oR.y, oR.z, terms) == expected);
+  }
+  CHECK(met > 20000);  // both outcomes, in earnest
+  CHECK(missed > 20000);
+}
+#endif
 
 TEST_CASE_TEMPLATE("triangles: t and the normal from the winding; a shared edge is never missed", Real, float, double) {
   TriangleSet<Real> lower, upper;

@@ -126,6 +126,30 @@ TEST_CASE_TEMPLATE("hierarchy searches find what brute force finds, bit for bit"
   }
 }
 
+TEST_CASE_TEMPLATE("leaves the build cannot split (spheres sharing a centre) are searched whole", Real, float, double) {
+  // Concentric spheres have one centroid, so no plane splits them: the build halves their range
+  // down to leaves of up to eight, past the four a leaf's vectorised prefilter takes at once.
+  SphereSet<Real> spheres[2];
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-10, 10), size(0.01, 0.3);
+  for (int32_t i = 0; i < 2000; ++i) {
+    const Sphere<Real> s = i < 77 ? Sphere<Real>{Vec3<Real>(1, 2, 3), static_cast<Real>(0.5 + i * 0.02)}
+                                  : Sphere<Real>{toReal<Real>(Vec3d(u(rng), u(rng), u(rng))), static_cast<Real>(size(rng))};
+    for (SphereSet<Real>& set : spheres) set.add(s, 0, i);
+  }
+  spheres[0].buildBvh(1);
+  for (int trial = 0; trial < 40; ++trial) {
+    RayPacket<Real> rays = packetOf<Real>(Rays::Random, rng, Real(0));
+    for (int k = 0; k < rays.count; k += 2) {  // half aimed through the shared centre's shells
+      rays.dx[k] = Real(1 + 0.1 * (k % 7)) - rays.ox[k], rays.dy[k] = Real(2) - rays.oy[k], rays.dz[k] = Real(3) - rays.oz[k];
+    }
+    checkAgainstBruteForce(spheres, rays, [](const SphereSet<Real>& s, RayPacket<Real>& p, bool anyHit) {
+      anyHit ? s.template intersect<SphereMethod::Robust, true>(p, 0, nullptr)
+             : s.template intersect<SphereMethod::Robust, false>(p, 0, nullptr);
+    });
+  }
+}
+
 TEST_CASE_TEMPLATE("rays walking interleaved visit the leaves each visits alone, in the same order", Real, float, double) {
   // Bvh::traverseInterleaved against Bvh::traverse, ray by ray: the same leaves in the same order,
   // with each leaf lowering the ray's tHit (so later culling depends on it), some rays stopping at a

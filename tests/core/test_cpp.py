@@ -33,7 +33,7 @@ def test_cpp_unit_tests_pass():
     env = {**os.environ, "CCACHE_BASEDIR": str(ROOT.parent)}
     steps = [
         configure,
-        [_tool("cmake"), "--build", str(BUILD), "--target", "durer_cpp_tests"],
+        [_tool("cmake"), "--build", str(BUILD), "--target", "durer_cpp_test_binaries"],
         [_tool("ctest"), "--test-dir", str(BUILD), "--output-on-failure"],
     ]
     for step in steps:

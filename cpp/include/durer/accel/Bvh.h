@@ -138,18 +138,25 @@ class Bvh {
   int64_t traverse(const BvhRay<Real>& ray, const Real& tHit, Leaf&& leaf, int32_t node = 0) const {
     Stack stack;
     int64_t visited = 0;
+    int32_t child = node, count = 0;  // the next step: inner node `child` (count 0) or a leaf
     for (;;) {
-      pushChildren(m_nodes[static_cast<size_t>(node)], ray, tHit, stack);
+      if (count == 0) {
+        const BvhNode<Real>& inner = m_nodes[static_cast<size_t>(child)];
+        const int nearest = pushFartherChildren(inner, ray, tHit, stack);
+        if (nearest >= 0) {
+          child = inner.child[nearest], count = inner.count[nearest];
+          continue;
+        }
+      } else {
+        visited += count;
+        if (leaf(child, count)) return visited;
+      }
       for (;;) {
         if (stack.top == 0) return visited;
         const int e = --stack.top;
         if (stack.tNear[e] > tHit) continue;  // the hit found since it was pushed is nearer
-        if (stack.count[e] == 0) {
-          node = stack.child[e];
-          break;
-        }
-        visited += stack.count[e];
-        if (leaf(stack.child[e], stack.count[e])) return visited;
+        child = stack.child[e], count = stack.count[e];
+        break;
       }
     }
   }
@@ -182,17 +189,32 @@ class Bvh {
     };
     while (active < kInterleaved && start(walks[active])) ++active;
     int64_t visited = 0;
+    // The walk's next step is child `child` (count > 0: a leaf), read on its next turn.
+    const auto aim = [&](Walk& walk, int32_t child, int32_t childCount) {
+      if (childCount == 0) {
+        walk.node = child;
+        const char* bytes = reinterpret_cast<const char*>(&m_nodes[static_cast<size_t>(child)]);
+        __builtin_prefetch(bytes), __builtin_prefetch(bytes + 64);  // a node is two cache lines
+      } else {
+        walk.leafFirst = child, walk.leafCount = childCount;
+        touch(child, childCount);
+      }
+    };
     while (active > 0) {
       for (int w = 0; w < active; ++w) {
         Walk& walk = walks[w];
-        const Real limit = p.tHit[walk.k];
         bool done = false;
         if (walk.leafCount > 0) {
           visited += walk.leafCount;
           done = leaf(walk.leafFirst, walk.leafCount, walk.k);
           walk.leafCount = 0;
         } else {
-          pushChildren(m_nodes[static_cast<size_t>(walk.node)], walk.ray, limit, walk.stack);
+          const BvhNode<Real>& node = m_nodes[static_cast<size_t>(walk.node)];
+          const int nearest = pushFartherChildren(node, walk.ray, p.tHit[walk.k], walk.stack);
+          if (nearest >= 0) {
+            aim(walk, node.child[nearest], node.count[nearest]);
+            continue;
+          }
         }
         const Real now = p.tHit[walk.k];
         Stack& stack = walk.stack;
@@ -203,14 +225,7 @@ class Bvh {
           }
           const int e = --stack.top;
           if (stack.tNear[e] > now) continue;
-          if (stack.count[e] == 0) {
-            walk.node = stack.child[e];
-            const char* bytes = reinterpret_cast<const char*>(&m_nodes[static_cast<size_t>(walk.node)]);
-            __builtin_prefetch(bytes), __builtin_prefetch(bytes + 64);  // a node is two cache lines
-          } else {
-            walk.leafFirst = stack.child[e], walk.leafCount = stack.count[e];
-            touch(walk.leafFirst, walk.leafCount);
-          }
+          aim(walk, stack.child[e], stack.count[e]);
           break;
         }
         if (done && !start(walk)) walk = walks[--active], --w;  // the last walk's turn moves here
@@ -318,7 +333,8 @@ class Bvh {
     std::memcpy(&v, p, sizeof v);
     return __builtin_convertvector(v, Lanes);
   }
-  static Lanes broadcast(Real x) { return Lanes{} + x; }
+  // Not Lanes{} + x, which GCC makes an addition of zero per lane (x + 0 is not x for x = -0).
+  static Lanes broadcast(Real x) { return Lanes{x, x, x, x}; }
 
   // A bit per lane where the comparison `lanes` (GCC's vector of all-ones or zeros) holds.
   DURER_INLINE static unsigned maskOf(const decltype(Lanes{} < Lanes{})& lanes) {
@@ -371,14 +387,20 @@ class Bvh {
     return maskOf(entered);
   }
 
-  // Pushes the children of `node` that the ray enters in [tMin, tHit], farthest first (an empty
-  // slot's inverted box is never entered). The entered ones, usually one or two of four, come from
-  // a mask without a branch per child; among equal entries the later child is popped first.
-  DURER_INLINE static void pushChildren(const BvhNode<Real>& node, const BvhRay<Real>& ray, Real tHit, Stack& stack) {
+  // Pushes the children of `node` that the ray enters in [tMin, tHit] but the nearest, whose slot it
+  // returns (-1: none entered), so that the farthest is popped last; the nearest is the next step
+  // without a round trip through the stack, and usually it is the only one entered (nothing is
+  // pushed). The entered ones come from a mask without a branch per child (an empty slot's inverted
+  // box is never entered); among equal entries the later child counts as nearer.
+  DURER_INLINE static int pushFartherChildren(const BvhNode<Real>& node, const BvhRay<Real>& ray, Real tHit, Stack& stack) {
     Real entry[BvhNode<Real>::kWidth];
+    unsigned entered = childEntries(node, ray, tHit, entry);
+    if (entered == 0) return -1;
+    int nearest = __builtin_ctz(entered);
     const int base = stack.top;
-    for (unsigned entered = childEntries(node, ray, tHit, entry); entered != 0; entered &= entered - 1) {
-      const int i = __builtin_ctz(entered);
+    for (entered &= entered - 1; entered != 0; entered &= entered - 1) {
+      int i = __builtin_ctz(entered);
+      if (entry[i] <= entry[nearest]) std::swap(i, nearest);  // the one displaced is pushed
       const Real t = entry[i];
       int j = stack.top++;
       for (; j > base && stack.tNear[j - 1] < t; --j) {
@@ -386,6 +408,7 @@ class Bvh {
       }
       stack.tNear[j] = t, stack.child[j] = node.child[i], stack.count[j] = node.count[i];
     }
+    return nearest;
   }
 
   // The packet's rays as intervals (Boulos et al.'s interval-arithmetic culling): the box of their
