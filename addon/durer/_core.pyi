@@ -8,7 +8,7 @@ from numpy.typing import NDArray
 _Triple = tuple[float, float, float]
 
 # Option names, in the core's order (cpp/include/durer/Options.h).
-KERNEL_SET: str  # the instruction set of the hot kernels this CPU runs: "x86-64-v3", "x86-64-v2", "native" or "generic"
+KERNEL_SET: str  # the instruction set of the hot kernels this CPU runs: "x86-64-v4", "x86-64-v3", "x86-64-v2", "native" or "generic"
 PRECISIONS: tuple[str, ...]  # ("float", "double")
 SPHERE_METHODS: tuple[str, ...]  # ("algebraic", "geometric", "robust")
 SAMPLERS: tuple[str, ...]  # ("center", "random", "stratified", "sobol", "adaptive")

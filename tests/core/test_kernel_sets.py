@@ -1,6 +1,7 @@
 """The hot kernels are compiled once per instruction set (CMakeLists.txt, render/Kernels.h): each set
 must keep its inline and template code to itself, or an x86-64-v2 machine could run a copy compiled
-for AVX2. Checked on the objects the installed module was linked from, with binutils."""
+for AVX2, or an AVX2 machine one compiled for AVX-512. Checked on the objects the installed module was
+linked from, with binutils."""
 
 from __future__ import annotations
 
@@ -17,6 +18,8 @@ ROOT = Path(__file__).resolve().parents[2]
 ENTRY_POINTS = {"renderFloat", "renderDouble", "castFloat", "castDouble"}
 # An instruction that only AVX machines run: a VEX-encoded mnemonic (v...) or a 256-bit register.
 AVX_INSTRUCTION = re.compile(r"^\s*[0-9a-f]+:\s+(v[a-z0-9]+\s|.*%ymm)", re.MULTILINE)
+# A register only AVX-512 has: a 512-bit one, a mask register, or one of xmm/ymm 16-31.
+AVX512_REGISTER = re.compile(r"%zmm|%k[0-7]\b|%[xy]mm(1[6-9]|2[0-9]|3[01])\b")
 
 
 def _kernel_objects() -> dict[str, Path]:
@@ -44,12 +47,12 @@ def test_each_kernel_set_exports_its_entry_points_and_nothing_else():
         assert all(s.startswith(f"durer::{name}::") for s in symbols), (name, symbols)
 
 
-@pytest.mark.skipif(platform.machine() != "x86_64", reason="x86-64 builds two kernel sets; others build one")
-def test_the_baseline_set_has_no_avx_instruction_and_the_v3_set_uses_avx2():
+@pytest.mark.skipif(platform.machine() != "x86_64", reason="x86-64 builds three kernel sets; others build one")
+def test_each_x86_set_uses_its_instructions_and_none_beyond():
     objects = _kernel_objects()
     if "native" in objects:
         pytest.skip("a DURER_NATIVE build has one kernel set, for the build machine")
-    assert set(objects) == {"x86_64_v2", "x86_64_v3"}
+    assert set(objects) == {"x86_64_v2", "x86_64_v3", "x86_64_v4"}
     disassembly = {
         name: subprocess.run([_tool("objdump"), "-d", "--no-show-raw-insn", str(obj)], capture_output=True, text=True,
                              check=True).stdout
@@ -57,6 +60,8 @@ def test_the_baseline_set_has_no_avx_instruction_and_the_v3_set_uses_avx2():
     }
     assert AVX_INSTRUCTION.search(disassembly["x86_64_v2"]) is None
     assert "%ymm" in disassembly["x86_64_v3"]
+    assert AVX512_REGISTER.search(disassembly["x86_64_v3"]) is None
+    assert AVX512_REGISTER.search(disassembly["x86_64_v4"]) is not None
 
 
 def test_the_module_runs_the_best_set_this_cpu_supports():
@@ -69,4 +74,5 @@ def test_the_module_runs_the_best_set_this_cpu_supports():
     if cpuinfo.exists():
         flags = set(re.search(r"^flags\s*:(.*)$", cpuinfo.read_text(), re.MULTILINE).group(1).split())
     v3 = {"avx2", "fma", "bmi1", "bmi2", "f16c", "abm", "movbe"} <= flags
-    assert _core.KERNEL_SET == ("x86-64-v3" if v3 else "x86-64-v2")
+    v4 = v3 and {"avx512f", "avx512bw", "avx512cd", "avx512dq", "avx512vl"} <= flags
+    assert _core.KERNEL_SET == ("x86-64-v4" if v4 else "x86-64-v3" if v3 else "x86-64-v2")

@@ -31,7 +31,7 @@ struct CastJob {
 
 // One instruction set's robust kernels.
 struct KernelSet {
-  const char* isa;  // "x86-64-v2", "x86-64-v3", "native" or "generic"
+  const char* isa;  // "x86-64-v2", "x86-64-v3", "x86-64-v4", "native" or "generic"
   RenderStats (*renderFloat)(const RenderJob&);
   RenderStats (*renderDouble)(const RenderJob&);
   CastStats (*castFloat)(const CastJob<float>&);
