@@ -112,7 +112,7 @@ template <typename Real>
 class Bvh {
  public:
   static constexpr int kMaxLeafSize = 4;
-  static constexpr int kInterleaved = 4;  // rays walking at once in traverseInterleaved
+  static constexpr int kInterleaved = 8;  // rays walking at once in traverseInterleaved
 
   bool empty() const { return m_nodes.empty(); }
   size_t size() const { return m_nodes.size(); }
@@ -142,7 +142,8 @@ class Bvh {
     for (;;) {
       if (count == 0) {
         const BvhNode<Real>& inner = m_nodes[static_cast<size_t>(child)];
-        const int nearest = pushFartherChildren(inner, ray, tHit, stack);
+        Real entry[BvhNode<Real>::kWidth];
+        const int nearest = pushFartherChildren(inner, childEntries(inner, ray, tHit, entry), entry, stack);
         if (nearest >= 0) {
           child = inner.child[nearest], count = inner.count[nearest];
           continue;
@@ -162,12 +163,14 @@ class Bvh {
   }
 
   // traverse() for the packet's rays rays[0 .. count), several at once: one ray's walk is a chain of
-  // dependent loads, and incoherent rays (shadows, reflections) through a tree larger than the cache
-  // wait on each one. Here kInterleaved walks take turns, a turn ending where its ray needs a node or
-  // a leaf's primitives not read yet; those are prefetched (touch(first, count) for a leaf) and read
-  // on its next turn, so the misses of several rays overlap. A walk whose ray is done takes the next
-  // one. Each ray visits the same nodes and leaves in the same order as with traverse(), calling
-  // leaf(first, count, k) for ray k: the same hits. Returns the primitives visited.
+  // dependent loads and node tests, each waiting on the one before, and incoherent rays (shadows,
+  // reflections) through a tree larger than the cache wait on every load. Here kInterleaved walks
+  // take turns, a turn ending where its ray needs a node or a leaf's primitives not read yet; those
+  // are prefetched (touch(first, count) for a leaf) and read on its next turn, so the misses of
+  // several rays overlap, and a round tests every walk's node before any walk branches on its test,
+  // so the tests overlap too. A walk whose ray is done takes the next one. Each ray visits the same
+  // nodes and leaves in the same order as with traverse(), calling leaf(first, count, k) for ray k:
+  // the same hits. Returns the primitives visited.
   template <typename Leaf, typename Touch>
   int64_t traverseInterleaved(const RayPacket<Real>& p, const int* rays, int count, const Leaf& leaf,
                               const Touch& touch) const {
@@ -201,6 +204,15 @@ class Bvh {
       }
     };
     while (active > 0) {
+      // Every walk's node test first, before anything branches on an outcome: each test is a chain
+      // of dependent operations, and made back to back the chains overlap. A walk about to test a
+      // leaf tests its last node again, unused (cheaper than a branch that mispredicts).
+      unsigned entered[kInterleaved];
+      Real entries[kInterleaved][BvhNode<Real>::kWidth];
+      for (int w = 0; w < active; ++w) {
+        const Walk& walk = walks[w];
+        entered[w] = childEntries(m_nodes[static_cast<size_t>(walk.node)], walk.ray, p.tHit[walk.k], entries[w]);
+      }
       for (int w = 0; w < active; ++w) {
         Walk& walk = walks[w];
         bool done = false;
@@ -210,7 +222,7 @@ class Bvh {
           walk.leafCount = 0;
         } else {
           const BvhNode<Real>& node = m_nodes[static_cast<size_t>(walk.node)];
-          const int nearest = pushFartherChildren(node, walk.ray, p.tHit[walk.k], walk.stack);
+          const int nearest = pushFartherChildren(node, entered[w], entries[w], walk.stack);
           if (nearest >= 0) {
             aim(walk, node.child[nearest], node.count[nearest]);
             continue;
@@ -228,7 +240,11 @@ class Bvh {
           aim(walk, stack.child[e], stack.count[e]);
           break;
         }
-        if (done && !start(walk)) walk = walks[--active], --w;  // the last walk's turn moves here
+        if (done && !start(walk)) {  // the last walk's turn moves here, with its node's test
+          walk = walks[--active], entered[w] = entered[active];
+          std::memcpy(entries[w], entries[active], sizeof entries[w]);
+          --w;
+        }
       }
     }
     return visited;
@@ -387,14 +403,13 @@ class Bvh {
     return maskOf(entered);
   }
 
-  // Pushes the children of `node` that the ray enters in [tMin, tHit] but the nearest, whose slot it
-  // returns (-1: none entered), so that the farthest is popped last; the nearest is the next step
-  // without a round trip through the stack, and usually it is the only one entered (nothing is
-  // pushed). The entered ones come from a mask without a branch per child (an empty slot's inverted
-  // box is never entered); among equal entries the later child counts as nearer.
-  DURER_INLINE static int pushFartherChildren(const BvhNode<Real>& node, const BvhRay<Real>& ray, Real tHit, Stack& stack) {
-    Real entry[BvhNode<Real>::kWidth];
-    unsigned entered = childEntries(node, ray, tHit, entry);
+  // Pushes the children of `node` that the ray enters in [tMin, tHit] (childEntries' mask `entered`
+  // and entry t) but the nearest, whose slot it returns (-1: none entered), so that the farthest is
+  // popped last; the nearest is the next step without a round trip through the stack, and usually it
+  // is the only one entered (nothing is pushed). The entered ones come from the mask without a branch
+  // per child (an empty slot's inverted box is never entered); among equal entries the later child
+  // counts as nearer.
+  DURER_INLINE static int pushFartherChildren(const BvhNode<Real>& node, unsigned entered, const Real* entry, Stack& stack) {
     if (entered == 0) return -1;
     int nearest = __builtin_ctz(entered);
     const int base = stack.top;
