@@ -289,7 +289,6 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
  private:
   using Base = PrimitiveSet<Sphere<Real>, Real>;
 
-
   // The views last made: the last camera's (an animation's moving camera leaves no trail of stale
   // views) and the last few lights'. The next render of the same camera and lights reuses them. A copy
   // of the set starts without any.
