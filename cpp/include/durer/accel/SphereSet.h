@@ -119,17 +119,10 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     terms.template compute<M>(packet.dx, packet.dy, packet.dz, packet.count);
     if (packet.view) {
       if constexpr (AnyHit) {  // shadow rays toward a directional light, through its view
-        int64_t tests = 0;
-        packet.view->prefetchOccluders(packet);
-        for (int k = 0; k < packet.count; ++k) {
-          if (packet.prim[k] != kNoPrimitive) continue;
-          const SphereRayTerms<Real> rayTerms = terms[k];
-          tests += packet.view->occluders(packet, k, [&](uint32_t i) {
-            intersectRay<M>(packet, rayTerms, k, static_cast<size_t>(i), primBase);
-            return packet.prim[k] != kNoPrimitive;
-          });
-        }
-        return tests;
+        return packet.view->occluders(packet, [&](int k, uint32_t i) {
+          intersectRay<M>(packet, terms[k], k, static_cast<size_t>(i), primBase);
+          return packet.prim[k] != kNoPrimitive;
+        });
       } else {  // camera rays, through the camera's view
         const int64_t tests = packet.view->search(packet, [&](uint32_t i, int kBegin, int kEnd, bool all) {
           if (all) {

@@ -135,55 +135,52 @@ class SphereView {
     return tested;
   }
 
-  // A light's view (setLight): calls test(sphere) for the spheres of ray k's cell that cover its
-  // pixel and reach nearer the light than its origin, nearest the origin first, until test returns
-  // true (an occluder found). Ray k travels toward the light, opposite the view's direction.
-  // Returns the ray-sphere tests made.
+  // A light's view (setLight): for each ray k of the packet without a hit, calls test(k, sphere) for
+  // the spheres of its cell that cover its pixel and reach nearer the light than its origin, nearest
+  // the origin first, until test returns true (an occluder found). The rays travel toward the light,
+  // opposite the view's direction. Each ray's search waits on a chain of misses (its cell's bounds,
+  // the entries its binary search reads, their spans: a shadow ray's cell is a random place in the
+  // view), so the packet's rays take each step together: every ray's cell, then their bounds and
+  // entries fetched, then every binary search (without branches, so that the searches overlap), then
+  // each ray's spheres in turn. Returns the ray-sphere tests made.
   template <typename Test>
-  int64_t occluders(const RayPacket<Real>& packet, int k, const Test& test) const {
-    double x, y, depth, cx, cy;
-    if (!lightCellOf(packet, k, x, y, depth, cx, cy)) return 0;
-    const size_t cell = size_t(cy) * size_t(m_cellsX) + size_t(cx);
-    const Entry* first = m_entries.data() + m_first[cell];
-    // Spheres whose nearest depth lies beyond the origin's (widened by its rounding) cannot block it.
-    const double slack = 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(depth) + maxAbs(m_light.center));
-    const double reach = depth + slack;
-    const Entry* end = std::upper_bound(first, m_entries.data() + m_first[cell + 1], reach,
-                                        [](double bound, const Entry& e) { return bound < double(e.tLow); });
-    // The ray travels along the view's axis: it stays in its pixel, and meets only spheres whose
-    // footprint covers that pixel. Their spans are read in a stream; the others' spheres never are.
-    const int row = int(std::floor(y) - (m_cellY + cy) * kCell), column = int(std::floor(x) - (m_cellX + cx) * kCell);
-    int64_t tested = 0;
-    for (auto e = uint32_t(end - m_entries.data()); e != m_first[cell];) {
-      --e;
-      if (!spanMeets(m_spans[e], row, row, column, column)) continue;
-      ++tested;
-      if (test(m_entries[e].sphere)) break;
-    }
-    return tested;
-  }
-
-  // Fetches into the cache what occluders() will read for the packet's rays without a hit: a shadow
-  // ray's cell is a random place in the view, and alone its search waits on a chain of misses (the
-  // cell's bounds, then the entries its binary search reads, then its spans). For a packet, each
-  // ray's cell bounds are fetched, then its entries (their first 512 bytes) and first spans, before
-  // the rays search in turn.
-  void prefetchOccluders(const RayPacket<Real>& packet) const {
-    size_t cells[kPacketSize];
+  int64_t occluders(const RayPacket<Real>& packet, const Test& test) const {
+    int rays[kPacketSize], rows[kPacketSize], columns[kPacketSize];
+    uint32_t cells[kPacketSize], ends[kPacketSize];
+    double reaches[kPacketSize];
     int n = 0;
     for (int k = 0; k < packet.count; ++k) {
       double x, y, depth, cx, cy;
       if (packet.prim[k] != kNoPrimitive || !lightCellOf(packet, k, x, y, depth, cx, cy)) continue;
-      cells[n] = size_t(cy) * size_t(m_cellsX) + size_t(cx);
-      __builtin_prefetch(&m_first[cells[n++]]);
+      const uint32_t cell = uint32_t(size_t(cy) * size_t(m_cellsX) + size_t(cx));
+      __builtin_prefetch(&m_first[cell]);
+      // Spheres whose nearest depth lies beyond the origin's (widened by its rounding) cannot block it.
+      const double slack = 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(depth) + maxAbs(m_light.center));
+      rays[n] = k, cells[n] = cell, reaches[n] = depth + slack;
+      // The ray travels along the view's axis: it stays in its pixel, and meets only spheres whose
+      // footprint covers that pixel.
+      rows[n] = int(std::floor(y) - (m_cellY + cy) * kCell), columns[n] = int(std::floor(x) - (m_cellX + cx) * kCell);
+      ++n;
     }
-    for (int j = 0; j < n; ++j) {
+    for (int j = 0; j < n; ++j) {  // the entries the searches read first, and the nearest spans
       const uint32_t begin = m_first[cells[j]], end = m_first[cells[j] + 1];
       const char* entries = reinterpret_cast<const char*>(m_entries.data() + begin);
       const size_t bytes = (end - begin) * sizeof(Entry);
       for (size_t b = 0; b < std::min<size_t>(bytes, 512); b += 64) __builtin_prefetch(entries + b);
       __builtin_prefetch(m_spans.data() + begin);
     }
+    for (int j = 0; j < n; ++j) ends[j] = upperBound(m_first[cells[j]], m_first[cells[j] + 1], reaches[j]);
+    int64_t tested = 0;
+    for (int j = 0; j < n; ++j) {  // the spans are read in a stream; the spheres off the pixel never are
+      const int k = rays[j];
+      for (uint32_t e = ends[j]; e != m_first[cells[j]];) {
+        --e;
+        if (!spanMeets(m_spans[e], rows[j], rows[j], columns[j], columns[j])) continue;
+        ++tested;
+        if (test(k, m_entries[e].sphere)) break;
+      }
+    }
+    return tested;
   }
 
   // Makes this the view from a directional light travelling along `projection.forward` (made over
@@ -199,6 +196,19 @@ class SphereView {
     m_light.locate(Vec3d(double(packet.ox[k]), double(packet.oy[k]), double(packet.oz[k])), x, y, depth);
     cx = std::floor(x / kCell) - m_cellX, cy = std::floor(y / kCell) - m_cellY;
     return cx >= 0 && cy >= 0 && cx < m_cellsX && cy < m_cellsY;
+  }
+
+  // std::upper_bound of `reach` among the entries [begin, end) by tLow (the first entry whose tLow
+  // exceeds it), with selects instead of branches.
+  uint32_t upperBound(uint32_t begin, uint32_t end, double reach) const {
+    uint32_t low = begin, length = end - begin;
+    while (length > 0) {
+      const uint32_t half = length / 2, middle = low + half;
+      const bool right = !(reach < double(m_entries[middle].tLow));
+      low = right ? middle + 1 : low;
+      length = right ? length - half - 1 : half;
+    }
+    return low;
   }
 
   // The largest t any ray of the packet may still be lowered from (NaN-free: tHit never is NaN).
