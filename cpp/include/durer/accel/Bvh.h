@@ -152,13 +152,7 @@ class Bvh {
         visited += count;
         if (leaf(child, count)) return visited;
       }
-      for (;;) {
-        if (stack.top == 0) return visited;
-        const int e = --stack.top;
-        if (stack.tNear[e] > tHit) continue;  // the hit found since it was pushed is nearer
-        child = stack.child[e], count = stack.count[e];
-        break;
-      }
+      if (!stack.pop(tHit, child, count)) return visited;
     }
   }
 
@@ -228,19 +222,10 @@ class Bvh {
             continue;
           }
         }
-        const Real now = p.tHit[walk.k];
-        Stack& stack = walk.stack;
-        while (!done) {
-          if (stack.top == 0) {
-            done = true;
-            break;
-          }
-          const int e = --stack.top;
-          if (stack.tNear[e] > now) continue;
-          aim(walk, stack.child[e], stack.count[e]);
-          break;
-        }
-        if (done && !start(walk)) {  // the last walk's turn moves here, with its node's test
+        int32_t child, childCount;
+        if (!done && walk.stack.pop(p.tHit[walk.k], child, childCount)) {
+          aim(walk, child, childCount);
+        } else if (!start(walk)) {  // the last walk's turn moves here, with its node's test
           walk = walks[--active], entered[w] = entered[active];
           std::memcpy(entries[w], entries[active], sizeof entries[w]);
           --w;
@@ -324,6 +309,18 @@ class Bvh {
     int32_t child[kStackSize];
     int32_t count[kStackSize];
     int top = 0;
+
+    // The next entry the ray may still reach before tHit into (next, nextCount), skipping those a
+    // hit found since they were pushed is nearer than; false once none is left.
+    DURER_INLINE bool pop(Real tHit, int32_t& next, int32_t& nextCount) {
+      while (top > 0) {
+        const int e = --top;
+        if (tNear[e] > tHit) continue;
+        next = child[e], nextCount = count[e];
+        return true;
+      }
+      return false;
+    }
   };
 
   // The slab's t are each within γ₃ of the exact ones (two roundings and the reciprocal's); widening
