@@ -57,4 +57,7 @@ CastStats castLecture(const CastJob<Real>& job, SphereMethod method);
   CastStats castDouble(const CastJob<double>& job);               \
   }
 
+// A KernelSet's entry points of set `ns`, in the struct's order.
+#define DURER_KERNEL_SET_ENTRIES(ns) ns::renderFloat, ns::renderDouble, ns::castFloat, ns::castDouble
+
 }  // namespace durer
