@@ -9,8 +9,11 @@ before it times anything and reports JSON. Embree traces Dürer's own float came
 Dürer renders through its public C++ API `durer::render` (depth only; colour with the sun), float
 and double, 2 threads. The bounce workload gives both a ray per pixel instead, leaving a random
 sphere's surface in a random direction (incoherent, as reflection and shadow rays are): Embree
-traces each with rtcIntersect1, Dürer casts them all with `durer::cast`. Every time is a median
-over interleaved rounds (Embree, Dürer float, Dürer double) after an untimed first pass. Dürer's core is compiled as the package's own build was (its
+traces each with rtcIntersect1, Dürer casts them all with `durer::cast`; the secondary workload
+gives both the shadow and reflection rays of bench/secondary_rays.py's colour render (its scene's
+ray tree, found with durer::cast), traced the same way but for the shadow rays, which Embree traces
+with rtcOccluded1 (any hit). Every time is a median over interleaved rounds (Embree, Dürer float,
+Dürer double) after an untimed first pass. Dürer's core is compiled as the package's own build was (its
 compiler and DURER_NATIVE, so that ccache reuses its objects; set DURER_NATIVE=0/1 to choose), in
 build/bench-embree or build/bench-embree-native. Needs Embree 3 (Debian: `apt-get install libembree-dev`);
 exit status 2 without it, 1 when a workload's images disagree.
@@ -73,6 +76,7 @@ WORKLOADS = (
     Workload("slab-sun-1m", "slab-sun", 1_000_000),
     Workload("inside-1m", "inside", 1_000_000),
     Workload("bounce-200k", "bounce", 200_000),
+    Workload("secondary-200k", "secondary", 200_000),
 )
 
 
@@ -234,10 +238,11 @@ def machine_busy_seconds() -> float | None:
     return (user + nice + system + irq + softirq + steal) / os.sysconf("SC_CLK_TCK")
 
 
-def run_workload(executable: Path, workload: Workload, size: tuple[int, int], runs: int) -> Result:
+def run_workload(executable: Path, workload: Workload, size: tuple[int, int], runs: int,
+                 threads: int = THREADS) -> Result:
     command = [
         str(executable), "--workload", workload.kind, "--spheres", str(workload.spheres),
-        "--size", f"{size[0]}x{size[1]}", "--runs", str(runs), "--threads", str(THREADS),
+        "--size", f"{size[0]}x{size[1]}", "--runs", str(runs), "--threads", str(threads),
     ]
     start_wall, start_busy, start_children = time.perf_counter(), machine_busy_seconds(), children_cpu_seconds()
     run = subprocess.run(command, stdout=subprocess.PIPE, text=True)  # progress (stderr) shows as it runs
@@ -372,7 +377,9 @@ def legend_lines(size: tuple[int, int], runs: int) -> list[str]:
         "rounds after an untimed first pass that checks agreement and measures memory.",
         "Embree build + trace: rtcCommitScene, then rtcIntersect8 (+ rtcOccluded8 with the sun) over Dürer's 8x8 "
         "tiles in strips of 8, on 2 std::threads; Mrays/s counts camera + shadow rays. bounce: a given ray per pixel "
-        "(leaving a random sphere in a random direction), rtcIntersect1 each against Dürer's durer::cast.",
+        "(leaving a random sphere in a random direction), rtcIntersect1 each against Dürer's durer::cast; secondary: "
+        "the shadow and reflection rays of bench/secondary_rays.py's colour render at this size (up to 4 bounces; "
+        "as many rays as that render's), Embree's rtcOccluded1 for the shadow rays (Dürer's cast: nearest hit).",
         "Dürer cached: the same Scene rendered again (hierarchy reused); first: a fresh Scene's first render, "
         "hierarchy build included. Depth pass only; colour + depth with the sun.",
         "Dürer / Embree: Embree trace time / Dürer cached time (above 1: Dürer faster); First render: "

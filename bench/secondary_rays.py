@@ -13,6 +13,16 @@ stats["intersection_tests"] over all rays. CPU/wall: the cores the render really
 the machine is idle); Mrays/CPU-s: all rays per second of that CPU time, which on a shared machine
 (x threads) estimates an idle machine's figure better than the wall-clock one.
 
+Against Intel Embree 3 (when installed: Debian's libembree-dev; `--no-embree` skips it): bench/embree's
+harness (built as bench/embree_compare.py builds it) makes the same scene (its spheres drawn by its
+own generator) and the shadow and reflection rays its colour render traces at the same size (the
+scene's ray tree, found with durer::cast: as many rays as the render's, within about 1 %), then
+traces them with Embree's calls for incoherent rays (rtcIntersect1 for the reflection rays,
+rtcOccluded1 for the shadow rays) and with Dürer's durer::cast (nearest hit for both), interleaved,
+on the same threads. The report prints both and what Embree's
+speed on these rays bounds: were the render's camera rays and shading free, its secondary rays
+alone at Embree's speed cap the all-rays Mrays/s.
+
 Default: 320x180 (today's colour render takes about a second); `--full`: 1920x1080, the issue's
 size (about a minute per colour render before the issue's traversal work). Every figure is the
 median of --runs rounds that render every row once (so the machine's drift hits all rows alike),
@@ -36,6 +46,7 @@ from pathlib import Path  # noqa: E402
 
 import durer  # noqa: E402
 import numpy as np  # noqa: E402
+import embree_compare  # noqa: E402
 from primary_rays import (  # noqa: E402
     BUSY_OTHERS, CONTENDED_SHARE, CpuClock, machine_line, positive_int, print_report)
 
@@ -128,6 +139,59 @@ def measure(scene: durer.Scene, size: tuple[int, int], runs: int, threads: int) 
     return rows, others
 
 
+@dataclass(frozen=True)
+class EmbreeRays:
+    """bench/embree's secondary workload: the scene's shadow and reflection rays traced by Embree's
+    rtcIntersect1 and by durer::cast (times in ms, one per interleaved round)."""
+
+    rays: int
+    embree_ms: tuple[float, ...]
+    durer_ms: dict[str, tuple[float, ...]]  # by precision
+    agrees: bool
+
+    def mrays_per_s(self, times: Sequence[float]) -> float:
+        return self.rays / statistics.median(times) / 1e3
+
+
+def measure_embree(spheres: int, size: tuple[int, int], runs: int, threads: int) -> EmbreeRays | str:
+    """Embree and durer::cast on the scene's secondary rays, or why they were not measured."""
+    embree_dir = embree_compare.find_embree()
+    if embree_dir is None:
+        return "Intel Embree 3 not found (Debian: libembree-dev): no comparison"
+    native = embree_compare.native_flags()
+    print(f"building {embree_compare.EXECUTABLE} in {embree_compare.build_dir(native)}...", file=sys.stderr)
+    executable = embree_compare.build_executable(embree_dir, native)
+    workload = embree_compare.Workload("secondary", "secondary", spheres)
+    result = embree_compare.run_workload(executable, workload, size, runs, threads)
+    report = result.report
+    return EmbreeRays(report["rays"]["embree"], tuple(report["embree"]["trace_ms"]),
+                      {p: tuple(report[f"durer_{p}"]["cached_ms"]) for p in PRECISIONS}, result.agrees)
+
+
+def embree_lines(embree: EmbreeRays | str, rows: Sequence[Row], threads: int) -> list[str]:
+    """What Embree's speed on the secondary rays says next to the render's."""
+    if isinstance(embree, str):
+        return [embree]
+    if not embree.agrees:
+        return ["Embree and durer::cast DISAGREE on the secondary rays' hits: not timed"]
+    speed = embree.mrays_per_s(embree.embree_ms)
+    durer_speeds = {p: embree.mrays_per_s(embree.durer_ms[p]) for p in PRECISIONS}
+    colour = next(r for r in rows if r.mode == "colour" and r.precision == "double")
+    secondary = colour.rays - colour.counts["rays"]
+    ceiling = colour.rays / (secondary / speed)
+    return [
+        f"Intel Embree 3 on this scene's shadow + reflection rays ({embree.rays:,}, the render's {secondary:,}; "
+        f"rtcIntersect1 for the reflection rays, rtcOccluded1 for the shadow rays, {threads} threads): "
+        f"{statistics.median(embree.embree_ms):.1f} ms = {speed:.3g} Mrays/s; Dürer's durer.cast of the same rays "
+        "(nearest hit for both kinds; the render's shadow rays stop at any hit): "
+        + ", ".join(f"{p} {statistics.median(embree.durer_ms[p]):.1f} ms = {durer_speeds[p]:.3g} Mrays/s "
+                    f"({durer_speeds[p] / speed:.2f}x Embree's)" for p in PRECISIONS),
+        f"At Embree's speed the double colour render's {secondary:,} secondary rays alone take "
+        f"{secondary / speed / 1e3:.1f} ms: with its camera rays and shading free it would reach at most "
+        f"{ceiling:.3g} Mrays/s counting all rays (the target: {TARGET_MRAYS:g})",
+    ]
+
+
 HEADER = ("Render", "Precision", "Camera", "Shadow", "Reflection", "Refraction", "All rays", "Tests",
           "Tests/ray", "Median ms", "Min ms", "Max ms", "Mrays/s (all)", "CPU/wall",
           "Mrays/CPU-s")
@@ -174,18 +238,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--threads", type=positive_int, default=THREADS)
     parser.add_argument("--spheres", type=positive_int, default=SPHERES)
     parser.add_argument("--markdown", type=Path, metavar="FILE", help="also write the report as Markdown to FILE")
+    parser.add_argument("--no-embree", action="store_true", help="skip the comparison with Intel Embree 3")
     args = parser.parse_args(argv)
     size = FULL_SIZE if args.full else QUICK_SIZE
     runs = args.runs or (FULL_RUNS if args.full else QUICK_RUNS)
     print(f"measuring {len(PRECISIONS) * len(MODES)} renders x {runs + 1}...", file=sys.stderr)
     rows, others = measure(secondary_scene(args.spheres), size, runs, args.threads)
+    embree = "Intel Embree 3: not compared (--no-embree)" if args.no_embree else \
+        measure_embree(args.spheres, size, runs, args.threads)
     intro = [
         f"Secondary rays: {args.spheres:,} spheres (r {RADIUS}, seed {SEED}) + plane, sun with shadows, 50 % "
         f"reflective, perspective, {size[0]}x{size[1]}, 1 spp, {args.threads} threads; median of {runs} rounds",
         machine_line(others),
     ]
-    print_report(intro, HEADER, [cells(row) for row in rows], 2, summary(rows, size, others, args.threads),
-                 args.markdown)
+    print_report(intro, HEADER, [cells(row) for row in rows], 2,
+                 summary(rows, size, others, args.threads) + embree_lines(embree, rows, args.threads), args.markdown)
     return 0
 
 

@@ -229,6 +229,7 @@ namespace bench {
 void EmbreeScene::traceGivenRays(int threads, Image& image) const {
   constexpr int64_t kChunk = 1024;  // rays a thread takes at a time
   const int64_t count = static_cast<int64_t>(image.depth.size());
+  const int64_t firstOcclusion = count - static_cast<int64_t>(m_workload.occlusionRays);
   std::atomic<int64_t> next{0};
   std::vector<std::thread> pool;
   for (int i = 0; i < threads; ++i) {
@@ -248,6 +249,11 @@ void EmbreeScene::traceGivenRays(int threads, Image& image) const {
           ray.ray.mask = ~0u;
           ray.hit.geomID = RTC_INVALID_GEOMETRY_ID;
           ray.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+          if (r >= firstOcclusion) {  // any hit: Embree sets tfar to -inf
+            rtcOccluded1(m_scene, &context, &ray.ray);
+            image.depth[static_cast<size_t>(r)] = ray.ray.tfar < 0 ? Workload::kOccluded : kInfinity;
+            continue;
+          }
           rtcIntersect1(m_scene, &context, &ray);
           image.depth[static_cast<size_t>(r)] = ray.hit.geomID == RTC_INVALID_GEOMETRY_ID ? kInfinity : ray.ray.tfar;
         }

@@ -5,6 +5,8 @@
 #include <random>
 #include <stdexcept>
 
+#include "durer/render/Camera.h"
+#include "durer/render/Cast.h"
 #include "durer/scene/Light.h"
 
 namespace bench {
@@ -90,6 +92,103 @@ void makeBounce(Workload& w, size_t n) {
   }
 }
 
+// The rays of one generation (origins, directions: count x 3 each), and what durer::cast finds for them.
+struct Generation {
+  std::vector<double> origins, directions;
+  std::vector<double> t, normals;
+  size_t size() const { return origins.size() / 3; }
+  void add(const durer::Vec3d& origin, const durer::Vec3d& direction) {
+    for (int a = 0; a < 3; ++a) origins.push_back(origin[a]), directions.push_back(direction[a]);
+  }
+  void append(const Generation& other) {
+    origins.insert(origins.end(), other.origins.begin(), other.origins.end());
+    directions.insert(directions.end(), other.directions.begin(), other.directions.end());
+  }
+};
+
+void castGeneration(const durer::Scene& scene, Generation& g) {
+  g.t.assign(g.size(), 0), g.normals.assign(3 * g.size(), 0);
+  std::vector<int32_t> ids(g.size());
+  durer::CastInput input;
+  input.origins = g.origins.data(), input.directions = g.directions.data(), input.count = g.size();
+  input.tMax = INFINITY;
+  durer::CastOutput<double> output;
+  output.t = g.t.data(), output.normal = g.normals.data(), output.objectId = ids.data(), output.materialId = ids.data();
+  durer::JobControl control;
+  durer::cast<double>(scene, input, output, control, [] {});
+}
+
+// The camera's ray through the centre of every pixel, row by row (Dürer's Camera<double>).
+Generation cameraRays(const Workload& w) {
+  Generation rays;
+  const durer::Camera<double> camera(w.camera, w.width, w.height);
+  for (int y = 0; y < w.height; ++y) {
+    for (int x0 = 0; x0 < w.width; x0 += durer::kPacketSize) {
+      durer::RayPacket<double> packet;
+      double sx[durer::kPacketSize], sy[durer::kPacketSize];
+      const int count = std::min(durer::kPacketSize, w.width - x0);
+      for (int k = 0; k < count; ++k) sx[k] = x0 + k + 0.5, sy[k] = y + 0.5;
+      camera.generate(packet, sx, sy, count);
+      for (int k = 0; k < count; ++k) {
+        rays.add(durer::Vec3d(packet.ox[k], packet.oy[k], packet.oz[k]), durer::Vec3d(packet.dx[k], packet.dy[k], packet.dz[k]));
+      }
+    }
+  }
+  return rays;
+}
+
+// The ray tree a colour render at one sample a pixel traces from `rays` (the camera's) when every
+// surface is a mirror and a sun shines toward `toSun`: from every hit of a camera or reflection ray, a
+// shadow ray toward the sun where the surface faces it, and the mirror reflection up to 4 bounces.
+// Each starts 1e-4 off its surface.
+void traceTree(const durer::Scene& scene, Generation rays, const durer::Vec3d& toSun, Generation& reflections,
+               Generation& shadows) {
+  constexpr double kOffset = 1e-4;
+  constexpr int kBounces = 4;
+  for (int depth = 0; rays.size() > 0; ++depth) {
+    castGeneration(scene, rays);
+    Generation next;
+    for (size_t i = 0; i < rays.size(); ++i) {
+      if (!std::isfinite(rays.t[i])) continue;
+      const durer::Vec3d o(rays.origins[3 * i], rays.origins[3 * i + 1], rays.origins[3 * i + 2]);
+      const durer::Vec3d d(rays.directions[3 * i], rays.directions[3 * i + 1], rays.directions[3 * i + 2]);
+      const durer::Vec3d normal(rays.normals[3 * i], rays.normals[3 * i + 1], rays.normals[3 * i + 2]);
+      const durer::Vec3d facing = glm::dot(normal, d) < 0 ? normal : -normal;
+      const durer::Vec3d point = o + rays.t[i] * d + kOffset * facing;
+      if (glm::dot(facing, toSun) > 0) shadows.add(point, toSun);
+      if (depth < kBounces) next.add(point, glm::reflect(d, facing));
+    }
+    if (depth > 0) reflections.append(rays);
+    rays = std::move(next);
+  }
+}
+
+// bench/secondary_rays.py's scene -- radius-0.05 spheres uniform in a 20-unit cube over a ground plane
+// 0.5 below it, a sun along (-1, -2, -1), a 60-degree perspective camera 15 units in front of the cube
+// -- lifted by 10.5 so that the ground is y = 0 (its spheres drawn by this file's generator, not
+// numpy's). The given rays are the shadow and reflection rays its colour render traces (every surface
+// reflects half: the weight cut never stops a bounce), the reflection rays first, then the shadow
+// rays (occlusion rays), found with durer::cast in double.
+void makeSecondary(Workload& w, size_t n) {
+  constexpr double kHalf = 10, kRadius = 0.05, kLift = 10.5;
+  addUniformSpheres(w, n, durer::Vec3d(-kHalf, kLift - kHalf, -kHalf), durer::Vec3d(kHalf, kLift + kHalf, kHalf), kRadius);
+  for (double& c : w.centers) c = static_cast<float>(c);  // as in makeBounce: both tracers meet the same spheres
+  w.groundPlane = true;
+  w.camera.projection = durer::Projection::Perspective;
+  w.camera.center = {0, kLift, 25};
+  w.camera.size = 60;
+  durer::Scene scene;
+  addToScene(w, scene);
+  Generation rays, shadows;
+  traceTree(scene, cameraRays(w), -glm::normalize(durer::Vec3d(-1, -2, -1)), rays, shadows);
+  rays.append(shadows);
+  for (double& v : rays.origins) v = static_cast<float>(v);  // as float values: Embree's rays exactly
+  for (double& v : rays.directions) v = static_cast<float>(v);
+  w.rayOrigins = std::move(rays.origins), w.rayDirections = std::move(rays.directions);
+  w.occlusionRays = shadows.size();
+  w.width = static_cast<int>(w.rayOrigins.size() / 3), w.height = 1;  // a ray per pixel of one row
+}
+
 using Maker = void (*)(Workload&, size_t);
 
 struct Kind {
@@ -105,6 +204,8 @@ const Kind kKinds[] = {
     {"inside", "the cube's spheres seen from its centre, 60-degree perspective view", makeInside},
     {"bounce", "radius-0.05 spheres in a 20-unit cube, a ray per pixel leaving a random sphere in a random direction",
      makeBounce},
+    {"secondary", "bench/secondary_rays.py's scene; its colour render's shadow and reflection rays, up to 4 bounces",
+     makeSecondary},
 };
 
 }  // namespace

@@ -24,6 +24,10 @@ struct Workload {
   // Rays given instead of the camera's, one per pixel (width x height, row by row): origins and unit
   // directions, count x 3 each, float values (Embree's rays exactly; Dürer casts them with durer::cast).
   std::vector<double> rayOrigins, rayDirections;
+  // The last occlusionRays given rays are shadow rays: they ask only whether anything lies ahead
+  // (Embree: rtcOccluded1), and each tracer's image holds kOccluded where something does.
+  size_t occlusionRays = 0;
+  static constexpr float kOccluded = 1;
 
   size_t sphereCount() const { return radii.size(); }
   // The centres of an animation's frame `frame`: odd frames move every sphere by a quarter of its

@@ -118,6 +118,10 @@ void castDurer(const durer::Scene& scene, const Workload& w, durer::Precision pr
     output.objectId = buffers.objects.data(), output.materialId = buffers.materials.data();
     durer::cast<Real>(scene, input, output, control, [] {});
     std::copy(t.begin(), t.end(), image.depth.begin());
+    // Shadow rays: durer::cast finds their nearest hit (the render's shadow rays stop at any).
+    for (size_t i = input.count - w.occlusionRays; i < input.count; ++i) {
+      if (std::isfinite(image.depth[i])) image.depth[i] = Workload::kOccluded;
+    }
   };
   if (precision == durer::Precision::Float) {
     castInto(buffers.tFloat, buffers.normalsFloat);

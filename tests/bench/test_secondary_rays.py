@@ -38,3 +38,29 @@ def test_rows_sum_the_core_counters(bench):
         cpu_seconds = row.milliseconds[0] / 1000 * row.cpu_use[0]
         assert row.mrays_per_cpu_second == pytest.approx(row.rays / cpu_seconds / 1e6)
         assert np.isclose(row.tests_per_ray, stats["intersection_tests"] / row.rays)
+
+
+def _colour_row(bench, camera: int, shadow: int, reflection: int, ms: float):
+    counts = {"rays": camera, "shadow_rays": shadow, "reflection_rays": reflection, "refraction_rays": 0,
+              "intersection_tests": 0}
+    return bench.Row("colour", "double", counts, (ms,), (2.0,))
+
+
+def test_embree_lines_bound_the_render_by_embrees_speed_on_its_secondary_rays(bench):
+    row = _colour_row(bench, camera=1000, shadow=1000, reflection=2000, ms=4.0)
+    # Embree: 3,000 rays in a median 2 ms = 1.5 Mrays/s; durer.cast 4 ms (double) and 6 ms (float).
+    embree = bench.EmbreeRays(3000, (1.0, 2.0, 5.0), {"double": (4.0, 4.0, 3.0), "float": (6.0, 6.0, 6.0)}, True)
+    first, bound = bench.embree_lines(embree, [row], threads=2)
+    assert "(3,000, the render's 3,000;" in first and "2.0 ms = 1.5 Mrays/s" in first
+    assert "double 4.0 ms = 0.75 Mrays/s (0.50x Embree's)" in first
+    assert "float 6.0 ms = 0.5 Mrays/s (0.33x Embree's)" in first
+    # The render's 3,000 secondary rays at 1.5 Mrays/s take 2 ms: its 4,000 rays in 2 ms = 2 Mrays/s at most.
+    assert "alone take 2.0 ms" in bound and "at most 2 Mrays/s counting all rays (the target: 10)" in bound
+
+
+def test_embree_lines_say_why_there_is_no_comparison(bench):
+    row = _colour_row(bench, camera=10, shadow=10, reflection=10, ms=1.0)
+    assert bench.embree_lines("Intel Embree 3 not found", [row], threads=2) == ["Intel Embree 3 not found"]
+    disagreeing = bench.EmbreeRays(20, (1.0,), {"double": (1.0,), "float": (1.0,)}, False)
+    (line,) = bench.embree_lines(disagreeing, [row], threads=2)
+    assert "DISAGREE" in line and "Mrays/s" not in line
