@@ -238,6 +238,37 @@ TEST_CASE_TEMPLATE("spheres: every method finds the closed-form roots", Real, fl
   check(std::integral_constant<SphereMethod, SphereMethod::Robust>{});
 }
 
+TEST_CASE_TEMPLATE("a ray leaving a sphere (robustLeaves) has no root at any t > 0", Real, float, double) {
+  // Origins on, just outside and just inside spheres (r·(1 + k·epsilon), k from -8 to 64) at scales
+  // from 2^-20 to 2^19, directions anywhere: wherever robustLeaves holds, robustRoots' roots are
+  // below the least positive tMin, so skipping them changes no hit.
+  std::mt19937_64 rng(29);
+  std::uniform_real_distribution<double> unit(-1, 1), radius(0.01, 1);
+  std::uniform_int_distribution<int> ulps(-8, 64), exponent(-20, 19);
+  const double eps = std::numeric_limits<Real>::epsilon();
+  const Real tMin = std::numeric_limits<Real>::denorm_min();
+  int leaving = 0, entering = 0;
+  for (int trial = 0; trial < 40000; ++trial) {
+    const double scale = std::ldexp(1.0, exponent(rng)), r = scale * radius(rng);
+    const Vec3d c = scale * 10.0 * Vec3d(unit(rng), unit(rng), unit(rng));
+    const Vec3d n = glm::normalize(Vec3d(unit(rng), unit(rng), unit(rng)) + Vec3d(0, 0, 1e-3));
+    const Vec3<Real> o = toReal<Real>(c + r * (1 + ulps(rng) * eps) * n);
+    const Vec3<Real> d = toReal<Real>(glm::normalize(Vec3d(unit(rng), unit(rng), unit(rng)) + Vec3d(1e-3, 0, 0)));
+    const SphereRayTerms<Real> terms = sphereRayTerms<SphereMethod::Robust>(d.x, d.y, d.z);
+    const RobustOrigin<Real> f = robustOrigin(o.x, o.y, o.z, toReal<Real>(c), static_cast<Real>(r));
+    CAPTURE(trial);
+    if (!robustLeaves(f, terms)) {
+      ++entering;
+      continue;
+    }
+    ++leaving;
+    const SphereRoots<Real> roots = robustRoots(f, terms, static_cast<Real>(r));
+    CHECK(!(firstRootFrom(roots, tMin) >= tMin));
+  }
+  CHECK(leaving > 10000);  // both outcomes, in earnest
+  CHECK(entering > 10000);
+}
+
 #if defined(__AVX2__) && defined(__FMA__)
 TEST_CASE_TEMPLATE("a leaf's prefilter, four spheres at once, decides for each as robustMayMeet does", Real, float, double) {
   // Rays aimed at spheres' silhouettes (line distance r·(1 + k·epsilon), k from -64 to 64, so the

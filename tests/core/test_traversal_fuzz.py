@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -106,6 +107,20 @@ def test_reduction_and_reproduction():
     with contextlib.redirect_stdout(printed):
         exec(compile(reduced.source(), "<reproduction>", "exec"), {})
     assert printed.getvalue() == compare(reduced) + "\n"
+
+
+def test_reduction_keeps_the_failing_ray_wherever_it_was():
+    # Two rays that agree with the brute force (away from the spheres), then the failing one: the
+    # reduction keeps that ray alone, numbered 0 (it once indexed the kept rays by their old numbers).
+    case = tiny_spheres_case("algebraic")
+    away = -DIRECTION / np.linalg.norm(DIRECTION)
+    case = replace(case, origins=np.concatenate([ORIGIN, ORIGIN, ORIGIN]),
+                   directions=np.concatenate([away, 2 * away, DIRECTION]))
+    assert list(judge(case)[0]) == [2]
+    reduced = reduce_case(case)
+    np.testing.assert_array_equal(reduced.origins, ORIGIN)
+    np.testing.assert_array_equal(reduced.directions, DIRECTION)
+    assert list(judge(reduced)[0]) == [0]
 
 
 @pytest.mark.parametrize("kind", ["triangles", "boxes", "mesh", "plane"])

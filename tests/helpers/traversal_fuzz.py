@@ -11,7 +11,9 @@ for a miss), and its object, material and normal those of a primitive whose own 
 A case is a list of batches (one add call each: spheres, triangles, boxes, a mesh or a plane, in
 world space or under one of a few shared transforms, so transformed groups hold hierarchies of
 their own) and rays mixing camera fans, random rays, rays aimed at primitives, grazing rays (tangent
-to spheres, along box faces, through triangle edges and vertices) and axis-parallel ones. Arrays come
+to spheres, along box faces, through triangle edges and vertices), axis-parallel ones, and rays
+starting on a primitive's surface in any direction (as reflection and shadow rays do; the "surface"
+ray range gives them the least positive t_min, the renderer's secondary rays'). Arrays come
 from a seeded numpy generator; hypothesis draws the seed and the shape of the case (counts,
 coordinate scale, distance from the origin, precision, ray range), so it shrinks those, and
 `reduce_case` then drops rays and primitives the failure does not need. `Case.source()` is a
@@ -38,7 +40,7 @@ import durer
 
 KINDS = ("spheres", "triangles", "boxes", "mesh", "plane")
 MATERIALS = ((0.8, 0.2, 0.2), (0.2, 0.8, 0.2), (0.2, 0.2, 0.8))  # added to every scene: ids 1, 2, 3
-RAY_KINDS = ("fan", "random", "aimed", "grazing", "axis")
+RAY_KINDS = ("fan", "random", "aimed", "grazing", "axis", "leaving")
 
 
 @dataclass
@@ -208,12 +210,13 @@ def reduce_case(case: Case, budget: int = 200) -> Case:
         checks += 1
         return compare(candidate) is not None
 
-    bad = judge(case)[0]
-    for rays in (bad, bad[:1]):
+    bad = np.asarray(judge(case)[0])
+    for keep in (len(bad), 1):  # every failing ray, then the first alone
+        rays = bad[:keep]
         candidate = replace(case, origins=case.origins[rays], directions=case.directions[rays],
                             ray_kinds=None if case.ray_kinds is None else case.ray_kinds[rays])
         if len(rays) < len(case.origins) and fails(candidate):
-            case = candidate
+            case, bad = candidate, np.arange(len(rays))  # the kept rays, numbered anew
     chunk = max(1, case.primitive_count() // 2)
     while chunk >= 1 and checks < budget:
         start, removed = 0, False
@@ -256,7 +259,8 @@ class Shape:
     rays: int
     precision: str
     sphere_method: str
-    ray_range: str  # "forward" (t in [0, inf)), "line" (-inf, inf), "window" (a finite [t_min, t_max))
+    ray_range: str  # "forward" (t in [0, inf)), "line" (-inf, inf), "window" (a finite [t_min, t_max)),
+    # "surface" (t > 0: t_min the least positive double)
 
 
 def shapes(max_primitives: int = 300) -> st.SearchStrategy[Shape]:
@@ -272,7 +276,7 @@ def shapes(max_primitives: int = 300) -> st.SearchStrategy[Shape]:
         rays=st.integers(1, 400),
         precision=st.sampled_from(["double", "float"]),
         sphere_method=st.just("robust"),  # the textbook methods' spurious hits: see the module docstring
-        ray_range=st.sampled_from(["forward", "line", "window"]),
+        ray_range=st.sampled_from(["forward", "line", "window", "surface"]),
     )
 
 
@@ -303,6 +307,8 @@ def make_case(shape: Shape) -> Case:
         options["t_min"] = -math.inf
     elif shape.ray_range == "window":
         options["t_min"], options["t_max"] = sorted(float(x) for x in scale * 10.0 ** rng.uniform(-3, 3, 2))
+    elif shape.ray_range == "surface":
+        options["t_min"] = 5e-324
     return Case(batches, origins, directions, options, kinds)
 
 
@@ -476,6 +482,9 @@ def _make_rays(rng: np.random.Generator, n: int, batches: list[Batch], scale: fl
         up = np.cross(right, forward) / np.linalg.norm(forward)
         grid = forward + u.ravel()[:m, None] * right + v.ravel()[:m, None] * up
         origins[fan], directions[fan] = eye, grid
+    leaving = kinds == 5
+    if leaving.any():  # from a point on a primitive, any direction: half leave it, half go through
+        origins[leaving] = _targets(rng, batches, int(leaving.sum()))[0]
     aimed = (kinds == 2) | (kinds == 3)
     if aimed.any():
         points, tangents = _targets(rng, batches, int(aimed.sum()))

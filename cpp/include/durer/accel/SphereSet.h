@@ -170,9 +170,17 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     const Vec3<Real> c = this->m_primitives[i].center;
     const Real r = this->m_primitives[i].radius;
     const Real ox = packet.ox[k], oy = packet.oy[k], oz = packet.oz[k];
-    if constexpr (M == SphereMethod::Robust && Prefilter) {
-      const Real fx = ox - c.x, fy = oy - c.y, fz = oz - c.z;
-      if (!robustMayMeet(r, lineDistanceSq(fx, fy, fz, terms), std::fabs(fx) + std::fabs(fy) + std::fabs(fz))) return;
+    if constexpr (M == SphereMethod::Robust) {
+      if constexpr (Prefilter) {
+        const Real fx = ox - c.x, fy = oy - c.y, fz = oz - c.z;
+        if (!robustMayMeet(r, lineDistanceSq(fx, fy, fz, terms), std::fabs(fx) + std::fabs(fy) + std::fabs(fz))) return;
+      }
+      // A ray leaving the sphere it starts on (a reflection or shadow ray off it, whose line meets
+      // it, so the prefilter keeps it) skips the roots: it would record nothing (robustLeaves).
+      const RobustOrigin<Real> f = robustOrigin(ox, oy, oz, c, r);
+      if (packet.tMin > 0 && robustLeaves(f, terms)) return;
+      recordHit(packet, k, firstRootFrom(robustRoots(f, terms, r), packet.tMin), primBase + static_cast<int32_t>(i));
+      return;
     }
     const SphereRoots<Real> roots =
         sphereRoots<M>(ox, oy, oz, c, packet.dx[k], packet.dy[k], packet.dz[k], terms, r, packet.tMin);

@@ -136,6 +136,21 @@ DURER_INLINE RobustOrigin<Real> robustOrigin(Real ox, Real oy, Real oz, const Ve
   return o;
 }
 
+// b = f·s, the exact f's projection on the scaled direction (fh's part and fe's): robustRoots' b.
+template <typename Real>
+DURER_INLINE Real robustB(const RobustOrigin<Real>& f, const SphereRayTerms<Real>& t) {
+  return (f.fx * t.sx + f.fy * t.sy + f.fz * t.sz) + (f.ex * t.sx + f.ey * t.sy + f.ez * t.sz);
+}
+
+// Whether robustRoots' roots are both below any tMin > 0 because the ray starts outside the sphere
+// (c > 0) and moves away from it (b > 0): then q = -(b + root) < 0, so q / a and c / q are negative
+// (or NaN, or -0 where a product underflows: still below tMin). A reflection or shadow ray leaving
+// the sphere it starts on is the common case.
+template <typename Real>
+DURER_INLINE bool robustLeaves(const RobustOrigin<Real>& f, const SphereRayTerms<Real>& t) {
+  return f.c > 0 && robustB(f, t) > 0;
+}
+
 // The robust test. f = o - c is carried exactly as fh + fe (fh rounded, fe its rounding error), so
 // nothing below depends on how far the sphere is from the origin. With s the exactly scaled
 // direction: the discriminant a·(r² - p²), p² = |f × s|²/a the squared line distance (no b² - ac
@@ -156,7 +171,7 @@ DURER_INLINE SphereRoots<Real> robustRoots(const RobustOrigin<Real>& f, const Sp
   const Real discriminant = t.a * (r2 - lineDistance2);
   const Real squareRoot = std::sqrt(std::max(discriminant, Real(0)));  // discriminant > 0 where it meets
   const Real root = meets ? squareRoot : std::numeric_limits<Real>::quiet_NaN();
-  const Real b = (f.fx * t.sx + f.fy * t.sy + f.fz * t.sz) + (f.ex * t.sx + f.ey * t.sy + f.ez * t.sz);
+  const Real b = robustB(f, t);
   const Real q = -(b + std::copysign(root, b));
   const Real t0 = q * t.invA * t.scale;
   const Real t1 = f.c / q * t.scale;
