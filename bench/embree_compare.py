@@ -159,7 +159,7 @@ def package_cache(root: Path = ROOT) -> Path | None:
 
 def package_compiler() -> str | None:
     """The package build's C++ compiler: ccache keys on the compiler's path, so with it (and the same
-    flags) the core's objects come from the cache instead of ~10 minutes of compiling."""
+    flags) the core's objects come from the cache instead of being compiled again."""
     cache = package_cache()
     return cache_value(cache, "CMAKE_CXX_COMPILER") if cache else None
 
@@ -183,7 +183,7 @@ def cache_value(cache: Path, name: str) -> str | None:
 
 def build_executable(embree_dir: Path, native: bool) -> Path:
     """Configures and builds durer_embree_bench; returns its path. A clean build compiles Dürer's
-    core (about 10 minutes on 2 cores); ccache makes a rebuild take seconds."""
+    core again (about 70 seconds on 2 cores); ccache makes a rebuild take seconds."""
     build = build_dir(native)
     cache, compiler = build / "CMakeCache.txt", package_compiler()
     if compiler and cache.exists() and cache_value(cache, "CMAKE_CXX_COMPILER") != compiler:
@@ -438,7 +438,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(INSTALL_HINT, file=sys.stderr)
         return 2
     native = native_flags()
-    print(f"building {EXECUTABLE} in {build_dir(native)} (a clean build takes ~10 minutes)...", file=sys.stderr)
+    print(f"building {EXECUTABLE} in {build_dir(native)} (a clean build takes about a minute)...", file=sys.stderr)
     executable = build_executable(embree_dir, native)
     size = QUICK_SIZE if args.quick else FULL_SIZE
     runs = args.runs or (QUICK_RUNS if args.quick else DEFAULT_RUNS)

@@ -19,9 +19,9 @@ own generator) and the shadow and reflection rays its colour render traces at th
 scene's ray tree, found with durer::cast: as many rays as the render's, within about 1 %), then
 traces them with Embree's calls for incoherent rays (rtcIntersect1 for the reflection rays,
 rtcOccluded1 for the shadow rays) and with Dürer's durer::cast (nearest hit for both), interleaved,
-on the same threads. The report prints both and what Embree's
-speed on these rays bounds: were the render's camera rays and shading free, its secondary rays
-alone at Embree's speed cap the all-rays Mrays/s.
+on the same threads. The report prints both and what Embree's speed on these rays bounds: were the
+render's camera rays and shading free, its secondary rays alone at Embree's speed cap the all-rays
+Mrays/s.
 
 Default: 320x180 (today's colour render takes about a second); `--full`: 1920x1080, the issue's
 size (about a minute per colour render before the issue's traversal work). Every figure is the
@@ -141,8 +141,8 @@ def measure(scene: durer.Scene, size: tuple[int, int], runs: int, threads: int) 
 
 @dataclass(frozen=True)
 class EmbreeRays:
-    """bench/embree's secondary workload: the scene's shadow and reflection rays traced by Embree's
-    rtcIntersect1 and by durer::cast (times in ms, one per interleaved round)."""
+    """bench/embree's secondary workload: the scene's shadow and reflection rays traced by Embree
+    (rtcOccluded1, rtcIntersect1) and by durer::cast (times in ms, one per interleaved round)."""
 
     rays: int
     embree_ms: tuple[float, ...]
@@ -159,7 +159,8 @@ def measure_embree(spheres: int, size: tuple[int, int], runs: int, threads: int)
     if embree_dir is None:
         return "Intel Embree 3 not found (Debian: libembree-dev): no comparison"
     native = embree_compare.native_flags()
-    print(f"building {embree_compare.EXECUTABLE} in {embree_compare.build_dir(native)}...", file=sys.stderr)
+    print(f"building {embree_compare.EXECUTABLE} in {embree_compare.build_dir(native)} (a clean build takes about a "
+          "minute)...", file=sys.stderr)
     executable = embree_compare.build_executable(embree_dir, native)
     workload = embree_compare.Workload("secondary", "secondary", spheres)
     result = embree_compare.run_workload(executable, workload, size, runs, threads)

@@ -170,7 +170,8 @@ EMBREE = bench.find_embree()
 
 @pytest.mark.slow
 @pytest.mark.skipif(EMBREE is None, reason="Intel Embree 3 is not installed (a benchmark dependency: libembree-dev)")
-@pytest.mark.skipif(shutil.which("ccache") is None, reason="without ccache, building Dürer's core again takes ~10 min")
+@pytest.mark.skipif(shutil.which("ccache") is None,
+                    reason="without ccache, building Dürer's core again takes a minute")
 def test_the_benchmark_checks_that_embree_and_durer_agree():
     executable = bench.build_executable(EMBREE, bench.native_flags())
     for workload in (bench.Workload("cube-1k", "cube", 1000), bench.Workload("slab-sun", "slab-sun", 3000),
