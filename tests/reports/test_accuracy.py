@@ -22,6 +22,7 @@ from durer.reports.accuracy.measure import (
     measure_antialiasing,
     measure_effects,
     measure_timings,
+    oracle_counts,
     oracle_samples,
 )
 from durer.reports.accuracy.targets import targets
@@ -69,6 +70,12 @@ def test_fit_slope_recovers_known_slopes():
     assert fit_slope([1, 4, 16, 64], [1.0, 0.5, 0.0, np.nan]) == pytest.approx(-0.5)
     assert math.isnan(fit_slope([4], [0.5]))
     assert math.isnan(fit_slope([4, 4], [0.5, 0.4]))
+
+
+def test_oracle_counts_are_powers_of_two_or_quarter_steps_between_them():
+    assert oracle_counts(64, fine=False) == [1, 2, 4, 8, 16, 32, 64]
+    assert oracle_counts(64, fine=True) == [1, 2, 3, 4, 5, 6, 7, 8, 10, 12, 14, 16, 20, 24, 28, 32, 40, 48, 56, 64]
+    assert oracle_counts(3, fine=True) == [1, 2, 3] and oracle_counts(0, fine=True) == []
 
 
 def test_oracle_samples_by_hand():
@@ -122,6 +129,7 @@ def synthetic_report(config: Config) -> Report:
     edges = synthetic_aa("edges", slopes)
     edges.edge_share = 0.57
     edges.oracle = {64: 26.2, 256: float("inf")}
+    edges.oracle_fine = {64: 19.2, 256: 200.0}
     timings = [Timing(scene, p, m, 10.0 if p == "double" else 7.0, 1_000_000, 0.0 if p == "double" else 1e-6, 0.0,
                       0.0, 0.0, 0) for scene in ("showcase", "edges") for p in PRECISIONS
                for m in SPHERE_METHODS]
@@ -142,7 +150,9 @@ def test_targets_from_measurements():
     # and the figure says how many of the scene's pixels hold an edge.
     assert edges64.met is False and "= 2.00 x the time" in edges64.figure
     assert "would need 26.2 samples/pixel = 0.41 of stratified's" in edges64.figure
+    assert "(with counts in quarter steps between powers of two: 19.2 = 0.30)" in edges64.figure
     assert "no choice of power-of-two Sobol counts per pixel reaches both" in edges256.figure
+    assert "(with counts in quarter steps between powers of two: 200.0 = 0.78)" in edges256.figure
     assert estimate.met is True and "from 1.20 to 1.22 over 2 renders" in estimate.figure
     assert slope.met is True and "sobol -1.00, random -0.50" in slope.figure
     report.antialiasing[0].sweep[1].estimated_rmse = 0.05 * 1.6
@@ -186,6 +196,7 @@ def test_report_writes_sections_tables_and_plots(tmp_path):
     assert "| 256 | 4 | 0.01 | 20.0 | 3.98e-03 | 4.86e-03 | 1.22 | 2.21e-02 | 1.6 | 0.25 | 0.06 |" in text
     assert "57% of this scene's pixels hold an edge" in text
     assert "64-spp stratified's RMSE and worst pixel: 26.2 samples/pixel (0.41 of its samples)" in text
+    assert "the same oracle would need 64-spp stratified's: 19.2 (0.30); 256-spp stratified's: 200.0 (0.78)." in text
     assert "| showcase | 10.0 | 7.0 | 0.700 |" in text
     assert "| edges | double | algebraic | 10.0 | 1.000 |" in text
     assert "| double | robust |" in text and "Worst relative error of t" in text

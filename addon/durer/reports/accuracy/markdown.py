@@ -208,6 +208,11 @@ def markdown(report: Report, plots: dict[str, str]) -> str:
                       "adaptive does: an oracle that knew every pixel's expected error after 1, 2, 4, … samples (the "
                       f"RMS over {c.oracle_seeds} seeds) and chose each pixel's count with the fewest samples in all "
                       f"would need, to reach {bounds}."]
+            if a.oracle_fine:
+                fine = "; ".join(f"{spp}-spp stratified's: {_samples(n)}"
+                                 + ("" if math.isinf(n) else f" ({n / spp:.2f})") for spp, n in a.oracle_fine.items())
+                parts[-1] += (" Free to choose counts in quarter steps between powers of two as well (1–8, 10, 12, "
+                              f"14, 16, 20, …), the same oracle would need {fine}.")
         if a.budget:
             free = a.budget[-1]
             parts += ["", f"With a time budget: `time_limit=` a share of the unlimited render's time (max "

@@ -140,6 +140,7 @@ class AntiAliasing:
     edge_share: float = float("nan")   # pixels whose reference differs from their centre sample by > 1e-3
     budget: list[BudgetPoint] = field(default_factory=list)  # adaptive under time limits
     oracle: dict[int, float] = field(default_factory=dict)   # stratified spp -> oracle_samples(...) for it
+    oracle_fine: dict[int, float] = field(default_factory=dict)  # the same over oracle_counts(spp, fine=True)
 
     def slope(self, sampler: str) -> float:
         """Fitted log RMSE / log spp of a sampler's points (adaptive: against the samples it took)."""
@@ -199,19 +200,29 @@ def measure_antialiasing(name: str, description: str, scene: Scene, camera: Any,
     return aa
 
 
+def oracle_counts(limit: int, fine: bool) -> list[int]:
+    """The Sobol counts up to `limit` an oracle chooses among: the powers of two (adaptive's), or
+    also those in quarter steps between them (1 to 8, 10, 12, 14, 16, 20, 24, 28, 32, 40, ...)."""
+    steps = (1.0, 1.25, 1.5, 1.75) if fine else (1.0,)
+    counts = {int(2**k * s) for k in range(21) for s in steps if (2**k * s).is_integer()}
+    return sorted(n for n in counts if n <= limit)
+
+
 def measure_oracle(aa: AntiAliasing, scene: Scene, camera: Any, baselines: Sequence[int], seeds: int) -> None:
-    """aa.oracle: for each stratified baseline, oracle_samples over Sobol counts 1, 2, 4, ... up to
-    it, each pixel's error the RMS over `seeds` seeds (its expected error, not one draw's luck)."""
-    counts = [2**k for k in range(21) if 2**k <= max(baselines, default=0)]
+    """aa.oracle and aa.oracle_fine: for each stratified baseline, oracle_samples over
+    oracle_counts(baseline) without and with the quarter steps, each pixel's error the RMS over
+    `seeds` seeds (its expected error, not one draw's luck)."""
     errors = {}
-    for n in counts:
+    for n in oracle_counts(max(baselines, default=0), fine=True):
         squares = [pixel_errors(render(scene, camera, aa.width, aa.height, spp=n, seed=SEED + k, sampler="sobol",
                                        passes=("color",)).color, aa.reference) ** 2 for k in range(seeds)]
         errors[n] = np.sqrt(np.mean(squares, axis=0))
     for spp in baselines:
         base = aa.point("stratified", spp)
-        if base is not None:
-            aa.oracle[spp] = oracle_samples({n: e for n, e in errors.items() if n <= spp}, base.rmse, base.worst)
+        if base is None:
+            continue
+        for bounds, fine in ((aa.oracle, False), (aa.oracle_fine, True)):
+            bounds[spp] = oracle_samples({n: errors[n] for n in oracle_counts(spp, fine)}, base.rmse, base.worst)
 
 
 def oracle_samples(errors: dict[int, np.ndarray], rmse_target: float, worst_target: float) -> float:

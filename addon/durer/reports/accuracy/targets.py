@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .measure import AAPoint, Report
+from .measure import AAPoint, AntiAliasing, Report
 
 #: How far the adaptive renders' own error estimate may be from the measured RMSE (either way).
 ESTIMATE_FACTOR = 1.5
@@ -37,12 +37,12 @@ def targets(report: Report) -> list[Target]:
                 closest = min(adaptive, key=lambda p: max(p.rmse / base.rmse, p.worst / base.worst))
                 out.append(Target(name, f"{stratified}; no adaptive setting measured reaches both (closest: "
                                   f"{_adaptive_label(closest)}: RMSE {closest.rmse:.2e}, worst {closest.worst:.2e} in "
-                                  f"{closest.ms:.1f} ms){_oracle_note(aa.oracle.get(spp), spp)}", False))
+                                  f"{closest.ms:.1f} ms){_oracle_note(aa, spp)}", False))
                 continue
             ratio = best.ms / base.ms
             out.append(Target(name, f"{stratified}; cheapest adaptive reaching both ({_adaptive_label(best)}): RMSE "
                               f"{best.rmse:.2e}, worst {best.worst:.2e} in {best.ms:.1f} ms = {ratio:.2f} x the time"
-                              f"{'' if ratio <= share else _oracle_note(aa.oracle.get(spp), spp)}", ratio <= share))
+                              f"{'' if ratio <= share else _oracle_note(aa, spp)}", ratio <= share))
     out.append(_estimate_target(report))
     out.append(_slope_target(report))
     return out
@@ -78,13 +78,17 @@ def _factor(p: AAPoint) -> float:
     return max(ratio, 1 / ratio)
 
 
-def _oracle_note(samples: float | None, spp: int) -> str:
+def _oracle_note(aa: AntiAliasing, spp: int) -> str:
+    samples, fine = aa.oracle.get(spp), aa.oracle_fine.get(spp)
     if samples is None:
         return ""
-    if math.isinf(samples):
-        return "; no choice of power-of-two Sobol counts per pixel reaches both"
-    return (f"; an oracle choosing each pixel's power-of-two Sobol count from its expected error would need "
+    note = ("; no choice of power-of-two Sobol counts per pixel reaches both" if math.isinf(samples) else
+            f"; an oracle choosing each pixel's power-of-two Sobol count from its expected error would need "
             f"{samples:.1f} samples/pixel = {samples / spp:.2f} of stratified's")
+    if fine is None:
+        return note
+    return note + (" (with counts in quarter steps between powers of two: "
+                   + ("none reaches both)" if math.isinf(fine) else f"{fine:.1f} = {fine / spp:.2f})"))
 
 
 def _adaptive_label(p: AAPoint) -> str:
