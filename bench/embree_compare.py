@@ -11,8 +11,8 @@ and double, 2 threads. The bounce workload gives both a ray per pixel instead, l
 sphere's surface in a random direction (incoherent, as reflection and shadow rays are): Embree
 traces each with rtcIntersect1, Dürer casts them all with `durer::cast`; the secondary workload
 gives both the shadow and reflection rays of bench/secondary_rays.py's colour render (its scene's
-ray tree, found with durer::cast), traced the same way but for the shadow rays, which Embree traces
-with rtcOccluded1 (any hit). Every time is a median over interleaved rounds (Embree, Dürer float,
+ray tree, found with durer::cast), traced the same way but for the shadow rays, which both trace
+as occlusion queries (any hit: Embree's rtcOccluded1, durer::cast's anyHit). Every time is a median over interleaved rounds (Embree, Dürer float,
 Dürer double) after an untimed first pass. Dürer's core is compiled as the package's own build was (its
 compiler and DURER_NATIVE, so that ccache reuses its objects; set DURER_NATIVE=0/1 to choose), in
 build/bench-embree or build/bench-embree-native. Needs Embree 3 (Debian: `apt-get install libembree-dev`);
@@ -379,7 +379,8 @@ def legend_lines(size: tuple[int, int], runs: int) -> list[str]:
         "tiles in strips of 8, on 2 std::threads; Mrays/s counts camera + shadow rays. bounce: a given ray per pixel "
         "(leaving a random sphere in a random direction), rtcIntersect1 each against Dürer's durer::cast; secondary: "
         "the shadow and reflection rays of bench/secondary_rays.py's colour render at this size (up to 4 bounces; "
-        "as many rays as that render's), Embree's rtcOccluded1 for the shadow rays (Dürer's cast: nearest hit).",
+        "as many rays as that render's), the shadow rays as occlusion queries (Embree's rtcOccluded1, Dürer's "
+        "durer::cast with anyHit: durer.occluded's).",
         "Dürer cached: the same Scene rendered again (hierarchy reused); first: a fresh Scene's first render, "
         "hierarchy build included. Depth pass only; colour + depth with the sun.",
         "Dürer / Embree: Embree trace time / Dürer cached time (above 1: Dürer faster); First render: "

@@ -18,8 +18,8 @@ harness (built as bench/embree_compare.py builds it) makes the same scene (its s
 own generator) and the shadow and reflection rays its colour render traces at the same size (the
 scene's ray tree, found with durer::cast: as many rays as the render's, within about 1 %), then
 traces them with Embree's calls for incoherent rays (rtcIntersect1 for the reflection rays,
-rtcOccluded1 for the shadow rays) and with Dürer's durer::cast (nearest hit for both), interleaved,
-on the same threads. The report prints both and what Embree's speed on these rays bounds: were the
+rtcOccluded1 for the shadow rays) and with Dürer's (durer::cast for the reflection rays, its
+occlusion query -- durer.occluded's -- for the shadow rays), interleaved, on the same threads. The report prints both and what Embree's speed on these rays bounds: were the
 render's camera rays and shading free, its secondary rays alone at Embree's speed cap the all-rays
 Mrays/s.
 
@@ -183,8 +183,8 @@ def embree_lines(embree: EmbreeRays | str, rows: Sequence[Row], threads: int) ->
     return [
         f"Intel Embree 3 on this scene's shadow + reflection rays ({embree.rays:,}, the render's {secondary:,}; "
         f"rtcIntersect1 for the reflection rays, rtcOccluded1 for the shadow rays, {threads} threads): "
-        f"{statistics.median(embree.embree_ms):.1f} ms = {speed:.3g} Mrays/s; Dürer's durer.cast of the same rays "
-        "(nearest hit for both kinds; the render's shadow rays stop at any hit): "
+        f"{statistics.median(embree.embree_ms):.1f} ms = {speed:.3g} Mrays/s; Dürer's cast of the same rays "
+        "(durer.cast, durer.occluded for the shadow rays): "
         + ", ".join(f"{p} {statistics.median(embree.durer_ms[p]):.1f} ms = {durer_speeds[p]:.3g} Mrays/s "
                     f"({durer_speeds[p] / speed:.2f}x Embree's)" for p in PRECISIONS),
         f"At Embree's speed the double colour render's {secondary:,} secondary rays alone take "

@@ -6,6 +6,8 @@ import os
 import re
 from pathlib import Path
 
+import numpy as np
+
 README = Path(__file__).resolve().parents[1] / "README.md"
 
 
@@ -19,3 +21,5 @@ def test_readme_python_example_runs(tmp_path, monkeypatch):
     assert result.color.shape == (480, 640, 4) and result.stats["shadow_rays"] > 0
     assert sorted(os.listdir(tmp_path / "out")) == ["depth.png", "image.png", "normal.png"]
     assert namespace["hits"].t.shape == (640 * 480,)
+    lit = namespace["lit"]
+    assert lit.dtype == bool and lit.shape == (int(np.isfinite(namespace["hits"].t).sum()),) and 0 < lit.sum() < lit.size

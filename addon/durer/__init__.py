@@ -16,7 +16,7 @@ maps the layers.
 from __future__ import annotations
 
 from .camera import OrthographicCamera, PerspectiveCamera
-from .cast import CastResult, cast
+from .cast import CastResult, cast, occluded
 from .distributed import render_many, render_tiles
 from .presets import PRESETS, preset
 from .render import RenderCancelled, RenderResult, render
@@ -38,6 +38,7 @@ __all__ = [
     "depth_to_gray",
     "linear_to_srgb",
     "normal_to_rgb",
+    "occluded",
     "preset",
     "render",
     "render_many",

@@ -1,4 +1,4 @@
-"""`cast`: closest hits of arbitrary rays, in bulk."""
+"""`cast`: closest hits of arbitrary rays, in bulk; `occluded`: whether anything lies along them."""
 
 from __future__ import annotations
 
@@ -45,6 +45,34 @@ def cast(
     With check=True (the default) non-finite coordinates and zero directions raise ValueError
     naming the ray; with check=False they are cast anyway and are guaranteed to miss.
     """
+    out = _cast(scene, origins, directions, t_min, t_max, precision, sphere_method, threads, check, cancel, False)
+    return CastResult(out["t"], out["normal"], out["object_id"], out["material_id"])
+
+
+def occluded(
+    scene: Scene,
+    origins: ArrayLike,
+    directions: ArrayLike,
+    *,
+    t_min: float = 0.0,
+    t_max: float = math.inf,
+    precision: str = "double",
+    sphere_method: str = "robust",
+    threads: int | None = None,
+    check: bool = True,
+    cancel: Callable[[], bool] | None = None,
+) -> np.ndarray:
+    """Whether anything lies along each of N rays with t in [t_min, t_max): (N,) bool, exactly
+    where `cast` would report a hit (np.isfinite(cast(...).t)), found sooner: each ray's search stops
+    at the first hit it meets (shadow and visibility rays). Arguments and errors as for `cast`."""
+    out = _cast(scene, origins, directions, t_min, t_max, precision, sphere_method, threads, check, cancel, True)
+    return np.isfinite(out["t"])
+
+
+def _cast(scene: Scene, origins: ArrayLike, directions: ArrayLike, t_min: float, t_max: float, precision: str,
+          sphere_method: str, threads: int | None, check: bool, cancel: Callable[[], bool] | None,
+          any_hit: bool) -> dict:
+    """The arguments checked, then the core's cast (any_hit: its occlusion query)."""
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a durer.Scene, got {type(scene).__name__}")
     origins = _checks.float_array(origins, "origins", (None, 3), finite=check)
@@ -58,8 +86,8 @@ def cast(
     _checks.string(sphere_method, "sphere_method")
     out = _core.cast(
         scene._core, origins, directions, t_min, t_max, precision, sphere_method,
-        threads_argument(threads), poll_function(None, cancel),
+        threads_argument(threads), poll_function(None, cancel), any_hit,
     )
     if out["cancelled"]:
         raise RuntimeError("cast cancelled")
-    return CastResult(out["t"], out["normal"], out["object_id"], out["material_id"])
+    return out

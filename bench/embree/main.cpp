@@ -101,25 +101,31 @@ struct CastBuffers {
       : tFloat(count), normalsFloat(3 * count), tDouble(count), normalsDouble(3 * count), objects(count), materials(count) {}
 };
 
-// Dürer's durer::cast of the workload's given rays (one per pixel) in `precision`: each ray's t.
+// Dürer's durer::cast of the workload's given rays (one per pixel) in `precision`: each ray's t; the
+// shadow rays (Workload::occlusionRays, the last ones) cast as an occlusion query (any hit).
 void castDurer(const durer::Scene& scene, const Workload& w, durer::Precision precision, int threads,
                CastBuffers& buffers, Image& image) {
-  durer::CastInput input;
-  input.origins = w.rayOrigins.data();
-  input.directions = w.rayDirections.data();
-  input.count = image.depth.size();
-  input.tMax = INFINITY;
-  input.threads = threads;
-  durer::JobControl control;
+  const size_t count = image.depth.size(), nearest = count - w.occlusionRays;
   const auto castInto = [&](auto& t, auto& normals) {
     using Real = typename std::decay_t<decltype(t)>::value_type;
-    durer::CastOutput<Real> output;
-    output.t = t.data(), output.normal = normals.data();
-    output.objectId = buffers.objects.data(), output.materialId = buffers.materials.data();
-    durer::cast<Real>(scene, input, output, control, [] {});
+    for (const bool anyHit : {false, true}) {
+      const size_t first = anyHit ? nearest : 0, rays = anyHit ? w.occlusionRays : nearest;
+      if (rays == 0) continue;
+      durer::CastInput input;
+      input.origins = w.rayOrigins.data() + 3 * first;
+      input.directions = w.rayDirections.data() + 3 * first;
+      input.count = rays;
+      input.tMax = INFINITY;
+      input.threads = threads;
+      input.anyHit = anyHit;
+      durer::CastOutput<Real> output;
+      output.t = t.data() + first, output.normal = normals.data() + 3 * first;
+      output.objectId = buffers.objects.data() + first, output.materialId = buffers.materials.data() + first;
+      durer::JobControl control;
+      durer::cast<Real>(scene, input, output, control, [] {});
+    }
     std::copy(t.begin(), t.end(), image.depth.begin());
-    // Shadow rays: durer::cast finds their nearest hit (the render's shadow rays stop at any).
-    for (size_t i = input.count - w.occlusionRays; i < input.count; ++i) {
+    for (size_t i = nearest; i < count; ++i) {
       if (std::isfinite(image.depth[i])) image.depth[i] = Workload::kOccluded;
     }
   };
@@ -128,7 +134,7 @@ void castDurer(const durer::Scene& scene, const Workload& w, durer::Precision pr
   } else {
     castInto(buffers.tDouble, buffers.normalsDouble);
   }
-  image.rays = static_cast<int64_t>(input.count);
+  image.rays = static_cast<int64_t>(count);
 }
 
 // Dürer's render of the workload through its public API: depth only, or colour + depth with a sun;

@@ -295,8 +295,9 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
 template <typename Real>
 py::dict castIn(const Scene& scene, const CastInput& input, const py::function& poll) {
   const py::ssize_t n = static_cast<py::ssize_t>(input.count);
-  py::array_t<Real> t(n), normal({n, py::ssize_t(3)});
-  py::array_t<int32_t> objectId(n), materialId(n);
+  const py::ssize_t records = input.anyHit ? 0 : n;  // an occlusion query writes t alone
+  py::array_t<Real> t(n), normal({records, py::ssize_t(3)});
+  py::array_t<int32_t> objectId(records), materialId(records);
   CastOutput<Real> output{t.mutable_data(), normal.mutable_data(), objectId.mutable_data(), materialId.mutable_data()};
   JobControl control;
   const CastStats stats = withoutGil(control, poll, [&](const std::function<void()>& p) {
@@ -304,9 +305,11 @@ py::dict castIn(const Scene& scene, const CastInput& input, const py::function& 
   });
   py::dict out;
   out["t"] = t;
-  out["normal"] = normal;
-  out["object_id"] = objectId;
-  out["material_id"] = materialId;
+  if (!input.anyHit) {
+    out["normal"] = normal;
+    out["object_id"] = objectId;
+    out["material_id"] = materialId;
+  }
   out["intersection_tests"] = stats.intersectionTests;
   out["milliseconds"] = stats.milliseconds;
   out["cancelled"] = control.cancel.load();
@@ -315,7 +318,7 @@ py::dict castIn(const Scene& scene, const CastInput& input, const py::function& 
 
 py::dict castPy(const Scene& scene, const DoubleArray& origins, const DoubleArray& directions, double tMin,
                 double tMax, const std::string& precision, const std::string& method, int threads,
-                const py::function& poll) {
+                const py::function& poll, bool anyHit) {
   requireShape(origins, "origins", {kAny, 3});
   requireShape(directions, "directions", {origins.shape(0), 3});
   CastInput input;
@@ -326,6 +329,7 @@ py::dict castPy(const Scene& scene, const DoubleArray& origins, const DoubleArra
   input.tMax = tMax;
   input.sphereMethod = optionNamed(kSphereMethodNames, method, "sphere_method");
   input.threads = threads;
+  input.anyHit = anyHit;
   return optionNamed(kPrecisionNames, precision, "precision") == Precision::Float ? castIn<float>(scene, input, poll)
                                                        : castIn<double>(scene, input, poll);
 }
@@ -507,7 +511,8 @@ PYBIND11_MODULE(_core, m) {
         py::arg("depth"), py::arg("threads"), py::arg("shade_back"), py::arg("max_bounces"),
         py::arg("min_weight"), py::arg("ambient_occlusion"), py::arg("poll"), py::arg("out"), py::arg("region"));
   m.def("cast", &castPy, py::arg("scene"), py::arg("origins"), py::arg("directions"), py::arg("t_min"),
-        py::arg("t_max"), py::arg("precision"), py::arg("sphere_method"), py::arg("threads"), py::arg("poll"));
+        py::arg("t_max"), py::arg("precision"), py::arg("sphere_method"), py::arg("threads"), py::arg("poll"),
+        py::arg("any_hit") = false);
   m.def("camera_rays", &cameraRaysPy, py::arg("camera"), py::arg("width"), py::arg("height"),
         py::arg("precision"));
   m.def("default_thread_count", &defaultThreadCount);

@@ -8,7 +8,8 @@ option, no rare branch), so every input is a case and a shorter input a plainer 
 
 - `api_case`: a `durer.Scene` built by a sequence of add_* calls and setters with fuzzed arguments
   (numbers from the extremes of both precisions, arrays of wrong shapes and dtypes, ids beyond int32),
-  then `render` and `cast` with fuzzed options, cameras and rays.
+  then `render` and `cast` (and `occluded` of the same rays, which must agree with it) with fuzzed
+  options, cameras and rays.
 - `reader_case`: a scene of scenes/6837/ mutated byte by byte (flips, insertions, deletions, splices)
   and by its grammar (numbers replaced by extremes or odd spellings, tokens dropped, duplicated or
   swapped, keywords exchanged, blocks wrapped in Transforms and Groups, counts changed, .obj files
@@ -451,6 +452,9 @@ def _api_calls(src: Source, tally: Tally, log: list[str]) -> None:
             if src.chance(60)}
         hits = api.cast(scene, origins, directions, **kwargs)
         check_cast(hits)
+        # The any-hit query of the same rays: a hit exactly where cast found one.
+        if not np.array_equal(api.occluded(scene, origins, directions, **kwargs), np.isfinite(hits.t)):
+            raise Finding("occluded differs from where cast hits")
         tally.outcomes["api cast"] += 1
     except Exception as error:  # noqa: BLE001
         _documented(error, tally, "api")

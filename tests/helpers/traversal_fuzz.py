@@ -6,7 +6,8 @@ The brute force casts the same rays at a scene of each primitive alone (same mat
 transform): a scene of one primitive has no hierarchy, and each primitive's t comes from the same
 kernel as in the full scene, so the full scene's t must be the minimum of those, bit for bit (inf
 for a miss), and its object, material and normal those of a primitive whose own t is that minimum
-(primitives tied at exactly that t may win either way).
+(primitives tied at exactly that t may win either way); and `durer.occluded` (the any-hit search)
+must report a hit exactly for the rays some primitive alone is hit by.
 
 A case is a list of batches (one add call each: spheres, triangles, boxes, a mesh or a plane, in
 world space or under one of a few shared transforms, so transformed groups hold hierarchies of
@@ -112,6 +113,9 @@ class Case:
         # on a busy machine would otherwise wait on thread wake-ups.
         return durer.cast(scene, self.origins, self.directions, threads=1, **self.options)
 
+    def occluded(self, scene: durer.Scene) -> np.ndarray:
+        return durer.occluded(scene, self.origins, self.directions, threads=1, **self.options)
+
     def primitive_count(self) -> int:
         return sum(b.size() for b in self.batches)
 
@@ -165,7 +169,8 @@ def compare(case: Case) -> str | None:
 def judge(case: Case) -> tuple[np.ndarray, str, durer.CastResult]:
     """The indices of the rays whose hit differs from the brute force's, a description of them and
     the full scene's hits."""
-    full = case.cast(case.scene())
+    scene = case.scene()
+    full, occluded = case.cast(scene), case.occluded(scene)
     n = len(case.origins)
     singles = single_primitive_batches(case)
     t = np.full((len(singles), n), np.inf, dtype=full.t.dtype)
@@ -183,7 +188,8 @@ def judge(case: Case) -> tuple[np.ndarray, str, durer.CastResult]:
     wrong_t = ~((full.t == nearest) | (np.isnan(full.t) & np.isnan(nearest)))
     miss_record = (full.object_id != -1) | (full.material_id != -1) | np.any(full.normal != 0, axis=1)
     wrong_record = np.where(missed, miss_record, ~np.any(winners & match, axis=0))
-    bad = np.flatnonzero(wrong_t | wrong_record)
+    wrong_occlusion = occluded != ~missed  # the any-hit search: a hit exactly where some primitive is hit
+    bad = np.flatnonzero(wrong_t | wrong_record | wrong_occlusion)
     if not len(bad):
         return bad, "", full
     lines = [f"{len(bad)} of {n} rays differ from the brute force ({case.primitive_count()} primitives, "
@@ -194,7 +200,7 @@ def judge(case: Case) -> tuple[np.ndarray, str, durer.CastResult]:
         lines.append(
             f"  ray {r}{kind}: origin {case.origins[r].tolist()!r} direction {case.directions[r].tolist()!r}\n"
             f"    scene:       t {full.t[r]!r} object {full.object_id[r]} material {full.material_id[r]} "
-            f"normal {full.normal[r].tolist()}\n"
+            f"normal {full.normal[r].tolist()} occluded {bool(occluded[r])}\n"
             f"    brute force: t {nearest[r]!r} objects {tied}")
     return bad, "\n".join(lines), full
 

@@ -18,14 +18,16 @@ struct CastInput {
   double tMax = 0;
   SphereMethod sphereMethod = SphereMethod::Robust;
   int threads = 0;                     // 0: all hardware threads
+  bool anyHit = false;                 // occlusion: each search stops at the first hit it finds in
+                                       // [tMin, tMax), not necessarily the closest; only t is written
 };
 
 template <typename Real>
 struct CastOutput {
-  Real* t = nullptr;              // count: closest hit, inf on a miss
-  Real* normal = nullptr;         // count x 3: unit world-space normal, 0 on a miss
-  int32_t* objectId = nullptr;    // count: -1 on a miss
-  int32_t* materialId = nullptr;  // count: -1 on a miss
+  Real* t = nullptr;              // count: closest hit (anyHit: the hit found), inf on a miss
+  Real* normal = nullptr;         // count x 3: unit world-space normal, 0 on a miss (not with anyHit)
+  int32_t* objectId = nullptr;    // count: -1 on a miss (not with anyHit)
+  int32_t* materialId = nullptr;  // count: -1 on a miss (not with anyHit)
 };
 
 struct CastStats {

@@ -3,6 +3,7 @@
 // their hit records written out. Instantiated per precision and sphere method in src/kernels.
 #include <algorithm>
 #include <atomic>
+#include <limits>
 
 #include "durer/geometry/RayPacket.h"
 #include "durer/render/Kernels.h"
@@ -34,8 +35,14 @@ int64_t castRays(const Group<Real>& group, const CastInput& in, const CastOutput
       packet.dy[k] = static_cast<Real>(d[1]);
       packet.dz[k] = static_cast<Real>(d[2]);
     }
-    tests += group.template intersect<M>(packet, &cancel);
+    tests += in.anyHit ? group.template occluded<M>(packet, &cancel) : group.template intersect<M>(packet, &cancel);
     if (cancel.load(std::memory_order_relaxed)) return tests;
+    if (in.anyHit) {
+      for (int k = 0; k < packet.count; ++k) {
+        out.t[first + k] = packet.prim[k] != kNoPrimitive ? packet.tHit[k] : std::numeric_limits<Real>::infinity();
+      }
+      continue;
+    }
     for (int k = 0; k < packet.count; ++k) {
       const size_t i = first + k;
       const Hit<Real> hit = group.hit(packet, k);
