@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <random>
 #include <stdexcept>
+#include <string>
 
 #include "durer/render/Camera.h"
 #include "durer/render/Cast.h"
@@ -181,6 +182,10 @@ void makeSecondary(Workload& w, size_t n) {
   addToScene(w, scene);
   Generation rays, shadows;
   traceTree(scene, cameraRays(w), -glm::normalize(durer::Vec3d(-1, -2, -1)), rays, shadows);
+  if (rays.size() + shadows.size() == 0) {
+    throw std::invalid_argument("the secondary workload's camera rays at " + std::to_string(w.width) + "x" +
+                                std::to_string(w.height) + " meet nothing: no shadow or reflection rays to trace");
+  }
   rays.append(shadows);
   for (double& v : rays.origins) v = static_cast<float>(v);  // as float values: Embree's rays exactly
   for (double& v : rays.directions) v = static_cast<float>(v);

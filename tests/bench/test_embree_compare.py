@@ -214,3 +214,7 @@ def test_the_benchmark_checks_that_embree_and_durer_agree():
     assert secondary.report["rays"]["embree"] == secondary.report["rays"]["durer_double"]
     bad = subprocess.run([str(executable), "--workload", "torus"], capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "unknown workload 'torus'" in bad.stderr
+    # A pixel looking past every sphere and the ground: no secondary ray to trace, said so.
+    empty = subprocess.run([str(executable), "--workload", "secondary", "--spheres", "1", "--size", "1x1"],
+                           capture_output=True, text=True, timeout=60)
+    assert empty.returncode == 2 and "meet nothing: no shadow or reflection rays" in empty.stderr
