@@ -172,7 +172,7 @@ EMBREE = bench.find_embree()
 @pytest.mark.skipif(EMBREE is None, reason="Intel Embree 3 is not installed (a benchmark dependency: libembree-dev)")
 @pytest.mark.skipif(shutil.which("ccache") is None,
                     reason="without ccache, building Dürer's core again takes a minute")
-def test_the_benchmark_checks_that_embree_and_durer_agree():
+def test_the_benchmark_checks_that_embree_and_durer_agree(import_bench):
     executable = bench.build_executable(EMBREE, bench.native_flags())
     for workload in (bench.Workload("cube-1k", "cube", 1000), bench.Workload("slab-sun", "slab-sun", 3000),
                      bench.Workload("bounce", "bounce", 20_000)):
@@ -202,13 +202,11 @@ def test_the_benchmark_checks_that_embree_and_durer_agree():
     assert secondary.agrees, secondary.report["agreement"]
     # The shadow and reflection rays of bench/secondary_rays.py's colour render at that size: as many
     # as the render traces in the same scene drawn by numpy's generator (seeds vary them by ~0.5 %).
-    sys.path.insert(0, str(ROOT / "bench"))
-    try:
-        import durer
-        from secondary_rays import CAMERA, secondary_scene
-    finally:
-        sys.path.remove(str(ROOT / "bench"))
-    stats = durer.render(secondary_scene(20_000), CAMERA, 160, 96, passes=("color",)).stats
+    import durer
+
+    secondary_rays = import_bench("secondary_rays")
+    stats = durer.render(secondary_rays.secondary_scene(20_000), secondary_rays.CAMERA, 160, 96,
+                         passes=("color",)).stats
     render_rays = stats["shadow_rays"] + stats["reflection_rays"]
     assert abs(secondary.report["rays"]["embree"] - render_rays) <= 0.03 * render_rays
     assert secondary.report["rays"]["embree"] == secondary.report["rays"]["durer_double"]
