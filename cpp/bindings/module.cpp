@@ -512,7 +512,7 @@ PYBIND11_MODULE(_core, m) {
         py::arg("min_weight"), py::arg("ambient_occlusion"), py::arg("poll"), py::arg("out"), py::arg("region"));
   m.def("cast", &castPy, py::arg("scene"), py::arg("origins"), py::arg("directions"), py::arg("t_min"),
         py::arg("t_max"), py::arg("precision"), py::arg("sphere_method"), py::arg("threads"), py::arg("poll"),
-        py::arg("any_hit") = false);
+        py::arg("any_hit"));
   m.def("camera_rays", &cameraRaysPy, py::arg("camera"), py::arg("width"), py::arg("height"),
         py::arg("precision"));
   m.def("default_thread_count", &defaultThreadCount);

@@ -147,8 +147,8 @@ def test_unknown_option_names_are_rejected_by_the_core_listing_its_table(call, f
         (lambda s: s.add_mesh(np.zeros((3, 3)), np.zeros((1, 4), np.int64), 0, None), "faces"),
         (lambda s: s.add_boxes(np.zeros((2, 3)), np.ones((1, 3)), np.zeros(1, np.int32), None), "hi"),
         (lambda s: s.add_spheres(np.zeros((1, 3)), np.ones(1), np.zeros(1, np.int32), np.eye(4)), "transform"),
-        (lambda s: _core.cast(s, np.zeros((2, 3)), np.ones((3, 3)), 0.0, 1.0, "double", "robust", 1, lambda f: False),
-         "directions"),
+        (lambda s: _core.cast(s, np.zeros((2, 3)), np.ones((3, 3)), 0.0, 1.0, "double", "robust", 1, lambda f: False,
+                              False), "directions"),
     ],
 )
 def test_the_binding_checks_shapes_when_called_directly(call, field):
