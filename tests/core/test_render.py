@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import durer
+from helpers.core import camera_tests
 
 W = H = 16
 SIZE = 4.0  # orthographic: pixel (i, j) centre at x = (i + 0.5 - 8)/4, y = (8 - j - 0.5)/4
@@ -151,7 +152,9 @@ def test_stats_count_rays_and_tests():
     result = durer.render(scene, ortho(), 10, 7, spp=3)
     stats = result.stats
     assert stats["rays"] == 10 * 7 * 3 == stats["requested_rays"]
-    assert stats["intersection_tests"] == stats["rays"] * 2
+    # Each camera ray tests the plane, and the sphere where the rows of its tile meet its footprint.
+    assert stats["intersection_tests"] == camera_tests(scene, ortho(), 10, 7, spp=3)
+    assert stats["rays"] < stats["intersection_tests"] < stats["rays"] * 2
     assert stats["milliseconds"] > 0 and stats["mrays_per_s"] > 0 and stats["threads"] >= 1
     assert (stats["width"], stats["height"], stats["spp"]) == (10, 7, 3)
     assert stats["precision"] == "double" and stats["sphere_method"] == "robust" and stats["cancelled"] is False

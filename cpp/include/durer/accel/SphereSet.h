@@ -116,15 +116,21 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   int64_t intersect(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
     if (this->m_primitives.empty()) return 0;
     PacketRayTerms<Real> terms;
-    terms.template compute<M>(packet.dx, packet.dy, packet.dz, packet.count);
+    bool computed = false;
+    const auto compute = [&] {
+      if (!computed) terms.template compute<M>(packet.dx, packet.dy, packet.dz, packet.count), computed = true;
+    };
     if (packet.view) {
       if constexpr (AnyHit) {  // shadow rays toward a directional light, through its view
+        compute();
         return packet.view->occluders(packet, [&](int k, uint32_t i) {
           intersectRay<M>(packet, terms[k], k, static_cast<size_t>(i), primBase);
           return packet.prim[k] != kNoPrimitive;
         });
       } else {  // camera rays, through the camera's view
+        // The rays' terms only once a sphere is to be tested: a camera tile often meets none.
         const int64_t tests = packet.view->search(packet, [&](uint32_t i, int kBegin, int kEnd, bool all) {
+          compute();
           if (all) {
             intersectOne<M>(packet, terms, static_cast<size_t>(i), primBase, kBegin, kEnd);
           } else {  // the rays under the sphere's rows: the prefilter would rarely spare the test
@@ -134,6 +140,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
         if (tests >= 0) return tests;
       }
     }
+    compute();
     return this->template search<AnyHit>(
         packet, cancel,
         [&](int32_t first, int32_t count) {

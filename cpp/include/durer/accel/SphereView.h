@@ -67,9 +67,11 @@ template <typename Real>
 class SphereView {
  public:
   static constexpr int kCell = 8;  // pixels: a camera tile, so that a tile's packet reads one cell
-  // Below this many spheres a packet tests them all faster than it reads a view (as the hierarchy's
-  // threshold in Group::prepare).
-  static constexpr size_t kMinSpheres = 16;
+  // Below this many spheres shadow rays test them all faster than they read a light's view (as the
+  // hierarchy's threshold in Group::prepare). A camera's view pays from one sphere: the tiles off a
+  // sphere's footprint skip its test and the rays' terms (SphereSet::intersect), and the others test
+  // only the rows it covers.
+  static constexpr size_t kMinLightSpheres = 16;
   // Above this many entries per sphere (spheres covering many cells) the view costs more memory
   // than the hierarchy it stands in for: not made.
   static constexpr double kMaxEntriesPerSphere = 16;
@@ -314,7 +316,9 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
   // reading the spheres' cells as one stream and sorting its own cells.
   const size_t cellCount = size_t(view->m_cellsX) * size_t(view->m_cellsY);
   const size_t cellsWide = size_t(view->m_cellsX);
-  const size_t bands = std::min<size_t>(size_t(std::max(threads, 1)), size_t(view->m_cellsY));
+  // As many bands as the entries pay threads for (parallelChunks' rule): a few spheres' view is made
+  // on this thread alone.
+  const size_t bands = std::min(chunksFor(size_t(entries.load()) + count, threads), size_t(view->m_cellsY));
   const auto overBands = [&](const auto& place) {
     forChunks(size_t(view->m_cellsY), bands, [&](size_t, size_t rowBegin, size_t rowEnd) {
       for (size_t i = 0; i < count; ++i) {

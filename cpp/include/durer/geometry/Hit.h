@@ -49,11 +49,11 @@ Real facingSign(Real directionDotNormal, bool shadeBack) {
   return shadeBack && directionDotNormal > 0 ? Real(-1) : Real(1);
 }
 
-// The normal a hit is shaded with, by facingSign's rule (the dot product only where it matters).
+// The normal a hit is shaded with, by facingSign's rule. Branch-free (the product by ±1 is exact), so
+// that loops over a packet's normals vectorise.
 template <typename Real>
 Vec3<Real> shadingNormal(const Vec3<Real>& normal, const Vec3<Real>& direction, bool shadeBack) {
-  if (!shadeBack) return normal;
-  return facingSign(glm::dot(direction, normal), shadeBack) < 0 ? -normal : normal;
+  return facingSign(glm::dot(direction, normal), shadeBack) * normal;
 }
 
 }  // namespace durer

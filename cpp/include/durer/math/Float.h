@@ -133,10 +133,11 @@ DURER_INLINE Real inversePowerOfTwo(Real x) {
   using Bits = typename B::Bits;
   Bits bits;
   std::memcpy(&bits, &x, sizeof x);
-  const int exponent = static_cast<int>((bits >> B::kMantissaBits) & (2 * B::kBias + 1));  // biased
-  const bool usable = exponent >= 1 && exponent <= 2 * B::kBias;
-  const Bits scaleBits = exponent == 2 * B::kBias ? Bits(1) << (B::kMantissaBits - 1)
-                                                  : static_cast<Bits>(2 * B::kBias - exponent) << B::kMantissaBits;
+  // In Bits throughout: a narrower int between them kept loops over hits' normals scalar.
+  constexpr Bits kTop = 2 * B::kBias;  // the largest finite biased exponent
+  const Bits exponent = (bits >> B::kMantissaBits) & (kTop + 1);  // biased
+  const bool usable = exponent >= 1 && exponent <= kTop;
+  const Bits scaleBits = exponent == kTop ? Bits(1) << (B::kMantissaBits - 1) : (kTop - exponent) << B::kMantissaBits;
   Real scale;
   std::memcpy(&scale, &scaleBits, sizeof scale);
   return usable ? scale : std::numeric_limits<Real>::quiet_NaN();
