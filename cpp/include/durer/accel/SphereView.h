@@ -214,10 +214,12 @@ class SphereView {
   }
 
   // The largest t any ray of the packet may still be lowered from (NaN-free: tHit never is NaN).
+  // Over the numbers' ordered bits, so that the loop vectorises (over the numbers GCC kept a serial
+  // chain of 63 comparisons: 5 % of a primary render).
   DURER_INLINE static Real farthestHit(const RayPacket<Real>& packet) {
-    Real farthest = packet.tHit[0];
-    for (int k = 1; k < packet.count; ++k) farthest = farthest > packet.tHit[k] ? farthest : packet.tHit[k];
-    return farthest;
+    auto farthest = orderedBits(packet.tHit[0]);
+    for (int k = 1; k < packet.count; ++k) farthest = std::max(farthest, orderedBits(packet.tHit[k]));
+    return fromOrderedBits<Real>(farthest);
   }
 
   // A sphere's pixel rows [row0, row1] and columns [column0, column1] within a cell, each 0 to 7,

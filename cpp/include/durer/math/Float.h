@@ -77,6 +77,26 @@ DURER_INLINE Real fromNonNegativeBits(typename FloatBits<Real>::SignedBits bits)
   return x;
 }
 
+// The bits of any x but NaN as a signed integer that orders as the values do (-0 just below +0):
+// a negative number's magnitude bits flipped. Its own inverse.
+template <typename Real>
+DURER_INLINE typename FloatBits<Real>::SignedBits orderedBits(Real x) {
+  using Signed = typename FloatBits<Real>::SignedBits;
+  Signed bits;
+  std::memcpy(&bits, &x, sizeof x);
+  constexpr Signed kMagnitude = std::numeric_limits<Signed>::max();
+  return bits ^ ((bits >> (8 * sizeof(Signed) - 1)) & kMagnitude);
+}
+template <typename Real>
+DURER_INLINE Real fromOrderedBits(typename FloatBits<Real>::SignedBits bits) {
+  using Signed = typename FloatBits<Real>::SignedBits;
+  constexpr Signed kMagnitude = std::numeric_limits<Signed>::max();
+  bits ^= (bits >> (8 * sizeof(Signed) - 1)) & kMagnitude;
+  Real x;
+  std::memcpy(&x, &bits, sizeof x);
+  return x;
+}
+
 // The next Real above (nextUp) or below (nextDown) x, as std::nextafter toward ±inf but inline
 // from the bits (pbrt-v4's NextFloatUp/Down): ±inf and NaN stay, -0 and +0 step to the least subnormal.
 template <typename Real>

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <limits>
 #include <mutex>
+#include <type_traits>
 #include <vector>
 
 #include "durer/math/Float.h"
@@ -97,12 +98,14 @@ class TileRenderer {
     alignas(64) uint64_t seeds[kPacketSize];  // the pixels' linear indices, then their seeds
     alignas(64) double u[kPacketSize], v[kPacketSize], pixelX[kPacketSize], pixelY[kPacketSize];
     for (int row = 0, k = 0; row < h; ++row) {
-      for (int col = 0; col < w; ++col, ++k) {
-        seeds[k] = static_cast<uint64_t>(y0 + row) * m_settings.width + (x0 + col);
-        pixelX[k] = x0 + col, pixelY[k] = y0 + row;
-      }
+      for (int col = 0; col < w; ++col, ++k) pixelX[k] = x0 + col, pixelY[k] = y0 + row;
     }
-    m_sampler.pixelSeeds(seeds, count, seeds);
+    if (!m_sampler.centred()) {  // a centred sampler's offsets read no seeds
+      for (int row = 0, k = 0; row < h; ++row) {
+        for (int col = 0; col < w; ++col, ++k) seeds[k] = static_cast<uint64_t>(y0 + row) * m_settings.width + (x0 + col);
+      }
+      m_sampler.pixelSeeds(seeds, count, seeds);
+    }
     for (int s = 0; s < m_sampler.samplesPerPixel(); ++s) {
       m_sampler.offsets(seeds, count, s, u, v);
       for (int k = 0; k < count; ++k) {
@@ -246,6 +249,7 @@ class TileRenderer {
   template <int Length>
   void writeRowOf(const Accumulator& acc, int k0, int varying, size_t first) const {
     const int count = Length > 0 ? Length : varying;
+    const bool oneSample = std::all_of(acc.samples + k0, acc.samples + k0 + count, [](Real n) { return n == 1; });
     if (m_targets.samples) {
       for (int i = 0; i < count; ++i) m_targets.samples[first + i] = static_cast<int32_t>(acc.samples[k0 + i]);
       prefetchAhead<Length>(m_targets.samples + first, sizeof(int32_t));
@@ -254,14 +258,17 @@ class TileRenderer {
       // A pixel brighter than float32 holds saturates at its largest number (the sums never hold NaN).
       const Real brightest = std::numeric_limits<float>::max();
       alignas(64) Real values[4][kPacketSize];
-      for (int i = 0; i < count; ++i) {
-        const int k = k0 + i;
-        const Real invSpp = 1 / acc.samples[k];
-        values[0][i] = std::min(acc.r[k] * invSpp, brightest);
-        values[1][i] = std::min(acc.g[k] * invSpp, brightest);
-        values[2][i] = std::min(acc.b[k] * invSpp, brightest);
-        values[3][i] = acc.a[k] * invSpp;
-      }
+      const auto means = [&](auto single) {  // one sample's sums are its means: no division to wait for
+        for (int i = 0; i < count; ++i) {
+          const int k = k0 + i;
+          const Real invSpp = decltype(single)::value ? Real(1) : 1 / acc.samples[k];
+          values[0][i] = std::min(acc.r[k] * invSpp, brightest);
+          values[1][i] = std::min(acc.g[k] * invSpp, brightest);
+          values[2][i] = std::min(acc.b[k] * invSpp, brightest);
+          values[3][i] = acc.a[k] * invSpp;
+        }
+      };
+      oneSample ? means(std::true_type{}) : means(std::false_type{});
       float* __restrict out = m_targets.color + 4 * first;
       for (int i = 0; i < count; ++i) {
         for (int c = 0; c < 4; ++c) out[4 * i + c] = static_cast<float>(values[c][i]);
@@ -276,7 +283,7 @@ class TileRenderer {
     if (m_targets.normal) {
       float* __restrict out = m_targets.normal + 3 * first;
       prefetchAhead<Length>(out, 3 * sizeof(float));
-      if (std::all_of(acc.samples + k0, acc.samples + k0 + count, [](Real n) { return n == 1; })) {
+      if (oneSample) {
         // One sample's normal is unit already (0 on a miss): written as it is, by a loop with no
         // root, division or select in it (the loop below would scale it by 1: the same numbers).
         for (int i = 0; i < count; ++i) {
@@ -349,8 +356,9 @@ class TileRenderer {
     if (!m_needHits) {  // flat colours, depth and normals: no hit records
       // Whether every ray met the same primitive (or none): most tiles of a primary render, whose
       // colour and normals then come from one primitive's fields, with no fetch per ray.
-      bool uniform = true;
-      for (int k = 1; k < packet.count; ++k) uniform &= packet.prim[k] == packet.prim[0];
+      int others = 0;  // an integer count, not a bool: the reduction then vectorises
+      for (int k = 1; k < packet.count; ++k) others += packet.prim[k] != packet.prim[0] ? 1 : 0;
+      const bool uniform = others == 0;
       accumulateFlat(packet, uniform, acc);
       if (m_targets.normal) {
         accumulateNormals(packet, uniform, acc);
