@@ -78,23 +78,19 @@ DURER_INLINE Real fromNonNegativeBits(typename FloatBits<Real>::SignedBits bits)
 }
 
 // The bits of any x but NaN as a signed integer that orders as the values do (-0 just below +0):
-// a negative number's magnitude bits flipped. Its own inverse.
+// a negative number's magnitude bits flipped (for x >= +0, nonNegativeBits). The flip is its own
+// inverse: fromOrderedBits makes it again.
+template <typename Signed>
+DURER_INLINE Signed flipNegativeMagnitude(Signed bits) {
+  return bits ^ ((bits >> (8 * sizeof(Signed) - 1)) & std::numeric_limits<Signed>::max());
+}
 template <typename Real>
 DURER_INLINE typename FloatBits<Real>::SignedBits orderedBits(Real x) {
-  using Signed = typename FloatBits<Real>::SignedBits;
-  Signed bits;
-  std::memcpy(&bits, &x, sizeof x);
-  constexpr Signed kMagnitude = std::numeric_limits<Signed>::max();
-  return bits ^ ((bits >> (8 * sizeof(Signed) - 1)) & kMagnitude);
+  return flipNegativeMagnitude(nonNegativeBits(x));
 }
 template <typename Real>
 DURER_INLINE Real fromOrderedBits(typename FloatBits<Real>::SignedBits bits) {
-  using Signed = typename FloatBits<Real>::SignedBits;
-  constexpr Signed kMagnitude = std::numeric_limits<Signed>::max();
-  bits ^= (bits >> (8 * sizeof(Signed) - 1)) & kMagnitude;
-  Real x;
-  std::memcpy(&x, &bits, sizeof x);
-  return x;
+  return fromNonNegativeBits<Real>(flipNegativeMagnitude(bits));
 }
 
 // The next Real above (nextUp) or below (nextDown) x, as std::nextafter toward ±inf but inline

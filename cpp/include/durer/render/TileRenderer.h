@@ -231,9 +231,9 @@ class TileRenderer {
  private:
   // Asks for the cache lines of this row of the tile after next in an output of `pixelBytes` a pixel,
   // ahead of the stores to them: the outputs were last written a whole image ago, and a tile writes
-  // to more rows (8 of each output) than the hardware prefetcher follows (a render of all passes took
-  // 14 % longer without, 9 % longer with one tile ahead). Integer arithmetic: the address may lie past the
-  // buffer (a prefetch never faults). Rows of whole tiles only.
+  // to more rows (8 of each output) than the hardware prefetcher follows (a render of all passes
+  // took 14 % longer without, 9 % longer with one tile ahead). Integer arithmetic: the address may
+  // lie past the buffer (a prefetch never faults). Rows of whole tiles only.
   template <int Length>
   static void prefetchAhead(const void* row, size_t pixelBytes) {
     if constexpr (Length == kTileSize) {
