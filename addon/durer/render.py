@@ -138,8 +138,8 @@ def render(
     filter: "stratified" (jittered in an nx·ny grid; 1 sample is the pixel centre), "center" (all at
     the centre: no anti-aliasing), "random" (uniform), "sobol" (Owen-scrambled Sobol points) or
     "adaptive" (spp is the maximum: every pixel takes min(min_spp, spp) Sobol samples, then rounds
-    double the samples of the pixels whose estimated colour error, or their 3x3 neighbourhood's,
-    exceeds `target_error`, or that sit on an edge their own or their neighbours' samples show;
+    double the samples of the pixels whose estimated colour error (each round's estimate averaged with
+    the rounds' before), or their 3x3 neighbourhood's, exceeds `target_error`, or that sit on an edge their own or their neighbours' samples show;
     `target_error` is the estimated RMS error over RGB a pixel stops at, `result.error` each pixel's
     estimate, stats "estimated_rmse" / "estimated_worst" the image's, "rounds" the rounds run,
     `result.samples` the counts; `time_limit` seconds (None: none) stops refining when spent, the

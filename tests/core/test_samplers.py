@@ -100,10 +100,12 @@ def test_adaptive_sample_counts(spp, min_spp):
 
 
 def test_adaptive_spends_its_samples_on_edges():
-    # A flat-coloured disc (no lights) on black. Every pixel the silhouette may cross takes all spp
-    # samples, those whose first samples all missed the edge too (their neighbours differ from them);
-    # pixels more than a pixel and a half away from it have identical samples and neighbours and stop
-    # after the first 4.
+    # A flat-coloured disc (no lights) on black. Every pixel the silhouette may cross takes at least
+    # half of spp, those whose first samples all missed the edge too (their neighbours differ from
+    # them by most of the disc's contrast with black, an RMS of 0.65, and a pixel takes half that
+    # over target_error, 32 samples, before an edge it may not have seen is ruled out); pixels more
+    # than a pixel and a half away from it have identical samples and neighbours and stop after the
+    # first 4.
     size, spp, radius = 32, 64, 9.3
     scene = durer.Scene()
     scene.background = WHITE_ON_BLACK
@@ -115,7 +117,7 @@ def test_adaptive_spends_its_samples_on_edges():
     cut = distance <= math.sqrt(0.5)  # the silhouette may cross the pixel
     far = distance > math.sqrt(0.5) + 1.5
     assert cut.sum() >= 80 and far.sum() > 700
-    np.testing.assert_array_equal(counts[cut], spp)
+    assert counts[cut].min() == spp // 2 and np.mean(counts[cut] == spp) > 0.9
     np.testing.assert_array_equal(counts[far], 4)
     np.testing.assert_array_equal(result.error[far], 0)  # identical samples: nothing to doubt
     assert result.stats["samples"] < 0.3 * size * size * spp

@@ -96,7 +96,7 @@ def test_a_python_thread_runs_while_rendering():
     counter = threading.Thread(target=count)
     counter.start()
     start_ticks = ticks
-    result = durer.render(scene, camera, 160, 160, spp=16, threads=1)
+    result = durer.render(scene, camera, 160, 160, spp=64, threads=1)
     during = ticks - start_ticks
     stop.set()
     counter.join()

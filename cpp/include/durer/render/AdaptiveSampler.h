@@ -6,18 +6,30 @@
 // (0,m,2)-net (with a power-of-two first pass), and the two halves of its samples (the last round's
 // and the ones before) two nets whose difference estimates the error of their mean.
 //
+// One round's estimate of a pixel's error, from two halves, has one degree of freedom a channel: a
+// low one by luck would settle a pixel far from converged unless the neighbourhood and contrast
+// rules below were strict enough to catch it, at the cost of many pixels that need nothing. So
+// marking also averages the estimates of a pixel's rounds: the average of squares of this round's
+// and the last average, scaled to this round's samples as a mean's error scales (by the ratio of the
+// counts), from kHistorySamples samples on (an estimate from fewer is too unsteady to carry). A
+// pixel's own error is judged the larger of its estimate and that average (a pixel stops only where
+// its estimate, the error `result.error` reports, is within the target), its neighbours' by the
+// average.
 // A pixel is marked while
-//   - the estimated RMS error of its colour, or the mean of the squared estimates of its 3x3
+//   - its judged error, or kNeighbourWeight times the mean of the squared averages of its 3x3
 //     neighbourhood (an edge a pixel's samples all missed shows in its neighbour's), exceeds
-//     targetError;
+//     targetError (squared);
 //   - it has fewer than kEdgeSamples samples and its samples, or it and a neighbour, differ in
 //     geometry: hit against miss, or other primitives at a depth discontinuity or a crease;
-//   - it has fewer than contrast / targetError samples, where contrast is the RMS difference of its
-//     mean colour from a neighbour's: an edge inside it covering less than about 1 / samples of its
-//     area may not have been seen yet, and would be off by at most about that times the contrast.
+//   - it has fewer than kUnseenShare * contrast / targetError samples, where contrast is the RMS
+//     difference of its mean colour from a neighbour's: an edge inside it covering less than about
+//     1 / samples of its area may not have been seen yet, and would be off by at most about that
+//     times the contrast (about half that on average: kUnseenShare).
+// What the render reports as a pixel's error (`result.error`, the estimated RMSE) is its last
+// round's estimate alone: the average leans toward the larger errors of fewer samples.
 // A time limit stops the refining rounds (never the first pass) when spent; each worker takes its
 // band's tiles worst first (the largest estimated error), so what the limit cuts matters least.
-// Every pixel's state is kept until the end (TileState and Summary: 195 bytes a pixel in double, 127
+// Every pixel's state is kept until the end (TileState and Summary: 199 bytes a pixel in double, 131
 // in float).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
 // threads; a pixel's result depends on the pixels within `rounds` of it, so a region is rendered
@@ -45,6 +57,9 @@ class AdaptiveSampler {
   static constexpr int kEdgeSamples = 16;         // geometric edges: samples to look for what the first ones missed
   static constexpr double kDepthJump = 0.02;      // relative depth difference taken as a discontinuity
   static constexpr double kCreaseCosine = 0.9;    // normals further apart (about 25 degrees) make a crease
+  static constexpr int kHistorySamples = 4;       // the fewest samples whose estimate later rounds average in
+  static constexpr double kNeighbourWeight = 0.25;  // of the neighbourhood's mean squared error (its RMS: half)
+  static constexpr double kUnseenShare = 0.5;     // of the contrast an unseen edge's bound, expected
 
   AdaptiveSampler(const Tiles& tiles, const RenderSettings& settings, const RenderTargets& targets)
       : m_tiles(tiles),
@@ -88,9 +103,11 @@ class AdaptiveSampler {
     std::vector<int64_t> order(m_tileCount);
     for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int64_t>(i);
     std::vector<std::atomic<int>> pending(m_tileCount);
-    const auto countPending = [&] {
-      for (std::atomic<int>& p : pending) p.store(0, std::memory_order_relaxed);
-      for (const int64_t u : order) forTilesAround(static_cast<size_t>(u), [&](size_t t) { pending[t].fetch_add(1); });
+    std::vector<int> counts(m_tileCount);  // counted in plain integers: one locked add each cost the most
+    const auto countPending = [&] {         // of the serial work between rounds, which the other workers wait for
+      std::fill(counts.begin(), counts.end(), 0);
+      for (const int64_t u : order) forTilesAround(static_cast<size_t>(u), [&](size_t t) { ++counts[t]; });
+      for (size_t t = 0; t < m_tileCount; ++t) pending[t].store(counts[t], std::memory_order_relaxed);
     };
     countPending();
     std::atomic<int> round{0};
@@ -182,7 +199,8 @@ class AdaptiveSampler {
   // other tiles), with no bounds tests. (The first samples' normals, which only the rare crease test
   // reads, stay in the tiles.)
   struct Summary {
-    float error;                    // estimated RMS error of the mean colour
+    float error;                    // estimated RMS error of the mean colour (its last round's)
+    float averaged;                 // its rounds' estimates averaged (the file's head)
     float firstT;                   // how far along its ray the first sample met (inf: a miss)
     float meanR, meanG, meanB;      // the mean colour
     int32_t firstPrim;              // the primitive the first sample met
@@ -280,30 +298,47 @@ class AdaptiveSampler {
         const int firstOfLast = first ? t.add[k] - t.add[k] / 2 : 0;
         t.lastR[k] = t.lastG[k] = t.lastB[k] = 0;
         for (int i = 0; i < t.add[k];) {  // as many of its samples as the packet has room for
-          const int end = std::min(t.add[k], i + kPacketSize - n);
-          for (; i < end; ++i, ++n) {
-            s[n] = static_cast<uint32_t>(t.taken[k] + i), inLast[n] = i >= firstOfLast, pixel[n] = k;
-            px[n] = x, py[n] = y, order[n] = pixelOrder, points[n] = pixelPoints;
+          const int count = std::min(t.add[k] - i, kPacketSize - n);
+          const auto index = static_cast<uint32_t>(t.taken[k] + i);
+          for (int j = 0; j < count; ++j) {  // a counted loop of plain stores: vectorised
+            s[n + j] = index + static_cast<uint32_t>(j), inLast[n + j] = i + j >= firstOfLast, pixel[n + j] = k;
+            px[n + j] = x, py[n + j] = y, order[n + j] = pixelOrder, points[n + j] = pixelPoints;
           }
+          i += count, n += count;
           if (n == kPacketSize && !flush()) return;
         }
       }
     }
     if (n > 0 && !flush()) return;
+    // The sampled pixels' counts, error estimates and means, made for every pixel of the tile in
+    // loops the compiler vectorises (a square root and two divisions a pixel, made one pixel at a
+    // time, cost a first pass about 5 %); only the sampled pixels' summaries take them.
+    const int count = t.w * t.h;
+    alignas(64) float error[kPacketSize], meanR[kPacketSize], meanG[kPacketSize], meanB[kPacketSize];
+    alignas(64) bool sampled[kPacketSize];
+    alignas(64) int32_t before[kPacketSize];  // samples before this round
+    for (int k = 0; k < count; ++k) {
+      const int32_t add = t.add[k];
+      sampled[k] = add > 0, before[k] = t.taken[k];
+      t.taken[k] += add;
+      t.last[k] = add == 0 ? t.last[k] : first ? add / 2 : add;
+      t.add[k] = 0;
+      t.sums.samples[k] = static_cast<Real>(t.taken[k]);
+    }
+    for (int k = 0; k < count; ++k) {
+      error[k] = estimatedError(t, k);
+      const Real inverse = 1 / t.sums.samples[k];
+      meanR[k] = static_cast<float>(t.sums.r[k] * inverse);
+      meanG[k] = static_cast<float>(t.sums.g[k] * inverse);
+      meanB[k] = static_cast<float>(t.sums.b[k] * inverse);
+    }
     for (int row = 0, k = 0; row < t.h; ++row) {  // by rows: no division to find a pixel's summary
       Summary* line = &summaryAt(t.x0, t.y0 + row);
       for (int col = 0; col < t.w; ++col, ++k) {
-        if (t.add[k] == 0) continue;  // its sums and summary are as its samples left them
-        t.taken[k] += t.add[k];
-        t.last[k] = first ? t.add[k] / 2 : t.add[k];
-        t.add[k] = 0;
-        t.sums.samples[k] = static_cast<Real>(t.taken[k]);
+        if (!sampled[k]) continue;  // its summary is as its samples left it
         Summary& p = line[col];
-        p.error = estimatedError(t, k);
-        const Real inverse = 1 / t.sums.samples[k];
-        p.meanR = static_cast<float>(t.sums.r[k] * inverse);
-        p.meanG = static_cast<float>(t.sums.g[k] * inverse);
-        p.meanB = static_cast<float>(t.sums.b[k] * inverse);
+        p.averaged = before[k] < kHistorySamples ? error[k] : averagedError(error[k], p.averaged, before[k], t.taken[k]);
+        p.error = error[k], p.meanR = meanR[k], p.meanG = meanG[k], p.meanB = meanB[k];
         p.sampledIn = static_cast<int16_t>(round);
       }
     }
@@ -330,7 +365,7 @@ class AdaptiveSampler {
       Summary* line = &summaryAt(t.x0, t.y0 + row);
       for (int col = 0; col < t.w; ++col) {
         Summary& p = line[col];
-        p.error = p.firstT = p.meanR = p.meanG = p.meanB = 0;
+        p.error = p.averaged = p.firstT = p.meanR = p.meanG = p.meanB = 0;
         p.firstPrim = kNoPrimitive, p.sampledIn = -1, p.present = true;
       }
     }
@@ -366,11 +401,22 @@ class AdaptiveSampler {
   // mean's variance is var / (a + b). Over the common denominator ab: one division.
   static float estimatedError(const TileState& t, int k) {
     const double b = t.last[k], a = t.taken[k] - b;
-    if (a == 0 || b == 0) return 0;  // one sample: nothing to compare
     const double dr = (t.sums.r[k] - t.lastR[k]) * b - t.lastR[k] * a;  // (mA - mB) ab
     const double dg = (t.sums.g[k] - t.lastG[k]) * b - t.lastG[k] * a;
     const double db = (t.sums.b[k] - t.lastB[k]) * b - t.lastB[k] * a;
-    return static_cast<float>(std::sqrt((dr * dr + dg * dg + db * db) / (3 * a * b * (a + b) * (a + b))));
+    // With one sample there is nothing to compare (a or b is 0): 0, chosen without a branch (a loop
+    // over pixels then vectorises). Otherwise the denominator is at least 12 and the result the plain
+    // quotient's root.
+    const double denominator = 3 * a * b * (a + b) * (a + b);
+    const double squares = denominator == 0 ? 0.0 : dr * dr + dg * dg + db * db;
+    return static_cast<float>(std::sqrt(squares / std::max(denominator, 1.0)));
+  }
+
+  // A pixel's estimates averaged over its rounds (the file's head): this round's estimate and the
+  // average before, made from `before` of its now `taken` samples, averaged as squares.
+  static float averagedError(float estimate, float averaged, int before, int taken) {
+    const double e = estimate, last = averaged;
+    return static_cast<float>(std::sqrt((e * e + last * last * before / taken) / 2));
   }
 
   static int slotOf(const TileState& t, int x, int y) { return (y - t.y0) * t.w + (x - t.x0); }
@@ -387,7 +433,7 @@ class AdaptiveSampler {
         const int taken = t.taken[k];
         if (taken >= level) continue;
         const Summary& self = line[col];
-        const double own = self.error;
+        const double own = std::max(self.error, self.averaged);  // its judged error (the file's head)
         double error = own, contrast = 0;
         if (own <= m_target) {
           // Its decision stands unless a pixel around it took samples this round (in the first, all did).
@@ -399,7 +445,7 @@ class AdaptiveSampler {
           int around = 0;
           bool edge = t.mixed[k];
           forAround(self, [&](const Summary& u) {
-            neighbourhood += static_cast<double>(u.error) * u.error;
+            neighbourhood += static_cast<double>(u.averaged) * u.averaged;
             ++around;
             edge = edge || differ(self, u);
             largestDifference = std::max(largestDifference, colourDifference(self, u));
@@ -408,8 +454,8 @@ class AdaptiveSampler {
           const float squaredContrast = largestDifference / 3;
           // error <= target and taken >= contrast / target, compared as squares: the roots only for a
           // pixel marked (an infinite square is never settled, as its root would not be).
-          const double squaredError = std::max(own * own, neighbourhood / around);
-          const double resolved = taken * m_target;  // the contrast `taken` samples resolve
+          const double squaredError = std::max(own * own, kNeighbourWeight * neighbourhood / around);
+          const double resolved = taken * m_target / kUnseenShare;  // the contrast `taken` samples resolve
           const double inf = std::numeric_limits<double>::infinity();
           if (squaredError <= m_target * m_target && squaredError < inf && (!edge || taken >= kEdgeSamples) &&
               squaredContrast <= resolved * resolved && squaredContrast < inf) {
@@ -477,7 +523,9 @@ class AdaptiveSampler {
     std::vector<int64_t> order;
     for (size_t i = 0; i < m_tileCount; ++i) {
       const TileState& t = m_state[i];
-      if (std::any_of(t.add, t.add + t.w * t.h, [](int32_t a) { return a > 0; })) order.push_back(static_cast<int64_t>(i));
+      int32_t any = 0;  // the counts' bits together (none is negative): a loop without exits, vectorised
+      for (int k = 0; k < t.w * t.h; ++k) any |= t.add[k];
+      if (any > 0) order.push_back(static_cast<int64_t>(i));
     }
     const auto n = static_cast<int64_t>(order.size());
     for (int64_t w = 0; w < workers; ++w) {
