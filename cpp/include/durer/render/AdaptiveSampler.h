@@ -225,19 +225,19 @@ class AdaptiveSampler {
     return {x0, y0, x1 - x0, y1 - y0};
   }
 
-  // Where a packet's samples go (TileRenderer::trace): sample j to pixel pixel[j] of the tile, in
-  // order, and its colour also to the pixel's last-round sums if inLast[j]. The pixel's sums are then
-  // those of adding its samples one at a time, whatever the packets.
+  // Where a refining round's packet goes (TileRenderer::trace): sample j to pixel pixel[j] of the
+  // tile, in order, its colour also to the pixel's last-round sums (all of a refining round's
+  // samples are). The pixel's sums are then those of adding its samples one at a time, whatever the
+  // packets. (No sample of a refining round is a pixel's first: its normal is kept only for the
+  // passes.)
   struct PixelSink {
     TileState& t;
     const int* pixel;
-    const uint32_t* sample;  // the pixel's sample number of each entry
-    const bool* inLast;
     bool normalPass;  // the normal or id passes: the pixels' normals' and nearest hit's sums are kept
     void addColor(int j, Real r, Real g, Real b, Real a) {
       const int k = pixel[j];
       t.sums.addColor(k, r, g, b, a);
-      if (inLast[j]) t.lastR[k] += r, t.lastG[k] += g, t.lastB[k] += b;
+      t.lastR[k] += r, t.lastG[k] += g, t.lastB[k] += b;
     }
     // The shaded path's colours: each run of one pixel's samples summed in registers (the same
     // sums, in the same order, as addColor one at a time, without a store and reload per sample).
@@ -248,34 +248,87 @@ class AdaptiveSampler {
         Real lr = t.lastR[k], lg = t.lastG[k], lb = t.lastB[k];
         for (end = j; end < count && pixel[end] == k; ++end) {
           r += rgb[end].r, g += rgb[end].g, b += rgb[end].b, a += alpha[end];
-          if (inLast[end]) lr += rgb[end].r, lg += rgb[end].g, lb += rgb[end].b;
+          lr += rgb[end].r, lg += rgb[end].g, lb += rgb[end].b;
         }
         t.sums.r[k] = r, t.sums.g[k] = g, t.sums.b[k] = b, t.sums.a[k] = a;
         t.lastR[k] = lr, t.lastG[k] = lg, t.lastB[k] = lb;
       }
     }
     void addDepth(int j, Real d) { t.sums.addDepth(pixel[j], d); }
-    // The normals of every sample for the passes, and of each pixel's first for the crease test.
-    bool wantsNormal(int j) const { return normalPass || sample[j] == 0; }
-    void addNormal(int j, Real along, int32_t prim, Real x, Real y, Real z) {
-      const int k = pixel[j];
-      if (normalPass) t.sums.addNormal(k, along, prim, x, y, z);
-      if (sample[j] == 0) t.firstNx[k] = float(x), t.firstNy[k] = float(y), t.firstNz[k] = float(z);
-    }
+    bool wantsNormal(int) const { return normalPass; }
+    void addNormal(int j, Real along, int32_t prim, Real x, Real y, Real z) { t.sums.addNormal(pixel[j], along, prim, x, y, z); }
     bool addNearest(int j, bool hit, Real along, int32_t prim) { return t.sums.addNearest(pixel[j], hit, along, prim); }
   };
 
-  // Takes each pixel's add[k] samples, pixel by pixel in packets of up to kPacketSize rays: a pixel's
-  // samples are the most coherent rays there are. A packet's sample positions are made together.
-  void sampleTile(TileState& t, int round, RayCounters& counters) {
-    const bool first = round == 0;
+  // The first pass's sink: entry k is pixel k of the tile, and a packet's samples all have one
+  // sample number, `sample`, of the pixels' last round's or not (`last`): PixelSink's sums, in
+  // loops over the packet without a pixel's run to find, and the normals of every sample for the
+  // passes, of each pixel's first for the crease test.
+  struct FirstPassSink {
+    TileState& t;
+    uint32_t sample;
+    bool last;
+    bool normalPass;  // the normal or id passes: the pixels' normals' and nearest hit's sums are kept
+    void addColor(int k, Real r, Real g, Real b, Real a) {
+      t.sums.addColor(k, r, g, b, a);
+      if (last) t.lastR[k] += r, t.lastG[k] += g, t.lastB[k] += b;
+    }
+    void addColors(const Vec3<Real>* rgb, const Real* alpha, int count) {
+      for (int k = 0; k < count; ++k) t.sums.addColor(k, rgb[k].r, rgb[k].g, rgb[k].b, alpha[k]);
+      if (!last) return;
+      for (int k = 0; k < count; ++k) t.lastR[k] += rgb[k].r, t.lastG[k] += rgb[k].g, t.lastB[k] += rgb[k].b;
+    }
+    void addDepth(int k, Real d) { t.sums.addDepth(k, d); }
+    bool wantsNormal(int) const { return normalPass || sample == 0; }
+    void addNormal(int k, Real along, int32_t prim, Real x, Real y, Real z) {
+      if (normalPass) t.sums.addNormal(k, along, prim, x, y, z);
+      if (sample == 0) t.firstNx[k] = float(x), t.firstNy[k] = float(y), t.firstNz[k] = float(z);
+    }
+    bool addNearest(int k, bool hit, Real along, int32_t prim) { return t.sums.addNearest(k, hit, along, prim); }
+  };
+
+  // The first pass: every pixel's first samples, a packet a sample number (the sample of each of
+  // the tile's pixels, row by row, as the other samplers trace a tile: the camera's view culls such
+  // packets by the tile's rows). A pixel's sums take its samples in their order, as in a refining
+  // round; the later half of them are its last round's. False if cancelled.
+  bool firstPass(TileState& t, RayCounters& counters) {
+    const int count = t.w * t.h, firstOfLast = m_firstSamples - m_firstSamples / 2;
+    alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
+    alignas(64) int px[kPacketSize], py[kPacketSize];
+    alignas(64) uint32_t s[kPacketSize], order[kPacketSize], points[kPacketSize];  // sample numbers, seeds
+    alignas(64) int32_t prim[kPacketSize];
+    alignas(64) Real along[kPacketSize];
+    for (int row = 0, k = 0; row < t.h; ++row) {
+      for (int col = 0; col < t.w; ++col, ++k) {
+        px[k] = t.x0 + col, py[k] = t.y0 + row;
+        m_tiles.sobolSeeds(px[k], py[k], order[k], points[k]);
+        t.lastR[k] = t.lastG[k] = t.lastB[k] = 0;
+      }
+    }
+    for (int sample = 0; sample < m_firstSamples; ++sample) {
+      std::fill(s, s + count, static_cast<uint32_t>(sample));
+      FirstPassSink sink{t, static_cast<uint32_t>(sample), sample >= firstOfLast, m_tiles.needsNormals()};
+      m_tiles.sobolPositions(px, py, order, points, s, count, sampleX, sampleY);
+      if (!m_tiles.trace(sampleX, sampleY, count, sink, prim, along, counters, t.x0, t.y0, t.w)) return false;
+      for (int row = 0, k = 0; row < t.h; ++row) {  // by rows: no division to find a pixel's summary
+        Summary* line = &summaryAt(t.x0, t.y0 + row);
+        for (int col = 0; col < t.w; ++col, ++k) noteGeometry(t, k, line[col], k, k + 1, s, prim, along);
+      }
+    }
+    return true;
+  }
+
+  // A refining round: each pixel's add[k] samples, pixel by pixel in packets of up to kPacketSize
+  // rays (a pixel's samples are the most coherent rays there are; a packet's sample positions are
+  // made together). All of a pixel's new samples are the last round's (its second half). False if
+  // cancelled.
+  bool refine(TileState& t, RayCounters& counters) {
     alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
     alignas(64) int pixel[kPacketSize], px[kPacketSize], py[kPacketSize];
     alignas(64) uint32_t s[kPacketSize], order[kPacketSize], points[kPacketSize];  // sample numbers, seeds
     alignas(64) int32_t prim[kPacketSize];
     alignas(64) Real along[kPacketSize];
-    bool inLast[kPacketSize];
-    PixelSink sink{t, pixel, s, inLast, m_tiles.needsNormals()};
+    PixelSink sink{t, pixel, m_tiles.needsNormals()};
     int n = 0;
     const auto flush = [&] {
       m_tiles.sobolPositions(px, py, order, points, s, n, sampleX, sampleY);
@@ -293,23 +346,26 @@ class AdaptiveSampler {
         const int x = t.x0 + col, y = t.y0 + row;
         uint32_t pixelOrder, pixelPoints;
         m_tiles.sobolSeeds(x, y, pixelOrder, pixelPoints);
-        // The last round's samples are the second half of the pixel's: all of a refining round's, the
-        // later half of the first pass's.
-        const int firstOfLast = first ? t.add[k] - t.add[k] / 2 : 0;
         t.lastR[k] = t.lastG[k] = t.lastB[k] = 0;
         for (int i = 0; i < t.add[k];) {  // as many of its samples as the packet has room for
           const int count = std::min(t.add[k] - i, kPacketSize - n);
           const auto index = static_cast<uint32_t>(t.taken[k] + i);
           for (int j = 0; j < count; ++j) {  // a counted loop of plain stores: vectorised
-            s[n + j] = index + static_cast<uint32_t>(j), inLast[n + j] = i + j >= firstOfLast, pixel[n + j] = k;
+            s[n + j] = index + static_cast<uint32_t>(j), pixel[n + j] = k;
             px[n + j] = x, py[n + j] = y, order[n + j] = pixelOrder, points[n + j] = pixelPoints;
           }
           i += count, n += count;
-          if (n == kPacketSize && !flush()) return;
+          if (n == kPacketSize && !flush()) return false;
         }
       }
     }
-    if (n > 0 && !flush()) return;
+    return n == 0 || flush();
+  }
+
+  // Takes each pixel's add[k] samples, then updates the pixels' counts and summaries.
+  void sampleTile(TileState& t, int round, RayCounters& counters) {
+    const bool first = round == 0;
+    if (!(first ? firstPass(t, counters) : refine(t, counters))) return;
     // The sampled pixels' counts, error estimates and means, made for every pixel of the tile in
     // loops the compiler vectorises (a square root and two divisions a pixel, made one pixel at a
     // time, cost a first pass about 5 %); only the sampled pixels' summaries take them.

@@ -199,13 +199,15 @@ class TileRenderer {
   // Traces the samples at (sampleX[j], sampleY[j]) for j < count as one packet and adds them to
   // `sink` (an Accumulator's interface, entry j for sample j, in order); prim[j] gets the primitive
   // sample j met and t[j] how far along its ray (inf on a miss, whatever the depth pass measures).
-  // False if cancelled.
+  // With a tileWidth, sample j lies in pixel (tileX + j % tileWidth, tileY + j / tileWidth), which
+  // the camera's view culls by (RayPacket::tileWidth); 0: in no such order. False if cancelled.
   template <typename Sink>
   bool trace(const Real* sampleX, const Real* sampleY, int count, Sink& sink, int32_t* prim, Real* t,
-             RayCounters& counters) const {
+             RayCounters& counters, int tileX = 0, int tileY = 0, int tileWidth = 0) const {
     RayPacket<Real> packet;
     m_camera.generate(packet, sampleX, sampleY, count);
     packet.view = m_view.get();
+    packet.tileX = tileX, packet.tileY = tileY, packet.tileWidth = tileWidth;
     counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
     if (m_cancel.load(std::memory_order_relaxed)) return false;
     accumulate(packet, sink, counters);
