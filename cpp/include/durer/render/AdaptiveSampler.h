@@ -40,9 +40,9 @@
 #include <cmath>
 #include <functional>
 #include <limits>
-#include <memory>
 #include <vector>
 
+#include "durer/HugeArray.h"
 #include "durer/render/TileRenderer.h"
 
 namespace durer {
@@ -78,8 +78,8 @@ class AdaptiveSampler {
         m_tileCount(static_cast<size_t>(m_tilesX) * ((m_work.y + m_work.height - 1) / kTileSize - m_firstTileY + 1)),
         // Left unset: each tile sets its own state and its pixels' summaries in the first pass, on
         // the worker that samples it (the last render's workers may hold these lines in their caches).
-        m_state(new TileState[m_tileCount]),
-        m_summary(new Summary[static_cast<size_t>(m_stride) * (m_work.height + 2)]) {
+        m_state(m_tileCount),
+        m_summary(static_cast<size_t>(m_stride) * (m_work.height + 2)) {
     const int rows = m_work.height + 2;
     for (int x = 0; x < m_stride; ++x) m_summary[x].present = m_summary[static_cast<size_t>(rows - 1) * m_stride + x].present = false;
     for (int y = 1; y < rows - 1; ++y) {
@@ -631,8 +631,8 @@ class AdaptiveSampler {
   int m_stride;                     // of m_summary's rows
   int m_firstTileX, m_firstTileY, m_tilesX;
   size_t m_tileCount;
-  std::unique_ptr<TileState[]> m_state;    // by tile, row by row
-  std::unique_ptr<Summary[]> m_summary;   // the work region's pixels and a ring around them, row by row
+  HugeArray<TileState> m_state;           // by tile, row by row
+  HugeArray<Summary> m_summary;           // the work region's pixels and a ring around them, row by row
 };
 
 }  // namespace tiles
