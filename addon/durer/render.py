@@ -139,11 +139,12 @@ def render(
     the centre: no anti-aliasing), "random" (uniform), "sobol" (Owen-scrambled Sobol points) or
     "adaptive" (spp is the maximum: every pixel takes min(min_spp, spp) Sobol samples, then rounds
     double the samples of the pixels whose estimated colour error (each round's estimate averaged with
-    the rounds' before), or their 3x3 neighbourhood's, exceeds `target_error`, or that sit on an edge their own or their neighbours' samples show;
-    `target_error` is the estimated RMS error over RGB a pixel stops at, `result.error` each pixel's
-    estimate, stats "estimated_rmse" / "estimated_worst" the image's, "rounds" the rounds run,
-    `result.samples` the counts; `time_limit` seconds (None: none) stops refining when spent, the
-    worst tiles refined first, and sets stats "time_limit_reached"; see AdaptiveSampler.h).
+    the rounds' before), or their 3x3 neighbourhood's, exceeds `target_error`, or that sit on an edge
+    their own or their neighbours' samples show; `target_error` is the estimated RMS error over RGB
+    a pixel stops at, `result.error` each pixel's estimate, stats "estimated_rmse" /
+    "estimated_worst" the image's, "rounds" the rounds run, `result.samples` the counts;
+    `time_limit` seconds (None: none) stops refining when spent, the worst tiles refined first, and
+    sets stats "time_limit_reached"; see AdaptiveSampler.h).
     `durer.preset(name)` gives ready settings. `precision` "float" or "double" is used for every ray and
     intersection; `sphere_method` "robust" (default), "algebraic" or "geometric". Only the
     requested `passes` (any of PASSES; by default DEFAULT_PASSES) are computed. The GIL is released while rendering on `threads` threads
