@@ -146,6 +146,13 @@ class PrimitiveSet {
     for (int k = 0; k < packet.count; ++k) {
       if (!AnyHit || packet.prim[k] == kNoPrimitive) rays[count++] = k;
     }
+    return searchRays<AnyHit>(packet, rays, count, testRay);
+  }
+
+  // The rays rays[0 .. count) of the packet, each walking the hierarchy (several at once), as search()
+  // walks a packet that is not coherent.
+  template <bool AnyHit, typename TestRay>
+  int64_t searchRays(RayPacket<Real>& packet, const int* rays, int count, TestRay&& testRay) const {
     return m_bvh.traverseInterleaved(
         packet, rays, count,
         [&](int32_t first, int32_t n, int k) {

@@ -17,6 +17,7 @@
 #include "durer/geometry/RayOffset.h"
 #include "durer/geometry/RayPacket.h"
 #include "durer/accel/Bvh.h"
+#include "durer/accel/SphereGrid.h"
 #include "durer/accel/SphereView.h"
 #include "durer/geometry/SphereIntersection.h"
 #include "durer/math/Float.h"
@@ -82,12 +83,16 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
 
   // Builds the bounding-volume hierarchy (and reorders the spheres and their ids to its order);
   // worth it above a few dozen spheres, after which intersect() traverses it.
-  void buildBvh(int threads) { Base::buildBvh(kBoxOf, threads); }
+  void buildBvh(int threads) {
+    m_grid.clear();
+    Base::buildBvh(kBoxOf, threads);
+  }
 
   // The spheres of `source`, the set this one was made from, after they moved (Base::refitFrom).
   template <typename Other>
   bool refitFrom(const SphereSet<Other>& source, int threads) {
     m_views.clear();
+    m_grid.clear();
     return Base::refitFrom(source, convert<Other>, kBoxOf, threads);
   }
 
@@ -98,7 +103,14 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     return m_views.find(key, make);
   }
 
-  void setSphere(size_t i, const Sphere<Real>& sphere) { this->m_primitives[i] = sphere; }
+  void setSphere(size_t i, const Sphere<Real>& sphere) {
+    m_grid.clear();
+    this->m_primitives[i] = sphere;
+  }
+
+  // The grid of these spheres for incoherent rays (SphereGrid), made on first use; null where the
+  // spheres do not suit one or have no hierarchy (the grid sends the rays it cannot walk to it).
+  const SphereGrid<Real>* grid() const { return this->bvhBytes() ? m_grid.find(this->m_primitives) : nullptr; }
 
   // Grows [lo, hi] to hold every sphere (the bounds of a transformed group).
   void bounds(Vec3<Real>& lo, Vec3<Real>& hi) const {
@@ -141,12 +153,68 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       }
     }
     compute();
+    if constexpr (M == SphereMethod::Robust) {  // the grid's bound on a root's error is the robust test's
+      if (AnyHit || !packet.coherent) {          // the rays search() would walk one by one
+        if (const SphereGrid<Real>* spheres = grid()) return searchGrid<M, AnyHit>(*spheres, packet, terms, primBase, cancel);
+      }
+    }
     return this->template search<AnyHit>(
         packet, cancel,
         [&](int32_t first, int32_t count) {
           for (int32_t i = first; i < first + count; ++i) intersectOne<M>(packet, terms, static_cast<size_t>(i), primBase);
         },
         [&](int32_t first, int32_t count, int k) { intersectLeaf<M>(packet, terms[k], k, first, count, primBase); });
+  }
+
+  // The packet's rays through the grid (those it cannot walk through the hierarchy), each lowering
+  // its tHit as intersect() does.
+  template <SphereMethod M, bool AnyHit>
+  int64_t searchGrid(const SphereGrid<Real>& grid, RayPacket<Real>& packet, const PacketRayTerms<Real>& terms,
+                     int32_t primBase, const std::atomic<bool>* cancel) const {
+    if (cancel && cancel->load(std::memory_order_relaxed)) return 0;
+    int64_t tests = 0;
+    int others[kPacketSize], count = 0;
+    for (int k = 0; k < packet.count; ++k) {
+      if (AnyHit && packet.prim[k] != kNoPrimitive) continue;  // a hit already (from another set)
+      const SphereRayTerms<Real> rayTerms = terms[k];
+      const double o[3] = {double(packet.ox[k]), double(packet.oy[k]), double(packet.oz[k])};
+      const double d[3] = {double(packet.dx[k]), double(packet.dy[k]), double(packet.dz[k])};
+      const bool walked = grid.walk(
+          o, d, double(packet.tMin), double(packet.tHit[k]),
+          [&](uint32_t first, uint32_t n) {
+            tests += n;
+            intersectCell<M>(grid, packet, rayTerms, k, first, n, primBase);
+          },
+          [&](double exitT) { return AnyHit ? packet.prim[k] != kNoPrimitive : double(packet.tHit[k]) <= exitT; });
+      if (!walked) others[count++] = k;
+    }
+    if (count == 0) return tests;
+    return tests + this->template searchRays<AnyHit>(packet, others, count, [&](int32_t first, int32_t n, int k) {
+      intersectLeaf<M>(packet, terms[k], k, first, n, primBase);
+    });
+  }
+
+  // A grid cell's records [first, first + count) against ray k, as a leaf's spheres are tested.
+  template <SphereMethod M>
+  DURER_INLINE void intersectCell(const SphereGrid<Real>& grid, RayPacket<Real>& packet, const SphereRayTerms<Real>& terms,
+                                  int k, uint32_t first, uint32_t count, int32_t primBase) const {
+    const Sphere<Real>* records = grid.records();
+#if defined(__AVX2__) && defined(__FMA__)
+    if constexpr (M == SphereMethod::Robust) {
+      for (uint32_t quad = first; quad < first + count; quad += 4) {
+        const int n = std::min(4, int(first + count - quad));
+        const unsigned may = leafMayMeet(&records[quad], n, packet.ox[k], packet.oy[k], packet.oz[k], terms);
+        for (unsigned bits = may; bits != 0; bits &= bits - 1) {
+          const uint32_t record = quad + uint32_t(__builtin_ctz(bits));
+          intersectSphere<M, false>(packet, terms, k, records[record], primBase + grid.sphereOf(record));
+        }
+      }
+      return;
+    }
+#endif
+    for (uint32_t record = first; record < first + count; ++record) {
+      intersectSphere<M>(packet, terms, k, records[record], primBase + grid.sphereOf(record));
+    }
   }
 
   // A leaf's spheres [first, first + count) against ray k, in order. The robust test's prefilter
@@ -174,8 +242,15 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   // Prefilter, the caller has made robustMayMeet's test.
   template <SphereMethod M, bool Prefilter = true>
   DURER_INLINE void intersectRay(RayPacket<Real>& packet, const SphereRayTerms<Real>& terms, int k, size_t i, int32_t primBase) const {
-    const Vec3<Real> c = this->m_primitives[i].center;
-    const Real r = this->m_primitives[i].radius;
+    intersectSphere<M, Prefilter>(packet, terms, k, this->m_primitives[i], primBase + static_cast<int32_t>(i));
+  }
+
+  // Sphere s, recorded as `id`, against ray k: intersectRay's test, for a sphere given by value.
+  template <SphereMethod M, bool Prefilter = true>
+  DURER_INLINE static void intersectSphere(RayPacket<Real>& packet, const SphereRayTerms<Real>& terms, int k,
+                                           const Sphere<Real>& s, int32_t id) {
+    const Vec3<Real> c = s.center;
+    const Real r = s.radius;
     const Real ox = packet.ox[k], oy = packet.oy[k], oz = packet.oz[k];
     if constexpr (M == SphereMethod::Robust) {
       if constexpr (Prefilter) {
@@ -186,12 +261,12 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       // it, so the prefilter keeps it) skips the roots: it would record nothing (robustLeaves).
       const RobustOrigin<Real> f = robustOrigin(ox, oy, oz, c, r);
       if (packet.tMin > 0 && robustLeaves(f, terms)) return;
-      recordHit(packet, k, firstRootFrom(robustRoots(f, terms, r), packet.tMin), primBase + static_cast<int32_t>(i));
+      recordHit(packet, k, firstRootFrom(robustRoots(f, terms, r), packet.tMin), id);
       return;
     }
     const SphereRoots<Real> roots =
         sphereRoots<M>(ox, oy, oz, c, packet.dx[k], packet.dy[k], packet.dz[k], terms, r, packet.tMin);
-    recordHit(packet, k, firstRootFrom(roots, packet.tMin), primBase + static_cast<int32_t>(i));
+    recordHit(packet, k, firstRootFrom(roots, packet.tMin), id);
   }
 
   // One sphere against the packet's rays [kBegin, kEnd) (all by default): the vectorised inner loop.
@@ -336,6 +411,36 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     }
   };
   mutable ViewCache m_views;
+
+  // The grid, made by the first search that wants it (render threads share the set); a copy of the
+  // set, or spheres moved or reordered, start without one.
+  struct GridCache {
+    std::mutex mutex;
+    std::atomic<bool> made{false};
+    std::unique_ptr<const SphereGrid<Real>> grid;
+    GridCache() = default;
+    GridCache(const GridCache&) {}
+    GridCache& operator=(const GridCache&) {
+      clear();
+      return *this;
+    }
+    void clear() {
+      const std::lock_guard<std::mutex> lock(mutex);
+      grid.reset();
+      made.store(false, std::memory_order_release);
+    }
+    const SphereGrid<Real>* find(const std::vector<Sphere<Real>>& spheres) {
+      if (!made.load(std::memory_order_acquire)) {
+        const std::lock_guard<std::mutex> lock(mutex);
+        if (!made.load(std::memory_order_relaxed)) {
+          grid = SphereGrid<Real>::make(spheres);
+          made.store(true, std::memory_order_release);
+        }
+      }
+      return grid.get();
+    }
+  };
+  mutable GridCache m_grid;
 
   template <typename Other>
   static Sphere<Real> convert(const Sphere<Other>& s) {

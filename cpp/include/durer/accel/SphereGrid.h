@@ -1,0 +1,234 @@
+#pragma once
+// Incoherent rays (reflections, refractions, shadows toward point lights, casts) among many small
+// spheres spread through a box: a uniform grid walked cell by cell in the ray's order (Amanatides &
+// Woo), each cell's spheres copied next to each other so that a cell is tested as a hierarchy's leaf
+// is. A ray through a cloud of spheres crosses about a dozen cells of a few spheres each; walking
+// them costs a third to a half of what the hierarchy's walk does (a node visit's branches mispredict,
+// a cell step's next cell is known without reading memory). Used where the spheres fill their box
+// evenly enough (make() says); the hierarchy serves every other set and ray.
+//
+// Exactness: every sphere whose computed hit t is below the ray's final tHit is tested, so the grid
+// finds the hierarchy's and the brute force's hits bit for bit (ties at one t aside). The walk is
+// made in double whatever the spheres' precision; its positions are off by at most a few ulps of the
+// coordinates, and a sphere's root by the test's own error; each sphere is registered in every cell
+// its box padded by m_pad touches, and m_pad exceeds both, so a sphere whose hit lies in a cell the
+// walk stepped past by rounding is registered in a cell it visits. Rays for which that bound cannot
+// be promised (origins far from the grid for the precision, non-finite coordinates) are not walked:
+// walk() says so and the caller searches the hierarchy.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <vector>
+
+#include "durer/Inline.h"
+#include "durer/math/Vec.h"
+
+namespace durer {
+
+template <typename Real>
+struct Sphere;  // SphereSet.h
+
+template <typename Real>
+class SphereGrid {
+ public:
+  // Below kMinSpheres the hierarchy is a few levels and as quick. Above kMaxSpheres a ray's cells
+  // are scattered over more memory than the caches hold and the walk waits on it as the hierarchy's
+  // does, which hides its misses better (at 1M spheres the two take the same time).
+  static constexpr size_t kMinSpheres = 64;
+  static constexpr size_t kMaxSpheres = size_t(1) << 19;
+  // Cells for each sphere: about 3.6 spheres a cell once boxes spanning cells count in each; fewer,
+  // larger cells test more spheres a ray and smaller ones take more steps (measured: 0.25-0.5 best).
+  static constexpr double kCellsPerSphere = 0.5;
+  static constexpr int kMaxCellsPerAxis = 1024;
+  // Not a grid's spheres: more than kMaxRefsPerSphere cells a sphere on average (spheres large for
+  // the cells) or, in the cell of an average registration, more than kMaxCrowding spheres (clusters
+  // in an otherwise empty box: the hierarchy adapts to them, a uniform grid does not).
+  static constexpr double kMaxRefsPerSphere = 4;
+  static constexpr double kMaxCrowding = 16;
+
+  // The grid of `spheres` (centres and radii in their own precision), or null where they do not suit one.
+  static std::unique_ptr<const SphereGrid> make(const std::vector<Sphere<Real>>& spheres) {
+    if (spheres.size() < kMinSpheres || spheres.size() > kMaxSpheres) return nullptr;
+    std::unique_ptr<SphereGrid> grid(new SphereGrid());
+    return grid->build(spheres) ? std::move(grid) : nullptr;
+  }
+
+  // Walks the ray o + t d from max(tMin, its entry) through the cells it crosses, in order, calling
+  // testCell(first, count) for each cell's records [first, first + count), until done(exitT) says the
+  // ray's search is over (its hit is no farther than the cell's exit exitT, or any hit where one is
+  // enough) or it leaves the grid. tHit: the ray's hit before the walk (no cell is visited if the
+  // grid starts beyond it). Returns false, visiting nothing, for a ray the walk cannot follow
+  // exactly (see the top of this file).
+  template <typename TestCell, typename Done>
+  DURER_INLINE bool walk(const double (&o)[3], const double (&d)[3], double tMin, double tHit, TestCell&& testCell,
+                         Done&& done) const {
+    double scale = 0, inv[3];
+    for (int a = 0; a < 3; ++a) {
+      inv[a] = 1 / d[a];
+      if (!std::isfinite(o[a]) || !std::isfinite(d[a]) || (d[a] != 0 && !std::isfinite(inv[a]))) return false;
+      scale = std::max(scale, std::fabs(o[a]));
+    }
+    if (d[0] == 0 && d[1] == 0 && d[2] == 0) return false;
+    if (kOriginError * (scale + m_extent) > m_pad) return false;
+    // The ray's span inside the grid's box.
+    double t0 = tMin, t1 = tHit;
+    for (int a = 0; a < 3; ++a) {
+      double near = (m_lo[a] - o[a]) * inv[a], far = (m_hi[a] - o[a]) * inv[a];
+      if (near > far) std::swap(near, far);
+      if (d[a] != 0) t0 = std::max(t0, near), t1 = std::min(t1, far);
+      else if (o[a] < m_lo[a] || o[a] > m_hi[a]) return true;  // parallel to the slab, outside it
+    }
+    if (!(t0 < t1)) return true;
+    // The cell holding the entry point, each axis' step, and the t of the next boundary along each.
+    int cell[3], step[3], stop[3];
+    double next[3];
+    int64_t index = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double p = o[a] + t0 * d[a];
+      cell[a] = std::clamp(static_cast<int>(std::floor((p - m_lo[a]) * m_invCell[a])), 0, m_res[a] - 1);
+      step[a] = d[a] > 0 ? 1 : -1;
+      stop[a] = d[a] > 0 ? m_res[a] : -1;
+      next[a] = boundaryT(a, cell[a], step[a], o[a], d[a], inv[a]);
+      index += cell[a] * m_stride[a];
+    }
+    // A few cells ahead of the one tested: their first entries were fetched a step ago, their
+    // records are fetched now (the walk knows its cells without reading memory).
+    constexpr int kAhead = 4;
+    int64_t ring[kAhead];
+    double ringExit[kAhead];
+    int made = 0;
+    bool left = false;
+    const auto advance = [&] {
+      if (left) return;
+      const int a = next[0] < next[1] ? (next[0] < next[2] ? 0 : 2) : (next[1] < next[2] ? 1 : 2);
+      ring[made % kAhead] = index, ringExit[made % kAhead] = next[a];
+      __builtin_prefetch(&m_begin[size_t(index)]);
+      ++made;
+      cell[a] += step[a];
+      if (cell[a] == stop[a]) {
+        left = true;
+        return;
+      }
+      index += step[a] * m_stride[a];
+      next[a] = boundaryT(a, cell[a], step[a], o[a], d[a], inv[a]);
+    };
+    for (int j = 0; j < kAhead; ++j) advance();
+    for (int j = 0; j < made; ++j) {
+      if (j + kAhead / 2 < made) {
+        const Sphere<Real>* ahead = &m_records[m_begin[size_t(ring[(j + kAhead / 2) % kAhead])]];
+        __builtin_prefetch(ahead);
+        __builtin_prefetch(reinterpret_cast<const char*>(ahead) + 64);
+      }
+      const size_t c = size_t(ring[j % kAhead]);
+      const uint32_t first = m_begin[c], last = m_begin[c + 1];
+      if (last > first) testCell(first, last - first);
+      if (done(ringExit[j % kAhead])) break;
+      advance();
+    }
+    return true;
+  }
+
+  const Sphere<Real>* records() const { return m_records.data(); }
+  int32_t sphereOf(uint32_t record) const { return m_sphere[record]; }  // the set's index of a record's sphere
+  size_t bytes() const {
+    return m_begin.size() * sizeof(uint32_t) + m_records.size() * (sizeof(Sphere<Real>) + sizeof(int32_t));
+  }
+
+ private:
+  // A walk's positions are off by a few ulps (in double) of the coordinates involved, a sphere's root
+  // by a few ulps (in Real) of them: kOriginError * (|o| + the grid's extent) bounds both, with room.
+  static constexpr double kOriginError = 64 * double(std::numeric_limits<Real>::epsilon());
+
+  SphereGrid() = default;
+
+  DURER_INLINE double boundaryT(int a, int cell, int step, double o, double d, double inv) const {
+    if (d == 0) return std::numeric_limits<double>::infinity();
+    return (m_lo[a] + (cell + (step > 0)) * m_cellSize[a] - o) * inv;
+  }
+
+  bool build(const std::vector<Sphere<Real>>& spheres) {
+    const size_t n = spheres.size();
+    Vec3<double> lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    double radius = 0;
+    for (const Sphere<Real>& s : spheres) {
+      const Vec3<double> c(s.center), r(double(s.radius));
+      lo = glm::min(lo, c - r), hi = glm::max(hi, c + r);
+      radius = std::max(radius, double(s.radius));
+    }
+    const Vec3<double> size = hi - lo;
+    const double largest = std::max(size.x, std::max(size.y, size.z));
+    if (!(largest > 0) || !std::isfinite(largest)) return false;
+    // Cells near cubes of the volume's share per cell, at least a 2^-10 of the largest side thick.
+    const double volume = std::max(size.x, largest / 1024) * std::max(size.y, largest / 1024) * std::max(size.z, largest / 1024);
+    const double edge = std::cbrt(volume / (kCellsPerSphere * double(n)));
+    for (int a = 0; a < 3; ++a) {
+      m_res[a] = std::clamp(static_cast<int>(std::ceil(size[a] / edge)), 1, kMaxCellsPerAxis);
+    }
+    const double smallest = std::min(size.x / m_res[0], std::min(size.y / m_res[1], size.z / m_res[2]));
+    m_pad = std::max(smallest, largest / kMaxCellsPerAxis) / 256;
+    m_extent = std::max(std::max(std::fabs(lo.x), std::fabs(hi.x)), std::max(std::max(std::fabs(lo.y), std::fabs(hi.y)),
+                                                                        std::max(std::fabs(lo.z), std::fabs(hi.z))));
+    // A root near a sphere's silhouette is off by up to about sqrt(epsilon) of its radius.
+    if (4 * std::sqrt(double(std::numeric_limits<Real>::epsilon())) * radius > m_pad / 2) return false;
+    if (kOriginError * 2 * m_extent > m_pad / 2) return false;  // coordinates too large for the cells
+    m_lo = lo - m_pad, m_hi = hi + m_pad;
+    for (int a = 0; a < 3; ++a) {
+      m_cellSize[a] = (m_hi[a] - m_lo[a]) / m_res[a];
+      m_invCell[a] = 1 / m_cellSize[a];
+    }
+    m_stride[0] = 1, m_stride[1] = m_res[0], m_stride[2] = int64_t(m_res[0]) * m_res[1];
+    const size_t cells = size_t(m_res[0]) * size_t(m_res[1]) * size_t(m_res[2]);
+    // Counting sort of the registrations by cell.
+    std::vector<uint32_t> count(cells + 1, 0);
+    size_t refs = 0;
+    forCells(spheres, [&](size_t, size_t cell) {
+      ++count[cell + 1];
+      ++refs;
+    });
+    if (double(refs) > kMaxRefsPerSphere * double(n)) return false;
+    double crowding = 0;
+    for (size_t c = 1; c <= cells; ++c) crowding += double(count[c]) * double(count[c]);
+    if (crowding > kMaxCrowding * double(refs)) return false;
+    for (size_t c = 0; c < cells; ++c) count[c + 1] += count[c];
+    m_begin = count;
+    m_records.resize(refs);
+    m_sphere.resize(refs);
+    forCells(spheres, [&](size_t i, size_t cell) {
+      const uint32_t slot = count[cell]++;
+      m_records[slot] = spheres[i];
+      m_sphere[slot] = static_cast<int32_t>(i);
+    });
+    return true;
+  }
+
+  // f(sphere, cell) for every cell sphere's padded box touches, spheres in order.
+  template <typename F>
+  void forCells(const std::vector<Sphere<Real>>& spheres, const F& f) const {
+    for (size_t i = 0; i < spheres.size(); ++i) {
+      int first[3], last[3];
+      for (int a = 0; a < 3; ++a) {
+        const double c = double(spheres[i].center[a]), r = double(spheres[i].radius) + m_pad;
+        first[a] = std::clamp(static_cast<int>(std::floor((c - r - m_lo[a]) * m_invCell[a])), 0, m_res[a] - 1);
+        last[a] = std::clamp(static_cast<int>(std::floor((c + r - m_lo[a]) * m_invCell[a])), 0, m_res[a] - 1);
+      }
+      for (int z = first[2]; z <= last[2]; ++z) {
+        for (int y = first[1]; y <= last[1]; ++y) {
+          for (int x = first[0]; x <= last[0]; ++x) f(i, size_t(x + y * m_stride[1] + z * m_stride[2]));
+        }
+      }
+    }
+  }
+
+  Vec3<double> m_lo{0}, m_hi{0}, m_cellSize{0}, m_invCell{0};  // the box, padded by m_pad
+  int m_res[3] = {1, 1, 1};
+  int64_t m_stride[3] = {1, 1, 1};
+  double m_pad = 0;     // how far each sphere's box is widened when registered
+  double m_extent = 0;  // the largest |coordinate| of a sphere
+  std::vector<uint32_t> m_begin;         // cell c's records: [m_begin[c], m_begin[c + 1])
+  std::vector<Sphere<Real>> m_records;   // the spheres, cell by cell
+  std::vector<int32_t> m_sphere;         // record -> the set's sphere index
+};
+
+}  // namespace durer

@@ -1,0 +1,194 @@
+// The sphere grid (SphereGrid) that incoherent rays walk: when it is made, and that searches through
+// it find what testing every sphere finds, bit for bit -- rays from inside and outside, rays parallel
+// to the cells' faces and along their diagonals, rays leaving spheres' surfaces, shadow rays' any
+// hit, and rays it will not walk (far origins), which the hierarchy takes.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include "durer/accel/SphereSet.h"
+
+using namespace durer;
+
+namespace {
+
+template <typename Real>
+struct Cloud {
+  SphereSet<Real> spheres[2];  // [0]: with a hierarchy (and so a grid), [1]: brute force
+
+  // n spheres of radii [rMin, rMax] uniform in [-half, half]^3, or all of them in one corner.
+  Cloud(unsigned seed, int n, double half, double rMin, double rMax, bool clustered = false) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(-half, half), size(rMin, rMax), corner(-half, -half * 0.9);
+    for (int32_t i = 0; i < n; ++i) {
+      const bool inCorner = clustered && i % 10 != 0;  // a tenth spread out, the rest packed in a corner
+      const Vec3d c = inCorner ? Vec3d(corner(rng), corner(rng), corner(rng)) : Vec3d(u(rng), u(rng), u(rng));
+      const Sphere<Real> s{toReal<Real>(c), static_cast<Real>(size(rng))};
+      for (int k = 0; k < 2; ++k) spheres[k].add(s, 0, i);
+    }
+    spheres[0].buildBvh(1);
+  }
+};
+
+template <typename Real>
+bool sameBits(Real a, Real b) {
+  return std::memcmp(&a, &b, sizeof a) == 0;
+}
+
+// Searches `rays` (incoherent) with the grid set and by brute force: the same nearest t bit for bit,
+// the same sphere (or one tied at that t), and any-hit searches blocked exactly where a nearest hit exists.
+template <typename Real>
+void checkRays(const Cloud<Real>& cloud, const RayPacket<Real>& rays) {
+  RayPacket<Real> fast = rays, slow = rays, shadow = rays;
+  cloud.spheres[0].template intersect<SphereMethod::Robust, false>(fast, 0, nullptr);
+  cloud.spheres[1].template intersect<SphereMethod::Robust, false>(slow, 0, nullptr);
+  cloud.spheres[0].template intersect<SphereMethod::Robust, true>(shadow, 0, nullptr);
+  for (int k = 0; k < rays.count; ++k) {
+    CAPTURE(k);
+    const double origin[3] = {double(rays.ox[k]), double(rays.oy[k]), double(rays.oz[k])};
+    const double direction[3] = {double(rays.dx[k]), double(rays.dy[k]), double(rays.dz[k])};
+    CAPTURE(origin[0]);
+    CAPTURE(origin[1]);
+    CAPTURE(origin[2]);
+    CAPTURE(direction[0]);
+    CAPTURE(direction[1]);
+    CAPTURE(direction[2]);
+    CHECK(sameBits(fast.tHit[k], slow.tHit[k]));
+    REQUIRE((fast.prim[k] == kNoPrimitive) == (slow.prim[k] == kNoPrimitive));
+    if (fast.prim[k] != kNoPrimitive && cloud.spheres[0].objectIds()[size_t(fast.prim[k])] !=
+                                            cloud.spheres[1].objectIds()[size_t(slow.prim[k])]) {
+      // Another sphere at exactly the same t (far rays' t are coarse): it must give that t alone.
+      RayPacket<Real> alone = rays;
+      alone.resetHits();
+      const SphereRayTerms<Real> terms = sphereRayTerms<SphereMethod::Robust>(rays.dx[k], rays.dy[k], rays.dz[k]);
+      SphereSet<Real>::template intersectSphere<SphereMethod::Robust>(alone, terms, k,
+                                                                      cloud.spheres[0].primitive(size_t(fast.prim[k])), 0);
+      CHECK(sameBits(alone.tHit[k], slow.tHit[k]));
+    }
+    CHECK((shadow.prim[k] == kNoPrimitive) == (slow.prim[k] == kNoPrimitive));
+  }
+}
+
+template <typename Real>
+RayPacket<Real> emptyPacket(Real tMin) {
+  RayPacket<Real> p;
+  p.count = kPacketSize;
+  p.tMin = tMin;
+  p.tMax = std::numeric_limits<Real>::infinity();
+  return p;
+}
+
+template <typename Real>
+void setRay(RayPacket<Real>& p, int k, const Vec3d& o, const Vec3d& d) {
+  p.ox[k] = Real(o.x), p.oy[k] = Real(o.y), p.oz[k] = Real(o.z);
+  p.dx[k] = Real(d.x), p.dy[k] = Real(d.y), p.dz[k] = Real(d.z);
+}
+
+// Whether the grid walks ray k (it declines rays it cannot follow exactly).
+template <typename Real>
+bool walks(const SphereGrid<Real>& grid, const RayPacket<Real>& p, int k) {
+  const double o[3] = {double(p.ox[k]), double(p.oy[k]), double(p.oz[k])};
+  const double d[3] = {double(p.dx[k]), double(p.dy[k]), double(p.dz[k])};
+  return grid.walk(o, d, double(p.tMin), double(p.tMax), [](uint32_t, uint32_t) {}, [](double) { return false; });
+}
+
+}  // namespace
+
+TEST_CASE_TEMPLATE("a grid is made for an even cloud, not for a cluster, a handful or a set without hierarchy", Real,
+                   float, double) {
+  const Cloud<Real> even(1, 4000, 10, 0.02, 0.1);
+  CHECK(even.spheres[0].grid() != nullptr);
+  CHECK(even.spheres[1].grid() == nullptr);  // no hierarchy to take the rays the grid declines
+  const Cloud<Real> clustered(2, 4000, 10, 0.02, 0.1, true);
+  CHECK(clustered.spheres[0].grid() == nullptr);
+  const Cloud<Real> few(3, int(SphereGrid<Real>::kMinSpheres) - 1, 10, 0.02, 0.1);
+  CHECK(few.spheres[0].grid() == nullptr);
+  const Cloud<Real> large(4, 400, 10, 2, 4);  // spheres spanning many cells each
+  CHECK(large.spheres[0].grid() == nullptr);
+}
+
+TEST_CASE_TEMPLATE("rays through the grid find what brute force finds, bit for bit", Real, float, double) {
+  const Cloud<Real> cloud(5, 6000, 10, 0.02, 0.3);
+  REQUIRE(cloud.spheres[0].grid() != nullptr);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> inside(-11, 11), outside(-40, 40), unit(-1, 1);
+  for (Real tMin : {-std::numeric_limits<Real>::infinity(), Real(0), std::numeric_limits<Real>::denorm_min()}) {
+    for (int trial = 0; trial < 40; ++trial) {
+      RayPacket<Real> p = emptyPacket(tMin);
+      for (int k = 0; k < p.count; ++k) {
+        const Vec3d o = k % 2 ? Vec3d(inside(rng), inside(rng), inside(rng)) : Vec3d(outside(rng), outside(rng), outside(rng));
+        setRay(p, k, o, Vec3d(unit(rng), unit(rng), unit(rng)));
+      }
+      p.resetHits();
+      checkRays(cloud, p);
+    }
+  }
+}
+
+TEST_CASE_TEMPLATE("rays parallel to cell faces, along diagonals and off spheres' surfaces find brute force's hits",
+                   Real, float, double) {
+  const Cloud<Real> cloud(6, 6000, 10, 0.02, 0.3);
+  const SphereGrid<Real>* grid = cloud.spheres[0].grid();
+  REQUIRE(grid != nullptr);
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  std::uniform_int_distribution<int> line(-12, 12);
+  std::uniform_int_distribution<size_t> pick(0, cloud.spheres[1].size() - 1);
+  // Directions with zero components (the walk never steps along those axes) and with equal ones
+  // (steps along two or three axes due at once, where rounding picks the order).
+  for (int trial = 0; trial < 60; ++trial) {
+    RayPacket<Real> p = emptyPacket(std::numeric_limits<Real>::denorm_min());
+    for (int k = 0; k < p.count; ++k) {
+      const int axis = k % 3;
+      Vec3d o(line(rng), line(rng), line(rng)), d(0);
+      switch (k % 4) {
+        case 0:  // axis-parallel along whole-number lines
+          o[axis] = -15, d[axis] = 1;
+          break;
+        case 1:  // diagonals through lattice points
+          o = Vec3d(-15, line(rng), line(rng)), d = Vec3d(1, k % 8 < 4 ? 1 : -1, k % 16 < 8 ? 1 : -1);
+          break;
+        case 2: {  // off a sphere's surface, away from it, as a reflection leaves
+          const Sphere<Real>& s = cloud.spheres[1].primitive(pick(rng));
+          const Vec3d n = glm::normalize(Vec3d(unit(rng), unit(rng), unit(rng)));
+          o = Vec3d(s.center) + double(s.radius) * n;
+          d = n + Vec3d(unit(rng), unit(rng), unit(rng)) * 0.9;
+          break;
+        }
+        default:  // in a plane of a whole-number coordinate, any direction within it
+          o = Vec3d(unit(rng) * 12, unit(rng) * 12, line(rng)), d = Vec3d(unit(rng), unit(rng), 0);
+      }
+      setRay(p, k, o, d);
+      if (k % 4 != 2) CHECK(walks(*grid, p, k));
+    }
+    p.resetHits();
+    checkRays(cloud, p);
+  }
+}
+
+TEST_CASE_TEMPLATE("rays the grid declines (far origins) are searched through the hierarchy", Real, float, double) {
+  const Cloud<Real> cloud(7, 3000, 10, 0.02, 0.3);
+  const SphereGrid<Real>* grid = cloud.spheres[0].grid();
+  REQUIRE(grid != nullptr);
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> unit(-1, 1), target(-10, 10);
+  const double far = std::is_same_v<Real, float> ? 1e7 : 1e17;
+  RayPacket<Real> p = emptyPacket(Real(0));
+  int declined = 0;
+  for (int k = 0; k < p.count; ++k) {
+    const Vec3d aim(target(rng), target(rng), target(rng));
+    const Vec3d o = k % 2 ? Vec3d(far, unit(rng) * far, 0) : Vec3d(unit(rng) * 12, unit(rng) * 12, unit(rng) * 12);
+    setRay(p, k, o, aim - o);
+    declined += walks(*grid, p, k) ? 0 : 1;
+  }
+  CHECK(declined == kPacketSize / 2);
+  p.resetHits();
+  checkRays(cloud, p);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double o[3] = {0, 0, 0}, d[3] = {nan, 1, 0};
+  CHECK_FALSE(grid->walk(o, d, 0.0, 1e30, [](uint32_t, uint32_t) {}, [](double) { return false; }));
+}
