@@ -42,7 +42,8 @@ export LD_PRELOAD=$preload
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0:abort_on_error=1:strict_string_checks=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 module=$(cd /tmp && "$venv/bin/python" -c 'import durer._core as m; print(m.__file__)')
-if ! ldd "$module" | grep -q "san\."; then
+# grep reads all of ldd's output (-q would stop at the first match, and pipefail would then see ldd's SIGPIPE)
+if ! ldd "$module" | grep "san\." > /dev/null; then
   say "$module is not linked with a sanitizer runtime"; exit 1
 fi
 say "module $module; LD_PRELOAD=$LD_PRELOAD ASAN_OPTIONS=$ASAN_OPTIONS UBSAN_OPTIONS=$UBSAN_OPTIONS"
