@@ -306,48 +306,6 @@ TEST_CASE_TEMPLATE("a leaf's prefilter, four spheres at once, decides for each a
 }
 #endif
 
-#if defined(__AVX2__) && defined(__FMA__)
-TEST_CASE("a double grid's coarse test on float records keeps every sphere robustMayMeet keeps") {
-  // The silhouette rays above, for double spheres whose grid records are rounded to float: every
-  // sphere the exact prefilter lets through must pass the coarse one, and spheres half a radius or
-  // more beyond the silhouette must not (the coarse test is a filter, not a pass-all).
-  std::mt19937_64 rng(18);
-  std::uniform_real_distribution<double> unit(-1, 1), radius(0.01, 1), along(-20, 20), beyond(1.5, 4);
-  std::uniform_int_distribution<int> ulps(-64, 64), exponent(-20, 19);
-  const double eps = std::numeric_limits<double>::epsilon();
-  int kept = 0, far = 0;
-  for (int trial = 0; trial < 40000; ++trial) {
-    const double scale = std::ldexp(1.0, exponent(rng));
-    const Vec3d d = glm::normalize(Vec3d(unit(rng), unit(rng), unit(rng)) + Vec3d(0, 0, 1e-3));
-    const Vec3d o = scale * 10.0 * Vec3d(unit(rng), unit(rng), unit(rng));
-    const SphereRayTerms<double> terms = sphereRayTerms<SphereMethod::Robust>(d.x, d.y, d.z);
-    const int count = 1 + trial % 4;
-    Sphere<float> records[4];
-    double reach = std::max(std::fabs(o.x), std::max(std::fabs(o.y), std::fabs(o.z)));
-    unsigned must = 0, mustNot = 0;
-    for (int i = 0; i < count; ++i) {
-      const double r = scale * radius(rng);
-      const bool outside = trial % 3 == 0;
-      const Vec3d side = glm::normalize(glm::cross(d, Vec3d(unit(rng), unit(rng), unit(rng))));
-      const Vec3d c = o + scale * along(rng) * d + side * (r * (outside ? beyond(rng) : 1 + ulps(rng) * eps));
-      records[i] = {toReal<float>(c), static_cast<float>(r)};
-      reach = std::max(reach, std::max(std::fabs(c.x), std::max(std::fabs(c.y), std::fabs(c.z))));
-      const double fx = o.x - c.x, fy = o.y - c.y, fz = o.z - c.z;
-      if (robustMayMeet(r, lineDistanceSq(fx, fy, fz, terms), std::fabs(fx) + std::fabs(fy) + std::fabs(fz))) {
-        must |= 1u << i, ++kept;
-      }
-      if (outside) mustNot |= 1u << i, ++far;
-    }
-    CAPTURE(trial);
-    const unsigned bits = SphereSet<double>::coarseMayMeet(records, count, o.x, o.y, o.z, terms, float(reach));
-    CHECK((bits & must) == must);
-    CHECK((bits & mustNot) == 0);
-  }
-  CHECK(kept > 10000);  // in earnest
-  CHECK(far > 10000);
-}
-#endif
-
 TEST_CASE_TEMPLATE("triangles: t and the normal from the winding; a shared edge is never missed", Real, float, double) {
   TriangleSet<Real> lower, upper;
   lower.add(triangle<Real>({0, 0, 0}, {1, 0, 0}, {1, 1, 0}), 0, 0);

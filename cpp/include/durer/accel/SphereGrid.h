@@ -1,23 +1,19 @@
 #pragma once
 // Incoherent rays (reflections, refractions, shadows toward point lights, casts) among many small
 // spheres spread through a box: a uniform grid walked cell by cell in the ray's order (Amanatides &
-// Woo), each cell's spheres copied in float next to each other so that a cell is tested as a
-// hierarchy's leaf is. A ray through a cloud of spheres crosses about a dozen cells of a few spheres
-// each; a step to the next cell is known without reading memory and mispredicts less than a node
-// visit (alone, the walk takes about half the hierarchy's time; a whole mirror render 12-22 % less).
-// Used where the spheres fill their box evenly enough (make() says); the hierarchy serves every
-// other set and ray.
+// Woo), each cell's spheres copied next to each other so that a cell is tested as a hierarchy's leaf
+// is. A ray through a cloud of spheres crosses about a dozen cells of a few spheres each; a step to
+// the next cell is known without reading memory and mispredicts less than a node visit. Used where
+// the spheres fill their box evenly enough (make() says); the hierarchy serves every other set and ray.
 //
 // Exactness: every sphere whose computed hit t is below the ray's final tHit is tested, so the grid
 // finds the hierarchy's and the brute force's hits bit for bit (ties at one t aside). The walk is
 // made in double whatever the spheres' precision; its positions are off by at most a few ulps of the
 // coordinates, and a sphere's root by the test's own error; each sphere is registered in every cell
 // its box padded by m_pad touches, and m_pad exceeds both, so a sphere whose hit lies in a cell the
-// walk stepped past by rounding is registered in a cell it visits. A double set's float records
-// only screen (SphereSet::coarseMayMeet, a superset of the exact prefilter); the sphere itself takes
-// the test. Rays for which the bound cannot be promised (origins far from the grid for the
-// precision, non-finite coordinates) are not walked: walk() says so and the caller searches the
-// hierarchy.
+// walk stepped past by rounding is registered in a cell it visits. Rays for which that bound cannot
+// be promised (origins far from the grid for the precision, non-finite coordinates) are not walked:
+// walk() says so and the caller searches the hierarchy.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -27,7 +23,6 @@
 
 #include "durer/Inline.h"
 #include "durer/geometry/Sphere.h"
-#include "durer/math/Float.h"
 #include "durer/math/Vec.h"
 
 namespace durer {
@@ -36,9 +31,11 @@ template <typename Real>
 class SphereGrid {
  public:
   // Below kMinSpheres the hierarchy is a few levels and as quick. Up to kMaxSpheres the grid was
-  // measured faster (the secondary-ray scene's colour render 12-22 % quicker from 200,000 to 3M
-  // spheres; on rays with no order among them, at 1M both wait on memory alike); beyond it its
-  // memory (20 bytes a registration, up to four a sphere) is not spent.
+  // measured faster where rays start near each other, as a render's bounces do (the secondary-ray
+  // scene's colour render 12-22 % quicker from 200,000 to 3M spheres; rays leaving random spheres in
+  // random directions, whose cells are all cold: float 14-25 % quicker, double no quicker);
+  // beyond it its memory (36 or 20 bytes a registration in double or float, up to four a sphere) is
+  // not spent.
   static constexpr size_t kMinSpheres = 64;
   static constexpr size_t kMaxSpheres = size_t(1) << 22;
   // Cells for each sphere: about 3.6 spheres a cell once boxes spanning cells count in each; fewer,
@@ -120,7 +117,7 @@ class SphereGrid {
     for (int j = 0; j < kAhead; ++j) advance();
     for (int j = 0; j < made; ++j) {
       if (j + kAhead / 2 < made) {
-        const Sphere<float>* ahead = &m_records[m_begin[size_t(ring[(j + kAhead / 2) % kAhead])]];
+        const Sphere<Real>* ahead = &m_records[m_begin[size_t(ring[(j + kAhead / 2) % kAhead])]];
         __builtin_prefetch(ahead);
         __builtin_prefetch(reinterpret_cast<const char*>(ahead) + 64);
       }
@@ -133,21 +130,16 @@ class SphereGrid {
     return true;
   }
 
-  // The records: each sphere in float, rounded to nearest (in a double set a coarse copy, half the
-  // memory; SphereSet tests it conservatively and the sphere itself exactly).
-  const Sphere<float>* records() const { return m_records.data(); }
-  double extent() const { return m_extent; }  // the largest |coordinate| of a sphere
+  const Sphere<Real>* records() const { return m_records.data(); }
   int32_t sphereOf(uint32_t record) const { return m_sphere[record]; }  // the set's index of a record's sphere
   size_t bytes() const {
-    return m_begin.size() * sizeof(uint32_t) + m_records.size() * (sizeof(Sphere<float>) + sizeof(int32_t));
+    return m_begin.size() * sizeof(uint32_t) + m_records.size() * (sizeof(Sphere<Real>) + sizeof(int32_t));
   }
 
  private:
   // A walk's positions are off by a few ulps (in double) of the coordinates involved, a sphere's root
   // by a few ulps (in Real) of them: kOriginError * (|o| + the grid's extent) bounds both, with room.
   static constexpr double kOriginError = 64 * double(std::numeric_limits<Real>::epsilon());
-  // Records in float keep their digits (and their squares stay finite) below this.
-  static constexpr double kFloatReach = 0x1p60;
 
   SphereGrid() = default;
 
@@ -181,7 +173,6 @@ class SphereGrid {
     // A root near a sphere's silhouette is off by up to about sqrt(epsilon) of its radius.
     if (4 * std::sqrt(double(std::numeric_limits<Real>::epsilon())) * radius > m_pad / 2) return false;
     if (kOriginError * 2 * m_extent > m_pad / 2) return false;  // coordinates too large for the cells
-    if (!(m_extent < kFloatReach)) return false;                  // or for the records in float
     m_lo = lo - m_pad, m_hi = hi + m_pad;
     for (int a = 0; a < 3; ++a) {
       m_cellSize[a] = (m_hi[a] - m_lo[a]) / m_res[a];
@@ -206,7 +197,7 @@ class SphereGrid {
     m_sphere.resize(refs);
     forCells(spheres, [&](size_t i, size_t cell) {
       const uint32_t slot = count[cell]++;
-      m_records[slot] = Sphere<float>{toReal<float>(spheres[i].center), static_cast<float>(spheres[i].radius)};
+      m_records[slot] = spheres[i];
       m_sphere[slot] = static_cast<int32_t>(i);
     });
     return true;
@@ -236,7 +227,7 @@ class SphereGrid {
   double m_pad = 0;     // how far each sphere's box is widened when registered
   double m_extent = 0;  // the largest |coordinate| of a sphere
   std::vector<uint32_t> m_begin;         // cell c's records: [m_begin[c], m_begin[c + 1])
-  std::vector<Sphere<float>> m_records;  // the spheres, cell by cell
+  std::vector<Sphere<Real>> m_records;   // the spheres, cell by cell
   std::vector<int32_t> m_sphere;         // record -> the set's sphere index
 };
 

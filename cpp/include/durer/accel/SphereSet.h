@@ -4,7 +4,6 @@
 #include <limits>
 #include <memory>
 #include <mutex>
-#include <type_traits>
 #include <cstdint>
 #include <vector>
 
@@ -175,12 +174,11 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       const SphereRayTerms<Real> rayTerms = terms[k];
       const double o[3] = {double(packet.ox[k]), double(packet.oy[k]), double(packet.oz[k])};
       const double d[3] = {double(packet.dx[k]), double(packet.dy[k]), double(packet.dz[k])};
-      const float reach = float(std::max(std::fabs(o[0]), std::max(std::fabs(o[1]), std::fabs(o[2]))) + grid.extent());
       const bool walked = grid.walk(
           o, d, double(packet.tMin), double(packet.tHit[k]),
           [&](uint32_t first, uint32_t n) {
             tests += n;
-            intersectCell<M>(grid, packet, rayTerms, k, first, n, primBase, reach);
+            intersectCell<M>(grid, packet, rayTerms, k, first, n, primBase);
           },
           [&](double exitT) { return AnyHit ? packet.prim[k] != kNoPrimitive : double(packet.tHit[k]) <= exitT; });
       if (!walked) others[count++] = k;
@@ -191,36 +189,27 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     });
   }
 
-  // A grid cell's records [first, first + count) against ray k, as a leaf's spheres are tested. In a
-  // float set the records are its spheres; in a double set they are float copies, which a coarse
-  // test (coarseMayMeet) screens before the sphere itself takes the full test. reach: the largest
-  // |coordinate| of the ray's origin plus the grid's extent().
+  // A grid cell's records [first, first + count) against ray k, as a leaf's spheres are tested.
   template <SphereMethod M>
   DURER_INLINE void intersectCell(const SphereGrid<Real>& grid, RayPacket<Real>& packet, const SphereRayTerms<Real>& terms,
-                                  int k, uint32_t first, uint32_t count, int32_t primBase, float reach) const {
+                                  int k, uint32_t first, uint32_t count, int32_t primBase) const {
+    const Sphere<Real>* records = grid.records();
 #if defined(__AVX2__) && defined(__FMA__)
-    const Sphere<float>* records = grid.records();
-    for (uint32_t quad = first; quad < first + count; quad += 4) {
-      const int n = std::min(4, int(first + count - quad));
-      if constexpr (std::is_same_v<Real, float>) {
+    if constexpr (M == SphereMethod::Robust) {
+      for (uint32_t quad = first; quad < first + count; quad += 4) {
+        const int n = std::min(4, int(first + count - quad));
         const unsigned may = leafMayMeet(&records[quad], n, packet.ox[k], packet.oy[k], packet.oz[k], terms);
         for (unsigned bits = may; bits != 0; bits &= bits - 1) {
           const uint32_t record = quad + uint32_t(__builtin_ctz(bits));
           intersectSphere<M, false>(packet, terms, k, records[record], primBase + grid.sphereOf(record));
         }
-      } else {
-        const unsigned may = coarseMayMeet(&records[quad], n, packet.ox[k], packet.oy[k], packet.oz[k], terms, reach);
-        for (unsigned bits = may; bits != 0; bits &= bits - 1) {
-          intersectRay<M>(packet, terms, k, size_t(grid.sphereOf(quad + uint32_t(__builtin_ctz(bits)))), primBase);
-        }
       }
-    }
-#else
-    (void)reach;
-    for (uint32_t record = first; record < first + count; ++record) {
-      intersectRay<M>(packet, terms, k, size_t(grid.sphereOf(record)), primBase);
+      return;
     }
 #endif
+    for (uint32_t record = first; record < first + count; ++record) {
+      intersectSphere<M>(packet, terms, k, records[record], primBase + grid.sphereOf(record));
+    }
   }
 
   // A leaf's spheres [first, first + count) against ray k, in order. The robust test's prefilter
@@ -349,28 +338,6 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     const V r2 = wide * wide;
     const V bound = L::set1(kGrazingBound * std::numeric_limits<Real>::epsilon()) * (r2 + lineDistance2);
     return L::greaterMask(r2 - lineDistance2, bound) & ((1u << count) - 1);
-  }
-#endif
-
-#if defined(__AVX2__) && defined(__FMA__)
-  // For a double set's grid: a bit for each float record s[0 .. count) that the sphere it was rounded
-  // from may meet, a superset of robustMayMeet's bits. The float arithmetic and the records' rounding
-  // are off by at most a few float epsilons of the coordinates involved (reach, the origin's offset
-  // from the centre, the radius), which widen the radius 64 times over; lanes past `count` are off.
-  DURER_INLINE static unsigned coarseMayMeet(const Sphere<float>* s, int count, Real ox, Real oy, Real oz,
-                                             const SphereRayTerms<Real>& t, float reach) {
-    using L = LeafLanes<float>;
-    using V = typename L::V;
-    const int last = count - 1;
-    V cx, cy, cz, r;
-    L::transpose(&s[0].center.x, last < 1 ? last : 1, last < 2 ? last : 2, last < 3 ? last : 3, cx, cy, cz, r);
-    const V fx = L::set1(float(ox)) - cx, fy = L::set1(float(oy)) - cy, fz = L::set1(float(oz)) - cz;
-    const V sx = L::set1(float(t.sx)), sy = L::set1(float(t.sy)), sz = L::set1(float(t.sz));
-    const V crossX = fy * sz - fz * sy, crossY = fz * sx - fx * sz, crossZ = fx * sy - fy * sx;
-    const V lineDistance2 = (crossX * crossX + crossY * crossY + crossZ * crossZ) * L::set1(float(t.invA));
-    const V fL1 = L::abs(fx) + L::abs(fy) + L::abs(fz);
-    const V wide = r + L::set1(64 * std::numeric_limits<float>::epsilon()) * (L::set1(reach) + fL1 + r);
-    return L::greaterMask(wide * wide, lineDistance2) & ((1u << count) - 1);
   }
 #endif
 
