@@ -22,7 +22,9 @@
 #include <vector>
 
 #include "durer/Inline.h"
+#include "durer/geometry/Slab.h"
 #include "durer/geometry/Sphere.h"
+#include "durer/math/Float.h"
 #include "durer/math/Vec.h"
 
 namespace durer {
@@ -64,30 +66,23 @@ class SphereGrid {
   template <typename TestCell, typename Done>
   DURER_INLINE bool walk(const double (&o)[3], const double (&d)[3], double tMin, double tHit, TestCell&& testCell,
                          Done&& done) const {
-    double scale = 0, inv[3];
+    double inv[3];
     for (int a = 0; a < 3; ++a) {
       inv[a] = 1 / d[a];
       if (!std::isfinite(o[a]) || !std::isfinite(d[a]) || (d[a] != 0 && !std::isfinite(inv[a]))) return false;
-      scale = std::max(scale, std::fabs(o[a]));
     }
     if (d[0] == 0 && d[1] == 0 && d[2] == 0) return false;
-    if (kOriginError * (scale + m_extent) > m_pad) return false;
+    if (kOriginError * (maxAbs(Vec3d(o[0], o[1], o[2])) + m_extent) > m_pad) return false;
     // The ray's span inside the grid's box.
     double t0 = tMin, t1 = tHit;
-    for (int a = 0; a < 3; ++a) {
-      double near = (m_lo[a] - o[a]) * inv[a], far = (m_hi[a] - o[a]) * inv[a];
-      if (near > far) std::swap(near, far);
-      if (d[a] != 0) t0 = std::max(t0, near), t1 = std::min(t1, far);
-      else if (o[a] < m_lo[a] || o[a] > m_hi[a]) return true;  // parallel to the slab, outside it
-    }
+    for (int a = 0; a < 3; ++a) slab(m_lo[a], m_hi[a], o[a], inv[a], t0, t1);
     if (!(t0 < t1)) return true;
     // The cell holding the entry point, each axis' step, and the t of the next boundary along each.
     int cell[3], step[3], stop[3];
     double next[3];
     int64_t index = 0;
     for (int a = 0; a < 3; ++a) {
-      const double p = o[a] + t0 * d[a];
-      cell[a] = std::clamp(static_cast<int>(std::floor((p - m_lo[a]) * m_invCell[a])), 0, m_res[a] - 1);
+      cell[a] = cellAlong(a, o[a] + t0 * d[a]);
       step[a] = d[a] > 0 ? 1 : -1;
       stop[a] = d[a] > 0 ? m_res[a] : -1;
       next[a] = boundaryT(a, cell[a], step[a], o[a], d[a], inv[a]);
@@ -132,9 +127,6 @@ class SphereGrid {
 
   const Sphere<Real>* records() const { return m_records.data(); }
   int32_t sphereOf(uint32_t record) const { return m_sphere[record]; }  // the set's index of a record's sphere
-  size_t bytes() const {
-    return m_begin.size() * sizeof(uint32_t) + m_records.size() * (sizeof(Sphere<Real>) + sizeof(int32_t));
-  }
 
  private:
   // A walk's positions are off by a few ulps (in double) of the coordinates involved, a sphere's root
@@ -142,6 +134,11 @@ class SphereGrid {
   static constexpr double kOriginError = 64 * double(std::numeric_limits<Real>::epsilon());
 
   SphereGrid() = default;
+
+  // The cell holding coordinate x along axis a, the grid's edge cells for anything beyond them.
+  DURER_INLINE int cellAlong(int a, double x) const {
+    return std::clamp(static_cast<int>(std::floor((x - m_lo[a]) * m_invCell[a])), 0, m_res[a] - 1);
+  }
 
   DURER_INLINE double boundaryT(int a, int cell, int step, double o, double d, double inv) const {
     if (d == 0) return std::numeric_limits<double>::infinity();
@@ -168,8 +165,7 @@ class SphereGrid {
     }
     const double smallest = std::min(size.x / m_res[0], std::min(size.y / m_res[1], size.z / m_res[2]));
     m_pad = std::max(smallest, largest / kMaxCellsPerAxis) / 256;
-    m_extent = std::max(std::max(std::fabs(lo.x), std::fabs(hi.x)), std::max(std::max(std::fabs(lo.y), std::fabs(hi.y)),
-                                                                        std::max(std::fabs(lo.z), std::fabs(hi.z))));
+    m_extent = std::max(maxAbs(lo), maxAbs(hi));
     // A root near a sphere's silhouette is off by up to about sqrt(epsilon) of its radius.
     if (4 * std::sqrt(double(std::numeric_limits<Real>::epsilon())) * radius > m_pad / 2) return false;
     if (kOriginError * 2 * m_extent > m_pad / 2) return false;  // coordinates too large for the cells
@@ -210,8 +206,7 @@ class SphereGrid {
       int first[3], last[3];
       for (int a = 0; a < 3; ++a) {
         const double c = double(spheres[i].center[a]), r = double(spheres[i].radius) + m_pad;
-        first[a] = std::clamp(static_cast<int>(std::floor((c - r - m_lo[a]) * m_invCell[a])), 0, m_res[a] - 1);
-        last[a] = std::clamp(static_cast<int>(std::floor((c + r - m_lo[a]) * m_invCell[a])), 0, m_res[a] - 1);
+        first[a] = cellAlong(a, c - r), last[a] = cellAlong(a, c + r);
       }
       for (int z = first[2]; z <= last[2]; ++z) {
         for (int y = first[1]; y <= last[1]; ++y) {

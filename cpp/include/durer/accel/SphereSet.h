@@ -148,9 +148,14 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       }
     }
     compute();
+    const auto testLeaf = [&](int32_t first, int32_t count, int k) {
+      intersectLeaf<M>(packet, terms[k], k, first, count, primBase);
+    };
     if constexpr (M == SphereMethod::Robust) {  // the grid's bound on a root's error is the robust test's
       if (AnyHit || !packet.coherent) {          // the rays search() would walk one by one
-        if (const SphereGrid<Real>* spheres = grid()) return searchGrid<M, AnyHit>(*spheres, packet, terms, primBase, cancel);
+        if (const SphereGrid<Real>* spheres = grid()) {
+          return searchGrid<M, AnyHit>(*spheres, packet, terms, primBase, cancel, testLeaf);
+        }
       }
     }
     return this->template search<AnyHit>(
@@ -158,14 +163,14 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
         [&](int32_t first, int32_t count) {
           for (int32_t i = first; i < first + count; ++i) intersectOne<M>(packet, terms, static_cast<size_t>(i), primBase);
         },
-        [&](int32_t first, int32_t count, int k) { intersectLeaf<M>(packet, terms[k], k, first, count, primBase); });
+        testLeaf);
   }
 
-  // The packet's rays through the grid (those it cannot walk through the hierarchy), each lowering
-  // its tHit as intersect() does.
-  template <SphereMethod M, bool AnyHit>
+  // The packet's rays through the grid (those it cannot walk through the hierarchy, testing its
+  // leaves with testLeaf(first, count, k)), each lowering its tHit as intersect() does.
+  template <SphereMethod M, bool AnyHit, typename TestLeaf>
   int64_t searchGrid(const SphereGrid<Real>& grid, RayPacket<Real>& packet, const PacketRayTerms<Real>& terms,
-                     int32_t primBase, const std::atomic<bool>* cancel) const {
+                     int32_t primBase, const std::atomic<bool>* cancel, const TestLeaf& testLeaf) const {
     if (cancel && cancel->load(std::memory_order_relaxed)) return 0;
     int64_t tests = 0;
     int others[kPacketSize], count = 0;
@@ -184,9 +189,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       if (!walked) others[count++] = k;
     }
     if (count == 0) return tests;
-    return tests + this->template searchRays<AnyHit>(packet, others, count, [&](int32_t first, int32_t n, int k) {
-      intersectLeaf<M>(packet, terms[k], k, first, n, primBase);
-    });
+    return tests + this->template searchRays<AnyHit>(packet, others, count, testLeaf);
   }
 
   // A grid cell's records [first, first + count) against ray k, as a leaf's spheres are tested.
