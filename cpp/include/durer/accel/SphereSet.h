@@ -181,7 +181,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       const double d[3] = {double(packet.dx[k]), double(packet.dy[k]), double(packet.dz[k])};
       const bool walked = grid.walk(
           o, d, double(packet.tMin), double(packet.tHit[k]),
-          [&](uint32_t first, uint32_t n) {
+          [&](uint32_t first, uint32_t n) DURER_INLINE_LAMBDA {
             tests += n;
             intersectCell<M>(grid, packet, rayTerms, k, first, n, primBase);
           },
