@@ -27,9 +27,12 @@ class HugeArray {
   static constexpr size_t kHugePage = size_t(2) << 20;
   static constexpr size_t kHugeFrom = size_t(32) << 20;
 
-  explicit HugeArray(size_t n) {
+  HugeArray() = default;
+  // hugeFrom: the size from which to ask for huge pages (kHugeFrom for arrays made anew each render;
+  // an array kept across renders pays for them from a few pages' worth).
+  explicit HugeArray(size_t n, size_t hugeFrom = kHugeFrom) {
     const size_t bytes = n * sizeof(T);
-    if (bytes < kHugeFrom) {
+    if (bytes < hugeFrom) {
       m_small.reset(new T[n]);
       m_data = m_small.get();
       return;

@@ -21,6 +21,7 @@
 #include <memory>
 #include <vector>
 
+#include "durer/HugeArray.h"
 #include "durer/Inline.h"
 #include "durer/geometry/Slab.h"
 #include "durer/geometry/Sphere.h"
@@ -125,7 +126,7 @@ class SphereGrid {
     return true;
   }
 
-  const Sphere<Real>* records() const { return m_records.data(); }
+  const Sphere<Real>* records() const { return m_records.get(); }
   int32_t sphereOf(uint32_t record) const { return m_sphere[record]; }  // the set's index of a record's sphere
 
  private:
@@ -188,9 +189,10 @@ class SphereGrid {
     for (size_t c = 1; c <= cells; ++c) crowding += double(count[c]) * double(count[c]);
     if (crowding > kMaxCrowding * double(refs)) return false;
     for (size_t c = 0; c < cells; ++c) count[c + 1] += count[c];
-    m_begin = count;
-    m_records.resize(refs);
-    m_sphere.resize(refs);
+    m_begin = HugeArray<uint32_t>(cells + 1, kHugeFrom);
+    std::copy(count.begin(), count.end(), &m_begin[0]);
+    m_records = HugeArray<Sphere<Real>>(refs, kHugeFrom);
+    m_sphere = HugeArray<int32_t>(refs, kHugeFrom);
     forCells(spheres, [&](size_t i, size_t cell) {
       const uint32_t slot = count[cell]++;
       m_records[slot] = spheres[i];
@@ -221,9 +223,13 @@ class SphereGrid {
   int64_t m_stride[3] = {1, 1, 1};
   double m_pad = 0;     // how far each sphere's box is widened when registered
   double m_extent = 0;  // the largest |coordinate| of a sphere
-  std::vector<uint32_t> m_begin;         // cell c's records: [m_begin[c], m_begin[c + 1])
-  std::vector<Sphere<Real>> m_records;   // the spheres, cell by cell
-  std::vector<int32_t> m_sphere;         // record -> the set's sphere index
+  // In 2 MiB pages where the system gives them (HugeArray) from 4 MiB on: a ray's cells lie
+  // scattered over megabytes of records, each step on another 4 KiB page (measured: the secondary
+  // scene's reflection rays 3-11 % quicker a ray, its render 5-9 %).
+  static constexpr size_t kHugeFrom = size_t(4) << 20;
+  HugeArray<uint32_t> m_begin;           // cell c's records: [m_begin[c], m_begin[c + 1])
+  HugeArray<Sphere<Real>> m_records;     // the spheres, cell by cell
+  HugeArray<int32_t> m_sphere;           // record -> the set's sphere index
 };
 
 }  // namespace durer
