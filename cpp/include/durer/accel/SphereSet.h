@@ -183,7 +183,8 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
           o, d, double(packet.tMin), double(packet.tHit[k]),
           [&](uint32_t first, uint32_t n) DURER_INLINE_LAMBDA {
             tests += n;
-            intersectCell<M>(grid, packet, rayTerms, k, first, n, primBase);
+            intersectRun<M>(packet, rayTerms, k, grid.records(), first, n,
+                            [&](size_t record) { return primBase + grid.sphereOf(uint32_t(record)); });
           },
           [&](double exitT) { return AnyHit ? packet.prim[k] != kNoPrimitive : double(packet.tHit[k]) <= exitT; });
       if (!walked) others[count++] = k;
@@ -192,48 +193,35 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     return tests + this->template searchRays<AnyHit>(packet, others, count, testLeaf);
   }
 
-  // A grid cell's records [first, first + count) against ray k, as a leaf's spheres are tested.
-  template <SphereMethod M>
-  DURER_INLINE void intersectCell(const SphereGrid<Real>& grid, RayPacket<Real>& packet, const SphereRayTerms<Real>& terms,
-                                  int k, uint32_t first, uint32_t count, int32_t primBase) const {
-    const Sphere<Real>* records = grid.records();
-#if defined(__AVX2__) && defined(__FMA__)
-    if constexpr (M == SphereMethod::Robust) {
-      for (uint32_t quad = first; quad < first + count; quad += 4) {
-        const int n = std::min(4, int(first + count - quad));
-        const unsigned may = leafMayMeet(&records[quad], n, packet.ox[k], packet.oy[k], packet.oz[k], terms);
-        for (unsigned bits = may; bits != 0; bits &= bits - 1) {
-          const uint32_t record = quad + uint32_t(__builtin_ctz(bits));
-          intersectSphere<M, false>(packet, terms, k, records[record], primBase + grid.sphereOf(record));
-        }
-      }
-      return;
-    }
-#endif
-    for (uint32_t record = first; record < first + count; ++record) {
-      intersectSphere<M>(packet, terms, k, records[record], primBase + grid.sphereOf(record));
-    }
-  }
-
-  // A leaf's spheres [first, first + count) against ray k, in order. The robust test's prefilter
-  // (most spheres a ray's walk reaches miss it) is made for the whole leaf at once where the kernel
-  // set has AVX2 and FMA: one branch a leaf instead of a mispredicted one every few spheres.
+  // A leaf's spheres [first, first + count) against ray k, in order (intersectRun).
   template <SphereMethod M>
   DURER_INLINE void intersectLeaf(RayPacket<Real>& packet, const SphereRayTerms<Real>& terms, int k, int32_t first,
                                   int32_t count, int32_t primBase) const {
+    intersectRun<M>(packet, terms, k, this->m_primitives.data(), size_t(first), size_t(count),
+                    [&](size_t i) { return primBase + static_cast<int32_t>(i); });
+  }
+
+  // Spheres [first, first + count) of `spheres` (a hierarchy leaf's, or a grid cell's records)
+  // against ray k, in order, sphere i recorded as idOf(i). The robust test's prefilter (most spheres
+  // a ray's walk reaches miss it) is made four spheres at a time where the kernel set has AVX2 and
+  // FMA: one branch a leaf instead of a mispredicted one every few spheres.
+  template <SphereMethod M, typename IdOf>
+  DURER_INLINE static void intersectRun(RayPacket<Real>& packet, const SphereRayTerms<Real>& terms, int k,
+                                        const Sphere<Real>* spheres, size_t first, size_t count, const IdOf& idOf) {
 #if defined(__AVX2__) && defined(__FMA__)
     if constexpr (M == SphereMethod::Robust) {  // four at a time: spheres the build cannot split share a leaf
-      for (int32_t quad = first; quad < first + count; quad += 4) {
-        const int n = std::min(4, int(first + count - quad));
-        const unsigned may = leafMayMeet(&this->m_primitives[size_t(quad)], n, packet.ox[k], packet.oy[k], packet.oz[k], terms);
+      for (size_t quad = first; quad < first + count; quad += 4) {
+        const int n = int(std::min<size_t>(4, first + count - quad));
+        const unsigned may = leafMayMeet(&spheres[quad], n, packet.ox[k], packet.oy[k], packet.oz[k], terms);
         for (unsigned bits = may; bits != 0; bits &= bits - 1) {
-          intersectRay<M, false>(packet, terms, k, static_cast<size_t>(quad + __builtin_ctz(bits)), primBase);
+          const size_t i = quad + size_t(__builtin_ctz(bits));
+          intersectSphere<M, false>(packet, terms, k, spheres[i], idOf(i));
         }
       }
       return;
     }
 #endif
-    for (int32_t i = first; i < first + count; ++i) intersectRay<M>(packet, terms, k, static_cast<size_t>(i), primBase);
+    for (size_t i = first; i < first + count; ++i) intersectSphere<M>(packet, terms, k, spheres[i], idOf(i));
   }
 
   // One sphere against ray k: the same arithmetic as intersectOne's loop, so the same t. Without
