@@ -189,10 +189,10 @@ class SphereGrid {
     for (size_t c = 1; c <= cells; ++c) crowding += double(count[c]) * double(count[c]);
     if (crowding > kMaxCrowding * double(refs)) return false;
     for (size_t c = 0; c < cells; ++c) count[c + 1] += count[c];
-    m_begin = HugeArray<uint32_t>(cells + 1, kHugeFrom);
+    m_begin = HugeArray<uint32_t>(cells + 1, kHugePagesFrom);
     std::copy(count.begin(), count.end(), &m_begin[0]);
-    m_records = HugeArray<Sphere<Real>>(refs, kHugeFrom);
-    m_sphere = HugeArray<int32_t>(refs, kHugeFrom);
+    m_records = HugeArray<Sphere<Real>>(refs, kHugePagesFrom);
+    m_sphere = HugeArray<int32_t>(refs, kHugePagesFrom);
     forCells(spheres, [&](size_t i, size_t cell) {
       const uint32_t slot = count[cell]++;
       m_records[slot] = spheres[i];
@@ -226,7 +226,7 @@ class SphereGrid {
   // In 2 MiB pages where the system gives them (HugeArray) from 4 MiB on: a ray's cells lie
   // scattered over megabytes of records, each step on another 4 KiB page (measured: the secondary
   // scene's reflection rays 3-11 % quicker a ray, its render 5-9 %).
-  static constexpr size_t kHugeFrom = size_t(4) << 20;
+  static constexpr size_t kHugePagesFrom = size_t(4) << 20;
   HugeArray<uint32_t> m_begin;           // cell c's records: [m_begin[c], m_begin[c + 1])
   HugeArray<Sphere<Real>> m_records;     // the spheres, cell by cell
   HugeArray<int32_t> m_sphere;           // record -> the set's sphere index
