@@ -32,6 +32,7 @@ import durer  # noqa: E402
 import numpy as np  # noqa: E402
 from durer.render import DEFAULT_PASSES  # noqa: E402
 from durer.reports.machine import machine  # noqa: E402
+from embree_compare import machine_busy_seconds  # noqa: E402
 
 DEFAULT_RUNS = 7
 MIN_RUNS_FOR_MEDIAN = 5
@@ -139,17 +140,6 @@ class CpuClock:
         if self.machine is None or start.machine is None:
             return None
         return max(0.0, (self.machine - start.machine) - (self.own - start.own)) / (self.wall - start.wall)
-
-
-def machine_busy_seconds() -> float | None:
-    """Non-idle CPU time of all cores since boot, from /proc/stat (Linux only)."""
-    try:
-        with open("/proc/stat") as stat:
-            fields = [int(value) for value in stat.readline().split()[1:9]]
-    except (OSError, ValueError):
-        return None
-    user, nice, system, idle, iowait, irq, softirq, steal = fields
-    return (user + nice + system + irq + softirq + steal) / os.sysconf("SC_CLK_TCK")
 
 
 def measure_durer(
