@@ -111,6 +111,28 @@ TEST_CASE_TEMPLATE("a grid is made for an even cloud, not for a cluster, a handf
   CHECK(large.spheres[0].grid() == nullptr);
 }
 
+// The refusals are relative to the cells: a cloud packed unevenly but not into a cluster (60 % of it
+// in an eighth of its box: in the cell of an average registration 16.5 spheres, against an even
+// cloud's 5.5 there) keeps its grid; spheres spanning more cells than the limit (radius 0.3: 3.5 on
+// average; 0.2: 2.5) do not get one.
+TEST_CASE_TEMPLATE("a grid's refusals: uneven clouds keep one, spheres large for the cells do not", Real, float, double) {
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> whole(-10, 10), eighth(-10, 0);
+  const auto cloud = [&](double share, double radius) {
+    SphereSet<Real> set;
+    for (int32_t i = 0; i < 20000; ++i) {
+      const bool packed = i < int32_t(share * 20000);
+      const Vec3d c = packed ? Vec3d(eighth(rng), eighth(rng), eighth(rng)) : Vec3d(whole(rng), whole(rng), whole(rng));
+      set.add(Sphere<Real>{toReal<Real>(c), static_cast<Real>(radius)}, 0, i);
+    }
+    set.buildBvh(1);
+    return set;
+  };
+  CHECK(cloud(0.6, 0.05).grid() != nullptr);
+  CHECK(cloud(0, 0.2).grid() != nullptr);
+  CHECK(cloud(0, 0.3).grid() == nullptr);
+}
+
 TEST_CASE_TEMPLATE("rays through the grid find what brute force finds, bit for bit", Real, float, double) {
   const Cloud<Real> cloud(5, 6000, 10, 0.02, 0.3);
   REQUIRE(cloud.spheres[0].grid() != nullptr);
