@@ -37,6 +37,25 @@ def test_a_dense_cloud_seen_from_inside_and_outside(precision):
 
 
 @pytest.mark.parametrize("precision", ["float", "double"])
+def test_deep_cells_keep_their_spheres_nearest_first(precision):
+    """Thousands of spheres behind each 8x8 cell (a dense column seen end on), in layers of equal
+    depth (ties), at depths of every order of magnitude (lower bounds differing in every byte): a
+    cell's list is sorted by bytes from 64 entries on, and the search stops at the first sphere
+    beyond every ray's hit, so a misplaced entry shows as a hit missed or one too far."""
+    rng = np.random.default_rng(17)
+    layers = np.repeat(np.concatenate([-np.geomspace(1e-3, 50.0, 60), np.geomspace(1e-3, 50.0, 60)]), 60)
+    centers = np.column_stack([rng.uniform(-0.1, 0.1, layers.size), rng.uniform(-0.1, 0.1, layers.size), layers])
+    scene = durer.Scene()
+    scene.add_spheres(centers, rng.choice([0.004, 0.01, 0.03], layers.size))
+    camera = durer.OrthographicCamera((0, 0, 60), (0, 0, -1), (0, 1, 0), size=0.22)
+    _, hit = assert_render_matches_cast(scene, camera, 32, 24, precision)
+    assert hit.mean() > 0.5
+    # The same through the far side (t_min = -inf: spheres behind the image plane, negative bounds).
+    behind = durer.OrthographicCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), size=0.22, t_min=-np.inf)
+    assert_render_matches_cast(scene, behind, 32, 24, precision)
+
+
+@pytest.mark.parametrize("precision", ["float", "double"])
 def test_spheres_a_pixel_across_or_less(precision):
     """50,000 spheres of 0.2 to 1.5 pixels across: each lists only the pixel rows it covers, and a
     ray must still meet every sphere over its own pixel, also with several samples per pixel."""

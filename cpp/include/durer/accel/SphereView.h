@@ -17,6 +17,7 @@
 #include <memory>
 #include <vector>
 
+#include "durer/HugeArray.h"
 #include "durer/Inline.h"
 #include "durer/accel/Bvh.h"
 #include "durer/geometry/RayPacket.h"
@@ -166,10 +167,10 @@ class SphereView {
     }
     for (int j = 0; j < n; ++j) {  // the entries the searches read first, and the nearest spans
       const uint32_t begin = m_first[cells[j]], end = m_first[cells[j] + 1];
-      const char* entries = reinterpret_cast<const char*>(m_entries.data() + begin);
+      const char* entries = reinterpret_cast<const char*>(m_entries.get() + begin);
       const size_t bytes = (end - begin) * sizeof(Entry);
       for (size_t b = 0; b < std::min<size_t>(bytes, 512); b += 64) __builtin_prefetch(entries + b);
-      __builtin_prefetch(m_spans.data() + begin);
+      __builtin_prefetch(m_spans.get() + begin);
     }
     for (int j = 0; j < n; ++j) ends[j] = upperBound(m_first[cells[j]], m_first[cells[j] + 1], reaches[j]);
     int64_t tested = 0;
@@ -252,14 +253,17 @@ class SphereView {
 
   // Sorts entries [begin, end), placed in the spheres' order, nearest first (their tLow, then
   // the sphere), with their spans; the vectors are scratch space.
-  void sortCell(uint32_t begin, uint32_t end, std::vector<uint64_t>& order, std::vector<Entry>& entries,
-                std::vector<uint16_t>& spans);
+  void sortCell(uint32_t begin, uint32_t end, std::vector<uint64_t>& order, std::vector<uint64_t>& scratch,
+                std::vector<Entry>& entries, std::vector<uint16_t>& spans);
+  // Sorts `order` (keys in the high 32 bits above their places, placed in order) as std::sort
+  // would: a byte of the key at a time, stably, skipping the bytes all keys share.
+  static void radixSort(std::vector<uint64_t>& order, std::vector<uint64_t>& scratch);
 
   int m_cellX = 0, m_cellY = 0;       // the first cell's column and row in the image's cells
   int m_cellsX = 0, m_cellsY = 0;
   std::vector<uint32_t> m_first;      // cell c's entries: [m_first[c], m_first[c + 1]), cells row by row
-  std::vector<Entry> m_entries;
-  std::vector<uint16_t> m_spans;      // the pixel rows and columns of its cell entry e's sphere covers (spanOf)
+  HugeArray<Entry> m_entries;
+  HugeArray<uint16_t> m_spans;        // the pixel rows and columns of its cell entry e's sphere covers (spanOf)
   ParallelProjection m_light;         // a light's view: its image
 };
 
@@ -273,11 +277,15 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
   view->m_cellsY = (y + height + kCell - 1) / kCell - view->m_cellY;
   struct Cells {
     int32_t x0, x1, y0, y1;  // inclusive; x0 > x1: none
-    int32_t row0, row1;      // the pixel rows it covers (from the view's first cell's first row), within its cells' rows
-    int32_t column0, column1;  // and columns (from the first cell's first column), within its cells' columns
   };
-  std::vector<Cells> cells(count);
-  std::vector<float> tLows(count);
+  // Each sphere's cells, and its footprint's first pixel row and column in its first cell and last
+  // in its last (spanOf; every cell between is covered whole): 18 bytes a sphere, which every band
+  // below reads in full. These and the entries are left unset until written and lie in huge pages
+  // once large (HugeArray): at 10M spheres they are ~0.5 GB, which a vector would zero before they
+  // are written, and 4 KiB pages would fault in ~100,000 times, for each new camera pose.
+  HugeArray<Cells> cells(count);
+  HugeArray<uint16_t> edges(count);
+  HugeArray<float> tLows(count);
   const double cellsX = view->m_cellsX, cellsY = view->m_cellsY;
   std::atomic<double> entries{0};
   parallelChunks(count, threads, [&](size_t begin, size_t end) {
@@ -286,7 +294,7 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
       SampleBox box;
       double tLow;
       Cells& c = cells[i];
-      c = {1, 0, 1, 0, 0, 0, 0, 0};
+      c = {1, 0, 1, 0};
       if (!footprint(i, box, tLow)) continue;
       // Cell coordinates relative to the view's first cell, clamped to it (in double: infinite
       // ends and huge boxes stay ordered).
@@ -297,11 +305,14 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
       if (!(x0 <= x1 && y0 <= y1)) continue;
       const double firstRow = y0 * kCell, lastRow = y1 * kCell + kCell - 1;
       const double firstColumn = x0 * kCell, lastColumn = x1 * kCell + kCell - 1;
-      c = {int32_t(x0), int32_t(x1), int32_t(y0), int32_t(y1),
-           int32_t(std::clamp(std::floor(box.y0) - view->m_cellY * kCell, firstRow, lastRow)),
-           int32_t(std::clamp(std::floor(box.y1) - view->m_cellY * kCell, firstRow, lastRow)),
-           int32_t(std::clamp(std::floor(box.x0) - view->m_cellX * kCell, firstColumn, lastColumn)),
-           int32_t(std::clamp(std::floor(box.x1) - view->m_cellX * kCell, firstColumn, lastColumn))};
+      c = {int32_t(x0), int32_t(x1), int32_t(y0), int32_t(y1)};
+      const auto within = [](double pixel, double first, double last, double cellStart) {
+        return std::clamp(int(std::clamp(pixel, first, last) - cellStart), 0, kCell - 1);
+      };
+      edges[i] = spanOf(within(std::floor(box.y0) - view->m_cellY * kCell, firstRow, lastRow, firstRow),
+                        within(std::floor(box.y1) - view->m_cellY * kCell, firstRow, lastRow, y1 * kCell),
+                        within(std::floor(box.x0) - view->m_cellX * kCell, firstColumn, lastColumn, firstColumn),
+                        within(std::floor(box.x1) - view->m_cellX * kCell, firstColumn, lastColumn, x1 * kCell));
       tLows[i] = floatBelow(tLow);
       made += (x1 - x0 + 1) * (y1 - y0 + 1);
     }
@@ -336,45 +347,67 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
     for (int32_t cx = c.x0; cx <= c.x1; ++cx) ++first[size_t(cy) * cellsWide + size_t(cx) + 1];
   });
   for (size_t cell = 0; cell < cellCount; ++cell) first[cell + 1] += first[cell];
-  view->m_entries.resize(first[cellCount]);
-  view->m_spans.resize(first[cellCount]);
+  view->m_entries = HugeArray<Entry>(first[cellCount]);
+  view->m_spans = HugeArray<uint16_t>(first[cellCount]);
   std::vector<uint32_t> next(first.begin(), first.end() - 1);
   overBands([&](uint32_t i, const Cells& c, int32_t cy) {
-    const int row0 = std::clamp(c.row0 - cy * kCell, 0, kCell - 1);
-    const int row1 = std::clamp(c.row1 - cy * kCell, 0, kCell - 1);
+    const uint16_t edge = edges[i];
+    const int row0 = cy == c.y0 ? firstRowOf(edge) : 0, row1 = cy == c.y1 ? lastRowOf(edge) : kCell - 1;
     for (int32_t cx = c.x0; cx <= c.x1; ++cx) {
       const uint32_t e = next[size_t(cy) * cellsWide + size_t(cx)]++;
-      const int column0 = std::clamp(c.column0 - cx * kCell, 0, kCell - 1);
-      const int column1 = std::clamp(c.column1 - cx * kCell, 0, kCell - 1);
+      const int column0 = cx == c.x0 ? firstColumnOf(edge) : 0, column1 = cx == c.x1 ? lastColumnOf(edge) : kCell - 1;
       view->m_entries[e] = {i, tLows[i]};
       view->m_spans[e] = spanOf(row0, row1, column0, column1);
     }
   });
   forChunks(size_t(view->m_cellsY), bands, [&](size_t, size_t rowBegin, size_t rowEnd) {
-    std::vector<uint64_t> order;
+    std::vector<uint64_t> order, scratch;
     std::vector<Entry> cellEntries;
     std::vector<uint16_t> cellSpans;
     for (size_t cell = rowBegin * cellsWide; cell < rowEnd * cellsWide; ++cell) {
-      view->sortCell(first[cell], first[cell + 1], order, cellEntries, cellSpans);
+      view->sortCell(first[cell], first[cell + 1], order, scratch, cellEntries, cellSpans);
     }
   });
   return view;
 }
 
 template <typename Real>
-void SphereView<Real>::sortCell(uint32_t begin, uint32_t end, std::vector<uint64_t>& order, std::vector<Entry>& entries,
+void SphereView<Real>::sortCell(uint32_t begin, uint32_t end, std::vector<uint64_t>& order,
+                                std::vector<uint64_t>& scratch, std::vector<Entry>& entries,
                                 std::vector<uint16_t>& spans) {
   if (end - begin < 2) return;
   // Placed in the spheres' order, so (key, place) sorts equal bounds by sphere: one order for any threads.
   order.clear();
   for (uint32_t e = begin; e < end; ++e) order.push_back(uint64_t(orderKey(m_entries[e].tLow)) << 32 | (e - begin));
-  std::sort(order.begin(), order.end());
-  entries.assign(m_entries.begin() + begin, m_entries.begin() + end);
-  spans.assign(m_spans.begin() + begin, m_spans.begin() + end);
+  // Deep cells (many spheres behind each other: a dense cloud's, ~700 a cell at 10M spheres) by
+  // bytes, whose passes do not branch on the keys; std::sort's comparisons mispredict about every
+  // other one.
+  constexpr uint32_t kRadixFrom = 64;
+  if (end - begin < kRadixFrom) {
+    std::sort(order.begin(), order.end());
+  } else {
+    radixSort(order, scratch);
+  }
+  entries.assign(m_entries.get() + begin, m_entries.get() + end);
+  spans.assign(m_spans.get() + begin, m_spans.get() + end);
   for (uint32_t j = 0; j < end - begin; ++j) {
     const uint32_t from = uint32_t(order[j]);
     m_entries[begin + j] = entries[from];
     m_spans[begin + j] = spans[from];
+  }
+}
+
+template <typename Real>
+void SphereView<Real>::radixSort(std::vector<uint64_t>& order, std::vector<uint64_t>& scratch) {
+  const size_t n = order.size();
+  scratch.resize(n);
+  for (int shift = 32; shift < 64; shift += 8) {
+    size_t start[257] = {};
+    for (const uint64_t v : order) ++start[((v >> shift) & 0xff) + 1];
+    if (std::find(start + 1, start + 257, n) != start + 257) continue;  // one byte for all: no move
+    for (int b = 0; b < 256; ++b) start[b + 1] += start[b];
+    for (const uint64_t v : order) scratch[start[(v >> shift) & 0xff]++] = v;
+    order.swap(scratch);
   }
 }
 
