@@ -103,7 +103,7 @@ std::unique_lock<std::mutex> Scene::changeGeometry() {
 }
 
 template <typename Real>
-std::shared_ptr<const Group<Real>> Scene::prepared(int threads) const {
+std::shared_ptr<const Group<Real>> Scene::prepared(int threads, bool hierarchies) const {
   std::lock_guard<std::mutex> lock(m_preparedMutex);
   Prepared<Real>& cached = [this]() -> Prepared<Real>& {
     if constexpr (std::is_same_v<Real, float>) return m_preparedFloat;
@@ -111,6 +111,7 @@ std::shared_ptr<const Group<Real>> Scene::prepared(int threads) const {
   }();
   const int workers = threads > 0 ? threads : defaultThreadCount();
   const auto start = std::chrono::steady_clock::now();
+  if (cached.group && hierarchies && !cached.hierarchies) cached.group.reset();  // renders holding it keep it
   if (cached.group && cached.moved) {
     // A render still tracing the old geometry holds it too: it cannot change under that render.
     if (cached.group.use_count() == 1) {
@@ -123,7 +124,8 @@ std::shared_ptr<const Group<Real>> Scene::prepared(int threads) const {
   }
   if (!cached.group) {
     cached.group = std::make_shared<Group<Real>>(m_group);
-    cached.group->prepare(workers);
+    cached.group->prepare(workers, hierarchies);
+    cached.hierarchies = hierarchies;
     ++m_hierarchyCounts.built;
   }
   m_hierarchyCounts.milliseconds +=
@@ -136,8 +138,8 @@ Scene::HierarchyCounts Scene::hierarchyCounts() const {
   return m_hierarchyCounts;
 }
 
-template std::shared_ptr<const Group<float>> Scene::prepared<float>(int) const;
-template std::shared_ptr<const Group<double>> Scene::prepared<double>(int) const;
+template std::shared_ptr<const Group<float>> Scene::prepared<float>(int, bool) const;
+template std::shared_ptr<const Group<double>> Scene::prepared<double>(int, bool) const;
 
 int32_t Scene::takeObjectIds(size_t count) {
   if (count > static_cast<size_t>(std::numeric_limits<int32_t>::max() - m_objectCount)) {

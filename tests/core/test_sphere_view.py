@@ -37,6 +37,37 @@ def test_a_dense_cloud_seen_from_inside_and_outside(precision):
 
 
 @pytest.mark.parametrize("precision", ["float", "double"])
+def test_camera_rays_alone_need_no_hierarchy(precision):
+    """A render of camera rays alone (no shadows, bounces or occlusion) prepares the spheres without
+    their hierarchy, which a cast (or a render with other rays) then makes: the same image either way,
+    bit for bit, moved spheres included."""
+    rng = np.random.default_rng(23)
+    centers = rng.uniform(-1, 1, (20_000, 3))
+    scene = durer.Scene()
+    ids = scene.add_spheres(centers, 0.02)
+    camera = durer.PerspectiveCamera((0.2, 0.1, 3), (-0.05, -0.02, -1), (0, 1, 0), fov_degrees=45)
+
+    def render():
+        return durer.render(scene, camera, width=64, height=48, spp=2, passes=PASSES, precision=precision, threads=2)
+
+    before = render()
+    assert scene.hierarchy_counts["built"] == 1
+    durer.cast(scene, [[0.0, 0.0, 5.0]], [[0.0, 0.0, -1.0]], precision=precision)
+    assert scene.hierarchy_counts["built"] == 2  # made again, with the hierarchy
+    after = render()
+    assert scene.hierarchy_counts["built"] == 2  # which a render of camera rays uses as it is
+    for name in PASSES:
+        np.testing.assert_array_equal(getattr(before, name), getattr(after, name))
+    assert (before.object_id >= 0).mean() > 0.5
+    scene.move_spheres(ids, centers + 0.01)
+    moved = render()
+    fresh = durer.Scene()
+    fresh.add_spheres(centers + 0.01, 0.02)
+    np.testing.assert_array_equal(moved.depth, durer.render(fresh, camera, width=64, height=48, spp=2, passes=PASSES,
+                                                            precision=precision, threads=2).depth)
+
+
+@pytest.mark.parametrize("precision", ["float", "double"])
 def test_deep_cells_keep_their_spheres_nearest_first(precision):
     """Thousands of spheres behind each 8x8 cell (a dense column seen end on), in layers of equal
     depth (ties), at depths of every order of magnitude (lower bounds differing in every byte): a

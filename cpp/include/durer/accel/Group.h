@@ -137,12 +137,12 @@ class Group {
     return c;
   }
 
-  // Ready for tracing: hierarchies where they pay (built on up to `threads` threads), the instances'
-  // packed ranges and world bounds.
-  void prepare(int threads) {
+  // Ready for tracing: hierarchies where they pay (built on up to `threads` threads; this group's own
+  // spheres' only if `ownSpheres`), the instances' packed ranges and world bounds.
+  void prepare(int threads, bool ownSpheres = true) {
     // Below this many primitives a packet tests them all faster than its rays walk a hierarchy.
     constexpr size_t kBvhMinPrimitives = 16;
-    if (m_spheres.size() >= kBvhMinPrimitives) m_spheres.buildBvh(threads);
+    if (m_spheres.size() >= kBvhMinPrimitives) ownSpheres ? m_spheres.buildBvh(threads) : m_spheres.arrange(threads);
     if (m_triangles.size() >= kBvhMinPrimitives) m_triangles.buildBvh(threads);
     if (m_boxes.size() >= kBvhMinPrimitives) m_boxes.buildBvh(threads);
     size_t base = ownPrimitiveCount();

@@ -94,7 +94,11 @@ class PrimitiveSet {
   template <typename BoxOf>
   void buildBvh(const BoxOf& boxOf, int threads) {
     const auto boxOfIndex = [&](size_t i, Vec3<Real>& lo, Vec3<Real>& hi) { boxOf(m_primitives[i], lo, hi); };
-    const std::vector<uint32_t> order = m_bvh.build(m_primitives.size(), boxOfIndex, threads);
+    reorder(m_bvh.build(m_primitives.size(), boxOfIndex, threads), threads);
+  }
+
+  // Puts primitive order[j] (and its ids) at place j, for every j.
+  void reorder(const std::vector<uint32_t>& order, int threads) {
     permute(m_primitives, order, threads);
     permute(m_materials, order, threads);
     permute(m_objectIds, order, threads);
@@ -207,7 +211,7 @@ class PrimitiveSet {
   std::vector<int32_t> m_objectIds;
   std::vector<Colors> m_colors;         // empty, or one entry per primitive
   Bvh<Real> m_bvh;                      // empty: brute force
-  std::vector<uint32_t> m_sourceIndex;  // with a hierarchy: primitive i's index in the set converted from
+  std::vector<uint32_t> m_sourceIndex;  // once reordered: primitive i's index in the set converted from
 };
 
 }  // namespace durer

@@ -22,6 +22,7 @@
 #include "durer/accel/SphereView.h"
 #include "durer/geometry/SphereIntersection.h"
 #include "durer/math/Float.h"
+#include "durer/math/RadixSort.h"
 #include "durer/math/Vec.h"
 
 namespace durer {
@@ -81,6 +82,30 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   void buildBvh(int threads) {
     m_grid.clear();
     Base::buildBvh(kBoxOf, threads);
+  }
+
+  // Without a hierarchy: the spheres (and their ids) in the order of their centres along a Morton
+  // curve, as a hierarchy's order would keep spheres near each other near in memory: the camera's
+  // view lists them cell by cell and its rays read them so (in the order given, often random, a new
+  // pose of 1M spheres took 1.4x as long, each render again 1.2x).
+  void arrange(int threads) {
+    const size_t n = this->m_primitives.size();
+    if (n < 2) return;
+    Vec3d lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (const Sphere<Real>& s : this->m_primitives) lo = glm::min(lo, Vec3d(s.center)), hi = glm::max(hi, Vec3d(s.center));
+    constexpr double kSteps = 255;  // 8 bits an axis: 16M boxes, three passes of the sort
+    const Vec3d scale = kSteps / glm::max(hi - lo, Vec3d(std::numeric_limits<double>::min()));
+    std::vector<uint64_t> keyed(n), scratch;
+    parallelChunks(n, threads, [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i) {
+        const Vec3d q = glm::clamp((Vec3d(this->m_primitives[i].center) - lo) * scale, Vec3d(0), Vec3d(kSteps));
+        keyed[i] = uint64_t(mortonCode(uint32_t(q.x), uint32_t(q.y), uint32_t(q.z))) << 32 | i;
+      }
+    });
+    radixSortByHigh32(keyed, scratch);
+    std::vector<uint32_t> order(n);
+    for (size_t j = 0; j < n; ++j) order[j] = uint32_t(keyed[j]);
+    this->reorder(order, threads);
   }
 
   // The spheres of `source`, the set this one was made from, after they moved (Base::refitFrom).
@@ -357,6 +382,17 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
 
  private:
   using Base = PrimitiveSet<Sphere<Real>, Real>;
+
+  // The bits of x, y and z (up to 10 each) interleaved, x lowest.
+  static uint32_t mortonCode(uint32_t x, uint32_t y, uint32_t z) {
+    const auto spread = [](uint32_t v) {  // bit i to bit 3i
+      v = (v | (v << 16)) & 0x030000ffu;
+      v = (v | (v << 8)) & 0x0300f00fu;
+      v = (v | (v << 4)) & 0x030c30c3u;
+      return (v | (v << 2)) & 0x09249249u;
+    };
+    return spread(x) | spread(y) << 1 | spread(z) << 2;
+  }
 
   // The views last made: the last camera's (an animation's moving camera leaves no trail of stale
   // views) and the last few lights'. The next render of the same camera and lights reuses them. A copy

@@ -22,6 +22,7 @@
 #include "durer/accel/Bvh.h"
 #include "durer/geometry/RayPacket.h"
 #include "durer/math/Float.h"
+#include "durer/math/RadixSort.h"
 #include "durer/math/Vec.h"
 
 namespace durer {
@@ -255,9 +256,6 @@ class SphereView {
   // the sphere), with their spans; the vectors are scratch space.
   void sortCell(uint32_t begin, uint32_t end, std::vector<uint64_t>& order, std::vector<uint64_t>& scratch,
                 std::vector<Entry>& entries, std::vector<uint16_t>& spans);
-  // Sorts `order` (keys in the high 32 bits above their places, placed in order) as std::sort
-  // would: a byte of the key at a time, stably, skipping the bytes all keys share.
-  static void radixSort(std::vector<uint64_t>& order, std::vector<uint64_t>& scratch);
 
   int m_cellX = 0, m_cellY = 0;       // the first cell's column and row in the image's cells
   int m_cellsX = 0, m_cellsY = 0;
@@ -386,7 +384,7 @@ void SphereView<Real>::sortCell(uint32_t begin, uint32_t end, std::vector<uint64
   if (end - begin < kRadixFrom) {
     std::sort(order.begin(), order.end());
   } else {
-    radixSort(order, scratch);
+    radixSortByHigh32(order, scratch);
   }
   entries.assign(m_entries.get() + begin, m_entries.get() + end);
   spans.assign(m_spans.get() + begin, m_spans.get() + end);
@@ -394,20 +392,6 @@ void SphereView<Real>::sortCell(uint32_t begin, uint32_t end, std::vector<uint64
     const uint32_t from = uint32_t(order[j]);
     m_entries[begin + j] = entries[from];
     m_spans[begin + j] = spans[from];
-  }
-}
-
-template <typename Real>
-void SphereView<Real>::radixSort(std::vector<uint64_t>& order, std::vector<uint64_t>& scratch) {
-  const size_t n = order.size();
-  scratch.resize(n);
-  for (int shift = 32; shift < 64; shift += 8) {
-    size_t start[257] = {};
-    for (const uint64_t v : order) ++start[((v >> shift) & 0xff) + 1];
-    if (std::find(start + 1, start + 257, n) != start + 257) continue;  // one byte for all: no move
-    for (int b = 0; b < 256; ++b) start[b + 1] += start[b];
-    for (const uint64_t v : order) scratch[start[(v >> shift) & 0xff]++] = v;
-    order.swap(scratch);
   }
 }
 

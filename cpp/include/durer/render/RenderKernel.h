@@ -4,6 +4,7 @@
 // (src/kernels), each compiled once per instruction set.
 #include <algorithm>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "durer/render/AdaptiveSampler.h"
@@ -18,10 +19,20 @@ RenderStats renderWith(const RenderJob& job) {
   const RenderSettings& settings = job.settings;
   const RenderTargets& targets = job.targets;
   JobControl& control = job.control;
-  const std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>(settings.threads);
-  const Group<Real>& group = *prepared;
   const EffectSet& effects = job.effects;
-  const tiles::TileRenderer<Real, M> tiles(scene, group, spec, settings, targets, effects, control.cancel);
+  // Camera rays search the scene's own spheres through the camera's view, never their hierarchy:
+  // a render with no other rays (shadows, bounces, occlusion) is prepared without it (at 10M spheres
+  // most of a first render's time), unless the view is refused.
+  const bool cameraRaysOnly = !effects.shadows && !effects.bounces() && !effects.occlusion;
+  std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>(settings.threads, !cameraRaysOnly);
+  std::optional<tiles::TileRenderer<Real, M>> made;
+  made.emplace(scene, *prepared, spec, settings, targets, effects, control.cancel);
+  if (cameraRaysOnly && !made->viewsSpheres() && prepared->spheres().size() > 0) {
+    made.reset();
+    prepared = scene.prepared<Real>(settings.threads, true);
+    made.emplace(scene, *prepared, spec, settings, targets, effects, control.cancel);
+  }
+  const tiles::TileRenderer<Real, M>& tiles = *made;
   RenderStats stats;
   stats.effects = effects;
   stats.threads = settings.threads > 0 ? settings.threads : defaultThreadCount();

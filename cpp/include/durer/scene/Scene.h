@@ -90,9 +90,11 @@ class Scene {
   HierarchyCounts hierarchyCounts() const;
   // The geometry as traced in precision Real: rounded to it, with its acceleration structure. Built
   // on first use (on `threads` threads, 0: all cores) and kept until the scene changes; safe to call
-  // from concurrent renders.
+  // from concurrent renders. hierarchies false: for a caller whose rays never walk the scene's own
+  // spheres' hierarchy (a render of camera rays alone, which the camera's view serves), made without
+  // it, and made again with it when a caller asks for it.
   template <typename Real>
-  std::shared_ptr<const Group<Real>> prepared(int threads) const;
+  std::shared_ptr<const Group<Real>> prepared(int threads, bool hierarchies = true) const;
   const std::vector<Material>& materials() const { return m_materials; }
   const std::vector<DirectionalLight>& directionalLights() const { return m_directionalLights; }
   const std::vector<PointLight>& pointLights() const { return m_pointLights; }
@@ -163,6 +165,7 @@ class Scene {
   struct Prepared {
     std::shared_ptr<Group<Real>> group;
     bool moved = false;
+    bool hierarchies = true;  // the scene's own spheres' hierarchy built (Group::prepare)
   };
 
   Group<double> m_group;
