@@ -111,7 +111,10 @@ std::shared_ptr<const Group<Real>> Scene::prepared(int threads, bool hierarchies
   }();
   const int workers = threads > 0 ? threads : defaultThreadCount();
   const auto start = std::chrono::steady_clock::now();
-  if (cached.group && hierarchies && !cached.hierarchies) cached.group.reset();  // renders holding it keep it
+  if (cached.group && hierarchies && !cached.hierarchies) {  // made again with it (renders holding it keep it)
+    cached.group.reset();
+    cached.moved = false;
+  }
   if (cached.group && cached.moved) {
     // A render still tracing the old geometry holds it too: it cannot change under that render.
     if (cached.group.use_count() == 1) {

@@ -43,8 +43,14 @@ def test_camera_rays_alone_need_no_hierarchy(precision):
     bit for bit, moved spheres included."""
     rng = np.random.default_rng(23)
     centers = rng.uniform(-1, 1, (20_000, 3))
-    scene = durer.Scene()
-    ids = scene.add_spheres(centers, 0.02)
+
+    def scene_of(at):
+        made = durer.Scene()
+        made.add_spheres(at, 0.02)
+        return made
+
+    scene = scene_of(centers)
+    ids = np.arange(len(centers))
     camera = durer.PerspectiveCamera((0.2, 0.1, 3), (-0.05, -0.02, -1), (0, 1, 0), fov_degrees=45)
 
     def render():
@@ -61,10 +67,20 @@ def test_camera_rays_alone_need_no_hierarchy(precision):
     assert (before.object_id >= 0).mean() > 0.5
     scene.move_spheres(ids, centers + 0.01)
     moved = render()
-    fresh = durer.Scene()
-    fresh.add_spheres(centers + 0.01, 0.02)
+    fresh = scene_of(centers + 0.01)
     np.testing.assert_array_equal(moved.depth, durer.render(fresh, camera, width=64, height=48, spp=2, passes=PASSES,
                                                             precision=precision, threads=2).depth)
+    # Moved while prepared without the hierarchy, then a cast: made anew with it, and nothing left
+    # to refit for the next call.
+    durer.render(fresh, camera, width=8, height=8, precision=precision)
+    fresh.move_spheres(np.arange(len(centers)), centers)
+    origins, directions = (a.reshape(-1, 3) for a in camera.rays(64, 48, precision))
+    expected = durer.cast(scene_of(centers), origins, directions, precision=precision)
+    for _ in range(2):
+        cast = durer.cast(fresh, origins, directions, precision=precision)
+        np.testing.assert_array_equal(cast.t, expected.t)
+        np.testing.assert_array_equal(cast.object_id, expected.object_id)
+    assert (fresh.hierarchy_counts["built"], fresh.hierarchy_counts["refitted"]) == (2, 0)
 
 
 @pytest.mark.parametrize("precision", ["float", "double"])

@@ -142,7 +142,13 @@ class Group {
   void prepare(int threads, bool ownSpheres = true) {
     // Below this many primitives a packet tests them all faster than its rays walk a hierarchy.
     constexpr size_t kBvhMinPrimitives = 16;
-    if (m_spheres.size() >= kBvhMinPrimitives) ownSpheres ? m_spheres.buildBvh(threads) : m_spheres.arrange(threads);
+    if (m_spheres.size() >= kBvhMinPrimitives) {
+      if (ownSpheres) {
+        m_spheres.buildBvh(threads);
+      } else {
+        m_spheres.arrange(threads);
+      }
+    }
     if (m_triangles.size() >= kBvhMinPrimitives) m_triangles.buildBvh(threads);
     if (m_boxes.size() >= kBvhMinPrimitives) m_boxes.buildBvh(threads);
     size_t base = ownPrimitiveCount();

@@ -95,11 +95,13 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     for (const Sphere<Real>& s : this->m_primitives) lo = glm::min(lo, Vec3d(s.center)), hi = glm::max(hi, Vec3d(s.center));
     constexpr double kSteps = 255;  // 8 bits an axis: 16M boxes, three passes of the sort
     const Vec3d scale = kSteps / glm::max(hi - lo, Vec3d(std::numeric_limits<double>::min()));
+    // A step along each axis; 0 where the extent overflowed (NaN: inf times 0), the last step beyond.
+    const auto step = [&](double v) { return uint32_t(v > 0 ? std::min(v, kSteps) : 0.0); };
     std::vector<uint64_t> keyed(n), scratch;
     parallelChunks(n, threads, [&](size_t begin, size_t end) {
       for (size_t i = begin; i < end; ++i) {
-        const Vec3d q = glm::clamp((Vec3d(this->m_primitives[i].center) - lo) * scale, Vec3d(0), Vec3d(kSteps));
-        keyed[i] = uint64_t(mortonCode(uint32_t(q.x), uint32_t(q.y), uint32_t(q.z))) << 32 | i;
+        const Vec3d q = (Vec3d(this->m_primitives[i].center) - lo) * scale;
+        keyed[i] = uint64_t(mortonCode(step(q.x), step(q.y), step(q.z))) << 32 | i;
       }
     });
     radixSortByHigh32(keyed, scratch);
