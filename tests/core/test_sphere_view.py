@@ -73,7 +73,7 @@ def test_camera_rays_alone_need_no_hierarchy(precision):
     # Moved while prepared without the hierarchy, then a cast: made anew with it, and nothing left
     # to refit for the next call.
     durer.render(fresh, camera, width=8, height=8, precision=precision)
-    fresh.move_spheres(np.arange(len(centers)), centers)
+    fresh.move_spheres(ids, centers)
     origins, directions = (a.reshape(-1, 3) for a in camera.rays(64, 48, precision))
     expected = durer.cast(scene_of(centers), origins, directions, precision=precision)
     for _ in range(2):

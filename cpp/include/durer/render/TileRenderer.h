@@ -68,11 +68,11 @@ class TileRenderer {
     }
   }
 
-  // The whole image's tiles that meet the region (a region's tiles are the image's, clipped).
   // Whether camera rays search the scene's own spheres through the camera's view (none made where it
   // would not pay: they walk the spheres' hierarchy then).
   bool viewsSpheres() const { return m_view != nullptr; }
 
+  // The whole image's tiles that meet the region (a region's tiles are the image's, clipped).
   int64_t tileCount() const {
     const int tilesY = (m_region.y + m_region.height + kTileSize - 1) / kTileSize - m_firstTileY;
     return static_cast<int64_t>(m_tilesX) * tilesY;
