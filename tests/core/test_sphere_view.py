@@ -220,6 +220,50 @@ def test_sun_shadows_are_where_a_brute_force_puts_them(precision, direction):
     np.testing.assert_array_equal(lit[clear], expected_lit[clear])
 
 
+@pytest.mark.parametrize("precision", ["float", "double"])
+def test_sun_shadows_need_no_hierarchy(precision):
+    """Shadow rays toward a sun search the sun's view, so a render whose only other rays they are
+    prepares the spheres without their hierarchy, as a render of camera rays alone does; a point
+    light's shadow rays, or a sun's view refused (a few spheres far larger than the rest would fill
+    too many of its cells), need it. The same image with the hierarchy, bit for bit."""
+    rng = np.random.default_rng(31)
+    scene, centers, radii = _sun_scene(rng, 3000, (1, -2, -1))
+    camera = durer.PerspectiveCamera((0, 2, 3), (0, -0.6, -1), (0, 1, 0), fov_degrees=50)
+
+    def render(of):
+        return durer.render(of, camera, width=64, height=48, passes=("color", "depth"), precision=precision,
+                            threads=2)
+
+    def cast_one(of):
+        durer.cast(of, [[0.0, 5.0, 0.0]], [[0.0, -1.0, 0.0]], precision=precision)
+
+    before = render(scene)
+    assert scene.hierarchy_counts["built"] == 1
+    cast_one(scene)
+    assert scene.hierarchy_counts["built"] == 2  # prepared again, now with the hierarchy
+    after = render(scene)
+    np.testing.assert_array_equal(before.color, after.color)
+    np.testing.assert_array_equal(before.depth, after.depth)
+    lit = before.color[..., :3].sum(axis=-1) > 0
+    assert 0.1 < lit[before.depth < np.inf].mean() < 0.9  # lit and shadowed pixels both
+
+    pointed, _, _ = _sun_scene(np.random.default_rng(31), 3000, (1, -2, -1))
+    pointed.add_point_light((0.0, 2.0, 0.0), (1.0, 1.0, 1.0), shadows=True)
+    render(pointed)
+    cast_one(pointed)
+    assert pointed.hierarchy_counts["built"] == 1  # built with the hierarchy at once
+
+    uneven, _, _ = _sun_scene(np.random.default_rng(31), 3000, (1, -2, -1))
+    # Ten spheres of radius 100 far under the ground: the sun's cells, four mean radii across, are
+    # small for them, and they would fill too many.
+    uneven.add_spheres(np.column_stack([rng.uniform(-5, 5, 10), np.full(10, -300.0), rng.uniform(-5, 5, 10)]), 100.0)
+    first = render(uneven)
+    assert uneven.hierarchy_counts["built"] == 2  # the sun's view refused: prepared again, with it
+    cast_one(uneven)
+    assert uneven.hierarchy_counts["built"] == 2
+    np.testing.assert_array_equal(first.color, render(uneven).color)
+
+
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(sun_cases())
 def test_sun_shadows_at_any_scale_find_what_a_brute_force_finds(case):

@@ -12,6 +12,13 @@
 
 namespace durer {
 
+// Whether a point or spot light casts shadows (its shadow rays walk the spheres' hierarchy).
+inline bool pointShadows(const Scene& scene) {
+  const auto casts = [](const auto& light) { return light.shadows; };
+  return std::any_of(scene.pointLights().begin(), scene.pointLights().end(), casts) ||
+         std::any_of(scene.spotLights().begin(), scene.spotLights().end(), casts);
+}
+
 template <typename Real, SphereMethod M>
 RenderStats renderWith(const RenderJob& job) {
   const Scene& scene = job.scene;
@@ -20,14 +27,15 @@ RenderStats renderWith(const RenderJob& job) {
   const RenderTargets& targets = job.targets;
   JobControl& control = job.control;
   const EffectSet& effects = job.effects;
-  // Camera rays search the scene's own spheres through the camera's view, never their hierarchy:
-  // a render with no other rays (shadows, bounces, occlusion) is prepared without it (at 10M spheres
-  // most of a first render's time), unless the view is refused.
-  const bool cameraRaysOnly = !effects.shadows && !effects.bounces() && !effects.occlusion;
-  std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>(settings.threads, !cameraRaysOnly);
+  // Camera rays search the scene's own spheres through the camera's view, and a directional light's
+  // shadow rays through the light's, never their hierarchy: a render with no other rays on them
+  // (bounces, occlusion, shadows toward a point or spot light) is prepared without it (at 10M spheres
+  // most of a first render's time), unless a view is refused.
+  const bool viewsOnly = !effects.bounces() && !effects.occlusion && !(effects.shadows && pointShadows(scene));
+  std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>(settings.threads, !viewsOnly);
   std::optional<tiles::TileRenderer<Real, M>> made;
   made.emplace(scene, *prepared, spec, settings, targets, effects, control.cancel);
-  if (cameraRaysOnly && !made->viewsSpheres() && prepared->spheres().size() > 0) {
+  if (viewsOnly && !made->viewsSpheres()) {
     made.reset();
     prepared = scene.prepared<Real>(settings.threads, true);
     made.emplace(scene, *prepared, spec, settings, targets, effects, control.cancel);

@@ -68,9 +68,21 @@ class TileRenderer {
     }
   }
 
-  // Whether camera rays search the scene's own spheres through the camera's view (none made where it
-  // would not pay: they walk the spheres' hierarchy then).
-  bool viewsSpheres() const { return m_view != nullptr; }
+  // Whether camera rays search the scene's own spheres through the camera's view, and the shadow
+  // rays toward each directional light casting shadows through the light's (none made where it
+  // would not pay: they walk the spheres' hierarchy then). Below a light view's threshold the rays
+  // test every sphere (no hierarchy is built there either).
+  bool viewsSpheres() const {
+    const size_t spheres = m_group.spheres().size();
+    if (spheres == 0) return true;
+    if (m_view == nullptr) return false;
+    for (size_t l = 0; l < m_lightViews.size(); ++l) {
+      const ShadingLight<Real>& light = m_shading.lights()[l];
+      const bool needed = light.kind == ShadingLight<Real>::Kind::Directional && light.shadows;
+      if (needed && m_lightViews[l] == nullptr && spheres >= SphereView<Real>::kMinLightSpheres) return false;
+    }
+    return true;
+  }
 
   // The whole image's tiles that meet the region (a region's tiles are the image's, clipped).
   int64_t tileCount() const {
