@@ -178,39 +178,53 @@ def test_camera_rays_test_the_front_spheres_only():
     assert res.stats["intersection_tests"] / res.stats["rays"] < 32  # of 16,000 spheres
 
 
-def _sun_scene(rng, n, direction):
+def _sun_scene(rng, n, direction=None, position=None):
+    """Spheres over a ground plane, lit with shadows by a sun along `direction` and/or a point light at
+    `position`."""
     scene = durer.Scene()
     white = scene.add_material(diffuse=(1.0, 1.0, 1.0))
     centers = np.column_stack([rng.uniform(-1, 1, n), rng.uniform(0.0, 0.4, n), rng.uniform(-1, 1, n)])
     radii = rng.uniform(0.01, 0.04, n)
     scene.add_spheres(centers, radii, material=white)
     scene.add_plane((0, 1, 0), 0.0, material=white)
-    scene.add_directional_light(direction, (1, 1, 1), shadows=True)
+    if direction is not None:
+        scene.add_directional_light(direction, (1, 1, 1), shadows=True)
+    if position is not None:
+        scene.add_point_light(position, (1, 1, 1), shadows=True)
     scene.ambient = (0.0, 0.0, 0.0)
     return scene, centers, radii
 
 
+LIGHTS = [("sun", (1, -2, -1)), ("sun", (0.05, -1, 0.02)), ("sun", (-3, -1, 0.5)),  # direction
+          ("point", (0.2, 1.5, -0.1)), ("point", (0.05, 0.2, 0.03)), ("point", (1.2, 1.2, 1.2))]  # position
+
+
 @pytest.mark.parametrize("precision", ["float", "double"])
-@pytest.mark.parametrize("direction", [(1, -2, -1), (0.05, -1, 0.02), (-3, -1, 0.5)])
-def test_sun_shadows_are_where_a_brute_force_puts_them(precision, direction):
-    """Shadow rays toward a sun go through the sun's own view of the spheres: a pixel is lit exactly
-    where a brute force over every sphere finds nothing between its hit point and the sun (pixels
-    whose shadow ray grazes a sphere, or whose surface turns from the light, set aside: the two may
-    round them either way)."""
-    rng = np.random.default_rng(21)
-    scene, centers, radii = _sun_scene(rng, 1500, direction)
+@pytest.mark.parametrize("light", LIGHTS, ids=lambda light: f"{light[0]}{light[1]}")
+def test_shadows_are_where_a_brute_force_puts_them(precision, light):
+    """Shadow rays toward a sun go through the sun's own view of the spheres, toward a point light
+    through its six faces' views: a pixel is lit exactly where a brute force over every sphere finds
+    nothing between its hit point and the light (pixels whose shadow ray grazes a sphere, or whose
+    surface turns from the light, set aside: the two may round them either way); the point light
+    above the spheres, among them, or on the edges of its faces (a cube's diagonal toward them)."""
+    kind, where = light
+    rng = np.random.default_rng(21 if kind == "sun" else 22)
+    scene, centers, radii = _sun_scene(rng, 1500, **{"direction" if kind == "sun" else "position": where})
     camera = durer.OrthographicCamera((0, 3, 3), (0, -1, -1), (0, 1, 0), size=2.4)
     size = 96
     res = durer.render(scene, camera, width=size, height=size, passes=("color", "object_id"), precision=precision,
                        threads=2)
+    assert scene.hierarchy_counts["built"] == 1
     origins, directions = camera.rays(size, size)
     cast = durer.cast(scene, origins.reshape(-1, 3), directions.reshape(-1, 3), t_min=camera.t_min)
     hit = cast.object_id >= 0
     np.testing.assert_array_equal(res.object_id.reshape(-1), cast.object_id)
     points = origins.reshape(-1, 3)[hit] + cast.t[hit, None] * directions.reshape(-1, 3)[hit]
-    to_sun = -np.asarray(direction, float) / np.linalg.norm(direction)
-    cosine = cast.normal[hit] @ to_sun
-    blocked, unclear = brute_force_shadows(points, to_sun, centers, radii, cast.object_id[hit])
+    to_light = -np.asarray(where, float) if kind == "sun" else np.asarray(where, float) - points
+    unit = np.broadcast_to(to_light / np.linalg.norm(to_light, axis=-1, keepdims=True), points.shape)
+    cosine = np.einsum("ij,ij->i", cast.normal[hit], unit)
+    blocked, unclear = brute_force_shadows(points, to_light if kind == "point" else unit[0], centers, radii,
+                                           cast.object_id[hit], segment=kind == "point")
     unclear |= np.abs(cosine) < 1e-4
     expected_lit = (cosine > 0) & ~blocked
     lit = res.color.reshape(-1, 4)[hit, :3].sum(axis=1) > 0
@@ -221,13 +235,12 @@ def test_sun_shadows_are_where_a_brute_force_puts_them(precision, direction):
 
 
 @pytest.mark.parametrize("precision", ["float", "double"])
-def test_sun_shadows_need_no_hierarchy(precision):
-    """Shadow rays toward a sun search the sun's view, so a render whose only other rays they are
-    prepares the spheres without their hierarchy, as a render of camera rays alone does; a point
-    light's shadow rays, or a sun's view refused (a few spheres far larger than the rest would fill
-    too many of its cells), need it. The same image with the hierarchy, bit for bit."""
+def test_shadows_toward_suns_and_point_lights_need_no_hierarchy(precision):
+    """Shadow rays toward a sun or a point light search the light's view, so a render whose only
+    other rays they are prepares the spheres without their hierarchy, as a render of camera rays
+    alone does; a light's view refused (a few spheres far larger than the rest would fill too many of
+    its cells) needs it. The same image with the hierarchy, bit for bit."""
     rng = np.random.default_rng(31)
-    scene, centers, radii = _sun_scene(rng, 3000, (1, -2, -1))
     camera = durer.PerspectiveCamera((0, 2, 3), (0, -0.6, -1), (0, 1, 0), fov_degrees=50)
 
     def render(of):
@@ -237,21 +250,18 @@ def test_sun_shadows_need_no_hierarchy(precision):
     def cast_one(of):
         durer.cast(of, [[0.0, 5.0, 0.0]], [[0.0, -1.0, 0.0]], precision=precision)
 
-    before = render(scene)
-    assert scene.hierarchy_counts["built"] == 1
-    cast_one(scene)
-    assert scene.hierarchy_counts["built"] == 2  # prepared again, now with the hierarchy
-    after = render(scene)
-    np.testing.assert_array_equal(before.color, after.color)
-    np.testing.assert_array_equal(before.depth, after.depth)
-    lit = before.color[..., :3].sum(axis=-1) > 0
-    assert 0.1 < lit[before.depth < np.inf].mean() < 0.9  # lit and shadowed pixels both
-
-    pointed, _, _ = _sun_scene(np.random.default_rng(31), 3000, (1, -2, -1))
-    pointed.add_point_light((0.0, 2.0, 0.0), (1.0, 1.0, 1.0), shadows=True)
-    render(pointed)
-    cast_one(pointed)
-    assert pointed.hierarchy_counts["built"] == 1  # built with the hierarchy at once
+    sunlit, _, _ = _sun_scene(rng, 3000, (1, -2, -1))
+    pointed, _, _ = _sun_scene(np.random.default_rng(31), 3000, (1, -2, -1), (0.3, 0.9, -0.2))
+    for scene in (sunlit, pointed):
+        before = render(scene)
+        assert scene.hierarchy_counts["built"] == 1
+        cast_one(scene)
+        assert scene.hierarchy_counts["built"] == 2  # prepared again, now with the hierarchy
+        after = render(scene)
+        np.testing.assert_array_equal(before.color, after.color)
+        np.testing.assert_array_equal(before.depth, after.depth)
+        lit = before.color[..., :3].sum(axis=-1) > 0
+        assert 0.1 < lit[before.depth < np.inf].mean() < 0.9  # lit and shadowed pixels both
 
     uneven, _, _ = _sun_scene(np.random.default_rng(31), 3000, (1, -2, -1))
     # Ten spheres of radius 100 far under the ground: the sun's cells, four mean radii across, are
@@ -271,8 +281,8 @@ def test_sun_shadows_at_any_scale_find_what_a_brute_force_finds(case):
 
 
 def test_sun_views_with_other_lights_and_after_a_move():
-    """Two suns and a point light (its shadow rays walk the hierarchy): the render equals the one of a
-    fresh scene, also after the spheres move (every view of the old positions dropped)."""
+    """Two suns and a point light, each with its view: the render equals the one of a fresh scene,
+    also after the spheres move (every view of the old positions dropped)."""
     rng = np.random.default_rng(8)
     centers = rng.uniform(-1, 1, (800, 3))
 

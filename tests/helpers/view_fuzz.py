@@ -1,8 +1,8 @@
 """Random cases for the views of the spheres (cpp/include/durer/accel/SphereView.h): sphere clouds
 at scales from 1e-3 to 1e4 and offsets to 1e6, seen by orthographic and perspective cameras from
 inside and outside, at odd image sizes and regions, in both precisions; a render's camera rays must
-find exactly what a cast of the same rays finds, and its sun's shadow rays (through the sun's view)
-what a brute force over every sphere finds (tests/core/test_sphere_view.py runs a fixed number,
+find exactly what a cast of the same rays finds, and its shadow rays toward a sun or a point light
+(through the light's view) what a brute force over every sphere finds (tests/core/test_sphere_view.py runs a fixed number,
 bench/fuzz_traversal.py --views as many as time allows, docs/reliability.md)."""
 
 from __future__ import annotations
@@ -79,8 +79,10 @@ def view_cases(draw):
 
 @st.composite
 def sun_cases(draw):
-    """Spheres resting over a ground plane, lit by a sun with shadows (its shadow rays search the sun's
-    view), at scales from 1e-2 to 1e3 and offsets to 1e3 scales, seen from above."""
+    """Spheres resting over a ground plane, lit by a sun or a point light with shadows (their shadow
+    rays search the light's view: the sun's image along it, the point light's six perspective faces
+    around it), at scales from 1e-2 to 1e3 and offsets to 1e3 scales, seen from above. The point light
+    hangs above the spheres, among them, or at a corner of their box (on the edges of its faces)."""
     seed = draw(st.integers(0, 2**32 - 1))
     rng = np.random.default_rng(seed)
     n = draw(st.integers(16, 400))
@@ -93,9 +95,19 @@ def sun_cases(draw):
     radii = scale * radius * rng.uniform(0.3, 1.0, n)
     scene.add_spheres(centers, radii, material=white)
     scene.add_plane((0, 1, 0), float(offset[1]), material=white)
-    sun = rng.normal(size=3)
-    sun[1] = -abs(sun[1]) - 0.05  # from above the plane
-    scene.add_directional_light(tuple(sun), (1, 1, 1), shadows=True)
+    where = draw(st.sampled_from(["sun", "above", "among", "corner"]))
+    if where == "sun":
+        sun = rng.normal(size=3)
+        sun[1] = -abs(sun[1]) - 0.05  # from above the plane
+        scene.add_directional_light(tuple(sun), (1, 1, 1), shadows=True)
+        light = ("sun", sun / np.linalg.norm(sun))
+    else:
+        at = {"above": [rng.uniform(-1, 1), rng.uniform(0.6, 2.0), rng.uniform(-1, 1)],
+              "among": [rng.uniform(-0.8, 0.8), rng.uniform(0.05, 0.45), rng.uniform(-0.8, 0.8)],
+              "corner": [1.0, 0.5, -1.0]}[where]
+        position = offset + scale * np.asarray(at)
+        scene.add_point_light(tuple(position), (1, 1, 1), shadows=True)
+        light = ("point", position)
     scene.ambient = (0.0, 0.0, 0.0)
     eye = offset + scale * np.array([rng.uniform(-0.5, 0.5), 3.0, rng.uniform(-0.5, 0.5)])
     look = (offset - eye) / np.linalg.norm(offset - eye)
@@ -105,15 +117,15 @@ def sun_cases(draw):
         camera = durer.OrthographicCamera(tuple(eye), tuple(look), (0, 0, -1), size=2.4 * scale)
     size = draw(st.integers(8, 48))
     precision = draw(st.sampled_from(["float", "double"]))
-    return scene, centers, radii, sun / np.linalg.norm(sun), camera, size, precision
+    return scene, centers, radii, light, camera, size, precision
 
 
 def check_sun(case: tuple[Any, ...]) -> None:
     """One case of sun_cases(): a pixel is lit exactly where a brute force over every sphere finds
-    nothing between its hit point and the sun. Pixels the two may round either way are set aside:
-    shadow rays grazing a sphere or starting on another, surfaces turned edge-on to the sun (within
-    the precision's rounding of the scene's coordinates)."""
-    scene, centers, radii, direction, camera, size, precision = case
+    nothing between its hit point and the light. Pixels the two may round either way are set aside:
+    shadow rays grazing a sphere or starting on another, surfaces turned edge-on to the light, a
+    sphere touching a point light (within the precision's rounding of the scene's coordinates)."""
+    scene, centers, radii, (kind, light), camera, size, precision = case
     res = durer.render(scene, camera, width=size, height=size, passes=("color", "object_id"), precision=precision,
                        threads=2)
     origins, directions = camera.rays(size, size, precision)
@@ -124,12 +136,14 @@ def check_sun(case: tuple[Any, ...]) -> None:
     if not hit.any():
         return
     points = origins.reshape(-1, 3)[hit].astype(float) + cast.t[hit, None] * directions.reshape(-1, 3)[hit]
-    to_sun = -np.asarray(direction, float)
+    to_light = -np.asarray(light, float) if kind == "sun" else np.asarray(light, float) - points
     epsilon = float(np.finfo(np.float32 if precision == "float" else np.float64).eps)
     # How far the scene's rounding may move a shadow ray or a surface, relative to its size.
     rounding = 1e4 * epsilon * (np.abs(points).max() + np.abs(centers).max() + radii.max()) / radii.min()
-    cosine = cast.normal[hit] @ to_sun
-    blocked, unclear = brute_force_shadows(points, to_sun, centers, radii, cast.object_id[hit], 1e-4 + rounding)
+    unit = to_light / np.linalg.norm(to_light, axis=-1, keepdims=True)
+    cosine = np.einsum("ij,ij->i", cast.normal[hit], np.broadcast_to(unit, points.shape))
+    blocked, unclear = brute_force_shadows(points, to_light, centers, radii, cast.object_id[hit], 1e-4 + rounding,
+                                           segment=kind != "sun")
     unclear |= np.abs(cosine) < 1e-3 + rounding
     expected_lit = (cosine > 0) & ~blocked
     lit = res.color.reshape(-1, 4)[hit, :3].sum(axis=1) > 0
@@ -137,25 +151,34 @@ def check_sun(case: tuple[Any, ...]) -> None:
     np.testing.assert_array_equal(lit[clear], expected_lit[clear])
 
 
-def brute_force_shadows(points, to_sun, centers, radii, own_ids, tolerance=1e-4, chunk=500):
-    """Whether each point's ray toward the sun meets a sphere other than its own past the point (its
+def brute_force_shadows(points, to_light, centers, radii, own_ids, tolerance=1e-4, chunk=500, segment=False):
+    """Whether each point's ray toward the light meets a sphere other than its own past the point (its
     far root beyond it), and whether that is unclear (within `tolerance` radii: the ray grazes one,
-    or starts on another)."""
+    starts on another, or, toward a point light, one reaches the light). `to_light`: the unit
+    direction toward a sun, or (segment) each point's vector to a point light, the ray ending there."""
     blocked = np.zeros(len(points), bool)
     unclear = np.zeros(len(points), bool)
     ids = np.arange(len(radii))
+    to_light = np.broadcast_to(np.asarray(to_light, float), points.shape)
     for start in range(0, len(points), chunk):
-        p = points[start:start + chunk]
+        p, d = points[start:start + chunk], to_light[start:start + chunk]
+        length = np.linalg.norm(d, axis=1)[:, None]
         f = p[:, None, :] - centers[None, :, :]
-        b = f @ to_sun
+        b = np.einsum("ijk,ik->ij", f, d) / length  # along the unit direction: t in distance
         ff = np.einsum("ijk,ijk->ij", f, f)
         disc = b * b - (ff - radii ** 2)
-        far = -b + np.sqrt(np.maximum(disc, 0))
+        root = np.sqrt(np.maximum(disc, 0))
+        far, near = -b + root, -b - root
         others = own_ids[start:start + chunk, None] != ids[None, :]
         line = np.sqrt(np.maximum(ff - b * b, 0))
-        blocked[start:start + chunk] = ((disc > 0) & (far > 1e-9 * radii) & others).any(axis=1)
-        unclear[start:start + chunk] = (((np.abs(line - radii) < tolerance * radii) & others).any(axis=1)
-                                        | ((disc > 0) & (np.abs(far) < 1e-2 * tolerance * radii) & others).any(axis=1))
+        meets = (disc > 0) & (far > 1e-9 * radii) & others
+        if segment:
+            meets &= near < length
+        blocked[start:start + chunk] = meets.any(axis=1)
+        edge = (np.abs(line - radii) < tolerance * radii) | ((disc > 0) & (np.abs(far) < 1e-2 * tolerance * radii))
+        if segment:
+            edge |= (disc > 0) & (np.abs(near - length) < tolerance * radii)
+        unclear[start:start + chunk] = (edge & others).any(axis=1)
     return blocked, unclear
 
 

@@ -5,7 +5,8 @@
 // meets them. A camera packet then tests its cell's spheres in that order, each against the rays of
 // the pixel rows it covers, and stops at the first sphere that lies beyond every ray's hit so far:
 // no hierarchy walk, and the spheres hidden behind the first layer are never touched. A directional
-// light's view is the same index over an orthographic image along the light, for its shadow rays.
+// light's view is the same index over an orthographic image along the light, for its shadow rays; a
+// point light's over six perspective images from it, the faces of a cube around it.
 // Made once per camera (or light) and image, in O(spheres + entries log(entries per cell)) on the
 // render's threads; the sphere set keeps the last few (SphereSet::view).
 #include <algorithm>
@@ -37,6 +38,7 @@ struct SampleBox {
 struct ParallelProjection {
   Vec3d center, horizontal, up, forward;  // unit, orthonormal up to rounding
   double pixelWidth = 1, pixelHeight = 1, xOffset = 0, yOffset = 0;
+  bool perspective = false;  // the image plane at distance 1 from an eye at `center`
 
   // A world point in the frame: along horizontal, up and forward from the centre.
   Vec3d inFrame(const Vec3d& point) const {
@@ -47,10 +49,19 @@ struct ParallelProjection {
   // the centre, in world units; perspective: at distance 1).
   double sampleX(double x) const { return (x - xOffset) / pixelWidth; }
   double sampleY(double y) const { return (yOffset - y) / pixelHeight; }
-  // Where a world point lies on an orthographic image, in pixels, and how deep along its view direction.
-  void locate(const Vec3d& point, double& x, double& y, double& depth) const {
+  // Where a world point lies on the image, in pixels, and how deep: along the view direction
+  // (orthographic) or its distance from the eye (perspective: the t of a camera ray). False for a
+  // perspective image if the point lies outside the pyramid from the eye over [-1, 1]^2 of the image
+  // plane (the eye's cube face along `forward`; a point on its edge lies in two faces).
+  bool locate(const Vec3d& point, double& x, double& y, double& depth) const {
     const Vec3d q = inFrame(point);
-    x = sampleX(q.x), y = sampleY(q.y), depth = q.z;
+    if (!perspective) {
+      x = sampleX(q.x), y = sampleY(q.y), depth = q.z;
+      return true;
+    }
+    if (!(q.z > 0 && q.z >= std::fabs(q.x) && q.z >= std::fabs(q.y))) return false;
+    x = sampleX(q.x / q.z), y = sampleY(q.y / q.z), depth = glm::length(q);
+    return true;
   }
 };
 
@@ -141,8 +152,9 @@ class SphereView {
 
   // A light's view (setLight): for each ray k of the packet without a hit, calls test(k, sphere) for
   // the spheres of its cell that cover its pixel and reach nearer the light than its origin, nearest
-  // the origin first, until test returns true (an occluder found). The rays travel toward the light,
-  // opposite the view's direction. Each ray's search waits on a chain of misses (its cell's bounds,
+  // the origin first, until test returns true (an occluder found); then the same in the light's
+  // other faces (addFace), each taking the rays whose origins it holds. The rays travel toward the
+  // light: opposite the view's direction, or toward a perspective view's eye. Each ray's search waits on a chain of misses (its cell's bounds,
   // the entries its binary search reads, their spans: a shadow ray's cell is a random place in the
   // view), so the packet's rays take each step together: every ray's cell, then their bounds and
   // entries fetched, then every binary search (without branches, so that the searches overlap), then
@@ -161,8 +173,8 @@ class SphereView {
       // Spheres whose nearest depth lies beyond the origin's (widened by its rounding) cannot block it.
       const double slack = 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(depth) + maxAbs(m_light.center));
       rays[n] = k, cells[n] = cell, reaches[n] = depth + slack;
-      // The ray travels along the view's axis: it stays in its pixel, and meets only spheres whose
-      // footprint covers that pixel.
+      // The ray travels along the view's axis, or toward its eye: it stays in its pixel, and meets
+      // only spheres whose footprint covers that pixel.
       rows[n] = int(std::floor(y) - (m_cellY + cy) * kCell), columns[n] = int(std::floor(x) - (m_cellX + cx) * kCell);
       ++n;
     }
@@ -184,12 +196,20 @@ class SphereView {
         if (test(k, m_entries[e].sphere)) break;
       }
     }
-    return tested;
+    return m_nextFace ? tested + m_nextFace->occluders(packet, test) : tested;
   }
 
-  // Makes this the view from a directional light travelling along `projection.forward` (made over
-  // the light's orthographic image, `projection` its frame), searched by occluders().
+  // Makes this the view from a light searched by occluders(), made over the light's image
+  // (`projection` its frame): a directional light's orthographic one along the way it travels, or
+  // one face of a point light's cube of perspective ones (addFace the others).
   void setLight(const ParallelProjection& projection) { m_light = projection; }
+  void addFace(std::unique_ptr<SphereView> face) {
+    if (m_nextFace) {
+      m_nextFace->addFace(std::move(face));
+    } else {
+      m_nextFace = std::move(face);
+    }
+  }
 
  private:
   // Where ray k's origin lies on a light's view: its image position x, y, its depth along the light's
@@ -197,7 +217,9 @@ class SphereView {
   // a cell to spare: no sphere there.
   bool lightCellOf(const RayPacket<Real>& packet, int k, double& x, double& y, double& depth, double& cx,
                    double& cy) const {
-    m_light.locate(Vec3d(double(packet.ox[k]), double(packet.oy[k]), double(packet.oz[k])), x, y, depth);
+    if (!m_light.locate(Vec3d(double(packet.ox[k]), double(packet.oy[k]), double(packet.oz[k])), x, y, depth)) {
+      return false;
+    }
     cx = std::floor(x / kCell) - m_cellX, cy = std::floor(y / kCell) - m_cellY;
     return cx >= 0 && cy >= 0 && cx < m_cellsX && cy < m_cellsY;
   }
@@ -263,6 +285,7 @@ class SphereView {
   HugeArray<Entry> m_entries;
   HugeArray<uint16_t> m_spans;        // the pixel rows and columns of its cell entry e's sphere covers (spanOf)
   ParallelProjection m_light;         // a light's view: its image
+  std::unique_ptr<SphereView> m_nextFace;  // a point light's view: its next face
 };
 
 template <typename Real>

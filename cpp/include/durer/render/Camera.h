@@ -58,11 +58,10 @@ class Camera {
   // and by 1/64 pixel); infinite ends where the sphere reaches the plane of a perspective eye.
   bool footprint(const Vec3d& center, double radius, SampleBox& box, double& tLow) const;
 
-  // The frame and image window in double, as rounded to Real (orthographic: where a point lies on
-  // the image).
+  // The frame and image window in double, as rounded to Real (where a point lies on the image).
   ParallelProjection projection() const {
     return {Vec3d(m_center), Vec3d(m_horizontal), Vec3d(m_up), Vec3d(m_forward), m_pixelWidth, m_pixelHeight,
-            m_xOffset, m_yOffset};
+            m_xOffset, m_yOffset, m_perspective};
   }
 
   // The factor that turns t along a unit camera ray with direction (dx, dy, dz) into the distance

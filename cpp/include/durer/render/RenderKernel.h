@@ -12,13 +12,6 @@
 
 namespace durer {
 
-// Whether a point or spot light casts shadows (its shadow rays walk the spheres' hierarchy).
-inline bool pointShadows(const Scene& scene) {
-  const auto casts = [](const auto& light) { return light.shadows; };
-  return std::any_of(scene.pointLights().begin(), scene.pointLights().end(), casts) ||
-         std::any_of(scene.spotLights().begin(), scene.spotLights().end(), casts);
-}
-
 template <typename Real, SphereMethod M>
 RenderStats renderWith(const RenderJob& job) {
   const Scene& scene = job.scene;
@@ -27,11 +20,10 @@ RenderStats renderWith(const RenderJob& job) {
   const RenderTargets& targets = job.targets;
   JobControl& control = job.control;
   const EffectSet& effects = job.effects;
-  // Camera rays search the scene's own spheres through the camera's view, and a directional light's
-  // shadow rays through the light's, never their hierarchy: a render with no other rays on them
-  // (bounces, occlusion, shadows toward a point or spot light) is prepared without it (at 10M spheres
-  // most of a first render's time), unless a view is refused.
-  const bool viewsOnly = !effects.bounces() && !effects.occlusion && !(effects.shadows && pointShadows(scene));
+  // Camera rays search the scene's own spheres through the camera's view, and a light's shadow rays
+  // through the light's, never their hierarchy: a render with no other rays (bounces, occlusion) is
+  // prepared without it (at 10M spheres most of a first render's time), unless a view is refused.
+  const bool viewsOnly = !effects.bounces() && !effects.occlusion;
   std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>(settings.threads, !viewsOnly);
   std::optional<tiles::TileRenderer<Real, M>> made;
   made.emplace(scene, *prepared, spec, settings, targets, effects, control.cancel);

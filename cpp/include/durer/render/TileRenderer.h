@@ -59,9 +59,10 @@ class TileRenderer {
     if (effects.shadows) {
       std::vector<const SphereView<Real>*> views;
       for (const ShadingLight<Real>& light : m_shading.lights()) {
-        m_lightViews.push_back(light.kind == ShadingLight<Real>::Kind::Directional && light.shadows
-                                   ? lightViewOf(group.spheres(), -Vec3d(light.vector), settings)
-                                   : nullptr);
+        const bool sun = light.kind == ShadingLight<Real>::Kind::Directional;
+        m_lightViews.push_back(!light.shadows ? nullptr
+                               : sun          ? lightViewOf(group.spheres(), -Vec3d(light.vector), settings)
+                                              : pointLightViewOf(group.spheres(), Vec3d(light.vector), settings));
         views.push_back(m_lightViews.back().get());
       }
       m_shader.useLightViews(std::move(views));
@@ -69,17 +70,16 @@ class TileRenderer {
   }
 
   // Whether camera rays search the scene's own spheres through the camera's view, and the shadow
-  // rays toward each directional light casting shadows through the light's (none made where it
-  // would not pay: they walk the spheres' hierarchy then). Below a light view's threshold the rays
-  // test every sphere (no hierarchy is built there either).
+  // rays toward each light casting shadows through the light's (none made where it would not pay:
+  // they walk the spheres' hierarchy then). Below a light view's threshold the rays test every
+  // sphere (no hierarchy is built there either).
   bool viewsSpheres() const {
     const size_t spheres = m_group.spheres().size();
     if (spheres == 0) return true;
     if (m_view == nullptr) return false;
     for (size_t l = 0; l < m_lightViews.size(); ++l) {
-      const ShadingLight<Real>& light = m_shading.lights()[l];
-      const bool needed = light.kind == ShadingLight<Real>::Kind::Directional && light.shadows;
-      if (needed && m_lightViews[l] == nullptr && spheres >= SphereView<Real>::kMinLightSpheres) return false;
+      const bool needed = m_shading.lights()[l].shadows && spheres >= SphereView<Real>::kMinLightSpheres;
+      if (needed && m_lightViews[l] == nullptr) return false;
     }
     return true;
   }
@@ -541,6 +541,53 @@ class TileRenderer {
       std::unique_ptr<SphereView<Real>> view = viewThrough(spheres, light, pixels, pixels, settings);
       if (view) view->setLight(light.projection());
       return view;
+    });
+  }
+
+  // The view of the scene's own spheres from a point (or spot) light at `position`, for its shadow
+  // rays: perspective views from it over the six faces of a cube around it (each a little wider
+  // than a quarter turn, so that a point on a face's edge lies on its image), chained
+  // (SphereView::addFace); a face's cells four mean radii across at the spheres' mean distance from
+  // the light (at most 1024 a side: six faces' cell bounds take at most 24 MB).
+  static std::shared_ptr<const SphereView<Real>> pointLightViewOf(const SphereSet<Real>& spheres,
+                                                                  const Vec3d& position,
+                                                                  const RenderSettings& settings) {
+    constexpr double kRadiiPerCell = 4;
+    constexpr double kMaxCellsAcross = 1024;
+    constexpr double kHalfWidth = 1.01;  // a face's image plane at distance 1 spans [-1.01, 1.01]^2
+    if (spheres.size() < SphereView<Real>::kMinLightSpheres) return nullptr;
+    const ViewKey key{{position.x, position.y, position.z, 1}, true};
+    return spheres.view(key, [&]() -> std::shared_ptr<const SphereView<Real>> {
+      double radii = 0, distances = 0;
+      for (size_t i = 0; i < spheres.size(); ++i) {
+        const Sphere<Real>& sphere = spheres.primitive(i);
+        radii += double(sphere.radius), distances += glm::length(Vec3d(sphere.center) - position);
+      }
+      const double cell = kRadiiPerCell * radii / distances;  // at distance 1
+      if (!(std::isfinite(cell) && cell > 0)) return nullptr;
+      const int pixels = int(std::min(std::ceil(2 * kHalfWidth / cell), kMaxCellsAcross)) * SphereView<Real>::kCell;
+      std::unique_ptr<SphereView<Real>> first;
+      for (int face = 0; face < 6; ++face) {
+        CameraSpec spec;
+        spec.projection = Projection::Perspective;
+        spec.center = position;
+        spec.direction = Vec3d(0);
+        spec.direction[face / 2] = face % 2 == 0 ? 1 : -1;
+        spec.up = face / 2 == 2 ? Vec3d(0, 1, 0) : Vec3d(0, 0, 1);
+        spec.size = 2 * std::atan(kHalfWidth) * 180 / 3.14159265358979323846;
+        spec.tMin = 0;
+        spec.tMax = std::numeric_limits<double>::infinity();
+        const Camera<Real> eye(spec, pixels, pixels);
+        std::unique_ptr<SphereView<Real>> view = viewThrough(spheres, eye, pixels, pixels, settings);
+        if (!view) return nullptr;
+        view->setLight(eye.projection());
+        if (first) {
+          first->addFace(std::move(view));
+        } else {
+          first = std::move(view);
+        }
+      }
+      return first;
     });
   }
 

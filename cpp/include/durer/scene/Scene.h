@@ -91,7 +91,7 @@ class Scene {
   // The geometry as traced in precision Real: rounded to it, with its acceleration structure. Built
   // on first use (on `threads` threads, 0: all cores) and kept until the scene changes; safe to call
   // from concurrent renders. hierarchies false: for a caller whose rays never walk the scene's own
-  // spheres' hierarchy (a render of camera rays and suns' shadow rays, which the views serve), made without
+  // spheres' hierarchy (a render of camera and shadow rays, which the views serve), made without
   // it, and made again with it when a caller asks for it.
   template <typename Real>
   std::shared_ptr<const Group<Real>> prepared(int threads, bool hierarchies = true) const;
