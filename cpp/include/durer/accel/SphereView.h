@@ -96,10 +96,11 @@ class SphereView {
 
   // The view of `count` spheres over the cells of the pixels [x, x + width) x [y, y + height):
   // footprint(i, box, tLow) gives sphere i's sample box and lower bound (false: no camera ray
-  // meets it). Null if it would not pay (see kMaxEntriesPerSphere).
+  // meets it). Sphere i is the set's sphere `spheres[i]` (null: i), spheres in increasing order.
+  // Null if it would not pay (see kMaxEntriesPerSphere).
   template <typename Footprint>
   static std::unique_ptr<SphereView> make(size_t count, const Footprint& footprint, int x, int y, int width,
-                                          int height, int threads);
+                                          int height, int threads, const uint32_t* spheres = nullptr);
 
   // Calls test(sphere, kBegin, kEnd, all) for the spheres of the packet's cell that some ray may meet
   // before its hit so far, nearest first, with the rays [kBegin, kEnd) that may meet it (test lowers
@@ -291,7 +292,7 @@ class SphereView {
 template <typename Real>
 template <typename Footprint>
 std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Footprint& footprint, int x, int y,
-                                                         int width, int height, int threads) {
+                                                         int width, int height, int threads, const uint32_t* spheres) {
   auto view = std::make_unique<SphereView>();
   view->m_cellX = x / kCell, view->m_cellY = y / kCell;
   view->m_cellsX = (x + width + kCell - 1) / kCell - view->m_cellX;
@@ -377,7 +378,7 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
     for (int32_t cx = c.x0; cx <= c.x1; ++cx) {
       const uint32_t e = next[size_t(cy) * cellsWide + size_t(cx)]++;
       const int column0 = cx == c.x0 ? firstColumnOf(edge) : 0, column1 = cx == c.x1 ? lastColumnOf(edge) : kCell - 1;
-      view->m_entries[e] = {i, tLows[i]};
+      view->m_entries[e] = {spheres ? spheres[i] : i, tLows[i]};
       view->m_spans[e] = spanOf(row0, row1, column0, column1);
     }
   });

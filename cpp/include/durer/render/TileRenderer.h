@@ -497,15 +497,18 @@ class TileRenderer {
     });
   }
 
-  // The view of `spheres` over a width x height image seen through `camera`, on the render's threads.
+  // The view of `spheres` over a width x height image seen through `camera`, on the render's threads
+  // (of the spheres listed in `only`, in increasing order, if given).
   static std::unique_ptr<SphereView<Real>> viewThrough(const SphereSet<Real>& spheres, const Camera<Real>& camera,
-                                                       int width, int height, const RenderSettings& settings) {
+                                                       int width, int height, const RenderSettings& settings,
+                                                       const std::vector<uint32_t>* only = nullptr) {
     const auto footprint = [&](size_t i, SampleBox& box, double& tLow) {
-      const Sphere<Real>& sphere = spheres.primitive(i);
+      const Sphere<Real>& sphere = spheres.primitive(only ? (*only)[i] : i);
       return camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow);
     };
     const int threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
-    return SphereView<Real>::make(spheres.size(), footprint, 0, 0, width, height, threads);
+    return SphereView<Real>::make(only ? only->size() : spheres.size(), footprint, 0, 0, width, height, threads,
+                                  only ? only->data() : nullptr);
   }
 
   // The view of the scene's own spheres from a directional light travelling along `direction`, for
@@ -566,6 +569,22 @@ class TileRenderer {
       const double cell = kRadiiPerCell * radii / distances;  // at distance 1
       if (!(std::isfinite(cell) && cell > 0)) return nullptr;
       const int pixels = int(std::min(std::ceil(2 * kHalfWidth / cell), kMaxCellsAcross)) * SphereView<Real>::kCell;
+      // Each face's spheres: those that may reach into its image's pyramid (a sphere lies in one to
+      // three), so that a face reads its own and not every sphere. Widened well beyond the
+      // footprints' rounding bounds and margin: a pixel's angle at the sphere's distance and more.
+      std::vector<uint32_t> faces[6];
+      const double slack = 2 * kHalfWidth / pixels + 1e-3;
+      for (size_t i = 0; i < spheres.size(); ++i) {
+        const Sphere<Real>& sphere = spheres.primitive(i);
+        const Vec3d q = Vec3d(sphere.center) - position;
+        const double reach = double(sphere.radius) + slack * glm::length(q);
+        for (int face = 0; face < 6; ++face) {
+          const int axis = face / 2;
+          const double along = face % 2 == 0 ? q[axis] : -q[axis];
+          const double across = std::max(std::fabs(q[(axis + 1) % 3]), std::fabs(q[(axis + 2) % 3]));
+          if (!(along + reach < (across - reach) / kHalfWidth)) faces[face].push_back(uint32_t(i));
+        }
+      }
       std::unique_ptr<SphereView<Real>> first;
       for (int face = 0; face < 6; ++face) {
         CameraSpec spec;
@@ -578,7 +597,7 @@ class TileRenderer {
         spec.tMin = 0;
         spec.tMax = std::numeric_limits<double>::infinity();
         const Camera<Real> eye(spec, pixels, pixels);
-        std::unique_ptr<SphereView<Real>> view = viewThrough(spheres, eye, pixels, pixels, settings);
+        std::unique_ptr<SphereView<Real>> view = viewThrough(spheres, eye, pixels, pixels, settings, &faces[face]);
         if (!view) return nullptr;
         view->setLight(eye.projection());
         if (first) {
