@@ -98,6 +98,51 @@ def test_the_check_sees_the_textbook_methods_spurious_hits():
     assert np.isinf(durer.cast(tiny_spheres_case("robust").scene(), ORIGIN, DIRECTION, precision="float").t[0])
 
 
+# A float mesh at 1e6 (found by this fuzz): the ray's origin, rounded to float, lies exactly on the
+# edge two triangles share and on both their boxes' faces. With t_min = -inf it meets both at t
+# rounded a little below 0, each its own way; the hierarchy entered the lower one's box at exactly 0
+# and dropped it for the other's higher t, until triangle boxes were grown by the error of that t.
+MESH_VERTICES = np.array([
+    [14722.133904764107, 835765.2555667873, -548889.2374414542],
+    [14722.12737468817, 835765.2263523719, -548889.2275356904],
+    [14722.178603044838, 835765.2555667873, -548889.2512158985],
+    [14722.047763032233, 835765.1779791013, -548889.2476700969],
+    [14722.107099530289, 835765.173099393, -548889.253521053],
+    [14722.159907023897, 835765.199054501, -548889.2493431295],
+    [14722.217409371147, 835765.2555667873, -548889.2855456343],
+    [14722.041448645543, 835765.1670422627, -548889.2949200127],
+    [14722.114463595535, 835765.1313357037, -548889.2850086144],
+    [14722.167817064264, 835765.192417189, -548889.2965669181],
+    [14722.224236150465, 835765.2555667873, -548889.3372606398],
+    [14722.031493984005, 835765.1498002831, -548889.3372606398],
+    [14722.116030375882, 835765.1224500508, -548889.3372606398],
+    [14722.182012825971, 835765.1805055307, -548889.3372606398],
+    [14722.20949822061, 835765.2555667873, -548889.3856987393],
+    [14722.040637465285, 835765.1656372573, -548889.3802732707],
+    [14722.109785371287, 835765.1578672319, -548889.3783534123],
+    [14722.171007467188, 835765.1897401231, -548889.3796794678],
+    [14722.057388905872, 835765.1946516035, -548889.4075994353],
+    [14722.108138713525, 835765.167205892, -548889.4269846443],
+    [14722.072414585271, 835765.2206768437, -548889.434523116],
+    [14722.101601765826, 835765.2042787647, -548889.4629910063],
+])
+MESH_FACES = np.array([[3, 7, 8], [3, 8, 4], [7, 11, 12], [7, 12, 8], [11, 15, 16], [11, 16, 12], [15, 18, 19], [15, 19, 16], [18, 20, 21], [1, 2, 0], [5, 9, 6], [5, 6, 2], [9, 13, 10], [9, 10, 6], [13, 17, 14], [13, 14, 10]])
+EDGE_ORIGIN = [[14722.104271033128, 835765.1294809296, -548889.3305847696]]
+EDGE_DIRECTION = [[-0.0018749940260744085, 0.0010269143111390716, 0.0008587059947242075]]
+
+
+def test_a_ray_leaving_a_meshs_shared_edge_finds_the_lower_t():
+    case = Case([Batch("mesh", {"vertices": MESH_VERTICES, "faces": MESH_FACES}, np.array([1]))],
+                np.array(EDGE_ORIGIN), np.array(EDGE_DIRECTION), {"precision": "float", "t_min": -np.inf})
+    alone = [durer.cast(case.scene([case.batches[0].subset(np.array([i]))]), case.origins, case.directions,
+                        **case.options).t[0] for i in range(len(MESH_FACES))]
+    hit = np.flatnonzero(np.isfinite(alone))
+    assert len(hit) == 2 and all(-1e-6 < alone[i] < 0 for i in hit) and alone[hit[0]] != alone[hit[1]]
+    assert len(MESH_FACES) >= 16  # enough for a hierarchy
+    assert compare(case) is None
+    assert durer.cast(case.scene(), case.origins, case.directions, **case.options).t[0] == min(alone)
+
+
 def test_reduction_and_reproduction():
     case = tiny_spheres_case("algebraic")
     reduced = reduce_case(case)

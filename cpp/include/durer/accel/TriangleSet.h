@@ -91,10 +91,21 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real, 3> {
     });
   }
 
+  // The hierarchy over the triangles' boxes, each grown by γ₁₆ of its largest extent and rounded
+  // outward. A ray from a point of the box (a ray leaving a mesh) meets a triangle at a t whose
+  // rounding error is a few γ of the triangle's coordinates relative to the origin (tErrorBound),
+  // which the slab test's own widening, relative to t, does not cover near t = 0: a ray leaving
+  // a mesh's shared edge meets both triangles at t rounded below 0 each its own way, and with
+  // t_min = -inf the hierarchy dropped the one at the lower t, its box entered at exactly 0 (found by
+  // the traversal fuzz: a mesh at 1e6 in float). Origins farther off are covered by that widening.
   void buildBvh(int threads) {
     Base::buildBvh(
         [](const Triangle<Real>& t, Vec3<Real>& lo, Vec3<Real>& hi) {
           lo = glm::min(t.v0, glm::min(t.v1, t.v2)), hi = glm::max(t.v0, glm::max(t.v1, t.v2));
+          const Vec3<Real> extent = hi - lo;
+          const Real pad = errorGamma<Real>(16) * std::max(extent.x, std::max(extent.y, extent.z));
+          lo -= pad, hi += pad;
+          roundOutward(lo, hi);
         },
         threads);
   }
