@@ -1,5 +1,6 @@
 """Build a point-cloud .blend: a million small spheres in a slab over a ground plane, lit by a sun
 casting shadows, seen at 45° by an orthographic camera (issue 13's "1M slab" workload in Blender).
+With `--light point`, a point light above the slab casts them instead (Blender's default light).
 
 The cloud is made the way most users make one: a mesh of loose vertices through a geometry-nodes
 "Mesh to Points" modifier (`durer.blender.point_cloud`). Points: uniform in x, y in [-10, 10] and
@@ -8,7 +9,7 @@ z in [0, 4] (Blender's z-up; the core benchmarks' y-up slab), radius 0.02 (about
 renders as an infinite plane and Cycles as an 80 x 80 quad, which fills the view either way. 1 spp in
 both engines, 1920x1080; `bench/showcase_vs_cycles.py` renders it with each.
 
-    python scenes/make_point_cloud.py [OUTPUT.blend] [--points 1000000] [--seed 7]   # needs bpy + durer
+    python scenes/make_point_cloud.py [OUTPUT.blend] [--points 1000000] [--seed 7] [--light point]  # bpy + durer
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ def aimed(obj: bpy.types.Object, direction) -> bpy.types.Object:
     return obj
 
 
-def build(points: int = POINTS, seed: int = 7) -> bpy.types.Scene:
+def build(points: int = POINTS, seed: int = 7, light: str = "sun") -> bpy.types.Scene:
     bpy.ops.wm.read_factory_settings(use_empty=True)
     durer.blender.register()
     scene = bpy.context.scene
@@ -74,13 +75,22 @@ def build(points: int = POINTS, seed: int = 7) -> bpy.types.Scene:
     # No material: "Mesh to Points" does not carry the mesh's, so both engines use their default surface.
     point_cloud_object(coll, "Cloud", positions, RADIUS)
 
-    sun = bpy.data.lights.new("Sun", "SUN")
-    sun.energy = math.pi  # irradiance pi: a white diffuse surface facing the sun is 1
-    sun.angle = 0.0  # a point-like sun: hard shadows, as Dürer's
-    sun.use_shadow = True
-    sun_obj = aimed(bpy.data.objects.new("Sun", sun), SUN_TRAVEL)
-    sun_obj.location = (0, 0, 10)
-    coll.objects.link(sun_obj)
+    if light == "sun":
+        sun = bpy.data.lights.new("Sun", "SUN")
+        sun.energy = math.pi  # irradiance pi: a white diffuse surface facing the sun is 1
+        sun.angle = 0.0  # a point-like sun: hard shadows, as Dürer's
+        sun.use_shadow = True
+        sun_obj = aimed(bpy.data.objects.new("Sun", sun), SUN_TRAVEL)
+        sun_obj.location = (0, 0, 10)
+        coll.objects.link(sun_obj)
+    else:
+        lamp = bpy.data.lights.new("Light", "POINT")
+        lamp.energy = 4 * math.pi**2 * 14.0**2  # watts: about 1 on the ground below it, as the sun's
+        lamp.shadow_soft_size = 0.0  # a true point: hard shadows, as Dürer's
+        lamp.use_shadow = True
+        lamp_obj = bpy.data.objects.new("Light", lamp)
+        lamp_obj.location = (4.0, -4.0, 14.0)
+        coll.objects.link(lamp_obj)
 
     camera = bpy.data.cameras.new("Camera")
     camera.type = "ORTHO"
@@ -105,8 +115,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("output", nargs="?", type=Path, default=HERE / "point_cloud.blend")
     parser.add_argument("--points", type=int, default=POINTS)
     parser.add_argument("--seed", type=int, default=7)
+    parser.add_argument("--light", choices=("sun", "point"), default="sun")
     args = parser.parse_args(argv)
-    build(args.points, args.seed)
+    build(args.points, args.seed, args.light)
     bpy.ops.wm.save_as_mainfile(filepath=str(args.output.resolve()))
     print(args.output.resolve())
     return 0

@@ -60,3 +60,17 @@ def test_bench_renders_it_with_both_engines(bench, blend):
     assert out["cycles"]["seconds"] > 0 and out["speedup"] == out["cycles"]["seconds"] / out["durer"]["seconds"]
     lines = bench.report(out, bench.POINT_CLOUD_TARGET)
     assert lines[-1].startswith(f"  Cycles / Dürer: {out['speedup']:.1f}x (issue 13's target >= 5x")
+
+
+def test_the_point_light_variant_casts_its_shadows_from_a_point(bench, tmp_path):
+    blend = bench.make_point_cloud(tmp_path, POINTS, "point")
+    durer.blender.register()
+    bpy.ops.wm.open_mainfile(filepath=str(blend), load_ui=False)
+    data = export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    assert [(light.kind, light.shadows) for light in data.lights] == [("point", True)]
+    np.testing.assert_allclose(data.lights[0].position, (4.0, -4.0, 14.0))
+    bpy.context.scene.render.resolution_percentage = 5
+    assert bpy.ops.render.render() == {"FINISHED"}
+    info = engine.last_render
+    assert info.error is None and info.warnings == [] and info.spheres == POINTS
+    assert 0.3 * info.stats["rays"] < info.stats["shadow_rays"] <= info.stats["rays"]
