@@ -213,9 +213,10 @@ class SphereView {
   }
 
  private:
-  // Where ray k's origin lies on a light's view: its image position x, y, its depth along the light's
-  // direction and its cell (cx, cy); false beyond the cells, which hold every sphere's footprint with
-  // a cell to spare: no sphere there.
+  // Where ray k's origin lies on a light's view: its image position x, y, its depth (along a sun's
+  // direction, or its distance from a point light) and its cell (cx, cy). False if it lies in
+  // another face of a point light's view (which searches it), or beyond the cells, which hold every
+  // sphere's footprint with a cell to spare: no sphere there.
   bool lightCellOf(const RayPacket<Real>& packet, int k, double& x, double& y, double& depth, double& cx,
                    double& cy) const {
     if (!m_light.locate(Vec3d(double(packet.ox[k]), double(packet.oy[k]), double(packet.oz[k])), x, y, depth)) {
