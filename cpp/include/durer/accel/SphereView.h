@@ -155,11 +155,12 @@ class SphereView {
   // the spheres of its cell that cover its pixel and reach nearer the light than its origin, nearest
   // the origin first, until test returns true (an occluder found); then the same in the light's
   // other faces (addFace), each taking the rays whose origins it holds. The rays travel toward the
-  // light: opposite the view's direction, or toward a perspective view's eye. Each ray's search waits on a chain of misses (its cell's bounds,
-  // the entries its binary search reads, their spans: a shadow ray's cell is a random place in the
-  // view), so the packet's rays take each step together: every ray's cell, then their bounds and
-  // entries fetched, then every binary search (without branches, so that the searches overlap), then
-  // each ray's spheres in turn. Returns the ray-sphere tests made.
+  // light: opposite the view's direction, or toward a perspective view's eye. Each ray's search
+  // waits on a chain of misses (its cell's bounds, the entries its binary search reads, their spans:
+  // a shadow ray's cell is a random place in the view), so the packet's rays take each step
+  // together: every ray's cell, then their bounds and entries fetched, then every binary search
+  // (without branches, so that the searches overlap), then each ray's spheres in turn. Returns the
+  // ray-sphere tests made.
   template <typename Test>
   int64_t occluders(const RayPacket<Real>& packet, const Test& test) const {
     int rays[kPacketSize], rows[kPacketSize], columns[kPacketSize];

@@ -3,6 +3,7 @@
 // accumulated over the samples and written to the targets. Instantiated for one precision and sphere
 // method per kernel translation unit (src/kernels), each compiled once per instruction set.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -548,16 +549,15 @@ class TileRenderer {
   }
 
   // The view of the scene's own spheres from a point (or spot) light at `position`, for its shadow
-  // rays: perspective views from it over the six faces of a cube around it (each a little wider
-  // than a quarter turn, so that a point on a face's edge lies on its image), chained
-  // (SphereView::addFace); a face's cells four mean radii across at the spheres' mean distance from
-  // the light (at most 1024 a side: six faces' cell bounds take at most 24 MB).
+  // rays: perspective views from it over the six faces of a cube around it (cubeFace), chained
+  // (SphereView::addFace), each made from the spheres that may reach into its face (byFace); a
+  // face's cells four mean radii across at the spheres' mean distance from the light (at most 1024
+  // a side: six faces' cell bounds take at most 24 MB).
   static std::shared_ptr<const SphereView<Real>> pointLightViewOf(const SphereSet<Real>& spheres,
                                                                   const Vec3d& position,
                                                                   const RenderSettings& settings) {
     constexpr double kRadiiPerCell = 4;
     constexpr double kMaxCellsAcross = 1024;
-    constexpr double kHalfWidth = 1.01;  // a face's image plane at distance 1 spans [-1.01, 1.01]^2
     if (spheres.size() < SphereView<Real>::kMinLightSpheres) return nullptr;
     const ViewKey key{{position.x, position.y, position.z, 1}, true};
     return spheres.view(key, [&]() -> std::shared_ptr<const SphereView<Real>> {
@@ -568,35 +568,11 @@ class TileRenderer {
       }
       const double cell = kRadiiPerCell * radii / distances;  // at distance 1
       if (!(std::isfinite(cell) && cell > 0)) return nullptr;
-      const int pixels = int(std::min(std::ceil(2 * kHalfWidth / cell), kMaxCellsAcross)) * SphereView<Real>::kCell;
-      // Each face's spheres: those that may reach into its image's pyramid (a sphere lies in one to
-      // three), so that a face reads its own and not every sphere. Widened well beyond the
-      // footprints' rounding bounds and margin: a pixel's angle at the sphere's distance and more.
-      std::vector<uint32_t> faces[6];
-      const double slack = 2 * kHalfWidth / pixels + 1e-3;
-      for (size_t i = 0; i < spheres.size(); ++i) {
-        const Sphere<Real>& sphere = spheres.primitive(i);
-        const Vec3d q = Vec3d(sphere.center) - position;
-        const double reach = double(sphere.radius) + slack * glm::length(q);
-        for (int face = 0; face < 6; ++face) {
-          const int axis = face / 2;
-          const double along = face % 2 == 0 ? q[axis] : -q[axis];
-          const double across = std::max(std::fabs(q[(axis + 1) % 3]), std::fabs(q[(axis + 2) % 3]));
-          if (!(along + reach < (across - reach) / kHalfWidth)) faces[face].push_back(uint32_t(i));
-        }
-      }
+      const int pixels = int(std::min(std::ceil(2 * kCubeHalfWidth / cell), kMaxCellsAcross)) * SphereView<Real>::kCell;
+      const std::array<std::vector<uint32_t>, 6> faces = byFace(spheres, position, 2 * kCubeHalfWidth / pixels);
       std::unique_ptr<SphereView<Real>> first;
       for (int face = 0; face < 6; ++face) {
-        CameraSpec spec;
-        spec.projection = Projection::Perspective;
-        spec.center = position;
-        spec.direction = Vec3d(0);
-        spec.direction[face / 2] = face % 2 == 0 ? 1 : -1;
-        spec.up = face / 2 == 2 ? Vec3d(0, 1, 0) : Vec3d(0, 0, 1);
-        spec.size = 2 * std::atan(kHalfWidth) * 180 / 3.14159265358979323846;
-        spec.tMin = 0;
-        spec.tMax = std::numeric_limits<double>::infinity();
-        const Camera<Real> eye(spec, pixels, pixels);
+        const Camera<Real> eye = cubeFace(position, face, pixels);
         std::unique_ptr<SphereView<Real>> view = viewThrough(spheres, eye, pixels, pixels, settings, &faces[face]);
         if (!view) return nullptr;
         view->setLight(eye.projection());
@@ -608,6 +584,47 @@ class TileRenderer {
       }
       return first;
     });
+  }
+
+  // A cube face's image plane at distance 1 spans [-1.01, 1.01]^2: a little more than its face, so
+  // that a point on a face's edge lies on its image.
+  static constexpr double kCubeHalfWidth = 1.01;
+
+  // The perspective camera from `position` over face `face` of a cube around it (+x, -x, +y, -y,
+  // +z, -z), on a pixels x pixels image.
+  static Camera<Real> cubeFace(const Vec3d& position, int face, int pixels) {
+    CameraSpec spec;
+    spec.projection = Projection::Perspective;
+    spec.center = position;
+    spec.direction = Vec3d(0);
+    spec.direction[face / 2] = face % 2 == 0 ? 1 : -1;
+    spec.up = face / 2 == 2 ? Vec3d(0, 1, 0) : Vec3d(0, 0, 1);
+    spec.size = 2 * std::atan(kCubeHalfWidth) * 180 / 3.14159265358979323846;
+    spec.tMin = 0;
+    spec.tMax = std::numeric_limits<double>::infinity();
+    return Camera<Real>(spec, pixels, pixels);
+  }
+
+  // Each cube face's spheres, in increasing order: those that may reach into the pyramid from
+  // `position` over its image (a sphere lies in one to three), so that a face reads its own and not
+  // every sphere. Widened well beyond the footprints' rounding bounds and margin: the angle of a
+  // pixel (`pixelAngle`) at the sphere's distance and more.
+  static std::array<std::vector<uint32_t>, 6> byFace(const SphereSet<Real>& spheres, const Vec3d& position,
+                                                     double pixelAngle) {
+    std::array<std::vector<uint32_t>, 6> faces;
+    const double slack = pixelAngle + 1e-3;
+    for (size_t i = 0; i < spheres.size(); ++i) {
+      const Sphere<Real>& sphere = spheres.primitive(i);
+      const Vec3d q = Vec3d(sphere.center) - position;
+      const double reach = double(sphere.radius) + slack * glm::length(q);
+      for (int face = 0; face < 6; ++face) {
+        const int axis = face / 2;
+        const double along = face % 2 == 0 ? q[axis] : -q[axis];
+        const double across = std::max(std::fabs(q[(axis + 1) % 3]), std::fabs(q[(axis + 2) % 3]));
+        if (!(along + reach < (across - reach) / kCubeHalfWidth)) faces[size_t(face)].push_back(uint32_t(i));
+      }
+    }
+    return faces;
   }
 
   void write(const Accumulator& acc, int x0, int y0, int w, int h) const {
