@@ -265,6 +265,7 @@ void Scene::moveSpheres(const int32_t* ids, const double* centers, const double*
     const auto [run, index] = locate(i);
     run->group->spheres().setSphere(index, {c, radii[i]});
   }
+  for (const Farthest& f : farthest) f.run->group->spheres().dropGrid();
   for (const Reach& reach : placed) noteReach(reach);
   m_preparedFloat.moved = m_preparedDouble.moved = true;
 }
