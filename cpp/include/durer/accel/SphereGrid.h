@@ -1,6 +1,6 @@
 #pragma once
-// Incoherent rays (reflections, refractions, shadows toward point lights, casts) among many small
-// spheres spread through a box: a uniform grid walked cell by cell in the ray's order (Amanatides &
+// Incoherent rays (reflections, refractions, shadow rays no light's view serves, casts) among many
+// small spheres spread through a box: a uniform grid walked cell by cell in the ray's order (Amanatides &
 // Woo), each cell's spheres copied next to each other so that a cell is tested as a hierarchy's leaf
 // is. A ray through a cloud of spheres crosses about a dozen cells of a few spheres each; a step to
 // the next cell is known without reading memory and mispredicts less than a node visit. Used where
