@@ -2,8 +2,9 @@
 at scales from 1e-3 to 1e4 and offsets to 1e6, seen by orthographic and perspective cameras from
 inside and outside, at odd image sizes and regions, in both precisions; a render's camera rays must
 find exactly what a cast of the same rays finds, and its shadow rays toward a sun or a point light
-(through the light's view) what a brute force over every sphere finds (tests/core/test_sphere_view.py runs a fixed number,
-bench/fuzz_traversal.py --views as many as time allows, docs/reliability.md)."""
+(through the light's view) what a brute force over every sphere finds
+(tests/core/test_sphere_view.py runs a fixed number, bench/fuzz_traversal.py --views as many as time
+allows, docs/reliability.md)."""
 
 from __future__ import annotations
 

@@ -103,7 +103,7 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real, 3> {
         [](const Triangle<Real>& t, Vec3<Real>& lo, Vec3<Real>& hi) {
           lo = glm::min(t.v0, glm::min(t.v1, t.v2)), hi = glm::max(t.v0, glm::max(t.v1, t.v2));
           const Vec3<Real> extent = hi - lo;
-          const Real pad = errorGamma<Real>(16) * std::max(extent.x, std::max(extent.y, extent.z));
+          const Real pad = errorGamma<Real>(16) * max3(extent.x, extent.y, extent.z);
           lo -= pad, hi += pad;
           roundOutward(lo, hi);
         },
