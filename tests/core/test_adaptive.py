@@ -59,6 +59,34 @@ def test_edges_the_first_samples_missed_are_found():
     assert max(worst) <= 0.05
 
 
+@pytest.mark.parametrize("camera", [pixel_camera(SIZE, SIZE),
+                                    durer.PerspectiveCamera((0, 0, 40), (0, 0, -1), (0, 1, 0), 61.9)])
+def test_spheres_smaller_than_the_first_samples_spacing_are_found(camera):
+    # White spheres about 0.6 pixels across on black, one every four pixels: one first sample a
+    # pixel misses most of them, and so do their neighbours' (all black). The camera's view knows
+    # where their silhouettes cross pixels: those pixels are edges (16 samples or more), the pixels
+    # two or more from any sphere keep their one sample, and no pixel is left far from the
+    # reference (a sphere missed whole: 0.28 off).
+    rng = np.random.default_rng(5)
+    grid = np.arange(2, SIZE, 4) - SIZE / 2
+    x, y = np.meshgrid(grid, grid)
+    centres = np.stack([x.ravel() + rng.uniform(0, 1, x.size), y.ravel() + rng.uniform(0, 1, x.size),
+                        np.zeros(x.size)], axis=1)
+    scene = durer.Scene()
+    scene.background = (0.0, 0.0, 0.0, 1.0)
+    scene.add_spheres(centres, 0.3, material=scene.add_material((1, 1, 1)))
+    result = adaptive(scene, camera=camera, spp=64, min_spp=1, target_error=0.01)
+    reference = durer.render(scene, camera, SIZE, SIZE, spp=4096, sampler="stratified", passes="color").color[..., 0]
+    cut = (reference > 1e-3) & (reference < 1 - 1e-3)
+    assert cut.sum() >= 144
+    assert np.all(result.samples[cut] >= 16)
+    near = np.zeros(reference.shape, bool)
+    for j, i in zip(*np.nonzero(reference > 0)):
+        near[max(j - 1, 0):j + 2, max(i - 1, 0):i + 2] = True
+    assert np.all(result.samples[~near] == 1) and (~near).sum() >= SIZE * SIZE / 5
+    assert np.abs(result.color[..., 0] - reference).max() <= 0.1
+
+
 def test_a_pixel_whose_samples_agree_but_whose_neighbours_differ_is_refined():
     # A pixel-sized gap between two flat discs of different colour on a plane: its own first samples
     # all see the plane, but it takes as many samples as its contrast with its neighbours asks for.

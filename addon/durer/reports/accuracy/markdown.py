@@ -180,7 +180,8 @@ def markdown(report: Report, plots: dict[str, str]) -> str:
         "their samples, averaged with the rounds' before), or their 3x3 neighbourhood's, exceeds `target_error` "
         "(default 0.01), or that sit on an "
         "edge their own or their neighbours' samples show (other geometry, or a colour contrast an unseen edge "
-        "could hide in), so its samples/pixel column is what it actually took. The slopes are "
+        "could hide in) or that a sphere's silhouette crosses (from the camera's view of the spheres), so its "
+        "samples/pixel column is what it actually took. The slopes are "
         "least-squares fits of log RMSE against log spp (adaptive: against the samples it took); plain Monte "
         "Carlo converges as spp^-0.5. The reference's own error puts a floor under the curves at the highest spp.",
     ]

@@ -10,6 +10,7 @@
 // Made once per camera (or light) and image, in O(spheres + entries log(entries per cell)) on the
 // render's threads; the sphere set keeps the last few (SphereSet::view).
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
@@ -199,6 +200,21 @@ class SphereView {
       }
     }
     return m_nextFace ? tested + m_nextFace->occluders(packet, test) : tested;
+  }
+
+  // Calls f(sphere, rows, columns) for the spheres of the cell holding image pixel (x, y) (a
+  // camera's view) that no ray of the cell meets before `before`, nearest first, with the pixel rows
+  // and columns of the cell (each a first and last, 0 to 7) their footprint covers.
+  template <typename F>
+  void forCellOf(int x, int y, double before, const F& f) const {
+    const int cx = x / kCell - m_cellX, cy = y / kCell - m_cellY;
+    if (x < 0 || y < 0 || cx < 0 || cy < 0 || cx >= m_cellsX || cy >= m_cellsY) return;
+    const size_t cell = size_t(cy) * size_t(m_cellsX) + size_t(cx);
+    for (uint32_t e = m_first[cell]; e != m_first[cell + 1] && double(m_entries[e].tLow) < before; ++e) {
+      const uint16_t span = m_spans[e];
+      f(m_entries[e].sphere, std::array<int, 2>{firstRowOf(span), lastRowOf(span)},
+        std::array<int, 2>{firstColumnOf(span), lastColumnOf(span)});
+    }
   }
 
   // Makes this the view from a light searched by occluders(), made over the light's image

@@ -20,7 +20,10 @@
 //     neighbourhood (an edge a pixel's samples all missed shows in its neighbour's), exceeds
 //     targetError (squared);
 //   - it has fewer than kEdgeSamples samples and its samples, or it and a neighbour, differ in
-//     geometry: hit against miss, or other primitives at a depth discontinuity or a crease;
+//     geometry: hit against miss, or other primitives at a depth discontinuity or a crease; or the
+//     camera's view of the scene's spheres shows a silhouette crossing it nearer than the farthest
+//     its first samples met (TileRenderer::markSilhouettes): a sphere smaller than the samples'
+//     spacing, or the sliver of one, that they and the neighbours' may all have missed;
 //   - it has fewer than kUnseenShare * contrast / targetError samples, where contrast is the RMS
 //     difference of its mean colour from a neighbour's: an edge inside it covering less than about
 //     1 / samples of its area may not have been seen yet, and would be off by at most about that
@@ -188,7 +191,7 @@ class AdaptiveSampler {
     int32_t taken[kPacketSize];                           // samples so far
     int32_t last[kPacketSize];                            // of which the last round's (the second half)
     int32_t add[kPacketSize];                             // samples the next round takes
-    bool mixed[kPacketSize];                              // a later sample met geometry that differs
+    bool mixed[kPacketSize];  // a later sample met geometry that differs, or a silhouette may hide in it unseen
     float firstNx[kPacketSize], firstNy[kPacketSize], firstNz[kPacketSize];  // the first sample's shading normal (0: none)
     float priority;                                       // the worst marked pixel's (time limit: first)
     double squares, worst;                                // its output pixels' error estimates: sum of squares, largest
@@ -298,6 +301,8 @@ class AdaptiveSampler {
     alignas(64) uint32_t s[kPacketSize], order[kPacketSize], points[kPacketSize];  // sample numbers, seeds
     alignas(64) int32_t prim[kPacketSize];
     alignas(64) Real along[kPacketSize];
+    alignas(64) float farthest[kPacketSize];  // the farthest hit of each pixel's samples (inf: a miss)
+    std::fill(farthest, farthest + count, -std::numeric_limits<float>::infinity());
     for (int row = 0, k = 0; row < t.h; ++row) {
       for (int col = 0; col < t.w; ++col, ++k) {
         px[k] = t.x0 + col, py[k] = t.y0 + row;
@@ -314,7 +319,11 @@ class AdaptiveSampler {
         Summary* line = &summaryAt(t.x0, t.y0 + row);
         for (int col = 0; col < t.w; ++col, ++k) noteGeometry(t, k, line[col], k, k + 1, s, prim, along);
       }
+      for (int k = 0; k < count; ++k) farthest[k] = std::max(farthest[k], static_cast<float>(along[k]));
     }
+    // A sphere smaller than the samples' spacing, or the sliver of one, may lie between them: where
+    // the camera's view says a silhouette crosses a pixel, it is an edge (mark) whatever they saw.
+    m_tiles.markSilhouettes(t.x0, t.y0, t.w, t.h, farthest, t.mixed);
     return true;
   }
 

@@ -236,6 +236,41 @@ class TileRenderer {
     return true;
   }
 
+  // Marks in crossed[k] (row by row) the pixels of the w x h tile at (x0, y0) that a silhouette of
+  // the scene's own spheres crosses nearer than the farthest hit their samples met (farthest[k]: the
+  // largest t, inf if one missed): the spheres of the camera's view whose footprint overlaps the
+  // pixel without covering it, which the samples may have missed (adaptive sampling's geometric
+  // edges, AdaptiveSampler). A footprint is the ellipse inscribed in the sphere's sample box
+  // (Camera::footprint): the disk itself seen orthographically, close to the projected ellipse in
+  // perspective. Without a view (none made) nothing is marked.
+  void markSilhouettes(int x0, int y0, int w, int h, const float* farthest, bool* crossed) const {
+    if (m_view == nullptr) return;
+    const float deepest = *std::max_element(farthest, farthest + w * h);
+    const int cellX = x0 / kTileSize * kTileSize, cellY = y0 / kTileSize * kTileSize;
+    m_view->forCellOf(x0, y0, deepest, [&](uint32_t i, std::array<int, 2> rows, std::array<int, 2> columns) {
+      const Sphere<Real>& sphere = m_group.spheres().primitive(i);
+      SampleBox box;
+      double tLow;
+      if (!m_camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow)) return;
+      const double cx = (box.x0 + box.x1) / 2, cy = (box.y0 + box.y1) / 2;
+      const double ax = (box.x1 - box.x0) / 2, ay = (box.y1 - box.y0) / 2;
+      if (!(std::isfinite(cx) && std::isfinite(cy) && ax > 0 && ay > 0)) return;  // reaching the eye's plane
+      for (int row = std::max(rows[0], y0 - cellY); row <= std::min(rows[1], y0 + h - 1 - cellY); ++row) {
+        for (int column = std::max(columns[0], x0 - cellX); column <= std::min(columns[1], x0 + w - 1 - cellX); ++column) {
+          const int k = (cellY + row - y0) * w + (cellX + column - x0);
+          if (crossed[k] || !(tLow < farthest[k])) continue;
+          // The pixel's square in the ellipse's frame (the ellipse the unit disk there): it crosses
+          // the silhouette if its nearest point lies inside and its farthest corner outside.
+          const double u0 = (cellX + column - cx) / ax, u1 = (cellX + column + 1 - cx) / ax;
+          const double v0 = (cellY + row - cy) / ay, v1 = (cellY + row + 1 - cy) / ay;
+          const double nu = u0 > 0 ? u0 : u1 < 0 ? u1 : 0, nv = v0 > 0 ? v0 : v1 < 0 ? v1 : 0;
+          const double fu = std::max(u0 * u0, u1 * u1), fv = std::max(v0 * v0, v1 * v1);
+          crossed[k] = nu * nu + nv * nv < 1 && fu + fv > 1;
+        }
+      }
+    });
+  }
+
   // Writes entries [k0, k0 + count) of `acc` (count <= kPacketSize) to the region's pixels
   // [first, first + count). The colours are clamped in a loop of their own, which GCC vectorises
   // (not with the conversion to float32 in it), then converted and interleaved in another. The
