@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <mutex>
+#include <sstream>
 #include <vector>
 
 #include "durer/render/Kernels.h"
@@ -79,6 +80,41 @@ EffectSet effectsFor(const Scene& scene, const RenderSettings& settings, const R
   return e;
 }
 
+// The most rays one camera ray's tree of reflections and refractions may hold, and the most
+// allowed: a render past it would not end in any time a user waits (a material that reflects and
+// refracts at full strength doubles the rays at each of max_bounces levels). Level k holds at most
+// 2^k rays where a material spawns both, and, as a ray's children's weights add up to at most c
+// times its own (c the largest reflective + transparent of one material, largest components), at
+// most c^k / min_weight rays of weight min_weight or more, the only ones spawned. 2^17 admits the
+// deepest max_bounces (1000) at the default min_weight (0.01) for materials that do not add light
+// (c <= 1: at most 100 rays a level).
+constexpr double kMostRaysPerCameraRay = 1 << 17;
+
+void requireBoundedBounces(const Scene& scene, const RenderSettings& settings, const EffectSet& effects) {
+  const auto largest = [](const Vec3d& v) { return std::max(v.x, std::max(v.y, v.z)); };
+  double c = 0;
+  bool branching = false;
+  for (const Material& m : scene.materials()) {
+    const double reflective = effects.reflection ? largest(m.reflective) : 0;
+    const double transparent = effects.refraction ? largest(m.transparent) : 0;
+    branching = branching || (reflective > 0 && transparent > 0);
+    c = std::max(c, reflective + transparent);
+  }
+  if (!branching) return;  // a chain: max_bounces + 1 rays at most
+  double rays = 0, level = 1, weight = 1;  // the bound at level k: 2^k, and c^k
+  for (int k = 0; k <= settings.maxBounces && rays <= kMostRaysPerCameraRay; ++k) {
+    rays += settings.minWeight > 0 ? std::min(level, weight / settings.minWeight) : level;
+    level *= 2, weight *= c;
+  }
+  if (rays <= kMostRaysPerCameraRay) return;
+  std::ostringstream message;
+  message << "max_bounces=" << settings.maxBounces << " with min_weight=" << settings.minWeight
+          << " lets one camera ray spawn more than " << kMostRaysPerCameraRay
+          << " reflected and refracted rays (a material both reflects and refracts, reflective + transparent up to "
+          << c << "): lower max_bounces or raise min_weight";
+  fail(message.str());
+}
+
 }  // namespace
 
 RenderStats render(const Scene& scene, const CameraSpec& camera, const RenderSettings& settings,
@@ -88,7 +124,9 @@ RenderStats render(const Scene& scene, const CameraSpec& camera, const RenderSet
   const NumericLimits& limits = limitsFor(settings.precision);
   scene.requireFits(limits, requireRaysWithin(camera, settings.width, settings.height, limits));
   const auto start = std::chrono::steady_clock::now();
-  const RenderJob job{scene, camera, settings, targets, effectsFor(scene, settings, targets), control, poll};
+  const EffectSet effects = effectsFor(scene, settings, targets);
+  requireBoundedBounces(scene, settings, effects);
+  const RenderJob job{scene, camera, settings, targets, effects, control, poll};
   const bool single = settings.precision == Precision::Float;
   RenderStats stats;
   if (settings.sphereMethod != SphereMethod::Robust) {

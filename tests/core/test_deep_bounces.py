@@ -1,5 +1,6 @@
 """Bounces at the validated maximum (1,000) between two facing mirrors: no stack overflow on the
-render threads, in both precisions and through the 6.837 command line."""
+render threads, in both precisions and through the 6.837 command line; and a ray tree that would
+double at every level refused before it is traced."""
 
 from __future__ import annotations
 
@@ -58,3 +59,33 @@ def test_the_maximum_bounce_depth_through_the_6837_command_line(tmp_path):
     assert done.returncode == 0, done.stderr
     # 6.837 bytes: linear colour truncated, 2·kd = (0.5, 0.25, 0.125) -> (127, 63, 31)
     assert np.array_equal(np.asarray(Image.open(out).convert("RGB")), np.full((8, 8, 3), (127, 63, 31), np.uint8))
+
+
+
+def doubling_mirrors(reflective: float, transparent: float) -> durer.Scene:
+    """The facing mirrors, each also refracting: every hit spawns a reflected and a refracted ray."""
+    scene = durer.Scene()
+    glass = scene.add_material((0.25, 0.125, 0.0625), reflective=(reflective,) * 3, transparent=(transparent,) * 3)
+    scene.add_plane((0, 0, 1), -1.0, material=glass)
+    scene.add_plane((0, 0, -1), -1.0, material=glass)
+    return scene
+
+
+# Level k of a camera ray's tree holds at most 2^k rays, and at most c^k / min_weight of weight
+# min_weight or more (c: a material's largest reflective + transparent): more than 2^17 rays in all
+# is refused before tracing (a fuzzed 8x8 render with max_bounces=30 ran for hours).
+@pytest.mark.parametrize(("reflective", "transparent", "min_weight", "deepest"), [
+    (0.5, 0.5, 0.0, 16),     # c = 1, nothing pruned: 2^17 - 1 rays at 16 bounces, 2^18 - 1 at 17
+    (1.05, 1.73, 0.01, 16),  # the fuzz's material, whose weights only grow
+    (0.1, 0.9, 0.01, MAX_BOUNCES),  # glass: at most 100 rays a level, at the deepest max_bounces allowed
+])
+def test_a_ray_tree_that_would_not_end_is_refused(reflective, transparent, min_weight, deepest):
+    scene, (_, camera) = doubling_mirrors(reflective, transparent), facing_mirrors()
+    result = durer.render(scene, camera, 2, 2, max_bounces=deepest, min_weight=min_weight)
+    assert result.stats["reflection_rays"] > 0 and result.stats["refraction_rays"] > 0
+    if deepest < MAX_BOUNCES:
+        refused = rf"max_bounces={deepest + 1} with min_weight={min_weight:g} lets one camera ray spawn more than 131072 "
+        with pytest.raises(ValueError, match=refused + r".*lower max_bounces or raise min_weight"):
+            durer.render(scene, camera, 2, 2, max_bounces=deepest + 1, min_weight=min_weight)
+    # A depth render traces no bounce: nothing to refuse.
+    durer.render(scene, camera, 2, 2, passes="depth", max_bounces=MAX_BOUNCES, min_weight=0)
