@@ -278,6 +278,37 @@ def test_shadows_toward_suns_and_point_lights_need_no_hierarchy(precision):
     np.testing.assert_array_equal(first.color, render(uneven).color)
 
 
+@pytest.mark.parametrize("precision", ["float", "double"])
+def test_more_lights_than_views_walk_the_hierarchy(precision):
+    """Past three lights casting shadows (SphereSet::kMostLightViews), no light gets a view (each
+    costs its making and ~30 bytes a sphere; one hierarchy serves them all): the first render
+    prepares the spheres with their hierarchy at once, and each light's shadows are those a render of
+    it alone, through its view, finds."""
+    positions = [(0.3, 0.9, -0.2), (-0.8, 0.6, 0.4), (0.1, 1.5, 0.9), (0.9, 0.5, 0.8)]
+    camera = durer.PerspectiveCamera((0, 2, 3), (0, -0.6, -1), (0, 1, 0), fov_degrees=50)
+
+    def render(of):
+        return durer.render(of, camera, width=64, height=48, passes="color", precision=precision, threads=2)
+
+    alone = []
+    for position in positions:
+        scene, _, _ = _sun_scene(np.random.default_rng(31), 3000, None, position)
+        alone.append(render(scene).color[..., :3])
+        assert scene.hierarchy_counts["built"] == 1
+        durer.cast(scene, [[0.0, 5.0, 0.0]], [[0.0, -1.0, 0.0]], precision=precision)
+        assert scene.hierarchy_counts["built"] == 2  # rendered through the light's view, without it
+    together, _, _ = _sun_scene(np.random.default_rng(31), 3000, None, positions[0])
+    for position in positions[1:]:
+        together.add_point_light(position, (1, 1, 1), shadows=True)
+    image = render(together).color[..., :3]
+    assert together.hierarchy_counts["built"] == 1
+    durer.cast(together, [[0.0, 5.0, 0.0]], [[0.0, -1.0, 0.0]], precision=precision)
+    assert together.hierarchy_counts["built"] == 1  # prepared with it for the render
+    np.testing.assert_allclose(image, sum(alone), rtol=1e-5, atol=1e-6)
+    shadowed = [(light == 0).mean() for light in alone]
+    assert all(0.05 < share < 0.95 for share in shadowed)
+
+
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(sun_cases())
 def test_sun_shadows_at_any_scale_find_what_a_brute_force_finds(case):

@@ -21,9 +21,11 @@ RenderStats renderWith(const RenderJob& job) {
   JobControl& control = job.control;
   const EffectSet& effects = job.effects;
   // Camera rays search the scene's own spheres through the camera's view, and a light's shadow rays
-  // through the light's, never their hierarchy: a render with no other rays (bounces, occlusion) is
-  // prepared without it (at 10M spheres most of a first render's time), unless a view is refused.
-  const bool viewsOnly = !effects.bounces() && !effects.occlusion;
+  // through the light's (for a few lights), never their hierarchy: a render with no other rays
+  // (bounces, occlusion) is prepared without it (at 10M spheres most of a first render's time),
+  // unless a view is refused.
+  const bool viewsOnly =
+      !effects.bounces() && !effects.occlusion && (!effects.shadows || tiles::TileRenderer<Real, M>::viewsLights(scene));
   std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>(settings.threads, !viewsOnly);
   std::optional<tiles::TileRenderer<Real, M>> made;
   made.emplace(scene, *prepared, spec, settings, targets, effects, control.cancel);

@@ -59,9 +59,10 @@ class TileRenderer {
         m_view(viewOf(group.spheres(), spec, settings, m_camera)) {
     if (effects.shadows) {
       std::vector<const SphereView<Real>*> views;
+      const bool viewed = viewsLights(scene);
       for (const ShadingLight<Real>& light : m_shading.lights()) {
         const bool sun = light.kind == ShadingLight<Real>::Kind::Directional;
-        m_lightViews.push_back(!light.shadows ? nullptr
+        m_lightViews.push_back(!light.shadows || !viewed ? nullptr
                                : sun          ? lightViewOf(group.spheres(), -Vec3d(light.vector), settings)
                                               : pointLightViewOf(group.spheres(), Vec3d(light.vector), settings));
         views.push_back(m_lightViews.back().get());
@@ -83,6 +84,18 @@ class TileRenderer {
       if (needed && m_lightViews[l] == nullptr) return false;
     }
     return true;
+  }
+
+  // Whether the shadow rays toward the scene's lights search views of its spheres: where at most
+  // SphereSet::kMostLightViews lights cast shadows. Beyond, every light's shadow rays walk the
+  // spheres' hierarchy.
+  static bool viewsLights(const Scene& scene) {
+    size_t shadowing = 0;
+    const auto count = [&](const auto& lights) {
+      for (const auto& light : lights) shadowing += light.shadows ? 1 : 0;
+    };
+    count(scene.directionalLights()), count(scene.pointLights()), count(scene.spotLights());
+    return shadowing <= SphereSet<Real>::kMostLightViews;
   }
 
   // The whole image's tiles that meet the region (a region's tiles are the image's, clipped).
