@@ -202,9 +202,10 @@ class SphereView {
     return m_nextFace ? tested + m_nextFace->occluders(packet, test) : tested;
   }
 
-  // Calls f(sphere, rows, columns) for the spheres of the cell holding image pixel (x, y) (a
-  // camera's view) that no ray of the cell meets before `before`, nearest first, with the pixel rows
-  // and columns of the cell (each a first and last, 0 to 7) their footprint covers.
+  // Calls f(sphere, tLow, rows, columns) for the spheres of the cell holding image pixel (x, y) (a
+  // camera's view) that no ray of the cell meets before `before`, nearest first: the t no ray of
+  // the cell meets it before, and the pixel rows and columns of the cell (each a first and last, 0
+  // to 7) its footprint covers.
   template <typename F>
   void forCellOf(int x, int y, double before, const F& f) const {
     const int cx = x / kCell - m_cellX, cy = y / kCell - m_cellY;
@@ -212,7 +213,7 @@ class SphereView {
     const size_t cell = size_t(cy) * size_t(m_cellsX) + size_t(cx);
     for (uint32_t e = m_first[cell]; e != m_first[cell + 1] && double(m_entries[e].tLow) < before; ++e) {
       const uint16_t span = m_spans[e];
-      f(m_entries[e].sphere, std::array<int, 2>{firstRowOf(span), lastRowOf(span)},
+      f(m_entries[e].sphere, m_entries[e].tLow, std::array<int, 2>{firstRowOf(span), lastRowOf(span)},
         std::array<int, 2>{firstColumnOf(span), lastColumnOf(span)});
     }
   }

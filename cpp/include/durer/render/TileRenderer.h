@@ -260,7 +260,15 @@ class TileRenderer {
     if (m_view == nullptr) return;
     const float deepest = *std::max_element(farthest, farthest + w * h);
     const int cellX = x0 / kTileSize * kTileSize, cellY = y0 / kTileSize * kTileSize;
-    m_view->forCellOf(x0, y0, deepest, [&](uint32_t i, std::array<int, 2> rows, std::array<int, 2> columns) {
+    m_view->forCellOf(x0, y0, deepest, [&](uint32_t i, float nearest, std::array<int, 2> rows, std::array<int, 2> columns) {
+      const int row0 = std::max(rows[0], y0 - cellY), row1 = std::min(rows[1], y0 + h - 1 - cellY);
+      const int column0 = std::max(columns[0], x0 - cellX), column1 = std::min(columns[1], x0 + w - 1 - cellX);
+      const auto open = [&](int k) { return !crossed[k] && nearest < farthest[k]; };
+      bool any = false;  // a pixel under it still unmarked, whose samples met something beyond it
+      for (int row = row0; row <= row1 && !any; ++row) {
+        for (int column = column0; column <= column1 && !any; ++column) any = open((cellY + row - y0) * w + (cellX + column - x0));
+      }
+      if (!any) return;
       const Sphere<Real>& sphere = m_group.spheres().primitive(i);
       SampleBox box;
       double tLow;
@@ -268,10 +276,10 @@ class TileRenderer {
       const double cx = (box.x0 + box.x1) / 2, cy = (box.y0 + box.y1) / 2;
       const double ax = (box.x1 - box.x0) / 2, ay = (box.y1 - box.y0) / 2;
       if (!(std::isfinite(cx) && std::isfinite(cy) && ax > 0 && ay > 0)) return;  // reaching the eye's plane
-      for (int row = std::max(rows[0], y0 - cellY); row <= std::min(rows[1], y0 + h - 1 - cellY); ++row) {
-        for (int column = std::max(columns[0], x0 - cellX); column <= std::min(columns[1], x0 + w - 1 - cellX); ++column) {
+      for (int row = row0; row <= row1; ++row) {
+        for (int column = column0; column <= column1; ++column) {
           const int k = (cellY + row - y0) * w + (cellX + column - x0);
-          if (crossed[k] || !(tLow < farthest[k])) continue;
+          if (!open(k)) continue;
           // The pixel's square in the ellipse's frame (the ellipse the unit disk there): it crosses
           // the silhouette if its nearest point lies inside and its farthest corner outside.
           const double u0 = (cellX + column - cx) / ax, u1 = (cellX + column + 1 - cx) / ax;
