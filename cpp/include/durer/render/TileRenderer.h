@@ -260,36 +260,42 @@ class TileRenderer {
     if (m_view == nullptr) return;
     const float deepest = *std::max_element(farthest, farthest + w * h);
     const int cellX = x0 / kTileSize * kTileSize, cellY = y0 / kTileSize * kTileSize;
-    m_view->forCellOf(x0, y0, deepest, [&](uint32_t i, float nearest, std::array<int, 2> rows, std::array<int, 2> columns) {
+    const auto mark = [&](uint32_t i, float nearest, std::array<int, 2> rows, std::array<int, 2> columns) {
       const int row0 = std::max(rows[0], y0 - cellY), row1 = std::min(rows[1], y0 + h - 1 - cellY);
       const int column0 = std::max(columns[0], x0 - cellX), column1 = std::min(columns[1], x0 + w - 1 - cellX);
       const auto open = [&](int k) { return !crossed[k] && nearest < farthest[k]; };
       bool any = false;  // a pixel under it still unmarked, whose samples met something beyond it
       for (int row = row0; row <= row1 && !any; ++row) {
-        for (int column = column0; column <= column1 && !any; ++column) any = open((cellY + row - y0) * w + (cellX + column - x0));
+        for (int column = column0; column <= column1 && !any; ++column) {
+          any = open((cellY + row - y0) * w + (cellX + column - x0));
+        }
       }
       if (!any) return;
       const Sphere<Real>& sphere = m_group.spheres().primitive(i);
       SampleBox box;
       double tLow;
       if (!m_camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow)) return;
-      const double cx = (box.x0 + box.x1) / 2, cy = (box.y0 + box.y1) / 2;
-      const double ax = (box.x1 - box.x0) / 2, ay = (box.y1 - box.y0) / 2;
-      if (!(std::isfinite(cx) && std::isfinite(cy) && ax > 0 && ay > 0)) return;  // reaching the eye's plane
       for (int row = row0; row <= row1; ++row) {
         for (int column = column0; column <= column1; ++column) {
           const int k = (cellY + row - y0) * w + (cellX + column - x0);
-          if (!open(k)) continue;
-          // The pixel's square in the ellipse's frame (the ellipse the unit disk there): it crosses
-          // the silhouette if its nearest point lies inside and its farthest corner outside.
-          const double u0 = (cellX + column - cx) / ax, u1 = (cellX + column + 1 - cx) / ax;
-          const double v0 = (cellY + row - cy) / ay, v1 = (cellY + row + 1 - cy) / ay;
-          const double nu = u0 > 0 ? u0 : u1 < 0 ? u1 : 0, nv = v0 > 0 ? v0 : v1 < 0 ? v1 : 0;
-          const double fu = std::max(u0 * u0, u1 * u1), fv = std::max(v0 * v0, v1 * v1);
-          crossed[k] = nu * nu + nv * nv < 1 && fu + fv > 1;
+          if (open(k)) crossed[k] = crossesInscribedEllipse(box, cellX + column, cellY + row);
         }
       }
-    });
+    };
+    m_view->forCellOf(x0, y0, deepest, mark);
+  }
+
+  // Whether pixel (x, y)'s square crosses the edge of the ellipse inscribed in `box`: in the frame
+  // where that ellipse is the unit disk, the square's nearest point lies inside and its farthest
+  // corner outside. Not for a box reaching infinity (a sphere reaching a perspective eye's plane).
+  static bool crossesInscribedEllipse(const SampleBox& box, int x, int y) {
+    const double cx = (box.x0 + box.x1) / 2, cy = (box.y0 + box.y1) / 2;
+    const double ax = (box.x1 - box.x0) / 2, ay = (box.y1 - box.y0) / 2;
+    if (!(std::isfinite(cx) && std::isfinite(cy) && ax > 0 && ay > 0)) return false;
+    const double u0 = (x - cx) / ax, u1 = (x + 1 - cx) / ax, v0 = (y - cy) / ay, v1 = (y + 1 - cy) / ay;
+    const double nu = u0 > 0 ? u0 : u1 < 0 ? u1 : 0, nv = v0 > 0 ? v0 : v1 < 0 ? v1 : 0;
+    const double fu = std::max(u0 * u0, u1 * u1), fv = std::max(v0 * v0, v1 * v1);
+    return nu * nu + nv * nv < 1 && fu + fv > 1;
   }
 
   // Writes entries [k0, k0 + count) of `acc` (count <= kPacketSize) to the region's pixels
