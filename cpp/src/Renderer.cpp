@@ -62,15 +62,16 @@ EffectSet effectsFor(const Scene& scene, const RenderSettings& settings, const R
       return v.x > 0 || v.y > 0 || v.z > 0;
     });
   };
-  const bool shadowing = std::any_of(scene.directionalLights().begin(), scene.directionalLights().end(),
-                                     [](const auto& l) { return l.shadows; }) ||
-                         std::any_of(scene.pointLights().begin(), scene.pointLights().end(),
-                                     [](const auto& l) { return l.shadows; }) ||
-                         std::any_of(scene.spotLights().begin(), scene.spotLights().end(),
-                                     [](const auto& l) { return l.shadows; });
+  const auto shadowing = [](const auto& lights) {
+    return int(std::count_if(lights.begin(), lights.end(), [](const auto& l) { return l.shadows; }));
+  };
   e.lit = scene.lit();
   e.specular = e.lit && any(&Material::specular);
-  e.shadows = e.lit && shadowing;
+  if (e.lit) {
+    e.shadowingLights = shadowing(scene.directionalLights()) + shadowing(scene.pointLights()) +
+                        shadowing(scene.spotLights());
+  }
+  e.shadows = e.shadowingLights > 0;
   e.reflection = settings.maxBounces > 0 && any(&Material::reflective);
   e.refraction = settings.maxBounces > 0 && any(&Material::transparent);
   const Vec3d& ambient = scene.ambient();
@@ -91,12 +92,11 @@ EffectSet effectsFor(const Scene& scene, const RenderSettings& settings, const R
 constexpr double kMostRaysPerCameraRay = 1 << 17;
 
 void requireBoundedBounces(const Scene& scene, const RenderSettings& settings, const EffectSet& effects) {
-  const auto largest = [](const Vec3d& v) { return std::max(v.x, std::max(v.y, v.z)); };
   double c = 0;
   bool branching = false;
-  for (const Material& m : scene.materials()) {
-    const double reflective = effects.reflection ? largest(m.reflective) : 0;
-    const double transparent = effects.refraction ? largest(m.transparent) : 0;
+  for (const Material& m : scene.materials()) {  // colours are >= 0: their largest component is maxAbs
+    const double reflective = effects.reflection ? maxAbs(m.reflective) : 0;
+    const double transparent = effects.refraction ? maxAbs(m.transparent) : 0;
     branching = branching || (reflective > 0 && transparent > 0);
     c = std::max(c, reflective + transparent);
   }

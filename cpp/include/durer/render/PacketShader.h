@@ -25,6 +25,7 @@ struct EffectSet {
   bool lit = false;         // lights (or scene shading "lit"): else flat colours
   bool specular = false;    // lit, and some material has a Phong highlight
   bool shadows = false;     // lit, and some light casts shadows
+  int shadowingLights = 0;  // lit: how many lights cast shadows
   bool reflection = false;  // some material is reflective and maxBounces > 0
   bool refraction = false;  // some material is transparent and maxBounces > 0
   bool occlusion = false;   // lit, ambient occlusion asked for, and some ambient · kd to scale

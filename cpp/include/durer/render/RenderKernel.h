@@ -24,8 +24,8 @@ RenderStats renderWith(const RenderJob& job) {
   // through the light's (for a few lights), never their hierarchy: a render with no other rays
   // (bounces, occlusion) is prepared without it (at 10M spheres most of a first render's time),
   // unless a view is refused.
-  const bool lightsViewed = !effects.shadows || tiles::TileRenderer<Real, M>::viewsLights(scene);
-  const bool viewsOnly = !effects.bounces() && !effects.occlusion && lightsViewed;
+  const bool viewsOnly =
+      !effects.bounces() && !effects.occlusion && tiles::TileRenderer<Real, M>::viewsLights(effects);
   std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>(settings.threads, !viewsOnly);
   std::optional<tiles::TileRenderer<Real, M>> made;
   made.emplace(scene, *prepared, spec, settings, targets, effects, control.cancel);

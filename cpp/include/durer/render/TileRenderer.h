@@ -59,7 +59,7 @@ class TileRenderer {
         m_view(viewOf(group.spheres(), spec, settings, m_camera)) {
     if (effects.shadows) {
       std::vector<const SphereView<Real>*> views;
-      const bool viewed = viewsLights(scene);
+      const bool viewed = viewsLights(effects);
       for (const ShadingLight<Real>& light : m_shading.lights()) {
         const bool sun = light.kind == ShadingLight<Real>::Kind::Directional;
         m_lightViews.push_back(!light.shadows || !viewed ? nullptr
@@ -87,15 +87,10 @@ class TileRenderer {
   }
 
   // Whether the shadow rays toward the scene's lights search views of its spheres: where at most
-  // SphereSet::kMostLightViews lights cast shadows. Beyond, every light's shadow rays walk the
-  // spheres' hierarchy.
-  static bool viewsLights(const Scene& scene) {
-    size_t shadowing = 0;
-    const auto count = [&](const auto& lights) {
-      for (const auto& light : lights) shadowing += light.shadows ? 1 : 0;
-    };
-    count(scene.directionalLights()), count(scene.pointLights()), count(scene.spotLights());
-    return shadowing <= SphereSet<Real>::kMostLightViews;
+  // SphereSet::kMostLightViews lights cast shadows (or none does). Beyond, every light's shadow rays
+  // walk the spheres' hierarchy.
+  static bool viewsLights(const EffectSet& effects) {
+    return size_t(effects.shadowingLights) <= SphereSet<Real>::kMostLightViews;
   }
 
   // The whole image's tiles that meet the region (a region's tiles are the image's, clipped).
