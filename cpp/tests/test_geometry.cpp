@@ -306,6 +306,61 @@ TEST_CASE_TEMPLATE("a leaf's prefilter, four spheres at once, decides for each a
 }
 #endif
 
+#if DURER_WALK_LANES
+TEST_CASE_TEMPLATE("the grid's pairs, eight at once, each decided as robustMayMeet decides it", Real, float, double) {
+  // As the leaf's test above, but each lane its own ray (picked from eight walks' rays by lane, as the
+  // grid's walk in lanes pairs them) and its own sphere (transposed from eight records).
+  using L = PairLanes<Real>;
+  std::mt19937_64 rng(18);
+  std::uniform_real_distribution<double> unit(-1, 1), radius(0.01, 1), along(-20, 20);
+  std::uniform_int_distribution<int> ulps(-64, 64), exponent(-20, 19), lane(0, 7);
+  const double eps = std::numeric_limits<Real>::epsilon();
+  int met = 0, missed = 0;
+  for (int trial = 0; trial < 5000; ++trial) {
+    const double scale = std::ldexp(1.0, exponent(rng));
+    alignas(64) Real ox[8], oy[8], oz[8], sx[8], sy[8], sz[8], invA[8];
+    Vec3d origins[8], directions[8];
+    for (int w = 0; w < 8; ++w) {
+      directions[w] = glm::normalize(Vec3d(unit(rng), unit(rng), unit(rng)) + Vec3d(0, 0, 1e-3));
+      origins[w] = scale * 10.0 * Vec3d(unit(rng), unit(rng), unit(rng));
+      const Vec3<Real> dR = toReal<Real>(directions[w]);
+      const SphereRayTerms<Real> t = sphereRayTerms<SphereMethod::Robust>(dR.x, dR.y, dR.z);
+      ox[w] = Real(origins[w].x), oy[w] = Real(origins[w].y), oz[w] = Real(origins[w].z);
+      sx[w] = t.sx, sy[w] = t.sy, sz[w] = t.sz, invA[w] = t.invA;
+    }
+    Sphere<Real> records[8];
+    alignas(32) int32_t lanes[8];
+    uint32_t at[8];
+    unsigned expected = 0;
+    for (int i = 0; i < 8; ++i) {
+      const int w = lanes[i] = lane(rng);
+      at[i] = uint32_t(7 - i);
+      const double r = scale * radius(rng);
+      const Vec3d side = glm::normalize(glm::cross(directions[w], Vec3d(unit(rng), unit(rng), unit(rng))));
+      const Vec3d c = Vec3d(double(ox[w]), double(oy[w]), double(oz[w])) + scale * along(rng) * directions[w] +
+                      side * (r * (1 + ulps(rng) * eps));
+      Sphere<Real>& s = records[at[i]];
+      s = {toReal<Real>(c), static_cast<Real>(r)};
+      const Real fx = ox[w] - s.center.x, fy = oy[w] - s.center.y, fz = oz[w] - s.center.z;
+      const SphereRayTerms<Real> t{0, 0, sx[w], sy[w], sz[w], 0, invA[w], 0};
+      const bool may = robustMayMeet(s.radius, lineDistanceSq(fx, fy, fz, t), std::fabs(fx) + std::fabs(fy) + std::fabs(fz));
+      expected |= unsigned(may) << i;
+      (may ? met : missed) += 1;
+    }
+    typename L::V cx, cy, cz, r;
+    L::transpose(records, at, cx, cy, cz, r);
+    const typename L::Index pick = L::index(lanes);
+    const unsigned got = SphereSet<Real>::template mayMeetLanes<L>(
+        L::pick(pick, L::load(ox)) - cx, L::pick(pick, L::load(oy)) - cy, L::pick(pick, L::load(oz)) - cz,
+        L::pick(pick, L::load(sx)), L::pick(pick, L::load(sy)), L::pick(pick, L::load(sz)), L::pick(pick, L::load(invA)), r);
+    CAPTURE(trial);
+    CHECK(got == expected);
+  }
+  CHECK(met > 20000);  // both outcomes, in earnest
+  CHECK(missed > 8000);
+}
+#endif
+
 TEST_CASE_TEMPLATE("triangles: t and the normal from the winding; a shared edge is never missed", Real, float, double) {
   TriangleSet<Real> lower, upper;
   lower.add(triangle<Real>({0, 0, 0}, {1, 0, 0}, {1, 1, 0}), 0, 0);

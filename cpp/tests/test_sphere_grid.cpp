@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <array>
 #include <cstring>
 #include <limits>
 #include <random>
@@ -214,3 +215,102 @@ TEST_CASE_TEMPLATE("rays the grid declines (far origins) are searched through th
   const double o[3] = {0, 0, 0}, d[3] = {nan, 1, 0};
   CHECK_FALSE(grid->walk(o, d, 0.0, 1e30, [](uint32_t, uint32_t) {}, [](double) { return false; }));
 }
+
+#if DURER_WALK_LANES
+// The walk in lanes (the AVX-512 kernel set's) must visit each ray's records in the order walk()
+// visits them, stop where walk() stops and decline the rays walk() declines, in order: then every
+// search finds the same hit in every kernel set. Rays of every kind above, each stopped at a random
+// t (or never), in packets where rays end at different rounds and lanes change rays; an even cloud,
+// and one with 43 % of it in an eighth of its box and 400 spheres in one cell (rays aimed there list
+// more pairs in a round than are tested at once).
+TEST_CASE_TEMPLATE("the walk in lanes visits each ray's records in walk()'s order", Real, float, double) {
+  std::mt19937 rng(14);
+  std::uniform_real_distribution<double> unit(-1, 1), inside(-11, 11), outside(-40, 40), stopAt(0, 30), eighth(-10, 0);
+  // An even cloud in a cube of equal cells (spheres at its corners): rays with equal coordinates and
+  // equal direction components cross cell edges and corners, where boundaries are due at the same t.
+  SphereSet<Real> even;
+  for (int32_t i = 0; i < 5000; ++i) {
+    const Vec3d c = i < 8 ? 10.0 * Vec3d(i & 1 ? 1 : -1, i & 2 ? 1 : -1, i & 4 ? 1 : -1) : 9.5 * Vec3d(unit(rng), unit(rng), unit(rng));
+    even.add(Sphere<Real>{toReal<Real>(c), Real(0.125)}, 0, i);
+  }
+  even.buildBvh(1);
+  SphereSet<Real> uneven;
+  const Vec3d crowded(-5.5, -5.5, -5.5);
+  for (int32_t i = 0; i < 20000; ++i) {
+    const Vec3d c = i < 400 ? crowded + 0.01 * Vec3d(unit(rng), unit(rng), unit(rng))
+                    : i < 9000 ? Vec3d(eighth(rng), eighth(rng), eighth(rng)) : 10.0 * Vec3d(unit(rng), unit(rng), unit(rng));
+    uneven.add(Sphere<Real>{toReal<Real>(c), Real(0.05)}, 0, i);
+  }
+  uneven.buildBvh(1);
+  int declined = 0, stopped = 0, crowdedRounds = 0;
+  for (const SphereGrid<Real>* grid : {even.grid(), uneven.grid()}) {
+    REQUIRE(grid != nullptr);
+    for (int trial = 0; trial < 100; ++trial) {
+      const int count = 1 + trial % kPacketSize;
+      const size_t rays = static_cast<size_t>(count);
+      std::vector<std::array<double, 3>> o(rays), d(rays);
+      std::vector<double> stop(rays);
+      for (int k = 0; k < count; ++k) {
+        Vec3d ro(inside(rng), inside(rng), inside(rng)), rd(unit(rng), unit(rng), unit(rng));
+        switch ((k + trial) % 8) {
+          case 0: ro = Vec3d(outside(rng), outside(rng), outside(rng)); break;
+          case 1: ro = Vec3d(std::round(ro.x), std::round(ro.y), std::round(ro.z)), rd = Vec3d(0), rd[k % 3] = k % 2 ? 1 : -1; break;
+          case 2: rd = Vec3d(1, k % 4 < 2 ? 1 : -1, k % 8 < 4 ? 1 : -1); break;
+          case 3: ro = Vec3d(1e17, unit(rng), unit(rng)); break;  // declined (too far for the cells)
+          case 4: rd = Vec3d(unit(rng), unit(rng), 0); break;
+          case 5: rd = crowded - ro; break;
+          case 6: {  // boundaries due at once along two or three axes
+            const double sign = k % 2 ? 1 : -1;
+            ro = Vec3d(ro.x, ro.x, k % 4 < 2 ? ro.x : ro.z), rd = Vec3d(sign, sign, k % 4 < 2 ? sign : 0.3);
+            break;
+          }
+          default: break;
+        }
+        o[size_t(k)] = {ro.x, ro.y, ro.z}, d[size_t(k)] = {rd.x, rd.y, rd.z};
+        stop[size_t(k)] = k % 3 ? stopAt(rng) : std::numeric_limits<double>::infinity();
+      }
+      const auto ray = [&](int k, double (&ro)[3], double (&rd)[3]) {
+        for (int a = 0; a < 3; ++a) ro[a] = o[size_t(k)][size_t(a)], rd[a] = d[size_t(k)][size_t(a)];
+      };
+      std::vector<std::vector<uint32_t>> alone(rays), inLanes(rays);
+      std::vector<int> refusedAlone, refusedInLanes;
+      for (int k = 0; k < count; ++k) {
+        double ro[3], rd[3];
+        ray(k, ro, rd);
+        const bool walked = grid->walk(
+            ro, rd, 0.0, std::numeric_limits<double>::infinity(),
+            [&](uint32_t first, uint32_t n) {
+              for (uint32_t i = first; i < first + n; ++i) alone[size_t(k)].push_back(i);
+            },
+            [&](double exitT) { return stop[size_t(k)] <= exitT; });
+        if (!walked) refusedAlone.push_back(k);
+      }
+      int rayOfLane[SphereGrid<Real>::kLanes];
+      grid->walkLanes(
+          count,
+          [&](int k, int lane, double (&ro)[3], double (&rd)[3], double& tMin, double& tHit) {
+            ray(k, ro, rd);
+            tMin = 0, tHit = std::numeric_limits<double>::infinity(), rayOfLane[lane] = k;
+            return true;
+          },
+          [&](const int32_t* lanes, const uint32_t* records, int n) {
+            CHECK(n <= SphereGrid<Real>::kMostPairs);
+            crowdedRounds += n > SphereGrid<Real>::kMostPairs - SphereGrid<Real>::kLanes;
+            for (int i = 0; i < n; ++i) inLanes[size_t(rayOfLane[lanes[i]])].push_back(records[i]);
+          },
+          [&](int k, double exitT) { return stop[size_t(k)] <= exitT; }, [&](int k) { refusedInLanes.push_back(k); });
+      CAPTURE(trial);
+      CHECK(refusedInLanes == refusedAlone);
+      for (int k = 0; k < count; ++k) {
+        CAPTURE(k);
+        CHECK(inLanes[size_t(k)] == alone[size_t(k)]);
+        stopped += std::isfinite(stop[size_t(k)]) && !alone[size_t(k)].empty();
+      }
+      declined += int(refusedAlone.size());
+    }
+  }
+  CHECK(declined > 100);  // every kind, in earnest
+  CHECK(stopped > 1000);
+  CHECK(crowdedRounds > 10);
+}
+#endif

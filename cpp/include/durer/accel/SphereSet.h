@@ -67,6 +67,68 @@ struct LeafLanes<float> {
 };
 #endif
 
+#if DURER_WALK_LANES
+// Eight (ray, sphere) pairs as eight lanes, for the grid's walk in lanes (SphereSet::searchGrid):
+// AVX-512 doubles or AVX floats. Each pair's ray is picked by its lane from vectors of the walks' rays.
+template <typename Real>
+struct PairLanes;
+
+template <>
+struct PairLanes<double> {
+  using V = __m512d;
+  using Index = __m512i;
+  static V load(const double* p) { return _mm512_load_pd(p); }
+  static Index index(const int32_t* lanes) {
+    return _mm512_maskz_cvtepu32_epi64(0xff, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(lanes)));
+  }
+  static V pick(Index lanes, V v) { return _mm512_maskz_permutexvar_pd(0xff, lanes, v); }
+  static V set1(double x) { return _mm512_set1_pd(x); }
+  static V fmsub(V a, V b, V c) { return _mm512_fmsub_pd(a, b, c); }
+  static V fnmadd(V a, V b, V c) { return _mm512_fnmadd_pd(a, b, c); }
+  static V abs(V a) { return _mm512_abs_pd(a); }
+  static unsigned greaterMask(V a, V b) { return unsigned(_mm512_cmp_pd_mask(a, b, _CMP_GT_OQ)); }
+  // Spheres s[at[0]], ..., s[at[7]] (centre x, y, z, radius each) to x, y, z and r.
+  static void transpose(const Sphere<double>* s, const uint32_t* at, V& x, V& y, V& z, V& r) {
+    const auto pair = [&](int i) {
+      const __m512d low = _mm512_castpd256_pd512(_mm256_loadu_pd(&s[at[i]].center.x));
+      return _mm512_maskz_insertf64x4(0xff, low, _mm256_loadu_pd(&s[at[i + 4]].center.x), 1);
+    };
+    const V a = pair(0), b = pair(1), c = pair(2), d = pair(3);  // a: x0 y0 z0 r0 x4 y4 z4 r4, ...
+    const V xzLo = _mm512_maskz_unpacklo_pd(0xff, a, b), yrLo = _mm512_maskz_unpackhi_pd(0xff, a, b);  // x0 x1 z0 z1 x4 x5 z4 z5, ...
+    const V xzHi = _mm512_maskz_unpacklo_pd(0xff, c, d), yrHi = _mm512_maskz_unpackhi_pd(0xff, c, d);
+    const Index first = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
+    const Index second = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
+    x = _mm512_permutex2var_pd(xzLo, first, xzHi), z = _mm512_permutex2var_pd(xzLo, second, xzHi);
+    y = _mm512_permutex2var_pd(yrLo, first, yrHi), r = _mm512_permutex2var_pd(yrLo, second, yrHi);
+  }
+};
+
+template <>
+struct PairLanes<float> {
+  using V = __m256;
+  using Index = __m256i;
+  static V load(const float* p) { return _mm256_load_ps(p); }
+  static Index index(const int32_t* lanes) { return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(lanes)); }
+  static V pick(Index lanes, V v) { return _mm256_permutexvar_ps(lanes, v); }
+  static V set1(float x) { return _mm256_set1_ps(x); }
+  static V fmsub(V a, V b, V c) { return _mm256_fmsub_ps(a, b, c); }
+  static V fnmadd(V a, V b, V c) { return _mm256_fnmadd_ps(a, b, c); }
+  static V abs(V a) { return _mm256_andnot_ps(_mm256_set1_ps(-0.0f), a); }
+  static unsigned greaterMask(V a, V b) { return unsigned(_mm256_cmp_ps_mask(a, b, _CMP_GT_OQ)); }
+  static void transpose(const Sphere<float>* s, const uint32_t* at, V& x, V& y, V& z, V& r) {
+    const auto pair = [&](int i) {
+      const __m256 low = _mm256_castps128_ps256(_mm_loadu_ps(&s[at[i]].center.x));
+      return _mm256_insertf128_ps(low, _mm_loadu_ps(&s[at[i + 4]].center.x), 1);
+    };
+    const V a = pair(0), b = pair(1), c = pair(2), d = pair(3);  // a: x0 y0 z0 r0 | x4 y4 z4 r4, ...
+    const V xyLo = _mm256_unpacklo_ps(a, b), zrLo = _mm256_unpackhi_ps(a, b);  // x0 x1 y0 y1 | x4 x5 y4 y5, ...
+    const V xyHi = _mm256_unpacklo_ps(c, d), zrHi = _mm256_unpackhi_ps(c, d);
+    x = _mm256_shuffle_ps(xyLo, xyHi, _MM_SHUFFLE(1, 0, 1, 0)), y = _mm256_shuffle_ps(xyLo, xyHi, _MM_SHUFFLE(3, 2, 3, 2));
+    z = _mm256_shuffle_ps(zrLo, zrHi, _MM_SHUFFLE(1, 0, 1, 0)), r = _mm256_shuffle_ps(zrLo, zrHi, _MM_SHUFFLE(3, 2, 3, 2));
+  }
+};
+#endif
+
 // All spheres of a group, contiguous. The search is t-only; the hit record is built once per ray.
 template <typename Real>
 class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
@@ -207,24 +269,89 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     if (cancel && cancel->load(std::memory_order_relaxed)) return 0;
     int64_t tests = 0;
     int others[kPacketSize], count = 0;
+    const auto rayOf = [&](int k, double (&o)[3], double (&d)[3], double& tMin, double& tHit) DURER_INLINE_LAMBDA {
+      if (AnyHit && packet.prim[k] != kNoPrimitive) return false;  // a hit already (from another set)
+      o[0] = double(packet.ox[k]), o[1] = double(packet.oy[k]), o[2] = double(packet.oz[k]);
+      d[0] = double(packet.dx[k]), d[1] = double(packet.dy[k]), d[2] = double(packet.dz[k]);
+      tMin = double(packet.tMin), tHit = double(packet.tHit[k]);
+      return true;
+    };
+    const auto done = [&](int k, double exitT) DURER_INLINE_LAMBDA {
+      return AnyHit ? packet.prim[k] != kNoPrimitive : double(packet.tHit[k]) <= exitT;
+    };
+    const auto idOf = [&](size_t record) DURER_INLINE_LAMBDA { return primBase + grid.sphereOf(uint32_t(record)); };
+#if DURER_WALK_LANES
+    WalkRays rays;
+    grid.walkLanes(
+        packet.count,
+        [&](int k, int lane, double (&o)[3], double (&d)[3], double& tMin, double& tHit) DURER_INLINE_LAMBDA {
+          rays.take(lane, packet, terms, k);
+          return rayOf(k, o, d, tMin, tHit);
+        },
+        [&](const int32_t* lanes, const uint32_t* records, int n) DURER_INLINE_LAMBDA {
+          tests += n;
+          intersectPairs<M>(packet, terms, rays, grid.records(), lanes, records, n, idOf);
+        },
+        done, [&](int k) { others[count++] = k; });
+#else
     for (int k = 0; k < packet.count; ++k) {
-      if (AnyHit && packet.prim[k] != kNoPrimitive) continue;  // a hit already (from another set)
+      double o[3], d[3], tMin, tHit;
+      if (!rayOf(k, o, d, tMin, tHit)) continue;
       const SphereRayTerms<Real> rayTerms = terms[k];
-      const double o[3] = {double(packet.ox[k]), double(packet.oy[k]), double(packet.oz[k])};
-      const double d[3] = {double(packet.dx[k]), double(packet.dy[k]), double(packet.dz[k])};
       const bool walked = grid.walk(
-          o, d, double(packet.tMin), double(packet.tHit[k]),
+          o, d, tMin, tHit,
           [&](uint32_t first, uint32_t n) DURER_INLINE_LAMBDA {
             tests += n;
-            intersectRun<M>(packet, rayTerms, k, grid.records(), first, n,
-                            [&](size_t record) { return primBase + grid.sphereOf(uint32_t(record)); });
+            intersectRun<M>(packet, rayTerms, k, grid.records(), first, n, idOf);
           },
-          [&](double exitT) { return AnyHit ? packet.prim[k] != kNoPrimitive : double(packet.tHit[k]) <= exitT; });
+          [&](double exitT) DURER_INLINE_LAMBDA { return done(k, exitT); });
       if (!walked) others[count++] = k;
     }
+#endif
     if (count == 0) return tests;
     return tests + this->template searchRays<AnyHit>(packet, others, count, testLeaf);
   }
+
+#if DURER_WALK_LANES
+  // The rays of the grid's eight walks, by lane: where each pair's ray is picked from.
+  struct WalkRays {
+    static constexpr int kLanes = SphereGrid<Real>::kLanes;
+    alignas(64) Real ox[kLanes], oy[kLanes], oz[kLanes], sx[kLanes], sy[kLanes], sz[kLanes], invA[kLanes];
+    int ray[kLanes];
+
+    DURER_INLINE void take(int lane, const RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, int k) {
+      ox[lane] = packet.ox[k], oy[lane] = packet.oy[k], oz[lane] = packet.oz[k];
+      sx[lane] = terms.sx[k], sy[lane] = terms.sy[k], sz[lane] = terms.sz[k], invA[lane] = terms.invA[k];
+      ray[lane] = k;
+    }
+  };
+
+  // The pairs (the ray of walk lanes[i], sphere spheres[records[i]]), i < n, in order, each
+  // recording a hit as intersectSphere does: robustMayMeet's test for eight pairs at once
+  // (mayMeetLanes), the full test for those it keeps.
+  template <SphereMethod M, typename IdOf>
+  DURER_INLINE static void intersectPairs(RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, const WalkRays& rays,
+                                          const Sphere<Real>* spheres, const int32_t* lanes, const uint32_t* records,
+                                          int n, const IdOf& idOf) {
+    using L = PairLanes<Real>;
+    const typename L::V ox = L::load(rays.ox), oy = L::load(rays.oy), oz = L::load(rays.oz);
+    const typename L::V sx = L::load(rays.sx), sy = L::load(rays.sy), sz = L::load(rays.sz), invA = L::load(rays.invA);
+    for (int j = 0; j < n; j += 8) {
+      uint32_t at[8];  // pairs past n repeat the first (their bits are masked off)
+      for (int i = 0; i < 8; ++i) at[i] = records[j + i < n ? j + i : j];
+      typename L::V cx, cy, cz, r;
+      L::transpose(spheres, at, cx, cy, cz, r);
+      const typename L::Index pick = L::index(lanes + j);
+      const unsigned may = mayMeetLanes<L>(L::pick(pick, ox) - cx, L::pick(pick, oy) - cy, L::pick(pick, oz) - cz,
+                                           L::pick(pick, sx), L::pick(pick, sy), L::pick(pick, sz), L::pick(pick, invA), r);
+      for (unsigned bits = may & (n - j >= 8 ? 0xffu : (1u << (n - j)) - 1); bits != 0; bits &= bits - 1) {
+        const int i = __builtin_ctz(bits);
+        const int k = rays.ray[lanes[j + i]];
+        intersectSphere<M, false>(packet, terms[k], k, spheres[at[i]], idOf(at[i]));
+      }
+    }
+  }
+#endif
 
   // A leaf's spheres [first, first + count) against ray k, in order (intersectRun).
   template <SphereMethod M>
@@ -347,8 +474,16 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     V cx, cy, cz, r;
     static_assert(sizeof(Sphere<Real>) == 4 * sizeof(Real), "a sphere is four numbers");
     L::transpose(&s[0].center.x, last < 1 ? last : 1, last < 2 ? last : 2, last < 3 ? last : 3, cx, cy, cz, r);
-    const V fx = L::set1(ox) - cx, fy = L::set1(oy) - cy, fz = L::set1(oz) - cz;
-    const V sx = L::set1(t.sx), sy = L::set1(t.sy), sz = L::set1(t.sz);
+    return mayMeetLanes<L>(L::set1(ox) - cx, L::set1(oy) - cy, L::set1(oz) - cz, L::set1(t.sx), L::set1(t.sy),
+                           L::set1(t.sz), L::set1(t.invA), r) &
+           ((1u << count) - 1);
+  }
+
+  // robustMayMeet in each lane of L's vectors, for f = o - c, the ray's s and 1 / (s·s), and r: the
+  // scalar test's operations in its order (the fused multiply-adds of differenceOfProducts
+  // included), so each lane's bit is the scalar outcome.
+  template <typename L, typename V = typename L::V>
+  DURER_INLINE static unsigned mayMeetLanes(V fx, V fy, V fz, V sx, V sy, V sz, V invA, V r) {
     const auto differenceOfProducts = [](V a, V b, V c, V d) {
       const V cd = c * d;
       return L::fmsub(a, b, cd) + L::fnmadd(c, d, cd);
@@ -356,12 +491,12 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     const V crossX = differenceOfProducts(fy, sz, fz, sy);
     const V crossY = differenceOfProducts(fz, sx, fx, sz);
     const V crossZ = differenceOfProducts(fx, sy, fy, sx);
-    const V lineDistance2 = (crossX * crossX + crossY * crossY + crossZ * crossZ) * L::set1(t.invA);
+    const V lineDistance2 = (crossX * crossX + crossY * crossY + crossZ * crossZ) * invA;
     const V fL1 = L::abs(fx) + L::abs(fy) + L::abs(fz);
     const V wide = r + L::set1(std::numeric_limits<Real>::epsilon()) * fL1;
     const V r2 = wide * wide;
     const V bound = L::set1(kGrazingBound * std::numeric_limits<Real>::epsilon()) * (r2 + lineDistance2);
-    return L::greaterMask(r2 - lineDistance2, bound) & ((1u << count) - 1);
+    return L::greaterMask(r2 - lineDistance2, bound);
   }
 #endif
 
