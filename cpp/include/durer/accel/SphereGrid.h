@@ -178,11 +178,12 @@ class SphereGrid {
   template <typename Take, typename TestPairs, typename Done, typename Unwalked>
   DURER_INLINE void walkLanes(int count, Take&& take, TestPairs&& testPairs, Done&& done, Unwalked&& unwalked) const {
     // Each lane's Walk, a field a vector, and its cell's [first, last) records, read a round ahead.
-    alignas(64) double o[3][kLanes], inv[3][kLanes], next[3][kLanes];
-    alignas(64) int64_t cell[3][kLanes], step[3][kLanes], stop[3][kLanes], index[kLanes];
-    alignas(64) uint64_t records[kLanes];
+    // Zeroed so that lanes without a ray compute on defined values (their results are masked off).
+    alignas(64) double o[3][kLanes] = {}, inv[3][kLanes] = {}, next[3][kLanes] = {};
+    alignas(64) int64_t cell[3][kLanes] = {}, step[3][kLanes] = {}, stop[3][kLanes] = {}, index[kLanes] = {};
+    alignas(64) uint64_t records[kLanes] = {};
     alignas(64) double exits[kLanes];
-    int ray[kLanes];
+    int ray[kLanes] = {};
     int taken = 0;
     const auto fill = [&](int lane) {  // the lane walks the next ray that walks; false when none is left
       while (taken < count) {
@@ -207,7 +208,7 @@ class SphereGrid {
     };
     __mmask8 active = 0;
     for (int lane = 0; lane < kLanes; ++lane) active |= __mmask8(fill(lane) << lane);
-    alignas(32) int32_t pairLane[kMostPairs + kLanes];
+    alignas(32) int32_t pairLane[kMostPairs + kLanes] = {};  // read eight at a time, past the pairs listed too
     alignas(32) uint32_t pairRecord[kMostPairs + kLanes];
     const __m256i laneIds = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     while (active) {
