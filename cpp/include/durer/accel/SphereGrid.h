@@ -79,39 +79,6 @@ class SphereGrid {
     return grid->build(spheres) ? std::move(grid) : nullptr;
   }
 
-  // A ray's walk: the cell holding its entry point (and its index, x + y·stride[1] + z·stride[2]),
-  // each axis' step and the cell past the grid it stops at, and the t of the next boundary along each.
-  struct Walk {
-    double inv[3], next[3];
-    int cell[3], step[3], stop[3];
-    int64_t index;
-  };
-  // refused: a ray the walk cannot follow exactly (see the top of this file); empty: the ray's span
-  // [tMin, tHit) misses the grid's box.
-  enum class Start { refused, empty, walking };
-
-  DURER_INLINE Start start(Walk& w, const double (&o)[3], const double (&d)[3], double tMin, double tHit) const {
-    for (int a = 0; a < 3; ++a) {
-      w.inv[a] = 1 / d[a];
-      if (!std::isfinite(o[a]) || !std::isfinite(d[a]) || (d[a] != 0 && !std::isfinite(w.inv[a]))) return Start::refused;
-    }
-    if (d[0] == 0 && d[1] == 0 && d[2] == 0) return Start::refused;
-    if (kOriginError * (maxAbs(Vec3d(o[0], o[1], o[2])) + m_extent) > m_pad) return Start::refused;
-    // The ray's span inside the grid's box.
-    double t0 = tMin, t1 = tHit;
-    for (int a = 0; a < 3; ++a) slab(m_lo[a], m_hi[a], o[a], w.inv[a], t0, t1);
-    if (!(t0 < t1)) return Start::empty;
-    w.index = 0;
-    for (int a = 0; a < 3; ++a) {
-      w.cell[a] = cellAlong(a, o[a] + t0 * d[a]);
-      w.step[a] = d[a] > 0 ? 1 : -1;
-      w.stop[a] = d[a] > 0 ? m_res[a] : -1;
-      w.next[a] = boundaryT(a, w.cell[a], w.step[a], o[a], d[a], w.inv[a]);
-      w.index += w.cell[a] * m_stride[a];
-    }
-    return Start::walking;
-  }
-
   // Walks the ray o + t d from max(tMin, its entry) through the cells it crosses, in order, calling
   // testCell(first, count) for each cell's records [first, first + count), until done(exitT) says the
   // ray's search is over (its hit is no farther than the cell's exit exitT, or any hit where one is
@@ -285,6 +252,39 @@ class SphereGrid {
   static constexpr double kOriginError = 64 * double(std::numeric_limits<Real>::epsilon());
 
   SphereGrid() = default;
+
+  // A ray's walk: the cell holding its entry point (and its index, x + y·stride[1] + z·stride[2]),
+  // each axis' step and the cell past the grid it stops at, and the t of the next boundary along each.
+  struct Walk {
+    double inv[3], next[3];
+    int cell[3], step[3], stop[3];
+    int64_t index;
+  };
+  // refused: a ray the walk cannot follow exactly (see the top of this file); empty: the ray's span
+  // [tMin, tHit) misses the grid's box.
+  enum class Start { refused, empty, walking };
+
+  DURER_INLINE Start start(Walk& w, const double (&o)[3], const double (&d)[3], double tMin, double tHit) const {
+    for (int a = 0; a < 3; ++a) {
+      w.inv[a] = 1 / d[a];
+      if (!std::isfinite(o[a]) || !std::isfinite(d[a]) || (d[a] != 0 && !std::isfinite(w.inv[a]))) return Start::refused;
+    }
+    if (d[0] == 0 && d[1] == 0 && d[2] == 0) return Start::refused;
+    if (kOriginError * (maxAbs(Vec3d(o[0], o[1], o[2])) + m_extent) > m_pad) return Start::refused;
+    // The ray's span inside the grid's box.
+    double t0 = tMin, t1 = tHit;
+    for (int a = 0; a < 3; ++a) slab(m_lo[a], m_hi[a], o[a], w.inv[a], t0, t1);
+    if (!(t0 < t1)) return Start::empty;
+    w.index = 0;
+    for (int a = 0; a < 3; ++a) {
+      w.cell[a] = cellAlong(a, o[a] + t0 * d[a]);
+      w.step[a] = d[a] > 0 ? 1 : -1;
+      w.stop[a] = d[a] > 0 ? m_res[a] : -1;
+      w.next[a] = boundaryT(a, w.cell[a], w.step[a], o[a], d[a], w.inv[a]);
+      w.index += w.cell[a] * m_stride[a];
+    }
+    return Start::walking;
+  }
 
   // The cell holding coordinate x along axis a, the grid's edge cells for anything beyond them.
   DURER_INLINE int cellAlong(int a, double x) const {

@@ -334,17 +334,18 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
                                           const Sphere<Real>* spheres, const int32_t* lanes, const uint32_t* records,
                                           int n, const IdOf& idOf) {
     using L = PairLanes<Real>;
+    constexpr int kPairs = WalkRays::kLanes;  // a vector's lanes: the pairs tested at once
     const typename L::V ox = L::load(rays.ox), oy = L::load(rays.oy), oz = L::load(rays.oz);
     const typename L::V sx = L::load(rays.sx), sy = L::load(rays.sy), sz = L::load(rays.sz), invA = L::load(rays.invA);
-    for (int j = 0; j < n; j += 8) {
-      uint32_t at[8];  // pairs past n repeat the first (their bits are masked off)
-      for (int i = 0; i < 8; ++i) at[i] = records[j + i < n ? j + i : j];
+    for (int j = 0; j < n; j += kPairs) {
+      uint32_t at[kPairs];  // pairs past n repeat the first (their bits are masked off)
+      for (int i = 0; i < kPairs; ++i) at[i] = records[j + i < n ? j + i : j];
       typename L::V cx, cy, cz, r;
       L::transpose(spheres, at, cx, cy, cz, r);
       const typename L::Index pick = L::index(lanes + j);
       const unsigned may = mayMeetLanes<L>(L::pick(pick, ox) - cx, L::pick(pick, oy) - cy, L::pick(pick, oz) - cz,
                                            L::pick(pick, sx), L::pick(pick, sy), L::pick(pick, sz), L::pick(pick, invA), r);
-      for (unsigned bits = may & (n - j >= 8 ? 0xffu : (1u << (n - j)) - 1); bits != 0; bits &= bits - 1) {
+      for (unsigned bits = may & (n - j >= kPairs ? 0xffu : (1u << (n - j)) - 1); bits != 0; bits &= bits - 1) {
         const int i = __builtin_ctz(bits);
         const int k = rays.ray[lanes[j + i]];
         intersectSphere<M, false>(packet, terms[k], k, spheres[at[i]], idOf(at[i]));
