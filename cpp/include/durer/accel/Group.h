@@ -9,6 +9,7 @@
 #include <set>
 #include <vector>
 
+#include "durer/Inline.h"
 #include "durer/math/Affine.h"
 #include "durer/accel/BoxSet.h"
 #include "durer/accel/Bvh.h"
@@ -201,6 +202,15 @@ class Group {
     int64_t tests = searchOwn<M, AnyHit>(packet, primBase, cancel);
     if (!m_instances.empty()) tests += searchInstances<M, AnyHit>(packet, primBase, cancel);
     return tests;
+  }
+
+  // Fetches what hit(packet, k) reads of a hit on the group's own spheres (inlined: see
+  // PrimitiveSet::prefetchHit). Callers making a packet's records fetch kHitsAhead rays ahead, so
+  // that the misses of several overlap without more in flight than the core tracks.
+  static constexpr int kHitsAhead = 8;
+  DURER_INLINE void prefetchHit(const RayPacket<Real>& packet, int k) const {
+    const auto index = static_cast<uint32_t>(packet.prim[k]);  // a miss (-1) lies past every set
+    if (index < m_spheres.size()) m_spheres.prefetchHit(index);
   }
 
   // The full hit record of ray k, once its search is over (a miss gives the default record).

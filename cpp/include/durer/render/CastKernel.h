@@ -43,7 +43,9 @@ int64_t castRays(const Group<Real>& group, const CastInput& in, const CastOutput
       }
       continue;
     }
+    for (int k = 0; k < std::min(packet.count, Group<Real>::kHitsAhead); ++k) group.prefetchHit(packet, k);
     for (int k = 0; k < packet.count; ++k) {
+      if (k + Group<Real>::kHitsAhead < packet.count) group.prefetchHit(packet, k + Group<Real>::kHitsAhead);
       const size_t i = first + k;
       const Hit<Real> hit = group.hit(packet, k);
       out.t[i] = hit.t;
