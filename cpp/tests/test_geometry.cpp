@@ -7,6 +7,7 @@
 #include <cstring>
 #include <limits>
 #include <random>
+#include <vector>
 
 #include "durer/accel/BoxSet.h"
 #include "durer/accel/PlaneSet.h"
@@ -116,6 +117,34 @@ TEST_CASE_TEMPLATE("nextUp and nextDown step exactly as std::nextafter toward +i
   }
   CHECK(std::isnan(nextUp(std::numeric_limits<Real>::quiet_NaN())));
   CHECK(std::isnan(nextDown(std::numeric_limits<Real>::quiet_NaN())));
+}
+
+TEST_CASE_TEMPLATE("nextToward steps as nextUp, nextDown or not at all, bit for bit", Real, float, double) {
+  // Special values, and random bit patterns (every sign, binade and subnormal), each stepped toward
+  // a positive, a negative, a zero and a NaN direction.
+  constexpr Real inf = std::numeric_limits<Real>::infinity(), nan = std::numeric_limits<Real>::quiet_NaN();
+  using Bits = typename FloatBits<Real>::Bits;
+  std::vector<Real> values = {Real(0), -Real(0), Real(1), Real(-1), std::numeric_limits<Real>::denorm_min(),
+                              -std::numeric_limits<Real>::denorm_min(), std::numeric_limits<Real>::min(),
+                              std::numeric_limits<Real>::max(), -std::numeric_limits<Real>::max(), inf, -inf};
+  std::mt19937_64 rng(21);
+  for (int i = 0; i < 20000; ++i) {
+    const Bits bits = static_cast<Bits>(rng());
+    Real x;
+    std::memcpy(&x, &bits, sizeof x);
+    if (x == x) values.push_back(x);
+  }
+  const auto same = [](Real a, Real b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  for (const Real x : values) {
+    CAPTURE(x);
+    CHECK(same(nextToward(x, Real(0.5)), nextUp(x)));
+    CHECK(same(nextToward(x, -std::numeric_limits<Real>::denorm_min()), nextDown(x)));
+    CHECK(same(nextToward(x, Real(0)), x));
+    CHECK(same(nextToward(x, -Real(0)), x));
+    CHECK(same(nextToward(x, nan), x));
+  }
+  CHECK(std::isnan(nextToward(nan, Real(1))));
+  CHECK(std::isnan(nextToward(nan, Real(-1))));
 }
 
 TEST_CASE("inversePowerOfTwo is 2^-floor(log2 x) for normal x, NaN for the rest") {

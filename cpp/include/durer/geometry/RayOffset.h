@@ -15,14 +15,12 @@ namespace durer {
 template <typename Real>
 Vec3<Real> offsetRayOrigin(const Vec3<Real>& point, const Vec3<Real>& normal, const Vec3<Real>& error,
                            const Vec3<Real>& w) {
-  const Real side = glm::dot(w, normal) < 0 ? Real(-1) : Real(1);
+  // The side w leaves toward, and each step below, selected without branches: coin tosses for the
+  // branch predictor over a render's shadow and bounce rays.
+  const Real side = Real(1) - Real(2) * Real(glm::dot(w, normal) < 0);
   const Vec3<Real> away = side * normal;
   const Vec3<Real> origin = point + glm::dot(absolute(normal), error) * away;
-  Vec3<Real> result;
-  for (int i = 0; i < 3; ++i) {
-    result[i] = away[i] > 0 ? nextUp(origin[i]) : away[i] < 0 ? nextDown(origin[i]) : origin[i];
-  }
-  return result;
+  return Vec3<Real>(nextToward(origin.x, away.x), nextToward(origin.y, away.y), nextToward(origin.z, away.z));
 }
 
 }  // namespace durer

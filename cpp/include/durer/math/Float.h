@@ -111,6 +111,29 @@ DURER_INLINE Real nextDown(Real x) {
   return -nextUp(-x);
 }
 
+// nextUp(x) where `toward` > 0, nextDown(x) where it is < 0, x where it is 0 or NaN: the same bits,
+// selected without a branch (a ray offset's step direction and its coordinate's sign are coin tosses
+// for the branch predictor: the branches of the two calls cost a shadow or bounce ray ~45 cycles).
+template <typename Real>
+DURER_INLINE Real nextToward(Real x, Real toward) {
+  using Bits = typename FloatBits<Real>::Bits;
+  constexpr int kSign = 8 * sizeof(Bits) - 1;
+  Bits bits;
+  std::memcpy(&bits, &x, sizeof x);
+  const Bits up = toward > 0, down = toward < 0, negative = bits >> kSign;
+  const Bits away = (up & (negative ^ 1)) | (down & negative);  // the magnitude grows: +1 on the bits
+  const Bits inward = (up & negative) | (down & (negative ^ 1));  // it shrinks: -1
+  // ±0 steps to the least subnormal of the step's sign; NaN, and an infinity stepped outward, stay.
+  const Bits zero = Bits((bits << 1) == 0) & (up | down);
+  const Bits stays = Bits(!(x == x)) | (Bits(std::isinf(x)) & away);
+  const Bits stepped = bits + away - inward;
+  const Bits fromZero = (down << kSign) | 1;
+  const Bits keep = Bits(0) - stays, reset = Bits(0) - zero;
+  bits = (bits & keep) | (((fromZero & reset) | (stepped & ~reset)) & ~keep);
+  std::memcpy(&x, &bits, sizeof x);
+  return x;
+}
+
 // x converted to Real, rounded down (toward -inf) or up (toward +inf) where the conversion is inexact:
 // the converted value then still bounds the given one from that side. As the nearest conversion
 // stepped by nextDown / nextUp, but the step is a select on the bits, not a branch: which way a
