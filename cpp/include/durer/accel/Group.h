@@ -204,13 +204,17 @@ class Group {
     return tests;
   }
 
-  // Fetches what hit(packet, k) reads of a hit on the group's own spheres (inlined: see
-  // PrimitiveSet::prefetchHit). Callers making a packet's records fetch kHitsAhead rays ahead, so
-  // that the misses of several overlap without more in flight than the core tracks.
-  static constexpr int kHitsAhead = 8;
-  DURER_INLINE void prefetchHit(const RayPacket<Real>& packet, int k) const {
-    const auto index = static_cast<uint32_t>(packet.prim[k]);  // a miss (-1) lies past every set
-    if (index < m_spheres.size()) m_spheres.prefetchHit(index);
+  // Calls make(k) for rays k = 0 .. count - 1 of the packet, in order, make building ray k's hit
+  // record (hit(packet, k)), with what the record of ray k + kHitsAhead reads of the group's own
+  // spheres asked for first: after a search among copies (SphereGrid's records) the set's arrays
+  // are cold, and the misses of several records then overlap, no more in flight than the core tracks.
+  template <typename Make>
+  DURER_INLINE void forEachHitRecord(const RayPacket<Real>& packet, int count, const Make& make) const {
+    for (int k = 0; k < std::min(count, kHitsAhead); ++k) prefetchHit(packet, k);
+    for (int k = 0; k < count; ++k) {
+      if (k + kHitsAhead < count) prefetchHit(packet, k + kHitsAhead);
+      make(k);
+    }
   }
 
   // The full hit record of ray k, once its search is over (a miss gives the default record).
@@ -290,6 +294,13 @@ class Group {
     base += static_cast<int32_t>(m_triangles.size());
     tests += m_boxes.template intersect<AnyHit>(packet, base, cancel);
     return tests;
+  }
+
+  static constexpr int kHitsAhead = 8;
+  // Inlined where called: see PrimitiveSet::prefetchHit.
+  DURER_INLINE void prefetchHit(const RayPacket<Real>& packet, int k) const {
+    const auto index = static_cast<uint32_t>(packet.prim[k]);  // a miss (-1) lies past every set
+    if (index < m_spheres.size()) m_spheres.prefetchHit(index);
   }
 
   Hit<Real> hitOwn(const RayPacket<Real>& packet, int k) const {

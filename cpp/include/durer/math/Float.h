@@ -112,8 +112,9 @@ DURER_INLINE Real nextDown(Real x) {
 }
 
 // nextUp(x) where `toward` > 0, nextDown(x) where it is < 0, x where it is 0 or NaN: the same bits,
-// selected without a branch (a ray offset's step direction and its coordinate's sign are coin tosses
-// for the branch predictor: the branches of the two calls cost a shadow or bounce ray ~45 cycles).
+// selected without a branch. A ray offset's step direction and its coordinate's sign are coin tosses
+// for the branch predictor (offsetRayOrigin: 3.0 % of a secondary-ray render with the branches of
+// the two calls, 2.1 % with this); the hierarchy build's steps, always predicted, keep nextUp/nextDown.
 template <typename Real>
 DURER_INLINE Real nextToward(Real x, Real toward) {
   using Bits = typename FloatBits<Real>::Bits;

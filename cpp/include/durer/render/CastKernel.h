@@ -43,16 +43,14 @@ int64_t castRays(const Group<Real>& group, const CastInput& in, const CastOutput
       }
       continue;
     }
-    for (int k = 0; k < std::min(packet.count, Group<Real>::kHitsAhead); ++k) group.prefetchHit(packet, k);
-    for (int k = 0; k < packet.count; ++k) {
-      if (k + Group<Real>::kHitsAhead < packet.count) group.prefetchHit(packet, k + Group<Real>::kHitsAhead);
+    group.forEachHitRecord(packet, packet.count, [&](int k) {
       const size_t i = first + k;
       const Hit<Real> hit = group.hit(packet, k);
       out.t[i] = hit.t;
       for (int c = 0; c < 3; ++c) out.normal[3 * i + c] = hit.normal[c];
       out.objectId[i] = hit.objectId;
       out.materialId[i] = hit.materialId;
-    }
+    });
   }
   return tests;
 }

@@ -324,11 +324,7 @@ class PacketShader {
     counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
     if (m_cancel.load(std::memory_order_relaxed)) return;
     HitRecords<Real, kPacketSize> hits;
-    for (int j = 0; j < std::min(count, Group<Real>::kHitsAhead); ++j) m_group.prefetchHit(packet, j);
-    for (int j = 0; j < count; ++j) {
-      if (j + Group<Real>::kHitsAhead < count) m_group.prefetchHit(packet, j + Group<Real>::kHitsAhead);
-      hits.make(j, [&] { return m_group.hit(packet, j); });
-    }
+    m_group.forEachHitRecord(packet, count, [&](int j) { hits.make(j, [&] { return m_group.hit(packet, j); }); });
     alignas(64) Vec3<Real> seen[kPacketSize];
     shade(packet, hits.data(), weights, depth, seen, counters);
     for (int j = 0; j < count; ++j) rgb[children[j].parent] += children[j].factor * seen[j];
