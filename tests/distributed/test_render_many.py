@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pickle
+import signal
 import subprocess
 import sys
 
@@ -90,6 +91,37 @@ def test_bad_arguments_raise_before_any_task_and_task_errors_come_back(client):
     with pytest.raises(ValueError, match=r"spp must be in \[1, "):
         list(durer.render_many(SCENE, orbit_cameras(3), 8, 8, client=client, spp=0))
     assert pickle.loads(pickle.dumps(camera)) == camera
+
+
+class _CtrlCInAFinaliser:
+    """Ctrl-C pressed while the garbage collector finalises an object (a Dask future, say): its
+    KeyboardInterrupt is raised in __del__, where Python prints and drops it."""
+
+    def __del__(self):
+        signal.raise_signal(signal.SIGINT)
+
+
+@pytest.fixture
+def python_sigint():
+    """SIGINT with Python's own handler, as in a script (importing dask_jobqueue, as the session's
+    tests do, installs one that exits)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def test_ctrl_c_dropped_by_a_finaliser_still_stops_the_batch(client, python_sigint, capsys):
+    hook = sys.unraisablehook
+    renders = durer.render_many(SCENE, orbit_cameras(40), 16, 16, client=client, **OPTIONS)
+    received = [next(renders)[0]]
+    _CtrlCInAFinaliser()
+    with pytest.raises(KeyboardInterrupt):
+        for i, _ in renders:
+            received.append(i)
+    assert received == list(range(len(received))) and len(received) < 10
+    assert "Exception ignored" not in capsys.readouterr().err
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler and sys.unraisablehook is hook
+    assert [i for i, _ in durer.render_many(SCENE, orbit_cameras(3), 16, 16, client=client, **OPTIONS)] == [0, 1, 2]
 
 
 def test_progress_bar_counts_renders(capsys):

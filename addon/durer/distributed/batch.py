@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import inspect
+import signal
+import sys
+import threading
 from collections import Counter
 from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from typing import Any
 
 from ..camera import OrthographicCamera, PerspectiveCamera
@@ -130,7 +134,8 @@ def stream(
 ) -> Iterator[tuple[int, Any]]:
     """Submit tasks 0..count-1 with `submit(i)` -> future, keeping at most `window` (default: four
     per worker thread) submitted but not yet yielded, and yield (i, finished future) in index order
-    or as they finish. Tasks still pending when the caller stops (an error, Ctrl-C) are cancelled."""
+    or as they finish. Tasks still pending when the caller stops (an error, Ctrl-C) are cancelled.
+    Ctrl-C raises KeyboardInterrupt here even when it lands in a finaliser (`_ctrl_c_kept`)."""
     distributed = require_distributed()
     if window is None:
         window = 4 * max(1, sum(client.nthreads().values()))
@@ -147,21 +152,60 @@ def stream(
             done.add(future)
             submitted += 1
 
-    try:
-        top_up()
-        for future in done:
-            i = index.pop(future.key)
-            if not ordered:
-                yielded += 1
-                yield i, future
-            else:
-                ready[i] = future
-                while yielded in ready:
-                    yielded += 1
-                    yield yielded - 1, ready.pop(yielded - 1)
+    with _ctrl_c_kept() as pressed:
+        try:
             top_up()
-    finally:
-        pending = list(done.futures)
-        done.clear()
-        if pending:
-            client.cancel(pending)
+            for future in done:
+                if pressed.is_set():  # a Ctrl-C whose KeyboardInterrupt a finaliser dropped
+                    raise KeyboardInterrupt
+                i = index.pop(future.key)
+                if not ordered:
+                    yielded += 1
+                    yield i, future
+                else:
+                    ready[i] = future
+                    while yielded in ready:
+                        yielded += 1
+                        yield yielded - 1, ready.pop(yielded - 1)
+                top_up()
+            if pressed.is_set():
+                raise KeyboardInterrupt
+        finally:
+            pending = list(done.futures)
+            done.clear()
+            if pending:
+                client.cancel(pending)
+
+
+@contextmanager
+def _ctrl_c_kept() -> Iterator[threading.Event]:
+    """An event set by Ctrl-C while the block runs. Python raises KeyboardInterrupt wherever the main
+    thread is, and one raised inside a finaliser (a Dask future's __del__, run by the garbage
+    collector at any moment) is printed as "Exception ignored" and dropped: the loop would go on
+    rendering every frame. Here the handler also records the press for the loop to raise again, and
+    a KeyboardInterrupt dropped that way is not printed. Outside the main thread, or when SIGINT has
+    a handler other than Python's default, the event is never set and nothing changes."""
+    pressed = threading.Event()
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        yield pressed
+        return
+
+    def on_sigint(signum: int, frame: Any) -> None:
+        pressed.set()
+        raise KeyboardInterrupt
+
+    def on_unraisable(unraisable: Any) -> None:
+        if not isinstance(unraisable.exc_value, KeyboardInterrupt):
+            previous_hook(unraisable)
+
+    previous_hook = sys.unraisablehook
+    signal.signal(signal.SIGINT, on_sigint)
+    sys.unraisablehook = on_unraisable
+    try:
+        yield pressed
+    finally:  # each put back only if still ours (a generator may be closed late, from any thread)
+        if sys.unraisablehook is on_unraisable:
+            sys.unraisablehook = previous_hook
+        if threading.current_thread() is threading.main_thread() and signal.getsignal(signal.SIGINT) is on_sigint:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
