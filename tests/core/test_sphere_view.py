@@ -279,27 +279,35 @@ def test_shadows_toward_suns_and_point_lights_need_no_hierarchy(precision):
 
 
 @pytest.mark.parametrize("precision", ["float", "double"])
-def test_more_lights_than_views_walk_the_hierarchy(precision):
+@pytest.mark.parametrize("kind", ["point", "sun"])
+def test_more_lights_than_views_walk_the_hierarchy(precision, kind):
     """Past three lights casting shadows (SphereSet::kMostLightViews), no light gets a view (each
     costs its making and ~30 bytes a sphere; one hierarchy serves them all): the first render
     prepares the spheres with their hierarchy at once, and each light's shadows are those a render of
-    it alone, through its view, finds."""
-    positions = [(0.3, 0.9, -0.2), (-0.8, 0.6, 0.4), (0.1, 1.5, 0.9), (0.9, 0.5, 0.8)]
+    it alone, through its view (a sun's: the spheres' disks on it), finds."""
+    places = {"point": [(0.3, 0.9, -0.2), (-0.8, 0.6, 0.4), (0.1, 1.5, 0.9), (0.9, 0.5, 0.8)],
+              "sun": [(1, -2, -1), (0.05, -1, 0.02), (-3, -1, 0.5), (0.4, -0.7, 0.9)]}[kind]
     camera = durer.PerspectiveCamera((0, 2, 3), (0, -0.6, -1), (0, 1, 0), fov_degrees=50)
 
     def render(of):
         return durer.render(of, camera, width=64, height=48, passes="color", precision=precision, threads=2)
 
+    def lit_by(place):
+        return {"direction": place} if kind == "sun" else {"position": place}
+
     alone = []
-    for position in positions:
-        scene, _, _ = _sun_scene(np.random.default_rng(31), 3000, None, position)
+    for place in places:
+        scene, _, _ = _sun_scene(np.random.default_rng(31), 3000, **lit_by(place))
         alone.append(render(scene).color[..., :3])
         assert scene.hierarchy_counts["built"] == 1
         durer.cast(scene, [[0.0, 5.0, 0.0]], [[0.0, -1.0, 0.0]], precision=precision)
         assert scene.hierarchy_counts["built"] == 2  # rendered through the light's view, without it
-    together, _, _ = _sun_scene(np.random.default_rng(31), 3000, None, positions[0])
-    for position in positions[1:]:
-        together.add_point_light(position, (1, 1, 1), shadows=True)
+    together, _, _ = _sun_scene(np.random.default_rng(31), 3000, **lit_by(places[0]))
+    for place in places[1:]:
+        if kind == "sun":
+            together.add_directional_light(place, (1, 1, 1), shadows=True)
+        else:
+            together.add_point_light(place, (1, 1, 1), shadows=True)
     image = render(together).color[..., :3]
     assert together.hierarchy_counts["built"] == 1
     durer.cast(together, [[0.0, 5.0, 0.0]], [[0.0, -1.0, 0.0]], precision=precision)

@@ -90,6 +90,35 @@ class SphereView {
   // than the hierarchy it stands in for: not made.
   static constexpr double kMaxEntriesPerSphere = 16;
 
+  // A disk on an orthographic image that holds everything a sphere may cover (its footprint's
+  // square's inscribed disk: the square is the disk's, grown by the rounding bounds on every side),
+  // relative to the first pixel of an entry's cell, in 1/kUnits pixel. Rounded outward: the centre
+  // lies within half a unit of the disk's on each axis, less than a unit away, and the radius is
+  // rounded up from one a unit larger. A disk too large, or too far, for these bits (hundreds of
+  // pixels: spheres a hundred times the mean size of a sun's view's) holds every point.
+  struct Disk {
+    static constexpr double kUnits = 256;
+    static constexpr uint16_t kEverywhere = 0xffff;
+    int16_t x, y;
+    uint16_t radius;
+
+    // The disk of centre (x, y) and radius r, in pixels from the cell's first pixel.
+    static Disk around(double x, double y, double r) {
+      Disk disk{0, 0, kEverywhere};
+      const double qx = std::nearbyint(x * kUnits), qy = std::nearbyint(y * kUnits), qr = std::ceil(r * kUnits + 1);
+      constexpr double kMost = std::numeric_limits<int16_t>::max();
+      if (std::fabs(qx) <= kMost && std::fabs(qy) <= kMost && qr < kEverywhere) {
+        disk.x = int16_t(qx), disk.y = int16_t(qy), disk.radius = uint16_t(qr);
+      }
+      return disk;
+    }
+    // Whether it holds the point (x, y), in units from the cell's first pixel (NaN: it does).
+    DURER_INLINE bool holds(double x, double y) const {
+      const double dx = x - double(this->x), dy = y - double(this->y), r = double(radius);
+      return radius == kEverywhere || !(dx * dx + dy * dy > r * r);
+    }
+  };
+
   struct Entry {
     uint32_t sphere;  // index in the sphere set
     float tLow;       // no ray of the cell meets it before this t (a light's view: no point nearer the light)
@@ -98,10 +127,13 @@ class SphereView {
   // The view of `count` spheres over the cells of the pixels [x, x + width) x [y, y + height):
   // footprint(i, box, tLow) gives sphere i's sample box and lower bound (false: no camera ray
   // meets it). Sphere i is the set's sphere `spheres[i]` (null: i), spheres in increasing order.
-  // Null if it would not pay (see kMaxEntriesPerSphere).
+  // `disks`: each box is the square around a disk that holds everything its sphere may cover (an
+  // orthographic image's, a sun's view): the entries keep those disks (Disk) rather than their
+  // pixel spans, for occluders() only. Null if it would not pay (see kMaxEntriesPerSphere).
   template <typename Footprint>
   static std::unique_ptr<SphereView> make(size_t count, const Footprint& footprint, int x, int y, int width,
-                                          int height, int threads, const uint32_t* spheres = nullptr);
+                                          int height, int threads, const uint32_t* spheres = nullptr,
+                                          bool disks = false);
 
   // Calls test(sphere, kBegin, kEnd, all) for the spheres of the packet's cell that some ray may meet
   // before its hit so far, nearest first, with the rays [kBegin, kEnd) that may meet it (test lowers
@@ -153,20 +185,22 @@ class SphereView {
   }
 
   // A light's view (setLight): for each ray k of the packet without a hit, calls test(k, sphere) for
-  // the spheres of its cell that cover its pixel and reach nearer the light than its origin, nearest
-  // the origin first, until test returns true (an occluder found); then the same in the light's
-  // other faces (addFace), each taking the rays whose origins it holds. The rays travel toward the
-  // light: opposite the view's direction, or toward a perspective view's eye. Each ray's search
-  // waits on a chain of misses (its cell's bounds, the entries its binary search reads, their spans:
-  // a shadow ray's cell is a random place in the view), so the packet's rays take each step
-  // together: every ray's cell, then their bounds and entries fetched, then every binary search
-  // (without branches, so that the searches overlap), then each ray's spheres in turn. Returns the
-  // ray-sphere tests made.
+  // the spheres of its cell whose footprint covers its place on the image (a view with disks: whose
+  // disk holds that point; else whose span covers its pixel) and that reach nearer the light than
+  // its origin, nearest the origin first, until test returns true (an occluder found); then the
+  // same in the light's other faces (addFace), each taking the rays whose origins it holds. The rays
+  // travel toward the light: opposite the view's direction, or toward a perspective view's eye.
+  // Each ray's search waits on a chain of misses (its cell's bounds, the entries its binary search
+  // reads, the spans or disks it scans down from there: a shadow ray's cell is a random place in
+  // the view), so the packet's rays take each step together: every ray's cell, then their bounds
+  // and entries fetched, then every binary search (without branches, so that the searches
+  // overlap), then the lines their scans start on fetched, then each ray's spheres in turn.
+  // Returns the ray-sphere tests made.
   template <typename Test>
   int64_t occluders(const RayPacket<Real>& packet, const Test& test) const {
     int rays[kPacketSize], rows[kPacketSize], columns[kPacketSize];
     uint32_t cells[kPacketSize], ends[kPacketSize];
-    double reaches[kPacketSize];
+    double reaches[kPacketSize], xs[kPacketSize], ys[kPacketSize];
     int n = 0;
     for (int k = 0; k < packet.count; ++k) {
       double x, y, depth, cx, cy;
@@ -174,27 +208,40 @@ class SphereView {
       const uint32_t cell = uint32_t(size_t(cy) * size_t(m_cellsX) + size_t(cx));
       __builtin_prefetch(&m_first[cell]);
       // Spheres whose nearest depth lies beyond the origin's (widened by its rounding) cannot block it.
-      const double slack = 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(depth) + maxAbs(m_light.center));
+      const double slack = 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(depth) + m_lightReach);
       rays[n] = k, cells[n] = cell, reaches[n] = depth + slack;
-      // The ray travels along the view's axis, or toward its eye: it stays in its pixel, and meets
-      // only spheres whose footprint covers that pixel.
+      // The ray travels along the view's axis, or toward its eye: it stays at its place on the
+      // image, and meets only spheres whose footprint covers it: its pixel (spans), or the point
+      // itself, in the cell's Disk units (disks).
+      xs[n] = (x - (m_cellX + cx) * kCell) * Disk::kUnits, ys[n] = (y - (m_cellY + cy) * kCell) * Disk::kUnits;
       rows[n] = int(std::floor(y) - (m_cellY + cy) * kCell), columns[n] = int(std::floor(x) - (m_cellX + cx) * kCell);
       ++n;
     }
-    for (int j = 0; j < n; ++j) {  // the entries the searches read first, and the nearest spans
+    for (int j = 0; j < n; ++j) {  // the entries the searches read first, and the nearest spans or disks
       const uint32_t begin = m_first[cells[j]], end = m_first[cells[j] + 1];
       const char* entries = reinterpret_cast<const char*>(m_entries.get() + begin);
       const size_t bytes = (end - begin) * sizeof(Entry);
       for (size_t b = 0; b < std::min<size_t>(bytes, 512); b += 64) __builtin_prefetch(entries + b);
-      __builtin_prefetch(m_spans.get() + begin);
+      __builtin_prefetch(m_withDisks ? static_cast<const void*>(m_disks.get() + begin) : m_spans.get() + begin);
     }
     for (int j = 0; j < n; ++j) ends[j] = upperBound(m_first[cells[j]], m_first[cells[j] + 1], reaches[j]);
+    for (int j = 0; j < n; ++j) {  // the scans' first spans or disks: they read from their ends down
+      if (ends[j] == m_first[cells[j]]) continue;
+      const char* last = m_withDisks ? reinterpret_cast<const char*>(m_disks.get() + ends[j] - 1)
+                                     : reinterpret_cast<const char*>(m_spans.get() + ends[j] - 1);
+      __builtin_prefetch(last);
+      __builtin_prefetch(last - 64);
+    }
     int64_t tested = 0;
-    for (int j = 0; j < n; ++j) {  // the spans are read in a stream; the spheres off the pixel never are
+    // The spans or disks are read in a stream; the spheres off the ray's place never are.
+    const auto meets = [&](uint32_t e, int j) DURER_INLINE_LAMBDA {
+      return m_withDisks ? m_disks[e].holds(xs[j], ys[j]) : spanMeets(m_spans[e], rows[j], rows[j], columns[j], columns[j]);
+    };
+    for (int j = 0; j < n; ++j) {
       const int k = rays[j];
       for (uint32_t e = ends[j]; e != m_first[cells[j]];) {
         --e;
-        if (!spanMeets(m_spans[e], rows[j], rows[j], columns[j], columns[j])) continue;
+        if (!meets(e, j)) continue;
         ++tested;
         if (test(k, m_entries[e].sphere)) break;
       }
@@ -221,7 +268,10 @@ class SphereView {
   // Makes this the view from a light searched by occluders(), made over the light's image
   // (`projection` its frame): a directional light's orthographic one along the way it travels, or
   // one face of a point light's cube of perspective ones (addFace the others).
-  void setLight(const ParallelProjection& projection) { m_light = projection; }
+  void setLight(const ParallelProjection& projection) {
+    m_light = projection;
+    m_lightReach = maxAbs(projection.center);
+  }
   void addFace(std::unique_ptr<SphereView> face) {
     if (m_nextFace) {
       m_nextFace->addFace(std::move(face));
@@ -295,24 +345,29 @@ class SphereView {
   }
 
   // Sorts entries [begin, end), placed in the spheres' order, nearest first (their tLow, then
-  // the sphere), with their spans; the vectors are scratch space.
+  // the sphere), with their spans or disks; the vectors are scratch space.
   void sortCell(uint32_t begin, uint32_t end, std::vector<uint64_t>& order, std::vector<uint64_t>& scratch,
-                std::vector<Entry>& entries, std::vector<uint16_t>& spans);
+                std::vector<Entry>& entries, std::vector<uint16_t>& spans, std::vector<Disk>& disks);
 
   int m_cellX = 0, m_cellY = 0;       // the first cell's column and row in the image's cells
   int m_cellsX = 0, m_cellsY = 0;
   std::vector<uint32_t> m_first;      // cell c's entries: [m_first[c], m_first[c + 1]), cells row by row
   HugeArray<Entry> m_entries;
   HugeArray<uint16_t> m_spans;        // the pixel rows and columns of its cell entry e's sphere covers (spanOf)
+  HugeArray<Disk> m_disks;            // instead, a view made with disks: entry e's sphere's disk
+  bool m_withDisks = false;
   ParallelProjection m_light;         // a light's view: its image
+  double m_lightReach = 0;            // ... and the largest coordinate of its centre
   std::unique_ptr<SphereView> m_nextFace;  // a point light's view: its next face
 };
 
 template <typename Real>
 template <typename Footprint>
 std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Footprint& footprint, int x, int y,
-                                                         int width, int height, int threads, const uint32_t* spheres) {
+                                                         int width, int height, int threads, const uint32_t* spheres,
+                                                         bool disks) {
   auto view = std::make_unique<SphereView>();
+  view->m_withDisks = disks;
   view->m_cellX = x / kCell, view->m_cellY = y / kCell;
   view->m_cellsX = (x + width + kCell - 1) / kCell - view->m_cellX;
   view->m_cellsY = (y + height + kCell - 1) / kCell - view->m_cellY;
@@ -327,6 +382,10 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
   HugeArray<Cells> cells(count);
   HugeArray<uint16_t> edges(count);
   HugeArray<float> tLows(count);
+  struct Round {
+    double x, y, r;  // a disk's centre, in pixels from the view's first cell, and radius
+  };
+  HugeArray<Round> rounds(disks ? count : 0);
   const double cellsX = view->m_cellsX, cellsY = view->m_cellsY;
   std::atomic<double> entries{0};
   parallelChunks(count, threads, [&](size_t begin, size_t end) {
@@ -355,6 +414,10 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
                         within(std::floor(box.x0) - view->m_cellX * kCell, firstColumn, lastColumn, firstColumn),
                         within(std::floor(box.x1) - view->m_cellX * kCell, firstColumn, lastColumn, x1 * kCell));
       tLows[i] = floatBelow(tLow);
+      if (disks) {
+        rounds[i] = {0.5 * (box.x0 + box.x1) - view->m_cellX * kCell, 0.5 * (box.y0 + box.y1) - view->m_cellY * kCell,
+                     0.5 * std::max(box.x1 - box.x0, box.y1 - box.y0)};
+      }
       made += (x1 - x0 + 1) * (y1 - y0 + 1);
     }
     double total = entries.load();
@@ -389,24 +452,30 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
   });
   for (size_t cell = 0; cell < cellCount; ++cell) first[cell + 1] += first[cell];
   view->m_entries = HugeArray<Entry>(first[cellCount]);
-  view->m_spans = HugeArray<uint16_t>(first[cellCount]);
+  view->m_disks = HugeArray<Disk>(disks ? first[cellCount] : 0);
+  view->m_spans = HugeArray<uint16_t>(disks ? 0 : first[cellCount]);
   std::vector<uint32_t> next(first.begin(), first.end() - 1);
   overBands([&](uint32_t i, const Cells& c, int32_t cy) {
     const uint16_t edge = edges[i];
     const int row0 = cy == c.y0 ? firstRowOf(edge) : 0, row1 = cy == c.y1 ? lastRowOf(edge) : kCell - 1;
     for (int32_t cx = c.x0; cx <= c.x1; ++cx) {
       const uint32_t e = next[size_t(cy) * cellsWide + size_t(cx)]++;
-      const int column0 = cx == c.x0 ? firstColumnOf(edge) : 0, column1 = cx == c.x1 ? lastColumnOf(edge) : kCell - 1;
       view->m_entries[e] = {spheres ? spheres[i] : i, tLows[i]};
-      view->m_spans[e] = spanOf(row0, row1, column0, column1);
+      if (disks) {
+        view->m_disks[e] = Disk::around(rounds[i].x - cx * kCell, rounds[i].y - cy * kCell, rounds[i].r);
+      } else {
+        const int column0 = cx == c.x0 ? firstColumnOf(edge) : 0, column1 = cx == c.x1 ? lastColumnOf(edge) : kCell - 1;
+        view->m_spans[e] = spanOf(row0, row1, column0, column1);
+      }
     }
   });
   forChunks(size_t(view->m_cellsY), bands, [&](size_t, size_t rowBegin, size_t rowEnd) {
     std::vector<uint64_t> order, scratch;
     std::vector<Entry> cellEntries;
     std::vector<uint16_t> cellSpans;
+    std::vector<Disk> cellDisks;
     for (size_t cell = rowBegin * cellsWide; cell < rowEnd * cellsWide; ++cell) {
-      view->sortCell(first[cell], first[cell + 1], order, scratch, cellEntries, cellSpans);
+      view->sortCell(first[cell], first[cell + 1], order, scratch, cellEntries, cellSpans, cellDisks);
     }
   });
   return view;
@@ -415,7 +484,7 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
 template <typename Real>
 void SphereView<Real>::sortCell(uint32_t begin, uint32_t end, std::vector<uint64_t>& order,
                                 std::vector<uint64_t>& scratch, std::vector<Entry>& entries,
-                                std::vector<uint16_t>& spans) {
+                                std::vector<uint16_t>& spans, std::vector<Disk>& disks) {
   if (end - begin < 2) return;
   // Placed in the spheres' order, so (key, place) sorts equal bounds by sphere: one order for any threads.
   order.clear();
@@ -430,11 +499,19 @@ void SphereView<Real>::sortCell(uint32_t begin, uint32_t end, std::vector<uint64
     radixSortByHigh32(order, scratch);
   }
   entries.assign(m_entries.get() + begin, m_entries.get() + end);
-  spans.assign(m_spans.get() + begin, m_spans.get() + end);
+  if (m_withDisks) {
+    disks.assign(m_disks.get() + begin, m_disks.get() + end);
+  } else {
+    spans.assign(m_spans.get() + begin, m_spans.get() + end);
+  }
   for (uint32_t j = 0; j < end - begin; ++j) {
     const uint32_t from = uint32_t(order[j]);
     m_entries[begin + j] = entries[from];
-    m_spans[begin + j] = spans[from];
+    if (m_withDisks) {
+      m_disks[begin + j] = disks[from];
+    } else {
+      m_spans[begin + j] = spans[from];
+    }
   }
 }
 

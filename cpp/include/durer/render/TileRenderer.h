@@ -556,17 +556,18 @@ class TileRenderer {
   }
 
   // The view of `spheres` over a width x height image seen through `camera`, on the render's threads
-  // (of the spheres listed in `only`, in increasing order, if given).
+  // (of the spheres listed in `only`, in increasing order, if given; `disks` as SphereView::make).
   static std::unique_ptr<SphereView<Real>> viewThrough(const SphereSet<Real>& spheres, const Camera<Real>& camera,
                                                        int width, int height, const RenderSettings& settings,
-                                                       const std::vector<uint32_t>* only = nullptr) {
+                                                       const std::vector<uint32_t>* only = nullptr,
+                                                       bool disks = false) {
     const auto footprint = [&](size_t i, SampleBox& box, double& tLow) {
       const Sphere<Real>& sphere = spheres.primitive(only ? (*only)[i] : i);
       return camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow);
     };
     const int threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
     return SphereView<Real>::make(only ? only->size() : spheres.size(), footprint, 0, 0, width, height, threads,
-                                  only ? only->data() : nullptr);
+                                  only ? only->data() : nullptr, disks);
   }
 
   // The view of the scene's own spheres from a directional light travelling along `direction`, for
@@ -599,7 +600,8 @@ class TileRenderer {
       spec.tMax = std::numeric_limits<double>::infinity();
       const int pixels = cells * SphereView<Real>::kCell;
       const Camera<Real> light(spec, pixels, pixels);
-      std::unique_ptr<SphereView<Real>> view = viewThrough(spheres, light, pixels, pixels, settings);
+      // Its footprints are squares around disks: a shadow ray tests the spheres whose disk holds it.
+      std::unique_ptr<SphereView<Real>> view = viewThrough(spheres, light, pixels, pixels, settings, nullptr, true);
       if (view) view->setLight(light.projection());
       return view;
     });

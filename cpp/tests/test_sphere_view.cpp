@@ -1,0 +1,47 @@
+// SphereView::Disk, the disk a sun's view keeps for each sphere: quantised outward, so that a point
+// of the disk it was made from is always held, and tight, so that it spares the tests it is for.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <random>
+
+#include "durer/accel/SphereView.h"
+
+namespace {
+
+using Disk = durer::SphereView<double>::Disk;
+
+// Whether the disk made around (x, y) of radius r holds the point (px, py), all in pixels.
+bool holds(double x, double y, double r, double px, double py) {
+  return Disk::around(x, y, r).holds(px * Disk::kUnits, py * Disk::kUnits);
+}
+
+}  // namespace
+
+TEST_CASE("a sun's view's disk holds every point of the disk it was made from, and little more") {
+  std::mt19937_64 rng(12);
+  std::uniform_real_distribution<double> place(-100, 108), size(0, 20), angle(0, 2 * M_PI);
+  int outside = 0, farOutsideHeld = 0;
+  for (int i = 0; i < 200000; ++i) {
+    const double x = place(rng), y = place(rng), r = size(rng), a = angle(rng);
+    const double c = std::cos(a), s = std::sin(a);
+    // On the rim (rounded either way) and just inside it: always held.
+    outside += !holds(x, y, r, x + r * c, y + r * s) + !holds(x, y, r, x + r * (1 - 1e-12) * c, y + r * (1 - 1e-12) * s);
+    // A fiftieth of a pixel beyond the rim: never (the rounding adds less than 3/256 of a pixel).
+    farOutsideHeld += holds(x, y, r, x + (r + 0.02) * c, y + (r + 0.02) * s);
+  }
+  CHECK(outside == 0);
+  CHECK(farOutsideHeld == 0);
+}
+
+TEST_CASE("a disk too large or too far for its bits holds every point; NaN is held") {
+  CHECK(holds(0, 0, 300, 1e6, -1e6));    // radius beyond 255 pixels
+  CHECK(holds(200, 0, 1, -1e6, 1e6));    // centre beyond 128 pixels from the cell
+  CHECK(holds(0, -129, 1, 1e6, 1e6));
+  CHECK(holds(NAN, 0, 1, 1e6, 1e6));
+  CHECK(holds(0, 0, NAN, 1e6, 1e6));
+  CHECK(holds(3, 4, 1, NAN, 4));
+  CHECK(!holds(3, 4, 1, 5, 4));          // an ordinary disk holds what it should only
+  CHECK(holds(3, 4, 1, 3.5, 4.5));
+  CHECK(!holds(127, -127, 200, 127, 80));
+}
