@@ -89,6 +89,13 @@ namespace {
 // onto its pixel's far edge in its pixel's row (SphereView's rows: floor of the box's ends).
 constexpr double kMarginPixels = 1.0 / 64;
 
+// The rays' own rounding: each coordinate of an orthographic origin within a few units in the last
+// place of its magnitude, a direction within a few of its angle; the robust test's roots within a
+// few of t (docs/numerics.md). 64 epsilons of every magnitude involved bounds all of them with room
+// to spare.
+template <typename Real>
+constexpr double kFootprintEps = 64 * static_cast<double>(std::numeric_limits<Real>::epsilon());
+
 // The range of x/z over the disk of radius r around (x, z) in the half plane z > 0, the tangents of
 // the angles under which an eye at the origin sees it; infinite ends where it reaches z = 0 on that
 // side. `angle`: widening of those angles. False if it lies wholly in z <= 0.
@@ -120,20 +127,28 @@ bool seenRange(double x, double z, double r, double angle, double distance, doub
 }  // namespace
 
 template <typename Real>
+double Camera<Real>::orthographicReach(const ParallelProjection& image, const Vec3d& q, double radius) const {
+  const double window = std::max(std::fabs(image.xOffset), std::fabs(image.xOffset + m_width * image.pixelWidth)) +
+                        std::max(std::fabs(image.yOffset), std::fabs(image.yOffset - m_height * image.pixelHeight));
+  return radius + kFootprintEps<Real> * (maxAbs(image.center) + window + std::fabs(q.z) + radius);
+}
+
+template <typename Real>
+double Camera<Real>::footprintCore(const Vec3d& center, double radius) const {
+  const ParallelProjection image = projection();
+  const double slack = orthographicReach(image, image.inFrame(center), radius) - radius;
+  return (radius - slack) / std::max(image.pixelWidth, image.pixelHeight) - kMarginPixels;
+}
+
+template <typename Real>
 bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box, double& tLow) const {
-  // In double from the frame as rounded to Real (what generate uses). The rays' own rounding: each
-  // coordinate of an orthographic origin within a few units in the last place of its magnitude, a
-  // direction within a few of its angle; the robust test's roots within a few of t (docs/numerics.md).
-  // 64 epsilons of every magnitude involved bounds all of them with room to spare.
-  const double eps = 64 * static_cast<double>(std::numeric_limits<Real>::epsilon());
+  // In double from the frame as rounded to Real (what generate uses); kFootprintEps says why.
+  const double eps = kFootprintEps<Real>;
   const ParallelProjection image = projection();
   const Vec3d q = image.inFrame(center);
   constexpr double m = kMarginPixels;
   if (!m_perspective) {
-    const double window =
-        std::max(std::fabs(image.xOffset), std::fabs(image.xOffset + m_width * image.pixelWidth)) +
-        std::max(std::fabs(image.yOffset), std::fabs(image.yOffset - m_height * image.pixelHeight));
-    const double reach = radius + eps * (maxAbs(image.center) + window + std::fabs(q.z) + radius);
+    const double reach = orthographicReach(image, q, radius);
     if (q.z + reach < static_cast<double>(m_tMin)) return false;  // wholly behind the image plane
     box = {image.sampleX(q.x - reach) - m, image.sampleX(q.x + reach) + m, image.sampleY(q.y + reach) - m,
            image.sampleY(q.y - reach) + m};

@@ -26,6 +26,15 @@ double meetAt(const RayPacket<double>& ray, int k, const Vec3d& c, double r) {
   return near >= 0 ? near : far >= 0 ? far : std::numeric_limits<double>::infinity();
 }
 
+// Whether the ray's line meets the sphere (at any t: an orthographic image along a sun has rays on
+// both sides of its plane).
+bool lineMeets(const RayPacket<double>& ray, int k, const Vec3d& c, double r) {
+  const Vec3d o(ray.ox[k], ray.oy[k], ray.oz[k]), d(ray.dx[k], ray.dy[k], ray.dz[k]);
+  const Vec3d f = o - c;
+  const Vec3d across = f - (glm::dot(f, d) / glm::dot(d, d)) * d;
+  return glm::dot(across, across) < r * r;
+}
+
 template <typename Real>
 void checkCamera(const CameraSpec& spec, std::mt19937_64& random) {
   constexpr int kWidth = 48, kHeight = 32, kPerPixel = 4;
@@ -89,6 +98,30 @@ void checkCamera(const CameraSpec& spec, std::mt19937_64& random) {
             CAPTURE(side);
             REQUIRE(!(meetAt(rays, k, c, r) < std::numeric_limits<double>::infinity()));
           }
+        }
+      }
+    }
+    // Orthographic: every ray line through the core about the box's centre meets the sphere (probed
+    // just inside the core's rim), and the core is the sphere's own disk but for the rounding bounds.
+    if (seen && spec.projection == Projection::Orthographic) {
+      const double core = camera.footprintCore(c, r), pixel = double(std::max(camera.projection().pixelWidth,
+                                                                                camera.projection().pixelHeight));
+      CAPTURE(sphere);
+      CHECK(core > r / pixel - 0.05);
+      const double cx = 0.5 * (box.x0 + box.x1), cy = 0.5 * (box.y0 + box.y1);
+      for (int start = 0; core > 0 && start < 512; start += kPacketSize) {
+        Real sampleX[kPacketSize], sampleY[kPacketSize];
+        for (int k = 0; k < kPacketSize; ++k) {
+          const double angle = 2 * M_PI * (start + k + 0.5) / 512, reach = core * (1 - 1e-9);
+          sampleX[k] = Real(cx + reach * std::cos(angle)), sampleY[k] = Real(cy + reach * std::sin(angle));
+        }
+        RayPacket<Real> packet;
+        camera.generate(packet, sampleX, sampleY, kPacketSize);
+        RayPacket<double> rays;
+        for (int k = 0; k < kPacketSize; ++k) {
+          rays.ox[k] = double(packet.ox[k]), rays.oy[k] = double(packet.oy[k]), rays.oz[k] = double(packet.oz[k]);
+          rays.dx[k] = double(packet.dx[k]), rays.dy[k] = double(packet.dy[k]), rays.dz[k] = double(packet.dz[k]);
+          REQUIRE(lineMeets(rays, k, c, r));
         }
       }
     }

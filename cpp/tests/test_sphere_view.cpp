@@ -1,5 +1,6 @@
-// SphereView::Disk, the disk a sun's view keeps for each sphere: quantised outward, so that a point
-// of the disk it was made from is always held, and tight, so that it spares the tests it is for.
+// SphereView::Disk, the disk a sun's view keeps for each sphere and its core: quantised outward and
+// inward, so that a point of the disk it was made from is always held and a point its core holds
+// lies in the core it was made from, and tight, so that they spare the tests they are for.
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -11,9 +12,12 @@ namespace {
 
 using Disk = durer::SphereView<double>::Disk;
 
-// Whether the disk made around (x, y) of radius r holds the point (px, py), all in pixels.
-bool holds(double x, double y, double r, double px, double py) {
-  return Disk::around(x, y, r).holds(px * Disk::kUnits, py * Disk::kUnits);
+// Whether the disk made around (x, y) of radius r (core c) holds the point (px, py), all in pixels.
+bool holds(double x, double y, double r, double px, double py, double c = 0) {
+  return Disk::around(x, y, r, c).holds(px * Disk::kUnits, py * Disk::kUnits);
+}
+bool coreHolds(double x, double y, double r, double c, double px, double py) {
+  return Disk::around(x, y, r, c).coreHolds(px * Disk::kUnits, py * Disk::kUnits);
 }
 
 }  // namespace
@@ -21,10 +25,13 @@ bool holds(double x, double y, double r, double px, double py) {
 TEST_CASE("a sun's view's disk holds every point of the disk it was made from, and little more") {
   std::mt19937_64 rng(12);
   std::uniform_real_distribution<double> place(-100, 108), size(0, 20), angle(0, 2 * M_PI);
-  int outside = 0, farOutsideHeld = 0;
+  int outside = 0, farOutsideHeld = 0, coreTooWide = 0, coreTooNarrow = 0;
   for (int i = 0; i < 200000; ++i) {
-    const double x = place(rng), y = place(rng), r = size(rng), a = angle(rng);
+    const double x = place(rng), y = place(rng), r = size(rng), a = angle(rng), core = 0.9 * r;
     const double c = std::cos(a), s = std::sin(a);
+    // Just outside the core it was made from: never in the core; a fiftieth of a pixel inside: always.
+    coreTooWide += coreHolds(x, y, r, core, x + core * (1 + 1e-12) * c, y + core * (1 + 1e-12) * s);
+    coreTooNarrow += core > 0.02 && !coreHolds(x, y, r, core, x + (core - 0.02) * c, y + (core - 0.02) * s);
     // On the rim (rounded either way) and just inside it: always held.
     outside += !holds(x, y, r, x + r * c, y + r * s) + !holds(x, y, r, x + r * (1 - 1e-12) * c, y + r * (1 - 1e-12) * s);
     // A fiftieth of a pixel beyond the rim: never (the rounding adds less than 3/256 of a pixel).
@@ -32,9 +39,16 @@ TEST_CASE("a sun's view's disk holds every point of the disk it was made from, a
   }
   CHECK(outside == 0);
   CHECK(farOutsideHeld == 0);
+  CHECK(coreTooWide == 0);
+  CHECK(coreTooNarrow == 0);
 }
 
-TEST_CASE("a disk too large or too far for its bits holds every point; NaN is held") {
+TEST_CASE("a disk too large or too far for its bits holds every point and has no core; NaN is held") {
+  CHECK(!coreHolds(0, 0, 300, 299, 0, 0));
+  CHECK(!coreHolds(200, 0, 1, 1, 200, 0));
+  CHECK(!coreHolds(0, 0, 1, -0.5, 0, 0));   // a sphere too small for a core
+  CHECK(!coreHolds(3, 4, 1, 0.5, NAN, 4));
+  CHECK(coreHolds(3, 4, 1, 0.5, 3.2, 4.2));
   CHECK(holds(0, 0, 300, 1e6, -1e6));    // radius beyond 255 pixels
   CHECK(holds(200, 0, 1, -1e6, 1e6));    // centre beyond 128 pixels from the cell
   CHECK(holds(0, -129, 1, 1e6, 1e6));

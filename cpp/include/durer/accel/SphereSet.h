@@ -225,8 +225,13 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     if (packet.view) {
       if constexpr (AnyHit) {  // shadow rays toward a directional light, through its view
         compute();
-        return packet.view->occluders(packet, [&](int k, uint32_t i) {
-          intersectRay<M>(packet, terms[k], k, static_cast<size_t>(i), primBase);
+        return packet.view->occluders(packet, [&](int k, uint32_t i, double sureT) {
+          if (sureT > 0) {  // its sphere data is often cold: not read where the view knows the answer
+            packet.prim[k] = primBase + static_cast<int32_t>(i);
+            packet.tHit[k] = static_cast<Real>(sureT);
+          } else {
+            intersectRay<M>(packet, terms[k], k, static_cast<size_t>(i), primBase);
+          }
           return packet.prim[k] != kNoPrimitive;
         });
       } else {  // camera rays, through the camera's view

@@ -92,23 +92,27 @@ class SphereView {
 
   // A disk on an orthographic image that holds everything a sphere may cover (its footprint's
   // square's inscribed disk: the square is the disk's, grown by the rounding bounds on every side),
-  // relative to the first pixel of an entry's cell, in 1/kUnits pixel. Rounded outward: the centre
-  // lies within half a unit of the disk's on each axis, less than a unit away, and the radius is
-  // rounded up from one a unit larger. A disk too large, or too far, for these bits (hundreds of
-  // pixels: spheres a hundred times the mean size of a sun's view's) holds every point.
+  // relative to the first pixel of an entry's cell, in 1/kUnits pixel, and the core about the same
+  // centre whose rays surely meet the sphere (Camera::footprintCore). Rounded outward and inward:
+  // the centre lies within half a unit of the disk's on each axis, less than a unit away, the
+  // radius is rounded up from one a unit larger and the core down from one a unit smaller. A disk
+  // too large, or too far, for these bits (hundreds of pixels: spheres a hundred times the mean size
+  // of a sun's view's) holds every point and has no core.
   struct Disk {
     static constexpr double kUnits = 256;
     static constexpr uint16_t kEverywhere = 0xffff;
     int16_t x, y;
-    uint16_t radius;
+    uint16_t radius, core;
 
-    // The disk of centre (x, y) and radius r, in pixels from the cell's first pixel.
-    static Disk around(double x, double y, double r) {
-      Disk disk{0, 0, kEverywhere};
+    // The disk of centre (x, y), radius r and core c, in pixels from the cell's first pixel.
+    static Disk around(double x, double y, double r, double c) {
+      Disk disk{0, 0, kEverywhere, 0};
       const double qx = std::nearbyint(x * kUnits), qy = std::nearbyint(y * kUnits), qr = std::ceil(r * kUnits + 1);
       constexpr double kMost = std::numeric_limits<int16_t>::max();
       if (std::fabs(qx) <= kMost && std::fabs(qy) <= kMost && qr < kEverywhere) {
         disk.x = int16_t(qx), disk.y = int16_t(qy), disk.radius = uint16_t(qr);
+        const double qc = std::floor(c * kUnits - 1);
+        disk.core = qc > 0 ? uint16_t(std::min(qc, qr)) : 0;
       }
       return disk;
     }
@@ -116,6 +120,11 @@ class SphereView {
     DURER_INLINE bool holds(double x, double y) const {
       const double dx = x - double(this->x), dy = y - double(this->y), r = double(radius);
       return radius == kEverywhere || !(dx * dx + dy * dy > r * r);
+    }
+    // Whether its core holds it (NaN: no).
+    DURER_INLINE bool coreHolds(double x, double y) const {
+      const double dx = x - double(this->x), dy = y - double(this->y), c = double(core);
+      return dx * dx + dy * dy < c * c;
     }
   };
 
@@ -127,13 +136,14 @@ class SphereView {
   // The view of `count` spheres over the cells of the pixels [x, x + width) x [y, y + height):
   // footprint(i, box, tLow) gives sphere i's sample box and lower bound (false: no camera ray
   // meets it). Sphere i is the set's sphere `spheres[i]` (null: i), spheres in increasing order.
-  // `disks`: each box is the square around a disk that holds everything its sphere may cover (an
-  // orthographic image's, a sun's view): the entries keep those disks (Disk) rather than their
-  // pixel spans, for occluders() only. Null if it would not pay (see kMaxEntriesPerSphere).
-  template <typename Footprint>
+  // With `core` (an orthographic image's, a sun's view): each box is the square around a disk that
+  // holds everything its sphere may cover, core(i) the radius in pixels of the disk about the same
+  // centre whose rays surely meet sphere i, and the entries keep those disks (Disk) rather than
+  // their pixel spans, for occluders() only. Null if it would not pay (see kMaxEntriesPerSphere).
+  template <typename Footprint, typename Core = std::nullptr_t>
   static std::unique_ptr<SphereView> make(size_t count, const Footprint& footprint, int x, int y, int width,
                                           int height, int threads, const uint32_t* spheres = nullptr,
-                                          bool disks = false);
+                                          const Core& core = nullptr);
 
   // Calls test(sphere, kBegin, kEnd, all) for the spheres of the packet's cell that some ray may meet
   // before its hit so far, nearest first, with the rays [kBegin, kEnd) that may meet it (test lowers
@@ -184,10 +194,11 @@ class SphereView {
     return tested;
   }
 
-  // A light's view (setLight): for each ray k of the packet without a hit, calls test(k, sphere) for
+  // A light's view (setLight): for each ray k of the packet without a hit, calls test(k, sphere, t) for
   // the spheres of its cell whose footprint covers its place on the image (a view with disks: whose
   // disk holds that point; else whose span covers its pixel) and that reach nearer the light than
-  // its origin, nearest the origin first, until test returns true (an occluder found); then the
+  // its origin, nearest the origin first, until test returns true (an occluder found; t > 0 where
+  // the ray surely meets the sphere from t on, sureHit, else 0: the caller tests it); then the
   // same in the light's other faces (addFace), each taking the rays whose origins it holds. The rays
   // travel toward the light: opposite the view's direction, or toward a perspective view's eye.
   // Each ray's search waits on a chain of misses (its cell's bounds, the entries its binary search
@@ -200,7 +211,7 @@ class SphereView {
   int64_t occluders(const RayPacket<Real>& packet, const Test& test) const {
     int rays[kPacketSize], rows[kPacketSize], columns[kPacketSize];
     uint32_t cells[kPacketSize], ends[kPacketSize];
-    double reaches[kPacketSize], xs[kPacketSize], ys[kPacketSize];
+    double reaches[kPacketSize], nears[kPacketSize], xs[kPacketSize], ys[kPacketSize];
     int n = 0;
     for (int k = 0; k < packet.count; ++k) {
       double x, y, depth, cx, cy;
@@ -209,7 +220,7 @@ class SphereView {
       __builtin_prefetch(&m_first[cell]);
       // Spheres whose nearest depth lies beyond the origin's (widened by its rounding) cannot block it.
       const double slack = 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(depth) + m_lightReach);
-      rays[n] = k, cells[n] = cell, reaches[n] = depth + slack;
+      rays[n] = k, cells[n] = cell, reaches[n] = depth + slack, nears[n] = depth - slack;
       // The ray travels along the view's axis, or toward its eye: it stays at its place on the
       // image, and meets only spheres whose footprint covers it: its pixel (spans), or the point
       // itself, in the cell's Disk units (disks).
@@ -242,8 +253,9 @@ class SphereView {
       for (uint32_t e = ends[j]; e != m_first[cells[j]];) {
         --e;
         if (!meets(e, j)) continue;
-        ++tested;
-        if (test(k, m_entries[e].sphere)) break;
+        const double t = m_withDisks ? sureHit(e, xs[j], ys[j], nears[j]) : 0;
+        tested += t == 0;
+        if (test(k, m_entries[e].sphere, t)) break;
       }
     }
     return m_nextFace ? tested + m_nextFace->occluders(packet, test) : tested;
@@ -271,6 +283,7 @@ class SphereView {
   void setLight(const ParallelProjection& projection) {
     m_light = projection;
     m_lightReach = maxAbs(projection.center);
+    m_lightPixel = std::max(projection.pixelWidth, projection.pixelHeight);
   }
   void addFace(std::unique_ptr<SphereView> face) {
     if (m_nextFace) {
@@ -281,6 +294,18 @@ class SphereView {
   }
 
  private:
+  // Whether a ray at (x, y) on a sun's view (Disk units of entry e's cell), whose origin lies no
+  // nearer the light than `near`, surely meets entry e's sphere: the t, in (0, the ray's t there],
+  // from which it does; else 0. It does where the disk's core holds it and the whole sphere lies
+  // nearer the light than its origin: the disk's radius bounds the sphere's half depth, and the
+  // entry's tLow its near side's depth less up to a float unit.
+  DURER_INLINE double sureHit(uint32_t e, double x, double y, double near) const {
+    const Disk& disk = m_disks[e];
+    if (!disk.coreHolds(x, y)) return 0;
+    const double farSide = double(nextUp(m_entries[e].tLow)) + 2 * double(disk.radius) / Disk::kUnits * m_lightPixel;
+    return farSide < near ? near - farSide : 0;
+  }
+
   // Where ray k's origin lies on a light's view: its image position x, y, its depth (along a sun's
   // direction, or its distance from a point light) and its cell (cx, cy). False if it lies in
   // another face of a point light's view (which searches it), or beyond the cells, which hold every
@@ -357,15 +382,17 @@ class SphereView {
   HugeArray<Disk> m_disks;            // instead, a view made with disks: entry e's sphere's disk
   bool m_withDisks = false;
   ParallelProjection m_light;         // a light's view: its image
-  double m_lightReach = 0;            // ... and the largest coordinate of its centre
+  double m_lightReach = 0;            // ... the largest coordinate of its centre
+  double m_lightPixel = 0;            // ... and its pixels' larger side, in world units
   std::unique_ptr<SphereView> m_nextFace;  // a point light's view: its next face
 };
 
 template <typename Real>
-template <typename Footprint>
+template <typename Footprint, typename Core>
 std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Footprint& footprint, int x, int y,
                                                          int width, int height, int threads, const uint32_t* spheres,
-                                                         bool disks) {
+                                                         const Core& core) {
+  constexpr bool disks = !std::is_same_v<Core, std::nullptr_t>;
   auto view = std::make_unique<SphereView>();
   view->m_withDisks = disks;
   view->m_cellX = x / kCell, view->m_cellY = y / kCell;
@@ -383,7 +410,7 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
   HugeArray<uint16_t> edges(count);
   HugeArray<float> tLows(count);
   struct Round {
-    double x, y, r;  // a disk's centre, in pixels from the view's first cell, and radius
+    double x, y, r, core;  // a disk's centre, in pixels from the view's first cell, radius and core
   };
   HugeArray<Round> rounds(disks ? count : 0);
   const double cellsX = view->m_cellsX, cellsY = view->m_cellsY;
@@ -414,9 +441,9 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
                         within(std::floor(box.x0) - view->m_cellX * kCell, firstColumn, lastColumn, firstColumn),
                         within(std::floor(box.x1) - view->m_cellX * kCell, firstColumn, lastColumn, x1 * kCell));
       tLows[i] = floatBelow(tLow);
-      if (disks) {
+      if constexpr (disks) {
         rounds[i] = {0.5 * (box.x0 + box.x1) - view->m_cellX * kCell, 0.5 * (box.y0 + box.y1) - view->m_cellY * kCell,
-                     0.5 * std::max(box.x1 - box.x0, box.y1 - box.y0)};
+                     0.5 * std::max(box.x1 - box.x0, box.y1 - box.y0), core(i)};
       }
       made += (x1 - x0 + 1) * (y1 - y0 + 1);
     }
@@ -461,8 +488,9 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
     for (int32_t cx = c.x0; cx <= c.x1; ++cx) {
       const uint32_t e = next[size_t(cy) * cellsWide + size_t(cx)]++;
       view->m_entries[e] = {spheres ? spheres[i] : i, tLows[i]};
-      if (disks) {
-        view->m_disks[e] = Disk::around(rounds[i].x - cx * kCell, rounds[i].y - cy * kCell, rounds[i].r);
+      if constexpr (disks) {
+        const Round& round = rounds[i];
+        view->m_disks[e] = Disk::around(round.x - cx * kCell, round.y - cy * kCell, round.r, round.core);
       } else {
         const int column0 = cx == c.x0 ? firstColumnOf(edge) : 0, column1 = cx == c.x1 ? lastColumnOf(edge) : kCell - 1;
         view->m_spans[e] = spanOf(row0, row1, column0, column1);

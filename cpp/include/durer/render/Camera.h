@@ -57,6 +57,10 @@ class Camera {
   // generate makes in Real and the robust sphere test's roots (widened by bounds on both roundings
   // and by 1/64 pixel); infinite ends where the sphere reaches the plane of a perspective eye.
   bool footprint(const Vec3d& center, double radius, SampleBox& box, double& tLow) const;
+  // An orthographic camera's: the radius, in pixels, of the disk about the footprint's centre whose
+  // rays surely meet the sphere (their distance from its centre below its radius by more than the
+  // rounding bounds and the margin that footprint's box adds); at most 0 for a sphere too small.
+  double footprintCore(const Vec3d& center, double radius) const;
 
   // The frame and image window in double, as rounded to Real (where a point lies on the image).
   ParallelProjection projection() const {
@@ -71,6 +75,9 @@ class Camera {
   }
 
  private:
+  // An orthographic footprint's half width in world units: the radius and the rounding bounds.
+  double orthographicReach(const ParallelProjection& image, const Vec3d& q, double radius) const;
+
   bool m_perspective;
   int m_width, m_height;
   Vec3<Real> m_center, m_forward, m_horizontal, m_up;  // unit, orthonormal frame

@@ -556,18 +556,24 @@ class TileRenderer {
   }
 
   // The view of `spheres` over a width x height image seen through `camera`, on the render's threads
-  // (of the spheres listed in `only`, in increasing order, if given; `disks` as SphereView::make).
+  // (of the spheres listed in `only`, in increasing order, if given). `disks`: an orthographic
+  // camera's, keeping each sphere's disk and core (SphereView::make).
   static std::unique_ptr<SphereView<Real>> viewThrough(const SphereSet<Real>& spheres, const Camera<Real>& camera,
                                                        int width, int height, const RenderSettings& settings,
                                                        const std::vector<uint32_t>* only = nullptr,
                                                        bool disks = false) {
+    const auto sphereOf = [&](size_t i) -> const Sphere<Real>& { return spheres.primitive(only ? (*only)[i] : i); };
     const auto footprint = [&](size_t i, SampleBox& box, double& tLow) {
-      const Sphere<Real>& sphere = spheres.primitive(only ? (*only)[i] : i);
-      return camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow);
+      return camera.footprint(Vec3d(sphereOf(i).center), double(sphereOf(i).radius), box, tLow);
     };
     const int threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
-    return SphereView<Real>::make(only ? only->size() : spheres.size(), footprint, 0, 0, width, height, threads,
-                                  only ? only->data() : nullptr, disks);
+    const size_t count = only ? only->size() : spheres.size();
+    const uint32_t* listed = only ? only->data() : nullptr;
+    if (disks) {
+      const auto core = [&](size_t i) { return camera.footprintCore(Vec3d(sphereOf(i).center), double(sphereOf(i).radius)); };
+      return SphereView<Real>::make(count, footprint, 0, 0, width, height, threads, listed, core);
+    }
+    return SphereView<Real>::make(count, footprint, 0, 0, width, height, threads, listed);
   }
 
   // The view of the scene's own spheres from a directional light travelling along `direction`, for
@@ -600,7 +606,8 @@ class TileRenderer {
       spec.tMax = std::numeric_limits<double>::infinity();
       const int pixels = cells * SphereView<Real>::kCell;
       const Camera<Real> light(spec, pixels, pixels);
-      // Its footprints are squares around disks: a shadow ray tests the spheres whose disk holds it.
+      // Its footprints are squares around disks: a shadow ray tests the spheres whose disk holds it,
+      // and is blocked without a test by one whose core holds it and that lies wholly before it.
       std::unique_ptr<SphereView<Real>> view = viewThrough(spheres, light, pixels, pixels, settings, nullptr, true);
       if (view) view->setLight(light.projection());
       return view;
