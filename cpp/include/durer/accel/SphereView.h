@@ -116,15 +116,16 @@ class SphereView {
       }
       return disk;
     }
-    // Whether it holds the point (x, y), in units from the cell's first pixel (NaN: it does).
-    DURER_INLINE bool holds(double x, double y) const {
-      const double dx = x - double(this->x), dy = y - double(this->y), r = double(radius);
+    // Whether it, grown by `grow` units, holds the point (x, y), in units from the cell's first
+    // pixel (NaN: it does).
+    DURER_INLINE bool holds(double x, double y, double grow = 0) const {
+      const double dx = x - double(this->x), dy = y - double(this->y), r = double(radius) + grow;
       return radius == kEverywhere || !(dx * dx + dy * dy > r * r);
     }
-    // Whether its core holds it (NaN: no).
-    DURER_INLINE bool coreHolds(double x, double y) const {
-      const double dx = x - double(this->x), dy = y - double(this->y), c = double(core);
-      return dx * dx + dy * dy < c * c;
+    // Whether its core, less `shrink` units, holds it (NaN: no).
+    DURER_INLINE bool coreHolds(double x, double y, double shrink = 0) const {
+      const double dx = x - double(this->x), dy = y - double(this->y), c = double(core) - shrink;
+      return c > 0 && dx * dx + dy * dy < c * c;
     }
   };
 
@@ -211,7 +212,7 @@ class SphereView {
   int64_t occluders(const RayPacket<Real>& packet, const Test& test) const {
     int rays[kPacketSize], rows[kPacketSize], columns[kPacketSize];
     uint32_t cells[kPacketSize], ends[kPacketSize];
-    double reaches[kPacketSize], nears[kPacketSize], xs[kPacketSize], ys[kPacketSize];
+    double reaches[kPacketSize], nears[kPacketSize], xs[kPacketSize], ys[kPacketSize], drifts[kPacketSize];
     int n = 0;
     for (int k = 0; k < packet.count; ++k) {
       double x, y, depth, cx, cy;
@@ -225,6 +226,7 @@ class SphereView {
       // image, and meets only spheres whose footprint covers it: its pixel (spans), or the point
       // itself, in the cell's Disk units (disks).
       xs[n] = (x - (m_cellX + cx) * kCell) * Disk::kUnits, ys[n] = (y - (m_cellY + cy) * kCell) * Disk::kUnits;
+      drifts[n] = m_driftUnits * (std::fabs(depth) + m_lightExtent);
       rows[n] = int(std::floor(y) - (m_cellY + cy) * kCell), columns[n] = int(std::floor(x) - (m_cellX + cx) * kCell);
       ++n;
     }
@@ -246,14 +248,15 @@ class SphereView {
     int64_t tested = 0;
     // The spans or disks are read in a stream; the spheres off the ray's place never are.
     const auto meets = [&](uint32_t e, int j) DURER_INLINE_LAMBDA {
-      return m_withDisks ? m_disks[e].holds(xs[j], ys[j]) : spanMeets(m_spans[e], rows[j], rows[j], columns[j], columns[j]);
+      return m_withDisks ? m_disks[e].holds(xs[j], ys[j], drifts[j])
+                         : spanMeets(m_spans[e], rows[j], rows[j], columns[j], columns[j]);
     };
     for (int j = 0; j < n; ++j) {
       const int k = rays[j];
       for (uint32_t e = ends[j]; e != m_first[cells[j]];) {
         --e;
         if (!meets(e, j)) continue;
-        const double t = m_withDisks ? sureHit(e, xs[j], ys[j], nears[j]) : 0;
+        const double t = m_withDisks ? sureHit(e, xs[j], ys[j], drifts[j], nears[j]) : 0;
         tested += t == 0;
         if (test(k, m_entries[e].sphere, t)) break;
       }
@@ -284,6 +287,9 @@ class SphereView {
     m_light = projection;
     m_lightReach = maxAbs(projection.center);
     m_lightPixel = std::max(projection.pixelWidth, projection.pixelHeight);
+    m_driftUnits = 64 * std::numeric_limits<Real>::epsilon() / std::min(projection.pixelWidth, projection.pixelHeight) *
+                   Disk::kUnits;
+    m_lightExtent = std::max(m_cellsX, m_cellsY) * kCell * m_lightPixel;
   }
   void addFace(std::unique_ptr<SphereView> face) {
     if (m_nextFace) {
@@ -296,12 +302,12 @@ class SphereView {
  private:
   // Whether a ray at (x, y) on a sun's view (Disk units of entry e's cell), whose origin lies no
   // nearer the light than `near`, surely meets entry e's sphere: the t, in (0, the ray's t there],
-  // from which it does; else 0. It does where the disk's core holds it and the whole sphere lies
-  // nearer the light than its origin: the disk's radius bounds the sphere's half depth, and the
-  // entry's tLow its near side's depth less up to a float unit.
-  DURER_INLINE double sureHit(uint32_t e, double x, double y, double near) const {
+  // from which it does; else 0. It does where the disk's core, less the ray's `drift` (occluders),
+  // holds it and the whole sphere lies nearer the light than its origin: the disk's radius bounds
+  // the sphere's half depth, and the entry's tLow its near side's depth less up to a float unit.
+  DURER_INLINE double sureHit(uint32_t e, double x, double y, double drift, double near) const {
     const Disk& disk = m_disks[e];
-    if (!disk.coreHolds(x, y)) return 0;
+    if (!disk.coreHolds(x, y, drift)) return 0;
     const double farSide = double(nextUp(m_entries[e].tLow)) + 2 * double(disk.radius) / Disk::kUnits * m_lightPixel;
     return farSide < near ? near - farSide : 0;
   }
@@ -383,7 +389,13 @@ class SphereView {
   bool m_withDisks = false;
   ParallelProjection m_light;         // a light's view: its image
   double m_lightReach = 0;            // ... the largest coordinate of its centre
-  double m_lightPixel = 0;            // ... and its pixels' larger side, in world units
+  double m_lightPixel = 0;            // ... its pixels' larger side, in world units
+  // ... and, for a sun's view, how far a ray may drift off its place on the image: its direction is
+  // rounded to Real apart from the view's by a few units in the last place, so by 64 epsilons of
+  // the way it came, which is less than its depth's magnitude and the image's width together (the
+  // spheres' bounds) — in Disk units a unit of that way. The footprints' slack holds the rounding of
+  // rays that start among the spheres; these may start far beyond them.
+  double m_driftUnits = 0, m_lightExtent = 0;
   std::unique_ptr<SphereView> m_nextFace;  // a point light's view: its next face
 };
 
