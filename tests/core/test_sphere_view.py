@@ -239,6 +239,44 @@ def test_shadows_are_where_a_brute_force_puts_them(precision, light):
 
 
 @pytest.mark.parametrize("precision", ["float", "double"])
+def test_sun_shadows_cast_on_ground_far_below_the_spheres(precision):
+    """A sun's shadow rays may start far beyond the spheres its view was made over: here on a ground
+    plane 300 units below them, the spheres' shadows seen from above. A pixel is lit exactly where a
+    brute force finds nothing between its hit point and the sun (pixels within the precision's
+    rounding of the far points of a silhouette set aside)."""
+    rng = np.random.default_rng(23)
+    sun = np.array([0.3, -1.0, 0.2])
+    depth = 300.0
+    scene = durer.Scene()
+    white = scene.add_material(diffuse=(1.0, 1.0, 1.0))
+    centers = np.column_stack([rng.uniform(-1, 1, 1500), rng.uniform(0.0, 0.4, 1500), rng.uniform(-1, 1, 1500)])
+    radii = rng.uniform(0.01, 0.04, 1500)
+    scene.add_spheres(centers, radii, material=white)
+    scene.add_plane((0, 1, 0), -depth, material=white)
+    scene.add_directional_light(tuple(sun), (1, 1, 1), shadows=True)
+    scene.ambient = (0.0, 0.0, 0.0)
+    below = centers.mean(axis=0) + (depth + centers[:, 1].mean()) * sun / -sun[1]
+    camera = durer.PerspectiveCamera(tuple(below + (0, 3, 0)), (0, -1, 0), (0, 0, 1), fov_degrees=45)
+    size = 96
+    res = durer.render(scene, camera, width=size, height=size, passes=("color", "object_id"), precision=precision,
+                       threads=2)
+    origins, directions = camera.rays(size, size)
+    cast = durer.cast(scene, origins.reshape(-1, 3), directions.reshape(-1, 3), precision=precision)
+    hit = cast.object_id >= 0
+    assert hit.all() and (cast.object_id == len(radii)).all()  # the ground everywhere
+    points = origins.reshape(-1, 3) + cast.t[:, None] * directions.reshape(-1, 3)
+    unit = -sun / np.linalg.norm(sun)
+    epsilon = float(np.finfo(np.float32 if precision == "float" else np.float64).eps)
+    tolerance = 1e-4 + 16 * epsilon * depth / radii.min()  # the points' and the rays' rounding, in radii
+    blocked, unclear = brute_force_shadows(points, unit, centers, radii, cast.object_id, tolerance)
+    lit = res.color.reshape(-1, 4)[:, :3].sum(axis=1) > 0
+    clear = ~unclear
+    assert clear.mean() > 0.8
+    assert 0.1 < blocked[clear].mean() < 0.9  # both lit and shadowed pixels
+    np.testing.assert_array_equal(lit[clear], ~blocked[clear])
+
+
+@pytest.mark.parametrize("precision", ["float", "double"])
 def test_shadows_toward_suns_and_point_lights_need_no_hierarchy(precision):
     """Shadow rays toward a sun or a point light search the light's view, so a render whose only
     other rays they are prepares the spheres without their hierarchy, as a render of camera rays
