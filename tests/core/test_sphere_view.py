@@ -182,15 +182,15 @@ def test_camera_rays_test_the_front_spheres_only():
     assert res.stats["intersection_tests"] / res.stats["rays"] < 32  # of 16,000 spheres
 
 
-def _sun_scene(rng, n, direction=None, position=None):
-    """Spheres over a ground plane, lit with shadows by a sun along `direction` and/or a point light at
-    `position`."""
+def _sun_scene(rng, n, direction=None, position=None, ground=0.0):
+    """Spheres over a ground plane at height `ground`, lit with shadows by a sun along `direction`
+    and/or a point light at `position`."""
     scene = durer.Scene()
     white = scene.add_material(diffuse=(1.0, 1.0, 1.0))
     centers = np.column_stack([rng.uniform(-1, 1, n), rng.uniform(0.0, 0.4, n), rng.uniform(-1, 1, n)])
     radii = rng.uniform(0.01, 0.04, n)
     scene.add_spheres(centers, radii, material=white)
-    scene.add_plane((0, 1, 0), 0.0, material=white)
+    scene.add_plane((0, 1, 0), ground, material=white)
     if direction is not None:
         scene.add_directional_light(direction, (1, 1, 1), shadows=True)
     if position is not None:
@@ -247,14 +247,7 @@ def test_sun_shadows_cast_on_ground_far_below_the_spheres(precision):
     rng = np.random.default_rng(23)
     sun = np.array([0.3, -1.0, 0.2])
     depth = 300.0
-    scene = durer.Scene()
-    white = scene.add_material(diffuse=(1.0, 1.0, 1.0))
-    centers = np.column_stack([rng.uniform(-1, 1, 1500), rng.uniform(0.0, 0.4, 1500), rng.uniform(-1, 1, 1500)])
-    radii = rng.uniform(0.01, 0.04, 1500)
-    scene.add_spheres(centers, radii, material=white)
-    scene.add_plane((0, 1, 0), -depth, material=white)
-    scene.add_directional_light(tuple(sun), (1, 1, 1), shadows=True)
-    scene.ambient = (0.0, 0.0, 0.0)
+    scene, centers, radii = _sun_scene(rng, 1500, direction=tuple(sun), ground=-depth)
     below = centers.mean(axis=0) + (depth + centers[:, 1].mean()) * sun / -sun[1]
     camera = durer.PerspectiveCamera(tuple(below + (0, 3, 0)), (0, -1, 0), (0, 0, 1), fov_degrees=45)
     size = 96

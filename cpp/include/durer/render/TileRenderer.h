@@ -564,13 +564,17 @@ class TileRenderer {
                                                        bool disks = false) {
     const auto sphereOf = [&](size_t i) -> const Sphere<Real>& { return spheres.primitive(only ? (*only)[i] : i); };
     const auto footprint = [&](size_t i, SampleBox& box, double& tLow) {
-      return camera.footprint(Vec3d(sphereOf(i).center), double(sphereOf(i).radius), box, tLow);
+      const Sphere<Real>& sphere = sphereOf(i);
+      return camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow);
     };
     const int threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
     const size_t count = only ? only->size() : spheres.size();
     const uint32_t* listed = only ? only->data() : nullptr;
     if (disks) {
-      const auto core = [&](size_t i) { return camera.footprintCore(Vec3d(sphereOf(i).center), double(sphereOf(i).radius)); };
+      const auto core = [&](size_t i) {
+        const Sphere<Real>& sphere = sphereOf(i);
+        return camera.footprintCore(Vec3d(sphere.center), double(sphere.radius));
+      };
       return SphereView<Real>::make(count, footprint, 0, 0, width, height, threads, listed, core);
     }
     return SphereView<Real>::make(count, footprint, 0, 0, width, height, threads, listed);
