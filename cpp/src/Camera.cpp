@@ -104,13 +104,15 @@ constexpr double kFootprintEps = 64 * static_cast<double>(std::numeric_limits<Re
 // length L = sqrt(d^2 - r^2), are its extreme directions. Their z decides each end: at or behind
 // z = 0 the range reaches that side's infinity. The disk spans less than half a turn (d > r), so
 // the directions between them lie in front wherever both ends do, and behind wherever neither does.
-// A radius grown by 1.25 angle D, for any D >= d (the caller's distance in three dimensions), widens
-// the angles by at least 1.25 angle (asin's slope is at least 1): `angle`, and room for the few units
-// in the last place the products here round by.
+// A radius grown by kAngleWidening angle D, for any D >= d (the caller's distance in three
+// dimensions), widens the angles by at least that many times angle (asin's slope is at least 1):
+// `angle`, and room for the few units in the last place the products here round by.
+constexpr double kAngleWidening = 1.25;
+
 bool seenRange(double x, double z, double r, double angle, double distance, double& lo, double& hi) {
   constexpr double inf = std::numeric_limits<double>::infinity();
   const double distanceSq = x * x + z * z;
-  const double reach = r + 1.25 * angle * distance;
+  const double reach = r + kAngleWidening * angle * distance;
   const double tangentSq = distanceSq - reach * reach;
   if (!(tangentSq > 0)) {  // the eye is inside (or on) the widened disk: every direction
     lo = -inf, hi = inf;
@@ -134,14 +136,29 @@ double Camera<Real>::orthographicReach(const ParallelProjection& image, const Ve
 }
 
 template <typename Real>
-double Camera<Real>::footprintCore(const Vec3d& center, double radius) const {
-  const ParallelProjection image = projection();
-  const double slack = orthographicReach(image, image.inFrame(center), radius) - radius;
-  return (radius - slack) / std::max(image.pixelWidth, image.pixelHeight) - kMarginPixels;
+SampleDisk Camera<Real>::perspectiveDisk(const ParallelProjection& image, const Vec3d& q, double distance, double grown,
+                                         double shrunk) {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  if (!(q.z > 0 && distance > grown)) return {0, 0, inf, 0};  // the eye in the (grown) sphere, or it beside the eye
+  // On the image plane at distance 1: the centre's direction at tan phi = T from the axis, the
+  // grown sphere's half-angle at tan theta = tau. Its silhouette is an ellipse whose major axis lies
+  // along the radial line through the centre's point P; the point of an ellipse farthest from a
+  // point on its major axis is a vertex, here at angle phi + theta or phi - theta (the ellipse is
+  // unbounded where phi + theta reaches a right angle).
+  const double T = std::hypot(q.x, q.y) / q.z;
+  const double tau = grown / std::sqrt(distance * distance - grown * grown);
+  const double outer = T * tau < 1 ? std::max((T + tau) / (1 - T * tau) - T, T - (T - tau) / (1 + T * tau)) : inf;
+  // A line through P3 (P on the plane) and X3 at angle psi passes P3 at |P3| sin psi <= |X3 - P3|: a
+  // point within |P3| shrunk / distance of P sees the centre under an angle whose sine is below
+  // shrunk / distance, so its line passes within `shrunk` of the centre.
+  const double inner = shrunk > 0 ? std::sqrt(1 + T * T) * shrunk / distance : 0;
+  return {image.sampleX(q.x / q.z), image.sampleY(q.y / q.z),
+          outer / std::min(image.pixelWidth, image.pixelHeight) + kMarginPixels,
+          inner / std::max(image.pixelWidth, image.pixelHeight) - kMarginPixels};
 }
 
 template <typename Real>
-bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box, double& tLow) const {
+bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box, double& tLow, SampleDisk* disk) const {
   // In double from the frame as rounded to Real (what generate uses); kFootprintEps says why.
   const double eps = kFootprintEps<Real>;
   const ParallelProjection image = projection();
@@ -153,6 +170,11 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
     box = {image.sampleX(q.x - reach) - m, image.sampleX(q.x + reach) + m, image.sampleY(q.y + reach) - m,
            image.sampleY(q.y - reach) + m};
     tLow = q.z - reach;
+    if (disk) {
+      const double shrunk = radius - (reach - radius);
+      *disk = {image.sampleX(q.x), image.sampleY(q.y), reach / std::min(image.pixelWidth, image.pixelHeight) + m,
+               shrunk / std::max(image.pixelWidth, image.pixelHeight) - m};
+    }
     return true;
   }
   const double distance = glm::length(center - image.center);
@@ -163,6 +185,10 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
   }
   box = {image.sampleX(x0) - m, image.sampleX(x1) + m, image.sampleY(y1) - m, image.sampleY(y0) + m};
   tLow = distance - reach;
+  if (disk) {  // seenRange's widening of the angles, as a radius
+    const double widening = kAngleWidening * eps * distance;
+    *disk = perspectiveDisk(image, q, distance, reach + widening, radius - (reach - radius) - widening);
+  }
   return true;
 }
 

@@ -1,6 +1,7 @@
 // Camera::footprint against the rays Camera::generate makes: every sample whose ray meets a sphere
-// lies in the sphere's box, no nearer than its lower bound on t, and a sphere wholly in front gets
-// a box no more than a pixel wider than its hit samples on each side.
+// lies in the sphere's box and disk, no nearer than its lower bound on t, every ray through the
+// disk's core meets the sphere's line, and a sphere wholly in front gets a box no more than a pixel
+// wider than its hit samples on each side and a disk and core within a pixel of them.
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -44,8 +45,15 @@ void checkCamera(const CameraSpec& spec, std::mt19937_64& random) {
     const Vec3d c = spec.center + distance(random) * glm::normalize(Vec3d(unit(random), unit(random), unit(random)));
     const double r = radius(random);
     SampleBox box{};
+    SampleDisk disk{};
     double tLow = 0;
-    const bool seen = camera.footprint(c, r, box, tLow);
+    const bool seen = camera.footprint(c, r, box, tLow, &disk);
+    SampleBox alone{};
+    double alsoLow = 0;
+    REQUIRE(camera.footprint(c, r, alone, alsoLow) == seen);  // the disk changes nothing else
+    if (seen) REQUIRE((alone.x0 == box.x0 && alone.x1 == box.x1 && alone.y0 == box.y0 && alone.y1 == box.y1));
+    // The farthest hit sample from the disk's centre, the nearest missed one.
+    double farthestHit = 0, nearestMiss = std::numeric_limits<double>::infinity();
     double hitX0 = std::numeric_limits<double>::infinity(), hitX1 = -hitX0, hitY0 = hitX0, hitY1 = -hitX0;
     for (int row = 0; row < kHeight * kPerPixel; ++row) {
       Real sampleX[kWidth * kPerPixel], sampleY[kWidth * kPerPixel];
@@ -61,10 +69,16 @@ void checkCamera(const CameraSpec& spec, std::mt19937_64& random) {
           rays.ox[k] = double(packet.ox[k]), rays.oy[k] = double(packet.oy[k]), rays.oz[k] = double(packet.oz[k]);
           rays.dx[k] = double(packet.dx[k]), rays.dy[k] = double(packet.dy[k]), rays.dz[k] = double(packet.dz[k]);
           const double t = meetAt(rays, k, c, r);
-          if (!(t < std::numeric_limits<double>::infinity())) continue;
           const double x = double(sampleX[start + k]), y = double(sampleY[start + k]);
+          const double fromCentre = std::hypot(x - disk.x, y - disk.y);
+          if (!(t < std::numeric_limits<double>::infinity())) {
+            if (!lineMeets(rays, k, c, r)) nearestMiss = std::min(nearestMiss, fromCentre);
+            continue;
+          }
           CAPTURE(sphere);
           REQUIRE(seen);
+          REQUIRE(!(fromCentre > disk.radius));
+          farthestHit = std::max(farthestHit, fromCentre);
           REQUIRE(box.x0 <= x);
           REQUIRE(x <= box.x1);
           REQUIRE(box.y0 <= y);
@@ -101,19 +115,19 @@ void checkCamera(const CameraSpec& spec, std::mt19937_64& random) {
         }
       }
     }
-    // Orthographic: every ray line through the core about the box's centre meets the sphere (probed
-    // just inside the core's rim), and the core is the sphere's own disk but for the rounding bounds.
-    if (seen && spec.projection == Projection::Orthographic) {
-      const double core = camera.footprintCore(c, r), pixel = double(std::max(camera.projection().pixelWidth,
-                                                                                camera.projection().pixelHeight));
+    // Every ray line through the core meets the sphere (probed just inside the core's rim);
+    // orthographic, the core is the sphere's own disk but for the rounding bounds.
+    if (seen) {
+      const double core = disk.core, pixel = double(std::max(camera.projection().pixelWidth,
+                                                             camera.projection().pixelHeight));
       CAPTURE(sphere);
-      CHECK(core > r / pixel - 0.05);
-      const double cx = 0.5 * (box.x0 + box.x1), cy = 0.5 * (box.y0 + box.y1);
+      if (spec.projection == Projection::Orthographic) CHECK(core > r / pixel - 0.05);
+      REQUIRE(!(core > nearestMiss));
       for (int start = 0; core > 0 && start < 512; start += kPacketSize) {
         Real sampleX[kPacketSize], sampleY[kPacketSize];
         for (int k = 0; k < kPacketSize; ++k) {
           const double angle = 2 * M_PI * (start + k + 0.5) / 512, reach = core * (1 - 1e-9);
-          sampleX[k] = Real(cx + reach * std::cos(angle)), sampleY[k] = Real(cy + reach * std::sin(angle));
+          sampleX[k] = Real(disk.x + reach * std::cos(angle)), sampleY[k] = Real(disk.y + reach * std::sin(angle));
         }
         RayPacket<Real> packet;
         camera.generate(packet, sampleX, sampleY, kPacketSize);
@@ -135,6 +149,10 @@ void checkCamera(const CameraSpec& spec, std::mt19937_64& random) {
       CHECK(box.x1 <= hitX1 + 1);
       CHECK(box.y0 >= hitY0 - 1);
       CHECK(box.y1 <= hitY1 + 1);
+      CHECK(disk.radius <= farthestHit + 1);
+      // Seen under a small angle (the core's sine and the silhouette's tangent agree), the core
+      // reaches the nearest missed sample but for their spacing.
+      if (nearestMiss > 2 && r < 0.05 * glm::length(c - spec.center)) CHECK(disk.core >= nearestMiss - 1);
     }
   }
 }

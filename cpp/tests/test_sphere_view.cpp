@@ -1,4 +1,4 @@
-// SphereView::Disk, the disk a sun's view keeps for each sphere and its core: quantised outward and
+// SphereView::Disk, the disk a light's view keeps for each sphere and its core: quantised outward and
 // inward, so that a point of the disk it was made from is always held and a point its core holds
 // lies in the core it was made from, and tight, so that they spare the tests they are for.
 #include <doctest/doctest.h>

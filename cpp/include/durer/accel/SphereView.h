@@ -34,6 +34,14 @@ struct SampleBox {
   double x0, x1, y0, y1;
 };
 
+// A disk on an image about where a sphere's centre appears (x, y: a sample position, in pixels):
+// every sample position whose ray may meet the sphere lies within `radius` of it, and the line of
+// every ray through a position within `core` of it passes inside the sphere by more than the rays'
+// rounding (Camera::footprint; core <= 0: none). An infinite or NaN radius: anywhere.
+struct SampleDisk {
+  double x, y, radius, core;
+};
+
 // An image's frame in double (from a camera's frame as rounded to its precision), the one home of
 // the map from the image plane to sample positions (Camera::generate's inverse).
 struct ParallelProjection {
@@ -90,14 +98,13 @@ class SphereView {
   // than the hierarchy it stands in for: not made.
   static constexpr double kMaxEntriesPerSphere = 16;
 
-  // A disk on an orthographic image that holds everything a sphere may cover (its footprint's
-  // square's inscribed disk: the square is the disk's, grown by the rounding bounds on every side),
-  // relative to the first pixel of an entry's cell, in 1/kUnits pixel, and the core about the same
-  // centre whose rays surely meet the sphere (Camera::footprintCore). Rounded outward and inward:
+  // A disk on a light's image that holds everything a sphere may cover, relative to the first pixel
+  // of an entry's cell, in 1/kUnits pixel, and the core about the same centre whose rays surely
+  // meet the sphere (Camera::footprint's SampleDisk). Rounded outward and inward:
   // the centre lies within half a unit of the disk's on each axis, less than a unit away, the
   // radius is rounded up from one a unit larger and the core down from one a unit smaller. A disk
   // too large, or too far, for these bits (hundreds of pixels: spheres a hundred times the mean size
-  // of a sun's view's) holds every point and has no core.
+  // of a light's view's) holds every point and has no core.
   struct Disk {
     static constexpr double kUnits = 256;
     static constexpr uint16_t kEverywhere = 0xffff;
@@ -135,16 +142,15 @@ class SphereView {
   };
 
   // The view of `count` spheres over the cells of the pixels [x, x + width) x [y, y + height):
-  // footprint(i, box, tLow) gives sphere i's sample box and lower bound (false: no camera ray
-  // meets it). Sphere i is the set's sphere `spheres[i]` (null: i), spheres in increasing order.
-  // With `core` (an orthographic image's, a sun's view): each box is the square around a disk that
-  // holds everything its sphere may cover, core(i) the radius in pixels of the disk about the same
-  // centre whose rays surely meet sphere i, and the entries keep those disks (Disk) rather than
-  // their pixel spans, for occluders() only. Null if it would not pay (see kMaxEntriesPerSphere).
-  template <typename Footprint, typename Core = std::nullptr_t>
+  // footprint(i, box, tLow, disk) gives sphere i's sample box and lower bound (false: no camera ray
+  // meets it), and with `disks` its disk and core (SampleDisk; else disk is null). Sphere i is the
+  // set's sphere `spheres[i]` (null: i), spheres in increasing order. With disks (a light's view)
+  // the entries keep them (Disk) rather than their pixel spans, for occluders() only. Null if it
+  // would not pay (see kMaxEntriesPerSphere).
+  template <typename Footprint>
   static std::unique_ptr<SphereView> make(size_t count, const Footprint& footprint, int x, int y, int width,
                                           int height, int threads, const uint32_t* spheres = nullptr,
-                                          const Core& core = nullptr);
+                                          bool disks = false);
 
   // Calls test(sphere, kBegin, kEnd, all) for the spheres of the packet's cell that some ray may meet
   // before its hit so far, nearest first, with the rays [kBegin, kEnd) that may meet it (test lowers
@@ -195,24 +201,24 @@ class SphereView {
     return tested;
   }
 
-  // A light's view (setLight): for each ray k of the packet without a hit, calls test(k, sphere, t) for
-  // the spheres of its cell whose footprint covers its place on the image (a view with disks: whose
-  // disk holds that point; else whose span covers its pixel) and that reach nearer the light than
-  // its origin, nearest the origin first, until test returns true (an occluder found; t > 0 where
-  // the ray surely meets the sphere from t on, sureHit, else 0: the caller tests it); then the
-  // same in the light's other faces (addFace), each taking the rays whose origins it holds. The rays
-  // travel toward the light: opposite the view's direction, or toward a perspective view's eye.
-  // Each ray's search waits on a chain of misses (its cell's bounds, the entries its binary search
-  // reads, the spans or disks it scans down from there: a shadow ray's cell is a random place in
-  // the view), so the packet's rays take each step together: every ray's cell, then their bounds
+  // A light's view (setLight, made with disks): for each ray k of the packet without a hit, calls
+  // test(k, sphere, t) for the spheres of its cell whose disk holds its place on the image (grown
+  // by its drift) and that reach nearer the light than its origin, nearest the origin first, until
+  // test returns true (an occluder found; t > 0 where the ray surely meets the sphere from t on,
+  // sureHit, else 0: the caller tests it); then the same in the light's other faces (addFace), each
+  // taking the rays whose origins it holds. The rays travel toward the light: opposite the view's
+  // direction, or toward a perspective view's eye. Each ray's search waits on a chain of misses
+  // (its cell's bounds, the entries its binary search reads, the disks it scans down from there: a
+  // shadow ray's cell is a random place in the view), so the packet's rays take each step together: every ray's cell, then their bounds
   // and entries fetched, then every binary search (without branches, so that the searches
   // overlap), then the lines their scans start on fetched, then each ray's spheres in turn.
   // Returns the ray-sphere tests made.
   template <typename Test>
   int64_t occluders(const RayPacket<Real>& packet, const Test& test) const {
-    int rays[kPacketSize], rows[kPacketSize], columns[kPacketSize];
+    int rays[kPacketSize];
     uint32_t cells[kPacketSize], ends[kPacketSize];
-    double reaches[kPacketSize], nears[kPacketSize], xs[kPacketSize], ys[kPacketSize], drifts[kPacketSize];
+    double reaches[kPacketSize], nears[kPacketSize], depths[kPacketSize], xs[kPacketSize], ys[kPacketSize],
+        drifts[kPacketSize];
     int n = 0;
     for (int k = 0; k < packet.count; ++k) {
       double x, y, depth, cx, cy;
@@ -221,42 +227,36 @@ class SphereView {
       __builtin_prefetch(&m_first[cell]);
       // Spheres whose nearest depth lies beyond the origin's (widened by its rounding) cannot block it.
       const double slack = 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(depth) + m_lightReach);
-      rays[n] = k, cells[n] = cell, reaches[n] = depth + slack, nears[n] = depth - slack;
+      rays[n] = k, cells[n] = cell, reaches[n] = depth + slack, nears[n] = depth - slack, depths[n] = depth;
       // The ray travels along the view's axis, or toward its eye: it stays at its place on the
-      // image, and meets only spheres whose footprint covers it: its pixel (spans), or the point
-      // itself, in the cell's Disk units (disks).
+      // image (but for its drift), and meets only spheres whose disk holds it, in the cell's units.
       xs[n] = (x - (m_cellX + cx) * kCell) * Disk::kUnits, ys[n] = (y - (m_cellY + cy) * kCell) * Disk::kUnits;
-      drifts[n] = m_driftUnits * (std::fabs(depth) + m_lightExtent);
-      rows[n] = int(std::floor(y) - (m_cellY + cy) * kCell), columns[n] = int(std::floor(x) - (m_cellX + cx) * kCell);
+      drifts[n] = m_driftUnits * (m_light.perspective ? depth : std::fabs(depth) + m_lightExtent);  // driftAt's
       ++n;
     }
-    for (int j = 0; j < n; ++j) {  // the entries the searches read first, and the nearest spans or disks
+    for (int j = 0; j < n; ++j) {  // the entries the searches read first, and the nearest disks
       const uint32_t begin = m_first[cells[j]], end = m_first[cells[j] + 1];
       const char* entries = reinterpret_cast<const char*>(m_entries.get() + begin);
       const size_t bytes = (end - begin) * sizeof(Entry);
       for (size_t b = 0; b < std::min<size_t>(bytes, 512); b += 64) __builtin_prefetch(entries + b);
-      __builtin_prefetch(m_withDisks ? static_cast<const void*>(m_disks.get() + begin) : m_spans.get() + begin);
+      __builtin_prefetch(m_disks.get() + begin);
     }
     for (int j = 0; j < n; ++j) ends[j] = upperBound(m_first[cells[j]], m_first[cells[j] + 1], reaches[j]);
-    for (int j = 0; j < n; ++j) {  // the scans' first spans or disks: they read from their ends down
+    for (int j = 0; j < n; ++j) {  // the scans' first disks: they read from their ends down
       if (ends[j] == m_first[cells[j]]) continue;
-      const char* last = m_withDisks ? reinterpret_cast<const char*>(m_disks.get() + ends[j] - 1)
-                                     : reinterpret_cast<const char*>(m_spans.get() + ends[j] - 1);
+      const char* last = reinterpret_cast<const char*>(m_disks.get() + ends[j] - 1);
       __builtin_prefetch(last);
       __builtin_prefetch(last - 64);
     }
     int64_t tested = 0;
-    // The spans or disks are read in a stream; the spheres off the ray's place never are.
-    const auto meets = [&](uint32_t e, int j) DURER_INLINE_LAMBDA {
-      return m_withDisks ? m_disks[e].holds(xs[j], ys[j], drifts[j])
-                         : spanMeets(m_spans[e], rows[j], rows[j], columns[j], columns[j]);
-    };
+    // The disks are read in a stream; the spheres off the ray's place never are.
     for (int j = 0; j < n; ++j) {
       const int k = rays[j];
       for (uint32_t e = ends[j]; e != m_first[cells[j]];) {
         --e;
-        if (!meets(e, j)) continue;
-        const double t = m_withDisks ? sureHit(e, xs[j], ys[j], drifts[j], nears[j]) : 0;
+        const double drift = driftAt(e, drifts[j]);
+        if (!m_disks[e].holds(xs[j], ys[j], drift)) continue;
+        const double t = sureHit(e, xs[j], ys[j], drift, nears[j], depths[j]);
         tested += t == 0;
         if (test(k, m_entries[e].sphere, t)) break;
       }
@@ -287,8 +287,11 @@ class SphereView {
     m_light = projection;
     m_lightReach = maxAbs(projection.center);
     m_lightPixel = std::max(projection.pixelWidth, projection.pixelHeight);
-    m_driftUnits = 64 * std::numeric_limits<Real>::epsilon() / std::min(projection.pixelWidth, projection.pixelHeight) *
-                   Disk::kUnits;
+    // A perspective face's plane moves by up to 1 + T² <= 3.1 times an angle (T, the tangent of a
+    // direction off its axis, is at most 1.01 sqrt(2)): 4.
+    const double perAngle = projection.perspective ? 4 : 1;
+    m_driftUnits = perAngle * 64 * std::numeric_limits<Real>::epsilon() /
+                   std::min(projection.pixelWidth, projection.pixelHeight) * Disk::kUnits;
     m_lightExtent = std::max(m_cellsX, m_cellsY) * kCell * m_lightPixel;
   }
   void addFace(std::unique_ptr<SphereView> face) {
@@ -300,16 +303,32 @@ class SphereView {
   }
 
  private:
-  // Whether a ray at (x, y) on a sun's view (Disk units of entry e's cell), whose origin lies no
-  // nearer the light than `near`, surely meets entry e's sphere: the t, in (0, the ray's t there],
-  // from which it does; else 0. It does where the disk's core, less the ray's `drift` (occluders),
-  // holds it and the whole sphere lies nearer the light than its origin: the disk's radius bounds
-  // the sphere's half depth, and the entry's tLow its near side's depth less up to a float unit.
-  DURER_INLINE double sureHit(uint32_t e, double x, double y, double drift, double near) const {
+  // Whether a ray at (x, y) on a light's view (Disk units of entry e's cell), whose origin lies at
+  // `depth` and no nearer the light than `near`, surely meets entry e's sphere: the t, in (0, the
+  // ray's t there], from which it does; else 0. It does where the disk's core, less the ray's
+  // `drift` (occluders), holds it and the whole sphere lies nearer the light than its origin. The
+  // entry's tLow is its near side's depth (a point light's: distance d - R) less up to a float
+  // unit. On a sun's view the disk's radius bounds the sphere's half depth R; on a point light's
+  // face, the tangent of its half-angle, rho >= R / d, so R <= rho tLow / (1 - rho) and its far
+  // side lies within tLow (1 + rho) / (1 - rho) of the light, at t = 1 - distance / depth along the
+  // ray (its direction is the way to the light: the light at t = 1).
+  DURER_INLINE double sureHit(uint32_t e, double x, double y, double drift, double near, double depth) const {
     const Disk& disk = m_disks[e];
     if (!disk.coreHolds(x, y, drift)) return 0;
-    const double farSide = double(nextUp(m_entries[e].tLow)) + 2 * double(disk.radius) / Disk::kUnits * m_lightPixel;
-    return farSide < near ? near - farSide : 0;
+    const double low = double(nextUp(m_entries[e].tLow)), reach = double(disk.radius) / Disk::kUnits * m_lightPixel;
+    if (!m_light.perspective) {
+      const double farSide = low + 2 * reach;
+      return farSide < near ? near - farSide : 0;
+    }
+    if (!(reach < 1 && m_entries[e].tLow > 0)) return 0;
+    const double farSide = low * (1 + reach) / (1 - reach);
+    return farSide < near ? (near - farSide) / depth : 0;
+  }
+
+  // A ray's drift (occluders: drifts) at entry e's sphere, in Disk units (NaN or inf where the
+  // sphere reaches the light: every disk holds the ray, no core does).
+  DURER_INLINE double driftAt(uint32_t e, double drift) const {
+    return m_light.perspective ? drift / std::max(double(m_entries[e].tLow), 0.0) : drift;
   }
 
   // Where ray k's origin lies on a light's view: its image position x, y, its depth (along a sun's
@@ -390,21 +409,23 @@ class SphereView {
   ParallelProjection m_light;         // a light's view: its image
   double m_lightReach = 0;            // ... the largest coordinate of its centre
   double m_lightPixel = 0;            // ... its pixels' larger side, in world units
-  // ... and, for a sun's view, how far a ray may drift off its place on the image: its direction is
-  // rounded to Real apart from the view's by a few units in the last place, so by 64 epsilons of
-  // the way it came, which is less than its depth's magnitude and the image's width together (the
-  // spheres' bounds) — in Disk units a unit of that way. The footprints' slack holds the rounding of
-  // rays that start among the spheres; these may start far beyond them.
+  // ... and how far a ray may drift off its place on the image: its direction is rounded to Real
+  // apart from the view's (a sun's) or from the way through the eye (a point light's) by a few units
+  // in the last place, so it passes a sphere off by 64 epsilons of the way it came. On a sun's view
+  // that way is less than its depth's magnitude and the image's width together (the spheres'
+  // bounds); seen from a point light, the offset at a sphere is an angle of at most that of its
+  // depth at the sphere's distance (its entry's tLow). In Disk units: m_driftUnits a unit of way, or
+  // of depth over tLow. The footprints' slack holds the rounding of rays that start among the
+  // spheres; these may start far beyond them (or far beyond a sphere near the light).
   double m_driftUnits = 0, m_lightExtent = 0;
   std::unique_ptr<SphereView> m_nextFace;  // a point light's view: its next face
 };
 
 template <typename Real>
-template <typename Footprint, typename Core>
+template <typename Footprint>
 std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Footprint& footprint, int x, int y,
                                                          int width, int height, int threads, const uint32_t* spheres,
-                                                         const Core& core) {
-  constexpr bool disks = !std::is_same_v<Core, std::nullptr_t>;
+                                                         bool disks) {
   auto view = std::make_unique<SphereView>();
   view->m_withDisks = disks;
   view->m_cellX = x / kCell, view->m_cellY = y / kCell;
@@ -431,10 +452,11 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
     double made = 0;
     for (size_t i = begin; i < end; ++i) {
       SampleBox box;
+      SampleDisk disk;
       double tLow;
       Cells& c = cells[i];
       c = {1, 0, 1, 0};
-      if (!footprint(i, box, tLow)) continue;
+      if (!footprint(i, box, tLow, disks ? &disk : nullptr)) continue;
       // Cell coordinates relative to the view's first cell, clamped to it (in double: infinite
       // ends and huge boxes stay ordered).
       const double x0 = std::max(std::floor(box.x0 / kCell) - view->m_cellX, 0.0);
@@ -453,10 +475,7 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
                         within(std::floor(box.x0) - view->m_cellX * kCell, firstColumn, lastColumn, firstColumn),
                         within(std::floor(box.x1) - view->m_cellX * kCell, firstColumn, lastColumn, x1 * kCell));
       tLows[i] = floatBelow(tLow);
-      if constexpr (disks) {
-        rounds[i] = {0.5 * (box.x0 + box.x1) - view->m_cellX * kCell, 0.5 * (box.y0 + box.y1) - view->m_cellY * kCell,
-                     0.5 * std::max(box.x1 - box.x0, box.y1 - box.y0), core(i)};
-      }
+      if (disks) rounds[i] = {disk.x - view->m_cellX * kCell, disk.y - view->m_cellY * kCell, disk.radius, disk.core};
       made += (x1 - x0 + 1) * (y1 - y0 + 1);
     }
     double total = entries.load();
@@ -500,7 +519,7 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
     for (int32_t cx = c.x0; cx <= c.x1; ++cx) {
       const uint32_t e = next[size_t(cy) * cellsWide + size_t(cx)]++;
       view->m_entries[e] = {spheres ? spheres[i] : i, tLows[i]};
-      if constexpr (disks) {
+      if (disks) {
         const Round& round = rounds[i];
         view->m_disks[e] = Disk::around(round.x - cx * kCell, round.y - cy * kCell, round.r, round.core);
       } else {

@@ -56,11 +56,11 @@ class Camera {
   // the t they would meet it at. False if no camera ray can meet it. Conservative for the rays
   // generate makes in Real and the robust sphere test's roots (widened by bounds on both roundings
   // and by 1/64 pixel); infinite ends where the sphere reaches the plane of a perspective eye.
-  bool footprint(const Vec3d& center, double radius, SampleBox& box, double& tLow) const;
-  // An orthographic camera's: the radius, in pixels, of the disk about the footprint's centre whose
-  // rays surely meet the sphere (their distance from its centre below its radius by more than the
-  // rounding bounds and the margin that footprint's box adds); at most 0 for a sphere too small.
-  double footprintCore(const Vec3d& center, double radius) const;
+  // With `disk`, also the disk about its centre's position that holds the box's positions that may
+  // meet it, and its core: the positions whose ray lines pass through the sphere, shrunk by the
+  // same bounds and margin (an orthographic camera: the sphere's own disk; a perspective one: the
+  // disks about the projected centre that hold its projected ellipse and lie within it).
+  bool footprint(const Vec3d& center, double radius, SampleBox& box, double& tLow, SampleDisk* disk = nullptr) const;
 
   // The frame and image window in double, as rounded to Real (where a point lies on the image).
   ParallelProjection projection() const {
@@ -77,6 +77,10 @@ class Camera {
  private:
   // An orthographic footprint's half width in world units: the radius and the rounding bounds.
   double orthographicReach(const ParallelProjection& image, const Vec3d& q, double radius) const;
+  // A perspective footprint's disk (footprint's), from the sphere's centre q in the frame, its
+  // distance and radius grown and shrunk by the rounding bounds.
+  static SampleDisk perspectiveDisk(const ParallelProjection& image, const Vec3d& q, double distance, double grown,
+                                    double shrunk);
 
   bool m_perspective;
   int m_width, m_height;

@@ -556,28 +556,19 @@ class TileRenderer {
   }
 
   // The view of `spheres` over a width x height image seen through `camera`, on the render's threads
-  // (of the spheres listed in `only`, in increasing order, if given). `disks`: an orthographic
-  // camera's, keeping each sphere's disk and core (SphereView::make).
+  // (of the spheres listed in `only`, in increasing order, if given). `disks`: a light's, keeping
+  // each sphere's disk and core (SphereView::make).
   static std::unique_ptr<SphereView<Real>> viewThrough(const SphereSet<Real>& spheres, const Camera<Real>& camera,
                                                        int width, int height, const RenderSettings& settings,
                                                        const std::vector<uint32_t>* only = nullptr,
                                                        bool disks = false) {
-    const auto sphereOf = [&](size_t i) -> const Sphere<Real>& { return spheres.primitive(only ? (*only)[i] : i); };
-    const auto footprint = [&](size_t i, SampleBox& box, double& tLow) {
-      const Sphere<Real>& sphere = sphereOf(i);
-      return camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow);
+    const auto footprint = [&](size_t i, SampleBox& box, double& tLow, SampleDisk* disk) {
+      const Sphere<Real>& sphere = spheres.primitive(only ? (*only)[i] : i);
+      return camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow, disk);
     };
     const int threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
     const size_t count = only ? only->size() : spheres.size();
-    const uint32_t* listed = only ? only->data() : nullptr;
-    if (disks) {
-      const auto core = [&](size_t i) {
-        const Sphere<Real>& sphere = sphereOf(i);
-        return camera.footprintCore(Vec3d(sphere.center), double(sphere.radius));
-      };
-      return SphereView<Real>::make(count, footprint, 0, 0, width, height, threads, listed, core);
-    }
-    return SphereView<Real>::make(count, footprint, 0, 0, width, height, threads, listed);
+    return SphereView<Real>::make(count, footprint, 0, 0, width, height, threads, only ? only->data() : nullptr, disks);
   }
 
   // The view of the scene's own spheres from a directional light travelling along `direction`, for
@@ -620,7 +611,8 @@ class TileRenderer {
 
   // The view of the scene's own spheres from a point (or spot) light at `position`, for its shadow
   // rays: perspective views from it over the six faces of a cube around it (cubeFace), chained
-  // (SphereView::addFace), each made from the spheres that may reach into its face (byFace); a
+  // (SphereView::addFace), each made from the spheres that may reach into its face (byFace) and
+  // keeping each one's disk about its centre's point and core, as a sun's view does; a
   // face's cells four mean radii across at the spheres' mean distance from the light (at most 1024
   // a side: six faces' cell bounds take at most 24 MB).
   static std::shared_ptr<const SphereView<Real>> pointLightViewOf(const SphereSet<Real>& spheres,
@@ -643,7 +635,7 @@ class TileRenderer {
       std::unique_ptr<SphereView<Real>> first;
       for (int face = 0; face < 6; ++face) {
         const Camera<Real> eye = cubeFace(position, face, pixels);
-        std::unique_ptr<SphereView<Real>> view = viewThrough(spheres, eye, pixels, pixels, settings, &faces[face]);
+        std::unique_ptr<SphereView<Real>> view = viewThrough(spheres, eye, pixels, pixels, settings, &faces[face], true);
         if (!view) return nullptr;
         view->setLight(eye.projection());
         if (first) {
