@@ -59,3 +59,32 @@ TEST_CASE("a disk too large or too far for its bits holds every point and has no
   CHECK(holds(3, 4, 1, 3.5, 4.5));
   CHECK(!holds(127, -127, 200, 127, 80));
 }
+
+TEST_CASE("a disk rounded once and placed in each cell is the disk made in that cell") {
+  // Centres on a 2^-20 pixel grid, so that shifting one by a cell's pixels is exact in double.
+  std::mt19937_64 rng(13);
+  std::uniform_int_distribution<int64_t> near(-(int64_t(200) << 20), int64_t(200) << 20);  // pixels from the cell
+  std::uniform_real_distribution<double> size(0, 300);
+  std::uniform_int_distribution<int> cell(0, 2047);
+  constexpr int kCell = durer::SphereView<double>::kCell;
+  int placedInside = 0;
+  for (int i = 0; i < 100000; ++i) {
+    const int cx = cell(rng), cy = cell(rng);
+    const double x = cx * kCell + std::ldexp(double(near(rng)), -20), y = cy * kCell + std::ldexp(double(near(rng)), -20);
+    const double r = size(rng), c = 0.9 * r;
+    const Disk placed = Disk::quantise(x, y, r, c).inCell(cx, cy);
+    const Disk made = Disk::around(x - cx * kCell, y - cy * kCell, r, c);
+    CAPTURE(x);
+    CAPTURE(y);
+    REQUIRE(placed.radius == made.radius);
+    REQUIRE(placed.core == made.core);
+    if (made.radius != Disk::kEverywhere) {
+      REQUIRE(placed.x == made.x);
+      REQUIRE(placed.y == made.y);
+      ++placedInside;
+    }
+  }
+  CHECK(placedInside > 30000);  // both kinds: disks within 16 bits of their cell and disks beyond
+  CHECK(Disk::quantise(1e12, 0, 1, 0.5).inCell(0, 0).radius == Disk::kEverywhere);  // beyond 32 bits
+  CHECK(Disk::quantise(NAN, 0, 1, 0.5).inCell(0, 0).radius == Disk::kEverywhere);
+}

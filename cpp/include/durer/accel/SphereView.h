@@ -111,18 +111,31 @@ class SphereView {
     int16_t x, y;
     uint16_t radius, core;
 
-    // The disk of centre (x, y), radius r and core c, in pixels from the cell's first pixel.
-    static Disk around(double x, double y, double r, double c) {
-      Disk disk{0, 0, kEverywhere, 0};
-      const double qx = std::nearbyint(x * kUnits), qy = std::nearbyint(y * kUnits), qr = std::ceil(r * kUnits + 1);
-      constexpr double kMost = std::numeric_limits<int16_t>::max();
-      if (std::fabs(qx) <= kMost && std::fabs(qy) <= kMost && qr < kEverywhere) {
-        disk.x = int16_t(qx), disk.y = int16_t(qy), disk.radius = uint16_t(qr);
-        const double qc = std::floor(c * kUnits - 1);
-        disk.core = qc > 0 ? uint16_t(std::min(qc, qr)) : 0;
+    // A disk rounded to units once, its centre from a view's first pixel (in 32 bits: anywhere in
+    // a view), then placed in each cell its sphere covers (a whole number of units away).
+    struct Quantised {
+      int32_t x, y;
+      uint16_t radius, core;
+
+      // As seen from cell (cx, cy) of the view.
+      Disk inCell(int cx, int cy) const {
+        constexpr int64_t kCellUnits = kCell * int64_t(kUnits), kMost = std::numeric_limits<int16_t>::max();
+        const int64_t dx = x - cx * kCellUnits, dy = y - cy * kCellUnits;
+        if (radius == kEverywhere || dx < -kMost || dx > kMost || dy < -kMost || dy > kMost) {
+          return {0, 0, kEverywhere, 0};
+        }
+        return {int16_t(dx), int16_t(dy), radius, core};
       }
-      return disk;
+    };
+    static Quantised quantise(double x, double y, double r, double c) {
+      const double qx = std::nearbyint(x * kUnits), qy = std::nearbyint(y * kUnits), qr = std::ceil(r * kUnits + 1);
+      constexpr double kMost = std::numeric_limits<int32_t>::max();
+      if (!(std::fabs(qx) <= kMost && std::fabs(qy) <= kMost && qr < kEverywhere)) return {0, 0, kEverywhere, 0};
+      const double qc = std::floor(c * kUnits - 1);
+      return {int32_t(qx), int32_t(qy), uint16_t(qr), qc > 0 ? uint16_t(std::min(qc, qr)) : uint16_t(0)};
     }
+    // The disk of centre (x, y), radius r and core c, in pixels from the cell's first pixel.
+    static Disk around(double x, double y, double r, double c) { return quantise(x, y, r, c).inCell(0, 0); }
     // Whether it, grown by `grow` units, holds the point (x, y), in units from the cell's first
     // pixel (NaN: it does).
     DURER_INLINE bool holds(double x, double y, double grow = 0) const {
@@ -209,9 +222,10 @@ class SphereView {
   // taking the rays whose origins it holds. The rays travel toward the light: opposite the view's
   // direction, or toward a perspective view's eye. Each ray's search waits on a chain of misses
   // (its cell's bounds, the entries its binary search reads, the disks it scans down from there: a
-  // shadow ray's cell is a random place in the view), so the packet's rays take each step together: every ray's cell, then their bounds
-  // and entries fetched, then every binary search (without branches, so that the searches
-  // overlap), then the lines their scans start on fetched, then each ray's spheres in turn.
+  // shadow ray's cell is a random place in the view), so the packet's rays take each step
+  // together: every ray's cell, then their bounds and entries fetched, then every binary search
+  // (without branches, so that the searches overlap), then the lines their scans start on
+  // fetched, then each ray's spheres in turn.
   // Returns the ray-sphere tests made.
   template <typename Test>
   int64_t occluders(const RayPacket<Real>& packet, const Test& test) const {
@@ -442,10 +456,7 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
   HugeArray<Cells> cells(count);
   HugeArray<uint16_t> edges(count);
   HugeArray<float> tLows(count);
-  struct Round {
-    double x, y, r, core;  // a disk's centre, in pixels from the view's first cell, radius and core
-  };
-  HugeArray<Round> rounds(disks ? count : 0);
+  HugeArray<typename Disk::Quantised> rounds(disks ? count : 0);  // centres from the view's first cell
   const double cellsX = view->m_cellsX, cellsY = view->m_cellsY;
   std::atomic<double> entries{0};
   parallelChunks(count, threads, [&](size_t begin, size_t end) {
@@ -475,7 +486,10 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
                         within(std::floor(box.x0) - view->m_cellX * kCell, firstColumn, lastColumn, firstColumn),
                         within(std::floor(box.x1) - view->m_cellX * kCell, firstColumn, lastColumn, x1 * kCell));
       tLows[i] = floatBelow(tLow);
-      if (disks) rounds[i] = {disk.x - view->m_cellX * kCell, disk.y - view->m_cellY * kCell, disk.radius, disk.core};
+      if (disks) {
+        rounds[i] = Disk::quantise(disk.x - view->m_cellX * kCell, disk.y - view->m_cellY * kCell, disk.radius,
+                                   disk.core);
+      }
       made += (x1 - x0 + 1) * (y1 - y0 + 1);
     }
     double total = entries.load();
@@ -520,8 +534,7 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
       const uint32_t e = next[size_t(cy) * cellsWide + size_t(cx)]++;
       view->m_entries[e] = {spheres ? spheres[i] : i, tLows[i]};
       if (disks) {
-        const Round& round = rounds[i];
-        view->m_disks[e] = Disk::around(round.x - cx * kCell, round.y - cy * kCell, round.r, round.core);
+        view->m_disks[e] = rounds[i].inCell(cx, cy);
       } else {
         const int column0 = cx == c.x0 ? firstColumnOf(edge) : 0, column1 = cx == c.x1 ? lastColumnOf(edge) : kCell - 1;
         view->m_spans[e] = spanOf(row0, row1, column0, column1);
