@@ -189,7 +189,8 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
 
   // The most lights whose shadow rays a render searches through views of these spheres, and the
   // light views kept between renders (TileRenderer::viewsLights): a view is made for each light (a
-  // point light's ~30 bytes a sphere: 60 of them over 1M spheres took 2.2 GB and 6.8 s at 320x180),
+  // point light's ~40 bytes a sphere and its faces' cell bounds: 60 of them over 1M spheres took
+  // 2.2 GB and 6.8 s at 320x180 with ~30 bytes a sphere),
   // where one hierarchy serves them all.
   static constexpr size_t kMostLightViews = 3;
 
