@@ -1,12 +1,14 @@
 """Secondary-ray throughput: many small spheres with a sun casting shadows and a mirror-like
 material, counting every ray the render traces (issue 13's benchmark).
 
-    python bench/secondary_rays.py [--full] [--runs N] [--threads 2] [--markdown FILE]
+    python bench/secondary_rays.py [--full] [--runs N] [--threads 2] [--light point] [--markdown FILE]
 
 The scene: 200,000 spheres of radius 0.05 uniform in the cube [-10, 10]^3 (seeded) over a ground
 plane 0.5 below the cube, every surface diffuse grey and 50 % reflective, a sun with shadows, a
 perspective camera 15 units in front of the cube looking at it (60° field of view), 1 spp, up to 4
-bounces (the render's default). Each precision renders it depth only (camera rays alone) and in
+bounces (the render's default); `--light point`: a point light above the cube instead of the sun
+(Blender's default light; its shadow rays search six perspective views from it, not the sun's one;
+no Embree comparison, whose harness draws the sun's scene). Each precision renders it depth only (camera rays alone) and in
 colour (camera + shadow + reflection rays). Mrays/s counts ALL rays: stats' rays + shadow_rays +
 reflection_rays + refraction_rays over the core's own render time. Tests per ray:
 stats["intersection_tests"] over all rays. CPU/wall: the cores the render really had (~threads when
@@ -63,17 +65,24 @@ RAY_KINDS = ("rays", "shadow_rays", "reflection_rays", "refraction_rays")  # cam
 TARGET_MRAYS = 10.0  # issue 13: all rays, double, 2 threads, 1920x1080
 
 CAMERA = durer.PerspectiveCamera((0, 0, 25), (0, 0, -1), (0, 1, 0), fov_degrees=60)
+LIGHTS = ("sun", "point")
+# The point light: above a corner of the cube, without falloff (the 6.837 light), so that it lights
+# the spheres as brightly as the sun does.
+POINT_LIGHT = (15.0, 30.0, 15.0)
 
 
-def secondary_scene(spheres: int = SPHERES, seed: int = SEED) -> durer.Scene:
+def secondary_scene(spheres: int = SPHERES, seed: int = SEED, light: str = "sun") -> durer.Scene:
     """The issue's scene: `spheres` small reflective spheres in a 20-unit cube over a reflective
-    ground plane, lit by a sun casting shadows."""
+    ground plane, lit by a sun casting shadows (or a point light: `light`)."""
     rng = np.random.default_rng(seed)
     scene = durer.Scene()
     mirror_grey = scene.add_material(diffuse=(0.6, 0.6, 0.6), reflective=(0.5, 0.5, 0.5))
     scene.add_spheres(rng.uniform(-10, 10, (spheres, 3)), RADIUS, material=mirror_grey)
     scene.add_plane((0, 1, 0), -10.5, material=mirror_grey)
-    scene.add_directional_light((-1, -2, -1), (1, 1, 1), shadows=True)
+    if light == "sun":
+        scene.add_directional_light((-1, -2, -1), (1, 1, 1), shadows=True)
+    else:
+        scene.add_point_light(POINT_LIGHT, (1, 1, 1), shadows=True)
     return scene
 
 
@@ -240,15 +249,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--spheres", type=positive_int, default=SPHERES)
     parser.add_argument("--markdown", type=Path, metavar="FILE", help="also write the report as Markdown to FILE")
     parser.add_argument("--no-embree", action="store_true", help="skip the comparison with Intel Embree 3")
+    parser.add_argument("--light", choices=LIGHTS, default="sun",
+                        help="the light casting shadows (point: no Embree comparison)")
     args = parser.parse_args(argv)
     size = FULL_SIZE if args.full else QUICK_SIZE
     runs = args.runs or (FULL_RUNS if args.full else QUICK_RUNS)
     print(f"measuring {len(PRECISIONS) * len(MODES)} renders x {runs + 1}...", file=sys.stderr)
-    rows, others = measure(secondary_scene(args.spheres), size, runs, args.threads)
-    embree = "Intel Embree 3: not compared (--no-embree)" if args.no_embree else \
-        measure_embree(args.spheres, size, runs, args.threads)
+    rows, others = measure(secondary_scene(args.spheres, light=args.light), size, runs, args.threads)
+    if args.no_embree or args.light != "sun":
+        embree = f"Intel Embree 3: not compared ({'--no-embree' if args.no_embree else 'its harness lights the sun'})"
+    else:
+        embree = measure_embree(args.spheres, size, runs, args.threads)
+    lit = "sun" if args.light == "sun" else f"point light at {POINT_LIGHT}"
     intro = [
-        f"Secondary rays: {args.spheres:,} spheres (r {RADIUS}, seed {SEED}) + plane, sun with shadows, 50 % "
+        f"Secondary rays: {args.spheres:,} spheres (r {RADIUS}, seed {SEED}) + plane, {lit} with shadows, 50 % "
         f"reflective, perspective, {size[0]}x{size[1]}, 1 spp, {args.threads} threads; median of {runs} rounds",
         machine_line(others),
     ]

@@ -21,6 +21,20 @@ def test_scene_is_the_issues(bench):
     assert set(result.stats["effects"]) == {"diffuse", "shadows", "reflection"}
 
 
+def test_a_point_light_lights_the_centre_as_the_sun_does(bench):
+    """--light point: the same spheres under a point light with shadows, its shadow rays as many within
+    a tenth, the image lit comparably (a light without falloff from the sun's side: within a half)."""
+    sun, point = (bench.secondary_scene(spheres=500, seed=1, light=light) for light in bench.LIGHTS)
+    assert point.object_count == sun.object_count == 501
+    result = {light: durer.render(scene, bench.CAMERA, 64, 36, passes=("color",))
+              for light, scene in (("sun", sun), ("point", point))}
+    assert set(result["point"].stats["effects"]) == {"diffuse", "shadows", "reflection"}
+    shadow = {light: result[light].stats["shadow_rays"] for light in result}
+    assert shadow["point"] == pytest.approx(shadow["sun"], rel=0.1)
+    lit = {light: result[light].color[..., :3].mean() for light in result}
+    assert lit["point"] == pytest.approx(lit["sun"], rel=0.5)
+
+
 def test_rows_sum_the_core_counters(bench):
     scene = bench.secondary_scene(spheres=2000, seed=1)
     rows, _ = bench.measure(scene, (48, 27), runs=1, threads=2)
