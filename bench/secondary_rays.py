@@ -8,9 +8,9 @@ plane 0.5 below the cube, every surface diffuse grey and 50 % reflective, a sun 
 perspective camera 15 units in front of the cube looking at it (60° field of view), 1 spp, up to 4
 bounces (the render's default); `--light point`: a point light above the cube instead of the sun
 (Blender's default light; its shadow rays search six perspective views from it, not the sun's one;
-no Embree comparison, whose harness draws the sun's scene). Each precision renders it depth only (camera rays alone) and in
-colour (camera + shadow + reflection rays). Mrays/s counts ALL rays: stats' rays + shadow_rays +
-reflection_rays + refraction_rays over the core's own render time. Tests per ray:
+no Embree comparison, whose harness draws the sun's scene). Each precision renders it depth only
+(camera rays alone) and in colour (camera + shadow + reflection rays). Mrays/s counts ALL rays:
+stats' rays + shadow_rays + reflection_rays + refraction_rays over the core's own render time. Tests per ray:
 stats["intersection_tests"] over all rays. CPU/wall: the cores the render really had (~threads when
 the machine is idle); Mrays/CPU-s: all rays per second of that CPU time, which on a shared machine
 (x threads) estimates an idle machine's figure better than the wall-clock one.

@@ -21,7 +21,7 @@ def test_scene_is_the_issues(bench):
     assert set(result.stats["effects"]) == {"diffuse", "shadows", "reflection"}
 
 
-def test_a_point_light_lights_the_centre_as_the_sun_does(bench):
+def test_a_point_light_lights_the_scene_with_shadows_as_the_sun_does(bench):
     """--light point: the same spheres under a point light with shadows, its shadow rays as many within
     a tenth, the image lit comparably (a light without falloff from the sun's side: within a half)."""
     sun, point = (bench.secondary_scene(spheres=500, seed=1, light=light) for light in bench.LIGHTS)

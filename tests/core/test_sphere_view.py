@@ -249,7 +249,8 @@ def test_sun_shadows_cast_on_ground_far_below_the_spheres(precision):
     depth = 300.0
     scene, centers, radii = _sun_scene(rng, 1500, direction=tuple(sun), ground=-depth)
     below = centers.mean(axis=0) + (depth + centers[:, 1].mean()) * sun / -sun[1]
-    _assert_far_ground_shadows(scene, centers, radii, below, depth, precision, lambda points: -sun, height=3, min_clear=0.8)
+    _assert_far_ground_shadows(scene, centers, radii, below, depth, precision, lambda points: -sun, height=3,
+                               min_clear=0.8)
 
 
 @pytest.mark.parametrize("precision", ["float", "double"])
@@ -271,9 +272,9 @@ def test_point_light_shadows_cast_on_ground_far_below_the_spheres(precision):
 
 def _assert_far_ground_shadows(scene, centers, radii, spot, depth, precision, to_light, height, min_clear,
                                segment=False):
-    """Seen from `height` above `spot` on the ground `depth` below the spheres: a pixel is lit exactly where a
-    brute force finds nothing between its hit point and the light (`to_light(points)`: toward it),
-    pixels within the precision's rounding of the far points of a silhouette set aside."""
+    """Seen from `height` above `spot` on the ground `depth` below the spheres: a pixel is lit exactly
+    where a brute force finds nothing between its hit point and the light (`to_light(points)`: toward
+    it), pixels within the precision's rounding of the far points of a silhouette set aside."""
     camera = durer.PerspectiveCamera(tuple(spot + (0, height, 0)), (0, -1, 0), (0, 0, 1), fov_degrees=45)
     size = 96
     res = durer.render(scene, camera, width=size, height=size, passes=("color", "object_id"), precision=precision,

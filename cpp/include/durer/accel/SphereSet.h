@@ -224,7 +224,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       if (!computed) terms.template compute<M>(packet.dx, packet.dy, packet.dz, packet.count), computed = true;
     };
     if (packet.view) {
-      if constexpr (AnyHit) {  // shadow rays toward a directional light, through its view
+      if constexpr (AnyHit) {  // shadow rays toward a light, through its view (a sun's, or a point light's faces)
         compute();
         return packet.view->occluders(packet, [&](int k, uint32_t i, double sureT) {
           if (sureT > 0) {  // its sphere data is often cold: not read where the view knows the answer
