@@ -449,12 +449,13 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
     int32_t x0, x1, y0, y1;  // inclusive; x0 > x1: none
   };
   // Each sphere's cells, and its footprint's first pixel row and column in its first cell and last
-  // in its last (spanOf; every cell between is covered whole): 18 bytes a sphere, which every band
-  // below reads in full. These and the entries are left unset until written and lie in huge pages
-  // once large (HugeArray): at 10M spheres they are ~0.5 GB, which a vector would zero before they
-  // are written, and 4 KiB pages would fault in ~100,000 times, for each new camera pose.
+  // in its last (spanOf; every cell between is covered whole) or, in a light's view, its disk: 18 or
+  // 28 bytes a sphere, which every band below reads in full. These and the entries are left unset
+  // until written and lie in huge pages once large (HugeArray): at 10M spheres they are ~0.5 GB,
+  // which a vector would zero before they are written, and 4 KiB pages would fault in ~100,000
+  // times, for each new camera pose.
   HugeArray<Cells> cells(count);
-  HugeArray<uint16_t> edges(count);
+  HugeArray<uint16_t> edges(disks ? 0 : count);  // a light's view keeps disks instead
   HugeArray<float> tLows(count);
   HugeArray<typename Disk::Quantised> rounds(disks ? count : 0);  // centres from the view's first cell
   const double cellsX = view->m_cellsX, cellsY = view->m_cellsY;
@@ -481,15 +482,16 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
       const auto within = [](double pixel, double first, double last, double cellStart) {
         return std::clamp(int(std::clamp(pixel, first, last) - cellStart), 0, kCell - 1);
       };
-      edges[i] = spanOf(within(std::floor(box.y0) - view->m_cellY * kCell, firstRow, lastRow, firstRow),
-                        within(std::floor(box.y1) - view->m_cellY * kCell, firstRow, lastRow, y1 * kCell),
-                        within(std::floor(box.x0) - view->m_cellX * kCell, firstColumn, lastColumn, firstColumn),
-                        within(std::floor(box.x1) - view->m_cellX * kCell, firstColumn, lastColumn, x1 * kCell));
-      tLows[i] = floatBelow(tLow);
       if (disks) {
         rounds[i] = Disk::quantise(disk.x - view->m_cellX * kCell, disk.y - view->m_cellY * kCell, disk.radius,
                                    disk.core);
+      } else {
+        edges[i] = spanOf(within(std::floor(box.y0) - view->m_cellY * kCell, firstRow, lastRow, firstRow),
+                          within(std::floor(box.y1) - view->m_cellY * kCell, firstRow, lastRow, y1 * kCell),
+                          within(std::floor(box.x0) - view->m_cellX * kCell, firstColumn, lastColumn, firstColumn),
+                          within(std::floor(box.x1) - view->m_cellX * kCell, firstColumn, lastColumn, x1 * kCell));
       }
+      tLows[i] = floatBelow(tLow);
       made += (x1 - x0 + 1) * (y1 - y0 + 1);
     }
     double total = entries.load();
@@ -528,14 +530,14 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
   view->m_spans = HugeArray<uint16_t>(disks ? 0 : first[cellCount]);
   std::vector<uint32_t> next(first.begin(), first.end() - 1);
   overBands([&](uint32_t i, const Cells& c, int32_t cy) {
-    const uint16_t edge = edges[i];
-    const int row0 = cy == c.y0 ? firstRowOf(edge) : 0, row1 = cy == c.y1 ? lastRowOf(edge) : kCell - 1;
     for (int32_t cx = c.x0; cx <= c.x1; ++cx) {
       const uint32_t e = next[size_t(cy) * cellsWide + size_t(cx)]++;
       view->m_entries[e] = {spheres ? spheres[i] : i, tLows[i]};
       if (disks) {
         view->m_disks[e] = rounds[i].inCell(cx, cy);
       } else {
+        const uint16_t edge = edges[i];
+        const int row0 = cy == c.y0 ? firstRowOf(edge) : 0, row1 = cy == c.y1 ? lastRowOf(edge) : kCell - 1;
         const int column0 = cx == c.x0 ? firstColumnOf(edge) : 0, column1 = cx == c.x1 ? lastColumnOf(edge) : kCell - 1;
         view->m_spans[e] = spanOf(row0, row1, column0, column1);
       }
