@@ -12,11 +12,13 @@ sphere's surface in a random direction (incoherent, as reflection and shadow ray
 traces each with rtcIntersect1, Dürer casts them all with `durer::cast`; the secondary workload
 gives both the shadow and reflection rays of bench/secondary_rays.py's colour render (its scene's
 ray tree, found with durer::cast), traced the same way but for the shadow rays, which both trace
-as occlusion queries (any hit: Embree's rtcOccluded1, durer::cast's anyHit). Every time is a median over interleaved rounds (Embree, Dürer float,
-Dürer double) after an untimed first pass. Dürer's core is compiled as the package's own build was (its
-compiler and DURER_NATIVE, so that ccache reuses its objects; set DURER_NATIVE=0/1 to choose), in
-build/bench-embree or build/bench-embree-native. Needs Embree 3 (Debian: `apt-get install libembree-dev`);
-exit status 2 without it, 1 when a workload's images disagree.
+as occlusion queries (any hit: Embree's rtcOccluded1, durer::cast's anyHit); secondary-point gives
+those of the same scene under its point light (shadow rays that end at the light). Every time is a
+median over interleaved rounds (Embree, Dürer float, Dürer double) after an untimed first pass.
+Dürer's core is compiled as the package's own build was (its compiler and DURER_NATIVE, so that
+ccache reuses its objects; set DURER_NATIVE=0/1 to choose), in build/bench-embree or
+build/bench-embree-native. Needs Embree 3 (Debian: `apt-get install libembree-dev`); exit status 2
+without it, 1 when a workload's images disagree.
 """
 
 from __future__ import annotations
@@ -77,6 +79,7 @@ WORKLOADS = (
     Workload("inside-1m", "inside", 1_000_000),
     Workload("bounce-200k", "bounce", 200_000),
     Workload("secondary-200k", "secondary", 200_000),
+    Workload("secondary-point-200k", "secondary-point", 200_000),
 )
 
 
@@ -380,7 +383,8 @@ def legend_lines(size: tuple[int, int], runs: int) -> list[str]:
         "(leaving a random sphere in a random direction), rtcIntersect1 each against Dürer's durer::cast; secondary: "
         "the shadow and reflection rays of bench/secondary_rays.py's colour render at this size (up to 4 bounces; "
         "as many rays as that render's), the shadow rays as occlusion queries (Embree's rtcOccluded1, Dürer's "
-        "durer::cast with anyHit: durer.occluded's).",
+        "durer::cast with anyHit: durer.occluded's); secondary-point: the same under its point light (the shadow "
+        "rays end at the light).",
         "Dürer cached: the same Scene rendered again (hierarchy reused); first: a fresh Scene's first render, "
         "hierarchy build included. Depth pass only; colour + depth with the sun.",
         "Dürer / Embree: Embree trace time / Dürer cached time (above 1: Dürer faster); First render: "

@@ -7,8 +7,8 @@ The scene: 200,000 spheres of radius 0.05 uniform in the cube [-10, 10]^3 (seede
 plane 0.5 below the cube, every surface diffuse grey and 50 % reflective, a sun with shadows, a
 perspective camera 15 units in front of the cube looking at it (60° field of view), 1 spp, up to 4
 bounces (the render's default); `--light point`: a point light above the cube instead of the sun
-(Blender's default light; its shadow rays search six perspective views from it, not the sun's one;
-no Embree comparison, whose harness draws the sun's scene). Each precision renders it depth only
+(Blender's default light; its shadow rays search six perspective views from it, not the sun's one).
+Each precision renders it depth only
 (camera rays alone) and in colour (camera + shadow + reflection rays). Mrays/s counts ALL rays:
 stats' rays + shadow_rays + reflection_rays + refraction_rays over the core's own render time. Tests per ray:
 stats["intersection_tests"] over all rays. CPU/wall: the cores the render really had (~threads when
@@ -17,7 +17,7 @@ the machine is idle); Mrays/CPU-s: all rays per second of that CPU time, which o
 
 Against Intel Embree 3 (when installed: Debian's libembree-dev; `--no-embree` skips it): bench/embree's
 harness (built as bench/embree_compare.py builds it) makes the same scene (its spheres drawn by its
-own generator) and the shadow and reflection rays its colour render traces at the same size (the
+own generator, under the same light) and the shadow and reflection rays its colour render traces at the same size (the
 scene's ray tree, found with durer::cast: as many rays as the render's, within about 1 %), then
 traces them with Embree's calls for incoherent rays (rtcIntersect1 for the reflection rays,
 rtcOccluded1 for the shadow rays) and with Dürer's (durer::cast for the reflection rays, its
@@ -69,6 +69,8 @@ LIGHTS = ("sun", "point")
 # The point light: above a corner of the cube, without falloff (the 6.837 light), so that it lights
 # the spheres as brightly as the sun does.
 POINT_LIGHT = (15.0, 30.0, 15.0)
+# bench/embree's workload of each light's scene (its Workload.cpp lights them the same way).
+EMBREE_KINDS = {"sun": "secondary", "point": "secondary-point"}
 
 
 def secondary_scene(spheres: int = SPHERES, seed: int = SEED, light: str = "sun") -> durer.Scene:
@@ -162,7 +164,8 @@ class EmbreeRays:
         return self.rays / statistics.median(times) / 1e3
 
 
-def measure_embree(spheres: int, size: tuple[int, int], runs: int, threads: int) -> EmbreeRays | str:
+def measure_embree(spheres: int, size: tuple[int, int], runs: int, threads: int,
+                   light: str = "sun") -> EmbreeRays | str:
     """Embree and durer::cast on the scene's secondary rays, or why they were not measured."""
     embree_dir = embree_compare.find_embree()
     if embree_dir is None:
@@ -171,7 +174,8 @@ def measure_embree(spheres: int, size: tuple[int, int], runs: int, threads: int)
     print(f"building {embree_compare.EXECUTABLE} in {embree_compare.build_dir(native)} (a clean build takes about a "
           "minute)...", file=sys.stderr)
     executable = embree_compare.build_executable(embree_dir, native)
-    workload = embree_compare.Workload("secondary", "secondary", spheres)
+    kind = EMBREE_KINDS[light]
+    workload = embree_compare.Workload(kind, kind, spheres)
     result = embree_compare.run_workload(executable, workload, size, runs, threads)
     report = result.report
     return EmbreeRays(report["rays"]["embree"], tuple(report["embree"]["trace_ms"]),
@@ -249,17 +253,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--spheres", type=positive_int, default=SPHERES)
     parser.add_argument("--markdown", type=Path, metavar="FILE", help="also write the report as Markdown to FILE")
     parser.add_argument("--no-embree", action="store_true", help="skip the comparison with Intel Embree 3")
-    parser.add_argument("--light", choices=LIGHTS, default="sun",
-                        help="the light casting shadows (point: no Embree comparison)")
+    parser.add_argument("--light", choices=LIGHTS, default="sun", help="the light casting shadows")
     args = parser.parse_args(argv)
     size = FULL_SIZE if args.full else QUICK_SIZE
     runs = args.runs or (FULL_RUNS if args.full else QUICK_RUNS)
     print(f"measuring {len(PRECISIONS) * len(MODES)} renders x {runs + 1}...", file=sys.stderr)
     rows, others = measure(secondary_scene(args.spheres, light=args.light), size, runs, args.threads)
-    if args.no_embree or args.light != "sun":
-        embree = f"Intel Embree 3: not compared ({'--no-embree' if args.no_embree else 'its harness lights the sun'})"
+    if args.no_embree:
+        embree = "Intel Embree 3: not compared (--no-embree)"
     else:
-        embree = measure_embree(args.spheres, size, runs, args.threads)
+        embree = measure_embree(args.spheres, size, runs, args.threads, args.light)
     lit = "sun" if args.light == "sun" else f"point light at {POINT_LIGHT}"
     intro = [
         f"Secondary rays: {args.spheres:,} spheres (r {RADIUS}, seed {SEED}) + plane, {lit} with shadows, 50 % "

@@ -245,11 +245,12 @@ void EmbreeScene::traceGivenRays(int threads, Image& image) const {
           ray.ray.org_z = static_cast<float>(o[2]);
           ray.ray.dir_x = static_cast<float>(d[0]), ray.ray.dir_y = static_cast<float>(d[1]);
           ray.ray.dir_z = static_cast<float>(d[2]);
-          ray.ray.tfar = kInfinity;
+          const bool occlusion = r >= firstOcclusion;
+          ray.ray.tfar = occlusion ? static_cast<float>(m_workload.occlusionTMax) : kInfinity;
           ray.ray.mask = ~0u;
           ray.hit.geomID = RTC_INVALID_GEOMETRY_ID;
           ray.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-          if (r >= firstOcclusion) {  // any hit: Embree sets tfar to -inf
+          if (occlusion) {  // any hit: Embree sets tfar to -inf
             rtcOccluded1(m_scene, &context, &ray.ray);
             image.depth[static_cast<size_t>(r)] = ray.ray.tfar < 0 ? Workload::kOccluded : kInfinity;
             continue;

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -138,11 +139,20 @@ Generation cameraRays(const Workload& w) {
   return rays;
 }
 
+// Where a surface point's shadow ray goes: toward a sun, along its unit direction without end, or to
+// a point light, reached at t = 1.
+struct ShadowTarget {
+  std::optional<durer::Vec3d> towardSun;
+  durer::Vec3d light{0};
+
+  durer::Vec3d direction(const durer::Vec3d& point) const { return towardSun ? *towardSun : light - point; }
+  double tMax() const { return towardSun ? INFINITY : 1.0; }
+};
+
 // The ray tree a colour render at one sample a pixel traces from `rays` (the camera's) when every
-// surface is a mirror and a sun shines toward `toSun`: from every hit of a camera or reflection ray, a
-// shadow ray toward the sun where the surface faces it, and the mirror reflection up to 4 bounces.
-// Each starts 1e-4 off its surface.
-void traceTree(const durer::Scene& scene, Generation rays, const durer::Vec3d& toSun, Generation& reflections,
+// surface is a mirror: from every hit of a camera or reflection ray, a shadow ray toward `target` where
+// the surface faces it, and the mirror reflection up to 4 bounces. Each starts 1e-4 off its surface.
+void traceTree(const durer::Scene& scene, Generation rays, const ShadowTarget& target, Generation& reflections,
                Generation& shadows) {
   constexpr double kOffset = 1e-4;
   constexpr int kBounces = 4;
@@ -156,7 +166,8 @@ void traceTree(const durer::Scene& scene, Generation rays, const durer::Vec3d& t
       const durer::Vec3d normal(rays.normals[3 * i], rays.normals[3 * i + 1], rays.normals[3 * i + 2]);
       const durer::Vec3d facing = glm::dot(normal, d) < 0 ? normal : -normal;
       const durer::Vec3d point = o + rays.t[i] * d + kOffset * facing;
-      if (glm::dot(facing, toSun) > 0) shadows.add(point, toSun);
+      const durer::Vec3d toLight = target.direction(point);
+      if (glm::dot(facing, toLight) > 0) shadows.add(point, toLight);
       if (depth < kBounces) next.add(point, glm::reflect(d, facing));
     }
     if (depth > 0) reflections.append(rays);
@@ -165,13 +176,15 @@ void traceTree(const durer::Scene& scene, Generation rays, const durer::Vec3d& t
 }
 
 // bench/secondary_rays.py's scene -- radius-0.05 spheres uniform in a 20-unit cube over a ground plane
-// 0.5 below it, a sun along (-1, -2, -1), a 60-degree perspective camera 15 units in front of the cube
-// -- lifted by 10.5 so that the ground is y = 0 (its spheres drawn by this file's generator, not
-// numpy's). The given rays are the shadow and reflection rays its colour render traces (every surface
-// reflects half: the weight cut never stops a bounce), the reflection rays first, then the shadow
-// rays (occlusion rays), found with durer::cast in double.
-void makeSecondary(Workload& w, size_t n) {
-  constexpr double kHalf = 10, kRadius = 0.05, kLift = 10.5;
+// 0.5 below it, a 60-degree perspective camera 15 units in front of the cube -- lifted by 10.5 so that
+// the ground is y = 0 (its spheres drawn by this file's generator, not numpy's), lit by `target`. The
+// given rays are the shadow and reflection rays its colour render traces (every surface reflects half:
+// the weight cut never stops a bounce), the reflection rays first, then the shadow rays (occlusion
+// rays), found with durer::cast in double.
+constexpr double kSecondaryLift = 10.5;
+
+void makeSecondaryLit(Workload& w, size_t n, const ShadowTarget& target) {
+  constexpr double kHalf = 10, kRadius = 0.05, kLift = kSecondaryLift;
   addUniformSpheres(w, n, durer::Vec3d(-kHalf, kLift - kHalf, -kHalf), durer::Vec3d(kHalf, kLift + kHalf, kHalf), kRadius);
   for (double& c : w.centers) c = static_cast<float>(c);  // as in makeBounce: both tracers meet the same spheres
   w.groundPlane = true;
@@ -181,7 +194,7 @@ void makeSecondary(Workload& w, size_t n) {
   durer::Scene scene;
   addToScene(w, scene);
   Generation rays, shadows;
-  traceTree(scene, cameraRays(w), -glm::normalize(durer::Vec3d(-1, -2, -1)), rays, shadows);
+  traceTree(scene, cameraRays(w), target, rays, shadows);
   if (rays.size() + shadows.size() == 0) {
     throw std::invalid_argument("the secondary workload's camera rays at " + std::to_string(w.width) + "x" +
                                 std::to_string(w.height) + " meet nothing: no shadow or reflection rays to trace");
@@ -191,7 +204,18 @@ void makeSecondary(Workload& w, size_t n) {
   for (double& v : rays.directions) v = static_cast<float>(v);
   w.rayOrigins = std::move(rays.origins), w.rayDirections = std::move(rays.directions);
   w.occlusionRays = shadows.size();
+  w.occlusionTMax = target.tMax();
   w.width = static_cast<int>(w.rayOrigins.size() / 3), w.height = 1;  // a ray per pixel of one row
+}
+
+// The sun along (-1, -2, -1).
+void makeSecondary(Workload& w, size_t n) {
+  makeSecondaryLit(w, n, ShadowTarget{-glm::normalize(durer::Vec3d(-1, -2, -1))});
+}
+
+// bench/secondary_rays.py's point light (15, 30, 15), above a corner of the cube.
+void makeSecondaryPoint(Workload& w, size_t n) {
+  makeSecondaryLit(w, n, ShadowTarget{std::nullopt, durer::Vec3d(15, 30 + kSecondaryLift, 15)});
 }
 
 using Maker = void (*)(Workload&, size_t);
@@ -211,6 +235,8 @@ const Kind kKinds[] = {
      makeBounce},
     {"secondary", "bench/secondary_rays.py's scene; its colour render's shadow and reflection rays, up to 4 bounces",
      makeSecondary},
+    {"secondary-point", "the secondary scene under bench/secondary_rays.py's point light instead of the sun",
+     makeSecondaryPoint},
 };
 
 }  // namespace

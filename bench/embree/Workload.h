@@ -1,4 +1,5 @@
 #pragma once
+#include <cmath>
 #include <cstddef>
 #include <optional>
 #include <string>
@@ -21,12 +22,16 @@ struct Workload {
   durer::CameraSpec camera;
   int width = 0;
   int height = 0;
-  // Rays given instead of the camera's, one per pixel (width x height, row by row): origins and unit
-  // directions, count x 3 each, float values (Embree's rays exactly; Dürer casts them with durer::cast).
+  // Rays given instead of the camera's, one per pixel (width x height, row by row): origins and
+  // directions (unit but for shadow rays toward a point light), count x 3 each, float values
+  // (Embree's rays exactly; Dürer casts them with durer::cast).
   std::vector<double> rayOrigins, rayDirections;
   // The last occlusionRays given rays are shadow rays: they ask only whether anything lies ahead
   // (Embree: rtcOccluded1), and each tracer's image holds kOccluded where something does.
   size_t occlusionRays = 0;
+  // How far, in units of its direction, a shadow ray looks: without end toward a sun (its direction
+  // unit); 1 toward a point light (its direction runs from its origin to the light).
+  double occlusionTMax = INFINITY;
   static constexpr float kOccluded = 1;
 
   size_t sphereCount() const { return radii.size(); }

@@ -115,7 +115,7 @@ void castDurer(const durer::Scene& scene, const Workload& w, durer::Precision pr
       input.origins = w.rayOrigins.data() + 3 * first;
       input.directions = w.rayDirections.data() + 3 * first;
       input.count = rays;
-      input.tMax = INFINITY;
+      input.tMax = anyHit ? w.occlusionTMax : INFINITY;
       input.threads = threads;
       input.anyHit = anyHit;
       durer::CastOutput<Real> output;
