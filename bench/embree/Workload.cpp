@@ -175,14 +175,14 @@ void traceTree(const durer::Scene& scene, Generation rays, const ShadowTarget& t
   }
 }
 
+constexpr double kSecondaryLift = 10.5;  // bench/secondary_rays.py's ground is y = -10.5
+
 // bench/secondary_rays.py's scene -- radius-0.05 spheres uniform in a 20-unit cube over a ground plane
 // 0.5 below it, a 60-degree perspective camera 15 units in front of the cube -- lifted by 10.5 so that
 // the ground is y = 0 (its spheres drawn by this file's generator, not numpy's), lit by `target`. The
 // given rays are the shadow and reflection rays its colour render traces (every surface reflects half:
 // the weight cut never stops a bounce), the reflection rays first, then the shadow rays (occlusion
 // rays), found with durer::cast in double.
-constexpr double kSecondaryLift = 10.5;
-
 void makeSecondaryLit(Workload& w, size_t n, const ShadowTarget& target) {
   constexpr double kHalf = 10, kRadius = 0.05, kLift = kSecondaryLift;
   addUniformSpheres(w, n, durer::Vec3d(-kHalf, kLift - kHalf, -kHalf), durer::Vec3d(kHalf, kLift + kHalf, kHalf), kRadius);
