@@ -285,7 +285,11 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     const auto done = [&](int k, double exitT) DURER_INLINE_LAMBDA {
       return AnyHit ? packet.prim[k] != kNoPrimitive : double(packet.tHit[k]) <= exitT;
     };
-    const auto idOf = [&](size_t record) DURER_INLINE_LAMBDA { return primBase + grid.sphereOf(uint32_t(record)); };
+    // Hits are recorded by record during the walks and by sphere after them: a record's sphere index
+    // is a cache miss, read once for each ray the grid hit rather than for each sphere it tests.
+    Real tHitBefore[kPacketSize];
+    std::copy(packet.tHit, packet.tHit + packet.count, tHitBefore);
+    const auto idOf = [](size_t record) DURER_INLINE_LAMBDA { return int32_t(record); };
 #if DURER_WALK_LANES
     WalkRays rays;
     grid.walkLanes(
@@ -314,6 +318,9 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       if (!walked) others[count++] = k;
     }
 #endif
+    for (int k = 0; k < packet.count; ++k) {  // a hit lowers tHit: the rays the grid hit
+      if (packet.tHit[k] < tHitBefore[k]) packet.prim[k] = primBase + grid.sphereOf(uint32_t(packet.prim[k]));
+    }
     if (count == 0) return tests;
     return tests + this->template searchRays<AnyHit>(packet, others, count, testLeaf);
   }
