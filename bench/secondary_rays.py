@@ -8,22 +8,21 @@ plane 0.5 below the cube, every surface diffuse grey and 50 % reflective, a sun 
 perspective camera 15 units in front of the cube looking at it (60° field of view), 1 spp, up to 4
 bounces (the render's default); `--light point`: a point light above the cube instead of the sun
 (Blender's default light; its shadow rays search six perspective views from it, not the sun's one).
-Each precision renders it depth only
-(camera rays alone) and in colour (camera + shadow + reflection rays). Mrays/s counts ALL rays:
-stats' rays + shadow_rays + reflection_rays + refraction_rays over the core's own render time. Tests per ray:
-stats["intersection_tests"] over all rays. CPU/wall: the cores the render really had (~threads when
+Each precision renders it depth only (camera rays alone) and in colour (camera + shadow + reflection
+rays). Mrays/s counts ALL rays: stats' rays + shadow_rays + reflection_rays + refraction_rays over
+the core's own render time. Tests per ray: stats["intersection_tests"] over all rays. CPU/wall: the cores the render really had (~threads when
 the machine is idle); Mrays/CPU-s: all rays per second of that CPU time, which on a shared machine
 (x threads) estimates an idle machine's figure better than the wall-clock one.
 
 Against Intel Embree 3 (when installed: Debian's libembree-dev; `--no-embree` skips it): bench/embree's
 harness (built as bench/embree_compare.py builds it) makes the same scene (its spheres drawn by its
-own generator, under the same light) and the shadow and reflection rays its colour render traces at the same size (the
-scene's ray tree, found with durer::cast: as many rays as the render's, within about 1 %), then
-traces them with Embree's calls for incoherent rays (rtcIntersect1 for the reflection rays,
-rtcOccluded1 for the shadow rays) and with Dürer's (durer::cast for the reflection rays, its
-occlusion query -- durer.occluded's -- for the shadow rays), interleaved, on the same threads. The report prints both and what Embree's speed on these rays bounds: were the
-render's camera rays and shading free, its secondary rays alone at Embree's speed cap the all-rays
-Mrays/s.
+own generator, under the same light) and the shadow and reflection rays its colour render traces at
+the same size (the scene's ray tree, found with durer::cast: as many rays as the render's, within
+about 1 %), then traces them with Embree's calls for incoherent rays (rtcIntersect1 for the
+reflection rays, rtcOccluded1 for the shadow rays) and with Dürer's (durer::cast for the reflection
+rays, its occlusion query -- durer.occluded's -- for the shadow rays), interleaved, on the same
+threads. The report prints both and what Embree's speed on these rays bounds: were the render's
+camera rays and shading free, its secondary rays alone at Embree's speed cap the all-rays Mrays/s.
 
 Default: 320x180 (today's colour render takes about a second); `--full`: 1920x1080, the issue's
 size (about a minute per colour render before the issue's traversal work). Every figure is the

@@ -12,12 +12,15 @@ namespace {
 
 using Disk = durer::SphereView<double>::Disk;
 
+// The disk of centre (x, y), radius r and core c, in pixels from its cell's first pixel.
+Disk around(double x, double y, double r, double c) { return Disk::quantise(x, y, r, c).inCell(0, 0); }
+
 // Whether the disk made around (x, y) of radius r (core c) holds the point (px, py), all in pixels.
 bool holds(double x, double y, double r, double px, double py, double c = 0) {
-  return Disk::around(x, y, r, c).holds(px * Disk::kUnits, py * Disk::kUnits);
+  return around(x, y, r, c).holds(px * Disk::kUnits, py * Disk::kUnits);
 }
 bool coreHolds(double x, double y, double r, double c, double px, double py) {
-  return Disk::around(x, y, r, c).coreHolds(px * Disk::kUnits, py * Disk::kUnits);
+  return around(x, y, r, c).coreHolds(px * Disk::kUnits, py * Disk::kUnits);
 }
 
 }  // namespace
@@ -73,7 +76,7 @@ TEST_CASE("a disk rounded once and placed in each cell is the disk made in that 
     const double x = cx * kCell + std::ldexp(double(near(rng)), -20), y = cy * kCell + std::ldexp(double(near(rng)), -20);
     const double r = size(rng), c = 0.9 * r;
     const Disk placed = Disk::quantise(x, y, r, c).inCell(cx, cy);
-    const Disk made = Disk::around(x - cx * kCell, y - cy * kCell, r, c);
+    const Disk made = around(x - cx * kCell, y - cy * kCell, r, c);
     CAPTURE(x);
     CAPTURE(y);
     REQUIRE(placed.radius == made.radius);

@@ -134,8 +134,6 @@ class SphereView {
       const double qc = std::floor(c * kUnits - 1);
       return {int32_t(qx), int32_t(qy), uint16_t(qr), qc > 0 ? uint16_t(std::min(qc, qr)) : uint16_t(0)};
     }
-    // The disk of centre (x, y), radius r and core c, in pixels from the cell's first pixel.
-    static Disk around(double x, double y, double r, double c) { return quantise(x, y, r, c).inCell(0, 0); }
     // Whether it, grown by `grow` units, holds the point (x, y), in units from the cell's first
     // pixel (NaN: it does).
     DURER_INLINE bool holds(double x, double y, double grow = 0) const {
