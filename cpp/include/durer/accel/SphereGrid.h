@@ -11,9 +11,12 @@
 // made in double whatever the spheres' precision; its positions are off by at most a few ulps of the
 // coordinates, and a sphere's root by the test's own error; each sphere is registered in every cell
 // its box padded by m_pad touches, and m_pad exceeds both, so a sphere whose hit lies in a cell the
-// walk stepped past by rounding is registered in a cell it visits. Rays for which that bound cannot
-// be promised (origins far from the grid for the precision, non-finite coordinates) are not walked:
-// walk() says so and the caller searches the hierarchy.
+// walk stepped past by rounding is registered in a cell it visits. The walk in lanes tests, within a
+// cell, only the records whose padded box touches an octant of the cell that the ray's segment there
+// touches: the hit point lies on the segment, its computed coordinates between those of the
+// segment's ends (o + t·d rounds monotonically in t), and inside the padded box, so in an octant both
+// touch. Rays for which that bound cannot be promised (origins far from the grid for the precision,
+// non-finite coordinates) are not walked: walk() says so and the caller searches the hierarchy.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -30,7 +33,7 @@
 #include "durer/math/Vec.h"
 
 // The walk in vector lanes (SphereGrid::walkLanes) where the kernel set has AVX-512.
-#if defined(__AVX512F__) && defined(__AVX512DQ__) && defined(__AVX512VL__)
+#if defined(__AVX512F__) && defined(__AVX512DQ__) && defined(__AVX512VL__) && defined(__AVX512BW__)
 #include <immintrin.h>
 #define DURER_WALK_LANES 1
 #else
@@ -46,7 +49,7 @@ class SphereGrid {
   // measured faster where rays start near each other, as a render's bounces do (the secondary-ray
   // scene's colour render 12-22 % quicker from 200,000 to 3M spheres; rays leaving random spheres in
   // random directions, whose cells are all cold: float 14-25 % quicker, double no quicker);
-  // beyond it its memory (36 or 20 bytes a registration in double or float, up to four a sphere) is
+  // beyond it its memory (37 or 21 bytes a registration in double or float, up to four a sphere) is
   // not spent.
   static constexpr size_t kMinSpheres = 64;
   static constexpr size_t kMaxSpheres = size_t(1) << 22;
@@ -130,54 +133,71 @@ class SphereGrid {
 
 #if DURER_WALK_LANES
   // Walks rays 0 .. count - 1 as walk() walks each, eight at once in the lanes of AVX-512 vectors.
-  // Each round lists the (lane, record) pairs of the eight walks' cells, slot by slot, and has
-  // testPairs(lanes, records, n) test them, each walk's in its cell's order; then every walk whose
-  // search done(k, exitT) ends, or that leaves the grid, gives its lane to the next ray, and the
-  // others step to their next cells. A ray so visits the cells and records walk() would, in the same
-  // order, and gets the same hit. One walk at a time, each step waits on its cell's records and on
-  // the branches its count and its tests take; in lanes the waits of eight walks overlap and a round
-  // branches once for all (the secondary-ray scene's reflection rays 4-20 % quicker a ray, its render
-  // 8-12 %: docs/benchmarks.md). take(k, lane, o, d, tMin, tHit) gives ray k to `lane` (false: the
-  // ray is not walked); unwalked(k) for each ray walk() would refuse, in order.
+  // Each round lists, walk by walk, the (lane, record) pairs of the eight walks' cells whose records
+  // touch an octant of the cell the walk's segment touches (the top of this file says why no hit is
+  // lost), and has testPairs(lanes, records, n) test them, each walk's in its cell's order; then every
+  // walk whose search done(k, exitT) ends, or that leaves the grid, gives its lane to the next ray,
+  // and the others step to their next cells. A ray so tests the records walk() would, in the same
+  // order, less those outside its octants (about half), stops where walk() stops and gets the same
+  // hit (exact ties between spheres decided by index: SphereSet::searchGrid). One walk at a time, each step waits on
+  // its cell's records and on the branches its count and its tests take; in lanes the waits of eight
+  // walks overlap and a round branches once for all (the secondary-ray scene's reflection rays 4-20 %
+  // quicker a ray, its render 8-12 %: docs/benchmarks.md). The next eight rays' walks are started
+  // together (startLanes). rayOf(k, o, d, tMin, tHit) gives ray k (false: it is not walked),
+  // assign(k, lane) says which lane walks it; unwalked(k) for each ray walk() would refuse, in order.
   static constexpr int kLanes = 8;
   static constexpr int kMostPairs = 32 * kLanes;  // listed before testPairs is called
 
-  template <typename Take, typename TestPairs, typename Done, typename Unwalked>
-  DURER_INLINE void walkLanes(int count, Take&& take, TestPairs&& testPairs, Done&& done, Unwalked&& unwalked) const {
+  template <typename RayOf, typename Assign, typename TestPairs, typename Done, typename Unwalked>
+  DURER_INLINE void walkLanes(int count, RayOf&& rayOf, Assign&& assign, TestPairs&& testPairs, Done&& done,
+                              Unwalked&& unwalked) const {
     // Each lane's Walk, a field a vector, and its cell's [first, last) records, read a round ahead.
     // Zeroed so that lanes without a ray compute on defined values (their results are masked off).
-    alignas(64) double o[3][kLanes] = {}, inv[3][kLanes] = {}, next[3][kLanes] = {};
+    alignas(64) double o[3][kLanes] = {}, dir[3][kLanes] = {}, inv[3][kLanes] = {}, next[3][kLanes] = {};
+    alignas(64) double enter[kLanes] = {};
+    alignas(64) uint64_t octants[kLanes];
     alignas(64) int64_t cell[3][kLanes] = {}, step[3][kLanes] = {}, stop[3][kLanes] = {}, index[kLanes] = {};
     alignas(64) uint64_t records[kLanes] = {};
     alignas(64) double exits[kLanes];
     int ray[kLanes] = {};
-    int taken = 0;
+    Starts starts;
+    int taken = 0, handed = 0, made = 0;  // rays given to rayOf; of the starts made, those handed out
     const auto fill = [&](int lane) {  // the lane walks the next ray that walks; false when none is left
-      while (taken < count) {
-        const int k = taken++;
-        double ro[3], rd[3], tMin, tHit;
-        if (!take(k, lane, ro, rd, tMin, tHit)) continue;
-        Walk w;
-        const Start started = start(w, ro, rd, tMin, tHit);
-        if (started == Start::refused) unwalked(k);
-        if (started != Start::walking) continue;
-        ray[lane] = k;
-        for (int a = 0; a < 3; ++a) {
-          o[a][lane] = ro[a], inv[a][lane] = w.inv[a], next[a][lane] = w.next[a];
-          cell[a][lane] = w.cell[a], step[a][lane] = w.step[a], stop[a][lane] = w.stop[a];
+      for (;;) {
+        for (; handed < made; ++handed) {
+          if (starts.status[handed] != int(Start::walking)) continue;
+          const int j = handed++;
+          ray[lane] = starts.ray[j];
+          assign(starts.ray[j], lane);
+          for (int a = 0; a < 3; ++a) {
+            o[a][lane] = starts.o[a][j], dir[a][lane] = starts.d[a][j], inv[a][lane] = starts.inv[a][j];
+            next[a][lane] = starts.next[a][j];
+            cell[a][lane] = starts.cell[a][j], step[a][lane] = starts.step[a][j], stop[a][lane] = starts.stop[a][j];
+          }
+          index[lane] = starts.index[j], enter[lane] = starts.enter[j];
+          std::memcpy(&records[lane], &m_begin[size_t(starts.index[j])], sizeof(uint64_t));  // first, then last
+          __builtin_prefetch(&m_records[uint32_t(records[lane])]);
+          return true;
         }
-        index[lane] = w.index;
-        std::memcpy(&records[lane], &m_begin[size_t(w.index)], sizeof(uint64_t));  // first, then last
-        __builtin_prefetch(&m_records[uint32_t(records[lane])]);
-        return true;
+        if (taken == count) return false;
+        // The next rays' starts, eight at a time.
+        for (made = 0; made < kLanes && taken < count; ++taken) {
+          double ro[3], rd[3];
+          if (!rayOf(taken, ro, rd, starts.tMin[made], starts.tHit[made])) continue;
+          for (int a = 0; a < 3; ++a) starts.o[a][made] = ro[a], starts.d[a][made] = rd[a];
+          starts.ray[made++] = taken;
+        }
+        handed = 0;
+        startLanes(starts);
+        for (int j = 0; j < made; ++j) {
+          if (starts.status[j] == int(Start::refused)) unwalked(starts.ray[j]);
+        }
       }
-      return false;
     };
     __mmask8 active = 0;
     for (int lane = 0; lane < kLanes; ++lane) active |= __mmask8(fill(lane) << lane);
-    alignas(32) int32_t pairLane[kMostPairs + kLanes] = {};  // read eight at a time, past the pairs listed too
-    alignas(32) uint32_t pairRecord[kMostPairs + kLanes];
-    const __m256i laneIds = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    alignas(64) int32_t pairLane[kMostPairs + 16] = {};  // read eight at a time, past the pairs listed too
+    alignas(64) uint32_t pairRecord[kMostPairs + 16];
     while (active) {
       // Each walk's cell: its exit (the nearest boundary, ties as walk() breaks them) and records.
       const __m512d nx = _mm512_load_pd(next[0]), ny = _mm512_load_pd(next[1]), nz = _mm512_load_pd(next[2]);
@@ -185,22 +205,40 @@ class SphereGrid {
                      yz = _mm512_cmp_pd_mask(ny, nz, _CMP_LT_OQ);
       const __mmask8 axis[3] = {__mmask8(xy & xz), __mmask8(~xy & yz), __mmask8(~((xy & xz) | (~xy & yz)))};
       _mm512_store_pd(exits, _mm512_mask_blend_pd(axis[0], _mm512_mask_blend_pd(axis[1], nz, ny), nx));
-      const __m512i range = _mm512_load_si512(records);
-      const __m512i first = _mm512_and_si512(range, _mm512_set1_epi64(0xffffffff));
-      const __m512i counts = _mm512_maskz_sub_epi64(active, _mm512_maskz_srli_epi64(0xff, range, 32), first);
-      const __m256i first32 = _mm512_maskz_cvtepi64_epi32(0xff, first);
-      alignas(64) int64_t count[kLanes];
-      _mm512_store_si512(count, counts);
-      int64_t most = 0;
-      for (int lane = 0; lane < kLanes; ++lane) most = std::max(most, count[lane]);
+      // The octants (bit x + 2y + 4z: the upper half along each axis set) of each walk's cell that its
+      // segment [enter, exit] there touches, as far as each axis tells: a half along an axis is touched
+      // unless both ends lie beyond the middle plane (a NaN, 0 · inf at an infinite entry, touches both).
+      const __m512d exitT = _mm512_load_pd(exits);
+      __m512i want = _mm512_set1_epi64(0xff);
+      for (int a = 0; a < 3; ++a) {
+        const __m512d od = _mm512_load_pd(o[a]), dd = _mm512_load_pd(dir[a]);
+        const __m512d pe = _mm512_add_pd(od, _mm512_mul_pd(_mm512_load_pd(enter), dd));
+        const __m512d px = _mm512_add_pd(od, _mm512_mul_pd(exitT, dd));
+        const __m512d mid = _mm512_add_pd(_mm512_set1_pd(m_lo[a]),  // middle()
+            _mm512_mul_pd(_mm512_add_pd(_mm512_cvtepi64_pd(_mm512_load_si512(cell[a])), _mm512_set1_pd(0.5)),
+                          _mm512_set1_pd(m_cellSize[a])));
+        const __mmask8 low = _mm512_cmp_pd_mask(pe, mid, _CMP_NGT_UQ) | _mm512_cmp_pd_mask(px, mid, _CMP_NGT_UQ);
+        const __mmask8 high = _mm512_cmp_pd_mask(pe, mid, _CMP_NLT_UQ) | _mm512_cmp_pd_mask(px, mid, _CMP_NLT_UQ);
+        const __m512i halves = _mm512_or_si512(_mm512_maskz_mov_epi64(low, _mm512_set1_epi64(kLowHalf[a])),
+                                               _mm512_maskz_mov_epi64(high, _mm512_set1_epi64(kHighHalf[a])));
+        want = _mm512_and_si512(want, halves);
+      }
+      _mm512_store_si512(octants, want);
+      const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
       int n = 0;
-      for (int64_t slot = 0; slot < most; ++slot) {
-        const __mmask8 listed = _mm512_cmpgt_epi64_mask(counts, _mm512_set1_epi64(slot));
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(pairLane + n), _mm256_maskz_compress_epi32(listed, laneIds));
-        const __m256i record = _mm256_add_epi32(first32, _mm256_set1_epi32(int32_t(slot)));
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(pairRecord + n), _mm256_maskz_compress_epi32(listed, record));
-        n += __builtin_popcount(listed);
-        if (n > kMostPairs - kLanes) testPairs(pairLane, pairRecord, n), n = 0;
+      for (unsigned lanes = active; lanes != 0; lanes &= lanes - 1) {
+        const int lane = __builtin_ctz(lanes);
+        const uint32_t first = uint32_t(records[lane]), last = uint32_t(records[lane] >> 32);
+        const __m128i mask = _mm_set1_epi8(char(octants[lane]));
+        const __m512i laneId = _mm512_set1_epi32(lane);
+        for (uint32_t r = first; r < last; r += 16) {
+          const __mmask16 in = __mmask16(last - r >= 16 ? 0xffffu : (1u << (last - r)) - 1);
+          const __mmask16 keep = _mm_mask_test_epi8_mask(in, _mm_maskz_loadu_epi8(in, &m_octants[r]), mask);
+          _mm512_mask_compressstoreu_epi32(pairRecord + n, keep, _mm512_add_epi32(_mm512_set1_epi32(int32_t(r)), iota));
+          _mm512_storeu_si512(pairLane + n, laneId);
+          n += __builtin_popcount(keep);
+          if (n > kMostPairs - 16) testPairs(pairLane, pairRecord, n), n = 0;
+        }
       }
       if (n > 0) testPairs(pairLane, pairRecord, n);
       __mmask8 ended = 0;
@@ -227,6 +265,7 @@ class SphereGrid {
         _mm512_store_pd(next[a], _mm512_mask_blend_pd(stepping & ~out, _mm512_load_pd(next[a]), t));
       }
       _mm512_store_si512(index, cells);
+      _mm512_store_pd(enter, _mm512_mask_blend_pd(active & ~ended, _mm512_load_pd(enter), exitT));
       active &= ~ended;
       // The next round's records: read now, and fetched.
       _mm512_store_si512(records, _mm512_mask_i64gather_epi64(_mm512_setzero_si512(), active, cells, &m_begin[0], 4));
@@ -244,6 +283,16 @@ class SphereGrid {
 #endif
 
   const Sphere<Real>* records() const { return m_records.get(); }
+  // The plane between the halves of a cell along axis a (its octants' common face).
+  DURER_INLINE double middle(int a, int64_t cell) const { return m_lo[a] + (double(cell) + 0.5) * m_cellSize[a]; }
+  // The cell holding coordinate x along axis a, the grid's edge cells for anything beyond them (and
+  // for NaN: clamped before the conversion, which would be undefined out of int's range).
+  DURER_INLINE int cellAlong(int a, double x) const {
+    double cell = std::floor((x - m_lo[a]) * m_invCell[a]);
+    cell = cell > 0 ? cell : 0;
+    cell = cell < m_res[a] - 1 ? cell : m_res[a] - 1;
+    return static_cast<int>(cell);
+  }
   int32_t sphereOf(uint32_t record) const { return m_sphere[record]; }  // the set's index of a record's sphere
 
  private:
@@ -286,10 +335,76 @@ class SphereGrid {
     return Start::walking;
   }
 
-  // The cell holding coordinate x along axis a, the grid's edge cells for anything beyond them.
-  DURER_INLINE int cellAlong(int a, double x) const {
-    return std::clamp(static_cast<int>(std::floor((x - m_lo[a]) * m_invCell[a])), 0, m_res[a] - 1);
+#if DURER_WALK_LANES
+  // Eight rays' walks started together: start()'s arithmetic (the same operations in the same order)
+  // in the lanes of AVX-512 vectors. One ray at a time, a start is a chain of a division, slabs and
+  // roundings that the round waiting for its lane sat through (a fifth of the walk's time).
+  struct Starts {
+    alignas(64) double o[3][kLanes] = {}, d[3][kLanes] = {}, tMin[kLanes] = {}, tHit[kLanes] = {};  // in
+    alignas(64) double inv[3][kLanes], next[3][kLanes], enter[kLanes];
+    alignas(64) int64_t cell[3][kLanes], step[3][kLanes], stop[3][kLanes], index[kLanes];
+    alignas(64) int32_t status[kLanes];  // a Start
+    int ray[kLanes];
+  };
+
+  DURER_INLINE void startLanes(Starts& s) const {
+    const __m512d zero = _mm512_setzero_pd(), one = _mm512_set1_pd(1);
+    const __m512d largestFinite = _mm512_set1_pd(std::numeric_limits<double>::max());
+    const __m512d inf = _mm512_set1_pd(std::numeric_limits<double>::infinity());
+    const auto infinite = [&](__m512d x) { return _mm512_cmp_pd_mask(_mm512_abs_pd(x), largestFinite, _CMP_NLE_UQ); };
+    __m512d o[3], d[3], inv[3], largest = zero;
+    __mmask8 refused = 0, still = 0xff;
+    for (int a = 0; a < 3; ++a) {
+      o[a] = _mm512_load_pd(s.o[a]), d[a] = _mm512_load_pd(s.d[a]), inv[a] = _mm512_div_pd(one, d[a]);
+      _mm512_store_pd(s.inv[a], inv[a]);
+      const __mmask8 moving = _mm512_cmp_pd_mask(d[a], zero, _CMP_NEQ_UQ);  // NaN too, as d != 0
+      refused |= infinite(o[a]) | infinite(d[a]) | (moving & infinite(inv[a]));  // start()'s isfinite tests
+      still &= ~moving;
+      const __m512d absO = _mm512_abs_pd(o[a]);
+      largest = _mm512_mask_blend_pd(_mm512_cmp_pd_mask(absO, largest, _CMP_GT_OQ), largest, absO);
+    }
+    const __m512d reach = _mm512_mul_pd(_mm512_set1_pd(kOriginError), _mm512_add_pd(largest, _mm512_set1_pd(m_extent)));
+    refused |= still | _mm512_cmp_pd_mask(reach, _mm512_set1_pd(m_pad), _CMP_GT_OQ);
+    __m512d t0 = _mm512_load_pd(s.tMin), t1 = _mm512_load_pd(s.tHit);
+    for (int a = 0; a < 3; ++a) {  // slab(), eight at a time
+      const __m512d ta = _mm512_mul_pd(_mm512_sub_pd(_mm512_set1_pd(m_lo[a]), o[a]), inv[a]);
+      const __m512d tb = _mm512_mul_pd(_mm512_sub_pd(_mm512_set1_pd(m_hi[a]), o[a]), inv[a]);
+      const __mmask8 defined = _mm512_cmp_pd_mask(ta, ta, _CMP_EQ_OQ) & _mm512_cmp_pd_mask(tb, tb, _CMP_EQ_OQ);
+      const __mmask8 ordered = _mm512_cmp_pd_mask(ta, tb, _CMP_LT_OQ);
+      const __m512d tNear = _mm512_mask_blend_pd(defined, -inf, _mm512_mask_blend_pd(ordered, tb, ta));
+      const __m512d tFar = _mm512_mask_blend_pd(defined, inf, _mm512_mask_blend_pd(ordered, ta, tb));
+      t0 = _mm512_mask_blend_pd(_mm512_cmp_pd_mask(tNear, t0, _CMP_GT_OQ), t0, tNear);
+      t1 = _mm512_mask_blend_pd(_mm512_cmp_pd_mask(tFar, t1, _CMP_LT_OQ), t1, tFar);
+    }
+    const __mmask8 walking = ~refused & _mm512_cmp_pd_mask(t0, t1, _CMP_LT_OQ);
+    const __m256i status = _mm256_mask_blend_epi32(walking, _mm256_set1_epi32(int(Start::empty)),
+                                                   _mm256_set1_epi32(int(Start::walking)));
+    _mm256_store_si256(reinterpret_cast<__m256i*>(s.status),
+                       _mm256_mask_blend_epi32(refused, status, _mm256_set1_epi32(int(Start::refused))));
+    _mm512_store_pd(s.enter, t0);
+    __m512i index = _mm512_setzero_si512();
+    for (int a = 0; a < 3; ++a) {  // cellAlong() and boundaryT()
+      const __m512d at = _mm512_add_pd(o[a], _mm512_mul_pd(t0, d[a]));
+      const __m512d scaled = _mm512_mul_pd(_mm512_sub_pd(at, _mm512_set1_pd(m_lo[a])), _mm512_set1_pd(m_invCell[a]));
+      __m512d c = _mm512_mask_roundscale_pd(scaled, 0xff, scaled, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);  // floor
+      c = _mm512_mask_blend_pd(_mm512_cmp_pd_mask(c, zero, _CMP_GT_OQ), zero, c);
+      const __m512d last = _mm512_set1_pd(m_res[a] - 1);
+      c = _mm512_mask_blend_pd(_mm512_cmp_pd_mask(c, last, _CMP_LT_OQ), last, c);
+      const __m512i cell = _mm512_cvttpd_epi64(c);
+      const __mmask8 ahead = _mm512_cmp_pd_mask(d[a], zero, _CMP_GT_OQ);
+      _mm512_store_si512(s.cell[a], cell);
+      _mm512_store_si512(s.step[a], _mm512_mask_blend_epi64(ahead, _mm512_set1_epi64(-1), _mm512_set1_epi64(1)));
+      _mm512_store_si512(s.stop[a], _mm512_mask_blend_epi64(ahead, _mm512_set1_epi64(-1), _mm512_set1_epi64(m_res[a])));
+      const __m512i boundaryCell = _mm512_mask_add_epi64(cell, ahead, cell, _mm512_set1_epi64(1));
+      const __m512d boundary =
+          _mm512_add_pd(_mm512_set1_pd(m_lo[a]), _mm512_mul_pd(_mm512_cvtepi64_pd(boundaryCell), _mm512_set1_pd(m_cellSize[a])));
+      const __m512d t = _mm512_mul_pd(_mm512_sub_pd(boundary, o[a]), inv[a]);
+      _mm512_store_pd(s.next[a], _mm512_mask_blend_pd(_mm512_cmp_pd_mask(d[a], zero, _CMP_EQ_OQ), t, inf));
+      index = _mm512_add_epi64(index, _mm512_mullo_epi64(cell, _mm512_set1_epi64(m_stride[a])));
+    }
+    _mm512_store_si512(s.index, index);
   }
+#endif
 
   DURER_INLINE double boundaryT(int a, int cell, int step, double o, double d, double inv) const {
     if (d == 0) return std::numeric_limits<double>::infinity();
@@ -331,7 +446,7 @@ class SphereGrid {
     // Counting sort of the registrations by cell.
     std::vector<uint32_t> count(cells + 1, 0);
     size_t refs = 0;
-    forCells(spheres, [&](size_t, size_t cell) {
+    forCells(spheres, [&](size_t, size_t cell, const int (&)[3], const double (&)[3], const double (&)[3]) {
       ++count[cell + 1];
       ++refs;
     });
@@ -344,26 +459,38 @@ class SphereGrid {
     std::copy(count.begin(), count.end(), &m_begin[0]);
     m_records = HugeArray<Sphere<Real>>(refs, kHugePagesFrom);
     m_sphere = HugeArray<int32_t>(refs, kHugePagesFrom);
-    forCells(spheres, [&](size_t i, size_t cell) {
+    m_octants = HugeArray<uint8_t>(refs, kHugePagesFrom);
+    forCells(spheres, [&](size_t i, size_t cell, const int (&at)[3], const double (&lo)[3], const double (&hi)[3]) {
       const uint32_t slot = count[cell]++;
       m_records[slot] = spheres[i];
       m_sphere[slot] = static_cast<int32_t>(i);
+      int64_t octants = 0xff;
+      for (int a = 0; a < 3; ++a) {
+        const double mid = middle(a, at[a]);
+        octants &= (lo[a] <= mid ? kLowHalf[a] : 0) | (hi[a] >= mid ? kHighHalf[a] : 0);
+      }
+      m_octants[slot] = uint8_t(octants);
     });
     return true;
   }
 
-  // f(sphere, cell) for every cell sphere's padded box touches, spheres in order.
+  // f(sphere, cell, its coordinates, the padded box's lo, hi) for every cell a sphere's padded box
+  // touches, spheres in order.
   template <typename F>
   void forCells(const std::vector<Sphere<Real>>& spheres, const F& f) const {
     for (size_t i = 0; i < spheres.size(); ++i) {
       int first[3], last[3];
+      double lo[3], hi[3];
       for (int a = 0; a < 3; ++a) {
         const double c = double(spheres[i].center[a]), r = double(spheres[i].radius) + m_pad;
-        first[a] = cellAlong(a, c - r), last[a] = cellAlong(a, c + r);
+        lo[a] = c - r, hi[a] = c + r;
+        first[a] = cellAlong(a, lo[a]), last[a] = cellAlong(a, hi[a]);
       }
       for (int z = first[2]; z <= last[2]; ++z) {
         for (int y = first[1]; y <= last[1]; ++y) {
-          for (int x = first[0]; x <= last[0]; ++x) f(i, size_t(x + y * m_stride[1] + z * m_stride[2]));
+          for (int x = first[0]; x <= last[0]; ++x) {
+            f(i, size_t(x + y * m_stride[1] + z * m_stride[2]), {x, y, z}, lo, hi);
+          }
         }
       }
     }
@@ -381,6 +508,8 @@ class SphereGrid {
   HugeArray<uint32_t> m_begin;           // cell c's records: [m_begin[c], m_begin[c + 1])
   HugeArray<Sphere<Real>> m_records;     // the spheres, cell by cell
   HugeArray<int32_t> m_sphere;           // record -> the set's sphere index
+  HugeArray<uint8_t> m_octants;          // record -> the octants of its cell its padded box touches
+  static constexpr int64_t kLowHalf[3] = {0x55, 0x33, 0x0f}, kHighHalf[3] = {0xaa, 0xcc, 0xf0};
 };
 
 }  // namespace durer

@@ -267,6 +267,11 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
         testLeaf);
   }
 
+  // The nearest hit so far (recordHit), for intersectSphere and the runs and pairs that call it.
+  struct NearestHit {
+    DURER_INLINE void operator()(RayPacket<Real>& packet, int k, Real t, int32_t id) const { recordHit(packet, k, t, id); }
+  };
+
   // The packet's rays through the grid (those it cannot walk through the hierarchy, testing its
   // leaves with testLeaf(first, count, k)), each lowering its tHit as intersect() does.
   template <SphereMethod M, bool AnyHit, typename TestLeaf>
@@ -290,17 +295,20 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     Real tHitBefore[kPacketSize];
     std::copy(packet.tHit, packet.tHit + packet.count, tHitBefore);
     const auto idOf = [](size_t record) DURER_INLINE_LAMBDA { return int32_t(record); };
+    // A hit at exactly the t of one this search recorded goes to the sphere of the lower index,
+    // whatever order they were tested in: the walk in lanes skips records the one-ray walk tests (those
+    // outside a ray's octants of its cell), so the kernel sets agree only if ties do not depend on it.
+    const auto record = [&](RayPacket<Real>& p, int k, Real t, int32_t id) DURER_INLINE_LAMBDA {
+      if (__builtin_expect(t == p.tHit[k], 0)) breakTie(grid, p, k, id, tHitBefore[k]);
+      recordHit(p, k, t, id);
+    };
 #if DURER_WALK_LANES
     WalkRays rays;
     grid.walkLanes(
-        packet.count,
-        [&](int k, int lane, double (&o)[3], double (&d)[3], double& tMin, double& tHit) DURER_INLINE_LAMBDA {
-          rays.take(lane, packet, terms, k);
-          return rayOf(k, o, d, tMin, tHit);
-        },
+        packet.count, rayOf, [&](int k, int lane) DURER_INLINE_LAMBDA { rays.take(lane, packet, terms, k); },
         [&](const int32_t* lanes, const uint32_t* records, int n) DURER_INLINE_LAMBDA {
           tests += n;
-          intersectPairs<M>(packet, terms, rays, grid.records(), lanes, records, n, idOf);
+          intersectPairs<M>(packet, terms, rays, grid.records(), lanes, records, n, idOf, record);
         },
         done, [&](int k) { others[count++] = k; });
 #else
@@ -312,7 +320,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
           o, d, tMin, tHit,
           [&](uint32_t first, uint32_t n) DURER_INLINE_LAMBDA {
             tests += n;
-            intersectRun<M>(packet, rayTerms, k, grid.records(), first, n, idOf);
+            intersectRun<M>(packet, rayTerms, k, grid.records(), first, n, idOf, record);
           },
           [&](double exitT) DURER_INLINE_LAMBDA { return done(k, exitT); });
       if (!walked) others[count++] = k;
@@ -323,6 +331,16 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     }
     if (count == 0) return tests;
     return tests + this->template searchRays<AnyHit>(packet, others, count, testLeaf);
+  }
+
+  // Record `record` met at exactly ray k's tHit: it takes the hit if the hit is one of the grid's
+  // records (found by this search: below tHitBefore) whose sphere has the higher index. Out of line:
+  // rare, and inlined its branches would turn recordHit's selects into branches too.
+  [[gnu::cold, gnu::noinline]] static void breakTie(const SphereGrid<Real>& grid, RayPacket<Real>& packet, int k,
+                                                    int32_t record, Real tHitBefore) {
+    if (packet.tHit[k] < tHitBefore && grid.sphereOf(uint32_t(record)) < grid.sphereOf(uint32_t(packet.prim[k]))) {
+      packet.prim[k] = record;
+    }
   }
 
 #if DURER_WALK_LANES
@@ -342,10 +360,10 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   // The pairs (the ray of walk lanes[i], sphere spheres[records[i]]), i < n, in order, each
   // recording a hit as intersectSphere does: robustMayMeet's test for eight pairs at once
   // (mayMeetLanes), the full test for those it keeps.
-  template <SphereMethod M, typename IdOf>
+  template <SphereMethod M, typename IdOf, typename Record>
   DURER_INLINE static void intersectPairs(RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, const WalkRays& rays,
                                           const Sphere<Real>* spheres, const int32_t* lanes, const uint32_t* records,
-                                          int n, const IdOf& idOf) {
+                                          int n, const IdOf& idOf, const Record& record) {
     using L = PairLanes<Real>;
     constexpr int kPairs = WalkRays::kLanes;  // a vector's lanes: the pairs tested at once
     const typename L::V ox = L::load(rays.ox), oy = L::load(rays.oy), oz = L::load(rays.oz);
@@ -361,7 +379,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       for (unsigned bits = may & (n - j >= kPairs ? 0xffu : (1u << (n - j)) - 1); bits != 0; bits &= bits - 1) {
         const int i = __builtin_ctz(bits);
         const int k = rays.ray[lanes[j + i]];
-        intersectSphere<M, false>(packet, terms[k], k, spheres[at[i]], idOf(at[i]));
+        intersectSphere<M, false>(packet, terms[k], k, spheres[at[i]], idOf(at[i]), record);
       }
     }
   }
@@ -376,12 +394,14 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   }
 
   // Spheres [first, first + count) of `spheres` (a hierarchy leaf's, or a grid cell's records)
-  // against ray k, in order, sphere i recorded as idOf(i). The robust test's prefilter (most spheres
-  // a ray's walk reaches miss it) is made four spheres at a time where the kernel set has AVX2 and
-  // FMA: one branch a leaf instead of a mispredicted one every few spheres.
-  template <SphereMethod M, typename IdOf>
+  // against ray k, in order, sphere i recorded as idOf(i) by `record` (recordHit's signature). The
+  // robust test's prefilter (most spheres a ray's walk reaches miss it) is made four spheres at a time
+  // where the kernel set has AVX2 and FMA: one branch a leaf instead of a mispredicted one every few
+  // spheres.
+  template <SphereMethod M, typename IdOf, typename Record = NearestHit>
   DURER_INLINE static void intersectRun(RayPacket<Real>& packet, const SphereRayTerms<Real>& terms, int k,
-                                        const Sphere<Real>* spheres, size_t first, size_t count, const IdOf& idOf) {
+                                        const Sphere<Real>* spheres, size_t first, size_t count, const IdOf& idOf,
+                                        const Record& record = Record()) {
 #if defined(__AVX2__) && defined(__FMA__)
     if constexpr (M == SphereMethod::Robust) {  // four at a time: spheres the build cannot split share a leaf
       for (size_t quad = first; quad < first + count; quad += 4) {
@@ -389,13 +409,13 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
         const unsigned may = leafMayMeet(&spheres[quad], n, packet.ox[k], packet.oy[k], packet.oz[k], terms);
         for (unsigned bits = may; bits != 0; bits &= bits - 1) {
           const size_t i = quad + size_t(__builtin_ctz(bits));
-          intersectSphere<M, false>(packet, terms, k, spheres[i], idOf(i));
+          intersectSphere<M, false>(packet, terms, k, spheres[i], idOf(i), record);
         }
       }
       return;
     }
 #endif
-    for (size_t i = first; i < first + count; ++i) intersectSphere<M>(packet, terms, k, spheres[i], idOf(i));
+    for (size_t i = first; i < first + count; ++i) intersectSphere<M>(packet, terms, k, spheres[i], idOf(i), record);
   }
 
   // One sphere against ray k: the same arithmetic as intersectOne's loop, so the same t. Without
@@ -405,10 +425,10 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     intersectSphere<M, Prefilter>(packet, terms, k, this->m_primitives[i], primBase + static_cast<int32_t>(i));
   }
 
-  // Sphere s, recorded as `id`, against ray k: intersectRay's test, for a sphere given by value.
-  template <SphereMethod M, bool Prefilter = true>
+  // Sphere s, recorded as `id` by `record`, against ray k: intersectRay's test, for a sphere given by value.
+  template <SphereMethod M, bool Prefilter = true, typename Record = NearestHit>
   DURER_INLINE static void intersectSphere(RayPacket<Real>& packet, const SphereRayTerms<Real>& terms, int k,
-                                           const Sphere<Real>& s, int32_t id) {
+                                           const Sphere<Real>& s, int32_t id, const Record& record = Record()) {
     const Vec3<Real> c = s.center;
     const Real r = s.radius;
     const Real ox = packet.ox[k], oy = packet.oy[k], oz = packet.oz[k];
@@ -421,12 +441,12 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       // it, so the prefilter keeps it) skips the roots: it would record nothing (robustLeaves).
       const RobustOrigin<Real> f = robustOrigin(ox, oy, oz, c, r);
       if (packet.tMin > 0 && robustLeaves(f, terms)) return;
-      recordHit(packet, k, firstRootFrom(robustRoots(f, terms, r), packet.tMin), id);
+      record(packet, k, firstRootFrom(robustRoots(f, terms, r), packet.tMin), id);
       return;
     }
     const SphereRoots<Real> roots =
         sphereRoots<M>(ox, oy, oz, c, packet.dx[k], packet.dy[k], packet.dz[k], terms, r, packet.tMin);
-    recordHit(packet, k, firstRootFrom(roots, packet.tMin), id);
+    record(packet, k, firstRootFrom(roots, packet.tMin), id);
   }
 
   // One sphere against the packet's rays [kBegin, kEnd) (all by default): the vectorised inner loop.
