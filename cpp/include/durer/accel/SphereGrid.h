@@ -139,12 +139,13 @@ class SphereGrid {
   // walk whose search done(k, exitT) ends, or that leaves the grid, gives its lane to the next ray,
   // and the others step to their next cells. A ray so tests the records walk() would, in the same
   // order, less those outside its octants (about half), stops where walk() stops and gets the same
-  // hit (exact ties between spheres decided by index: SphereSet::searchGrid). One walk at a time, each step waits on
-  // its cell's records and on the branches its count and its tests take; in lanes the waits of eight
-  // walks overlap and a round branches once for all (the secondary-ray scene's reflection rays 4-20 %
-  // quicker a ray, its render 8-12 %: docs/benchmarks.md). The next eight rays' walks are started
-  // together (startLanes). rayOf(k, o, d, tMin, tHit) gives ray k (false: it is not walked),
-  // assign(k, lane) says which lane walks it; unwalked(k) for each ray walk() would refuse, in order.
+  // hit (exact ties between spheres decided by index: SphereSet::searchGrid). One walk at a time,
+  // each step waits on its cell's records and on the branches its count and its tests take; in lanes
+  // the waits of eight walks overlap and a round branches once for all (the secondary-ray scene's
+  // reflection rays 4-20 % quicker a ray, its render 8-12 %: docs/benchmarks.md). The next eight
+  // rays' walks are started together (startLanes). rayOf(k, o, d, tMin, tHit) gives ray k (false: it
+  // is not walked), assign(k, lane) says which lane walks it; unwalked(k) for each ray walk() would
+  // refuse, in order.
   static constexpr int kLanes = 8;
   static constexpr int kMostPairs = 32 * kLanes;  // listed before testPairs is called
 
@@ -196,7 +197,8 @@ class SphereGrid {
     };
     __mmask8 active = 0;
     for (int lane = 0; lane < kLanes; ++lane) active |= __mmask8(fill(lane) << lane);
-    alignas(64) int32_t pairLane[kMostPairs + 16] = {};  // read eight at a time, past the pairs listed too
+    // Listed sixteen at a time, tested eight at a time: both past the pairs listed.
+    alignas(64) int32_t pairLane[kMostPairs + 16] = {};
     alignas(64) uint32_t pairRecord[kMostPairs + 16];
     while (active) {
       // Each walk's cell: its exit (the nearest boundary, ties as walk() breaks them) and records.
@@ -396,8 +398,8 @@ class SphereGrid {
       _mm512_store_si512(s.step[a], _mm512_mask_blend_epi64(ahead, _mm512_set1_epi64(-1), _mm512_set1_epi64(1)));
       _mm512_store_si512(s.stop[a], _mm512_mask_blend_epi64(ahead, _mm512_set1_epi64(-1), _mm512_set1_epi64(m_res[a])));
       const __m512i boundaryCell = _mm512_mask_add_epi64(cell, ahead, cell, _mm512_set1_epi64(1));
-      const __m512d boundary =
-          _mm512_add_pd(_mm512_set1_pd(m_lo[a]), _mm512_mul_pd(_mm512_cvtepi64_pd(boundaryCell), _mm512_set1_pd(m_cellSize[a])));
+      const __m512d offset = _mm512_mul_pd(_mm512_cvtepi64_pd(boundaryCell), _mm512_set1_pd(m_cellSize[a]));
+      const __m512d boundary = _mm512_add_pd(_mm512_set1_pd(m_lo[a]), offset);
       const __m512d t = _mm512_mul_pd(_mm512_sub_pd(boundary, o[a]), inv[a]);
       _mm512_store_pd(s.next[a], _mm512_mask_blend_pd(_mm512_cmp_pd_mask(d[a], zero, _CMP_EQ_OQ), t, inf));
       index = _mm512_add_epi64(index, _mm512_mullo_epi64(cell, _mm512_set1_epi64(m_stride[a])));
