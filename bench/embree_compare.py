@@ -33,6 +33,7 @@ import shutil
 import statistics
 import subprocess
 import sys
+import sysconfig
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -153,11 +154,17 @@ def configure_command(build: Path, embree_dir: Path, native: bool) -> list[str]:
     return command + ([f"-DCMAKE_CXX_COMPILER={compiler}"] if compiler else [])
 
 
+def wheel_tag() -> str:
+    """scikit-build-core's {wheel_tag} for this interpreter (cp311-cp311-linux_x86_64, say)."""
+    version = f"cp{sys.version_info.major}{sys.version_info.minor}"
+    return f"{version}-{version}-{sysconfig.get_platform().replace('-', '_').replace('.', '_')}"
+
+
 def package_cache(root: Path = ROOT) -> Path | None:
-    """The CMake cache of the package's own build (pyproject's build-dir, build/{wheel_tag}: the one
-    scikit-build-core configured), if any."""
-    caches = [cache for cache in sorted((root / "build").glob("*/CMakeCache.txt")) if cache_value(cache, "SKBUILD")]
-    return caches[-1] if caches else None
+    """The CMake cache of the package's own build (pyproject's build-dir, build/{wheel_tag}), if any:
+    not another folder's under build/, which a developer may have configured with other flags."""
+    cache = root / "build" / wheel_tag() / "CMakeCache.txt"
+    return cache if cache.is_file() else None
 
 
 def package_compiler() -> str | None:
@@ -365,7 +372,7 @@ def markdown_table(cells: Sequence[tuple[str, ...]]) -> str:
 def machine_lines(build: Path, embree_dir: Path, native: bool) -> list[str]:
     from durer.reports.machine import machine
 
-    flags = "-march=native (DURER_NATIVE=1)" if native else "the default (portable) flags"
+    flags = "-march=native -mtune=generic (DURER_NATIVE=1)" if native else "the default (portable) flags"
     return [
         f"Machine: {machine()}",
         f"Compiler: {compiler_description(build)}, {flags}; Embree {embree_version(embree_dir)} (its own ISA dispatch)",

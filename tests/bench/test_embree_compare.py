@@ -64,13 +64,17 @@ def test_durer_native_chooses_the_flags_as_for_the_package():
 
 
 def test_the_package_build_is_the_one_scikit_build_configured(tmp_path):
-    caches = {"cp311-x": "SKBUILD:STRING=2\nDURER_NATIVE:BOOL=1\n", "cpp-tests": "DURER_NATIVE:BOOL=OFF\n"}
+    # pyproject's build-dir, and a developer's own folders around it (a profiling build configured
+    # like the package's but native, sorting after it): the package's is the one its tag names.
+    assert (bench.ROOT / "build" / bench.wheel_tag() / "CMakeCache.txt").is_file()  # the set-up's build
+    caches = {bench.wheel_tag(): "SKBUILD:STRING=2\nDURER_NATIVE:BOOL=OFF\n",
+              "prof": "SKBUILD:BOOL=ON\nDURER_NATIVE:BOOL=ON\n", "cpp-tests": "DURER_NATIVE:BOOL=ON\n"}
     for folder, lines in caches.items():
         (tmp_path / "build" / folder).mkdir(parents=True)
         (tmp_path / "build" / folder / "CMakeCache.txt").write_text("# comment\n" + lines)
     cache = bench.package_cache(tmp_path)
-    assert cache == tmp_path / "build" / "cp311-x" / "CMakeCache.txt"
-    assert bench.cache_value(cache, "DURER_NATIVE") == "1" and bench.cache_value(cache, "CMAKE_CXX_COMPILER") is None
+    assert cache == tmp_path / "build" / bench.wheel_tag() / "CMakeCache.txt"
+    assert bench.cache_value(cache, "DURER_NATIVE") == "OFF" and bench.cache_value(cache, "CMAKE_CXX_COMPILER") is None
     assert bench.package_cache(tmp_path / "elsewhere") is None
 
 
