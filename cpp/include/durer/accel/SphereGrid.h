@@ -56,18 +56,21 @@ class SphereGrid {
   // How finely a set is divided: cells for each sphere, and the most cells a sphere may span on
   // average (spheres large for the cells: beyond it the hierarchy is quicker). Fewer, larger cells
   // test more spheres a ray and smaller ones take more steps, each a mispredicted branch or two and
-  // a cache miss. Up to kCachedSetUpTo spheres a quarter of a cell a sphere (about 6.5 spheres a cell
-  // once boxes spanning cells count in each): rays leaving random spheres 6-30 % quicker than at half
-  // a cell from 2,000 to 200,000 spheres, as quick at 1M. Beyond, where the records lie in memory
-  // rather than the caches, a cell's extra bytes cost more than its steps save (3M spheres: 1-11 %
-  // slower), so half a cell. The span limits mark the same sphere size in both: a sphere whose
-  // padded box is 0.59 of a half-cell grid's edge spans 4 of its cells on average, 3.15 of the other's
-  // (a sphere 1.2x that size made a quarter-cell grid 10 % slower than the hierarchy).
+  // a cache miss. Up to kCachedSetUpTo spheres 0.15 of a cell a sphere (about 10 spheres a cell once
+  // boxes spanning cells count in each): the walk in lanes tests only the records in a ray's octants
+  // of each cell, so larger cells cost it fewer extra tests than steps saved (rays leaving random
+  // spheres 3-14 % quicker than at a quarter of a cell from 20,000 to 200,000 spheres, as quick at
+  // 2,000 and 1M, renders as quick, and the one-ray walk no slower); a quarter of a cell had been 6-30 %
+  // quicker than half a cell before the octants. Beyond, where the records lie in memory rather than
+  // the caches, a cell's extra bytes cost more than its steps save (3M spheres: 1-11 % slower), so
+  // half a cell. The span limits mark the same sphere size in both: a sphere whose padded box is 0.59
+  // of a half-cell grid's edge spans 4 of its cells on average, 2.71 of the other's (a sphere 1.2x
+  // that size made a quarter-cell grid 10 % slower than the hierarchy).
   struct Division {
     double cellsPerSphere;
     double maxRefsPerSphere;
   };
-  static constexpr Division kCachedSet{0.25, 3.15}, kLargeSet{0.5, 4};
+  static constexpr Division kCachedSet{0.15, 2.71}, kLargeSet{0.5, 4};
   static constexpr size_t kCachedSetUpTo = size_t(1) << 20;
   static constexpr int kMaxCellsPerAxis = 1024;
   // Not a grid's spheres either: clusters in an otherwise empty box (the hierarchy adapts to them, a
