@@ -266,11 +266,8 @@ class SphereGrid {
         const __mmask8 out = _mm512_mask_cmpeq_epi64_mask(stepping, moved, _mm512_load_si512(stop[a]));
         ended |= out;
         cells = _mm512_mask_add_epi64(cells, stepping, cells, _mm512_mullo_epi64(along, _mm512_set1_epi64(m_stride[a])));
-        // boundaryT: (lo + (cell + (step > 0)) * size - o) * inv, the same operations in the same order.
         const __m512i ahead = _mm512_maskz_srli_epi64(0xff, _mm512_add_epi64(along, _mm512_set1_epi64(1)), 1);  // step > 0
-        const __m512d boundary = _mm512_cvtepi64_pd(_mm512_add_epi64(moved, ahead));
-        const __m512d at = _mm512_add_pd(_mm512_set1_pd(m_lo[a]), _mm512_mul_pd(boundary, _mm512_set1_pd(m_cellSize[a])));
-        const __m512d t = _mm512_mul_pd(_mm512_sub_pd(at, _mm512_load_pd(o[a])), _mm512_load_pd(inv[a]));
+        const __m512d t = boundaryLanes(a, _mm512_add_epi64(moved, ahead), _mm512_load_pd(o[a]), _mm512_load_pd(inv[a]));
         _mm512_store_pd(next[a], _mm512_mask_blend_pd(stepping & ~out, _mm512_load_pd(next[a]), t));
       }
       _mm512_store_si512(index, cells);
@@ -404,14 +401,21 @@ class SphereGrid {
       _mm512_store_si512(s.cell[a], cell);
       _mm512_store_si512(s.step[a], _mm512_mask_blend_epi64(ahead, _mm512_set1_epi64(-1), _mm512_set1_epi64(1)));
       _mm512_store_si512(s.stop[a], _mm512_mask_blend_epi64(ahead, _mm512_set1_epi64(-1), _mm512_set1_epi64(m_res[a])));
-      const __m512i boundaryCell = _mm512_mask_add_epi64(cell, ahead, cell, _mm512_set1_epi64(1));
-      const __m512d offset = _mm512_mul_pd(_mm512_cvtepi64_pd(boundaryCell), _mm512_set1_pd(m_cellSize[a]));
-      const __m512d boundary = _mm512_add_pd(_mm512_set1_pd(m_lo[a]), offset);
-      const __m512d t = _mm512_mul_pd(_mm512_sub_pd(boundary, o[a]), inv[a]);
+      const __m512d t = boundaryLanes(a, _mm512_mask_add_epi64(cell, ahead, cell, _mm512_set1_epi64(1)), o[a], inv[a]);
       _mm512_store_pd(s.next[a], _mm512_mask_blend_pd(_mm512_cmp_pd_mask(d[a], zero, _CMP_EQ_OQ), t, inf));
       index = _mm512_add_epi64(index, _mm512_mullo_epi64(cell, _mm512_set1_epi64(m_stride[a])));
     }
     _mm512_store_si512(s.index, index);
+  }
+#endif
+
+#if DURER_WALK_LANES
+  // boundaryT in lanes, from each lane's cell + (step > 0): (lo + that * size - o) * inv, the same
+  // operations in the same order, so the same t.
+  DURER_INLINE __m512d boundaryLanes(int a, __m512i boundaryCell, __m512d o, __m512d inv) const {
+    const __m512d at = _mm512_add_pd(_mm512_set1_pd(m_lo[a]),
+                                     _mm512_mul_pd(_mm512_cvtepi64_pd(boundaryCell), _mm512_set1_pd(m_cellSize[a])));
+    return _mm512_mul_pd(_mm512_sub_pd(at, o), inv);
   }
 #endif
 
