@@ -89,6 +89,34 @@ void setRay(RayPacket<Real>& p, int k, const Vec3d& o, const Vec3d& d) {
   p.dx[k] = Real(d.x), p.dy[k] = Real(d.y), p.dz[k] = Real(d.z);
 }
 
+// The nearest hits in `set` of rays (o, d) i < count, given by rayOf(i, o, d), searched kPacketSize at a
+// time from t = 0: check(i, packet, k) for each, ray i being the packet's ray k.
+template <typename Real, typename RayOf, typename Check>
+void searchRays(const SphereSet<Real>& set, size_t count, const RayOf& rayOf, const Check& check) {
+  for (size_t first = 0; first < count; first += kPacketSize) {
+    RayPacket<Real> p = emptyPacket(Real(0));
+    p.count = int(std::min<size_t>(kPacketSize, count - first));
+    for (int k = 0; k < p.count; ++k) {
+      Vec3d o, d;
+      rayOf(first + size_t(k), o, d);
+      setRay(p, k, o, d);
+    }
+    p.resetHits();
+    set.template intersect<SphereMethod::Robust, false>(p, 0, nullptr);
+    for (int k = 0; k < p.count; ++k) check(first + size_t(k), p, k);
+  }
+}
+
+// Where ray k of p meets sphere s alone (the robust test's t; infinity where it misses).
+template <typename Real>
+Real tAlone(const RayPacket<Real>& p, int k, const Sphere<Real>& s) {
+  RayPacket<Real> alone = p;
+  alone.resetHits();
+  const SphereRayTerms<Real> terms = sphereRayTerms<SphereMethod::Robust>(p.dx[k], p.dy[k], p.dz[k]);
+  SphereSet<Real>::template intersectSphere<SphereMethod::Robust>(alone, terms, k, s, 0);
+  return alone.tHit[k];
+}
+
 // Whether the grid walks ray k (it declines rays it cannot follow exactly).
 template <typename Real>
 bool walks(const SphereGrid<Real>& grid, const RayPacket<Real>& p, int k) {
@@ -261,30 +289,66 @@ TEST_CASE_TEMPLATE("exact ties among the grid's spheres go to the sphere of the 
   std::vector<size_t> indexOf(static_cast<size_t>(id));
   for (size_t i = 0; i < set.size(); ++i) indexOf[size_t(set.objectIds()[i])] = i;
   int tied = 0;
-  for (size_t first = 0; first < ties.size(); first += kPacketSize) {
-    RayPacket<Real> p = emptyPacket(Real(0));
-    p.count = int(std::min<size_t>(kPacketSize, ties.size() - first));
-    for (int k = 0; k < p.count; ++k) setRay(p, k, ties[first + size_t(k)].o, ties[first + size_t(k)].d);
-    p.resetHits();
-    set.template intersect<SphereMethod::Robust, false>(p, 0, nullptr);
-    for (int k = 0; k < p.count; ++k) {
-      const Tie& tie = ties[first + size_t(k)];
-      const size_t one = indexOf[size_t(tie.first)], other = indexOf[size_t(tie.second)];
-      RayPacket<Real> alone = p;
-      const SphereRayTerms<Real> terms = sphereRayTerms<SphereMethod::Robust>(p.dx[k], p.dy[k], p.dz[k]);
-      Real t[2];
-      for (int j = 0; j < 2; ++j) {
-        alone.resetHits();
-        SphereSet<Real>::template intersectSphere<SphereMethod::Robust>(alone, terms, k, set.primitive(j ? other : one), 0);
-        t[j] = alone.tHit[k];
-      }
-      if (!(t[0] == t[1] && p.tHit[k] == t[0])) continue;  // no tie, or another sphere in front
-      ++tied;
-      CAPTURE(k);
-      CHECK(size_t(p.prim[k]) == std::min(one, other));
+  searchRays(
+      set, ties.size(), [&](size_t i, Vec3d& o, Vec3d& d) { o = ties[i].o, d = ties[i].d; },
+      [&](size_t i, const RayPacket<Real>& p, int k) {
+        const size_t one = indexOf[size_t(ties[i].first)], other = indexOf[size_t(ties[i].second)];
+        const Real t[2] = {tAlone(p, k, set.primitive(one)), tAlone(p, k, set.primitive(other))};
+        if (!(t[0] == t[1] && p.tHit[k] == t[0])) return;  // no tie, or another sphere in front
+        ++tied;
+        CAPTURE(k);
+        CHECK(size_t(p.prim[k]) == std::min(one, other));
+      });
+  CHECK(tied > 200);
+}
+
+// Copies of a sphere (the same centre and radius, other ids) are met at the same t wherever a ray
+// meets them, in every cell they share: the copy of the lowest index keeps the hit, however many cells
+// the walk meets them in before the one their hit lies in (SphereSet::breakTie passes over a record
+// equal to the kept one). Copies large for the cells, rays from all sides aimed at points of them.
+TEST_CASE_TEMPLATE("copies of a sphere: the one of the lowest index keeps the hit in every cell", Real, float, double) {
+  std::mt19937 rng(16);
+  std::uniform_real_distribution<double> u(-10, 10), unit(-1, 1), radius(0.3, 1.2);
+  SphereSet<Real> set;
+  int32_t id = 0;
+  for (; id < 4000; ++id) set.add(Sphere<Real>{toReal<Real>(Vec3d(u(rng), u(rng), u(rng))), Real(0.05)}, 0, id);
+  std::vector<std::vector<int32_t>> copies;  // object ids of each sphere's copies
+  std::vector<Sphere<Real>> shapes;
+  for (int i = 0; i < 60; ++i) {
+    const Sphere<Real> s{toReal<Real>(Vec3d(u(rng), u(rng), u(rng))), Real(radius(rng))};
+    copies.emplace_back();
+    for (int c = 0; c < 2 + i % 3; ++c, ++id) set.add(s, 0, id), copies.back().push_back(id);
+    shapes.push_back(s);
+  }
+  set.buildBvh(1);
+  REQUIRE(set.grid() != nullptr);
+  std::vector<size_t> indexOf(static_cast<size_t>(id));
+  for (size_t i = 0; i < set.size(); ++i) indexOf[size_t(set.objectIds()[i])] = i;
+  struct Aim {
+    size_t group;
+    Vec3d o, d;
+  };
+  std::vector<Aim> aims;
+  for (size_t g = 0; g < shapes.size(); ++g) {
+    for (int j = 0; j < 24; ++j) {  // at a point within 0.9 of the radius of the centre, from 3 to 8 units away
+      const Vec3d c(shapes[g].center);
+      const Vec3d target = c + 0.9 * double(shapes[g].radius) * glm::normalize(Vec3d(unit(rng), unit(rng), unit(rng)));
+      const Vec3d d = glm::normalize(Vec3d(unit(rng), unit(rng), unit(rng)));
+      aims.push_back({g, target - (3 + 5 * (unit(rng) + 1) / 2) * d, d});
     }
   }
-  CHECK(tied > 200);
+  int checked = 0;
+  searchRays(
+      set, aims.size(), [&](size_t i, Vec3d& o, Vec3d& d) { o = aims[i].o, d = aims[i].d; },
+      [&](size_t i, const RayPacket<Real>& p, int k) {
+        size_t lowest = set.size();
+        for (int32_t copy : copies[aims[i].group]) lowest = std::min(lowest, indexOf[size_t(copy)]);
+        if (!(p.tHit[k] == tAlone(p, k, set.primitive(lowest)))) return;  // another sphere in front
+        ++checked;
+        CAPTURE(k);
+        CHECK(size_t(p.prim[k]) == lowest);
+      });
+  CHECK(checked > 1000);
 }
 
 #if DURER_WALK_LANES

@@ -5,6 +5,7 @@
 #include <memory>
 #include <mutex>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #if defined(__AVX2__)
@@ -334,13 +335,19 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   }
 
   // Record `record` met at exactly ray k's tHit: it takes the hit if the hit is one of the grid's
-  // records (found by this search: below tHitBefore) whose sphere has the higher index. Out of line:
-  // rare, and inlined its branches would turn recordHit's selects into branches too.
+  // records (found by this search: below tHitBefore) whose sphere has the higher index. Mostly it is
+  // the kept sphere again, registered in the next cell too. A record equal to the kept one bit for
+  // bit is that sphere or a copy of it, and a copy lies in the same cells with the same octants, after
+  // the lower index in each (cells take their spheres in the set's order): where the two were first
+  // met the lower was kept. So equal records decide nothing, and only unequal ones read their sphere
+  // indices (two cache misses: 1 % of the secondary scene's render). Out of line: inlined, its
+  // branches would turn recordHit's selects into branches too.
   [[gnu::cold, gnu::noinline]] static void breakTie(const SphereGrid<Real>& grid, RayPacket<Real>& packet, int k,
                                                     int32_t record, Real tHitBefore) {
-    if (packet.tHit[k] < tHitBefore && grid.sphereOf(uint32_t(record)) < grid.sphereOf(uint32_t(packet.prim[k]))) {
-      packet.prim[k] = record;
-    }
+    if (!(packet.tHit[k] < tHitBefore)) return;
+    const uint32_t kept = uint32_t(packet.prim[k]), met = uint32_t(record);
+    if (std::memcmp(&grid.records()[kept], &grid.records()[met], sizeof(Sphere<Real>)) == 0) return;
+    if (grid.sphereOf(met) < grid.sphereOf(kept)) packet.prim[k] = record;
   }
 
 #if DURER_WALK_LANES
