@@ -364,7 +364,11 @@ def _make_batch(rng: np.random.Generator, kind: str, n: int, scale: float, offse
         side = max(1, round(n ** (1 / 3)))
         centers = offset + scale / side * (rng.integers(0, side, (n, 3)) - side / 2)
     if kind == "spheres":
-        return Batch(kind, {"centers": centers, "radii": _sizes(rng, n, scale)}, materials, transform)
+        radii = _sizes(rng, n, scale)
+        if rng.random() < 0.15:  # copies: spheres repeated exactly, met at the same t in every cell they share
+            copies = rng.integers(0, n, (2, n // 3))
+            centers[copies[1]], radii[copies[1]] = centers[copies[0]], radii[copies[0]]
+        return Batch(kind, {"centers": centers, "radii": radii}, materials, transform)
     if kind == "boxes":
         half = _sizes(rng, n, scale)[:, None] * rng.uniform(0.05, 1, (n, 3))
         if layout >= 0.2 and layout < 0.35:  # lattice cells: neighbours share faces exactly
