@@ -166,7 +166,11 @@ def test_a_time_limit_stops_after_the_first_pass_and_says_so():
 def test_a_time_limit_stops_part_way_with_a_larger_estimate():
     # Budgets of a share of the unlimited render's time, on one thread: one of them (the machine may
     # be slow or fast) stops part way through the refining rounds, with the first pass done
-    # everywhere, fewer samples than unlimited, and a larger estimated error.
+    # everywhere, fewer samples than unlimited, and a larger estimated error. Only runs stopped before
+    # the unlimited render's last round are compared (their estimates were 1.8x the unlimited one's and
+    # more): one stopped within it can end with nearly its samples (475,840 of 492,352), and the
+    # estimate moves with each refined pixel's new samples, down and up, so it can end at or below the
+    # unlimited render's (a CI run failed so).
     scene, camera = durer.showcase_scene(small_spheres=20)
     free = adaptive(scene, 160, 96, camera, target_error=0.001, threads=1)
     part_way = []
@@ -174,8 +178,10 @@ def test_a_time_limit_stops_part_way_with_a_larger_estimate():
         limited = adaptive(scene, 160, 96, camera, target_error=0.001, threads=1,
                            time_limit=free.stats["milliseconds"] / 1000 * share)
         assert limited.samples.min() >= 4
-        if limited.stats["time_limit_reached"] and 4 * 160 * 96 < limited.stats["samples"] < free.stats["samples"]:
-            part_way.append(limited)
+        if limited.stats["time_limit_reached"]:
+            assert limited.stats["samples"] <= free.stats["samples"]
+            if limited.stats["samples"] > 4 * 160 * 96 and limited.stats["rounds"] < free.stats["rounds"]:
+                part_way.append(limited)
     assert part_way
     assert all(r.stats["estimated_rmse"] > free.stats["estimated_rmse"] for r in part_way)
 
