@@ -29,6 +29,7 @@ import glob
 import json
 import os
 import platform
+import re
 import shutil
 import statistics
 import subprocess
@@ -369,10 +370,15 @@ def markdown_table(cells: Sequence[tuple[str, ...]]) -> str:
     return "\n".join("| " + " | ".join(values) + " |" for values in (HEADER, rule, *cells))
 
 
+def native_flags_text(root: Path = ROOT) -> str:
+    """DURER_NATIVE's compiler flags, as CMakeLists.txt (their one home) sets DURER_NATIVE_FLAGS."""
+    return re.search(r"^set\(DURER_NATIVE_FLAGS (.+)\)$", (root / "CMakeLists.txt").read_text(), re.M).group(1)
+
+
 def machine_lines(build: Path, embree_dir: Path, native: bool) -> list[str]:
     from durer.reports.machine import machine
 
-    flags = "-march=native -mtune=generic (DURER_NATIVE=1)" if native else "the default (portable) flags"
+    flags = f"{native_flags_text()} (DURER_NATIVE=1)" if native else "the default (portable) flags"
     return [
         f"Machine: {machine()}",
         f"Compiler: {compiler_description(build)}, {flags}; Embree {embree_version(embree_dir)} (its own ISA dispatch)",

@@ -40,6 +40,16 @@ bool sameBits(Real a, Real b) {
   return std::memcmp(&a, &b, sizeof a) == 0;
 }
 
+// Where ray k of p meets sphere s alone (the robust test's t; infinity where it misses).
+template <typename Real>
+Real tAlone(const RayPacket<Real>& p, int k, const Sphere<Real>& s) {
+  RayPacket<Real> alone = p;
+  alone.resetHits();
+  const SphereRayTerms<Real> terms = sphereRayTerms<SphereMethod::Robust>(p.dx[k], p.dy[k], p.dz[k]);
+  SphereSet<Real>::template intersectSphere<SphereMethod::Robust>(alone, terms, k, s, 0);
+  return alone.tHit[k];
+}
+
 // Searches `rays` (incoherent) with the grid set and by brute force: the same nearest t bit for bit,
 // the same sphere (or one tied at that t), and any-hit searches blocked exactly where a nearest hit exists.
 template <typename Real>
@@ -63,12 +73,7 @@ void checkRays(const Cloud<Real>& cloud, const RayPacket<Real>& rays) {
     if (fast.prim[k] != kNoPrimitive && cloud.spheres[0].objectIds()[size_t(fast.prim[k])] !=
                                             cloud.spheres[1].objectIds()[size_t(slow.prim[k])]) {
       // Another sphere at exactly the same t (far rays' t are coarse): it must give that t alone.
-      RayPacket<Real> alone = rays;
-      alone.resetHits();
-      const SphereRayTerms<Real> terms = sphereRayTerms<SphereMethod::Robust>(rays.dx[k], rays.dy[k], rays.dz[k]);
-      SphereSet<Real>::template intersectSphere<SphereMethod::Robust>(alone, terms, k,
-                                                                      cloud.spheres[0].primitive(size_t(fast.prim[k])), 0);
-      CHECK(sameBits(alone.tHit[k], slow.tHit[k]));
+      CHECK(sameBits(tAlone(rays, k, cloud.spheres[0].primitive(size_t(fast.prim[k]))), slow.tHit[k]));
     }
     CHECK((shadow.prim[k] == kNoPrimitive) == (slow.prim[k] == kNoPrimitive));
   }
@@ -92,7 +97,7 @@ void setRay(RayPacket<Real>& p, int k, const Vec3d& o, const Vec3d& d) {
 // The nearest hits in `set` of rays (o, d) i < count, given by rayOf(i, o, d), searched kPacketSize at a
 // time from t = 0: check(i, packet, k) for each, ray i being the packet's ray k.
 template <typename Real, typename RayOf, typename Check>
-void searchRays(const SphereSet<Real>& set, size_t count, const RayOf& rayOf, const Check& check) {
+void nearestInPackets(const SphereSet<Real>& set, size_t count, const RayOf& rayOf, const Check& check) {
   for (size_t first = 0; first < count; first += kPacketSize) {
     RayPacket<Real> p = emptyPacket(Real(0));
     p.count = int(std::min<size_t>(kPacketSize, count - first));
@@ -105,16 +110,6 @@ void searchRays(const SphereSet<Real>& set, size_t count, const RayOf& rayOf, co
     set.template intersect<SphereMethod::Robust, false>(p, 0, nullptr);
     for (int k = 0; k < p.count; ++k) check(first + size_t(k), p, k);
   }
-}
-
-// Where ray k of p meets sphere s alone (the robust test's t; infinity where it misses).
-template <typename Real>
-Real tAlone(const RayPacket<Real>& p, int k, const Sphere<Real>& s) {
-  RayPacket<Real> alone = p;
-  alone.resetHits();
-  const SphereRayTerms<Real> terms = sphereRayTerms<SphereMethod::Robust>(p.dx[k], p.dy[k], p.dz[k]);
-  SphereSet<Real>::template intersectSphere<SphereMethod::Robust>(alone, terms, k, s, 0);
-  return alone.tHit[k];
 }
 
 // Whether the grid walks ray k (it declines rays it cannot follow exactly).
@@ -289,7 +284,7 @@ TEST_CASE_TEMPLATE("exact ties among the grid's spheres go to the sphere of the 
   std::vector<size_t> indexOf(static_cast<size_t>(id));
   for (size_t i = 0; i < set.size(); ++i) indexOf[size_t(set.objectIds()[i])] = i;
   int tied = 0;
-  searchRays(
+  nearestInPackets(
       set, ties.size(), [&](size_t i, Vec3d& o, Vec3d& d) { o = ties[i].o, d = ties[i].d; },
       [&](size_t i, const RayPacket<Real>& p, int k) {
         const size_t one = indexOf[size_t(ties[i].first)], other = indexOf[size_t(ties[i].second)];
@@ -338,7 +333,7 @@ TEST_CASE_TEMPLATE("copies of a sphere: the one of the lowest index keeps the hi
     }
   }
   int checked = 0;
-  searchRays(
+  nearestInPackets(
       set, aims.size(), [&](size_t i, Vec3d& o, Vec3d& d) { o = aims[i].o, d = aims[i].d; },
       [&](size_t i, const RayPacket<Real>& p, int k) {
         size_t lowest = set.size();

@@ -57,6 +57,10 @@ def test_embree_is_found_where_cmake_would_look(tmp_path):
     assert bench.find_embree({"embree_DIR": str(tmp_path)}, [pattern]) is None
 
 
+def test_the_report_names_the_native_flags_cmake_sets():
+    assert bench.native_flags_text().split()[0] == "-march=native"  # the value, not the line around it
+
+
 def test_durer_native_chooses_the_flags_as_for_the_package():
     assert bench.native_flags({"DURER_NATIVE": "1"}) is True
     assert bench.native_flags({"DURER_NATIVE": "0"}) is False
