@@ -117,9 +117,9 @@ def test_bad_input_is_rejected_naming_the_field(what, call, error, field):
 
 def test_a_rejected_add_changes_nothing():
     s = scene()
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=r"^radii\[2\] must be finite and > 0"):
         s.add_spheres([[0, 0, 0], [1, 1, 1], [2, 2, 2]], [1.0, 1.0, -1.0])
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="^bounds corner is not on the plane"):
         s.add_plane((0, 1, 0), 0.0, bounds=((0, 5, 0), (1, 0, 0), (0, 0, 1)))
     assert (s.sphere_count, s.plane_count, s.object_count) == (1, 0, 1)
     assert s.add_spheres([[3, 3, 3]], 1.0).tolist() == [1]  # ids continue where they were
@@ -127,8 +127,11 @@ def test_a_rejected_add_changes_nothing():
 
 def test_nearly_parallel_up_is_accepted_and_orthonormalised():
     cam = durer.OrthographicCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1e-6, 1), size=2)
-    _, d = cam.rays(2, 2)
-    np.testing.assert_allclose(d[0, 0], (0, 0, -1))
+    origins, d = cam.rays(2, 2)
+    np.testing.assert_array_equal(d, np.broadcast_to((0, 0, -1), (2, 2, 3)))
+    # right = forward × up ∝ (1e-6, 0, 0) -> (1, 0, 0); up' = right × forward = (0, 1, 0) exactly. The
+    # pixel centres sit ±0.5 along them; the given up, unorthonormalised, would tilt them nearly onto z.
+    np.testing.assert_array_equal(origins, [[(-0.5, 0.5, 0), (0.5, 0.5, 0)], [(-0.5, -0.5, 0), (0.5, -0.5, 0)]])
 
 
 @pytest.mark.parametrize("material", [2**31, 2**32 + 1, np.int64(2**32 + 1), np.uint64(2**63), 2**40, -(2**31) - 1])

@@ -87,5 +87,8 @@ def test_a_ray_tree_that_would_not_end_is_refused(reflective, transparent, min_w
         refused = rf"max_bounces={deepest + 1} with min_weight={min_weight:g} lets one camera ray spawn more than 131072 "
         with pytest.raises(ValueError, match=refused + r".*lower max_bounces or raise min_weight"):
             durer.render(scene, camera, 2, 2, max_bounces=deepest + 1, min_weight=min_weight)
-    # A depth render traces no bounce: nothing to refuse.
-    durer.render(scene, camera, 2, 2, passes="depth", max_bounces=MAX_BOUNCES, min_weight=0)
+    # A depth render traces no bounce: nothing to refuse. Its one sample per pixel is the pixel's centre,
+    # (±tan 5°/2, ±tan 5°/2) on the mirror z = -1 a unit ahead: t = sqrt(1 + tan² 5° / 2) everywhere.
+    depth = durer.render(scene, camera, 2, 2, passes="depth", max_bounces=MAX_BOUNCES, min_weight=0)
+    assert depth.stats["reflection_rays"] == depth.stats["refraction_rays"] == 0
+    np.testing.assert_allclose(depth.depth, np.full((2, 2), np.sqrt(1 + np.tan(np.radians(5)) ** 2 / 2)), rtol=1e-6)

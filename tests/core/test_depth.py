@@ -41,6 +41,17 @@ def test_planar_depth_is_ray_depth_exactly_for_an_orthographic_camera():
     planar = durer.render(scene, camera, 24, 24, spp=4, passes=("depth",), depth="planar").depth
     ray = durer.render(scene, camera, 24, 24, spp=4, passes=("depth",), depth="ray").depth
     np.testing.assert_array_equal(planar, ray)
+    assert np.isfinite(planar).all()  # the tilted plane lies behind every pixel
+    # Away from the sphere the plane z = -6 - 0.3y is met at depth 6 + 0.3y, y within the pixel's
+    # half-height (1/16) of its centre's (and a float32 rounding); over the sphere, nearer than its centre.
+    centres, _ = camera.rays(24, 24)
+    y = centres[..., 1]
+    off = np.hypot(centres[..., 0] - 0.2, y - 0.1) > 0.7 + 0.1  # a pixel's half-diagonal is < 0.1
+    assert off.sum() > 400
+    low, high = 6 + 0.3 * (y - 1 / 16) - 1e-6, 6 + 0.3 * (y + 1 / 16) + 1e-6
+    assert ((planar[off] >= low[off]) & (planar[off] <= high[off])).all()
+    on = np.hypot(centres[..., 0] - 0.2, y - 0.1) < 0.7 - 0.1
+    assert on.sum() > 40 and ((planar[on] >= 3 - 0.7) & (planar[on] < 3)).all()
 
 
 def test_planar_depth_with_colour_and_misses():

@@ -11,25 +11,25 @@ from hypothesis import strategies as st
 import durer
 from helpers.meshes import icosphere
 
-def every_primitive_scene(rng: np.random.Generator) -> durer.Scene:
+def every_primitive_scene(rng: np.random.Generator) -> tuple[durer.Scene, dict[str, np.ndarray]]:
     """Spheres, a plane, a bounded plane, loose triangles, a closed mesh, boxes, an ellipsoid and a
-    sheared box (transformed groups), within a few units of the origin."""
+    sheared box (transformed groups), within a few units of the origin; with each kind's object ids."""
     scene = durer.Scene()
-    scene.add_spheres(rng.uniform(-3, 3, (40, 3)), rng.uniform(0.1, 0.6, 40))
-    scene.add_plane((0.1, 1, 0.05), -3.5)
-    scene.add_plane((0, 0, 1), -3.8, bounds=((-3, -3, -3.8), (6, 0, 0), (0, 6, 0)))
-    scene.add_triangles(rng.uniform(-3, 3, (30, 3, 3)))
+    ids = {"spheres": scene.add_spheres(rng.uniform(-3, 3, (40, 3)), rng.uniform(0.1, 0.6, 40))}
+    ids["plane"] = np.array([scene.add_plane((0.1, 1, 0.05), -3.5)])
+    ids["bounded plane"] = np.array([scene.add_plane((0, 0, 1), -3.8, bounds=((-3, -3, -3.8), (6, 0, 0), (0, 6, 0)))])
+    ids["triangles"] = scene.add_triangles(rng.uniform(-3, 3, (30, 3, 3)))
     vertices, faces = icosphere(2)
-    scene.add_mesh(vertices * 0.8 + (1.5, -1, 0.5), faces)
+    ids["mesh"] = np.array([scene.add_mesh(vertices * 0.8 + (1.5, -1, 0.5), faces)])
     lo = rng.uniform(-3, 2.5, (20, 3))
-    scene.add_boxes(lo, lo + rng.uniform(0.1, 0.5, (20, 3)))
+    ids["boxes"] = scene.add_boxes(lo, lo + rng.uniform(0.1, 0.5, (20, 3)))
     stretch = np.diag([2.0, 0.3, 0.7, 1.0])
     stretch[:3, 3] = (-1, 2, 0)
-    scene.add_spheres([[0, 0, 0]], 1.0, transform=stretch)
+    ids["ellipsoid"] = scene.add_spheres([[0, 0, 0]], 1.0, transform=stretch)
     shear = np.eye(4)
     shear[0, 1], shear[:3, 3] = 0.8, (2, 2, -2)
-    scene.add_boxes([[-0.5, -0.5, -0.5]], [[0.5, 0.5, 0.5]], transform=shear)
-    return scene
+    ids["sheared box"] = scene.add_boxes([[-0.5, -0.5, -0.5]], [[0.5, 0.5, 0.5]], transform=shear)
+    return scene, ids
 
 
 def rays(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -44,13 +44,14 @@ def rays(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
        precision=st.sampled_from(["float", "double"]))
 def test_scaling_a_direction_by_a_power_of_two_scales_t_exactly(seed, powers, precision):
     rng = np.random.default_rng(seed)
-    scene = every_primitive_scene(rng)
+    scene, ids = every_primitive_scene(rng)
     origins, directions = rays(rng, 1500)
     dtype = np.float32 if precision == "float" else np.float64
     directions = directions.astype(dtype)  # the rounding to the precision happens here, once
     base = durer.cast(scene, origins, directions, precision=precision)
     assert (base.object_id >= 0).mean() > 0.8
-    assert len(np.unique(base.object_id)) > 40  # spheres, planes, triangles, mesh, boxes, ellipsoid all met
+    for kind, kind_ids in ids.items():  # every kind of primitive is met, so each is scaled
+        assert np.isin(kind_ids, base.object_id).any(), kind
     for k in [-60, 60, *powers]:
         scaled = durer.cast(scene, origins, np.ldexp(directions, k), precision=precision)
         np.testing.assert_array_equal(scaled.object_id, base.object_id, err_msg=f"k = {k}")

@@ -718,19 +718,19 @@ def test_good_material_fields_are_accepted():
 
 
 @pytest.mark.parametrize(
-    ("kwargs", "field"),
+    ("kwargs", "error", "field"),
     [
-        ({"max_bounces": -1}, "max_bounces"),
-        ({"max_bounces": 1.5}, "max_bounces"),
-        ({"min_weight": -0.01}, "min_weight"),
-        ({"min_weight": math.inf}, "min_weight"),
-        ({"min_weight": math.nan}, "min_weight"),
-        ({"shade_back": "yes"}, "shade_back"),
+        ({"max_bounces": -1}, ValueError, "max_bounces"),
+        ({"max_bounces": 1.5}, TypeError, "max_bounces"),  # not an integer
+        ({"min_weight": -0.01}, ValueError, "min_weight"),
+        ({"min_weight": math.inf}, ValueError, "min_weight"),
+        ({"min_weight": math.nan}, ValueError, "min_weight"),
+        ({"shade_back": "yes"}, TypeError, "shade_back"),  # not a bool
     ],
 )
-def test_bad_render_arguments(kwargs, field):
+def test_bad_render_arguments(kwargs, error, field):
     scene = durer.Scene()
     scene.add_spheres([[0, 0, 0]], [1.0])
     camera = durer.OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0), 3.0)
-    with pytest.raises((ValueError, TypeError), match=field):
+    with pytest.raises(error, match=f"^{field} must "):
         durer.render(scene, camera, 4, 4, **kwargs)

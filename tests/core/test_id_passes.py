@@ -97,11 +97,14 @@ def test_one_sample_per_pixel_gives_what_cast_gives(precision, passes):
 def test_lit_scenes_with_shadows_and_mirrors_give_the_same_ids():
     """A lit render (hit records and shading) finds the same nearest primitives as the flat one."""
     scene = nested_scene()
+    mirror = scene.add_material((0.2, 0.2, 0.2), reflective=(0.5, 0.5, 0.5))
+    ball = int(scene.add_spheres([(-2.5, -1.5, 0.6)], 0.6, mirror)[0])  # on the floor nearest the camera: a mirror
     flat = durer.render(scene, LOOKING, W, H, passes=IDS, spp=4, seed=3)
     scene.add_point_light((0, -3, 6), (30, 30, 30), shadows=True)
-    scene.add_material((0.2, 0.2, 0.2), reflective=(0.5, 0.5, 0.5))
     lit = durer.render(scene, LOOKING, W, H, passes=("color",) + IDS, spp=4, seed=3)
-    assert "shadows" in lit.stats["effects"]
+    assert "shadows" in lit.stats["effects"] and "reflection" in lit.stats["effects"]
+    assert lit.stats["reflection_rays"] > 0 and (lit.object_id == ball).sum() > 20
+    np.testing.assert_array_equal(lit.material_id[lit.object_id == ball], mirror)
     np.testing.assert_array_equal(lit.object_id, flat.object_id)
     np.testing.assert_array_equal(lit.material_id, flat.material_id)
 

@@ -41,21 +41,23 @@ def test_the_limits_table():
 
 
 # --- coordinates --------------------------------------------------------------------------------
-@pytest.mark.parametrize("add", [
-    lambda s: s.add_spheres([[1e39, 0, 0]], 1.0),
-    lambda s: s.add_spheres([[1e36, 0, 0]], 1e35),  # the radius takes it past the limit
-    lambda s: s.add_triangles([[[-1e154, -1e154, 0], [1e154, -1e154, 0], [0, 1e154, 0]]]),
-    lambda s: s.add_mesh([[0, 0, 0], [2e36, 0, 0], [0, 1, 0]], [[0, 1, 2]]),
-    lambda s: s.add_boxes([[0, 0, 0]], [[1, 1, 1e37]]),
-    lambda s: s.add_plane((0, 0, 1), -1e308),
-    lambda s: s.add_plane((0, 0, 1), 0.0, bounds=((0, 0, 0), (1e37, 0, 0), (0, 1, 0))),
-    lambda s: s.add_point_light((0, 1e37, 0), (1, 1, 1)),
-    lambda s: s.add_spheres([[1e30, 0, 0]], 1.0, transform=np.diag([1e7, 1, 1, 1])),
+@pytest.mark.parametrize(("add", "field"), [
+    (lambda s: s.add_spheres([[1e39, 0, 0]], 1.0), r"centers\[0\] ± radii\[0\]"),
+    (lambda s: s.add_spheres([[1e36, 0, 0]], 1e35), r"centers\[0\] ± radii\[0\]"),  # the radius takes it past
+    (lambda s: s.add_triangles([[[-1e154, -1e154, 0], [1e154, -1e154, 0], [0, 1e154, 0]]]), r"vertices\[0\]\[0\]"),
+    (lambda s: s.add_mesh([[0, 0, 0], [2e36, 0, 0], [0, 1, 0]], [[0, 1, 2]]), r"vertices\[1\]"),
+    (lambda s: s.add_boxes([[0, 0, 0]], [[1, 1, 1e37]]), r"hi\[0\]"),
+    (lambda s: s.add_plane((0, 0, 1), -1e308), r"offset / \|normal\|"),
+    (lambda s: s.add_plane((0, 0, 1), 0.0, bounds=((0, 0, 0), (1e37, 0, 0), (0, 1, 0))), r"bounds \(corner \+ edges\)"),
+    (lambda s: s.add_point_light((0, 1e37, 0), (1, 1, 1)), "position"),
+    (lambda s: s.add_spheres([[1e30, 0, 0]], 1.0, transform=np.diag([1e7, 1, 1, 1])),
+     r"transform applied to centers\[0\] ± radii\[0\]"),
 ], ids=["sphere-1e39", "sphere-radius-past", "triangle-1e154", "mesh", "box", "plane-offset", "plane-bounds",
         "light", "transformed"])
-def test_coordinates_beyond_every_precision_are_refused_by_the_add(add):
+def test_coordinates_beyond_every_precision_are_refused_by_the_add(add, field):
     scene = durer.Scene()
-    with pytest.raises(ValueError, match=r"must lie within ±1e\+36 \(precision='double'; 'float': ±1e\+18\), got "):
+    with pytest.raises(ValueError, match="^" + field + r" must lie within ±1e\+36 \(precision='double'; 'float': "
+                                         r"±1e\+18\), got "):
         add(scene)
     assert scene.object_count == 0 and scene.light_count == 0
 
@@ -217,24 +219,26 @@ def test_cast_origins_beyond_the_limit_are_refused(precision):
 
 
 # --- colours ------------------------------------------------------------------------------------
-@pytest.mark.parametrize("add", [
-    lambda s: s.add_directional_light((0, 0, -1), (1e39, 1e39, 1e39)),
-    lambda s: s.add_point_light((0, 0, 3), (1, 1, 1), attenuation=(1e19, 0, 0)),
-    lambda s: s.add_material(diffuse=(2e18, 0, 0)),
-    lambda s: s.add_material(exponent=1e300),
-    lambda s: setattr(s, "background", (0, 0, 1e19)),
-    lambda s: setattr(s, "ambient", (1e19, 0, 0)),
+@pytest.mark.parametrize(("add", "field"), [
+    (lambda s: s.add_directional_light((0, 0, -1), (1e39, 1e39, 1e39)), "color"),
+    (lambda s: s.add_point_light((0, 0, 3), (1, 1, 1), attenuation=(1e19, 0, 0)), "attenuation"),
+    (lambda s: s.add_material(diffuse=(2e18, 0, 0)), "diffuse"),
+    (lambda s: s.add_material(exponent=1e300), "exponent"),
+    (lambda s: setattr(s, "background", (0, 0, 1e19)), "background"),
+    (lambda s: setattr(s, "ambient", (1e19, 0, 0)), "ambient"),
 ], ids=["light", "attenuation", "diffuse", "exponent", "background", "ambient"])
-def test_colours_beyond_the_limit_are_refused(add):
-    with pytest.raises(ValueError, match=r"^(color|attenuation|diffuse|exponent|background|ambient) must be "
-                                         r"<= 1e\+18( in each channel)?, got "):
+def test_colours_beyond_the_limit_are_refused(add, field):
+    # a scalar (exponent) has no channels
+    channels = "" if field == "exponent" else " in each channel"
+    with pytest.raises(ValueError, match=f"^{field} must be <= 1e\\+18{channels}, got "):
         add(durer.Scene())
 
 
 @pytest.mark.parametrize("precision", PRECISIONS)
 def test_a_pixel_brighter_than_float32_saturates(precision):
-    """kd·light = 1e36 fits every precision; a light 1e-18 away at c0 = 1e-36... falloff 1e36 makes
-    1e72: the colour pass saturates at float32's largest number, and a zero channel stays 0 (no 0·inf)."""
+    """kd·light = 1e18·1e18 = 1e36 fits every precision; a constant attenuation c0 = 1e-18 (a falloff of
+    1e18) makes ~1e54: the colour pass saturates at float32's largest number, and a zero channel stays 0
+    (no 0·inf)."""
     scene = durer.Scene()
     scene.add_spheres([[0, 0, 0]], 1.0, material=scene.add_material(diffuse=(1e18, 0, 1)))
     scene.add_point_light((0, 0, 3), (1e18, 1e18, 0), attenuation=(1e-18, 0, 0))

@@ -172,8 +172,11 @@ def surface_error_and_bound(primitive, origin, direction, t: float, precision: s
 def test_hit_point_lies_on_the_surface(kind: str, precision: str, data) -> None:
     """A reported hit point is on the surface within 64u(|o - c| + r) (sphere) or the plane bound."""
     primitive, origin, direction = data.draw(single_primitive_cases(kind))
-    t, index, _ = cast((primitive,), origin, direction, precision)
-    if index < 0:
+    t, index, normal = cast((primitive,), origin, direction, precision)
+    if index < 0:  # no point to check: the miss must be right, as in property 2 (a graze within rounding, or behind)
+        problems = judge(exact_answers((primitive,), origin, direction, precision), t, index, normal, 0.0, math.inf,
+                         precision)
+        assert not problems, "\n".join(problems)
         return
     assert math.isfinite(t) and t >= 0
     error, bound = surface_error_and_bound(primitive, origin, direction, t, precision)

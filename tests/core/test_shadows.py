@@ -98,11 +98,13 @@ def test_nested_spheres_with_a_tiny_gap_leak_no_light(precision):
 
 def test_point_light_shadow_stops_at_the_light(precision):
     # Plane y = 0 lit by a point light at (0, 4, 0). A small sphere at (0, 2, 0) shadows the plane
-    # below it; a sphere at (0, 6, 0) beyond the light shadows nothing (only t in [0, 1) counts).
+    # below it; a sphere at (1.5, 6, 0) beyond the light shadows nothing (only t in [0, 1) counts),
+    # though the lines from the plane through the light around (-3, 0, 0) go on to meet it.
     scene = durer.Scene()
     white = scene.add_material((1, 1, 1))
     scene.add_plane((0, 1, 0), 0.0, material=white)
-    scene.add_spheres([[0, 2, 0], [0, 6, 0]], [0.5, 0.5], material=white)
+    far = np.array([1.5, 6.0, 0.0])
+    scene.add_spheres([[0, 2, 0], far], [0.5, 0.5], material=white)
     light = np.array([0.0, 4, 0])
     scene.add_point_light(light, (1, 1, 1), shadows=True)
     camera = durer.OrthographicCamera((0, -5, 0), (0, 1, 0), (0, 0, 1), 8.0, t_min=0.0)  # from below
@@ -122,6 +124,9 @@ def test_point_light_shadow_stops_at_the_light(precision):
     clear = np.abs(distance - 0.5) > 0.02
     expected = np.where(blocked, 0.0, cosine)
     assert blocked[clear].sum() > 20 and (~blocked[clear]).sum() > 1000
+    along = to_light / np.linalg.norm(to_light, axis=-1, keepdims=True)
+    beyond = np.linalg.norm(np.cross(far - points, along), axis=-1) < 0.5 - 0.02  # the far sphere's, were it counted
+    assert (beyond & clear & ~blocked).sum() > 20
     np.testing.assert_allclose(image[clear], expected[clear], rtol=1e-5, atol=1e-6)
 
 

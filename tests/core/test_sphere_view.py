@@ -15,7 +15,8 @@ from helpers.view_fuzz import (PASSES, assert_render_matches_cast, brute_force_s
 from hypothesis import HealthCheck, given, settings
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=150, deadline=None, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.too_slow])
 @given(view_cases())
 def test_camera_rays_find_what_a_cast_finds(case):
     check(case)
@@ -375,7 +376,8 @@ def test_more_lights_than_views_walk_the_hierarchy(precision, kind):
     assert all(0.05 < share < 0.95 for share in shadowed)
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=40, deadline=None, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.too_slow])
 @given(sun_cases())
 def test_sun_shadows_at_any_scale_find_what_a_brute_force_finds(case):
     check_sun(case)

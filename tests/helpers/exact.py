@@ -219,7 +219,14 @@ def exact_plane(o, d, plane: Plane, precision: str) -> Exact:
         s_n = sum(abs(n_m[i] * (q_m[i] - o_m[i])) for i in range(3))
         s_d = sum(abs(n_m[i] * d_m[i]) for i in range(3))
         tol = PLANE * u * (s_n + abs(t) * s_d) / abs(denominator) + PLANE_DIVISION * u * abs(t)
-        roots.append(Root(t, float(tol), representable(t, precision), None))
+        # A ray parallel to the plane within the rounding of n·d (a few u of Σ|n_i d_i|) may be computed
+        # parallel, or in it: a miss is then allowed, a hit judged as any other.
+        parallel = abs(denominator) <= PLANE * u * s_d
+        # An unbounded plane ends at the coordinate limit (docs/numerics.md, "Planes end at the limit"):
+        # a hit is owed only where its point lies within it by more than the point's rounding and t's tolerance.
+        reach = max(abs(o_m[i] + t * d_m[i]) for i in range(3)) + tol * max(abs(x) for x in d_m)
+        within = reach * (1 + 8 * u) < durer._core.LIMITS[precision]["coordinate"]
+        roots.append(Root(t, float(tol), representable(t, precision) and within and not parallel, None))
     return Exact(roots, surface_distance, normal_check, {"finite": True, "denominator": denominator})
 
 
