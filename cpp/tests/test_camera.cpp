@@ -36,9 +36,17 @@ bool lineMeets(const RayPacket<double>& ray, int k, const Vec3d& c, double r) {
   return glm::dot(across, across) < r * r;
 }
 
+// How many spheres the checks guarded by their footprint ran on: probed just outside a bounded box,
+// compared with the hit samples of a projection inside the image.
+struct Checked {
+  int probed = 0, compared = 0;
+  void add(const Checked& other) { probed += other.probed, compared += other.compared; }
+};
+
 template <typename Real>
-void checkCamera(const CameraSpec& spec, std::mt19937_64& random) {
+Checked checkCamera(const CameraSpec& spec, std::mt19937_64& random) {
   constexpr int kWidth = 48, kHeight = 32, kPerPixel = 4;
+  Checked checked;
   const Camera<Real> camera(spec, kWidth, kHeight);
   std::uniform_real_distribution<double> unit(-1, 1), radius(0.01, 2.5), distance(0, 12);
   for (int sphere = 0; sphere < 60; ++sphere) {
@@ -91,6 +99,7 @@ void checkCamera(const CameraSpec& spec, std::mt19937_64& random) {
     // Rays just outside the box's sides miss (a grid's samples rarely come that close to a silhouette).
     const bool bounded = std::isfinite(box.x0) && std::isfinite(box.x1) && std::isfinite(box.y0) && std::isfinite(box.y1);
     if (seen && bounded) {
+      ++checked.probed;
       constexpr int kProbes = 512;
       const double outside = 1e-3;  // pixels: float sample positions round by at most 4e-6 here
       for (int side = 0; side < 4; ++side) {
@@ -144,6 +153,7 @@ void checkCamera(const CameraSpec& spec, std::mt19937_64& random) {
     const Vec3d q = frame.inFrame(c);
     const bool inside = q.z > 2 * r && box.x0 > 1 && box.x1 < kWidth - 1 && box.y0 > 1 && box.y1 < kHeight - 1;
     if (seen && inside && hitX0 <= hitX1) {
+      ++checked.compared;
       CAPTURE(sphere);
       CHECK(box.x0 >= hitX0 - 1);
       CHECK(box.x1 <= hitX1 + 1);
@@ -155,6 +165,7 @@ void checkCamera(const CameraSpec& spec, std::mt19937_64& random) {
       if (nearestMiss > 2 && r < 0.05 * glm::length(c - spec.center)) CHECK(disk.core >= nearestMiss - 1);
     }
   }
+  return checked;
 }
 
 }  // namespace
@@ -163,6 +174,7 @@ TEST_CASE_TEMPLATE("a footprint holds every sample whose camera ray meets the sp
                    double) {
   std::mt19937_64 random(7);
   std::uniform_real_distribution<double> unit(-1, 1);
+  Checked perspective;
   for (const double fov : {20.0, 60.0, 110.0, 170.0}) {
     for (int camera = 0; camera < 4; ++camera) {
       CameraSpec spec;
@@ -174,7 +186,7 @@ TEST_CASE_TEMPLATE("a footprint holds every sample whose camera ray meets the sp
       spec.tMin = 0;
       spec.tMax = std::numeric_limits<double>::infinity();
       CAPTURE(fov);
-      checkCamera<Real>(spec, random);
+      perspective.add(checkCamera<Real>(spec, random));
     }
   }
   CameraSpec ortho;
@@ -183,5 +195,12 @@ TEST_CASE_TEMPLATE("a footprint holds every sample whose camera ray meets the sp
   ortho.size = 6;
   ortho.tMin = -std::numeric_limits<double>::infinity();
   ortho.tMax = std::numeric_limits<double>::infinity();
-  checkCamera<Real>(ortho, random);
+  Checked orthographic = checkCamera<Real>(ortho, random);
+  ortho.size = 24;  // wider: some spheres lie wholly inside the image (at size 6 none of the 60 did)
+  orthographic.add(checkCamera<Real>(ortho, random));
+  // The guarded checks ran (counted here: 308 and 89 perspective spheres, 120 and 13 orthographic).
+  CHECK(perspective.probed > 200);
+  CHECK(perspective.compared > 50);
+  CHECK(orthographic.probed > 80);
+  CHECK(orthographic.compared > 5);
 }

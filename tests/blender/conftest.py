@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-bpy = pytest.importorskip("bpy")
+from helpers.blender_import import blender_module
+
+bpy = blender_module("bpy")
 
 import durer.blender
 

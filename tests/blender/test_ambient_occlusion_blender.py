@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 from helpers.blender import aim_camera, export, material, quad, render_passes, uv_sphere, world
 
-bpy = pytest.importorskip("bpy")
+from helpers.blender_import import blender_module
+
+bpy = blender_module("bpy")
 
 from durer.blender import engine
 

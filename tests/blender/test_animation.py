@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 from helpers.blender import DEG, aim_camera, light, material, quad, world
 
-bpy = pytest.importorskip("bpy")
+from helpers.blender_import import blender_module
+
+bpy = blender_module("bpy")
 
 from durer.blender import batch, engine, point_cloud
 

@@ -23,7 +23,9 @@ from helpers.blender import (
     world,
 )
 
-bpy = pytest.importorskip("bpy")
+from helpers.blender_import import blender_module
+
+bpy = blender_module("bpy")
 
 from durer.blender import engine  # noqa: E402
 from durer.blender.export.depsgraph import export_depsgraph  # noqa: E402
@@ -350,7 +352,9 @@ def instancer_attribute(tree):
     ],
 )
 def test_an_unmapped_graph_falls_back_to_the_material_colour_with_one_message(scene, tmp_path, build, reason):
-    mat = attribute_material("Fallback", build, color=(0.2, 0.4, 0.8))
+    # The Base Color socket's own value (blue / red 1/4) differs from the viewport colour (4): the hue
+    # below tells which one the fallback took.
+    mat = attribute_material("Fallback", build, color=(0.8, 0.4, 0.2))
     mat.diffuse_color = (0.2, 0.4, 0.8, 1)  # the viewport colour: what a linked Base Color falls back to
     colored_cloud(scene, grid_positions(), mat, {"Color": ("FLOAT_COLOR", np.ones((25, 4)))})
     front_view(scene)

@@ -20,7 +20,9 @@ from helpers.blender import (
     world,
 )
 
-bpy = pytest.importorskip("bpy")
+from helpers.blender_import import blender_module
+
+bpy = blender_module("bpy")
 
 pytestmark = pytest.mark.blender
 
@@ -80,6 +82,11 @@ def test_masks_depth_normals_match_cycles(scene, tmp_path, projection, fit, res,
     assert dn.max() <= 1e-3, f"normals: max error {dn.max():.2e}"  # measured: <= 8e-5
     # Misses: Combined alpha 1 with the black world on both.
     np.testing.assert_allclose(d["color"][..., 3], 1.0)
+    np.testing.assert_allclose(c["color"][..., 3], 1.0)
+    miss = ~hit_c & ~hit_d
+    assert miss.any()
+    np.testing.assert_array_equal(d["color"][miss][:, :3], 0.0)
+    np.testing.assert_array_equal(c["color"][miss][:, :3], 0.0)
 
 
 def shading_scene(s):
@@ -101,7 +108,9 @@ def test_sun_shadows_match_cycles(scene, tmp_path):
     shading_scene(scene)
     light(scene, "SUN", energy=2.5, color=(1.0, 0.9, 0.8), rotation=(0.5, 0.2, 0.3), angle=0.0)
     c, d = both(scene, tmp_path, normal=False)
-    compare_shading(c, d, lit_only=False)
+    mask = compare_shading(c, d, lit_only=False)
+    shadowed = mask & (c["color"][..., :3].mean(axis=-1) < 1e-3)  # the black world lights nothing there
+    assert shadowed.sum() >= 50, "the compared pixels should include shadows"
 
 
 def test_point_light_brightness_matches_cycles(scene, tmp_path):

@@ -26,7 +26,9 @@ from helpers.blender import (
     render_passes,
 )
 
-bpy = pytest.importorskip("bpy")
+from helpers.blender_import import blender_module
+
+bpy = blender_module("bpy")
 
 import durer
 import durer.blender

@@ -9,7 +9,9 @@ import pytest
 from helpers.blender import (aim_camera, cube, light, link, material, pointcloud_object, quad, render_passes,
                              use_cycles, uv_sphere, world)
 
-bpy = pytest.importorskip("bpy")
+from helpers.blender_import import blender_module
+
+bpy = blender_module("bpy")
 
 from durer.blender import engine, point_cloud  # noqa: E402
 from durer.blender.build import IdTables  # noqa: E402

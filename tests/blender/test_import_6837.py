@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 from helpers.blender import export
 
-bpy = pytest.importorskip("bpy")
+from helpers.blender_import import blender_module
+
+bpy = blender_module("bpy")
 
 import durer
 import durer.blender

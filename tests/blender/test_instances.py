@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 from helpers.blender import cube, export, link, uv_sphere
 
-bpy = pytest.importorskip("bpy")
+from helpers.blender_import import blender_module
+
+bpy = blender_module("bpy")
 
 from durer.blender import build, point_cloud
 

@@ -7,7 +7,9 @@ import dataclasses
 
 import pytest
 
-bpy = pytest.importorskip("bpy")
+from helpers.blender_import import blender_module
+
+bpy = blender_module("bpy")
 
 from durer.blender import properties
 from durer.blender.export.data import MaterialData

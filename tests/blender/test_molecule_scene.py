@@ -14,7 +14,9 @@ import pytest
 from helpers import SCENES
 from helpers.blender import export, render_passes
 
-bpy = pytest.importorskip("bpy")
+from helpers.blender_import import blender_module
+
+bpy = blender_module("bpy")
 
 import durer.blender  # noqa: E402
 from bpy_extras.object_utils import world_to_camera_view  # noqa: E402

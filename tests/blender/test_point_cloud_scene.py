@@ -8,7 +8,9 @@ import importlib.util
 import numpy as np
 import pytest
 
-bpy = pytest.importorskip("bpy")
+from helpers.blender_import import blender_module
+
+bpy = blender_module("bpy")
 
 import durer.blender
 from durer.blender import engine

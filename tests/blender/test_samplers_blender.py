@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 from helpers.blender import ball_scene
 
-bpy = pytest.importorskip("bpy")
+from helpers.blender_import import blender_module
+
+bpy = blender_module("bpy")
 
 import durer
 from durer.blender import engine, properties, ui

@@ -11,7 +11,9 @@ import sys
 import numpy as np
 import pytest
 
-bpy = pytest.importorskip("bpy")
+from helpers.blender_import import blender_module
+
+bpy = blender_module("bpy")
 
 import durer
 import durer.blender
@@ -30,9 +32,10 @@ def image_pixels(name=engine.IMAGE_NAME):
     return px.reshape(h, w, 4)[::-1]
 
 
-def test_showcase_blend_matches_durer_showcase_scene():
+def assert_renders_durer_showcase_scene(path):
+    """Rendered through Blender with Dürer, the .blend at `path` is durer.showcase_scene()'s image."""
     durer.blender.register()
-    bpy.ops.wm.open_mainfile(filepath=str(SCENES / "showcase.blend"))
+    bpy.ops.wm.open_mainfile(filepath=str(path))
     s = bpy.context.scene
     assert s.render.engine == "DURER" and s.camera.data.type == "ORTHO"
     s.render.resolution_percentage = 10
@@ -49,6 +52,10 @@ def test_showcase_blend_matches_durer_showcase_scene():
     np.testing.assert_allclose(pixels, reference, atol=2e-5)
 
 
+def test_showcase_blend_matches_durer_showcase_scene():
+    assert_renders_durer_showcase_scene(SCENES / "showcase.blend")
+
+
 def test_make_showcase_regenerates_the_file(tmp_path):
     out = tmp_path / "showcase.blend"
     done = subprocess.run(
@@ -59,6 +66,7 @@ def test_make_showcase_regenerates_the_file(tmp_path):
         timeout=300,
     )
     assert done.returncode == 0, done.stderr[-2000:]
+    assert_renders_durer_showcase_scene(out)
     files = batch.render_file(out, output=tmp_path / "showcase.png", samples=1)
     assert files == [tmp_path / "showcase.png"] and files[0].stat().st_size > 1000
 
@@ -69,4 +77,5 @@ def test_bench_compares_engines_in_one_run():
     spec.loader.exec_module(bench)
     out = bench.compare_engines(SCENES / "showcase.blend", 64, 36, samples=1, repeats=1)
     assert out["durer"]["spheres"] == 65 and out["durer"]["seconds"] > 0
-    assert out["cycles"]["seconds"] > 0 and out["speedup"] > 0
+    assert out["cycles"]["seconds"] > 0 and out["speedup"] == out["cycles"]["seconds"] / out["durer"]["seconds"]
+    assert bench.report(out, None)[-1] == f"  Cycles / Dürer: {out['speedup']:.1f}x"

@@ -22,8 +22,10 @@ from helpers.blender import (
     world,
 )
 
-bpy = pytest.importorskip("bpy")
-bmesh = pytest.importorskip("bmesh")
+from helpers.blender_import import blender_module
+
+bpy = blender_module("bpy")
+bmesh = blender_module("bmesh")
 
 from durer.blender import build, engine
 

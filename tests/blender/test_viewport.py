@@ -9,7 +9,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-bpy = pytest.importorskip("bpy")
+from helpers.blender_import import blender_module
+
+bpy = blender_module("bpy")
 
 from helpers.blender import aim_camera, ball_scene, light, pointcloud_object, world  # noqa: E402
 from mathutils import Euler, Matrix  # noqa: E402
@@ -18,6 +20,8 @@ import durer  # noqa: E402
 from durer.blender import build, viewport  # noqa: E402
 from durer.blender.export.camera import camera_data  # noqa: E402
 from durer.blender.export.depsgraph import export_depsgraph  # noqa: E402
+
+pytestmark = pytest.mark.blender
 
 
 def region_view():
@@ -163,12 +167,19 @@ def test_error_falls_as_one_over_root_n_towards_the_f12_limit():
 def test_restart_clears_the_image():
     image = viewport.ProgressiveImage()
     image.restart(sphere_scene(), CAMERA, 32, 24, passes=2)
-    assert image.wait(30) and image.mean() is not None
+    assert image.wait(30) and image.passes == 2
+    old = image.mean()
     generation = image.generation
-    image.restart(sphere_scene(radius=0.5), CAMERA, 32, 24, passes=1000)
-    assert image.generation == generation + 1 and image.passes < 1000
-    image.stop()
-    assert not image.running
+    # Passes that all fail add nothing: what the image holds afterwards is what restart left.
+    image.restart(sphere_scene(), CAMERA, 32, 24, passes=2, precision="half")
+    assert image.wait(30) and image.error is not None
+    assert image.generation == generation + 1 and image.passes == 0 and image.mean() is None
+    # Another scene's passes: the mean is theirs alone, none of the old image's.
+    image.restart(sphere_scene(radius=0.5), CAMERA, 32, 24, passes=3, seed=7)
+    assert image.wait(30) and image.generation == generation + 2 and image.passes == 3 and image.error is None
+    expected = direct_mean(sphere_scene(radius=0.5), CAMERA, 32, 24, 3, 7)
+    np.testing.assert_allclose(image.mean(), expected, atol=1e-6)
+    assert np.abs(expected - old).max() > 0.3  # the smaller ball: an old pass mixed in would show
 
 
 def test_stop_cancels_a_pass_within_a_tenth_of_a_second():

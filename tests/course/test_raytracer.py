@@ -305,6 +305,14 @@ def test_gallery_command(tmp_path, capsys):
     for name in ("output2_05", "depth2_05", "normals2_05", "output2_05_no_back", "output2_07", "depth2_07"):
         with Image.open(tmp_path / "docs" / "g" / f"{name}.png") as image:
             assert image.size == (24, 24)
+    # The colour images are the scene rendered directly at --size with each line's -shade_back (or not).
+    colours = []
+    for name, shade_back in (("output2_05", True), ("output2_05_no_back", False)):
+        direct = render_scene_file(CORPUS / "scene2_05_inside_sphere.txt", 24, 24, shade_back=shade_back)
+        with Image.open(tmp_path / "docs" / "g" / f"{name}.png") as image:
+            colours.append(np.asarray(image))
+        np.testing.assert_array_equal(colours[-1], to_bytes(direct.color[..., :3]))
+    assert (colours[0] != colours[1]).any()  # inside the sphere, -shade_back shows what no-back leaves unlit
     assert "- **Machine:** " in text and f"{len(rows)} command lines" in text
     assert "wrote" in capsys.readouterr().out
 

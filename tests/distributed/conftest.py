@@ -7,9 +7,8 @@ import sys
 import time
 from pathlib import Path
 
+import distributed
 import pytest
-
-distributed = pytest.importorskip("distributed")
 
 from helpers.distributed import TIMEOUT
 from durer.distributed import cluster

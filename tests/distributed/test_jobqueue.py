@@ -5,11 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pytest
-
-dask_jobqueue = pytest.importorskip("dask_jobqueue")
-
 import dask.config
+import dask_jobqueue
 import yaml
 
 CONFIG = Path(__file__).resolve().parents[2] / "docs" / "dask-jobqueue.yaml"

@@ -1,6 +1,6 @@
 """Helpers shared by several test modules: `core` (small scenes and casts), `exact` (mpmath answers
-and the numerics spec), `blender` (scenes built with the real bpy) and `exr` (reading Blender's
-EXRs); here, the repository's folders the tests read."""
+and the numerics spec), `blender` (scenes built with the real bpy), `blender_import` (when the Blender
+tests may skip) and `exr` (reading Blender's EXRs); here, the repository's folders the tests read."""
 
 from __future__ import annotations
 

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pytest
+from helpers.blender_import import blender_module
 
-bpy = pytest.importorskip("bpy")
-bmesh = pytest.importorskip("bmesh")
+bpy = blender_module("bpy")
+bmesh = blender_module("bmesh")
 
 import durer.blender
 

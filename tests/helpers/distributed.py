@@ -66,13 +66,11 @@ VOLATILE_STAMPS = {"File", "Date", "Time", "RenderTime"}
 def assert_same_image_file(a, b) -> None:
     """Two image files hold the same pixels (and passes) bit for bit and the same metadata stamps
     but for VOLATILE_STAMPS."""
-    import sys
     from pathlib import Path
 
     from PIL import Image
 
     if Path(a).suffix == ".exr":
-        sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "blender"))
         from helpers.exr import read_exr
 
         x, y = read_exr(a), read_exr(b)
