@@ -13,7 +13,7 @@ from helpers.blender_import import blender_module
 
 bpy = blender_module("bpy")
 
-from helpers.blender import aim_camera, ball_scene, light, pointcloud_object, world  # noqa: E402
+from helpers.blender import aim_camera, ball_scene, light, material, pointcloud_object, quad, uv_sphere, world  # noqa: E402
 from mathutils import Euler, Matrix  # noqa: E402
 
 import durer  # noqa: E402
@@ -244,6 +244,35 @@ def test_session_restarts_on_a_changed_view_or_scene(scene):
                                  window_matrix=rv3d.window_matrix, is_perspective=rv3d.is_perspective)
     assert session.view(moved_view, 40, 24) and not session.view(moved_view, 40, 24)
     session.image.stop()
+
+
+def test_the_view_shows_ambient_occlusion_as_f12_does(scene):
+    """A ball on a floor under a white world: with ambient occlusion on, the passes trace its rays
+    (the floor darkens round the ball's foot), and turning it off restarts them without."""
+    world(scene, (1, 1, 1))
+    grey = material("Grey", (0.8, 0.8, 0.8))
+    uv_sphere(scene, "Ball", location=(0, 0, 1)).data.materials.append(grey)
+    quad(scene, "Floor", scale=(6, 6, 1)).data.materials.append(grey)
+    aim_camera(scene, (0, -6, 5), target=(0, 0, 0.5))
+    scene.durer.samples, scene.durer.ambient_occlusion, scene.durer.ao_samples = 2, "ON", 8
+    rv3d = region_view()
+    session = viewport.ViewportSession()
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    session.update(depsgraph)
+    assert session.view(rv3d, 32, 24) and session.image.wait(30) and session.image.passes == 2
+    data = export_depsgraph(depsgraph)
+    assert data.ambient_occlusion == (8, data.ambient_occlusion[1])
+    core, camera = build.make_scene(data), viewport.region_camera(rv3d, 32, 24)
+    kwargs = viewport.pass_kwargs(scene.durer)
+    expected = direct_mean(core, camera, 32, 24, 2, int(scene.durer.seed), ambient_occlusion=data.ambient_occlusion,
+                           **kwargs)
+    np.testing.assert_allclose(session.image.mean(), expected, atol=1e-6)
+    without = direct_mean(core, camera, 32, 24, 2, int(scene.durer.seed), **kwargs)
+    assert (expected[..., :3] < without[..., :3] - 0.05).any()  # occluded somewhere: not the image without
+    scene.durer.ambient_occlusion = "OFF"
+    session.update(bpy.context.evaluated_depsgraph_get())
+    assert session.view(rv3d, 32, 24) and session.image.wait(30)
+    np.testing.assert_allclose(session.image.mean(), without, atol=1e-6)
 
 
 def test_moved_spheres_are_refitted_after_the_passes_stop(scene):

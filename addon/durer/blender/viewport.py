@@ -71,7 +71,8 @@ def region_camera(region_data, width: int, height: int) -> durer.OrthographicCam
 
 def pass_kwargs(settings) -> dict:
     """durer.render's settings for a viewport pass, from scene.durer: the F12 render's precision,
-    sphere method, threads, bounces and back-face shading; the sampling is the pass's own."""
+    sphere method, threads, bounces and back-face shading; the sampling is the pass's own (ambient
+    occlusion, an export's, is added by the session)."""
     kwargs = engine.render_kwargs(settings)
     for key in ("spp", "seed", "sampler", "target_error", "min_spp", "time_limit", "depth"):
         kwargs.pop(key, None)
@@ -189,7 +190,7 @@ class ViewportSession:
         try:
             data = export_depsgraph(depsgraph)
             settings = {"passes": int(depsgraph.scene.durer.samples), "seed": int(depsgraph.scene.durer.seed),
-                        **pass_kwargs(depsgraph.scene.durer)}
+                        "ambient_occlusion": data.ambient_occlusion, **pass_kwargs(depsgraph.scene.durer)}
             if (self._kept is not None and settings == self._settings
                     and build.same_data(replace(self._kept[0], camera=data.camera), data)):
                 return  # a selection, or the scene camera seen from another view: the passes go on
