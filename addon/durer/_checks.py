@@ -1,8 +1,9 @@
 """Argument checks shared by the public API: each error names the argument it is about.
 
 The boundary between Python and the core: Python checks types, shapes and dtypes (and that a
-number fits the C type it is passed as); the core checks values (ranges, finiteness, option names,
-invertibility) and its std::invalid_argument arrives as a ValueError naming the argument."""
+number fits the C type it is passed as, and an image's size, which a region is checked against);
+the core checks values (ranges, finiteness, option names, invertibility) and its
+std::invalid_argument arrives as a ValueError naming the argument."""
 
 from __future__ import annotations
 
@@ -24,17 +25,44 @@ def _numeric_array(value: Any, name: str) -> np.ndarray:
     return array
 
 
-def float_array(value: Any, name: str, shape: tuple[int | None, ...], *, finite: bool = True) -> np.ndarray:
-    """`value` as a C-contiguous float64 array of `shape` (None: any length)."""
-    array = _numeric_array(value, name)
-    if array.ndim != len(shape) or any(s is not None and s != n for s, n in zip(shape, array.shape)):
+def _check_shape(array: np.ndarray, name: str, shape: tuple[int | str | None, ...]) -> None:
+    """ValueError naming `name` unless `array` has `shape`: an int is that length, None or a name ("F") any."""
+    if array.ndim != len(shape) or any(isinstance(s, int) and s != n for s, n in zip(shape, array.shape)):
         wanted = "(" + ", ".join("N" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
         raise ValueError(f"{name} must have shape {wanted}, got {array.shape}")
+
+
+def _empty_as(array: np.ndarray, shape: tuple[int | str | None, ...]) -> np.ndarray:
+    """`[]` as the empty array of `shape` when its first axis may be 0: np.asarray([]) has shape (0,), whatever
+    axes the caller meant, and a caller passing [] for "none" means N = 0."""
+    free = not isinstance(shape[0], int) or shape[0] == 0
+    if array.shape == (0,) and len(shape) > 1 and free and all(isinstance(s, int) for s in shape[1:]):
+        return array.reshape((0, *shape[1:]))
+    return array
+
+
+def float_array(value: Any, name: str, shape: tuple[int | str | None, ...], *, finite: bool = True) -> np.ndarray:
+    """`value` as a C-contiguous float64 array of `shape` (None: any length)."""
+    array = _empty_as(_numeric_array(value, name), shape)
+    _check_shape(array, name, shape)
     array = np.ascontiguousarray(array, dtype=np.float64)
     if finite and not np.isfinite(array).all():
         bad = np.argwhere(~np.isfinite(array))[0]
         raise ValueError(f"{name} must be finite, got {array[tuple(bad)]} at index {tuple(int(i) for i in bad)}")
     return array
+
+
+def integer_array(value: Any, name: str, shape: tuple[int | str | None, ...], dtype: type[np.integer]) -> np.ndarray:
+    """`value` as a C-contiguous array of `shape` and integer `dtype`, each value fitting it (an empty one
+    may have any numeric dtype: [] is float64 to numpy)."""
+    array = _empty_as(_numeric_array(value, name), shape)
+    if array.dtype.kind not in "iu" and array.size:
+        raise TypeError(f"{name} must hold integers, got dtype {array.dtype}")
+    _check_shape(array, name, shape)
+    limits = np.iinfo(dtype)
+    if array.size and (array.min() < limits.min or array.max() > limits.max):
+        raise ValueError(f"{name} must fit in {limits.dtype}")
+    return np.ascontiguousarray(array, dtype=dtype)
 
 
 def one_of_shapes(value: Any, name: str, *shapes: tuple[int, ...]) -> np.ndarray | None:
@@ -43,6 +71,8 @@ def one_of_shapes(value: Any, name: str, *shapes: tuple[int, ...]) -> np.ndarray
     if value is None:
         return None
     array = _numeric_array(value, name)
+    for s in shapes:  # [] takes the first shape that may be empty
+        array = _empty_as(array, s)
     shape = next((s for s in shapes if len(s) == array.ndim), None)
     if shape is None or array.shape != shape:
         raise ValueError(f"{name} must have shape {' or '.join(str(s) for s in shapes)}, got {array.shape}")
@@ -75,7 +105,11 @@ def components(value: Any, name: str, count: int) -> float | tuple[float, ...]:
 def real(value: Any, name: str) -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
-    return float(value)
+    try:
+        return float(value)
+    except OverflowError:  # an int (or Fraction) beyond the largest double; infinity is math.inf
+        raise ValueError(f"{name} must be within the range of a float (|x| < 1.8e308), got a number too large "
+                         "for one") from None
 
 
 def finite_real(value: Any, name: str) -> float:
@@ -94,6 +128,17 @@ def integer(value: Any, name: str, minimum: int | None = None, maximum: int | No
     if maximum is not None and n > maximum:
         raise ValueError(f"{name} must be <= {maximum}, got {n}")
     return n
+
+
+#: The largest image width or height (and spp): the core's (scene/Limits.h, which keeps width·height·spp
+#: inside int64; the core checks it too).
+MAX_IMAGE_SIDE: int = _core.RENDER_LIMITS["side"]
+
+
+def image_side(value: Any, name: str) -> int:
+    """An image's width or height: an integer in [1, MAX_IMAGE_SIDE] (render's rule, checked before the
+    arguments that depend on it, such as a region)."""
+    return integer(value, name, 1, MAX_IMAGE_SIDE)
 
 
 def c_int(value: Any, name: str) -> int:
@@ -117,7 +162,7 @@ def boolean(value: Any, name: str) -> bool:
 def transform(value: Any, name: str = "transform") -> np.ndarray | None:
     """A world-from-object affine matrix, (4, 4) with bottom row (0, 0, 0, 1) or (3, 4), as a
     C-contiguous (3, 4) float64 array; None stays None (the identity). It must be invertible by the
-    core's one rule (`is_invertible`)."""
+    core's one rule (`_core.is_invertible`)."""
     if value is None:
         return None
     array = _numeric_array(value, name)
@@ -153,7 +198,11 @@ def transforms(value: Any, name: str = "transforms") -> np.ndarray:
 
 
 def is_invertible(matrix: Any) -> bool:
-    """Whether a (4, 4) or (3, 4) affine matrix is finite and invertible by the core's rule (the one
-    every transform passed to a Scene must meet)."""
-    array = np.asarray(matrix, dtype=np.float64)
-    return bool(np.isfinite(array).all()) and _core.is_invertible(np.ascontiguousarray(array[:3]))
+    """Whether `transform` takes `matrix`: finite, (4, 4) with bottom row (0, 0, 0, 1) or (3, 4), and
+    invertible by the core's rule (the one every transform passed to a Scene must meet). A matrix of
+    another shape is not a transform at all, so it is not one either."""
+    try:
+        transform(matrix)
+    except ValueError:
+        return False
+    return True

@@ -23,6 +23,7 @@ SHADING_MODES: tuple[str, ...]  # ("auto", "flat", "lit")
 MATERIAL_FIELDS: tuple[tuple[str, int, tuple[float, float, float] | float], ...]
 # The accepted numbers per precision (Limits.h, docs/numerics.md): {"float": {"coordinate": 1e18, "color": 1e18}, ...}
 LIMITS: dict[str, dict[str, float]]
+RENDER_LIMITS: dict[str, int]
 
 class CameraSpec:
     def __init__(

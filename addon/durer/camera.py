@@ -53,8 +53,8 @@ class _Camera:
     def rays(self, width: int, height: int, precision: str = "double") -> tuple[np.ndarray, np.ndarray]:
         """The pixel-centre rays: origins and unit directions, each (height, width, 3), top row
         first, exactly as `render` generates them with spp=1."""
-        width = _checks.c_int(width, "width")
-        height = _checks.c_int(height, "height")
+        width = _checks.image_side(width, "width")  # render's rule: the same rays
+        height = _checks.image_side(height, "height")
         _checks.string(precision, "precision")
         return _core.camera_rays(self._spec, width, height, precision)
 

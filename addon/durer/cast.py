@@ -75,6 +75,7 @@ def _cast(scene: Scene, origins: ArrayLike, directions: ArrayLike, t_min: float,
     """The arguments checked, then the core's cast (any_hit: its occlusion query)."""
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a durer.Scene, got {type(scene).__name__}")
+    check = _checks.boolean(check, "check")
     origins = _checks.float_array(origins, "origins", (None, 3), finite=check)
     directions = _checks.float_array(directions, "directions", (origins.shape[0], 3), finite=check)
     if check:

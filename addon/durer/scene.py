@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 from typing import Any
 
 import numpy as np
@@ -117,7 +118,7 @@ class Scene:
         (by its surface-area cost): renders after a move equal those of a scene built at the new
         positions, pixel for pixel."""
         given = centers
-        id_array = _int32_array(ids, "ids")
+        id_array = _checks.integer_array(ids, "ids", (None,), np.int32)
         n = id_array.shape[0]
         centers = _checks.float_array(centers, "centers", (n, 3))
         radii_array = None if radii is None else _owned(_radii(radii, n), radii)
@@ -146,11 +147,15 @@ class Scene:
         """
         normal3 = _checks.vector3(normal, "normal")
         offset_value = _checks.real(offset, "offset")
-        material_id = _checks.c_int(material, "material")
+        material_id = _material_id(material)
         corners = None
         if bounds is not None:
-            if len(bounds) != 3:
-                raise ValueError("bounds must be (corner, edge1, edge2)")
+            try:
+                count = len(bounds)
+            except TypeError:  # an int, a generator, ...
+                raise TypeError(f"bounds must be (corner, edge1, edge2) or None, got {type(bounds).__name__}") from None
+            if count != 3:
+                raise ValueError(f"bounds must be (corner, edge1, edge2), got {count} items")
             corners = tuple(_checks.vector3(v, f"bounds {part}") for v, part in zip(bounds, ("corner", "edge1", "edge2")))
         return self._add("add_plane", normal3, offset_value, material_id, corners, _owned(_checks.transform(transform), transform))
 
@@ -385,11 +390,14 @@ class Scene:
 
 
 def _owned(array: np.ndarray | None, given: Any) -> np.ndarray | None:
-    """`array` (validated from `given`) as the scene's own read-only record: copied only when it
-    shares memory with what the caller passed (and may change later)."""
+    """`array` (validated from `given`) as the scene's own read-only record: copied unless it is memory
+    our conversion made, so that the caller changing what it passed (an ndarray, a memoryview, an
+    array.array, any object numpy views without copying) changes neither renders nor pickles."""
     if array is None:
         return None
-    if isinstance(given, np.ndarray) and np.may_share_memory(array, given):
+    # A list or tuple is always converted into new memory; anything else may be viewed, and np.asarray
+    # views it as our conversion did (may_share_memory errs towards a needless copy, never an alias).
+    if not isinstance(given, (list, tuple)) and np.may_share_memory(array, np.asarray(given)):
         array = array.copy()
     array.flags.writeable = False
     return array
@@ -411,42 +419,26 @@ def _radii(radii: Any, n: int) -> np.ndarray:
     return _checks.float_array(array, "radii", (n,), finite=False)
 
 
-def _int32_array(value: Any, name: str) -> np.ndarray:
-    """(N,) integers that fit int32, as a contiguous int32 array."""
-    array = _checks._numeric_array(value, name)
-    if array.dtype.kind not in "iu":
-        raise TypeError(f"{name} must hold integers, got dtype {array.dtype}")
-    if array.ndim != 1:
-        raise ValueError(f"{name} must have shape (N,), got {array.shape}")
-    if array.size and (array.min() < np.iinfo(np.int32).min or array.max() > np.iinfo(np.int32).max):
-        raise ValueError(f"{name} must fit in int32")
-    return np.ascontiguousarray(array, dtype=np.int32)
+def _material_id(material: Any) -> int:
+    """Every add's rule for one material id: an integer (Python's or numpy's, or a 0-d integer array)
+    that fits the core's int (the core checks that the material exists)."""
+    if isinstance(material, np.ndarray) and material.ndim == 0:
+        material = material[()]
+    return _checks.c_int(material, "material")
 
 
 def _material_ids(material: Any, n: int) -> np.ndarray:
-    array = np.asarray(material)
-    if array.dtype.kind not in "iu":
-        raise TypeError(f"material must be an integer id or (N,) integer ids, got dtype {array.dtype}")
-    if array.ndim == 0:
-        return np.array([_checks.c_int(array.item(), "material")], dtype=np.int32)
-    if array.shape != (n,):
-        raise ValueError(f"material must be one id or have shape ({n},), got {array.shape}")
-    if n and (array.min() < np.iinfo(np.int32).min or array.max() > np.iinfo(np.int32).max):
-        raise ValueError("material ids must fit in int32")
-    return np.ascontiguousarray(array, dtype=np.int32)
+    """The materials of an add of n objects as the core takes them: one id for all (as `_material_id`),
+    passed as (1,), or (n,) ids."""
+    if isinstance(material, numbers.Number) or (isinstance(material, np.ndarray) and material.ndim == 0):
+        return np.array([_material_id(material)], dtype=np.int32)
+    return _checks.integer_array(material, "material", (n,), np.int32)
 
 
 def _mesh_arguments(vertices: ArrayLike, faces: ArrayLike, material: int, colors: ArrayLike | None) -> tuple:
     """add_mesh's vertices, faces, material and colors, checked, as the core takes them."""
     given = vertices
     vertices = _checks.float_array(vertices, "vertices", (None, 3))
-    face_array = _checks._numeric_array(faces, "faces")
-    if face_array.dtype.kind not in "iu":
-        raise TypeError(f"faces must hold integer vertex indices, got dtype {face_array.dtype}")
-    if face_array.ndim != 2 or face_array.shape[1] != 3:
-        raise ValueError(f"faces must have shape (F, 3), got {face_array.shape}")
-    if face_array.size and (face_array.max() > np.iinfo(np.int64).max):
-        raise ValueError("faces must fit in int64")
+    face_array = _checks.integer_array(faces, "faces", ("F", 3), np.int64)  # vertex indices: the core checks them
     color_array = _checks.one_of_shapes(colors, "colors", (vertices.shape[0], 3), (face_array.shape[0], 3, 3))
-    return (_owned(vertices, given), _owned(np.ascontiguousarray(face_array, dtype=np.int64), faces),
-            _checks.c_int(material, "material"), _owned(color_array, colors))
+    return _owned(vertices, given), _owned(face_array, faces), _material_id(material), _owned(color_array, colors)

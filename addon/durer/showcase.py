@@ -5,12 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _checks
 from .camera import OrthographicCamera
 from .scene import Scene
 
 
 def showcase_scene(small_spheres: int = 60, seed: int = 7) -> tuple[Scene, OrthographicCamera]:
-    """The scene and its camera; `small_spheres` pebbles scattered with a fixed `seed`."""
+    """The scene and its camera; `small_spheres` pebbles scattered with a fixed `seed` (both integers >= 0)."""
+    small_spheres = _checks.integer(small_spheres, "small_spheres", 0)
+    seed = _checks.integer(seed, "seed", 0)  # numpy's generators take no negative seed
     scene = Scene()
     scene.background = (0.55, 0.7, 0.9, 1.0)
     scene.ambient = (0.18, 0.2, 0.24)

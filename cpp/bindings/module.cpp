@@ -19,6 +19,7 @@
 #include "durer/render/Kernels.h"
 #include "durer/render/Renderer.h"
 #include "durer/Options.h"
+#include "durer/scene/Limits.h"
 #include "durer/scene/Scene.h"
 
 namespace py = pybind11;
@@ -528,6 +529,7 @@ PYBIND11_MODULE(_core, m) {
       py::arg("matrices"));
 
   m.attr("KERNEL_SET") = kernels().isa;  // the instruction set of the hot kernels this CPU runs
+  m.attr("RENDER_LIMITS") = py::dict(py::arg("side") = kRenderLimits.side, py::arg("max_bounces") = kRenderLimits.maxBounces);
   m.attr("PRECISIONS") = names(kPrecisionNames);
   m.attr("SPHERE_METHODS") = names(kSphereMethodNames);
   m.attr("SAMPLERS") = names(kSamplerNames);

@@ -9,15 +9,15 @@
 #include <vector>
 
 #include "durer/render/Kernels.h"
+#include "durer/scene/Limits.h"
 #include "durer/scene/Validate.h"
 
 namespace durer {
 
 void validate(const RenderSettings& s) {
-  constexpr int kMaxSide = 1 << 20;  // pixels or samples: keeps width·height·spp well inside int64
   const auto requireCount = [](int value, const char* field) {
-    if (value < 1 || value > kMaxSide) {
-      fail(std::string(field) + " must be in [1, " + std::to_string(kMaxSide) + "], got " + std::to_string(value));
+    if (value < 1 || value > kRenderLimits.side) {
+      fail(std::string(field) + " must be in [1, " + std::to_string(kRenderLimits.side) + "], got " + std::to_string(value));
     }
   };
   requireCount(s.width, "width");
@@ -34,7 +34,9 @@ void validate(const RenderSettings& s) {
   requireCount(s.minSamples, "min_spp");
   if (!(std::isfinite(s.timeLimit) && s.timeLimit >= 0)) fail("time_limit must be finite and >= 0 (0: none), got " + std::to_string(s.timeLimit));
   if (!(std::isfinite(s.targetError) && s.targetError > 0)) fail("target_error must be finite and > 0, got " + std::to_string(s.targetError));
-  if (s.maxBounces < 0 || s.maxBounces > 1000) fail("max_bounces must be in [0, 1000], got " + std::to_string(s.maxBounces));
+  if (s.maxBounces < 0 || s.maxBounces > kRenderLimits.maxBounces) {
+    fail("max_bounces must be in [0, " + std::to_string(kRenderLimits.maxBounces) + "], got " + std::to_string(s.maxBounces));
+  }
   if (!(std::isfinite(s.minWeight) && s.minWeight >= 0)) fail("min_weight must be finite and >= 0, got " + std::to_string(s.minWeight));
   const RenderSettings::AmbientOcclusion& ao = s.ambientOcclusion;
   constexpr int kMaxAoSamples = 1 << 16;
@@ -87,7 +89,7 @@ EffectSet effectsFor(const Scene& scene, const RenderSettings& settings, const R
 // 2^k rays where a material spawns both, and, as a ray's children's weights add up to at most c
 // times its own (c the largest reflective + transparent of one material, largest components), at
 // most c^k / min_weight rays of weight min_weight or more, the only ones spawned. 2^17 admits the
-// deepest max_bounces (1000) at the default min_weight (0.01) for materials that do not add light
+// deepest max_bounces (kRenderLimits.maxBounces, 1000) at the default min_weight (0.01) for materials that do not add light
 // (c <= 1: at most 100 rays a level).
 constexpr double kMostRaysPerCameraRay = 1 << 17;
 

@@ -162,8 +162,9 @@ def test_deterministic_across_threads_regions_and_seeded():
      ((16, float("nan")), ValueError, r"ambient_occlusion distance must be > 0"),
      ((2.5, 1.0), TypeError, r"ambient_occlusion samples must be an integer"),
      ((16, "far"), TypeError, r"ambient_occlusion distance must be a real number"),
-     ((16,), TypeError, r"ambient_occlusion must be \(samples, distance\) or None"),
-     (16, TypeError, r"ambient_occlusion must be \(samples, distance\) or None")],
+     # a wrong number of items is a ValueError, as for every tuple-valued argument (region, shift, colours)
+     ((16,), ValueError, r"ambient_occlusion must be \(samples, distance\) or None"),
+     (16, ValueError, r"ambient_occlusion must be \(samples, distance\) or None")],
 )
 def test_bad_values_name_ambient_occlusion(value, error, message):
     with pytest.raises(error, match=message):

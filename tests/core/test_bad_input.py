@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import array
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -40,6 +42,11 @@ CASES = [
      ValueError, "material"),
     ("float material", lambda: scene().add_spheres([[0, 0, 0]], [1.0], material=1.5), TypeError, "material"),
     ("material count", lambda: scene().add_spheres([[0, 0, 0]], [1.0], material=np.array([0, 0])), ValueError, "material"),
+    ("ragged material", lambda: scene().add_spheres([[0, 0, 0], [1, 1, 1]], 1.0, material=[[0], [0, 1]]), TypeError,
+     "^material must be an array of numbers"),
+    ("bounds generator", lambda: scene().add_plane((0, 1, 0), 0.0, bounds=(v for v in [(0, 0, 0)] * 3)), TypeError,
+     "^bounds must be \\(corner, edge1, edge2\\) or None, got generator"),
+    ("bounds int", lambda: scene().add_plane((0, 1, 0), 0.0, bounds=3), TypeError, "^bounds must be .* got int"),
     ("zero normal", lambda: scene().add_plane((0, 0, 0), 1.0), ValueError, "normal"),
     ("NaN normal", lambda: scene().add_plane((0, NAN, 1), 1.0), ValueError, "normal"),
     ("inf offset", lambda: scene().add_plane((0, 1, 0), INF), ValueError, "offset"),
@@ -83,6 +90,12 @@ CASES = [
     ("width 0", lambda: durer.render(scene(), camera(), 0, 10), ValueError, "width"),
     ("height -1", lambda: durer.render(scene(), camera(), 10, -1), ValueError, "height"),
     ("float width", lambda: durer.render(scene(), camera(), 10.5, 10), TypeError, "width"),
+    ("width before region", lambda: durer.render(scene(), camera(), 0, 8, region=(0, 0, 1, 1)), ValueError,
+     "^width must be >= 1, got 0"),
+    ("height beyond the core's", lambda: durer.render(scene(), camera(), 8, 2**20 + 1), ValueError,
+     "^height must be <= 1048576"),
+    ("huge rays", lambda: camera().rays(2**31 - 1, 2**31 - 1), ValueError, "^width must be <= 1048576"),
+    ("rays height 0", lambda: camera().rays(2, 0), ValueError, "^height must be >= 1"),
     ("spp 0", lambda: durer.render(scene(), camera(), 4, 4, spp=0), ValueError, "spp"),
     ("negative seed", lambda: durer.render(scene(), camera(), 4, 4, seed=-1), ValueError, "seed"),
     ("unknown precision", lambda: durer.render(scene(), camera(), 4, 4, precision="half"), ValueError, "precision"),
@@ -106,6 +119,13 @@ CASES = [
     ("cast t range", lambda: durer.cast(scene(), [[0, 0, 0]], [[0, 0, 1]], t_min=2.0, t_max=1.0), ValueError, "t_min"),
     ("cast t_min NaN", lambda: durer.cast(scene(), [[0, 0, 0]], [[0, 0, 1]], t_min=NAN), ValueError, "t_min"),
     ("cast complex", lambda: durer.cast(scene(), np.zeros((1, 3), complex), [[0, 0, 1]]), TypeError, "origins"),
+    ("cast check string", lambda: durer.cast(scene(), [[0, 0, 0]], [[0, 0, 0]], check="no"), TypeError,
+     "^check must be True or False, got str"),
+    # the showcase
+    ("negative showcase count", lambda: durer.showcase_scene(-1), ValueError, "^small_spheres must be >= 0, got -1"),
+    ("float showcase count", lambda: durer.showcase_scene(2.0), TypeError, "^small_spheres must be an integer"),
+    ("float showcase seed", lambda: durer.showcase_scene(3, seed=1.5), TypeError, "^seed must be an integer"),
+    ("negative showcase seed", lambda: durer.showcase_scene(3, seed=-1), ValueError, "^seed must be >= 0"),
 ]
 
 
@@ -153,3 +173,86 @@ def test_threads_beyond_a_c_int_is_a_value_error_naming_it():
     camera = durer.OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0), 2)
     with pytest.raises(ValueError, match=r"^threads must be <= 2147483647, got 2147483648$"):
         durer.render(scene, camera, 4, 4, threads=2**31)
+
+
+@pytest.mark.parametrize(("field", "call"), [
+    ("offset", lambda big: scene().add_plane((0, 1, 0), big)),
+    ("exponent", lambda big: scene().add_material(exponent=big)),
+    ("blend", lambda big: scene().add_spot_light((0, 0, 0), (0, 0, 1), (1, 1, 1), half_angle_degrees=30, blend=big)),
+    ("size", lambda big: durer.OrthographicCamera(**{**ORTHO, "size": big})),
+    ("fov_degrees", lambda big: durer.PerspectiveCamera(**{**PERSP, "fov_degrees": big})),
+    ("min_weight", lambda big: durer.render(scene(), camera(), 4, 4, min_weight=big)),
+    ("target_error", lambda big: durer.render(scene(), camera(), 4, 4, sampler="adaptive", target_error=big)),
+    ("t_max", lambda big: durer.cast(scene(), [[0, 0, 0]], [[0, 0, 1]], t_max=big)),
+])
+def test_a_number_beyond_the_doubles_is_a_value_error_naming_it(field, call):
+    # float(10**400) raises OverflowError, which named nothing.
+    with pytest.raises(ValueError, match=f"^{field} must be within the range of a float"):
+        call(10**400)
+
+
+@pytest.mark.parametrize("given", [
+    lambda buf: memoryview(buf), lambda buf: buf, lambda buf: buf[:, :],
+    lambda buf: type("Wrapper", (), {"__array__": lambda self, dtype=None, copy=None: buf})(),
+])
+def test_the_scene_never_aliases_the_callers_memory(given):
+    # The scene keeps a record of every add for pickling (Dask workers render the unpickled copy): a
+    # buffer the caller changes afterwards must change neither the scene nor its pickle.
+    buf = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 2.0]])  # the second sphere in front of the first
+    s = durer.Scene()
+    s.add_spheres(given(buf), 1.0)
+    before = durer.render(s, camera(), 8, 8).depth
+    buf[1, 0] = 100  # the second sphere leaves the view: only an aliased record would see it
+    copy = pickle.loads(pickle.dumps(s))
+    np.testing.assert_array_equal(durer.render(copy, camera(), 8, 8).depth, before)
+
+
+def test_a_converted_buffer_is_not_copied_again():
+    floats = array.array("f", [0.0] * 6)  # float32: the float64 conversion is new memory, the record
+    s = durer.Scene()
+    s.add_spheres(np.frombuffer(floats, np.float32).reshape(2, 3), 1.0)
+    floats[3] = 100
+    recorded = s._adds[0][1][0]
+    assert recorded.flags.owndata and recorded[1, 0] == 0
+
+
+def test_every_add_takes_material_by_one_rule():
+    # One id may be a Python int, a numpy integer or a 0-d integer array, in every add; (N,) ids where
+    # an add makes N objects.
+    triangle = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    adds = (lambda s, m: s.add_spheres([[0, 0, 0]], 1.0, material=m),
+            lambda s, m: s.add_triangles([triangle], m),
+            lambda s, m: s.add_boxes([[0, 0, 0]], [[1, 1, 1]], m),
+            lambda s, m: s.add_plane((0, 0, 1), 0.0, material=m),
+            lambda s, m: s.add_mesh(triangle, [[0, 1, 2]], material=m),
+            lambda s, m: s.add_mesh_instances(triangle, [[0, 1, 2]], [np.eye(4)], material=m))
+    for one in (1, np.int64(1), np.array(1), np.array(1, np.uint8)):
+        s = durer.Scene()
+        s.add_material((1, 0, 0))
+        for add in adds:
+            add(s, one)
+        assert s.object_count == 6
+    for bad, error, message in ((np.array(1.0), TypeError, "^material must be an integer, got float64"),
+                                (np.array(2**31), ValueError, "^material must be <= 2147483647"),
+                                (True, TypeError, "^material must be an integer, got bool")):
+        for add in adds:
+            with pytest.raises(error, match=message):
+                add(durer.Scene(), bad)
+    with pytest.raises(TypeError, match="^material must be an integer, got list"):
+        durer.Scene().add_plane((0, 0, 1), 0.0, material=[0])  # a plane is one object
+
+
+def test_empty_lists_are_empty_adds_as_empty_arrays_are():
+    # np.asarray([]) is float64 of shape (0,): [] is still the caller's "none", as np.zeros((0, 3)) is.
+    s = scene()
+    assert s.add_spheres([], []).tolist() == []
+    assert s.add_spheres(np.zeros((0, 3)), 1.0, material=[], colors=[]).tolist() == []
+    assert s.add_triangles([], material=[]).tolist() == []
+    assert s.add_boxes([], [], colors=[]).tolist() == []
+    s.move_spheres([], [])
+    s.move_spheres([], [], [])
+    assert s.add_mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], []) == 1  # as with np.zeros((0, 3), int) faces
+    assert durer.cast(s, [], []).t.shape == (0,)
+    assert (s.sphere_count, s.object_count) == (1, 2)
+    with pytest.raises(ValueError, match=r"^centers must have shape \(N, 3\), got \(0, 2\)"):
+        s.add_spheres(np.zeros((0, 2)), 1.0)  # an explicit empty array of the wrong width is still wrong

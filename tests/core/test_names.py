@@ -183,3 +183,32 @@ def test_invertibility_is_one_rule_for_the_core_and_the_package(matrix, invertib
             _checks.transform(four)
         with pytest.raises(ValueError, match="transform"):
             durer.Scene().add_spheres([[0, 0, 0]], 1.0, transform=four)
+
+
+def test_is_invertible_has_one_home_and_asks_what_a_scene_asks():
+    from durer.blender.export import matrices
+    from durer.course import scene_file
+
+    # the export (what it asks of matrix_world) and the course reader call _checks' own
+    assert not hasattr(matrices, "is_invertible") and not hasattr(scene_file, "is_invertible")
+    projective = np.eye(4)
+    projective[3] = (1, 0, 0, 1)  # invertible, but not affine: no Scene takes it
+    with pytest.raises(ValueError, match="^transform must be affine"):
+        durer.Scene().add_spheres([[0, 0, 0]], 1.0, transform=projective)
+    assert not _checks.is_invertible(projective)
+    assert not _checks.is_invertible(np.full((4, 4), np.nan)) and not _checks.is_invertible(np.eye(3))
+
+
+def test_the_largest_image_side_is_the_cores():
+    # The package reads the core's limit (RENDER_LIMITS); the core's own check, when render's are
+    # bypassed, says the same number.
+    side = _checks.MAX_IMAGE_SIDE
+    assert side == _core.RENDER_LIMITS["side"] == 2**20
+    spec = durer.OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0))._spec
+    with pytest.raises(ValueError, match=rf"^width must be in \[1, {side}\], got {side + 1}$"):
+        _core.render(_core.Scene(), spec, side + 1, 1, 1, 0, "center", 0.01, 1, 0.0, "double", "robust", ["depth"],
+                     "ray", 1, False, 0, 0.01, None, lambda f: False, {}, (0, 0, 0, 0))
+    assert durer.render(durer.Scene(), durer.OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0)), side, 1,
+                        passes=("depth",), region=(side - 1, 0, 1, 1)).depth.shape == (1, 1)
+    with pytest.raises(ValueError, match=f"^width must be <= {side}, got {side + 1}$"):
+        durer.render(durer.Scene(), durer.OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0)), side + 1, 1)

@@ -274,8 +274,16 @@ def test_visualisations():
     np.testing.assert_allclose(durer.depth_to_gray(depth, 1.0, 3.0), [[1, 0.5, 0, 0, 1]])
     normal = np.array([[[-0.6, 0.0, 0.8]]], np.float32)
     np.testing.assert_allclose(durer.normal_to_rgb(normal), [[[0.6, 0, 0.8]]])
-    with pytest.raises(ValueError, match="near"):
+    with pytest.raises(ValueError, match="^near must be < far"):
         durer.depth_to_gray(depth, 3.0, 1.0)
+    for near, error, message in (("a", TypeError, "^near must be a real number, got str"),
+                                 (None, TypeError, "^near must be a real number, got NoneType"),
+                                 (10**400, ValueError, "^near must be within the range of a float"),
+                                 (-math.inf, ValueError, "^near must be finite")):
+        with pytest.raises(error, match=message):
+            durer.depth_to_gray(depth, near, 3.0)
+    with pytest.raises(TypeError, match="^far must be a real number"):
+        durer.depth_to_gray(depth, 1.0, [3.0])
 
 
 def test_save_image_roundtrip(tmp_path):
@@ -289,3 +297,13 @@ def test_save_image_roundtrip(tmp_path):
     assert pixels.shape == (2, 3, 4)
     assert tuple(pixels[0, 0]) == (255, 188, 0, 255)  # linear 0.5 is sRGB 188
     assert tuple(pixels[1, 2]) == (128, 128, 128, 128)
+
+
+def test_save_image_refuses_nan_pixels_and_a_non_boolean_srgb(tmp_path):
+    pixels = np.zeros((2, 3, 3))
+    pixels[1, 2, 0] = np.nan  # a bug upstream: it was written as black, with only a RuntimeWarning
+    with pytest.raises(ValueError, match=r"^pixels must not be NaN, got NaN at index \(1, 2, 0\)"):
+        durer.save_image(tmp_path / "nan.png", pixels)
+    with pytest.raises(TypeError, match="^srgb must be True or False, got str"):
+        durer.save_image(tmp_path / "x.png", np.zeros((2, 2)), srgb="no")  # "no" was truthy: encoded
+    assert not (tmp_path / "nan.png").exists() and not (tmp_path / "x.png").exists()

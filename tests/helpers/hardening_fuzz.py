@@ -63,13 +63,17 @@ NUMBERS = (
     1e8, 1e15, 1e30, 3.4028234663852886e38, 3.5e38, 1e39, 1e150, 1e154, 1e200, 1e300, 1e307, 1e308,
     1.7976931348623157e308, math.inf, -math.inf, math.nan, -1e308, -1e39, 2.0**31, 2.0**32 + 1, 2.0**63,
 )
-INTEGERS = (0, 1, 2, 3, 4, -1, 7, 8, 16, 2**31 - 1, 2**31, -(2**31) - 1, 2**32 + 1, 2**63, 2**64, -(2**63), 10**30)
-#: Issue 18 item 3 (extreme numbers give finite passes or are refused) is not done yet: without
-#: `extremes` the cases keep every number in 1e-6..1e6 in magnitude (or 0, or refused forms).
+#: Python integers, some beyond every float (10**400: float() of it overflows).
+INTEGERS = (0, 1, 2, 3, 4, -1, 7, 8, 16, 2**31 - 1, 2**31, -(2**31) - 1, 2**32 + 1, 2**63, 2**64, -(2**63), 10**30,
+            10**400, -(10**400))
+#: Extreme numbers give finite passes or are refused; without `extremes` the cases keep every number
+#: in 1e-6..1e6 in magnitude (or 0, or refused forms).
 ORDINARY = 1e6
 
 
 def ordinary(x: float) -> bool:
+    if isinstance(x, int):  # exact: no float of 10**400
+        return abs(x) <= ORDINARY
     return x == 0 or not math.isfinite(x) or 1 / ORDINARY <= abs(x) <= ORDINARY
 
 
@@ -183,7 +187,8 @@ class Source:
         if roll < 250:
             n = self.choice(INTEGERS)
             return self.checked(n) if self.extremes or abs(n) <= ORDINARY else self.below(8)
-        return self.choice((None, "1", True, [1.0], (1.0, 2.0), {}, np.float32(2.5), np.int64(3), 1 + 2j, b"x"))
+        return self.choice((None, "1", True, [1.0], (1.0, 2.0), {}, np.float32(2.5), np.int64(3), 1 + 2j, b"x",
+                            np.array(1.5), (x for x in (1.0, 2.0, 3.0))))
 
     def array(self, shape: tuple[int, ...], ordinary: Callable[[], float]) -> Any:
         """An array of `shape`, or now and then of another shape or dtype, ragged, or a scalar."""
@@ -194,12 +199,16 @@ class Source:
         if roll < 240:
             wrong = tuple(max(0, s + self.below(3) - 1) for s in shape) + ((self.below(3) + 1,) if self.chance(40) else ())
             return np.full(wrong, ordinary())
-        if roll < 250:
+        if roll < 246:
             dtype = self.choice(DTYPES)
             try:
                 return np.full(shape, ordinary()).astype(dtype)
             except (TypeError, ValueError):
                 return np.zeros(shape, dtype=dtype)
+        if roll < 250:  # other buffers and layouts of the same numbers: a memoryview, a strided or big-endian view
+            values = np.full(shape, ordinary())
+            return self.choice((memoryview(values), np.asfortranarray(values), values.astype(">f8"),
+                                np.repeat(values, 2, axis=-1)[..., ::2] if values.ndim else values))
         return self.choice(([[1, 2], [3]], "abc", None, 7, [[[]]], [np.nan] * 3, ()))
 
 

@@ -245,7 +245,7 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
         default=RENDER_DEFAULTS["max_bounces"],
         min=0,
         soft_max=16,
-        max=1024,
+        max=durer._core.RENDER_LIMITS["max_bounces"],
     )
     min_weight: FloatProperty(
         name="Min Weight",

@@ -259,15 +259,6 @@ def rodrigues_matrix(axis: Vec3, degrees: float) -> np.ndarray:
     return m
 
 
-def is_invertible(matrix: np.ndarray) -> bool:
-    """Does the core take `matrix` as a transform (durer._checks.transform: the core's one rule)?"""
-    try:
-        _checks.transform(matrix, "transform")
-    except ValueError:
-        return False
-    return True
-
-
 def _transform_argument(matrix: np.ndarray) -> np.ndarray | None:
     return None if np.array_equal(matrix, _IDENTITY) else matrix
 
@@ -671,14 +662,14 @@ class _Parser:
         local = np.eye(4)
         while (token := self.next("a transform op or an object")).text in _OPS:
             op = self.op(token)
-            if not is_invertible(op):
+            if not _checks.is_invertible(op):
                 raise self.error(token.line, f"{token.text} is not invertible: expected a non-singular transform")
             local = op @ local if token.text == "Matrix" else local @ op
         if token.text not in _OBJECTS:
             raise self.error(token.line, f"expected a transform op ({_listing(_OPS)}) or an object "
                                          f"({_listing(_OBJECTS)}) in Transform, got '{token.text}'")
         world = parent @ local
-        if not is_invertible(world):
+        if not _checks.is_invertible(world):
             raise self.error(keyword.line, "the composed transform is not invertible")
         self.object(token, _frozen(world))
         self.close()

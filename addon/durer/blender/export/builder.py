@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..._checks import is_invertible
 from .attribute_colors import ColorSource, Unmapped, color_source, part_colors, read_values
 from .data import IDENTITY, MeshData, ObjectData, PlaneData, SceneData, TransformedSpheres
 from .materials import material_data, object_materials
-from .matrices import is_invertible, transform_points, uniform_scale
+from .matrices import transform_points, uniform_scale
 from .shapes import MeshShape
 from .triangles import TrianglePart
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ... import _checks, _core
+from ... import _core
 
 #: Relative spread of an object's axis scales above which its scale counts as non-uniform.
 SCALE_TOLERANCE = 1e-4
@@ -31,16 +31,6 @@ def uniform_scales(linear: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     uniform = ((np.abs(gram - np.eye(3)).max(axis=(1, 2)) <= SCALE_TOLERANCE)
                & (np.ptp(norms, axis=1) <= SCALE_TOLERANCE * norms.max(axis=1)) & (s > 0))
     return s, uniform
-
-
-def is_invertible(m: np.ndarray) -> bool:
-    """Can the core take `m` as a transform (durer._checks.transform: the core's one rule)? The
-    export puts a mesh it cannot take in world space instead."""
-    try:
-        _checks.transform(m, "matrix_world")
-    except ValueError:
-        return False
-    return True
 
 
 def are_invertible(matrices: np.ndarray) -> np.ndarray:

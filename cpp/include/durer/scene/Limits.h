@@ -26,6 +26,15 @@ inline constexpr NumericLimits kLimits[] = {
     {"double", 1e36, 1e18},
 };
 
+// What one render accepts besides numbers (durer._core.RENDER_LIMITS for the package and Blender's
+// settings): an image side, samples per pixel and min_spp up to `side` (keeps width·height·spp well
+// inside int64), and ray trees up to `maxBounces` deep.
+struct RenderLimits {
+  int side;
+  int maxBounces;
+};
+inline constexpr RenderLimits kRenderLimits{1 << 20, 1000};
+
 template <typename Real>
 constexpr double coordinateLimit() {
   return kLimits[std::is_same_v<Real, float> ? 0 : 1].coordinate;
