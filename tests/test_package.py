@@ -56,3 +56,23 @@ def test_demo_refuses_bad_output_paths_and_sizes_in_one_line(tmp_path, capsys):
             main(["demo", "--output", str(tmp_path / "x.png"), *args] if "--output" not in args else ["demo", *args])
         assert exit_info.value.code == 2 and message in capsys.readouterr().err
     assert not (tmp_path / "x.png").exists() and not (tmp_path / "x.xyz").exists()
+
+
+@pytest.mark.parametrize("suffix, message", [(".eps", "image mode is not supported"),
+                                             (".pcx", "Cannot save RGBA images as PCX"),
+                                             (".h5", "HDF5 save handler not installed")])
+def test_demo_refuses_a_format_pillow_cannot_write_a_render_in_before_rendering(tmp_path, capsys, monkeypatch,
+                                                                                suffix, message):
+    # Pillow lists these as writable, but not for an RGBA render (or has no writer here): the output
+    # path's check (visualize.image_path) finds out before the render, by writing one pixel to memory.
+    from durer.__main__ import main
+
+    monkeypatch.setattr(durer, "render", lambda *args, **kwargs: pytest.fail("rendered before the format check"))
+    with pytest.raises(SystemExit) as exit_info:
+        main(["demo", "--output", str(tmp_path / f"x{suffix}")])
+    assert exit_info.value.code == 2
+    path = tmp_path / f"x{suffix}"
+    err = capsys.readouterr().err
+    assert f"the image path's format cannot hold a render ({message}); use one of .bmp" in err
+    assert err.endswith(f"got '{path}'\n")
+    assert list(tmp_path.iterdir()) == []

@@ -238,6 +238,15 @@ def test_light_paths_settings_defaults_and_kwargs(scene):
         assert kwargs[key] == value
 
 
+def test_float_settings_reach_the_render_as_typed_at_any_magnitude(scene):
+    # Blender stores them as float32: read back as the shortest decimal, one way for all (rounding to
+    # six places made a min_weight of 1.5e-7 a 0, which turns the weight cut off).
+    settings = scene.durer
+    settings.min_weight, settings.target_error, settings.time_limit = 1.5e-7, 0.0123456789, 1.1
+    kwargs = engine.render_kwargs(settings)
+    assert (kwargs["min_weight"], kwargs["target_error"], kwargs["time_limit"]) == (1.5e-7, 0.012345679, 1.1)
+
+
 def test_stats_line_shows_the_effect_set():
     line = engine.stats_line(64, 48, 2, {"effects": ("diffuse", "reflection", "shadows"), "mrays_per_s": 12.34})
     assert line == "Dürer | 64x48 | 2 spp | diffuse + reflection + shadows | 12.3 Mrays/s"

@@ -248,6 +248,25 @@ def test_parse_frames():
             batch.parse_frames(bad)
 
 
+def test_parse_frames_checks_each_frame_and_renders_it_once():
+    low, high = batch.frame_range()
+    assert (low, high) == (-1048574, 1048574)  # Blender 5.0's; frame_set clamps beyond them
+    assert batch.parse_frames("2,2") == [2] and batch.parse_frames("1-3,2,1") == [1, 2, 3]
+    assert batch.parse_frames([3, 1, 3]) == [3, 1] and batch.parse_frames(f"{low},{high}") == [low, high]
+    # a range's ends are checked before it is expanded (no list of 10**11 frames first)
+    for spec, message in (("1-99999999999", r"^frames must be <= 1048574, got 99999999999$"),
+                          (f"{low - 1}", r"^frames must be >= -1048574, got -1048575$"),
+                          (high + 1, r"^frames must be <= 1048574, got 1048575$")):
+        with pytest.raises(ValueError, match=message):
+            batch.parse_frames(spec)
+    for spec, message in (([1.7, 2.2], r"^frames\[0\] must be an integer, got float$"),
+                          (True, r"^frames must be an integer, got bool$"),
+                          (["a"], r"^frames\[0\] must be an integer, got str$"),
+                          (1.5, r"^frames must be a string such as 1-48, an integer or integers, got float$")):
+        with pytest.raises(TypeError, match=message):
+            batch.parse_frames(spec)
+
+
 def test_render_file_frames_and_output(scene, tmp_path):
     blend = saved_blend(scene, tmp_path / "anim.blend")
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -265,6 +284,35 @@ def test_render_file_frames_and_output(scene, tmp_path):
     assert engine.last_render.samples == 2
     first, last = (np.array(Image_pixels(f)) for f in (files[0], files[2]))
     assert not np.array_equal(first, last)  # the ball moved
+
+
+def test_a_frame_given_twice_is_rendered_once_under_the_plain_name(scene, tmp_path):
+    blend = saved_blend(scene, tmp_path / "twice.blend")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    files = batch.render_file(blend, frames="2,2", output=tmp_path / "still.png", samples=1)
+    assert files == [tmp_path / "still.png"]  # not still_0002.png, written twice
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["still.png", "twice.blend"]
+
+
+def test_threads_reach_the_renders_in_this_process(scene, tmp_path):
+    blend = saved_blend(scene, tmp_path / "threads.blend")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    batch.render_file(blend, frames=1, output=tmp_path / "one.png", samples=1, threads=3)
+    assert engine.last_render.stats["threads"] == 3
+    assert batch.main([str(blend), "-q", "-f", "1", "-o", str(tmp_path / "two.png"), "--threads", "1"]) == 0
+    assert engine.last_render.stats["threads"] == 1
+    with pytest.raises(ValueError, match=r"^threads must be >= 1, got 0$"):
+        batch.render_file(blend, threads=0)
+
+
+def test_an_output_that_cannot_be_made_is_one_line_and_exit_code_2(scene, tmp_path, capsys):
+    blend = saved_blend(scene, tmp_path / "out.blend")
+    (tmp_path / "a_file").write_text("")
+    assert batch.main([str(blend), "-q", "-f", "1", "-o", str(tmp_path / "a_file" / "x.png")]) == 2
+    assert capsys.readouterr().err == ("python -m durer render: error: [Errno 20] "
+                                       f"'{tmp_path / 'a_file'}' is a file, not a folder\n")
+    assert batch.main([str(blend), "-q", "--threads", "0"]) == 2
+    assert capsys.readouterr().err == "python -m durer render: error: --threads must be >= 1, got 0\n"
 
 
 def test_render_file_into_a_directory(scene, tmp_path):
@@ -362,6 +410,21 @@ def wheel_of_installed_durer(directory: Path) -> Path:
         z.writestr(f"{info}/RECORD", "")
     assert pkg.is_dir()
     return path
+
+
+def test_extension_refuses_bad_wheels_in_one_line_and_leaves_no_partial_zip(tmp_path, capsys):
+    wheel = wheel_of_installed_durer(tmp_path)
+    (tmp_path / "foo.txt").write_text("")
+    missing = tmp_path / "missing.whl"
+    for bad, message in ((missing, f"--wheel {missing}: no such file"),
+                         (tmp_path / "foo.txt", "not a wheel file name: foo.txt")):
+        with pytest.raises(SystemExit) as exit_info:
+            extension.main(["--wheel", str(bad), "--dist", str(tmp_path / "dist")])
+        assert exit_info.value.code == 2 and capsys.readouterr().err.endswith(f"error: {message}\n")
+    # An extra wheel that vanishes while the zip is written: no truncated zip is left behind.
+    with pytest.raises(FileNotFoundError):
+        extension.build_zip([wheel, tmp_path / "gone-1.0-py3-none-any.whl"], tmp_path / "dist")
+    assert list((tmp_path / "dist").iterdir()) == []
 
 
 def test_extension_zip_installs_and_renders(tmp_path):

@@ -74,15 +74,19 @@ def test_preview_options_are_accepted_and_ignored():
     ("-size 2 2 -output o.png", "the following arguments are required: -input"),
     ("-input s.txt -size 2 -output o.png", "argument -size: expected 2 arguments"),
     ("-input s.txt -size 2 x -output o.png", "argument -size: invalid int value: 'x'"),
-    ("-input s.txt -size 0 2 -output o.png", "-size needs positive integers, got 0 2"),
+    # render's limits (the core's among them), named by the course's options, before the scene is read
+    ("-input s.txt -size 0 2 -output o.png", "-size WIDTH must be >= 1, got 0"),
+    ("-input s.txt -size 10 9999999 -output o.png", "-size HEIGHT must be <= 1048576, got 9999999"),
+    ("-input s.txt -size 2 2 -output o.png -bounces 5000", "-bounces must be in [0, 1000], got 5000"),
+    ("-input s.txt -size 2 2 -output o.png -spp 2000000", "-spp must be in [1, 1048576], got 2000000"),
     ("-input s.txt -size 2 2 -output o.jpg", "-output o.jpg: the image must end in .png or .tga"),
     ("-input s.txt -size 2 2 -output o.png -depth 5 5 d.png", "-depth needs MIN < MAX, got 5 5"),
     ("-input s.txt -size 2 2 -output o.png -depth a 5 d.png", "-depth MIN must be a number, got 'a'"),
     ("-input s.txt -size 2 2 -output o.png -depth 1 5 d.bmp", "-depth d.bmp: the image must end in .png or .tga"),
     ("-input s.txt -size 2 2 -output o.png -normals n", "-normals n: the image must end in .png or .tga"),
-    ("-input s.txt -size 2 2 -output o.png -bounces -1", "-bounces must be >= 0, got -1"),
-    ("-input s.txt -size 2 2 -output o.png -weight nan", "-weight must be a finite number >= 0, got nan"),
-    ("-input s.txt -size 2 2 -output o.png -spp 0", "-spp must be >= 1, got 0"),
+    ("-input s.txt -size 2 2 -output o.png -bounces -1", "-bounces must be in [0, 1000], got -1"),
+    ("-input s.txt -size 2 2 -output o.png -weight nan", "-weight must be finite and >= 0, got nan"),
+    ("-input s.txt -size 2 2 -output o.png -spp 0", "-spp must be in [1, 1048576], got 0"),
     ("-input s.txt -size 2 2 -output o.png -precision half", "argument -precision: invalid choice: 'half'"),
     ("-input s.txt -size 2 2 -output o.png -foo", "unrecognized option: -foo"),
     ("-inp s.txt -size 2 2 -output o.png", "unrecognized option: -inp"),  # no abbreviations
@@ -315,6 +319,16 @@ def test_gallery_command(tmp_path, capsys):
     assert (colours[0] != colours[1]).any()  # inside the sphere, -shade_back shows what no-back leaves unlit
     assert "- **Machine:** " in text and f"{len(rows)} command lines" in text
     assert "wrote" in capsys.readouterr().out
+
+
+def test_gallery_refuses_a_page_it_could_not_write_before_rendering(tmp_path, capsys, monkeypatch):
+    (tmp_path / "a_file").write_text("")
+    monkeypatch.setattr(gallery, "render_gallery", lambda *args: pytest.fail("rendered before the --page check"))
+    with pytest.raises(SystemExit) as info:
+        gallery.main(["--page", str(tmp_path / "a_file" / "g.md")])
+    assert info.value.code == 2
+    assert capsys.readouterr().err.endswith(f"error: --page {tmp_path / 'a_file' / 'g.md'}: "
+                                            f"'{tmp_path / 'a_file'}' is a file, not a folder\n")
 
 
 def test_gallery_only_matching_nothing_fails(tmp_path, capsys):

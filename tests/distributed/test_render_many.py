@@ -93,6 +93,21 @@ def test_bad_arguments_raise_before_any_task_and_task_errors_come_back(client):
     assert pickle.loads(pickle.dumps(camera)) == camera
 
 
+@pytest.mark.parametrize("options, error, message", [
+    ({"sampler": "bogus"}, ValueError, "sampler must be 'center', "),
+    ({"threads": 0}, ValueError, "threads must be >= 1"),
+    ({"spp": 0}, ValueError, r"spp must be in \[1, "), ({"max_bounces": 5000}, ValueError, "max_bounces must be in"),
+    ({"progress": "yes"}, TypeError, "progress must be True or False"),
+    ({"ordered": None}, TypeError, "ordered must be True or False"),
+])
+def test_bad_arguments_raise_at_the_call_not_at_the_first_result(options, error, message):
+    # render_many returns a generator: without checking first, these waited for next()
+    with pytest.raises(error, match=message):
+        durer.render_many(SCENE, orbit_cameras(2), 8, 8, **options)
+    with pytest.raises(ValueError, match="height must be <= 1048576"):
+        durer.render_many(SCENE, orbit_cameras(2), 8, 2**20 + 1)
+
+
 class _CtrlCInAFinaliser:
     """Ctrl-C pressed while the garbage collector finalises an object (a Dask future, say): its
     KeyboardInterrupt is raised in __del__, where Python prints and drops it."""

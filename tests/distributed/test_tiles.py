@@ -70,6 +70,17 @@ def test_tile_regions_cover_the_image_once():
         tile_regions(45, 37, 0)
 
 
+def test_render_tiles_checks_its_options_before_any_tile(monkeypatch):
+    # The image limit is render's (durer._checks.MAX_IMAGE_SIDE), not a copy: a changed one is seen here.
+    monkeypatch.setattr(durer._checks, "MAX_IMAGE_SIDE", 64)
+    with pytest.raises(ValueError, match="width must be <= 64, got 65"):
+        tile_regions(65, 1)
+    with pytest.raises(TypeError, match="progress must be True or False"):
+        durer.render_tiles(SCENE, CAMERA, 16, 16, progress="yes")
+    with pytest.raises(ValueError, match="sampler must be"):
+        durer.render_tiles(SCENE, CAMERA, 16, 16, sampler="bogus", client=object())  # before any task is sent
+
+
 @pytest.mark.parametrize("options", [{"spp": 4}, {"spp": 16, "sampler": "adaptive", "target_error": 0.002},
                                      {"spp": 2, "passes": ("color", "object_id", "material_id")}])
 def test_render_tiles_locally_equals_one_render(options):

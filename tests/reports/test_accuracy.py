@@ -270,6 +270,18 @@ def test_quick_command(tmp_path, capsys):
     assert "target: adaptive reaches" in out and f"wrote {output}" in out
 
 
+def test_a_page_that_could_not_be_written_is_refused_before_measuring(tmp_path, capsys, monkeypatch):
+    import durer.reports.accuracy.cli as cli
+
+    monkeypatch.setattr(cli, "measure", lambda *args: pytest.fail("measured before the --output check"))
+    (tmp_path / "a_file").write_text("")
+    with pytest.raises(SystemExit) as info:
+        main(["--quick", "--output", str(tmp_path / "a_file" / "accuracy.md")])
+    assert info.value.code == 2
+    assert capsys.readouterr().err.endswith(f"error: --output {tmp_path / 'a_file' / 'accuracy.md'}: "
+                                            f"'{tmp_path / 'a_file'}' is a file, not a folder\n")
+
+
 def test_command_is_registered():
     from durer.__main__ import COMMANDS
 

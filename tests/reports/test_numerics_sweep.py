@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from durer.reports import numerics
 
 
@@ -38,3 +40,15 @@ def test_command_writes_table_and_plot(tmp_path, capsys):
     assert (tmp_path / "numerics-sweep.png").stat().st_size > 10_000
     assert "| double | robust |" in doc.read_text()
     assert "Worst relative error of t" in capsys.readouterr().out
+
+
+def test_a_page_the_sweep_could_not_be_written_to_is_refused_before_the_sweep(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(numerics, "sweep", lambda: pytest.fail("swept before the --doc check"))
+    (tmp_path / "a_file").write_text("")
+    (tmp_path / "no_end.md").write_text(f"# Numerics\n{numerics.MARKER_BEGIN}\nold table\n")
+    for doc, message in ((tmp_path / "a_file" / "n.md", f"'{tmp_path / 'a_file'}' is a file, not a folder"),
+                         (tmp_path, "a folder, not a file"),
+                         (tmp_path / "no_end.md", f"the generated block has no end marker ({numerics.MARKER_END})")):
+        with pytest.raises(SystemExit) as info:
+            numerics.main(["--doc", str(doc)])
+        assert info.value.code == 2 and capsys.readouterr().err.endswith(f"{message}\n")

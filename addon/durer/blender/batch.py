@@ -7,14 +7,20 @@ calls `main`; scripts call `render_file`.
 from __future__ import annotations
 
 import argparse
+import numbers
 import os
 import re
 import sys
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .. import _checks
 from ..distributed.output import is_complete
+from ..visualize import make_folder_for
+
+if TYPE_CHECKING:
+    import bpy
 
 #: Image formats chosen from the output file's extension.
 FORMATS = {
@@ -34,34 +40,56 @@ class BatchRenderError(RuntimeError):
     """A frame failed to render (the message says which and why)."""
 
 
+def frame_range() -> tuple[int, int]:
+    """The frames Blender renders: the hard bounds of scene.frame_current, their one home (frame_set
+    would clamp a frame beyond them silently)."""
+    import bpy
+
+    setting = bpy.types.Scene.bl_rna.properties["frame_current"]
+    return setting.hard_min, setting.hard_max
+
+
 def parse_frames(spec: str | int | Iterable[int] | None) -> list[int] | None:
-    """'1-48' -> [1..48]; '1,5,10-12' -> [1, 5, 10, 11, 12]; 7 -> [7]; None -> None (current frame)."""
+    """'1-48' -> [1..48]; '1,5,10-12' -> [1, 5, 10, 11, 12]; 7 -> [7]; None -> None (current frame).
+
+    Every frame is an integer in `frame_range` (a range's ends are checked before it is expanded); a
+    frame given twice is rendered once, where it first appears. Errors name `frames`."""
     if spec is None:
         return None
-    if isinstance(spec, int):
-        return [spec]
-    if not isinstance(spec, str):
-        frames = [int(f) for f in spec]
+    low, high = frame_range()
+    if isinstance(spec, str):
+        frames = _frames_of_text(spec, low, high)
+    elif isinstance(spec, numbers.Integral):  # bool included: _checks.integer refuses it
+        frames = [_checks.integer(spec, "frames", low, high)]
+    else:
+        try:
+            items = list(spec)
+        except TypeError:
+            raise TypeError(f"frames must be a string such as 1-48, an integer or integers, got "
+                            f"{type(spec).__name__}") from None
+        frames = [_checks.integer(f, f"frames[{i}]", low, high) for i, f in enumerate(items)]
         if not frames:
             raise ValueError("frames must not be empty")
-        return frames
+    return list(dict.fromkeys(frames))
+
+
+def _frames_of_text(spec: str, low: int, high: int) -> list[int]:
+    usage = f"frames must look like 1-48 or 1,5,10-12, got {spec!r}"
     frames: list[int] = []
     for part in spec.replace(" ", "").split(","):
         if not part:
             continue
+        dash = part.find("-", 1)  # a leading "-" is a negative first frame's
         try:
-            if "-" in part[1:]:
-                i = part.index("-", 1)
-                first, last = int(part[:i]), int(part[i + 1 :])
-                if last < first:
-                    raise ValueError
-                frames.extend(range(first, last + 1))
-            else:
-                frames.append(int(part))
+            first, last = (int(part[:dash]), int(part[dash + 1 :])) if dash > 0 else (int(part), int(part))
         except ValueError:
-            raise ValueError(f"frames must look like 1-48 or 1,5,10-12, got {spec!r}") from None
+            raise ValueError(usage) from None
+        if last < first:
+            raise ValueError(usage)
+        first, last = _checks.integer(first, "frames", low, high), _checks.integer(last, "frames", low, high)
+        frames.extend(range(first, last + 1))
     if not frames:
-        raise ValueError(f"frames must look like 1-48 or 1,5,10-12, got {spec!r}")
+        raise ValueError(usage)
     return frames
 
 
@@ -91,6 +119,7 @@ def render_file(
     progress: bool | Callable[[int, float], object] = False,
     scene: str | None = None,
     resume: bool = False,
+    threads: int | None = None,
 ) -> list[Path]:
     """Render frames of a .blend file with Dürer and write them; returns the written files.
 
@@ -103,6 +132,7 @@ def render_file(
     progress: True draws a progress bar per frame (stderr); a callable gets (frame, fraction).
     scene:   the scene to render (default: the file's active scene).
     resume:  skip frames whose output file exists and is complete (not in the returned list).
+    threads: render threads per frame, overriding scene.durer.threads.
 
     Raises FileNotFoundError for a missing file and BatchRenderError when a frame fails.
     """
@@ -112,7 +142,7 @@ def render_file(
 
     blend = Path(path).expanduser().resolve()
     frame_list = parse_frames(frames)
-    sc = open_blend(blend, scene, samples)
+    sc = open_blend(blend, scene, samples, threads)
     if frame_list is None:
         frame_list = [sc.frame_current]
     explicit = configure_output(sc, output, len(frame_list))
@@ -127,7 +157,7 @@ def render_file(
             target = frame_target(sc, explicit, frame)
             if resume and is_complete(target):
                 continue
-            target.parent.mkdir(parents=True, exist_ok=True)
+            make_folder_for(target)
             sc.frame_set(frame)
             sc.render.filepath, sc.render.use_file_extension = str(target), False
             _render_frame(bpy, engine, sc, blend, frame, len(frame_list) - i, progress)
@@ -153,9 +183,11 @@ def setting_range(name: str) -> tuple[int, int]:
     return setting.hard_min, setting.hard_max
 
 
-def open_blend(blend: Path, scene: str | None = None, samples: int | None = None):
+def open_blend(
+    blend: Path, scene: str | None = None, samples: int | None = None, threads: int | None = None
+) -> bpy.types.Scene:
     """Open `blend` (an absolute path) in bpy with Dürer registered and return the scene to render
-    (`scene` or the active one) with the DURER engine and `samples`, if given, set."""
+    (`scene` or the active one) with the DURER engine and `samples` and `threads`, if given, set."""
     import bpy
 
     from . import register
@@ -168,6 +200,8 @@ def open_blend(blend: Path, scene: str | None = None, samples: int | None = None
         raise FileNotFoundError(f"No such .blend file: {blend}")
     if samples is not None:
         samples = _checks.integer(samples, "samples", *setting_range("samples"))
+    if threads is not None:  # None, not 0, is "the file's setting" here
+        threads = _checks.integer(threads, "threads", 1, setting_range("threads")[1])
     register()
     try:
         bpy.ops.wm.open_mainfile(filepath=str(blend), load_ui=False)
@@ -181,12 +215,14 @@ def open_blend(blend: Path, scene: str | None = None, samples: int | None = None
     sc.render.engine = "DURER"
     if samples is not None:
         sc.durer.samples = samples
+    if threads is not None:
+        sc.durer.threads = threads
     if sc.camera is None:
         raise BatchRenderError(f"Scene '{sc.name}' in {blend} has no camera")
     return sc
 
 
-def configure_output(sc, output: str | os.PathLike | None, frame_count: int) -> str | None:
+def configure_output(sc: bpy.types.Scene, output: str | os.PathLike | None, frame_count: int) -> str | None:
     """Set the scene's output path and format from `output` (see `render_file`); returns the output
     pattern when it has a known image extension ("#" runs become the frame), else None (Blender's
     own frame_path numbering and extension apply)."""
@@ -211,7 +247,7 @@ def configure_output(sc, output: str | os.PathLike | None, frame_count: int) -> 
     return out if ext in FORMATS else None
 
 
-def frame_target(sc, explicit: str | None, frame: int) -> Path:
+def frame_target(sc: bpy.types.Scene, explicit: str | None, frame: int) -> Path:
     """The file frame `frame` is written to."""
     import bpy
 
@@ -257,13 +293,14 @@ def build_parser(prog: str = "python -m durer render") -> argparse.ArgumentParse
     )
     p.add_argument("--samples", "-s", type=int, help="samples per pixel (default: the file's Dürer setting)")
     p.add_argument("--scene", help="scene to render (default: the active scene)")
+    p.add_argument("--threads", type=int, metavar="T",
+                   help="render threads per frame (default: the file's Dürer setting; on a cluster 1)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bars")
     cluster = p.add_argument_group("distributed (Dask; docs/distributed.md)")
     cluster.add_argument("--workers", "-w", type=int, nargs="?", const=0, metavar="N",
                          help="render on a local Dask cluster of N worker processes (N omitted or 0: one per core; "
                               "1: this process, as without the option)")
     cluster.add_argument("--scheduler", metavar="ADDRESS", help="render on an existing Dask cluster (tcp://host:8786)")
-    cluster.add_argument("--threads", type=int, metavar="T", help="render threads per frame on a worker (default 1)")
     cluster.add_argument("--resume", action=argparse.BooleanOptionalAction, default=None,
                          help="skip frames whose output exists and is complete (default on a cluster; "
                               "--no-resume renders them again)")
@@ -279,8 +316,6 @@ def _main_distributed(args: argparse.Namespace, prog: str) -> int:
         require_distributed()
         if args.workers is not None and args.workers < 0:
             raise ValueError(f"--workers must be >= 1, got {args.workers}")
-        if args.threads is not None:
-            _checks.integer(args.threads, "--threads", 1, setting_range("threads")[1])
         parse_frames(args.frames)  # bad input is reported before a cluster starts
         if not Path(args.file).is_file():
             raise FileNotFoundError(f"No such .blend file: {Path(args.file).resolve()}")
@@ -315,6 +350,12 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m durer render"
             f"{prog}: error: rendering .blend files needs Blender's bpy module: pip install bpy==5.0.1", file=sys.stderr
         )
         return 2
+    if args.threads is not None:
+        try:
+            _checks.integer(args.threads, "--threads", 1, setting_range("threads")[1])
+        except ValueError as exc:
+            print(f"{prog}: error: {exc}", file=sys.stderr)
+            return 2
     if args.scheduler is not None or (args.workers is not None and args.workers != 1):
         return _main_distributed(args, prog)
     try:
@@ -326,8 +367,9 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m durer render"
             progress=not args.quiet,
             scene=args.scene,
             resume=bool(args.resume),
+            threads=args.threads,
         )
-    except (FileNotFoundError, ValueError) as exc:
+    except (OSError, ValueError) as exc:  # OSError: a missing file, an output path that cannot be made
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
     except BatchRenderError as exc:

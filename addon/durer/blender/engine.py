@@ -126,7 +126,8 @@ def store_image(pixels_rgba_top_first: np.ndarray, name: str = IMAGE_NAME):
 
 
 def _float32_decimal(value: float) -> float:
-    """The shortest decimal that reads back as this float32 property value (0.01, not 0.0099999998)."""
+    """The shortest decimal that reads back as this float32 property value (0.01, not 0.0099999998):
+    the value the user typed, at any magnitude (rounding to a number of places would turn 1e-7 into 0)."""
     return float(str(np.float32(value)))
 
 
@@ -141,9 +142,9 @@ def render_kwargs(settings) -> dict:
         "sampler": settings.sampler.lower(),
         "target_error": _float32_decimal(settings.target_error),
         "min_spp": int(settings.min_samples),
-        "time_limit": float(settings.time_limit) or None,
+        "time_limit": _float32_decimal(settings.time_limit) or None,
         "max_bounces": int(settings.max_bounces),
-        "min_weight": round(float(settings.min_weight), 6),  # the float32 property's 0.01, not 0.0099999998
+        "min_weight": _float32_decimal(settings.min_weight),
         # On by default: Cycles shades back faces with the flipped normal (and refraction needs the
         # inside faces); off renders 6.837's default (a 6.837 import without -shade_back).
         "shade_back": bool(settings.shade_back),

@@ -16,6 +16,7 @@ Without ``--wheel`` it builds the wheel of the project in the current directory 
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import subprocess
 import sys
@@ -23,6 +24,8 @@ import tempfile
 import zipfile
 from collections.abc import Sequence
 from pathlib import Path
+
+from ..distributed.output import temporary_path
 
 MANIFEST = Path(__file__).resolve().parent.parent / "blender_manifest.toml"
 
@@ -76,8 +79,12 @@ def manifest_text(version: str, platforms: Sequence[str], wheels: Sequence[str],
 
 
 def build_zip(wheels: Sequence[str | Path], dist: str | Path = "dist") -> Path:
-    """Write dist/durer-<version>-<platform>.zip from durer's wheel (plus any extra wheels)."""
+    """Write dist/durer-<version>-<platform>.zip from durer's wheel (plus any extra wheels). The zip
+    is written under a temporary name and renamed when complete: a failure (a wheel that cannot be
+    read, a full disk) leaves no truncated zip behind, nor replaces an earlier one."""
     wheels = [Path(w) for w in wheels]
+    for wheel in wheels:
+        wheel_tags(wheel)  # every name is a wheel's, before anything is written
     durer_wheels = [w for w in wheels if wheel_tags(w)[0] == "durer"]
     if len(durer_wheels) != 1:
         raise ValueError("give exactly one durer wheel")
@@ -87,11 +94,17 @@ def build_zip(wheels: Sequence[str | Path], dist: str | Path = "dist") -> Path:
     dist = Path(dist)
     dist.mkdir(parents=True, exist_ok=True)
     out = dist / f"durer-{version}-{suffix}.zip"
-    with zipfile.ZipFile(out, "w", compression=zipfile.ZIP_DEFLATED) as z:
-        z.writestr("blender_manifest.toml", manifest_text(version, platforms, [w.name for w in wheels]))
-        z.writestr("__init__.py", EXTENSION_INIT)
-        for w in wheels:
-            z.write(w, f"wheels/{w.name}")
+    temp = temporary_path(out)
+    try:
+        with zipfile.ZipFile(temp, "w", compression=zipfile.ZIP_DEFLATED) as z:
+            z.writestr("blender_manifest.toml", manifest_text(version, platforms, [w.name for w in wheels]))
+            z.writestr("__init__.py", EXTENSION_INIT)
+            for w in wheels:
+                z.write(w, f"wheels/{w.name}")
+        os.replace(temp, out)
+    except BaseException:
+        temp.unlink(missing_ok=True)
+        raise
     return out
 
 
@@ -114,10 +127,18 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m durer extensi
     p.add_argument("--project", default=".", help="project directory for pip wheel (default: .)")
     p.add_argument("--dist", default="dist", help="output directory (default: dist)")
     args = p.parse_args(argv)
-    wheels = args.wheel or [build_wheel(args.project)]
-    print(build_zip(wheels, args.dist))
+    for wheel in args.wheel or ():
+        if not os.path.isfile(wheel):
+            p.error(f"--wheel {wheel}: no such file")
+    try:
+        wheels = args.wheel or [build_wheel(args.project)]
+        print(build_zip(wheels, args.dist))
+    except ValueError as error:  # the --wheel options': a name not a wheel's, or not exactly one durer wheel
+        p.error(str(error))
+    except (OSError, RuntimeError, subprocess.CalledProcessError) as error:  # pip's output says why it failed
+        print(f"{prog}: error: {error}", file=sys.stderr)
+        return 1
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main())

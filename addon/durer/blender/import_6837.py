@@ -39,7 +39,6 @@ named after it):
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -74,12 +73,6 @@ class ImportOptions:
     shadows: bool = False
     bounces: int = 0
     weight: float = 0.0
-
-
-def import_scene_file(path: str | os.PathLike, scene, options: ImportOptions = ImportOptions()):
-    """Read a 6.837 scene file and build it in `scene`; returns the new collection. The file is read
-    completely first, so a SceneFileError (or OSError) leaves Blender untouched."""
-    return build_scene(read_scene_file(path), scene, options)
 
 
 def build_scene(scene_file: SceneFile, scene, options: ImportOptions = ImportOptions()):

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from ..reports import check_writable
 from ..reports.machine import machine
 from .raytracer import RaytracerOptions, parse_arguments, run
 from .scene_file import SceneFileError
@@ -156,6 +157,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.size is not None and args.size < 1:
         parser.error(f"--size must be >= 1, got {args.size}")
+    try:  # before the renders
+        check_writable(args.page, "--page")
+    except ValueError as error:
+        parser.error(str(error))
     start = time.perf_counter()
     try:
         rows = render_gallery(args.commands, args.output_dir, args.only, args.size)
@@ -166,9 +171,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"gallery: no command matches --only {args.only!r}", file=sys.stderr)
         return 1
     seconds = time.perf_counter() - start
-    args.page.parent.mkdir(parents=True, exist_ok=True)
     command = " ".join(["python -m durer gallery", *argv])
-    args.page.write_text(markdown(rows, args.page, args.commands, command, seconds))
+    try:
+        args.page.parent.mkdir(parents=True, exist_ok=True)
+        args.page.write_text(markdown(rows, args.page, args.commands, command, seconds))
+    except OSError as error:  # the disk filled up, say
+        print(f"gallery: error: cannot write {args.page}: {error}", file=sys.stderr)
+        return 1
     failed = sum(r.error is not None for r in rows)
     print(f"wrote {args.page} ({len(rows)} commands, {failed} failed) in {seconds:.1f} s")
     return 1 if failed else 0

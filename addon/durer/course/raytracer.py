@@ -23,12 +23,16 @@ from typing import Any
 
 import numpy as np
 
+from ..render import check_options
 from ..render import DEFAULT_PASSES, PRECISIONS, RenderResult, render
 from ..visualize import depth_to_gray, make_folder_for, normal_to_rgb
 from .scene_file import SceneFile, SceneFileError, read_scene_file
 
 IMAGE_FORMATS = {".png": "PNG", ".tga": "TGA"}
 _NEGATIVE_NUMBER = re.compile(r"-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+#: The course's option for each of durer.render's arguments the options set (its errors name the argument).
+_OPTION_OF_ARGUMENT = {"width": "-size WIDTH", "height": "-size HEIGHT", "spp": "-spp", "max_bounces": "-bounces",
+                       "min_weight": "-weight"}
 
 
 @dataclass(frozen=True)
@@ -196,20 +200,18 @@ def parse_arguments(argv: Sequence[str], parser: argparse.ArgumentParser | None 
             parser.error(f"unrecognized option: {word}")
     args = parser.parse_args(argv)
     width, height = args.size
-    if width < 1 or height < 1:
-        parser.error(f"-size needs positive integers, got {width} {height}")
+    try:  # render's own limits (the core's among them), before the scene is read
+        check_options(width, height, spp=args.spp, max_bounces=args.bounces, min_weight=args.weight,
+                             precision=args.precision)
+    except ValueError as error:
+        argument, _, rest = str(error).partition(" ")
+        parser.error(f"{_OPTION_OF_ARGUMENT.get(argument, argument)} {rest}")
     depth = None
     if args.depth is not None:
         near, far = _real(parser, "-depth MIN", args.depth[0]), _real(parser, "-depth MAX", args.depth[1])
         if not near < far:
             parser.error(f"-depth needs MIN < MAX, got {args.depth[0]} {args.depth[1]}")
         depth = (near, far, _image_path(parser, "-depth", args.depth[2]))
-    if args.bounces < 0:
-        parser.error(f"-bounces must be >= 0, got {args.bounces}")
-    if not (math.isfinite(args.weight) and args.weight >= 0):
-        parser.error(f"-weight must be a finite number >= 0, got {args.weight}")
-    if args.spp < 1:
-        parser.error(f"-spp must be >= 1, got {args.spp}")
     ignored = tuple(name for name, given in (("-gui", args.gui), ("-tessellation", args.tessellation is not None),
                                              ("-gouraud", args.gouraud)) if given)
     return RaytracerOptions(

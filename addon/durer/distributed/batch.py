@@ -11,13 +11,12 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
-from ..camera import OrthographicCamera, PerspectiveCamera
-from ..render import RenderResult, render
+from .. import _checks
+from ..camera import Camera, OrthographicCamera, PerspectiveCamera
+from ..render import RenderResult, check_options, render
 from ..scene import Scene
 from .client import require_distributed, worker_name
 from .progress import progress_bar
-
-Camera = OrthographicCamera | PerspectiveCamera
 
 #: Options `render` takes that a batch passes through unchanged to every render.
 _RENDER_OPTIONS = set(inspect.signature(render).parameters) - {
@@ -55,9 +54,13 @@ def render_many(
     unknown = set(options) - _RENDER_OPTIONS
     if unknown:
         raise TypeError(f"render_many got unexpected options: {', '.join(sorted(unknown))}")
+    ordered = _checks.boolean(ordered, "ordered")
+    progress = _checks.boolean(progress, "progress")
+    check_options(width, height, camera_list[0], threads=threads, **options)
     jobs = [dict(options, camera=c, width=width, height=height) for c in camera_list]
     return run_renders(scenes, jobs, client=client, ordered=ordered, progress=progress, threads=threads,
                        unit="render")
+
 
 
 def _pairs(scene: Any, cameras: Any) -> tuple[list[Scene], list[Camera]]:

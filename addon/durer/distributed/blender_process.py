@@ -22,7 +22,8 @@ from typing import Any
 
 class BlenderProcess:
     """The child process and its connection; `call` sends a request and returns its reply or raises
-    the error it raised."""
+    the error it raised. Nothing closes it: the child exits when the connection closes, that is when
+    this object is dropped (its worker thread or process ended) or the worker dies."""
 
     def __init__(self) -> None:
         parent, child = socket.socketpair()
@@ -48,13 +49,6 @@ class BlenderProcess:
         if not ok:
             raise value
         return value
-
-    def close(self) -> None:
-        self.connection.close()
-        try:
-            self.process.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            self.process.kill()
 
 
 def _open(path: str, scene: str) -> None:

@@ -21,7 +21,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
-from .. import _checks
 from .batch import stream
 from .blender_process import BlenderProcess
 from .client import worker_name
@@ -64,16 +63,13 @@ def render_frames(
     """
     from ..blender import batch
 
-    if threads is not None:
-        threads = _checks.integer(threads, "threads", 1, batch.setting_range("threads")[1])
     blend = Path(path).expanduser().resolve()
     frame_list = batch.parse_frames(frames)
-    sc = batch.open_blend(blend, scene, samples)
+    sc = batch.open_blend(blend, scene, samples, 1 if threads is None else threads)
     if frame_list is None:
         frame_list = [sc.frame_current]
     explicit = batch.configure_output(sc, output, len(frame_list))
-    targets = {frame: batch.frame_target(sc, explicit, frame) for frame in dict.fromkeys(frame_list)}
-    sc.durer.threads = 1 if threads is None else threads
+    targets = {frame: batch.frame_target(sc, explicit, frame) for frame in frame_list}
     payload = _self_contained_copy()
 
     report = FramesReport()

@@ -9,9 +9,11 @@ from typing import Any
 import numpy as np
 
 from .. import _checks
+from ..camera import Camera
 from ..render import RenderResult
 from ..scene import Scene
-from .batch import Camera, _RENDER_OPTIONS, run_renders
+from ..render import check_options
+from .batch import _RENDER_OPTIONS, run_renders
 
 #: Counters of `RenderResult.stats` that add up over tiles.
 _COUNTERS = ("rays", "shadow_rays", "reflection_rays", "refraction_rays", "ao_rays", "shading_evaluations",
@@ -22,8 +24,7 @@ _COUNTERS = ("rays", "shadow_rays", "reflection_rays", "refraction_rays", "ao_ra
 def tile_regions(width: int, height: int, tile: int = 512) -> list[tuple[int, int, int, int]]:
     """The (x, y, w, h) tiles of a width x height image, row by row from the top: `tile` x `tile`
     pixels, smaller at the right and bottom edges."""
-    width = _checks.integer(width, "width", 1, 2**20)
-    height = _checks.integer(height, "height", 1, 2**20)
+    width, height = _checks.image_side(width, "width"), _checks.image_side(height, "height")
     tile = _checks.integer(tile, "tile", 1)
     return [(x, y, min(tile, width - x), min(tile, height - y))
             for y in range(0, height, tile) for x in range(0, width, tile)]
@@ -53,6 +54,8 @@ def render_tiles(
     unknown = set(options) - _RENDER_OPTIONS
     if unknown:
         raise TypeError(f"render_tiles got unexpected options: {', '.join(sorted(unknown))}")
+    progress = _checks.boolean(progress, "progress")
+    check_options(width, height, camera, threads=threads, **options)
     regions = tile_regions(width, height, tile)
     jobs = [dict(options, camera=camera, width=width, height=height, region=r) for r in regions]
     start = time.perf_counter()

@@ -8,6 +8,7 @@ under test, so the error shown is the method's own, not the inputs' rounding.
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,7 +18,7 @@ import numpy as np
 from ..cast import cast
 from ..render import PRECISIONS, SPHERE_METHODS
 from ..scene import Scene
-from . import shapes
+from . import check_writable, shapes
 from .plotting import pyplot
 
 RATIOS = tuple(10.0**k for k in range(1, 10))  # distance / radius
@@ -165,13 +166,20 @@ def plot(rows: list[SweepRow], path: Path) -> None:
 
 def update_doc(doc: Path, table: str, image: str) -> None:
     """Replace the generated block of `doc` (between the markers), keeping the prose around it."""
-    block = f"{MARKER_BEGIN}\n{table}\n\n![t error vs distance/radius]({image})\n{MARKER_END}"
+    head, tail = prose(doc)
+    doc.write_text(head + f"{MARKER_BEGIN}\n{table}\n\n![t error vs distance/radius]({image})\n{MARKER_END}" + tail)
+
+
+def prose(doc: Path) -> tuple[str, str]:
+    """The text of `doc` before and after its generated block (a new page's if `doc` does not exist);
+    ValueError for a page whose begin marker has no end marker after it."""
     text = doc.read_text() if doc.exists() else f"# Numerics\n\n{MARKER_BEGIN}\n{MARKER_END}\n"
     if MARKER_BEGIN not in text:
         text += f"\n{MARKER_BEGIN}\n{MARKER_END}\n"
     head, rest = text.split(MARKER_BEGIN, 1)
-    _, tail = rest.split(MARKER_END, 1)
-    doc.write_text(head + block + tail)
+    if MARKER_END not in rest:
+        raise ValueError(f"{doc}: the generated block has no end marker ({MARKER_END})")
+    return head, rest.split(MARKER_END, 1)[1]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -179,13 +187,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--doc", default="docs/numerics.md", help="Markdown file to update (default %(default)s)")
     parser.add_argument("--no-write", action="store_true", help="print the table only")
     args = parser.parse_args(argv)
+    doc = Path(args.doc)
+    if not args.no_write:  # a page the sweep could not be written to is refused before the sweep
+        try:
+            check_writable(doc, "--doc")
+            prose(doc)
+        except (OSError, ValueError) as error:  # OSError: a page that cannot be read
+            parser.error(str(error))
     rows = sweep()
     table = markdown_table(rows) + "\n\n" + SHAPES_INTRO + shapes.markdown_table(shapes.sweep())
     print(table)
     if not args.no_write:
-        doc = Path(args.doc)
         image = doc.parent / "numerics-sweep.png"
-        plot(rows, image)
-        update_doc(doc, table, image.name)
+        try:
+            plot(rows, image)
+            update_doc(doc, table, image.name)
+        except OSError as error:  # the disk filled up, say: the table is printed above
+            print(f"{parser.prog}: error: cannot write {doc}: {error}", file=sys.stderr)
+            return 1
         print(f"\nwrote {doc} and {image}")
     return 0

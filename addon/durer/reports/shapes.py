@@ -10,10 +10,16 @@ and t within the documented bound of the exact t.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import mpmath
 import numpy as np
+from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:
+    from ..scene import Scene
 
 MP = mpmath.MPContext()  # a private context: the global mpmath precision stays untouched
 MP.dps = 60
@@ -41,7 +47,9 @@ def _cross(a, b):
     return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
-def exact_triangle(o, d, v0, v1, v2) -> tuple[float | None, float]:
+def exact_triangle(
+    o: ArrayLike, d: ArrayLike, v0: ArrayLike, v1: ArrayLike, v2: ArrayLike
+) -> tuple[float | None, float]:
     """t >= 0 where the ray meets the triangle's plane (None if parallel or behind), and the margin:
     the smallest barycentric coordinate of that point, times the ratio of the triangle's smallest
     height to its longest edge (so a sliver's margin is its width over its length)."""
@@ -61,7 +69,7 @@ def exact_triangle(o, d, v0, v1, v2) -> tuple[float | None, float]:
     return (float(t) if t >= 0 else None), margin
 
 
-def exact_box(o, d, lo, hi) -> tuple[float | None, float]:
+def exact_box(o: ArrayLike, d: ArrayLike, lo: ArrayLike, hi: ArrayLike) -> tuple[float | None, float]:
     """The first t >= 0 on the closed box's surface (the exit for an origin inside), and the margin:
     (t_far - t_near) over the t the box's size takes to cross, so a ray through an edge or corner has 0."""
     o, d, lo, hi = (_v(x) for x in (o, d, lo, hi))
@@ -80,7 +88,7 @@ def exact_box(o, d, lo, hi) -> tuple[float | None, float]:
     return float(near if near >= 0 else far), margin
 
 
-def exact_ellipsoid(o, d, world_from_object) -> tuple[float | None, float]:
+def exact_ellipsoid(o: ArrayLike, d: ArrayLike, world_from_object: ArrayLike) -> tuple[float | None, float]:
     """The unit sphere at the origin seen through world_from_object ((3, 4) or (4, 4), as given):
     the first t >= 0 on it, and the margin 1 - p² where p is the ray's closest approach to the
     centre in object space (0: tangent)."""
@@ -143,7 +151,16 @@ def _frame(rng: np.random.Generator) -> np.ndarray:
     return q * np.sign(np.diag(r))
 
 
-def shape_case(kind: str, scale: float, precision: str, rng: np.random.Generator, size: float = 1.0):
+#: What `shape_case` returns: (add(scene), exact(o, d), reach(o, d), cosine(d), origins, directions,
+#: distance/size, condition).
+ShapeCase = tuple[Callable[["Scene"], object], Callable[[np.ndarray, np.ndarray], tuple[float | None, float]],
+                  Callable[[np.ndarray, np.ndarray], float], Callable[[np.ndarray], float], np.ndarray, np.ndarray,
+                  float, float]
+
+
+def shape_case(
+    kind: str, scale: float, precision: str, rng: np.random.Generator, size: float = 1.0
+) -> ShapeCase | None:
     """One shape of size about `size` (`scale` sizes away along DIRECTION; an ellipsoid with axes sqrt(scale),
     1, 1/sqrt(scale) 10 longest axes away) with its inputs rounded to `precision`, and RAYS_PER_POINT
     rays from near the origin aimed across it. Returns (add(scene), exact(o, d), reach(o, d), cosine(d),
@@ -195,7 +212,7 @@ def shape_case(kind: str, scale: float, precision: str, rng: np.random.Generator
     return add, exact, reach, cosine, origins, directions, ratio, condition
 
 
-def judge(kind: str, precision: str, scale: float, got_t: np.ndarray, case) -> ShapeRow:
+def judge(kind: str, precision: str, scale: float, got_t: np.ndarray, case: ShapeCase) -> ShapeRow:
     """Compare a cast's t with the exact answers of `case` (from shape_case)."""
     _, exact, reach, cosine, origins, directions, ratio, condition = case
     row = ShapeRow(kind, precision, scale, 0.0, 0.0, 0, 0, 0, 0)

@@ -7,7 +7,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from .. import numerics
+from .. import check_writable, numerics
 from . import __doc__ as package_doc
 from .markdown import markdown, summary
 from .measure import Config, Report, measure
@@ -53,10 +53,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--output", default="docs/accuracy.md",
                         help="Markdown page to write; plots go next to it (default %(default)s)")
     args = parser.parse_args(argv)
+    try:  # before the measurement, which takes minutes
+        check_writable(args.output, "--output")
+    except ValueError as error:
+        parser.error(str(error))
     config = Config.quick_config() if args.quick else Config.full()
     command = " ".join(["python -m durer accuracy", *argv])
     report = measure(config, command)
     print(summary(report))
-    written = write_report(report, Path(args.output))
+    try:
+        written = write_report(report, Path(args.output))
+    except OSError as error:  # the disk filled up, say: the summary is printed above
+        print(f"{parser.prog}: error: cannot write {args.output}: {error}", file=sys.stderr)
+        return 1
     print(f"\nwrote {', '.join(str(p) for p in written)} in {report.seconds:.1f} s")
     return 0
