@@ -140,5 +140,6 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m durer extensi
         return 1
     return 0
 
+
 if __name__ == "__main__":
     sys.exit(main())

@@ -23,8 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ..render import check_options
-from ..render import DEFAULT_PASSES, PRECISIONS, RenderResult, render
+from ..render import DEFAULT_PASSES, PRECISIONS, RenderResult, check_options, render
 from ..visualize import depth_to_gray, make_folder_for, normal_to_rgb
 from .scene_file import SceneFile, SceneFileError, read_scene_file
 
@@ -202,7 +201,7 @@ def parse_arguments(argv: Sequence[str], parser: argparse.ArgumentParser | None 
     width, height = args.size
     try:  # render's own limits (the core's among them), before the scene is read
         check_options(width, height, spp=args.spp, max_bounces=args.bounces, min_weight=args.weight,
-                             precision=args.precision)
+                      precision=args.precision)
     except ValueError as error:
         argument, _, rest = str(error).partition(" ")
         parser.error(f"{_OPTION_OF_ARGUMENT.get(argument, argument)} {rest}")

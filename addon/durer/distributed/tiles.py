@@ -10,9 +10,8 @@ import numpy as np
 
 from .. import _checks
 from ..camera import Camera
-from ..render import RenderResult
+from ..render import RenderResult, check_options
 from ..scene import Scene
-from ..render import check_options
 from .batch import _RENDER_OPTIONS, run_renders
 
 #: Counters of `RenderResult.stats` that add up over tiles.
