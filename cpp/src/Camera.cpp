@@ -10,7 +10,6 @@
 namespace durer {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 // sin of the smallest angle between direction and up that still gives a trustworthy frame.
 constexpr double kMinSinUpAngle = 1e-9;
 }  // namespace
@@ -46,7 +45,7 @@ ImageWindow imageWindow(const CameraSpec& spec, int width, int height) {
 }
 
 double requireRaysWithin(const CameraSpec& spec, int width, int height, const NumericLimits& limits) {
-  const std::string where = std::string(" with precision='") + limits.precision + "'";
+  const std::string where = withPrecision(limits.precision);
   requireWithin(maxAbs(spec.center), limits.coordinate, "center", where);
   const ImageWindow w = imageWindow(spec, width, height);
   // The farthest sample from the window's centre along each axis (the frame is orthonormal).

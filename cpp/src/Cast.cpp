@@ -1,6 +1,5 @@
 #include "durer/render/Cast.h"
 
-#include <algorithm>
 #include <chrono>
 #include <limits>
 #include <sstream>
@@ -20,7 +19,7 @@ namespace {
 // are left to miss.
 template <typename Real>
 double requireCastRaysWithin(const CastInput& input, const NumericLimits& limits) {
-  const std::string where = std::string(" with precision='") + limits.precision + "'";
+  const std::string where = withPrecision(limits.precision);
   double reach = 0;
   for (size_t i = 0; i < input.count; ++i) {
     const Vec3d o(input.origins[3 * i], input.origins[3 * i + 1], input.origins[3 * i + 2]);

@@ -3,10 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <limits>
-#include <mutex>
 #include <sstream>
-#include <vector>
 
 #include "durer/render/Kernels.h"
 #include "durer/scene/Limits.h"

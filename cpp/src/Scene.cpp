@@ -277,13 +277,13 @@ int32_t Scene::addPlane(const Vec3d& normal, double offset, int32_t material, co
   requireFinite(offset, "offset");
   requireMaterial(material, "material");
   // Keep n·p = offset true for the unit normal: offset scales with 1/|normal|.
-  const double largest = std::fmax(std::fabs(normal.x), std::fmax(std::fabs(normal.y), std::fabs(normal.z)));
+  const double largest = maxAbs(normal);
   const Vec3d scaled = normal / largest;
   const Vec3d unit = scaled / glm::length(scaled);
   const double unitOffset = offset / largest / glm::length(scaled);
   requireFinite(unitOffset, "offset / |normal|");
   Reach placed = requireReach(std::fabs(unitOffset), "offset / |normal|", worldFromObject);
-  Plane<double> plane{unit, unitOffset, unitOffset * unit, false, Vec3d(0), Vec3d(0), Vec3d(0)};
+  Plane<double> plane{unit, unitOffset * unit, false, Vec3d(0), Vec3d(0)};
   if (bounds) {
     requireFinite(bounds->corner, "bounds corner");
     requireNonZero(bounds->edge1, "bounds edge1");
@@ -300,7 +300,7 @@ int32_t Scene::addPlane(const Vec3d& normal, double offset, int32_t material, co
     if (glm::length(glm::cross(e1, e2)) < kTolerance) fail("bounds edge1 and edge2 must not be parallel");
     const Vec3d c1 = glm::cross(bounds->edge2, unit), c2 = glm::cross(unit, bounds->edge1);
     plane.bounded = true;
-    plane.corner = plane.point = bounds->corner;
+    plane.point = bounds->corner;
     plane.dual1 = c1 / glm::dot(c1, bounds->edge1);
     plane.dual2 = c2 / glm::dot(c2, bounds->edge2);
     requireFinite(plane.dual1, "bounds edge1 (too long or too short)");
@@ -322,7 +322,7 @@ int32_t Scene::addPlane(const Vec3d& normal, double offset, int32_t material, co
 namespace {
 Triangle<double> makeTriangle(const Vec3d& v0, const Vec3d& v1, const Vec3d& v2) {
   const Vec3d n = glm::cross(v1 - v0, v2 - v0);
-  const double largest = std::fmax(std::fabs(n.x), std::fmax(std::fabs(n.y), std::fabs(n.z)));
+  const double largest = maxAbs(n);
   // A degenerate triangle keeps a zero normal: its test never reports a hit, so it is never read.
   const Vec3d unit = largest > 0 && std::isfinite(largest) ? safeNormalize(n) : Vec3d(0);
   return {v0, v1, v2, unit};
@@ -552,7 +552,7 @@ void Scene::noteReach(const Reach& reach) {
 }
 
 void Scene::requireFits(const NumericLimits& limits, double rayReach) const {
-  const std::string where = std::string(" with precision='") + limits.precision + "'";
+  const std::string where = withPrecision(limits.precision);
   requireWithin(m_reach.magnitude, limits.coordinate, m_reach.field, where);
   const double world = std::fmax(m_reach.world, rayReach);
   std::ostringstream field;

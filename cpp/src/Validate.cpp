@@ -34,9 +34,9 @@ void requirePositive(double value, const std::string& field) {
 
 void requireNonZero(const Vec3d& value, const std::string& field) {
   requireFinite(value, field);
-  // The squared length can underflow to 0 (or overflow) for a usable vector; scale first.
-  const double largest = std::fmax(std::fabs(value.x), std::fmax(std::fabs(value.y), std::fabs(value.z)));
-  if (largest == 0) fail(field + " must not be the zero vector");
+  // Tested on the largest |component|: the squared length can underflow to 0 (or overflow) for a
+  // usable vector.
+  if (maxAbs(value) == 0) fail(field + " must not be the zero vector");
 }
 
 void requireNonNegativeColor(const Vec3d& value, const std::string& field) {
@@ -60,6 +60,8 @@ void requireWithin(double magnitude, double limit, const std::string& field, con
   message << field << " must lie within ±" << limit << where << ", got " << magnitude;
   fail(message.str());
 }
+
+std::string withPrecision(const char* precision) { return std::string(" with precision='") + precision + "'"; }
 
 void requireRange(double tMin, double tMax, const std::string& minField, const std::string& maxField) {
   if (std::isnan(tMin)) fail(minField + " must not be NaN");

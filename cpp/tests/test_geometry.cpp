@@ -411,7 +411,7 @@ TEST_CASE_TEMPLATE("triangles: t and the normal from the winding; a shared edge 
 TEST_CASE_TEMPLATE("planes: t = (offset - n·o) / (n·d); parallel rays miss; bounds clip", Real, float, double) {
   PlaneSet<Real> planes;
   const Vec3<Real> n(0, 0, 1);
-  planes.add({n, 2, Vec3<Real>(0, 0, 2), false, Vec3<Real>(0), Vec3<Real>(0), Vec3<Real>(0)}, 0, 0);
+  planes.add({n, Vec3<Real>(0, 0, 2), false, Vec3<Real>(0), Vec3<Real>(0)}, 0, 0);
   RayPacket<Real> p = oneRay<Real>({0, 0, 0}, {0, 0, 4});
   planes.intersect(p, 0, nullptr);
   CHECK(p.tHit[0] == Real(0.5));
@@ -420,7 +420,7 @@ TEST_CASE_TEMPLATE("planes: t = (offset - n·o) / (n·d); parallel rays miss; bo
   CHECK(parallel.prim[0] == kNoPrimitive);
   // The unit square at z = 2 (corner at the origin's foot, duals = the edges themselves).
   PlaneSet<Real> square;
-  square.add({n, 2, Vec3<Real>(0, 0, 2), true, Vec3<Real>(0, 0, 2), Vec3<Real>(1, 0, 0), Vec3<Real>(0, 1, 0)}, 0, 0);
+  square.add({n, Vec3<Real>(0, 0, 2), true, Vec3<Real>(1, 0, 0), Vec3<Real>(0, 1, 0)}, 0, 0);
   RayPacket<Real> in = oneRay<Real>({Real(0.5), Real(0.5), 0}, {0, 0, 1});
   RayPacket<Real> out = oneRay<Real>({Real(1.5), Real(0.5), 0}, {0, 0, 1});
   square.intersect(in, 0, nullptr);

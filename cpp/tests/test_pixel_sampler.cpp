@@ -27,6 +27,13 @@ bool isNet(const std::vector<double>& u, const std::vector<double>& v, int m) {
   return true;
 }
 
+// Sample s of one pixel on its own: pixelSeeds and offsets of a one-pixel packet.
+void offsetOf(const PixelSampler& sampler, uint64_t pixel, int s, double& u, double& v) {
+  uint64_t seed = 0;
+  sampler.pixelSeeds(&pixel, 1, &seed);
+  sampler.offsets(&seed, 1, s, &u, &v);
+}
+
 }  // namespace
 
 TEST_CASE("Owen-scrambled Sobol points: every power-of-two prefix is a (0,m,2)-net, for any seed") {
@@ -53,7 +60,7 @@ TEST_CASE("a pixel's Sobol offsets: its samples in shuffled order, still a net a
       CHECK_MESSAGE(isNet(u, v, m), "pixel ", pixel, ", m ", m);
       for (int i = 0; i < n; ++i) {
         double ui, vi;
-        sampler.offset(pixel, i, ui, vi);
+        offsetOf(sampler, pixel, i, ui, vi);
         REQUIRE(ui == u[i]);
         REQUIRE(vi == v[i]);
       }
@@ -75,8 +82,8 @@ TEST_CASE("exactDouble53 converts every integer below 2^53 as static_cast does")
   }
 }
 
-// offsets() for a packet against offset() one pixel at a time (the vectorised loop against the
-// scalar one), and the strata they fall in.
+// offsets() for a packet against each pixel on its own (offsetOf: the vectorised loop against
+// the one-ray one), and the strata they fall in.
 TEST_CASE("a packet's offsets are each pixel's offset, for every sampler") {
   const SamplerKind kinds[] = {SamplerKind::Center, SamplerKind::Random, SamplerKind::Stratified, SamplerKind::Sobol,
                                SamplerKind::Adaptive};
@@ -91,7 +98,7 @@ TEST_CASE("a packet's offsets are each pixel's offset, for every sampler") {
         sampler.offsets(seeds.data(), 61, s, u.data(), v.data());
         for (size_t j = 0; j < pixels.size(); ++j) {
           double ui, vi;
-          sampler.offset(pixels[j], s, ui, vi);
+          offsetOf(sampler, pixels[j], s, ui, vi);
           REQUIRE(ui == u[j]);
           REQUIRE(vi == v[j]);
           REQUIRE((u[j] >= 0 && u[j] < 1 && v[j] >= 0 && v[j] < 1));

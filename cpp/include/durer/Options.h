@@ -24,7 +24,7 @@ enum class SamplerKind {
   Random,      // independent uniform positions
   Stratified,  // one jittered position per stratum of an nx·ny grid, spp = nx·ny (1 sample: the centre)
   Sobol,       // Owen-scrambled Sobol (0,2) points, scrambled per pixel (Burley 2020)
-  Adaptive,    // the Sobol points, as many per pixel as its samples disagree (Renderer.cpp)
+  Adaptive,    // the Sobol points, as many per pixel as its samples disagree (AdaptiveSampler.h)
 };
 
 // The images a render can write; a render asks for a set of them (bit flags).

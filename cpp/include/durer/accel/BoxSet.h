@@ -13,7 +13,6 @@
 #include "durer/math/Float.h"
 #include "durer/geometry/Hit.h"
 #include "durer/accel/PrimitiveSet.h"
-#include "durer/geometry/RayOffset.h"
 #include "durer/geometry/RayPacket.h"
 #include "durer/math/Vec.h"
 

@@ -13,7 +13,6 @@
 #include <cstring>
 #include <limits>
 #include <memory>
-#include <numeric>
 #include <thread>
 #include <type_traits>
 #include <utility>
@@ -29,10 +28,13 @@
 
 namespace durer {
 
+// Below this many primitives a packet tests them all faster than its rays walk a hierarchy: a set
+// builds none (Group::prepare).
+inline constexpr size_t kBvhMinPrimitives = 16;
+
 // The children's boxes are single precision in both precisions' trees, rounded outward (so still
 // bounds): a double ray's slab test reads them exactly as doubles. A node is then two cache lines,
 // not four, for double traversal too.
-template <typename Real>
 struct alignas(64) BvhNode {
   static constexpr int kWidth = 4;
   float bounds[2][3][kWidth];  // [lo, hi][axis][child]: the children's boxes, rounded outward
@@ -52,7 +54,7 @@ struct BvhRay {
   Real tMin;
 
   BvhRay() = default;
-  BvhRay(Real ox, Real oy, Real oz, Real dx, Real dy, Real dz, Real tMin_) : o{ox, oy, oz}, tMin(tMin_) {
+  BvhRay(Real ox, Real oy, Real oz, Real dx, Real dy, Real dz, Real tStart) : o{ox, oy, oz}, tMin(tStart) {
     constexpr Real tiny = std::numeric_limits<Real>::min();
     const Real d[3] = {dx, dy, dz};
     for (int a = 0; a < 3; ++a) {
@@ -115,8 +117,6 @@ class Bvh {
   static constexpr int kInterleaved = 8;  // rays walking at once in traverseInterleaved
 
   bool empty() const { return m_nodes.empty(); }
-  size_t size() const { return m_nodes.size(); }
-  size_t bytes() const { return m_nodes.size() * sizeof(BvhNode<Real>); }
 
   // Builds over `count` primitives with boxes boxOf(i, lo, hi) (rounded outward by boxOf) on up to
   // `threads` threads; returns the order the primitives must be stored in.
@@ -141,8 +141,8 @@ class Bvh {
     int32_t child = node, count = 0;  // the next step: inner node `child` (count 0) or a leaf
     for (;;) {
       if (count == 0) {
-        const BvhNode<Real>& inner = m_nodes[static_cast<size_t>(child)];
-        Real entry[BvhNode<Real>::kWidth];
+        const BvhNode& inner = m_nodes[static_cast<size_t>(child)];
+        Real entry[BvhNode::kWidth];
         const int nearest = pushFartherChildren(inner, childEntries(inner, ray, tHit, entry), entry, stack);
         if (nearest >= 0) {
           child = inner.child[nearest], count = inner.count[nearest];
@@ -202,7 +202,7 @@ class Bvh {
       // of dependent operations, and made back to back the chains overlap. A walk about to test a
       // leaf tests its last node again, unused (cheaper than a branch that mispredicts).
       unsigned entered[kInterleaved];
-      Real entries[kInterleaved][BvhNode<Real>::kWidth];
+      Real entries[kInterleaved][BvhNode::kWidth];
       for (int w = 0; w < active; ++w) {
         const Walk& walk = walks[w];
         entered[w] = childEntries(m_nodes[static_cast<size_t>(walk.node)], walk.ray, p.tHit[walk.k], entries[w]);
@@ -215,7 +215,7 @@ class Bvh {
           done = leaf(walk.leafFirst, walk.leafCount, walk.k);
           walk.leafCount = 0;
         } else {
-          const BvhNode<Real>& node = m_nodes[static_cast<size_t>(walk.node)];
+          const BvhNode& node = m_nodes[static_cast<size_t>(walk.node)];
           const int nearest = pushFartherChildren(node, entered[w], entries[w], walk.stack);
           if (nearest >= 0) {
             aim(walk, node.child[nearest], node.count[nearest]);
@@ -267,12 +267,12 @@ class Bvh {
     stack[top++] = 0;
     int64_t tests = 0;
     while (top > 0) {
-      const BvhNode<Real>& node = m_nodes[static_cast<size_t>(stack[--top])];
-      Real entry[BvhNode<Real>::kWidth], mayEnter[BvhNode<Real>::kWidth];
+      const BvhNode& node = m_nodes[static_cast<size_t>(stack[--top])];
+      Real entry[BvhNode::kWidth], mayEnter[BvhNode::kWidth];
       childEntries(node, first, std::numeric_limits<Real>::infinity(), entry);
       interval.mayEnter(node, mayEnter);
-      int order[BvhNode<Real>::kWidth], found = 0;
-      for (int i = 0; i < BvhNode<Real>::kWidth; ++i) {
+      int order[BvhNode::kWidth], found = 0;
+      for (int i = 0; i < BvhNode::kWidth; ++i) {
         if (node.child[i] < 0 || !(mayEnter[i] > 0)) continue;
         const Vec3<Real> lo(node.bounds[0][0][i], node.bounds[0][1][i], node.bounds[0][2][i]);
         const Vec3<Real> hi(node.bounds[1][0][i], node.bounds[1][1][i], node.bounds[1][2][i]);
@@ -323,12 +323,6 @@ class Bvh {
     }
   };
 
-  // The slab's t are each within γ₃ of the exact ones (two roundings and the reciprocal's); widening
-  // the range's ends by 2γ₃ keeps every ray that truly meets the box. Widening commutes with the max
-  // and min over the slabs (it is monotonic), so it is done once, as a product: inf stays inf, no NaN.
-  // The factor is 2γ₅: the product and the rounded factor add two roundings of their own.
-  static constexpr Real kWiden = 2 * errorGamma<Real>(5);
-
   // The four children's lanes as one SIMD vector (GCC/Clang vector extensions: SSE for float, AVX
   // for double where the kernel set has it, two SSE halves otherwise).
   using Lanes = typename NodeLanes<Real>::Type;
@@ -366,7 +360,7 @@ class Bvh {
     }
 #endif
     unsigned mask = 0;
-    for (int i = 0; i < BvhNode<Real>::kWidth; ++i) mask |= unsigned(lanes[i] != 0) << i;
+    for (int i = 0; i < BvhNode::kWidth; ++i) mask |= unsigned(lanes[i] != 0) << i;
     return mask;
   }
 
@@ -377,7 +371,7 @@ class Bvh {
   // unless the difference is below ~1e-31 or 1e-292), so that a ray parallel to an axis (inv = ±inf)
   // whose origin lies on a box face gets ∓inf, inside, never 0·inf = NaN. (Not a subnormal: those
   // cost microcode assists.)
-  DURER_INLINE static unsigned childEntries(const BvhNode<Real>& node, const BvhRay<Real>& ray, Real tHit, Real* out) {
+  DURER_INLINE static unsigned childEntries(const BvhNode& node, const BvhRay<Real>& ray, Real tHit, Real* out) {
     const float* bounds = &node.bounds[0][0][0];
     Lanes tn = broadcast(ray.tMin), tf = broadcast(tHit);
     Lanes nearT[3], farT[3];
@@ -390,8 +384,9 @@ class Bvh {
     entry = nearT[2] > entry ? nearT[2] : entry;
     Lanes exit = farT[0] < farT[1] ? farT[0] : farT[1];
     exit = farT[2] < exit ? farT[2] : exit;
-    entry *= entry > 0 ? broadcast(1 - kWiden) : broadcast(1 + kWiden);
-    exit *= exit > 0 ? broadcast(1 + kWiden) : broadcast(1 - kWiden);
+    // Widened once, after the max and min (kSlabWiden), as a product: inf stays inf, no NaN.
+    entry *= entry > 0 ? broadcast(1 - kSlabWiden<Real>) : broadcast(1 + kSlabWiden<Real>);
+    exit *= exit > 0 ? broadcast(1 + kSlabWiden<Real>) : broadcast(1 - kSlabWiden<Real>);
     tn = tn > entry ? tn : entry;
     tf = tf < exit ? tf : exit;
     const auto entered = tn <= tf;
@@ -406,7 +401,7 @@ class Bvh {
   // is the only one entered (nothing is pushed). The entered ones come from the mask without a branch
   // per child (an empty slot's inverted box is never entered); among equal entries the later child
   // counts as nearer.
-  DURER_INLINE static int pushFartherChildren(const BvhNode<Real>& node, unsigned entered, const Real* entry, Stack& stack) {
+  DURER_INLINE static int pushFartherChildren(const BvhNode& node, unsigned entered, const Real* entry, Stack& stack) {
     if (entered == 0) return -1;
     int nearest = __builtin_ctz(entered);
     const int base = stack.top;
@@ -451,10 +446,10 @@ class Bvh {
     }
 
     // Whether any ray may enter each child: > 0 in mayEnter[i] where it may.
-    DURER_INLINE void mayEnter(const BvhNode<Real>& node, Real* out) const {
+    DURER_INLINE void mayEnter(const BvhNode& node, Real* out) const {
       constexpr Real tiny = std::numeric_limits<Real>::min();
       if (!usable) {
-        for (int i = 0; i < BvhNode<Real>::kWidth; ++i) out[i] = 1;
+        for (int i = 0; i < BvhNode::kWidth; ++i) out[i] = 1;
         return;
       }
       Lanes nearT = broadcast(tMin), farT = broadcast(tHitMax);
@@ -472,8 +467,8 @@ class Bvh {
             most = t > most ? t : most;
           }
         }
-        least *= least > 0 ? broadcast(1 - kWiden) : broadcast(1 + kWiden);
-        most *= most > 0 ? broadcast(1 + kWiden) : broadcast(1 - kWiden);
+        least *= least > 0 ? broadcast(1 - kSlabWiden<Real>) : broadcast(1 + kSlabWiden<Real>);
+        most *= most > 0 ? broadcast(1 + kSlabWiden<Real>) : broadcast(1 - kSlabWiden<Real>);
         nearT = least > nearT ? least : nearT;
         farT = most < farT ? most : farT;
       }
@@ -510,21 +505,21 @@ class Bvh {
   // box costs its area over the root's times its primitives (a leaf) or one (an inner node).
   double sahCost() const {
     double sum = 0;
-    const auto area = [](const BvhNode<Real>& n, int s) {
+    const auto area = [](const BvhNode& n, int s) {
       const double x = double(n.bounds[1][0][s]) - n.bounds[0][0][s], y = double(n.bounds[1][1][s]) - n.bounds[0][1][s],
                    z = double(n.bounds[1][2][s]) - n.bounds[0][2][s];
       return 2 * (x * y + y * z + z * x);
     };
-    for (const BvhNode<Real>& n : m_nodes) {
-      for (int s = 0; s < BvhNode<Real>::kWidth; ++s) {
+    for (const BvhNode& n : m_nodes) {
+      for (int s = 0; s < BvhNode::kWidth; ++s) {
         if (n.child[s] >= 0) sum += area(n, s) * (n.count[s] > 0 ? n.count[s] : 1);
       }
     }
-    const BvhNode<Real>& root = m_nodes.front();
+    const BvhNode& root = m_nodes.front();
     float lo[3], hi[3];
     for (int a = 0; a < 3; ++a) {
       lo[a] = root.bounds[0][a][0], hi[a] = root.bounds[1][a][0];
-      for (int s = 1; s < BvhNode<Real>::kWidth; ++s) {
+      for (int s = 1; s < BvhNode::kWidth; ++s) {
         if (root.child[s] >= 0) lo[a] = std::min(lo[a], root.bounds[0][a][s]), hi[a] = std::max(hi[a], root.bounds[1][a][s]);
       }
     }
@@ -534,7 +529,7 @@ class Bvh {
   }
 
   struct Builder;
-  std::vector<BvhNode<Real>> m_nodes;  // the root first, every node before its children
+  std::vector<BvhNode> m_nodes;  // the root first, every node before its children
   double m_builtCost = 0;              // sahCost() when built
 };
 
@@ -605,10 +600,10 @@ struct Bvh<Real>::Builder {
   uint32_t grain;
 
   template <typename BoxOf>
-  Builder(size_t count, const BoxOf& boxOf, int threads_)
+  Builder(size_t count, const BoxOf& boxOf, int maxThreads)
       : refCount(count),
         refs(new Ref[count]),
-        threads(std::max(threads_, 1)),
+        threads(std::max(maxThreads, 1)),
         grain(std::max<uint32_t>(kParallelMin, static_cast<uint32_t>(count / (4 * static_cast<size_t>(threads))))) {
     std::vector<Range> parts(chunksFor(count, threads));
     forChunks(count, parts.size(), [&](size_t c, size_t begin, size_t end) {
@@ -739,14 +734,15 @@ struct Bvh<Real>::Builder {
     return index;
   }
 
-  // Partitions refs[begin, end) at the cheapest binned SAH plane; returns the first index of the
-  // right side, or `end` when a leaf is cheaper than any split (only for a few primitives). Ranges
-  // of kOneAxisMin refs or more are binned along the widest axis of their centres only: a third of
-  // the binning and of the sweep over the bins, which near the leaves cost more than the binning.
-  // The few smaller ones (the level above the leaves) are binned along all three axes in one pass.
+  // Partitions refs[begin, end) at the cheapest binned SAH plane, filling leftRange and rightRange;
+  // returns false where no plane separates the refs or a leaf is cheaper than any split (only for a
+  // few primitives). Ranges of kOneAxisMin refs or more are binned along the widest axis of their
+  // centres only: a third of the binning and of the sweep over the bins, which near the leaves cost
+  // more than the binning. The few smaller ones (the level above the leaves) are binned along all
+  // three axes in one pass.
   bool split(const Range& r, Range& leftRange, Range& rightRange) {
-    // 1M random spheres: 64 -> 8 took the binary build from 196 to 174 ms on one thread, for an SAH
-    // cost 2 % higher (64 itself: 8 % fewer instructions than 1024, SAH cost within 0.2 %).
+    // On 1M random spheres 8 rather than 64 builds the binary tree in 174 rather than 196 ms on one
+    // thread, for an SAH cost 2 % higher.
     constexpr uint32_t kOneAxisMin = 8;
     const uint32_t begin = r.begin, end = r.end, count = r.count();
     const Box& box = r.box;
@@ -948,7 +944,7 @@ struct Bvh<Real>::Builder {
 
   // The 4-wide node of binary inner node `ref` of `tree`, and those below it, appended to out. With
   // links, only tree 0's part: the wide nodes of the subtrees' nodes are left to the links.
-  int32_t collapse(size_t tree, int32_t ref, std::vector<BvhNode<Real>>& out, std::vector<Link>* links = nullptr) const {
+  int32_t collapse(size_t tree, int32_t ref, std::vector<BvhNode>& out, std::vector<Link>* links = nullptr) const {
     const int32_t index = static_cast<int32_t>(out.size());
     out.emplace_back();
     // Open the largest inner child until there are four (or only leaves).
@@ -974,7 +970,7 @@ struct Bvh<Real>::Builder {
       slots[largest] = {ct, c.left};
       slots[used++] = {ct, c.right};
     }
-    BvhNode<Real> wide;
+    BvhNode wide;
     for (int s = 0; s < 4; ++s) {
       const bool present = s < used;
       const Node* c = present ? &node(slots[s].tree, slots[s].ref) : nullptr;
@@ -1002,10 +998,10 @@ struct Bvh<Real>::Builder {
   // The tree collapsed to 4-wide nodes into out: the top's nodes on this thread, then each subtree
   // node a link of theirs points at, with those below it, on all threads, appended in the links'
   // order (each block's inner children moved by its offset there).
-  void collapseAll(std::vector<BvhNode<Real>>& out) const {
+  void collapseAll(std::vector<BvhNode>& out) const {
     std::vector<Link> links;
     collapse(0, 0, out, &links);
-    std::vector<std::vector<BvhNode<Real>>> blocks(links.size());
+    std::vector<std::vector<BvhNode>> blocks(links.size());
     std::atomic<size_t> next{0};
     runOnThreads(std::min(links.size(), static_cast<size_t>(threads)), [&] {
       for (size_t l; (l = next.fetch_add(1)) < links.size();) {
@@ -1024,9 +1020,9 @@ struct Bvh<Real>::Builder {
     runOnThreads(std::min(links.size(), static_cast<size_t>(threads)), [&] {
       for (size_t l; (l = next.fetch_add(1)) < links.size();) {
         const int32_t offset = static_cast<int32_t>(offsets[l]);
-        BvhNode<Real>* to = &out[offsets[l]];
-        for (BvhNode<Real> n : blocks[l]) {
-          for (int s = 0; s < BvhNode<Real>::kWidth; ++s) n.child[s] += n.count[s] == 0 && n.child[s] >= 0 ? offset : 0;
+        BvhNode* to = &out[offsets[l]];
+        for (BvhNode n : blocks[l]) {
+          for (int s = 0; s < BvhNode::kWidth; ++s) n.child[s] += n.count[s] == 0 && n.child[s] >= 0 ? offset : 0;
           *to++ = n;
         }
       }
@@ -1043,7 +1039,7 @@ std::vector<uint32_t> Bvh<Real>::build(size_t count, const BoxOf& boxOf, int thr
   builder.run();
   const typename Builder::Node& root = builder.trees[0].nodes[0];
   if (root.count > 0) {  // a single leaf: a root node with one child
-    BvhNode<Real> wide;
+    BvhNode wide;
     for (int s = 0; s < 4; ++s) {
       for (int a = 0; a < 3; ++a) {
         wide.bounds[0][a][s] = s == 0 ? root.box.lower(a) : std::numeric_limits<float>::infinity();
@@ -1065,7 +1061,7 @@ template <typename Real>
 template <typename BoxOf>
 double Bvh<Real>::refit(const BoxOf& boxOf, int threads) {
   constexpr Real kInf = std::numeric_limits<Real>::infinity();
-  const auto store = [](BvhNode<Real>& n, int s, const Vec3<Real>& lo, const Vec3<Real>& hi) {
+  const auto store = [](BvhNode& n, int s, const Vec3<Real>& lo, const Vec3<Real>& hi) {
     for (int a = 0; a < 3; ++a) n.bounds[0][a][s] = toRealDown<float>(lo[a]), n.bounds[1][a][s] = toRealUp<float>(hi[a]);
   };
   // The leaves' boxes first, from their primitives alone: nodes in chunks on all threads (a chunk of
@@ -1074,8 +1070,8 @@ double Bvh<Real>::refit(const BoxOf& boxOf, int threads) {
   const size_t chunks = std::max<size_t>(1, std::min(static_cast<size_t>(std::max(threads, 1)), m_nodes.size() / kNodesPerChunk));
   forChunks(m_nodes.size(), chunks, [&](size_t, size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
-      BvhNode<Real>& n = m_nodes[i];
-      for (int s = 0; s < BvhNode<Real>::kWidth; ++s) {
+      BvhNode& n = m_nodes[i];
+      for (int s = 0; s < BvhNode::kWidth; ++s) {
         if (n.child[s] < 0 || n.count[s] == 0) continue;
         Vec3<Real> lo(kInf), hi(-kInf);
         for (int32_t p = n.child[s]; p < n.child[s] + n.count[s]; ++p) {
@@ -1089,12 +1085,12 @@ double Bvh<Real>::refit(const BoxOf& boxOf, int threads) {
   });
   // Then the inner children's, bottom-up: a node's children come after it.
   for (size_t i = m_nodes.size(); i-- > 0;) {
-    BvhNode<Real>& n = m_nodes[i];
-    for (int s = 0; s < BvhNode<Real>::kWidth; ++s) {
+    BvhNode& n = m_nodes[i];
+    for (int s = 0; s < BvhNode::kWidth; ++s) {
       if (n.child[s] < 0 || n.count[s] > 0) continue;
-      const BvhNode<Real>& c = m_nodes[static_cast<size_t>(n.child[s])];
+      const BvhNode& c = m_nodes[static_cast<size_t>(n.child[s])];
       Vec3<Real> lo(kInf), hi(-kInf);
-      for (int cs = 0; cs < BvhNode<Real>::kWidth; ++cs) {
+      for (int cs = 0; cs < BvhNode::kWidth; ++cs) {
         if (c.child[cs] < 0) continue;
         lo = glm::min(lo, Vec3<Real>(c.bounds[0][0][cs], c.bounds[0][1][cs], c.bounds[0][2][cs]));
         hi = glm::max(hi, Vec3<Real>(c.bounds[1][0][cs], c.bounds[1][1][cs], c.bounds[1][2][cs]));

@@ -141,8 +141,6 @@ class Group {
   // Ready for tracing: hierarchies where they pay (built on up to `threads` threads; this group's own
   // spheres' only if `ownSpheres`), the instances' packed ranges and world bounds.
   void prepare(int threads, bool ownSpheres = true) {
-    // Below this many primitives a packet tests them all faster than its rays walk a hierarchy.
-    constexpr size_t kBvhMinPrimitives = 16;
     if (m_spheres.size() >= kBvhMinPrimitives) {
       if (ownSpheres) {
         m_spheres.buildBvh(threads);

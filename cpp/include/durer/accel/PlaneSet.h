@@ -8,7 +8,6 @@
 #include "durer/Inline.h"
 #include "durer/geometry/Hit.h"
 #include "durer/accel/PrimitiveSet.h"
-#include "durer/geometry/RayOffset.h"
 #include "durer/geometry/RayPacket.h"
 #include "durer/math/Float.h"
 #include "durer/math/Vec.h"
@@ -16,20 +15,19 @@
 
 namespace durer {
 
-// Points p with normal·p = offset; optionally bounded to the parallelogram corner + a·edge1 + b·edge2,
-// a, b in [0, 1]. The bounded test uses the dual basis: a = (p - corner)·dual1, b = (p - corner)·dual2.
-// Rays meet it at t = normal·(point - o) / normal·d: measuring from a point of the plane rather than
-// subtracting normal·o from the offset keeps the digits when o and the plane are both far from 0.
+// Points p with normal·(p - point) = 0; optionally bounded to the parallelogram point + a·edge1 +
+// b·edge2, a, b in [0, 1] (point is then its corner). The bounded test uses the dual basis:
+// a = (p - point)·dual1, b = (p - point)·dual2. Rays meet it at t = normal·(point - o) / normal·d:
+// measuring from a point of the plane rather than subtracting normal·o from its offset from 0 keeps
+// the digits when o and the plane are both far from 0.
 // An unbounded plane ends where coordinates leave the precision's limits (|x| <= coordinateLimit, in
 // the frame it is tested in): a ray nearly parallel to it would otherwise meet it at a t, and a
 // point, that no later step (depth pass, hit point, secondary rays) can represent.
 template <typename Real>
 struct Plane {
   Vec3<Real> normal;  // unit, world space; the shading normal as given (not flipped toward the ray)
-  Real offset;        // normal·p = offset
-  Vec3<Real> point;   // a point of the plane: the corner if bounded, else offset·normal
+  Vec3<Real> point;   // a point of the plane: the parallelogram's corner if bounded, else offset·normal
   bool bounded;
-  Vec3<Real> corner;  // bounded only: the parallelogram's corner
   Vec3<Real> dual1;   // bounded only: in the plane, dual1·edge1 = 1, dual1·edge2 = 0
   Vec3<Real> dual2;   // bounded only: in the plane, dual2·edge1 = 0, dual2·edge2 = 1
 };
@@ -41,8 +39,8 @@ class PlaneSet : public PrimitiveSet<Plane<Real>, Real> {
   template <typename Other>
   explicit PlaneSet(const PlaneSet<Other>& other) {
     this->convertFrom(other, [](const Plane<Other>& p) {
-      return Plane<Real>{toReal<Real>(p.normal), static_cast<Real>(p.offset), toReal<Real>(p.point), p.bounded,
-                         toReal<Real>(p.corner), toReal<Real>(p.dual1), toReal<Real>(p.dual2)};
+      return Plane<Real>{toReal<Real>(p.normal), toReal<Real>(p.point), p.bounded, toReal<Real>(p.dual1),
+                         toReal<Real>(p.dual2)};
     });
   }
 
@@ -97,9 +95,9 @@ class PlaneSet : public PrimitiveSet<Plane<Real>, Real> {
       // the epilog's range test.
       bool valid = std::fabs(denominator) < std::numeric_limits<Real>::infinity();
       if constexpr (Bounded) {
-        const Real qx = ox[k] + t * dx[k] - pl.corner.x;
-        const Real qy = oy[k] + t * dy[k] - pl.corner.y;
-        const Real qz = oz[k] + t * dz[k] - pl.corner.z;
+        const Real qx = ox[k] + t * dx[k] - pl.point.x;
+        const Real qy = oy[k] + t * dy[k] - pl.point.y;
+        const Real qz = oz[k] + t * dz[k] - pl.point.z;
         const Real a = qx * pl.dual1.x + qy * pl.dual1.y + qz * pl.dual1.z;
         const Real b = qx * pl.dual2.x + qy * pl.dual2.y + qz * pl.dual2.z;
         valid = valid & (a >= 0) & (a <= 1) & (b >= 0) & (b <= 1);

@@ -195,7 +195,8 @@ class PrimitiveSet {
     return visited * packet.count;
   }
 
-  size_t bvhBytes() const { return m_bvh.bytes(); }
+  // Whether a hierarchy was built (buildBvh), not just the primitives arranged.
+  bool hasBvh() const { return !m_bvh.empty(); }
 
   // The hit record's epilog: the ids of primitive `index`, and its colour if it has one colour
   // (a primitive with one per corner interpolates them itself).

@@ -60,8 +60,7 @@ class SphereGrid {
   // boxes spanning cells count in each): the walk in lanes tests only the records in a ray's octants
   // of each cell, so larger cells cost it fewer extra tests than steps saved (rays leaving random
   // spheres 3-14 % quicker than at a quarter of a cell from 20,000 to 200,000 spheres, as quick at
-  // 2,000 and 1M, renders as quick, and the one-ray walk no slower); a quarter of a cell had been 6-30 %
-  // quicker than half a cell before the octants. Beyond, where the records lie in memory rather than
+  // 2,000 and 1M, renders as quick, and the one-ray walk no slower). Beyond, where the records lie in memory rather than
   // the caches, a cell's extra bytes cost more than its steps save (3M spheres: 1-11 % slower), so
   // half a cell. The span limits mark the same sphere size in both: a sphere whose padded box is 0.59
   // of a half-cell grid's edge spans 4 of its cells on average, 2.71 of the other's (a sphere 1.2x
@@ -96,7 +95,7 @@ class SphereGrid {
                          Done&& done) const {
     Walk w;
     const Start started = start(w, o, d, tMin, tHit);
-    if (started != Start::walking) return started == Start::empty;
+    if (started != Start::Walking) return started == Start::Empty;
     // A few cells ahead of the one tested: their first entries were fetched a step ago, their
     // records are fetched now (the walk knows its cells without reading memory).
     constexpr int kAhead = 4;
@@ -169,7 +168,7 @@ class SphereGrid {
     const auto fill = [&](int lane) {  // the lane walks the next ray that walks; false when none is left
       for (;;) {
         for (; handed < made; ++handed) {
-          if (starts.status[handed] != int(Start::walking)) continue;
+          if (starts.status[handed] != int(Start::Walking)) continue;
           const int j = handed++;
           ray[lane] = starts.ray[j];
           assign(starts.ray[j], lane);
@@ -194,7 +193,7 @@ class SphereGrid {
         handed = 0;
         startLanes(starts);
         for (int j = 0; j < made; ++j) {
-          if (starts.status[j] == int(Start::refused)) unwalked(starts.ray[j]);
+          if (starts.status[j] == int(Start::Refused)) unwalked(starts.ray[j]);
         }
       }
     };
@@ -315,21 +314,21 @@ class SphereGrid {
     int cell[3], step[3], stop[3];
     int64_t index;
   };
-  // refused: a ray the walk cannot follow exactly (see the top of this file); empty: the ray's span
+  // Refused: a ray the walk cannot follow exactly (see the top of this file); Empty: the ray's span
   // [tMin, tHit) misses the grid's box.
-  enum class Start { refused, empty, walking };
+  enum class Start { Refused, Empty, Walking };
 
   DURER_INLINE Start start(Walk& w, const double (&o)[3], const double (&d)[3], double tMin, double tHit) const {
     for (int a = 0; a < 3; ++a) {
       w.inv[a] = 1 / d[a];
-      if (!std::isfinite(o[a]) || !std::isfinite(d[a]) || (d[a] != 0 && !std::isfinite(w.inv[a]))) return Start::refused;
+      if (!std::isfinite(o[a]) || !std::isfinite(d[a]) || (d[a] != 0 && !std::isfinite(w.inv[a]))) return Start::Refused;
     }
-    if (d[0] == 0 && d[1] == 0 && d[2] == 0) return Start::refused;
-    if (kOriginError * (maxAbs(Vec3d(o[0], o[1], o[2])) + m_extent) > m_pad) return Start::refused;
+    if (d[0] == 0 && d[1] == 0 && d[2] == 0) return Start::Refused;
+    if (kOriginError * (maxAbs(Vec3d(o[0], o[1], o[2])) + m_extent) > m_pad) return Start::Refused;
     // The ray's span inside the grid's box.
     double t0 = tMin, t1 = tHit;
     for (int a = 0; a < 3; ++a) slab(m_lo[a], m_hi[a], o[a], w.inv[a], t0, t1);
-    if (!(t0 < t1)) return Start::empty;
+    if (!(t0 < t1)) return Start::Empty;
     w.index = 0;
     for (int a = 0; a < 3; ++a) {
       w.cell[a] = cellAlong(a, o[a] + t0 * d[a]);
@@ -338,7 +337,7 @@ class SphereGrid {
       w.next[a] = boundaryT(a, w.cell[a], w.step[a], o[a], d[a], w.inv[a]);
       w.index += w.cell[a] * m_stride[a];
     }
-    return Start::walking;
+    return Start::Walking;
   }
 
 #if DURER_WALK_LANES
@@ -383,10 +382,10 @@ class SphereGrid {
       t1 = _mm512_mask_blend_pd(_mm512_cmp_pd_mask(tFar, t1, _CMP_LT_OQ), t1, tFar);
     }
     const __mmask8 walking = ~refused & _mm512_cmp_pd_mask(t0, t1, _CMP_LT_OQ);
-    const __m256i status = _mm256_mask_blend_epi32(walking, _mm256_set1_epi32(int(Start::empty)),
-                                                   _mm256_set1_epi32(int(Start::walking)));
+    const __m256i status = _mm256_mask_blend_epi32(walking, _mm256_set1_epi32(int(Start::Empty)),
+                                                   _mm256_set1_epi32(int(Start::Walking)));
     _mm256_store_si256(reinterpret_cast<__m256i*>(s.status),
-                       _mm256_mask_blend_epi32(refused, status, _mm256_set1_epi32(int(Start::refused))));
+                       _mm256_mask_blend_epi32(refused, status, _mm256_set1_epi32(int(Start::Refused))));
     _mm512_store_pd(s.enter, t0);
     __m512i index = _mm512_setzero_si512();
     for (int a = 0; a < 3; ++a) {  // cellAlong() and boundaryT()
@@ -436,8 +435,10 @@ class SphereGrid {
     const Vec3<double> size = hi - lo;
     const double largest = std::max(size.x, std::max(size.y, size.z));
     if (!(largest > 0) || !std::isfinite(largest)) return false;
-    // Cells near cubes of the volume's share per cell, at least a 2^-10 of the largest side thick.
-    const double volume = std::max(size.x, largest / 1024) * std::max(size.y, largest / 1024) * std::max(size.z, largest / 1024);
+    // Cells near cubes of the volume's share per cell, at least a kMaxCellsPerAxis-th of the largest
+    // side thick.
+    const double thinnest = largest / kMaxCellsPerAxis;
+    const double volume = std::max(size.x, thinnest) * std::max(size.y, thinnest) * std::max(size.z, thinnest);
     const Division division = n <= kCachedSetUpTo ? kCachedSet : kLargeSet;
     const double edge = std::cbrt(volume / (division.cellsPerSphere * double(n)));
     for (int a = 0; a < 3; ++a) {

@@ -15,7 +15,6 @@
 #include "durer/Inline.h"
 #include "durer/geometry/Hit.h"
 #include "durer/accel/PrimitiveSet.h"
-#include "durer/geometry/RayOffset.h"
 #include "durer/geometry/RayPacket.h"
 #include "durer/geometry/Sphere.h"
 #include "durer/accel/Bvh.h"
@@ -141,7 +140,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   }
 
   // Builds the bounding-volume hierarchy (and reorders the spheres and their ids to its order);
-  // worth it above a few dozen spheres, after which intersect() traverses it.
+  // worth it from kBvhMinPrimitives spheres, after which intersect() traverses it.
   void buildBvh(int threads) {
     m_grid.clear();
     Base::buildBvh(kBoxOf, threads);
@@ -195,14 +194,14 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   // where one hierarchy serves them all.
   static constexpr size_t kMostLightViews = 3;
 
-  // Sphere i moved; the caller drops the grid once it has moved them all (dropGrid): its lock, taken
-  // for each sphere, was a third of moving 10M spheres.
+  // Sphere i moved; the caller drops the grid once it has moved them all (dropGrid): taking the grid's
+  // lock for each sphere would cost a third of moving 10M spheres.
   void setSphere(size_t i, const Sphere<Real>& sphere) { this->m_primitives[i] = sphere; }
   void dropGrid() { m_grid.clear(); }
 
   // The grid of these spheres for incoherent rays (SphereGrid), made on first use; null where the
   // spheres do not suit one or have no hierarchy (the grid sends the rays it cannot walk to it).
-  const SphereGrid<Real>* grid() const { return this->bvhBytes() ? m_grid.find(this->m_primitives) : nullptr; }
+  const SphereGrid<Real>* grid() const { return this->hasBvh() ? m_grid.find(this->m_primitives) : nullptr; }
 
   // Grows [lo, hi] to hold every sphere (the bounds of a transformed group).
   void bounds(Vec3<Real>& lo, Vec3<Real>& hi) const {

@@ -88,12 +88,12 @@ struct ViewKey {
 template <typename Real>
 class SphereView {
  public:
-  static constexpr int kCell = 8;  // pixels: a camera tile, so that a tile's packet reads one cell
-  // Below this many spheres shadow rays test them all faster than they read a light's view (as the
-  // hierarchy's threshold in Group::prepare). A camera's view pays from one sphere: the tiles off a
+  static constexpr int kCell = kTileSize;  // pixels: a camera tile, so that a tile's packet reads one cell
+  // Below this many spheres shadow rays test them all faster than they read a light's view (the
+  // hierarchy's threshold). A camera's view pays from one sphere: the tiles off a
   // sphere's footprint skip its test and the rays' terms (SphereSet::intersect), and the others test
   // only the rows it covers.
-  static constexpr size_t kMinLightSpheres = 16;
+  static constexpr size_t kMinLightSpheres = kBvhMinPrimitives;
   // Above this many entries per sphere (spheres covering many cells) the view costs more memory
   // than the hierarchy it stands in for: not made.
   static constexpr double kMaxEntriesPerSphere = 16;

@@ -18,7 +18,6 @@
 #include "durer/accel/Bvh.h"
 #include "durer/geometry/Hit.h"
 #include "durer/accel/PrimitiveSet.h"
-#include "durer/geometry/RayOffset.h"
 #include "durer/geometry/RayPacket.h"
 #include "durer/math/Float.h"
 #include "durer/math/Vec.h"

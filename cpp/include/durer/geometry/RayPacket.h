@@ -6,6 +6,10 @@ namespace durer {
 // Rays traced together, structure-of-arrays so that the per-primitive loops over rays vectorise.
 // 64 rays (an 8x8 pixel tile) keep every array of a packet in L1 while a primitive list streams by.
 constexpr int kPacketSize = 64;
+// A camera tile's side in pixels: one packet of kPacketSize rays per sample, and a camera view's
+// cell (SphereView::kCell), so that a tile's packet reads one cell.
+constexpr int kTileSize = 8;
+static_assert(kTileSize * kTileSize == kPacketSize, "a tile is one packet");
 
 template <typename Real>
 class SphereView;
@@ -21,8 +25,8 @@ struct RayPacket {
   bool commonOrigin = false;           // every ray starts at ox[0], oy[0], oz[0] (a perspective camera's)
   bool coherent = false;               // neighbouring rays of one camera tile: worth traversing together
   // The render's index of the sphere set searched by where the spheres appear (SphereView), or null:
-  // for camera rays the camera's, for shadow rays toward a directional light the light's. Camera rays
-  // also give the box of their sample positions [x0, x1, y0, y1].
+  // for camera rays the camera's, for a light's shadow rays the light's (a sun's image, a point or
+  // spot light's cube faces). Camera rays also give the box of their sample positions [x0, x1, y0, y1].
   const SphereView<Real>* view = nullptr;
   Real sampleBox[4] = {0, 0, 0, 0};
   // Camera rays one per pixel of the pixels [tileX, tileX + tileWidth) x [tileY, ...), row by row

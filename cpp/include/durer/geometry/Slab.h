@@ -1,6 +1,7 @@
 #pragma once
-// The slab test of a ray against an axis-aligned box, one axis at a time: the one used by the BVH's
-// node test and by the box primitive (BoxSet), so both agree on every ray.
+// The slab test of a ray against an axis-aligned box, one axis at a time: used by the box primitive
+// (BoxSet), by the packet-against-box test (anyRayEnters: an instance's bounds, a hierarchy
+// node's children in a packet's walk) and by the sphere grid's entry (SphereGrid::start).
 #include <algorithm>
 #include <limits>
 
@@ -36,13 +37,20 @@ struct PacketInverse {
   }
 };
 
+// How much a slab range's ends are widened (widenDown, widenUp) to keep every ray that truly meets
+// the box. The slab's t are each within γ₃ of the exact ones (two roundings and the reciprocal's),
+// so 2γ₃ would do; the factor is 2γ₅ because the product and the rounded factor add two roundings of
+// their own. Widening commutes with the max and min over the slabs (it is monotonic), so it is done
+// once on the range's ends.
+template <typename Real>
+inline constexpr Real kSlabWiden = 2 * errorGamma<Real>(5);
+
 // Whether any ray of the packet may meet the box [lo, hi] (rounded outward) at some t in
-// [tMin, its tHit], the slab's t widened by 2γ₅ for their own rounding (as in Bvh.h). Rays are
+// [tMin, its tHit], the slab's t widened by kSlabWiden for their own rounding. Rays are
 // tested 16 at a time (a vectorised loop each), stopping at the first chunk with a ray that enters.
 template <typename Real>
 DURER_INLINE bool anyRayEnters(const RayPacket<Real>& p, const PacketInverse<Real>& inv, const Vec3<Real>& lo, const Vec3<Real>& hi) {
   constexpr Real inf = std::numeric_limits<Real>::infinity();
-  constexpr Real widen = 2 * errorGamma<Real>(5);
   constexpr int kChunk = 16;
   for (int first = 0; first < p.count; first += kChunk) {
     int entering = 0;  // an integer count, not a bool: the reduction then vectorises
@@ -51,8 +59,8 @@ DURER_INLINE bool anyRayEnters(const RayPacket<Real>& p, const PacketInverse<Rea
       slab(lo.x, hi.x, p.ox[k], inv.x[k], nearT, farT);
       slab(lo.y, hi.y, p.oy[k], inv.y[k], nearT, farT);
       slab(lo.z, hi.z, p.oz[k], inv.z[k], nearT, farT);
-      nearT = widenDown(nearT, widen);
-      farT = widenUp(farT, widen);
+      nearT = widenDown(nearT, kSlabWiden<Real>);
+      farT = widenUp(farT, kSlabWiden<Real>);
       nearT = p.tMin > nearT ? p.tMin : nearT;
       farT = p.tHit[k] < farT ? p.tHit[k] : farT;
       entering += nearT <= farT ? 1 : 0;

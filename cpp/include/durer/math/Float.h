@@ -12,6 +12,8 @@
 
 namespace durer {
 
+constexpr double kPi = 3.14159265358979323846;
+
 // gamma(n) = n·u / (1 - n·u), u the unit roundoff: bounds the relative error of n chained roundings
 // (Higham; pbrt-v4 uses the same bound).
 template <typename Real>

@@ -16,6 +16,7 @@
 #include "durer/render/RayCounters.h"
 #include "durer/geometry/RayOffset.h"
 #include "durer/geometry/RayPacket.h"
+#include "durer/math/Float.h"
 #include "durer/render/PixelSampler.h"
 #include "durer/render/Shading.h"
 
@@ -34,9 +35,9 @@ struct EffectSet {
 };
 
 struct BounceLimits {
-  int maxBounces = 4;      // the deepest secondary ray (a camera ray's children are at depth 1)
-  double minWeight = 0.01; // rays whose weight would fall below this are not spawned
-  bool shadeBack = false;  // shade back faces with the flipped normal (6.837 -shade_back)
+  int maxBounces;    // the deepest secondary ray (a camera ray's children are at depth 1)
+  double minWeight;  // rays whose weight would fall below this are not spawned
+  bool shadeBack;    // shade back faces with the flipped normal (6.837 -shade_back)
 };
 
 struct OcclusionSettings {
@@ -55,7 +56,9 @@ class PacketShader {
         m_background(background), m_cancel(cancel), m_minWeight(static_cast<Real>(limits.minWeight)) {}
 
   // The views of the scene's own spheres from its lights (SphereView), in the order of the shading's
-  // lights: null where none (a point or spot light, no shadows, too few spheres).
+  // lights: null where none was made (the light casts no shadows, more than
+  // SphereSet::kMostLightViews lights cast shadows, fewer than SphereView::kMinLightSpheres spheres,
+  // or a view that would not pay or could not be made).
   void useLightViews(std::vector<const SphereView<Real>*> views) { m_lightViews = std::move(views); }
 
   // The shading normal of a hit (Hit.h decides the side).
@@ -237,7 +240,7 @@ class PacketShader {
     const double a = 2 * u - 1, b = 2 * v - 1;
     const bool wide = std::fabs(a) > std::fabs(b);
     const double r = wide ? a : b;
-    const double t = r == 0 ? 0 : 0.78539816339744830962 * (wide ? b / a : a / b);
+    const double t = r == 0 ? 0 : kPi / 4 * (wide ? b / a : a / b);
     const double t2 = t * t;
     const double sine = t * (1 - t2 / 6 * (1 - t2 / 20 * (1 - t2 / 42 * (1 - t2 / 72))));
     const double cosine = 1 - t2 / 2 * (1 - t2 / 12 * (1 - t2 / 30 * (1 - t2 / 56 * (1 - t2 / 90))));

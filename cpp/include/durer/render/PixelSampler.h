@@ -21,17 +21,10 @@ class PixelSampler {
  public:
   PixelSampler(SamplerKind kind, int samplesPerPixel, uint64_t seed);
 
-  SamplerKind kind() const { return m_kind; }
   int samplesPerPixel() const { return m_spp; }
-  // Whether every sample sits at its pixel's centre; offset() then skips the per-pixel hash, which
-  // at ~10 ns a primary ray would cost as much as the tracing.
+  // Whether every sample sits at its pixel's centre; pixelSeeds() and offsets() then skip the
+  // per-pixel hash, which at ~10 ns a primary ray would cost as much as the tracing.
   bool centred() const { return m_kind == SamplerKind::Center || (m_kind == SamplerKind::Stratified && m_spp == 1); }
-
-  // Offset in [0, 1)^2 of sample s of the pixel with linear index `pixel`.
-  void offset(uint64_t pixel, int s, double& u, double& v) const {
-    const uint64_t seed = pixelSeed(pixel);
-    offsets(&seed, 1, s, &u, &v);
-  }
 
   // The seeds of pixels with linear indices pixel[j], j < count, for offsets(): a pixel's hash,
   // made once for all its samples. A centred sampler's offsets read none: left as they are.
@@ -45,7 +38,7 @@ class PixelSampler {
   void offsets(const uint64_t* seed, int count, int s, double* u, double* v) const;
 
   // The Sobol samplers' two scrambling seeds of the pixel with linear index `pixel` (sample order,
-  // then the points'): sobolOffsets of them gives offset(pixel, index) for each index.
+  // then the points'): sobolOffsets of them gives each index the point offsets() does.
   void sobolSeeds(uint64_t pixel, uint32_t& order, uint32_t& points) const {
     const uint64_t seed = pixelSeed(pixel);
     order = static_cast<uint32_t>(seed), points = static_cast<uint32_t>(seed >> 32);

@@ -16,7 +16,7 @@ namespace durer {
 struct RenderSettings {
   int width = 0;                     // pixels, >= 1
   int height = 0;                    // pixels, >= 1
-  int samplesPerPixel = 1;           // >= 1; 1 samples the pixel centre
+  int samplesPerPixel = 1;           // >= 1; center/stratified sampler at 1: the pixel centre (PixelSampler::centred)
   uint64_t seed = 0;                 // sampler seed
   SamplerKind sampler = SamplerKind::Stratified;
   double targetError = 0.01;         // adaptive: a pixel stops once its colour's estimated RMS error is below this

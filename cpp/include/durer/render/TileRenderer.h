@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
-#include <mutex>
 #include <type_traits>
 #include <vector>
 
@@ -21,10 +20,8 @@
 namespace durer {
 namespace tiles {
 
-constexpr int kTileSize = 8;  // 8x8 pixels = one packet of kPacketSize rays per sample
 // The shortest mean of a pixel's unit hit normals (relative to the hits) taken as a direction (2^-10).
 constexpr double kMinMeanNormal = 1.0 / 1024;
-static_assert(kTileSize * kTileSize == kPacketSize, "a tile is one packet");
 
 inline RenderSettings::Region regionOf(const RenderSettings& s) {
   return s.region.width != 0 ? s.region : RenderSettings::Region{0, 0, s.width, s.height};
@@ -571,12 +568,15 @@ class TileRenderer {
     return SphereView<Real>::make(count, footprint, 0, 0, width, height, threads, only ? only->data() : nullptr, disks);
   }
 
+  // A light view's cells are this many mean sphere radii across (at the spheres' mean distance from
+  // a point light).
+  static constexpr double kRadiiPerCell = 4;
+
   // The view of the scene's own spheres from a directional light travelling along `direction`, for
   // its shadow rays (SphereView::occluders): an orthographic image along it over the spheres' bounds
   // with a cell to spare, its cells four mean radii across (at most 2048 a side).
   static std::shared_ptr<const SphereView<Real>> lightViewOf(const SphereSet<Real>& spheres, const Vec3d& direction,
                                                              const RenderSettings& settings) {
-    constexpr double kRadiiPerCell = 4;
     constexpr double kMaxCellsAcross = 2048;
     if (spheres.size() < SphereView<Real>::kMinLightSpheres) return nullptr;
     const ViewKey key{{direction.x, direction.y, direction.z}, true};
@@ -618,7 +618,6 @@ class TileRenderer {
   static std::shared_ptr<const SphereView<Real>> pointLightViewOf(const SphereSet<Real>& spheres,
                                                                   const Vec3d& position,
                                                                   const RenderSettings& settings) {
-    constexpr double kRadiiPerCell = 4;
     constexpr double kMaxCellsAcross = 1024;
     if (spheres.size() < SphereView<Real>::kMinLightSpheres) return nullptr;
     const ViewKey key{{position.x, position.y, position.z, 1}, true};
@@ -661,7 +660,7 @@ class TileRenderer {
     spec.direction = Vec3d(0);
     spec.direction[face / 2] = face % 2 == 0 ? 1 : -1;
     spec.up = face / 2 == 2 ? Vec3d(0, 1, 0) : Vec3d(0, 0, 1);
-    spec.size = 2 * std::atan(kCubeHalfWidth) * 180 / 3.14159265358979323846;
+    spec.size = 2 * std::atan(kCubeHalfWidth) * 180 / kPi;
     spec.tMin = 0;
     spec.tMax = std::numeric_limits<double>::infinity();
     return Camera<Real>(spec, pixels, pixels);

@@ -120,7 +120,7 @@ class Scene {
   void requireMaterials(const int32_t* materials, size_t count, bool perPrimitive) const;
   void requirePrimitiveRoom(size_t count) const;
   // Adds primitive i of an add to `set` (Set::add's arguments but the colours): with the add's
-  // colours, made by colorsOf(i), if it has them; with its material's kd if the set is coloured by
+  // colours, made by colorsOf(), if it has them; with its material's kd if the set is coloured by
   // an earlier add. Call prepareColors first.
   template <typename Set, typename Prim, typename ColorsOf>
   void addTo(Set& set, const Prim& primitive, int32_t material, int32_t objectId, bool given, const ColorsOf& colorsOf);

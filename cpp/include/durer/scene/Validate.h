@@ -16,6 +16,8 @@ void requireNonNegativeColor(const Vec3d& value, const std::string& field);  // 
 void requireColorWithin(double largest, const std::string& field, const std::string& shown);
 // |every component| <= limit (finite): else "<field> must lie within ±limit<where>, got <value>".
 void requireWithin(double magnitude, double limit, const std::string& field, const std::string& where = "");
+// " with precision='<precision>'": requireWithin's `where` for a precision's limits (Limits.h).
+std::string withPrecision(const char* precision);
 void requireRange(double tMin, double tMax, const std::string& minField, const std::string& maxField);
 [[noreturn]] void fail(const std::string& message);
 
