@@ -141,6 +141,19 @@ def image_side(value: Any, name: str) -> int:
     return integer(value, name, 1, MAX_IMAGE_SIDE)
 
 
+def items(value: Any, count: int, name: str, form: str) -> tuple:
+    """The `count` items of a short sequence argument (a region, ambient occlusion's pair): TypeError
+    naming `name` for a value that is not a sequence, ValueError for one of another length; `form`
+    says what it should be, as "(samples, distance)"."""
+    try:
+        result = tuple(value)
+    except TypeError:
+        raise TypeError(f"{name} must be {form} or None, got {type(value).__name__}") from None
+    if len(result) != count:
+        raise ValueError(f"{name} must be {form} or None, got {len(result)} items: {value!r}")
+    return result
+
+
 def c_int(value: Any, name: str) -> int:
     """An integer that fits the core's C int (its range is the core's to check)."""
     return integer(value, name, -(2**31), 2**31 - 1)

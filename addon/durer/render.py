@@ -237,10 +237,7 @@ def region_argument(region: tuple[int, int, int, int] | None, width: int, height
     """The core's region: (x, y, w, h) inside the image, or (0, 0, 0, 0) for the whole image."""
     if region is None:
         return (0, 0, 0, 0)
-    try:
-        x, y, w, h = region
-    except (TypeError, ValueError):
-        raise ValueError(f"region must be (x, y, width, height), got {region!r}") from None
+    x, y, w, h = _checks.items(region, 4, "region", "(x, y, width, height)")
     x, y = _checks.integer(x, "region x", 0, width - 1), _checks.integer(y, "region y", 0, height - 1)
     w, h = _checks.integer(w, "region width", 1, width - x), _checks.integer(h, "region height", 1, height - y)
     return (x, y, w, h)
@@ -250,10 +247,7 @@ def ambient_occlusion_argument(value: tuple[int, float] | None) -> tuple[int, fl
     """(samples, distance) as (int, float), or None (off); their ranges are the core's to check."""
     if value is None:
         return None
-    try:
-        samples, distance = value
-    except (TypeError, ValueError):
-        raise ValueError(f"ambient_occlusion must be (samples, distance) or None, got {value!r}") from None
+    samples, distance = _checks.items(value, 2, "ambient_occlusion", "(samples, distance)")
     return _checks.c_int(samples, "ambient_occlusion samples"), _checks.real(distance, "ambient_occlusion distance")
 
 

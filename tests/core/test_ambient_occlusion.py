@@ -164,7 +164,7 @@ def test_deterministic_across_threads_regions_and_seeded():
      ((16, "far"), TypeError, r"ambient_occlusion distance must be a real number"),
      # a wrong number of items is a ValueError, as for every tuple-valued argument (region, shift, colours)
      ((16,), ValueError, r"ambient_occlusion must be \(samples, distance\) or None"),
-     (16, ValueError, r"ambient_occlusion must be \(samples, distance\) or None")],
+     (16, TypeError, r"ambient_occlusion must be \(samples, distance\) or None, got int")],
 )
 def test_bad_values_name_ambient_occlusion(value, error, message):
     with pytest.raises(error, match=message):
