@@ -40,13 +40,19 @@ class BatchRenderError(RuntimeError):
     """A frame failed to render (the message says which and why)."""
 
 
+def _hard_range(owner: type, name: str) -> tuple[int, int]:
+    """The hard bounds of the integer property `name` of the Blender type `owner`: the property is their
+    one home (Blender would clamp a value beyond them silently)."""
+    setting = owner.bl_rna.properties[name]
+    return setting.hard_min, setting.hard_max
+
+
 def frame_range() -> tuple[int, int]:
-    """The frames Blender renders: the hard bounds of scene.frame_current, their one home (frame_set
-    would clamp a frame beyond them silently)."""
+    """The frames Blender renders: the hard bounds of scene.frame_current (frame_set would clamp a
+    frame beyond them)."""
     import bpy
 
-    setting = bpy.types.Scene.bl_rna.properties["frame_current"]
-    return setting.hard_min, setting.hard_max
+    return _hard_range(bpy.types.Scene, "frame_current")
 
 
 def parse_frames(spec: str | int | Iterable[int] | None) -> list[int] | None:
@@ -173,14 +179,12 @@ def render_file(
 
 
 def setting_range(name: str) -> tuple[int, int]:
-    """The hard bounds of the integer Dürer scene setting `name`: its IntProperty is their one home
-    (Blender would clamp a value beyond them silently)."""
+    """The hard bounds of the integer Dürer scene setting `name`."""
     from . import register
     from .properties import DurerSceneSettings
 
     register()
-    setting = DurerSceneSettings.bl_rna.properties[name]
-    return setting.hard_min, setting.hard_max
+    return _hard_range(DurerSceneSettings, name)
 
 
 def open_blend(

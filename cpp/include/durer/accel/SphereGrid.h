@@ -60,9 +60,9 @@ class SphereGrid {
   // boxes spanning cells count in each): the walk in lanes tests only the records in a ray's octants
   // of each cell, so larger cells cost it fewer extra tests than steps saved (rays leaving random
   // spheres 3-14 % quicker than at a quarter of a cell from 20,000 to 200,000 spheres, as quick at
-  // 2,000 and 1M, renders as quick, and the one-ray walk no slower). Beyond, where the records lie in memory rather than
-  // the caches, a cell's extra bytes cost more than its steps save (3M spheres: 1-11 % slower), so
-  // half a cell. The span limits mark the same sphere size in both: a sphere whose padded box is 0.59
+  // 2,000 and 1M, renders as quick, and the one-ray walk no slower). Beyond, where the records lie
+  // in memory rather than the caches, a cell's extra bytes cost more than its steps save (3M spheres:
+  // 1-11 % slower), so half a cell. The span limits mark the same sphere size in both: a sphere whose padded box is 0.59
   // of a half-cell grid's edge spans 4 of its cells on average, 2.71 of the other's (a sphere 1.2x
   // that size made a quarter-cell grid 10 % slower than the hierarchy).
   struct Division {
