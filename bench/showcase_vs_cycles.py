@@ -1,15 +1,17 @@
 """End-to-end render time of .blend files with Dürer and with Cycles, in the same process.
 
-    python bench/showcase_vs_cycles.py [FILE.blend ...] [--points 1000000] [--point-light] [--size 1920x1080]
-                                       [--samples 1] [--cycles-samples N] [--repeats 5] [--images DIR]
+    python bench/showcase_vs_cycles.py [FILE.blend ...] [--points 1000000] [--point-light] [--particles N]
+                                       [--size 1920x1080] [--samples 1] [--cycles-samples N] [--repeats 5]
+                                       [--images DIR]
 
 Without files: scenes/showcase.blend (65 spheres and a plane) and a point cloud of --points spheres in
 a slab over a ground plane, lit by a sun casting shadows, made by scenes/make_point_cloud.py (a mesh
 through geometry nodes' "Mesh to Points", as users make point clouds) into a temporary folder;
 `--points 0` leaves it out; `--point-light` adds the same cloud under a point light above it
-(Blender's default light). Both engines go through bpy.ops.render.render() (what F12 runs), so
-the times include scene export and Blender's own overhead; Cycles renders on the CPU with the same
-samples (or --cycles-samples), no denoising. Each engine's figure is the median of --repeats renders
+(Blender's default light); `--particles N` adds a slab of N spheres made by a particle system
+instead (instances of a UV sphere, which Cycles renders as triangles). Both engines go through
+bpy.ops.render.render() (what F12 runs), so the times include scene export and Blender's own
+overhead; Cycles renders on the CPU with the same samples (or --cycles-samples), no denoising. Each engine's figure is the median of --repeats renders
 after one warm-up; the machine is printed. With --images, the warm-up renders are saved as
 DIR/<file>-durer.png and DIR/<file>-cycles.png through the file's colour management.
 """
@@ -100,11 +102,13 @@ MAKE_POINT_CLOUD = ROOT / "scenes" / "make_point_cloud.py"
 POINT_CLOUD_TARGET = 5.0  # issue 13: Dürer >= 5x faster than Cycles on the 1M point cloud, 1 spp
 
 
-def make_point_cloud(folder: Path, points: int, light: str = "sun") -> Path:
-    """The point-cloud .blend of scenes/make_point_cloud.py lit by `light`, written into `folder`."""
-    path = folder / ("point_cloud.blend" if light == "sun" else f"point_cloud_{light}.blend")
-    done = subprocess.run([sys.executable, str(MAKE_POINT_CLOUD), str(path), "--points", str(points), "--light", light],
-                          capture_output=True, text=True, check=False)
+def make_point_cloud(folder: Path, points: int, light: str = "sun", made_by: str = "points") -> Path:
+    """The point-cloud .blend of scenes/make_point_cloud.py lit by `light`, its spheres made by
+    `made_by` ("points": Mesh to Points; "particles": a particle system), written into `folder`."""
+    stem = "point_cloud" if made_by == "points" else "particle_cloud"
+    path = folder / (f"{stem}.blend" if light == "sun" else f"{stem}_{light}.blend")
+    done = subprocess.run([sys.executable, str(MAKE_POINT_CLOUD), str(path), "--points", str(points), "--light", light,
+                           "--made-by", made_by], capture_output=True, text=True, check=False)
     if done.returncode != 0:
         raise RuntimeError(f"{MAKE_POINT_CLOUD.name} failed:\n{done.stderr[-2000:]}")
     return path
@@ -136,6 +140,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--points", type=int, default=1_000_000, help="spheres in the point cloud (0: leave it out)")
     p.add_argument("--point-light", action="store_true",
                    help="also the point cloud under a point light (Blender's default light) instead of the sun")
+    p.add_argument("--particles", type=int, default=0,
+                   help="also a cloud of this many spheres made by a particle system (instances of a UV sphere)")
     p.add_argument("--size", default="1920x1080")
     p.add_argument("--samples", type=int, default=1)
     p.add_argument("--cycles-samples", type=int, help="Cycles' samples (default: --samples)")
@@ -153,6 +159,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             files.append((make_point_cloud(Path(folder), args.points), POINT_CLOUD_TARGET))
             if args.point_light:
                 files.append((make_point_cloud(Path(folder), args.points, "point"), None))
+        if not args.files and args.particles > 0:
+            files.append((make_point_cloud(Path(folder), args.particles, made_by="particles"), None))
         results = [(compare_engines(path, w, h, args.samples, repeats=args.repeats, cycles_samples=args.cycles_samples,
                                     images=args.images), target) for path, target in files]
     if args.json:

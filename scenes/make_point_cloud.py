@@ -9,7 +9,13 @@ z in [0, 4] (Blender's z-up; the core benchmarks' y-up slab), radius 0.02 (about
 renders as an infinite plane and Cycles as an 80 x 80 quad, which fills the view either way. 1 spp in
 both engines, 1920x1080; `bench/showcase_vs_cycles.py` renders it with each.
 
-    python scenes/make_point_cloud.py [OUTPUT.blend] [--points 1000000] [--seed 7] [--light point]  # bpy + durer
+With `--made-by particles` the same slab is filled the older way: a particle system emitting from
+the volume of a slab-shaped box (hidden: Show Emitter off) at random, every particle an instance of a
+UV sphere of radius 0.02 (Blender's own random positions, so not the same points). Dürer renders each
+instance as that sphere, Cycles as the UV sphere's 960 triangles.
+
+    python scenes/make_point_cloud.py [OUTPUT.blend] [--points 1000000] [--seed 7] [--light point]
+                                      [--made-by particles]  # bpy + durer
 """
 
 from __future__ import annotations
@@ -50,7 +56,38 @@ def aimed(obj: bpy.types.Object, direction) -> bpy.types.Object:
     return obj
 
 
-def build(points: int = POINTS, seed: int = 7, light: str = "sun") -> bpy.types.Scene:
+def particle_cloud(coll, points: int, seed: int) -> None:
+    """`points` particles born at once at random in the slab's volume (no physics), each an
+    instance of a hidden UV sphere of radius RADIUS; the emitter box hidden in renders."""
+    import bmesh  # only once bpy is loaded
+
+    low, high = np.array(SLAB[0]), np.array(SLAB[1])
+    box = bpy.data.meshes.new("Slab")
+    corners = [(x, y, z) for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])]
+    box.from_pydata(corners, [], [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)])
+    emitter = bpy.data.objects.new("Emitter", box)
+    emitter.show_instancer_for_render = emitter.show_instancer_for_viewport = False
+    coll.objects.link(emitter)
+    ball = bpy.data.meshes.new("Ball")
+    bm = bmesh.new()
+    bmesh.ops.create_uvsphere(bm, u_segments=32, v_segments=16, radius=RADIUS)
+    bm.to_mesh(ball)
+    bm.free()
+    instanced = bpy.data.objects.new("Ball", ball)
+    instanced.location = (0.0, 0.0, -50.0)  # out of view; hidden in renders too
+    instanced.hide_render = instanced.hide_viewport = True
+    coll.objects.link(instanced)
+    emitter.modifiers.new("Particles", "PARTICLE_SYSTEM")
+    system = emitter.particle_systems[0]
+    system.seed = seed
+    part = system.settings
+    part.count, part.frame_start, part.frame_end, part.physics_type = points, 1, 1, "NO"
+    part.emit_from, part.distribution, part.use_emit_random = "VOLUME", "RAND", True
+    part.render_type, part.instance_object, part.particle_size, part.size_random = "OBJECT", instanced, 1.0, 0.0
+    part.display_percentage = 1  # the viewport draws 1 % of them; renders draw all
+
+
+def build(points: int = POINTS, seed: int = 7, light: str = "sun", made_by: str = "points") -> bpy.types.Scene:
     bpy.ops.wm.read_factory_settings(use_empty=True)
     durer.blender.register()
     scene = bpy.context.scene
@@ -71,9 +108,12 @@ def build(points: int = POINTS, seed: int = 7, light: str = "sun") -> bpy.types.
     ground.durer.infinite_plane = True
     coll.objects.link(ground)
 
-    positions = np.random.default_rng(seed).uniform(*SLAB, size=(points, 3))
-    # No material: "Mesh to Points" does not carry the mesh's, so both engines use their default surface.
-    point_cloud_object(coll, "Cloud", positions, RADIUS)
+    if made_by == "particles":
+        particle_cloud(coll, points, seed)
+    else:
+        positions = np.random.default_rng(seed).uniform(*SLAB, size=(points, 3))
+        # No material: "Mesh to Points" does not carry the mesh's, so both engines use their default surface.
+        point_cloud_object(coll, "Cloud", positions, RADIUS)
 
     if light == "sun":
         sun = bpy.data.lights.new("Sun", "SUN")
@@ -116,8 +156,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--points", type=int, default=POINTS)
     parser.add_argument("--seed", type=int, default=7)
     parser.add_argument("--light", choices=("sun", "point"), default="sun")
+    parser.add_argument("--made-by", choices=("points", "particles"), default="points")
     args = parser.parse_args(argv)
-    build(args.points, args.seed, args.light)
+    build(args.points, args.seed, args.light, args.made_by)
     bpy.ops.wm.save_as_mainfile(filepath=str(args.output.resolve()))
     print(args.output.resolve())
     return 0

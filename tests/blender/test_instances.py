@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers.blender import cube, export, link, uv_sphere
+from helpers.blender import cube, export, grid, link, uv_sphere
 
 from helpers.blender_import import blender_module
 
@@ -150,3 +150,117 @@ def test_instances_render_as_the_equivalent_point_cloud(scene):
     np.testing.assert_allclose(a.depth, b.depth, rtol=1e-6)
     np.testing.assert_allclose(a.color, b.color, atol=1e-5)
     np.testing.assert_allclose(a.normal, b.normal, atol=1e-4)
+
+
+def particle_system(scene, emitter, instanced, count, seed, **settings):
+    """A particle system on `emitter` as users set one up to scatter objects: every particle born
+    on frame 1 and left where it is born (no physics), rendered as `instanced` (an object, or a
+    collection with render_type="COLLECTION"), at random sizes and rotations."""
+    emitter.modifiers.new(f"Particles {len(emitter.particle_systems)}", "PARTICLE_SYSTEM")
+    system = emitter.particle_systems[-1]
+    system.seed = seed
+    part = system.settings
+    part.count, part.frame_start, part.frame_end, part.physics_type = count, 1, 1, "NO"
+    part.particle_size, part.size_random = 1.0, 0.6
+    part.use_rotations, part.rotation_mode, part.rotation_factor_random = True, "NOR", 0.8
+    part.render_type = settings.pop("render_type", "OBJECT")
+    if part.render_type == "OBJECT":
+        part.instance_object = instanced
+    else:
+        part.instance_collection = instanced
+    for name, value in settings.items():
+        setattr(part, name, value)
+    scene.frame_set(1)
+    return system
+
+
+def particle_instances() -> list[tuple[str, np.ndarray]]:
+    """Blender's own particle instances: each one's object name and world matrix."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    return [(inst.object.name, np.array(inst.matrix_world, np.float64))
+            for inst in depsgraph.object_instances if inst.particle_system is not None]
+
+
+def offset_sphere(scene, name, radius, offset):
+    """A UV sphere whose mesh sits `offset` from its object's origin (so an instance's rotation
+    moves its centre)."""
+    from helpers.blender import bmesh, mesh_object
+
+    def build_mesh(bm):
+        bmesh.ops.create_uvsphere(bm, u_segments=32, v_segments=16, radius=radius)
+        bmesh.ops.translate(bm, verts=bm.verts, vec=offset)
+
+    return mesh_object(scene, name, build_mesh)
+
+
+def assert_same_rows(rows, expected, atol):
+    """The same rows in any order: each expected one matched to the nearest exported one not
+    matched yet (particles may be born on the same spot: Blender's own matrices repeat)."""
+    assert rows.shape == expected.shape
+    distance = np.abs(expected[:, None, :] - rows[None, :, :]).max(axis=2)
+    for i in range(len(expected)):
+        j = int(distance[i].argmin())
+        np.testing.assert_allclose(rows[j], expected[i], rtol=0, atol=atol)
+        distance[:, j] = np.inf
+
+
+def expected_spheres(instances, own) -> tuple[np.ndarray, np.ndarray]:
+    """The spheres Blender's instances make of objects whose meshes are spheres (`own`: name ->
+    its mesh's centre and radius in object space)."""
+    centres = np.array([m[:3, :3] @ own[name][0] + m[:3, 3] for name, m in instances])
+    radii = np.array([own[name][1] * abs(np.linalg.det(m[:3, :3])) ** (1 / 3) for name, m in instances])
+    return centres, radii
+
+
+def test_particles_rendered_as_a_sphere_object_give_one_sphere_each_where_blender_puts_it(scene):
+    """A particle system instancing a sphere (legacy particles, as emitters scatter objects): one
+    sphere per particle, centred and sized by Blender's own instance matrix, the object's offset
+    from its origin rotated with each particle; a second system on the same emitter with another
+    sphere keeps its own radius; an instanced object squashed on one axis gives exact ellipsoids."""
+    emitter = grid(scene, "Emitter", size=3.0, n=8)
+    emitter.location, emitter.rotation_euler = (0.5, -1.0, 0.2), (0.3, 0.0, 0.7)
+    emitter.show_instancer_for_render = emitter.show_instancer_for_viewport = False
+    ball = offset_sphere(scene, "Ball", 0.1, (0.3, 0.0, 0.0))
+    ball.location, ball.scale = (4, 4, 4), (1.5, 1.5, 1.5)
+    small = uv_sphere(scene, "Small", radius=0.04)
+    for obj in (ball, small):
+        obj.hide_render = obj.hide_viewport = True  # only its instances are seen
+    particle_system(scene, emitter, ball, 300, seed=1)
+    particle_system(scene, emitter, small, 200, seed=2, use_scale_instance=False)
+    instances = particle_instances()
+    assert len(instances) == 500
+    data = export(scene)
+    assert data.sphere_count == 500 and data.ellipsoid_count == 0
+    assert data.sources == {"Ball": 300, "Small": 200}
+    centres, radii = expected_spheres(instances, {"Ball": (np.array([0.3, 0.0, 0.0]), 0.1), "Small": (np.zeros(3), 0.04)})
+    assert_same_rows(np.column_stack([data.sphere_centers, data.sphere_radii]), np.column_stack([centres, radii]), 2e-5)
+    scales = radii[[name == "Ball" for name, _ in instances]] / (0.1 * 1.5)
+    assert scales.min() < 0.7 and scales.max() > 0.95  # sizes varied
+    ball.scale = (1.5, 3.0, 1.5)
+    data = export(scene)
+    assert data.ellipsoid_count == 300 and data.sphere_count == 200
+    exported = np.array([t.matrix[:3, :].ravel() for t in data.transformed_spheres])
+    assert_same_rows(exported, np.array([m[:3, :].ravel() for name, m in particle_instances() if name == "Ball"]), 1e-5)
+
+
+def test_particles_rendered_as_a_collection_give_each_particle_its_own_objects_sphere(scene):
+    """A collection-rendered system picks an object per particle: each particle's sphere has the
+    radius of the object Blender instanced there, so the walk may not reuse one particle's object
+    for the next."""
+    collection = bpy.data.collections.new("Balls")
+    radii = {"Small": 0.05, "Large": 0.2}
+    for name, radius in radii.items():
+        obj = uv_sphere(scene, name, radius=radius)
+        scene.collection.objects.unlink(obj)
+        collection.objects.link(obj)
+    emitter = grid(scene, "Emitter", size=3.0, n=6)
+    emitter.show_instancer_for_render = emitter.show_instancer_for_viewport = False
+    particle_system(scene, emitter, collection, 120, seed=3, render_type="COLLECTION", use_collection_pick_random=True)
+    instances = particle_instances()
+    names = [name for name, _ in instances]
+    assert len(instances) == 120 and 20 < names.count("Small") < 100
+    data = export(scene)
+    assert data.sphere_count == 120 and data.ellipsoid_count == 0
+    centres, expected_radii = expected_spheres(instances, {name: (np.zeros(3), r) for name, r in radii.items()})
+    assert_same_rows(np.column_stack([data.sphere_centers, data.sphere_radii]),
+                     np.column_stack([centres, expected_radii]), 2e-5)

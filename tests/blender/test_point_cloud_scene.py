@@ -76,3 +76,24 @@ def test_the_point_light_variant_casts_its_shadows_from_a_point(bench, tmp_path)
     info = engine.last_render
     assert info.error is None and info.warnings == [] and info.spheres == POINTS
     assert 0.3 * info.stats["rays"] < info.stats["shadow_rays"] <= info.stats["rays"]
+
+
+def test_the_particle_variant_fills_the_slab_with_instances_of_a_sphere(bench, tmp_path):
+    """--made-by particles: a particle system's instances of a UV sphere, the emitter hidden; each
+    instance is one exact sphere of radius 0.02 in the slab, as many as particles."""
+    blend = bench.make_point_cloud(tmp_path, POINTS, made_by="particles")
+    durer.blender.register()
+    bpy.ops.wm.open_mainfile(filepath=str(blend), load_ui=False)
+    emitter = bpy.data.objects["Emitter"]
+    assert [m.type for m in emitter.modifiers] == ["PARTICLE_SYSTEM"] and not emitter.show_instancer_for_render
+    bpy.context.scene.render.resolution_percentage = 5
+    assert bpy.ops.render.render() == {"FINISHED"}
+    info = engine.last_render
+    assert info.error is None and info.warnings == [] and (info.spheres, info.planes) == (POINTS, 1)
+    emitter.particle_systems[0].settings.display_percentage = 100  # the viewport's depsgraph: all of them too
+    data = export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    assert data.sphere_count == POINTS
+    np.testing.assert_allclose(data.sphere_radii, 0.02, rtol=1e-5)
+    low, high = data.sphere_centers.min(axis=0), data.sphere_centers.max(axis=0)
+    assert np.all(low >= (-10, -10, 0)) and np.all(high <= (10, 10, 4))
+    assert np.all(low < (-9.8, -9.8, 0.1)) and np.all(high > (9.8, 9.8, 3.9))

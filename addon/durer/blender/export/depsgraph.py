@@ -184,23 +184,26 @@ def export_depsgraph(depsgraph, camera=None) -> SceneData:
     b = Builder()
     batches = InstanceBatches(b)
     for inst in depsgraph.object_instances:
+        is_instance = inst.is_instance
+        if is_instance and batches.skips(inst):
+            continue  # made in bulk with its instancer, or kept with its particle system's others
         obj = inst.object
         kind = obj.type
         if kind in _NOT_RENDERED:
             continue
         if kind == "LIGHT":
-            _light(b, obj, world_matrix(inst.matrix_world))
+            if inst.show_self:
+                _light(b, obj, world_matrix(inst.matrix_world))
             continue
         original = obj.original  # read once: the walk's per-instance cost is in such reads
         settings = _durer_settings(obj, original)
         mode = settings.primitive if settings is not None else "AUTO"
         if mode == "IGNORE":
             continue
-        is_instance = inst.is_instance
-        if is_instance and batches.instancers and inst.parent.as_pointer() in batches.instancers:
-            continue  # made in bulk with its instancer
         if not is_instance and mode in _SPHERE_MODES:
             batches.take_instancer(obj, mode)
+        if not inst.show_self:
+            continue  # an instancer Blender does not draw itself (a particle emitter, a vertex or face instancing parent, as set)
         if kind == "MESH":
             if original is not None and original.type in _CONVERTED_TYPES:
                 continue  # the mesh Blender made of a curve, text, surface or metaball: handled as that

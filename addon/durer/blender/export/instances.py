@@ -1,8 +1,10 @@
 """Instances of sphere-shaped meshes exported in bulk, not one Python step per instance (100,000
 instanced UV spheres: ~6 s one at a time, 0.3 s so). Geometry-nodes instancers are read whole from
 Blender's instance arrays when the walk meets them (`take_instancer`); other instances (collection
-instances, vertex instancing) leave only their matrices, and each instanced mesh's spheres are
-computed at once at the end (`take`, `finish`)."""
+instances, vertex instancing, particles) leave only their matrices, and each instanced mesh's
+spheres are computed at once at the end (`take`, `finish`). The walk still steps through every
+instance, so `skips` lets it pass those it has nothing more to do for with the fewest reads of
+Blender's data: an instancer's, and a particle system's once one of its particles was taken."""
 
 from __future__ import annotations
 
@@ -26,12 +28,31 @@ class _Cloud:
     kind: str = "points"
 
 
+class _Matrices:
+    """4x4 matrices copied as the walk meets them (an instance's own is valid only until the next
+    step), in a float32 array that doubles as it fills: Blender's matrices are float32."""
+
+    def __init__(self) -> None:
+        self.array = np.empty((64, 4, 4), np.float32)
+        self.count = 0
+
+    def add(self, matrix) -> None:
+        if self.count == len(self.array):
+            self.array = np.concatenate([self.array, np.empty_like(self.array)])
+        self.array[self.count] = matrix  # mathutils' buffer: one copy, no Python row objects
+        self.count += 1
+
+    def rows(self) -> np.ndarray:
+        """The matrices' top three rows, (N, 3, 4) float64."""
+        return self.array[: self.count, :3, :].astype(np.float64)
+
+
 @dataclass
 class _Batch:
     owner: int  # the instanced object's index in SceneData.objects
     shape: MeshShape | None  # None: not a sphere, exported one instance at a time
     material: int = 0
-    rows: list[float] = field(default_factory=list)  # the instances' matrices' top three rows
+    matrices: _Matrices = field(default_factory=_Matrices)
 
 
 class InstanceBatches:
@@ -42,6 +63,22 @@ class InstanceBatches:
         self.batches: dict[tuple, _Batch] = {}
         #: Objects whose geometry-nodes instances `take_instancer` made: the walk skips those instances.
         self.instancers: set[int] = set()
+        #: Particle systems whose particles are all instances of one sphere-shaped object, to the
+        #: batch that `take` gave the first of them: the rest only add their matrices (`skips`).
+        self.particles: dict = {}
+
+    def skips(self, inst) -> bool:
+        """Whether the walk may pass instance `inst` now: made with its geometry-nodes instancer,
+        or a particle of a system in `particles` (its matrix kept here, as `take` would)."""
+        if self.instancers and inst.parent.as_pointer() in self.instancers:
+            return True
+        if not self.particles:
+            return False
+        batch = self.particles.get(inst.particle_system)  # structs hash and compare by pointer
+        if batch is None:
+            return False
+        batch.matrices.add(inst.matrix_world)
+        return True
 
     def take_instancer(self, obj, mode: str) -> None:
         """At object `obj` itself (the walk meets it before its instances): if every instance its
@@ -122,11 +159,21 @@ class InstanceBatches:
             batch = self.batches[key] = self._batch(obj, mode)
         if batch.shape is None:
             return False
-        m = inst.matrix_world
-        batch.rows.extend(m[0])
-        batch.rows.extend(m[1])
-        batch.rows.extend(m[2])
+        batch.matrices.add(inst.matrix_world)
+        system = inst.particle_system
+        if system is not None and system not in self.particles:
+            self._take_system(system, original, batch)
         return True
+
+    def _take_system(self, system, original, batch: _Batch) -> None:
+        """Particle system `system`'s later particles go to `batch` too if they are all instances
+        of `original` (an object-rendered system whose object instances nothing itself); a
+        collection-rendered system picks an object per particle, so its particles each take the
+        walk's full step."""
+        settings = system.settings
+        instanced = settings.instance_object if settings.render_type == "OBJECT" else None
+        if instanced is not None and instanced.original == original and not original.is_instancer:
+            self.particles[system] = batch
 
     def _batch(self, obj, mode: str) -> _Batch:
         shape = self._shape(obj.data, mode)
@@ -164,9 +211,8 @@ class InstanceBatches:
         """Every batch's spheres: world-space spheres where an instance's matrix is a uniform scale
         times a rotation, ellipsoids (one transformed group each) where it is not."""
         for batch in self.batches.values():
-            if batch.shape is not None and batch.rows:
-                rows = np.array(batch.rows, dtype=np.float64).reshape(-1, 3, 4)
-                self._add_spheres(batch.owner, rows, batch.shape, batch.material)
+            if batch.shape is not None and batch.matrices.count:
+                self._add_spheres(batch.owner, batch.matrices.rows(), batch.shape, batch.material)
 
     def _add_spheres(self, owner: int, rows: np.ndarray, shape: MeshShape, material: int,
                      colors: np.ndarray | None = None) -> None:
