@@ -161,6 +161,26 @@ def test_skipped_geometry_is_reported(scene):
     assert engine.last_render.triangles == 12
 
 
+def test_visibility_settings_dürer_does_not_follow_are_reported(scene):
+    """Object › Visibility (Cycles' ray visibility, holdout, shadow catcher): Dürer renders those
+    objects as seen by every ray, and says so once per render, naming them."""
+    ball_scene(scene)
+    assert bpy.ops.render.render() == {"FINISHED"} and engine.last_render.warnings == []
+    ball = bpy.data.objects["Ball"]
+    boxes = [cube(scene, f"Box {i}", location=(3 * i - 6, 3, 0)) for i in range(5)]
+    ball.visible_shadow = False
+    for box in boxes:
+        box.is_shadow_catcher = True
+    boxes[0].visible_camera = False
+    boxes[1].durer.primitive = "IGNORE"  # not rendered at all: nothing to say of it
+    assert bpy.ops.render.render() == {"FINISHED"}
+    assert engine.last_render.warnings == [
+        "Dürer renders every object as seen by every ray; it does not follow Object › Visibility for "
+        "'Ball' casting no shadows; 'Box 0' hidden from the camera; 'Box 0', 'Box 2', 'Box 3' and others a shadow catcher"
+    ]
+    assert engine.last_render.spheres == 1 and engine.last_render.triangles == 4 * 12
+
+
 def test_progress_hooks_see_the_render(scene):
     ball_scene(scene)
     seen = []

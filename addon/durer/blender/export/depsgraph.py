@@ -21,6 +21,16 @@ _CONVERTED_TYPES = {"CURVE", "SURFACE", "FONT", "META"}
 _NOT_RENDERED = {"CAMERA", "ARMATURE", "LATTICE", "SPEAKER", "LIGHT_PROBE"}
 # object.durer primitive modes under which an instanced mesh may be a sphere (instances.py).
 _SPHERE_MODES = {"AUTO", "SPHERE"}
+# Object › Visibility settings (Cycles') that the core has no counterpart for: the property, the
+# value that asks for what Dürer does not do, and what that is. A render with any says so.
+_IGNORED_VISIBILITY = (
+    ("visible_camera", False, "hidden from the camera"),
+    ("visible_shadow", False, "casting no shadows"),
+    ("visible_glossy", False, "hidden from reflections"),
+    ("visible_transmission", False, "hidden from refraction"),
+    ("is_holdout", True, "a holdout"),
+    ("is_shadow_catcher", True, "a shadow catcher"),
+)
 
 
 def _durer_settings(obj, original):
@@ -150,6 +160,25 @@ def _empty(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
         b.sphere(b.owner(obj), m, np.zeros(3), float(obj.empty_display_size), b.object_material(obj))
 
 
+def _ignored_visibility(depsgraph) -> str | None:
+    """A note naming the objects whose Visibility settings Dürer does not follow, or None."""
+    found: dict[str, list[str]] = {}
+    for obj in depsgraph.objects:
+        if obj.type in _NOT_RENDERED or obj.type == "LIGHT":
+            continue
+        settings = _durer_settings(obj, obj.original)
+        if settings is not None and settings.primitive == "IGNORE":
+            continue
+        for name, asks, what in _IGNORED_VISIBILITY:
+            if getattr(obj, name) == asks:
+                found.setdefault(what, []).append(obj.name)
+    if not found:
+        return None
+    listed = "; ".join(f"{', '.join(repr(n) for n in names[:3])}{' and others' if len(names) > 3 else ''} {what}"
+                       for what, names in found.items())
+    return f"Dürer renders every object as seen by every ray; it does not follow Object › Visibility for {listed}"
+
+
 def _mesh_or_skip(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
     """Hair curves, volumes and grease pencil: skipped (and counted) under Auto; a forced primitive
     uses their evaluated mesh, if they have one."""
@@ -203,7 +232,7 @@ def export_depsgraph(depsgraph, camera=None) -> SceneData:
         if not is_instance and mode in _SPHERE_MODES:
             batches.take_instancer(obj, mode)
         if not inst.show_self:
-            continue  # an instancer Blender does not draw itself (a particle emitter, a vertex or face instancing parent, as set)
+            continue  # an instancer Blender does not draw itself (a particle emitter with Show Emitter off)
         if kind == "MESH":
             if original is not None and original.type in _CONVERTED_TYPES:
                 continue  # the mesh Blender made of a curve, text, surface or metaball: handled as that
@@ -223,9 +252,8 @@ def export_depsgraph(depsgraph, camera=None) -> SceneData:
             pass
         data.camera = camera_data(scene, cam_obj)
 
-    world_rgb, note = world_colors(scene.world)
-    if note:
-        data.notes.append(note)
+    world_rgb, world_note = world_colors(scene.world)
+    data.notes.extend(note for note in (_ignored_visibility(depsgraph), world_note) if note)
     alpha = 0.0 if scene.render.film_transparent else 1.0
     data.background = ((0.0, 0.0, 0.0) if alpha == 0.0 else world_rgb) + (alpha,)
     settings = getattr(scene, "durer", None)
