@@ -29,6 +29,7 @@ bpy = blender_module("bpy")
 bmesh = blender_module("bmesh")
 
 from durer.blender.export.depsgraph import export_depsgraph
+from durer.blender.export.shapes import metaball_iso_radius
 
 pytestmark = pytest.mark.blender
 
@@ -115,6 +116,27 @@ def test_empty_displayed_as_sphere(scene):
     np.testing.assert_allclose(d.sphere_radii, [1.0])
     np.testing.assert_allclose(d.sphere_centers, [[0, 1, 0]])
     assert not d.skipped
+
+
+def test_a_metaball_family_takes_its_basis_material_and_threshold(scene):
+    """Metaballs named Meta, Meta.001 are one family: Blender draws both on Meta (its material, its
+    threshold); Solo.002, whose family has no lower number, draws itself with its own."""
+    red, blue, green = material("Red", (0.9, 0.1, 0.1)), material("Blue", (0.1, 0.1, 0.9)), material("Green", (0.1, 0.9, 0.1))
+    for i, (name, mat, threshold) in enumerate([("Meta.001", blue, 0.2), ("Meta", red, 0.6), ("Solo.002", green, 0.2)]):
+        mb = bpy.data.metaballs.new(name)
+        mb.threshold = threshold
+        mb.elements.new(type="BALL").radius = 1.0
+        mb.materials.append(mat)
+        link(scene, bpy.data.objects.new(name, mb)).location = (5 * i, 0, 0)
+    d = export(scene)
+    assert d.sphere_count == 3
+    order = np.argsort(d.sphere_centers[:, 0])
+    colours = [tuple(np.round(d.materials[d.sphere_materials[i]].diffuse, 3)) for i in order]
+    assert colours == [(0.9, 0.1, 0.1), (0.9, 0.1, 0.1), (0.1, 0.9, 0.1)]
+    radius = [metaball_iso_radius(1.0, 2.0, t) for t in (0.6, 0.6, 0.2)]
+    np.testing.assert_allclose(d.sphere_radii[order], radius, rtol=1e-6)
+    dg = bpy.context.evaluated_depsgraph_get()
+    assert len(bpy.data.objects["Meta.001"].evaluated_get(dg).to_mesh().vertices) == 0  # drawn on Meta
 
 
 def test_metaball_balls_match_blender_surface(scene):
@@ -289,6 +311,87 @@ def test_override_sphere_on_text(scene):
     assert d.sphere_count == 1 and not d.skipped and not d.meshes
 
 
+@pytest.mark.parametrize("primitive", ["PLANE", "MESH", "SPHERE", "IGNORE"])
+def test_a_hosts_primitive_is_for_its_own_geometry_not_what_its_nodes_instance(scene, primitive):
+    """A ground that scatters spheres with geometry nodes (Instance on Points joined with the
+    ground), set to Primitive = Plane / Mesh / Sphere: the ground follows it, the scattered UV
+    spheres stay spheres, directly and in a collection instance's copy of the ground; Ignore
+    leaves out the ground with all it makes."""
+    from durer.blender.point_cloud import instance_on_points
+
+    collection = bpy.data.collections.new("Scatter")
+    scene.collection.children.link(collection)
+    ground = grid(scene, "Ground", size=3.0, n=4)
+    scene.collection.objects.unlink(ground)
+    collection.objects.link(ground)
+    ball = uv_sphere(scene, "Ball", radius=0.2)
+    ball.hide_render = ball.hide_viewport = True
+    group = instance_on_points(ground, ball, rotate=False).node_group
+    join = group.nodes.new("GeometryNodeJoinGeometry")  # the ground and its spheres, as scatter set-ups do
+    group.links.new(group.nodes["Instance on Points"].outputs[0], join.inputs[0])
+    group.links.new(group.nodes["Group Input"].outputs[0], join.inputs[0])
+    group.links.new(join.outputs[0], group.nodes["Group Output"].inputs[0])
+    ground.durer.primitive = primitive
+    copy = link(scene, bpy.data.objects.new("Copy", None))
+    copy.instance_type, copy.instance_collection, copy.location = "COLLECTION", collection, (10, 0, 0)
+    d = export(scene)
+    if primitive == "IGNORE":
+        assert d.sphere_count == 0 and not d.planes and not d.meshes
+        return
+    triangles = 2 * 2 * len(ground.data.polygons)  # its quads in both copies
+    own = {"PLANE": (0, 2, 0), "MESH": (0, 0, triangles), "SPHERE": (2, 0, 0)}[primitive]  # spheres, planes, triangles
+    assert (d.sphere_count - 2 * 25, len(d.planes), d.triangle_count) == own
+    np.testing.assert_allclose(np.sort(d.sphere_radii)[: 2 * 25], 0.2, rtol=1e-5)
+    assert (np.abs(d.sphere_centers[:, 0] - 10) < 4).sum() == 25 + own[0] // 2  # the copy's
+    box = cube(scene, "Box", size=0.2)
+    box.hide_render = box.hide_viewport = True
+    group.nodes["Object Info"].inputs["Object"].default_value = box  # scattering cubes: cubes they stay
+    d = export(scene)
+    assert (d.sphere_count, len(d.planes), d.triangle_count - 2 * 25 * 12) == own
+
+
+def test_a_sphere_mesh_takes_the_material_its_faces_use(scene):
+    """A UV sphere with two material slots: all faces on the second gives a sphere of the second's
+    colour; faces split between the two, triangles of each (as Cycles draws it), unless forced to
+    a sphere, which takes the slot most faces use; instances of such a sphere too."""
+    red, blue = material("Red", (0.9, 0.1, 0.1)), material("Blue", (0.1, 0.1, 0.9))
+
+    def two_slot_sphere(name, blue_faces, location=(0, 0, 0)):
+        obj = uv_sphere(scene, name, radius=1.0, location=location)
+        obj.data.materials.append(red)
+        obj.data.materials.append(blue)
+        slots = np.zeros(len(obj.data.polygons), np.int32)
+        slots[:blue_faces] = 1
+        obj.data.polygons.foreach_set("material_index", slots)
+        obj.data.update()
+        return obj
+
+    def colour(d, index):
+        return tuple(np.round(d.materials[index].diffuse, 3))
+
+    faces = len(uv_sphere(scene, "Probe").data.polygons)
+    bpy.data.objects.remove(bpy.data.objects["Probe"])
+    two_slot_sphere("All blue", faces)
+    split = two_slot_sphere("Split", faces // 3, location=(4, 0, 0))
+    d = export(scene)
+    assert d.sphere_count == 1 and colour(d, d.sphere_materials[0]) == (0.1, 0.1, 0.9)
+    assert sorted(colour(d, m.material) for m in d.meshes) == [(0.1, 0.1, 0.9), (0.9, 0.1, 0.1)]
+    split.durer.primitive = "SPHERE"
+    d = export(scene)
+    assert d.sphere_count == 2 and not d.meshes
+    assert sorted(colour(d, m) for m in d.sphere_materials) == [(0.1, 0.1, 0.9), (0.9, 0.1, 0.1)]
+    for obj in list(scene.objects):
+        if obj.type == "MESH":
+            bpy.data.objects.remove(obj)
+    ball = two_slot_sphere("Ball", faces)
+    ball.hide_render = ball.hide_viewport = True
+    from durer.blender.point_cloud import instance_on_points, vertex_object
+
+    instance_on_points(vertex_object(scene.collection, "Points", np.arange(12.0).reshape(4, 3)), ball)
+    d = export(scene)
+    assert d.sphere_count == 4 and {colour(d, m) for m in d.sphere_materials} == {(0.1, 0.1, 0.9)}
+
+
 # --- materials, world, lights ----------------------------------------------------------------------
 
 
@@ -342,6 +445,13 @@ def test_lights_are_radiometric_like_cycles(scene):
     assert spot.spot_half_angle == pytest.approx(30 * DEG)
     assert spot.spot_blend == pytest.approx(0.25)
     np.testing.assert_allclose(spot.direction, [0, 0, -1], atol=1e-6)
+    assert d.warnings == []
+    spot_obj = next(obj for obj in scene.objects if obj.type == "LIGHT" and obj.data.type == "SPOT")
+    spot_obj.scale = (2, 2, 2)  # the same cone, as in Cycles
+    assert export(scene).warnings == []
+    spot_obj.scale = (1, 2, 1)  # Cycles' cone an ellipse: said, not silently round
+    assert export(scene).warnings == [f"Spot light '{spot_obj.name}' is scaled unevenly: Cycles stretches its "
+                                      f"cone, Dürer keeps it round"]
 
 
 # --- camera ----------------------------------------------------------------------------------------

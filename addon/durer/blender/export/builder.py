@@ -30,6 +30,7 @@ class Builder:
         self.material_ids: dict[tuple, int] = {}
         self.blender_materials: dict[int, int] = {}
         self.shape_cache: dict[tuple, MeshShape] = {}
+        self.metaball_bases: dict[str, object] = {}  # each metaball family's basis (the walk sets it)
         self.color_sources: dict[int, ColorSource | None] = {}  # by Blender material pointer
         self.fallbacks: set[str] = set()  # materials whose attribute colours were not used, noted once
         self.mesh_colors: dict[tuple, tuple] = {}  # (part, its colours) by (mesh, part, material)

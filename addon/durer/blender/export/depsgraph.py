@@ -82,30 +82,32 @@ def _pointcloud(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> No
 
 def _mesh(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
     me = obj.data
-    if mode == "AUTO" and any(b.color_source(mat) for mat in object_materials(obj)):
+    mats = object_materials(obj)
+    if mode == "AUTO" and any(b.color_source(mat) for mat in mats):
         mode = "MESH"  # colours vary over it: not one sphere or plane of one colour
     axis_scale = tuple(np.round(np.linalg.norm(m[:3, :3], axis=0), 9)) if mode == "PLANE" else None
-    key = (me.as_pointer(), len(me.vertices), len(me.polygons), mode, axis_scale)
+    key = (me.as_pointer(), len(me.vertices), len(me.polygons), mode, axis_scale, len(mats))
     shape = b.shape_cache.get(key)
     if shape is None:
-        shape = b.shape_cache[key] = mesh_shape(me, mode, axis_scale or (1.0, 1.0, 1.0))
+        shape = b.shape_cache[key] = mesh_shape(me, mode, axis_scale or (1.0, 1.0, 1.0), len(mats))
     _add_shape(b, obj, m, shape, infinite, me)
 
 
 def _add_shape(b: Builder, obj, m: np.ndarray, shape: MeshShape, infinite: bool, me) -> None:
-    """A detected sphere or plane of `obj` (world matrix m) with the object's material, or its
-    triangles (of mesh `me`) with their slots' materials; nothing for an empty shape."""
+    """A detected sphere or plane of `obj` (world matrix m) with the material of the slot its faces
+    use, or its triangles (of mesh `me`) with their slots' materials; nothing for an empty shape."""
     if shape.kind == "triangles":
         b.triangles(obj, m, shape.parts, me)
         return
     if shape.kind == "empty":
         return
     mats = object_materials(obj)
-    b.uncolored(mats[0] if mats else None, f"'{obj.name}' is rendered as one {shape.kind}, of one colour")
+    mat = mats[shape.slot] if mats else None
+    b.uncolored(mat, f"'{obj.name}' is rendered as one {shape.kind}, of one colour")
     if shape.kind == "sphere":
-        b.sphere(b.owner(obj), m, shape.center, shape.radius, b.object_material(obj))
+        b.sphere(b.owner(obj), m, shape.center, shape.radius, b.material(mat, obj))
     else:
-        b.plane(b.owner(obj), m, shape, b.object_material(obj), infinite)
+        b.plane(b.owner(obj), m, shape, b.material(mat, obj), infinite)
 
 
 def _converted(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
@@ -122,7 +124,7 @@ def _converted(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> Non
     try:
         axis_scale = np.linalg.norm(m[:3, :3], axis=0)
         # The arrays are copies (foreach_get), so they outlive the temporary mesh.
-        _add_shape(b, obj, m, mesh_shape(me, mode, axis_scale), infinite, me)
+        _add_shape(b, obj, m, mesh_shape(me, mode, axis_scale, len(object_materials(obj))), infinite, me)
     finally:
         obj.to_mesh_clear()
 
@@ -134,30 +136,61 @@ def _metaball(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None
         _converted(b, obj, m, mode, infinite)
         return
     mb = obj.data
-    material = b.object_material(obj)
+    basis = b.metaball_bases.get(_split_name_number(obj.name)[0], obj)
+    material = b.object_material(basis)
     for el in mb.elements:
         if el.hide:
             continue
         if el.type != "BALL" or el.use_negative:
             b.data.skipped[f"metaball {el.type.lower()}{' (negative)' if el.use_negative else ''}"] += 1
             continue
-        r = metaball_iso_radius(el.radius, el.stiffness, mb.threshold)
+        r = metaball_iso_radius(el.radius, el.stiffness, basis.data.threshold)
         if r > 0:
             b.sphere(b.owner(obj), m, np.array(el.co), r, material)
+
+
+def _split_name_number(name: str) -> tuple[str, int]:
+    """"Meta.001" -> ("Meta", 1); a name without a numeric suffix -> (name, 0) (Blender's
+    BLI_string_split_name_number, which names metaball families)."""
+    stem, dot, number = name.rpartition(".")
+    return (stem, int(number)) if dot and number.isdigit() else (name, 0)
+
+
+def _metaball_bases(depsgraph) -> dict[str, object]:
+    """Each metaball family's basis, as Blender finds it (BKE_mball_basis_find): of the metaball
+    objects named Name, Name.001, Name.002, ..., the one of the lowest number. Blender draws the
+    whole family as the basis's surface, with the basis's material and threshold."""
+    bases: dict[str, tuple[int, object]] = {}
+    for obj in depsgraph.objects:
+        if obj.type == "META":
+            name, number = _split_name_number(obj.name)
+            if name not in bases or number < bases[name][0]:
+                bases[name] = (number, obj)
+    return {name: obj for name, (_, obj) in bases.items()}
 
 
 def _light(b: Builder, obj, m: np.ndarray) -> None:
     light = light_data(obj, m)
     if light is None:
         b.data.skipped[f"{obj.data.type.lower()} light"] += 1
-    else:
-        b.data.lights.append(light)
+        return
+    b.data.lights.append(light)
+    if light.kind == "spot" and not uniform_scale(m)[1]:
+        b.data.notes.append(f"Spot light '{obj.name}' is scaled unevenly: Cycles stretches its cone, "
+                            f"Dürer keeps it round")
 
 
 def _empty(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
     """An empty displayed as a sphere is a sphere of its display size (not a collection instancer)."""
     if obj.empty_display_type == "SPHERE" and mode in {"AUTO", "SPHERE"} and obj.instance_type != "COLLECTION":
         b.sphere(b.owner(obj), m, np.zeros(3), float(obj.empty_display_size), b.object_material(obj))
+
+
+def _made_by_nodes(obj, original, depsgraph) -> bool:
+    """Whether instance `obj` is geometry that the geometry nodes of `original` (which such
+    instances report as theirs) made: data other than that object's own evaluated data."""
+    data = obj.data
+    return data is not None and original is not None and data != original.evaluated_get(depsgraph).data
 
 
 def _ignored_visibility(depsgraph) -> str | None:
@@ -211,6 +244,7 @@ def export_depsgraph(depsgraph, camera=None) -> SceneData:
     """
     scene = depsgraph.scene_eval
     b = Builder()
+    b.metaball_bases = _metaball_bases(depsgraph)
     batches = InstanceBatches(b)
     for inst in depsgraph.object_instances:
         is_instance = inst.is_instance
@@ -228,9 +262,11 @@ def export_depsgraph(depsgraph, camera=None) -> SceneData:
         settings = _durer_settings(obj, original)
         mode = settings.primitive if settings is not None else "AUTO"
         if mode == "IGNORE":
-            continue
-        if not is_instance and mode in _SPHERE_MODES:
-            batches.take_instancer(obj, mode)
+            continue  # and all its geometry nodes make
+        if mode != "AUTO" and is_instance and _made_by_nodes(obj, original, depsgraph):
+            settings, mode = None, "AUTO"  # the Primitive is for the object's own geometry
+        if not is_instance:
+            batches.take_instancer(obj)
         if not inst.show_self:
             continue  # an instancer Blender does not draw itself (a particle emitter with Show Emitter off)
         if kind == "MESH":

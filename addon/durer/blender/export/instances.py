@@ -80,13 +80,14 @@ class InstanceBatches:
         batch.matrices.add(inst.matrix_world)
         return True
 
-    def take_instancer(self, obj, mode: str) -> None:
+    def take_instancer(self, obj) -> None:
         """At object `obj` itself (the walk meets it before its instances): if every instance its
         geometry nodes make is a mesh, its instances now, from Blender's own arrays of instance
         transforms (one foreach_get, not a matrix per instance), and `obj` remembered so that the
         walk skips those instances: spheres for sphere-shaped meshes and for point clouds' points,
         other meshes stored once with every instance's matrix. Anything else (collections, objects,
-        curves, meshes detected as planes, mesh instances scaled flat) is left to the walk."""
+        curves, meshes detected as planes, mesh instances scaled flat) is left to the walk. The
+        instances are read as Auto: `obj`'s Primitive is for its own geometry."""
         original = obj.original or obj
         if not any(modifier.type == "NODES" for modifier in getattr(original, "modifiers", ())):
             return
@@ -108,13 +109,14 @@ class InstanceBatches:
                     return
                 shape, data = self._cloud(points), points
             elif mesh is not None:
-                shape, data = self._shape(mesh, mode), mesh
+                shape, data = self._shape(mesh, "AUTO", len(mesh.materials)), mesh
                 if shape.kind not in ("sphere", "triangles"):
                     return
             else:
                 return
             meshes.append(data)
-            mats.append(data.materials[0] if len(data.materials) else None)
+            slot = shape.slot if shape.kind == "sphere" else 0
+            mats.append(data.materials[slot] if len(data.materials) else None)
             kinds.append((shape, self.builder.material(mats[-1], obj)))
         n = len(cloud.points)
         values = np.empty(n * 16, np.float32)
@@ -176,12 +178,13 @@ class InstanceBatches:
             self.particles[system] = batch
 
     def _batch(self, obj, mode: str) -> _Batch:
-        shape = self._shape(obj.data, mode)
+        mats = object_materials(obj)
+        shape = self._shape(obj.data, mode, len(mats))
         if shape.kind != "sphere":
             return _Batch(self.builder.owner(obj), None)
-        mats = object_materials(obj)
-        self.builder.uncolored(mats[0] if mats else None, f"the instances of '{obj.name}' are spheres of one colour each")
-        return _Batch(self.builder.owner(obj), shape, self.builder.object_material(obj))
+        mat = mats[shape.slot] if mats else None
+        self.builder.uncolored(mat, f"the instances of '{obj.name}' are spheres of one colour each")
+        return _Batch(self.builder.owner(obj), shape, self.builder.material(mat, obj))
 
     @staticmethod
     def _cloud(pc) -> _Cloud:
@@ -200,11 +203,11 @@ class InstanceBatches:
             m = np.vstack([rows[i], [0.0, 0.0, 0.0, 1.0]])
             self.builder.transformed_spheres(owner, m, cloud.positions, cloud.radii, material)
 
-    def _shape(self, me, mode: str) -> MeshShape:
-        key = (me.as_pointer(), len(me.vertices), len(me.polygons), mode, None)
+    def _shape(self, me, mode: str, slot_count: int) -> MeshShape:
+        key = (me.as_pointer(), len(me.vertices), len(me.polygons), mode, None, slot_count)
         shape = self.builder.shape_cache.get(key)
         if shape is None:
-            shape = self.builder.shape_cache[key] = mesh_shape(me, mode, (1.0, 1.0, 1.0))
+            shape = self.builder.shape_cache[key] = mesh_shape(me, mode, (1.0, 1.0, 1.0), slot_count)
         return shape
 
     def finish(self) -> None:

@@ -4,11 +4,11 @@ triangles; forced by ``object.durer.primitive``. Metaball balls' radii."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .triangles import TrianglePart, triangle_parts
+from .triangles import TrianglePart, face_slots, triangle_parts
 
 #: Relative tolerance for "all vertices at the same distance from the centroid".
 SPHERE_TOLERANCE = 1e-3
@@ -36,6 +36,7 @@ class MeshShape:
     edge1: np.ndarray | None = None
     edge2: np.ndarray | None = None
     parts: list[TrianglePart] = field(default_factory=list)  # triangles: one part per material slot
+    slot: int = 0  # sphere or plane: the material slot its faces use (forced: most of them)
 
 
 def cloud_points(pc) -> tuple[np.ndarray, np.ndarray]:
@@ -150,27 +151,35 @@ def _bbox_sphere(co: np.ndarray) -> MeshShape:
     return MeshShape("sphere", center=(lo + hi) / 2.0, radius=float(np.mean((hi - lo) / 2.0)))
 
 
-def _triangles(me) -> MeshShape:
+def _triangles(me, slot_count: int) -> MeshShape:
     """The mesh's triangles, one part per material slot used ("empty" without faces: loose
     vertices and edges, like a curve without bevel, render as nothing in Cycles either)."""
-    parts = triangle_parts(me, len(me.materials))
+    parts = triangle_parts(me, slot_count)
     return MeshShape("triangles", parts=parts) if parts else MeshShape("empty")
 
 
-def mesh_shape(me, mode: str = "AUTO", axis_scale=(1.0, 1.0, 1.0)) -> MeshShape:
+def mesh_shape(me, mode: str = "AUTO", axis_scale=(1.0, 1.0, 1.0), slot_count: int | None = None) -> MeshShape:
     """What a mesh (in its local coordinates) is for Dürer under the override `mode`: a sphere, a
     plane, or its triangles (Auto, when it is neither, and Mesh). `axis_scale`: the object's scale
-    along the local axes (picks a forced plane's normal)."""
+    along the local axes (picks a forced plane's normal); `slot_count`: the object's material
+    slots (default: the mesh's). Auto takes a mesh whose faces use several slots for triangles:
+    a sphere or plane has one material."""
+    slot_count = len(me.materials) if slot_count is None else slot_count
     co, _ = _mesh_arrays(me)
     if len(co) == 0:
         return MeshShape("empty")
-    if mode == "SPHERE":
-        return _detect_sphere(me, co, strict=False) or _bbox_sphere(co)
-    if mode == "PLANE":
-        return _detect_plane(me, co) or _bbox_plane(me, co, axis_scale)
     if mode == "MESH":
-        return _triangles(me)
-    return _detect_plane(me, co) or _detect_sphere(me, co) or _triangles(me)
+        return _triangles(me, slot_count)
+    uses = np.bincount(face_slots(me, slot_count), minlength=1)
+    if mode == "SPHERE":
+        shape = _detect_sphere(me, co, strict=False) or _bbox_sphere(co)
+    elif mode == "PLANE":
+        shape = _detect_plane(me, co) or _bbox_plane(me, co, axis_scale)
+    elif np.count_nonzero(uses) > 1:
+        return _triangles(me, slot_count)
+    else:
+        shape = _detect_plane(me, co) or _detect_sphere(me, co) or _triangles(me, slot_count)
+    return replace(shape, slot=int(uses.argmax())) if shape.kind in ("sphere", "plane") else shape
 
 
 def metaball_iso_radius(radius: float, stiffness: float, threshold: float) -> float:

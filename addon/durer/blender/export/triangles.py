@@ -65,14 +65,25 @@ def _attribute(me, name: str, field: str, n: int, width: int, dtype) -> np.ndarr
     return values
 
 
+def clamp_slots(slots: np.ndarray, slot_count: int) -> np.ndarray:
+    """The slot each face renders with: indices past the last slot use the last one and negative
+    ones the first, as Blender renders them; without slots everything is slot 0."""
+    return np.clip(slots, 0, max(slot_count - 1, 0))
+
+
+def face_slots(me, slot_count: int) -> np.ndarray:
+    """The material slot each of the mesh's polygons renders with (`clamp_slots`)."""
+    slots = _attribute(me, "material_index", "value", len(me.polygons), 1, np.int32)
+    return np.zeros(len(me.polygons), np.int32) if slots is None else clamp_slots(slots, slot_count)
+
+
 def split_by_slot(vertices: np.ndarray, faces: np.ndarray, slots: np.ndarray, slot_count: int,
                   corners: np.ndarray) -> list[TrianglePart]:
-    """One part per material slot the faces use, in slot order. Indices past the last slot use the
-    last one and negative ones the first, as Blender renders them; without slots everything is
-    slot 0. A part of a split mesh keeps only the vertices its faces use."""
+    """One part per material slot the faces use (`clamp_slots`), in slot order. A part of a split
+    mesh keeps only the vertices its faces use."""
     if len(faces) == 0:
         return []
-    slots = np.clip(slots, 0, max(slot_count - 1, 0))
+    slots = clamp_slots(slots, slot_count)
     used = np.flatnonzero(np.bincount(slots))  # linear in the face count, unlike np.unique's sort
     if len(used) == 1:
         return [TrianglePart(int(used[0]), vertices, faces, corners)]
