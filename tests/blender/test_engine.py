@@ -175,10 +175,35 @@ def test_visibility_settings_dürer_does_not_follow_are_reported(scene):
     boxes[1].durer.primitive = "IGNORE"  # not rendered at all: nothing to say of it
     assert bpy.ops.render.render() == {"FINISHED"}
     assert engine.last_render.warnings == [
-        "Dürer renders every object as seen by every ray; it does not follow Object › Visibility for "
-        "'Ball' casting no shadows; 'Box 0' hidden from the camera; 'Box 0', 'Box 2', 'Box 3' and others a shadow catcher"
+        "Dürer renders every object as seen by every ray and lit by every light; it does not follow "
+        "Object › Visibility or light linking for 'Ball' casting no shadows; 'Box 0' hidden from the camera; 'Box 0', 'Box 2', 'Box 3' and others a shadow catcher"
     ]
     assert engine.last_render.spheres == 1 and engine.last_render.triangles == 4 * 12
+
+
+def test_camera_and_light_settings_dürer_does_not_simulate_are_reported(scene):
+    """Depth of field, motion blur and light linking (set in Cycles, say): rendered without them,
+    and said once per render; the depth-of-field panels are not shown for Dürer."""
+    ball_scene(scene)
+    assert "DURER" not in bpy.types.DATA_PT_camera_dof.COMPAT_ENGINES
+    scene.camera.data.dof.use_dof = True
+    scene.render.use_motion_blur = True
+    sun = next(obj for obj in scene.objects if obj.type == "LIGHT")
+    sun.light_linking.receiver_collection = bpy.data.collections.new("Lit")
+    assert bpy.ops.render.render() == {"FINISHED"}
+    assert engine.last_render.warnings == [
+        "Dürer renders every object as seen by every ray and lit by every light; it does not follow "
+        f"Object › Visibility or light linking for '{sun.name}' linking lights or shadows",
+        f"Camera '{scene.camera.name}' has depth of field: Dürer renders everything in focus",
+        "Motion blur is on: Dürer renders each frame at one instant",
+    ]
+
+
+def test_a_scene_camera_that_is_no_camera_is_a_clear_error(scene):
+    ball_scene(scene)
+    scene.camera = link(scene, bpy.data.objects.new("Pointer", None))
+    with pytest.raises(RuntimeError, match="The scene's camera 'Pointer' is an object of type EMPTY, not a camera"):
+        bpy.ops.render.render()
 
 
 def test_progress_hooks_see_the_render(scene):

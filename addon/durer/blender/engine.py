@@ -359,6 +359,7 @@ _SKIP_WORDS = (
     "volume",
     "shadow_terminator",
     "motion_blur",
+    "dof",
     "hair",
     "curves",
     "aov",

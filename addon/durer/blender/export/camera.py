@@ -18,6 +18,9 @@ def camera_data(scene, cam_obj) -> CameraData:
     if width < 1 or height < 1:
         raise ValueError(f"Render resolution {width}x{height} is empty")
     xasp, yasp = float(render.pixel_aspect_x), float(render.pixel_aspect_y)
+    if cam_obj.type != "CAMERA":
+        raise ValueError(f"The scene's camera '{cam_obj.name}' is an object of type {cam_obj.type}, not a camera: "
+                         f"Dürer renders through camera objects")
     cam = cam_obj.data
     if cam.type not in {"ORTHO", "PERSP"}:
         raise ValueError(

@@ -197,6 +197,9 @@ def _ignored_visibility(depsgraph) -> str | None:
     """A note naming the objects whose Visibility settings Dürer does not follow, or None."""
     found: dict[str, list[str]] = {}
     for obj in depsgraph.objects:
+        linking = getattr(obj, "light_linking", None)  # Blender 4.0 and later
+        if linking is not None and (linking.receiver_collection or linking.blocker_collection):
+            found.setdefault("linking lights or shadows", []).append(obj.name)
         if obj.type in _NOT_RENDERED or obj.type == "LIGHT":
             continue
         settings = _durer_settings(obj, obj.original)
@@ -209,7 +212,18 @@ def _ignored_visibility(depsgraph) -> str | None:
         return None
     listed = "; ".join(f"{', '.join(repr(n) for n in names[:3])}{' and others' if len(names) > 3 else ''} {what}"
                        for what, names in found.items())
-    return f"Dürer renders every object as seen by every ray; it does not follow Object › Visibility for {listed}"
+    return (f"Dürer renders every object as seen by every ray and lit by every light; it does not follow "
+            f"Object › Visibility or light linking for {listed}")
+
+
+def _ignored_camera_settings(scene, cam_obj) -> list[str]:
+    """Notes on the render's camera and motion settings that Dürer does not simulate."""
+    notes = []
+    if cam_obj is not None and cam_obj.data.dof.use_dof:
+        notes.append(f"Camera '{cam_obj.name}' has depth of field: Dürer renders everything in focus")
+    if scene.render.use_motion_blur:
+        notes.append("Motion blur is on: Dürer renders each frame at one instant")
+    return notes
 
 
 def _mesh_or_skip(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
@@ -290,6 +304,7 @@ def export_depsgraph(depsgraph, camera=None) -> SceneData:
 
     world_rgb, world_note = world_colors(scene.world)
     data.notes.extend(note for note in (_ignored_visibility(depsgraph), world_note) if note)
+    data.notes.extend(_ignored_camera_settings(scene, cam_obj))
     alpha = 0.0 if scene.render.film_transparent else 1.0
     data.background = ((0.0, 0.0, 0.0) if alpha == 0.0 else world_rgb) + (alpha,)
     settings = getattr(scene, "durer", None)
