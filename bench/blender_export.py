@@ -1,14 +1,15 @@
 """How long the Blender export takes on big inputs (bulk foreach_get only, no per-element Python).
 
     python bench/blender_export.py [--points 1000000] [--grid 709] [--instances 100000] [--particles 1000000]
-                                   [--runs 3]
+                                   [--objects 20000] [--runs 3]
 
 Times `export_depsgraph` alone (Blender's own depsgraph evaluation is done before timing) on a point
 cloud of --points spheres made by a "Mesh to Points" geometry-nodes modifier, on a wavy grid of
---grid × --grid vertices (2·(grid − 1)² triangles: about a million at 709), and on --instances
-instances of a UV sphere object scattered by geometry nodes' Instance on Points (random rotation and
-scale), and on --particles particles of a particle system instancing that sphere (legacy particles,
-the emitter hidden). Prints the best of --runs and the targets: ≤ 0.2 s for a million spheres, ≤ 0.4
+--grid × --grid vertices (2·(grid − 1)² triangles: about a million at 709), on --instances instances
+of a UV sphere object scattered by geometry nodes' Instance on Points (random rotation and scale),
+on --particles particles of a particle system instancing that sphere (legacy particles, the emitter
+hidden), and on --objects UV-sphere objects sharing a mesh (an object a sphere, as molecule
+importers make them). Prints the best of --runs and the targets: ≤ 0.2 s for a million spheres, ≤ 0.4
 s for a million triangles, ≤ 0.5 s for 100,000 instances (issue 14; particles are instances too).
 The point cloud is exported again with a FLOAT_COLOR attribute its material's Base Color reads (Set
 Material in its geometry nodes): the difference is what reading and mapping the attribute colours
@@ -110,6 +111,18 @@ def particles(bpy, scene, n: int) -> None:
     scene.frame_set(1)
 
 
+def separate_spheres(bpy, scene, n: int) -> None:
+    """n UV-sphere objects sharing one mesh, each where it is (as molecule importers that make an
+    object an atom do)."""
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.1)
+    first = bpy.context.active_object
+    for i, position in enumerate(np.random.default_rng(2).uniform(-10, 10, (n, 3))):
+        obj = first if i == 0 else bpy.data.objects.new(f"Atom {i}", first.data)
+        obj.location = position
+        if i:
+            scene.collection.objects.link(obj)
+
+
 def wavy_grid(bpy, scene, n: int) -> None:
     """An n × n grid of quads on a wavy surface (Blender triangulates each quad in two)."""
     x, y = np.meshgrid(np.linspace(-1, 1, n), np.linspace(-1, 1, n))
@@ -149,6 +162,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--grid", type=int, default=709)
     parser.add_argument("--instances", type=int, default=100_000)
     parser.add_argument("--particles", type=int, default=1_000_000)
+    parser.add_argument("--objects", type=int, default=20_000)
     parser.add_argument("--runs", type=int, default=3)
     args = parser.parse_args(argv)
     import bpy
@@ -183,6 +197,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     per_100k = seconds / max(data.sphere_count, 1) * 1e5
     print(f"  particles: {data.sphere_count} instanced spheres in {seconds:.3f} s ({per_100k:.3f} s per 100,000; "
           f"target <= {INSTANCE_TARGET} s: {'met' if per_100k <= INSTANCE_TARGET else 'NOT met'})")
+    seconds, data = best_export(bpy, separate_spheres, args.objects, args.runs)
+    print(f"  objects: {data.sphere_count} sphere objects in {seconds:.3f} s "
+          f"({seconds / max(data.sphere_count, 1) * 1e6:.1f} µs each)")
     seconds, data = best_export(bpy, scattered_cubes, args.instances, args.runs)
     from durer.blender.build import make_scene
 

@@ -9,9 +9,22 @@ from ..._checks import is_invertible
 from .attribute_colors import ColorSource, Unmapped, color_source, part_colors, read_values
 from .data import IDENTITY, MeshData, ObjectData, PlaneData, SceneData, TransformedSpheres
 from .materials import material_data, object_materials
-from .matrices import transform_points, uniform_scale
+from .matrices import transform_points, uniform_scales
 from .shapes import MeshShape
 from .triangles import TrianglePart
+
+
+class _Singles:
+    """Spheres given one at a time (an object each: sphere meshes, empties, metaball balls) in a
+    row of the walk, kept as given and made into arrays at `Builder.finish`, with one uniform-scale
+    test for all of them: numpy's cost per call is what a scene of many objects would pay."""
+
+    def __init__(self) -> None:
+        self.owners: list[int] = []
+        self.matrices: list[np.ndarray] = []
+        self.centers: list[np.ndarray] = []
+        self.radii: list[float] = []
+        self.materials: list[int] = []
 
 
 class Builder:
@@ -154,15 +167,43 @@ class Builder:
         self.colors.append(colors)
 
     def sphere(self, owner: int, m: np.ndarray, center, radius: float, material: int) -> None:
-        """A sphere in object space: a world-space sphere under a uniform scale, else an ellipsoid."""
-        center = np.asarray(center, dtype=np.float64).reshape(1, 3)
-        s, uniform = uniform_scale(m)
-        if s == 0.0:  # flattened to nothing: no surface to see
+        """A sphere in object space: a world-space sphere under a uniform scale, else an ellipsoid
+        (made at `finish`, with the other spheres given one at a time; in the walk's order)."""
+        run = self.centers[-1] if self.centers else None
+        if not isinstance(run, _Singles):
+            run = _Singles()
+            for chunks in (self.centers, self.radii, self.mats, self.sphere_owners, self.colors):
+                chunks.append(run)
+        run.owners.append(owner)
+        run.matrices.append(m)
+        run.centers.append(np.asarray(center, dtype=np.float64).reshape(3))
+        run.radii.append(float(radius))
+        run.materials.append(material)
+
+    def _make_singles(self) -> None:
+        """Every `_Singles` run's spheres as the arrays `spheres` keeps (uniform scales) or as
+        ellipsoids (the others, after the walk's); spheres flattened to nothing are dropped."""
+        runs = [i for i, chunk in enumerate(self.centers) if isinstance(chunk, _Singles)]
+        if not runs:
             return
-        if uniform:
-            self.spheres(owner, transform_points(m, center), np.array([radius * s]), material)
-        else:
-            self.transformed_spheres(owner, m, center, np.array([float(radius)]), material)
+        matrices = np.array([m for i in runs for m in self.centers[i].matrices], np.float64)
+        scales, uniform = uniform_scales(matrices[:, :3, :3])
+        start = 0
+        for i in runs:
+            run = self.centers[i]
+            n = len(run.radii)
+            s, keep = scales[start : start + n], uniform[start : start + n]
+            m, centers = matrices[start : start + n], np.array(run.centers)
+            owners, materials = np.array(run.owners, np.int32), np.array(run.materials, np.int32)
+            world = np.einsum("nij,nj->ni", m[keep, :3, :3], centers[keep]) + m[keep, :3, 3]
+            self.centers[i], self.radii[i] = world, np.array(run.radii)[keep] * s[keep]
+            self.mats[i], self.sphere_owners[i], self.colors[i] = materials[keep], owners[keep], None
+            for owner in owners[keep]:
+                self.data.sources[self.data.objects[owner].name] += 1
+            for k in np.flatnonzero(~keep & (s > 0)):  # sheared or squashed: exact ellipsoids
+                self.transformed_spheres(int(owners[k]), m[k], centers[k : k + 1], np.array(run.radii[k : k + 1]),
+                                         int(materials[k]))
+            start += n
 
     def transformed_spheres(self, owner: int, m: np.ndarray, centers, radii, materials, colors=None) -> None:
         n = len(radii)
@@ -239,6 +280,7 @@ class Builder:
 
     def finish(self) -> SceneData:
         d = self.data
+        self._make_singles()
         for mesh, matrices in self.instanced.values():
             if len(matrices) > 1:
                 mesh.instances = np.array(matrices, np.float64)
