@@ -219,6 +219,26 @@ def test_point_cloud_object_with_material_index(scene):
     np.testing.assert_allclose(d.sphere_radii, 0.1, rtol=1e-6)
 
 
+def test_spheres_of_single_objects_keep_the_walks_order_among_the_others(scene):
+    """Sphere objects are made into arrays at the end of the export (one scale test for all):
+    still in the walk's order among a point cloud's spheres, squashed ones exact ellipsoids, ones
+    scaled to nothing left out."""
+    for name, location, scale in [("A", (0, 0, 0), (2, 2, 2)), ("B squashed", (3, 0, 0), (1, 2, 1)),
+                                  ("C flat", (6, 0, 0), (0, 0, 0))]:
+        uv_sphere(scene, name, radius=0.5, location=location, scale=scale)
+    points_object(scene, "Points", [(0, 5, 0), (1, 5, 0)], radius=0.1)
+    uv_sphere(scene, "D", radius=0.25, location=(9, 0, 0))
+    d = export(scene)
+    walk = [o.name for o in bpy.context.evaluated_depsgraph_get().objects if o.name in ("A", "Points", "D")]
+    owners = [d.objects[i].name for i in d.sphere_owners]
+    assert owners == [name for name in walk for _ in range(2 if name == "Points" else 1)]
+    radius = {"A": 1.0, "Points": 0.1, "D": 0.25}
+    np.testing.assert_allclose(d.sphere_radii, [radius[name] for name in owners], rtol=1e-6)
+    (squashed,) = d.transformed_spheres
+    assert squashed.name == "B squashed" and d.sources["B squashed"] == 1 and "C flat" not in d.sources
+    np.testing.assert_allclose(squashed.matrix[:3, :3], np.diag([1.0, 2.0, 1.0]), atol=1e-6)
+
+
 def test_million_point_cloud_exports_every_point(scene):
     # Its speed is measured by bench/blender_export.py.
     n = 1_000_000
