@@ -315,7 +315,10 @@ class Scene:
 
     @property
     def background(self) -> tuple[float, float, float, float]:
-        """Linear RGBA of pixels that see no object; default (0, 0, 0, 1). Set RGB (alpha 1) or RGBA."""
+        """What rays that meet nothing see (linear RGB) and, as alpha, how much of a pixel whose
+        camera ray meets nothing it covers: such pixels are premultiplied, (r·a, g·a, b·a, a),
+        while mirrors and glass show (r, g, b) whatever a is (a transparent film still reflects
+        the world). Default (0, 0, 0, 1). Set RGB (alpha 1) or RGBA."""
         return tuple(self._core.background)
 
     @background.setter

@@ -16,6 +16,7 @@ from helpers.blender import (
     material,
     pointcloud_object,
     quad,
+    render_passes,
     use_cycles,
     world,
 )
@@ -208,6 +209,31 @@ def test_transparent_film_like_cycles(scene, tmp_path):
     np.testing.assert_array_equal(d["color"][miss], 0.0)
     np.testing.assert_array_equal(c["color"][miss], 0.0)
     np.testing.assert_array_equal(d["color"][~miss][:, 3], 1.0)
+
+
+def test_a_transparent_film_still_shows_the_world_in_mirrors_like_cycles(scene, tmp_path):
+    """A mirror ball under a grey world with Film › Transparent: no world behind it (alpha 0), the
+    world in it, as Cycles draws it (one bounce each)."""
+    from helpers.blender import uv_sphere
+
+    world(scene, (0.5, 0.5, 0.5))
+    scene.render.film_transparent = True
+    mirror = material("Mirror", (0.8, 0.8, 0.8), roughness=0.0)
+    mirror.node_tree.nodes["Principled BSDF"].inputs["Metallic"].default_value = 1.0
+    uv_sphere(scene, "Ball", radius=1.0).data.materials.append(mirror)
+    cam = aim_camera(scene, (0, -6, 0)).data
+    cam.type, cam.ortho_scale = "ORTHO", 3.0
+    scene.render.resolution_x, scene.render.resolution_y = 32, 32
+    use_cycles(scene, max_bounces=1)
+    c = render_passes(scene, tmp_path / "cycles.exr", normal=False)
+    scene.render.engine, scene.durer.max_bounces = "DURER", 1
+    d = render_passes(scene, tmp_path / "durer.exr", normal=False)
+    centre = (slice(12, 20), slice(12, 20))
+    np.testing.assert_allclose(c["color"][centre], np.broadcast_to([0.4, 0.4, 0.4, 1.0], (8, 8, 4)), atol=0.01)
+    np.testing.assert_allclose(d["color"][centre], np.broadcast_to([0.4, 0.4, 0.4, 1.0], (8, 8, 4)), atol=1e-3)
+    miss = c["depth"] >= MISS
+    assert miss.sum() > 200
+    np.testing.assert_array_equal(d["color"][miss], 0.0)
 
 
 @pytest.mark.parametrize("projection", ["PERSP", "ORTHO"])

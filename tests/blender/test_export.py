@@ -447,7 +447,7 @@ def test_world_background_and_transparent_film(scene):
     scene.render.film_transparent = True
     scene.durer.use_world_lighting = False
     d = export(scene)
-    assert d.background == (0, 0, 0, 0)
+    assert d.background == pytest.approx((0.1, 0.2, 0.3, 0.0))  # no world behind: mirrors still show it
     assert d.ambient == (0, 0, 0)
 
 

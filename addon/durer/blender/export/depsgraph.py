@@ -305,8 +305,8 @@ def export_depsgraph(depsgraph, camera=None) -> SceneData:
     world_rgb, world_note = world_colors(scene.world)
     data.notes.extend(note for note in (_ignored_visibility(depsgraph), world_note) if note)
     data.notes.extend(_ignored_camera_settings(scene, cam_obj))
-    alpha = 0.0 if scene.render.film_transparent else 1.0
-    data.background = ((0.0, 0.0, 0.0) if alpha == 0.0 else world_rgb) + (alpha,)
+    # A transparent film: no world behind the objects, but mirrors and glass still show it.
+    data.background = world_rgb + (0.0 if scene.render.film_transparent else 1.0,)
     settings = getattr(scene, "durer", None)
     if settings is not None and settings.use_custom_ambient:
         data.ambient = rgb(settings.ambient)

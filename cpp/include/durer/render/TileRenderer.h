@@ -406,10 +406,10 @@ class TileRenderer {
         b.push_back(static_cast<Real>(m.diffuse.b + m.emission.b));
         a.push_back(1);
       }
-      const Vec4d& bg = scene.background();
-      r.push_back(static_cast<Real>(bg.r));
-      g.push_back(static_cast<Real>(bg.g));
-      b.push_back(static_cast<Real>(bg.b));
+      const Vec4d& bg = scene.background();  // premultiplied, as a pixel sees it (Scene::setBackground)
+      r.push_back(static_cast<Real>(bg.r * bg.a));
+      g.push_back(static_cast<Real>(bg.g * bg.a));
+      b.push_back(static_cast<Real>(bg.b * bg.a));
       a.push_back(static_cast<Real>(bg.a));
       primMaterial.push_back(static_cast<int32_t>(scene.materials().size()));
       group.appendMaterials(primMaterial);
@@ -456,7 +456,11 @@ class TileRenderer {
     std::fill(weights, weights + packet.count, Real(1));
     m_shader.shade(packet, hits.data(), weights, 0, rgb, counters);
     alignas(64) Real alpha[kPacketSize];
-    for (int k = 0; k < packet.count; ++k) alpha[k] = hits[k].isHit() ? Real(1) : m_flat.a.back();
+    const Real coverage = m_flat.a.back();  // the background's alpha: a miss's colour premultiplied by it
+    for (int k = 0; k < packet.count; ++k) {
+      alpha[k] = hits[k].isHit() ? Real(1) : coverage;
+      if (!hits[k].isHit()) rgb[k] = rgb[k] * coverage;
+    }
     acc.addColors(rgb, alpha, packet.count);
   }
 

@@ -75,6 +75,9 @@ class Scene {
   void addDirectionalLight(const Vec3d& direction, const Vec3d& color, bool shadows);
   void addPointLight(const PointLight& light);
   void addSpotLight(const SpotLight& light);  // light.direction need not be unit
+  // What rays that meet nothing see (RGB), and how much of a pixel whose camera ray meets nothing
+  // the background covers (alpha): such a pixel is premultiplied, (r·a, g·a, b·a, a), while rays
+  // after a bounce see (r, g, b) whatever a is (a transparent film still reflects the world).
   void setBackground(const Vec4d& rgba);
   void setAmbient(const Vec3d& rgb);
   void setShading(ShadingMode mode) { m_shading = mode; }
