@@ -439,6 +439,51 @@ def test_material_colours(scene):
     assert len(d.materials) == 4  # identical colours share a material
 
 
+def test_shaders_are_read_as_cycles_reads_them(scene):
+    """Constants linked into inputs (RGB and Value nodes, maths on them) are their values; the
+    surface is the one the Cycles output takes, through reroutes; a muted or missing one is
+    black; a shader Dürer does not convert is its viewport colour, said once."""
+
+    def principled(name, x):
+        mat = material(name, (0.2, 0.2, 0.2))
+        mat.diffuse_color = (0.0, 1.0, 0.0, 1.0)  # the viewport colour: what a fallback shows
+        uv_sphere(scene, name, radius=0.5, location=(x, 0, 0)).data.materials.append(mat)
+        return mat, mat.node_tree, mat.node_tree.nodes["Principled BSDF"]
+
+    _, tree, bsdf = principled("RGB node", 0)
+    colour = tree.nodes.new("ShaderNodeRGB")
+    colour.outputs[0].default_value = (0.9, 0.5, 0.1, 1.0)
+    tree.links.new(colour.outputs[0], bsdf.inputs["Base Color"])
+    tree.links.new(colour.outputs[0], bsdf.inputs["Emission Color"])
+    strength, double = tree.nodes.new("ShaderNodeValue"), tree.nodes.new("ShaderNodeMath")
+    strength.outputs[0].default_value = 1.5
+    double.operation, double.inputs[1].default_value = "MULTIPLY", 2.0
+    tree.links.new(strength.outputs[0], double.inputs[0])
+    tree.links.new(double.outputs[0], bsdf.inputs["Emission Strength"])
+    _, tree, bsdf = principled("Rerouted", 2)
+    reroute, output = tree.nodes.new("NodeReroute"), tree.nodes["Material Output"]
+    tree.links.new(bsdf.outputs[0], reroute.inputs[0])
+    tree.links.new(reroute.outputs[0], output.inputs["Surface"])
+    eevee = tree.nodes.new("ShaderNodeOutputMaterial")  # another output, for EEVEE only, active
+    eevee.target, eevee.is_active_output = "EEVEE", True
+    tree.links.new(tree.nodes.new("ShaderNodeEmission").outputs[0], eevee.inputs["Surface"])
+    _, tree, bsdf = principled("Muted", 4)
+    bsdf.mute = True
+    _, tree, bsdf = principled("Unlinked", 6)
+    tree.links.remove(tree.nodes["Material Output"].inputs["Surface"].links[0])
+    _, tree, bsdf = principled("Mixed", 8)
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    tree.links.new(bsdf.outputs[0], mix.inputs[1])
+    tree.links.new(mix.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    d = export(scene)
+    by_x = {round(float(c[0])): d.materials[m] for c, m in zip(d.sphere_centers, d.sphere_materials)}
+    assert by_x[0].diffuse == pytest.approx((0.9, 0.5, 0.1)) and by_x[0].emission == pytest.approx((2.7, 1.5, 0.3))
+    assert by_x[2].diffuse == pytest.approx((0.2, 0.2, 0.2)) and by_x[2].emission == (0.0, 0.0, 0.0)
+    assert by_x[4].diffuse == by_x[6].diffuse == (0.0, 0.0, 0.0) and by_x[4].emission == (0.0, 0.0, 0.0)
+    assert by_x[8].diffuse == (0.0, 1.0, 0.0)
+    assert d.warnings == ["Material 'Mixed': Dürer draws its Mix Shader surface in the material's viewport colour"]
+
+
 def test_world_background_and_transparent_film(scene):
     world(scene, (0.2, 0.4, 0.6), strength=0.5)
     d = export(scene)

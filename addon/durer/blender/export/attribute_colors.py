@@ -71,8 +71,22 @@ def color_source(mat) -> ColorSource | None:
     compiler = _Compiler()
     expression = compiler.input(socket, COLOR)
     if not compiler.attributes:
-        raise Unmapped(f"its {name} reads no attribute")
+        return None  # a constant: the material's own colour (`constant_input`)
     return ColorSource(mat.name, tuple(compiler.attributes), expression, scale)
+
+
+def constant_input(socket, kind: str):
+    """A linked input's value where its graph reads no attribute and is mapped here (an RGB or a
+    Value node, maths on them): (3,) float64 for COLOR, a float for VALUE; None otherwise."""
+    compiler = _Compiler()
+    try:
+        expression = compiler.input(socket, kind)
+    except Unmapped:
+        return None
+    if compiler.attributes:
+        return None
+    value = np.asarray(expression({}), np.float64)
+    return value.reshape(3) if kind == COLOR else float(value)
 
 
 def read_values(attributes, keys: tuple[Key, ...], default_name: str | None, sizes: dict[str, int],
@@ -193,6 +207,16 @@ def _attribute(c: _Compiler, node, output: str) -> tuple[Expression, str]:
 
 def _color_attribute(c: _Compiler, node, output: str) -> tuple[Expression, str]:
     return c.read(("GEOMETRY", node.layer_name), output)
+
+
+def _rgb(c: _Compiler, node, output: str) -> tuple[Expression, str]:
+    constant = np.array(node.outputs[0].default_value[:3], np.float64)
+    return (lambda values: constant), COLOR
+
+
+def _value(c: _Compiler, node, output: str) -> tuple[Expression, str]:
+    constant = np.float64(node.outputs[0].default_value)
+    return (lambda values: constant), VALUE
 
 
 def _reroute(c: _Compiler, node, output: str) -> tuple[Expression, str]:
@@ -405,6 +429,8 @@ _NODES = {
     "ShaderNodeAttribute": _attribute,
     "ShaderNodeVertexColor": _color_attribute,
     "NodeReroute": _reroute,
+    "ShaderNodeRGB": _rgb,
+    "ShaderNodeValue": _value,
     "ShaderNodeMix": _mix,
     "ShaderNodeValToRGB": _color_ramp,
     "ShaderNodeHueSaturation": _hue_saturation,

@@ -56,7 +56,7 @@ class Builder:
         key_ptr = mat.as_pointer() if mat is not None else None
         if key_ptr is not None and key_ptr in self.blender_materials:
             return self.blender_materials[key_ptr]
-        md = material_data(mat, obj)
+        md = material_data(mat, obj, self.data.notes)
         # Materials alike but for their pass index stay apart: the IndexMA pass tells them apart.
         pass_index = mat.pass_index if mat is not None else 0
         mid = self.material_ids.get((md.key, pass_index))

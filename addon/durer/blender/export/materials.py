@@ -7,7 +7,7 @@ import numpy as np
 
 from ...material import COURSE_FIELDS
 from .data import BLACK, MaterialData
-from .nodes import color_input, rgb, scalar_input, socket_value
+from .nodes import color_input, linked_value, rgb, scalar_input
 
 #: Roughness at or below which a specular lobe is a mirror (reflection rays); above it, the lobe is
 #: a Phong highlight of the lights. At 0.2 the GGX width alpha = roughness² is 0.04, the Phong
@@ -82,11 +82,9 @@ def _principled(mat, node, viewport) -> MaterialData:
     transparent = BLACK
     if transmission > 0.0 and metallic < 1.0:
         transparent = _scale3(_scale3(base, (1.0 - metallic) * transmission), below)
-    ecol, elinked = socket_value(node, "Emission Color")
-    estr, _ = socket_value(node, "Emission Strength")
-    emission = BLACK
-    if ecol is not None and estr and not elinked:
-        emission = tuple(c * float(estr) for c in rgb(ecol))
+    ecol = linked_value(node, "Emission Color", "color")
+    estr = linked_value(node, "Emission Strength", "value")
+    emission = BLACK if ecol is None or not estr else tuple(c * float(estr) for c in rgb(ecol))
     md = MaterialData(mat.name, diffuse, emission, transparent=transparent, ior=ior if any(transparent) else 1.0)
     return _with_lobe(md, spec, roughness)
 
@@ -115,7 +113,7 @@ def base_color_input(mat) -> tuple[object, str, tuple[float, float, float]] | No
     override = getattr(mat.original or mat, "durer", None)
     if override is not None and override.use_override:
         return None
-    node = _surface_shader(mat.node_tree)
+    node = surface_shader(mat.node_tree)
     if node is None:
         return None
     if node.bl_idname == "ShaderNodeBsdfDiffuse":
@@ -141,8 +139,7 @@ def _diffuse(mat, node, viewport) -> MaterialData:
 def _emission(mat, node, viewport) -> MaterialData:
     """Unlit: colour × strength."""
     col = color_input(node, "Color", viewport)
-    strength, _ = socket_value(node, "Strength")
-    strength = float(strength)
+    strength = scalar_input(node, "Strength", 0.0)
     return MaterialData(mat.name, BLACK, tuple(c * strength for c in col))
 
 
@@ -158,9 +155,8 @@ def _glossy(mat, node, viewport) -> MaterialData:
 def _metallic(mat, node, viewport) -> MaterialData:
     """A specular lobe of its Base Color (F82 Tint) or of the conductor's F0 (Physical Conductor)."""
     if node.fresnel_type == "PHYSICAL_CONDUCTOR":
-        n, nl = socket_value(node, "IOR")
-        k, kl = socket_value(node, "Extinction")
-        spec = viewport if nl or kl else conductor_f0(n, k)
+        n, k = linked_value(node, "IOR", "color"), linked_value(node, "Extinction", "color")
+        spec = viewport if n is None or k is None else conductor_f0(n, k)
     else:
         spec = color_input(node, "Base Color", viewport)
     return _with_lobe(MaterialData(mat.name, BLACK), spec, _roughness(mat, node))
@@ -196,13 +192,14 @@ CONVERTERS = {
 }
 
 
-def material_data(mat, obj=None) -> MaterialData:
+def material_data(mat, obj=None, notes: list[str] | None = None) -> MaterialData:
     """Dürer's material for a Blender material (None: the object's colour).
 
     ``material.durer`` with its override on comes first: the 6.837 material it states, as is. Else
-    the shader linked to the active Material Output's Surface, by its converter in `CONVERTERS`
-    (Principled BSDF: see `_principled`). A linked colour (texture) or another shader: the
-    material's viewport display colour.
+    the shader linked to the Surface of the Material Output Cycles uses, by its converter in
+    `CONVERTERS` (Principled BSDF: see `_principled`); a constant linked into an input (an RGB or
+    Value node, maths on them) counts as its value. A colour that varies (a texture) or another
+    shader: the material's viewport display colour, said in `notes`. No surface: black, as Cycles.
     """
     if mat is None:
         return MaterialData("(object colour)") if obj is None else MaterialData("(object colour)", rgb(obj.color))
@@ -210,20 +207,34 @@ def material_data(mat, obj=None) -> MaterialData:
     if override is not None and override.use_override:
         return override_material(mat.name, override)
     viewport = rgb(mat.diffuse_color)
-    node = _surface_shader(mat.node_tree)
-    convert = CONVERTERS.get(node.bl_idname) if node is not None else None
-    return MaterialData(mat.name, viewport) if convert is None else convert(mat, node, viewport)
+    node = surface_shader(mat.node_tree)
+    if node is None:
+        return MaterialData(mat.name, BLACK)
+    convert = CONVERTERS.get(node.bl_idname)
+    if convert is None:
+        if notes is not None:
+            notes.append(f"Material '{mat.name}': Dürer draws its {node.bl_label} surface in the material's "
+                         f"viewport colour")
+        return MaterialData(mat.name, viewport)
+    return convert(mat, node, viewport)
 
 
-def _surface_shader(tree):
-    """The node linked to the active Material Output's Surface (None without one)."""
-    if tree is None:
+def surface_shader(tree):
+    """The shader node Cycles renders a material with: the one linked (through reroutes) to the
+    Surface of the tree's active Cycles output; None where there is none (a muted link or node,
+    nothing linked)."""
+    output = tree.get_output_node("CYCLES") if tree is not None else None
+    if output is None:
         return None
-    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
-    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
-    if output is None or not output.inputs["Surface"].is_linked:
-        return None
-    return output.inputs["Surface"].links[0].from_node
+    socket = output.inputs["Surface"]
+    while socket.is_linked:
+        link = socket.links[0]
+        if link.is_muted or link.from_node.mute:
+            return None
+        if link.from_node.bl_idname != "NodeReroute":
+            return link.from_node
+        socket = link.from_node.inputs[0]
+    return None
 
 
 def override_material(name: str, settings) -> MaterialData:

@@ -3,7 +3,8 @@ and how far the ambient light is occluded."""
 
 from __future__ import annotations
 
-from .nodes import rgb, socket_value
+from .materials import surface_shader
+from .nodes import linked_value, rgb
 
 
 def world_colors(world) -> tuple[tuple[float, float, float], str | None]:
@@ -14,15 +15,12 @@ def world_colors(world) -> tuple[tuple[float, float, float], str | None]:
     tree = world.node_tree
     if tree is None:
         return rgb(world.color), None
-    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld"]
-    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
-    if output is None or not output.inputs["Surface"].is_linked:
+    node = surface_shader(tree)
+    if node is None:
         return (0.0, 0.0, 0.0), None
-    node = output.inputs["Surface"].links[0].from_node
     if node.bl_idname == "ShaderNodeBackground":
-        col, linked = socket_value(node, "Color")
-        strength, slinked = socket_value(node, "Strength")
-        if not linked and not slinked:
+        col, strength = linked_value(node, "Color", "color"), linked_value(node, "Strength", "value")
+        if col is not None and strength is not None:
             return tuple(c * float(strength) for c in rgb(col)), None
     return rgb(world.color), f"World '{world.name}' is not a plain colour: Dürer uses its viewport colour"
 
