@@ -199,6 +199,28 @@ def test_camera_and_light_settings_dürer_does_not_simulate_are_reported(scene):
     ]
 
 
+def test_light_and_world_settings_dürer_does_not_follow_are_reported(scene):
+    """Lights' ray visibility, shader nodes and unnormalized power, a negative light (left out:
+    Dürer cannot take light away), a world hidden from the camera: each said, naming it."""
+    ball_scene(scene)
+    sun = next(obj for obj in scene.objects if obj.type == "LIGHT")
+    sun.visible_diffuse = False
+    lamp = light(scene, "POINT", name="Lamp", energy=100.0, location=(0, -3, 2))
+    lamp.data.use_nodes, lamp.data.normalize = True, False
+    light(scene, "POINT", name="Dark", energy=-50.0, location=(2, -3, 0))
+    scene.world.cycles_visibility.camera = False
+    assert bpy.ops.render.render() == {"FINISHED"}
+    assert engine.last_render.warnings == [
+        "Light 'Lamp' uses shader nodes: Dürer takes its colour and power alone",
+        "Light 'Lamp' is not normalized: Dürer takes its power as if it were (Cycles' light grows with its radius)",
+        "Light 'Dark' has a negative power or colour: Dürer leaves it out (Cycles takes its light away)",
+        "Dürer renders every object as seen by every ray and lit by every light; it does not follow "
+        f"Object › Visibility or light linking for '{sun.name}' lighting no diffuse surface",
+        f"World '{scene.world.name}' is hidden from the camera: Dürer shows it behind the objects",
+    ]
+    assert engine.last_render.stats["rays"] > 0
+
+
 def test_a_scene_camera_that_is_no_camera_is_a_clear_error(scene):
     ball_scene(scene)
     scene.camera = link(scene, bpy.data.objects.new("Pointer", None))

@@ -22,7 +22,8 @@ _NOT_RENDERED = {"CAMERA", "ARMATURE", "LATTICE", "SPEAKER", "LIGHT_PROBE"}
 # object.durer primitive modes under which an instanced mesh may be a sphere (instances.py).
 _SPHERE_MODES = {"AUTO", "SPHERE"}
 # Object › Visibility settings (Cycles') that the core has no counterpart for: the property, the
-# value that asks for what Dürer does not do, and what that is. A render with any says so.
+# value that asks for what Dürer does not do, and what that is; for objects, and for lights. A
+# render with any says so.
 _IGNORED_VISIBILITY = (
     ("visible_camera", False, "hidden from the camera"),
     ("visible_shadow", False, "casting no shadows"),
@@ -30,6 +31,10 @@ _IGNORED_VISIBILITY = (
     ("visible_transmission", False, "hidden from refraction"),
     ("is_holdout", True, "a holdout"),
     ("is_shadow_catcher", True, "a shadow catcher"),
+)
+_IGNORED_LIGHT_VISIBILITY = (
+    ("visible_diffuse", False, "lighting no diffuse surface"),
+    ("visible_glossy", False, "making no highlight"),
 )
 
 
@@ -174,10 +179,19 @@ def _light(b: Builder, obj, m: np.ndarray) -> None:
     if light is None:
         b.data.skipped[f"{obj.data.type.lower()} light"] += 1
         return
+    if min(light.color) < 0:
+        b.data.notes.append(f"Light '{obj.name}' has a negative power or colour: Dürer leaves it out "
+                            f"(Cycles takes its light away)")
+        return
     b.data.lights.append(light)
     if light.kind == "spot" and not uniform_scale(m)[1]:
         b.data.notes.append(f"Spot light '{obj.name}' is scaled unevenly: Cycles stretches its cone, "
                             f"Dürer keeps it round")
+    if obj.data.use_nodes:
+        b.data.notes.append(f"Light '{obj.name}' uses shader nodes: Dürer takes its colour and power alone")
+    if light.kind != "sun" and not getattr(obj.data, "normalize", True):  # Blender 4.5 and later
+        b.data.notes.append(f"Light '{obj.name}' is not normalized: Dürer takes its power as if it were "
+                            f"(Cycles' light grows with its radius)")
 
 
 def _empty(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
@@ -200,12 +214,12 @@ def _ignored_visibility(depsgraph) -> str | None:
         linking = getattr(obj, "light_linking", None)  # Blender 4.0 and later
         if linking is not None and (linking.receiver_collection or linking.blocker_collection):
             found.setdefault("linking lights or shadows", []).append(obj.name)
-        if obj.type in _NOT_RENDERED or obj.type == "LIGHT":
+        if obj.type in _NOT_RENDERED:
             continue
         settings = _durer_settings(obj, obj.original)
         if settings is not None and settings.primitive == "IGNORE":
             continue
-        for name, asks, what in _IGNORED_VISIBILITY:
+        for name, asks, what in _IGNORED_LIGHT_VISIBILITY if obj.type == "LIGHT" else _IGNORED_VISIBILITY:
             if getattr(obj, name) == asks:
                 found.setdefault(what, []).append(obj.name)
     if not found:
@@ -217,12 +231,16 @@ def _ignored_visibility(depsgraph) -> str | None:
 
 
 def _ignored_camera_settings(scene, cam_obj) -> list[str]:
-    """Notes on the render's camera and motion settings that Dürer does not simulate."""
+    """Notes on what the camera sees that Dürer does not simulate: depth of field, motion blur, a
+    world hidden from the camera."""
     notes = []
     if cam_obj is not None and cam_obj.data.dof.use_dof:
         notes.append(f"Camera '{cam_obj.name}' has depth of field: Dürer renders everything in focus")
     if scene.render.use_motion_blur:
         notes.append("Motion blur is on: Dürer renders each frame at one instant")
+    visibility = getattr(scene.world, "cycles_visibility", None)  # with the Cycles add-on enabled
+    if visibility is not None and not visibility.camera:
+        notes.append(f"World '{scene.world.name}' is hidden from the camera: Dürer shows it behind the objects")
     return notes
 
 
