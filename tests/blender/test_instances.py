@@ -264,3 +264,85 @@ def test_particles_rendered_as_a_collection_give_each_particle_its_own_objects_s
     centres, expected_radii = expected_spheres(instances, {name: (np.zeros(3), r) for name, r in radii.items()})
     assert_same_rows(np.column_stack([data.sphere_centers, data.sphere_radii]),
                      np.column_stack([centres, expected_radii]), 2e-5)
+
+
+def node_group(obj, name):
+    """A geometry-nodes modifier on `obj` with an empty group: (group, nodes, links, input, output)."""
+    group = bpy.data.node_groups.new(name, "GeometryNodeTree")
+    group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    obj.modifiers.new(name, "NODES").node_group = group
+    return group, group.nodes, group.links, group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+
+
+def test_atoms_and_bonds_made_by_one_modifier_are_all_there(scene):
+    """Ball and stick as geometry nodes make it: an ico sphere and a cylinder instanced on points,
+    or the atoms as a point cloud, joined with the bonds' instances. Every atom a sphere, every
+    bond a cylinder (each reference's mesh read while it lives; the point cloud beside the
+    instances not taken for one of them)."""
+    atoms = np.random.default_rng(5).uniform(-2, 2, (30, 3))
+    for variant in ("ico atoms", "points atoms"):
+        for obj in list(scene.objects):
+            if obj.type != "CAMERA":
+                bpy.data.objects.remove(obj)
+        host = point_cloud.vertex_object(scene.collection, "Atoms", atoms)
+        bonds = point_cloud.vertex_object(scene.collection, "Bond points", (atoms[:-1] + atoms[1:]) / 2)
+        bonds.hide_render = True
+        group, nodes, links, given, output = node_group(host, variant)
+        join = nodes.new("GeometryNodeJoinGeometry")
+        if variant == "ico atoms":
+            ico, on_atoms = nodes.new("GeometryNodeMeshIcoSphere"), nodes.new("GeometryNodeInstanceOnPoints")
+            ico.inputs["Radius"].default_value, ico.inputs["Subdivisions"].default_value = 0.1, 3
+            links.new(given.outputs[0], on_atoms.inputs["Points"])
+            links.new(ico.outputs[0], on_atoms.inputs["Instance"])
+            links.new(on_atoms.outputs[0], join.inputs[0])
+        else:
+            to_points = nodes.new("GeometryNodeMeshToPoints")
+            to_points.inputs["Radius"].default_value = 0.1
+            links.new(given.outputs[0], to_points.inputs["Mesh"])
+            links.new(to_points.outputs[0], join.inputs[0])
+        info, cylinder = nodes.new("GeometryNodeObjectInfo"), nodes.new("GeometryNodeMeshCylinder")
+        info.inputs["Object"].default_value = bonds
+        cylinder.inputs["Radius"].default_value, cylinder.inputs["Vertices"].default_value = 0.02, 8
+        on_bonds = nodes.new("GeometryNodeInstanceOnPoints")
+        links.new(info.outputs["Geometry"], on_bonds.inputs["Points"])
+        links.new(cylinder.outputs["Mesh"], on_bonds.inputs["Instance"])
+        links.new(on_bonds.outputs[0], join.inputs[0])
+        links.new(join.outputs[0], output.inputs[0])
+        d = export(scene)
+        assert d.sphere_count == 30, variant
+        np.testing.assert_allclose(np.sort(d.sphere_centers, axis=0), np.sort(atoms, axis=0), atol=1e-5)
+        (mesh,) = d.meshes
+        assert len(mesh.instances) == 29 and d.triangle_count == 29 * len(mesh.faces), variant
+
+
+def test_instances_of_a_point_cloud_take_its_own_attribute_colours(scene):
+    """A point cloud whose material reads its own colour attribute, instanced twice by geometry
+    nodes (as molecular add-ons build assemblies): each copy of each point has that point's
+    colour, as Cycles draws it."""
+    from helpers.blender import material
+
+    positions = np.random.default_rng(6).uniform(-1, 1, (20, 3))
+    colours = np.random.default_rng(7).uniform(0, 1, (20, 3))
+    molecule = point_cloud.vertex_object(scene.collection, "Molecule", positions)
+    molecule.data.attributes.new("Color", "FLOAT_COLOR", "POINT").data.foreach_set(
+        "color", np.c_[colours, np.ones(20)].astype(np.float32).ravel())
+    mat = material("Atoms", (0.5, 0.5, 0.5))
+    tree, bsdf = mat.node_tree, mat.node_tree.nodes["Principled BSDF"]
+    attribute = tree.nodes.new("ShaderNodeAttribute")
+    attribute.attribute_name = "Color"
+    tree.links.new(attribute.outputs["Color"], bsdf.inputs["Base Color"])
+    group, nodes, links, given, output = node_group(molecule, "Assembly")
+    to_points, set_material = nodes.new("GeometryNodeMeshToPoints"), nodes.new("GeometryNodeSetMaterial")
+    to_points.inputs["Radius"].default_value = 0.05
+    set_material.inputs["Material"].default_value = mat
+    copies, on_copies = nodes.new("GeometryNodePoints"), nodes.new("GeometryNodeInstanceOnPoints")
+    copies.inputs["Count"].default_value = 2
+    links.new(given.outputs[0], to_points.inputs["Mesh"])
+    links.new(to_points.outputs[0], set_material.inputs["Geometry"])
+    links.new(copies.outputs[0], on_copies.inputs["Points"])
+    links.new(set_material.outputs[0], on_copies.inputs["Instance"])
+    links.new(on_copies.outputs[0], output.inputs[0])
+    d = export(scene)
+    assert d.sphere_count == 40 and d.warnings == []
+    np.testing.assert_allclose(d.sphere_colors, np.tile(colours, (2, 1)), atol=1e-6)

@@ -25,6 +25,7 @@ class _Cloud:
 
     positions: np.ndarray  # (N, 3)
     radii: np.ndarray  # (N,), > 0
+    colors: np.ndarray | None = None  # (N, 3) kd from the cloud's own attributes, if its material reads some
     kind: str = "points"
 
 
@@ -53,6 +54,12 @@ class _Batch:
     shape: MeshShape | None  # None: not a sphere, exported one instance at a time
     material: int = 0
     matrices: _Matrices = field(default_factory=_Matrices)
+
+
+#: Object type -> the component of its evaluated geometry that is the object itself; Blender's walk
+#: gives the other components as instances of it.
+_OWN_COMPONENT = {"MESH": "mesh", "POINTCLOUD": "pointcloud", "CURVES": "curves", "VOLUME": "volume",
+                  "GREASEPENCIL": "grease_pencil"}
 
 
 class InstanceBatches:
@@ -98,8 +105,13 @@ class InstanceBatches:
         cloud = geometry.instances_pointcloud()
         if cloud is None or len(cloud.points) == 0:
             return
+        own = _OWN_COMPONENT.get(obj.type)
+        if any(getattr(geometry, part) is not None for part in _OWN_COMPONENT.values() if part != own):
+            return  # geometry beside the instances, which the walk meets as instances of `obj` too
+        # Each reference's mesh or points live as long as its GeometrySet: keep them all.
+        references = list(geometry.instance_references())
         kinds, mats, meshes = [], [], []
-        for reference in geometry.instance_references():
+        for reference in references:
             if not isinstance(reference, bpy.types.GeometrySet) or reference.curves is not None or \
                     reference.instances_pointcloud() is not None:
                 return
@@ -107,7 +119,8 @@ class InstanceBatches:
             if points is not None:
                 if mesh is not None and len(mesh.polygons):  # faces beside the points: left to the walk
                     return
-                shape, data = self._cloud(points), points
+                mat = points.materials[0] if len(points.materials) else None
+                shape, data = self._cloud(points, mat), points
             elif mesh is not None:
                 shape, data = self._shape(mesh, "AUTO", len(mesh.materials)), mesh
                 if shape.kind not in ("sphere", "triangles"):
@@ -144,7 +157,6 @@ class InstanceBatches:
                                             world[chosen], cloud, chosen)
                 continue
             if shape.kind == "points":
-                self.builder.uncolored(mats[i], f"the instances of point cloud '{meshes[i].name}' take one colour")
                 self._add_cloud(owner, world[chosen][:, :3, :], shape, material)
                 continue
             self._add_spheres(owner, world[chosen][:, :3, :], shape, material,
@@ -186,11 +198,15 @@ class InstanceBatches:
         self.builder.uncolored(mat, f"the instances of '{obj.name}' are spheres of one colour each")
         return _Batch(self.builder.owner(obj), shape, self.builder.material(mat, obj))
 
-    @staticmethod
-    def _cloud(pc) -> _Cloud:
+    def _cloud(self, pc, mat) -> _Cloud:
+        """Point cloud `pc`'s points of positive radius, with the kd its material `mat` reads from
+        the cloud's own attributes (every instance of it takes the same)."""
         positions, radii = cloud_points(pc)
         keep = radii > 0
-        return _Cloud(positions[keep].astype(np.float64), radii[keep].astype(np.float64))
+        n = len(radii)
+        colors = self.builder.attribute_colors(pc, [mat], None, self.builder.material(mat, pc), n, {"POINT": n})
+        return _Cloud(positions[keep].astype(np.float64), radii[keep].astype(np.float64),
+                      None if colors is None else colors[keep])
 
     def _add_cloud(self, owner: int, rows: np.ndarray, cloud: _Cloud, material: int) -> None:
         """Cloud's spheres under each matrix (rows: (K, 3, 4)): world-space spheres where a matrix is
@@ -198,10 +214,12 @@ class InstanceBatches:
         linear, offset = rows[:, :, :3], rows[:, :, 3]
         scale, uniform = uniform_scales(linear)
         centers = np.einsum("kij,pj->kpi", linear[uniform], cloud.positions) + offset[uniform][:, None, :]
-        self.builder.spheres(owner, centers.reshape(-1, 3), (scale[uniform][:, None] * cloud.radii).ravel(), material)
+        colors = None if cloud.colors is None else np.tile(cloud.colors, (int(uniform.sum()), 1))
+        self.builder.spheres(owner, centers.reshape(-1, 3), (scale[uniform][:, None] * cloud.radii).ravel(), material,
+                             colors)
         for i in np.flatnonzero(~uniform & (scale > 0)):  # sheared or squashed: exact ellipsoids
             m = np.vstack([rows[i], [0.0, 0.0, 0.0, 1.0]])
-            self.builder.transformed_spheres(owner, m, cloud.positions, cloud.radii, material)
+            self.builder.transformed_spheres(owner, m, cloud.positions, cloud.radii, material, cloud.colors)
 
     def _shape(self, me, mode: str, slot_count: int) -> MeshShape:
         key = (me.as_pointer(), len(me.vertices), len(me.polygons), mode, None, slot_count)
