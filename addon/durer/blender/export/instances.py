@@ -204,7 +204,8 @@ class InstanceBatches:
         positions, radii = cloud_points(pc)
         keep = radii > 0
         n = len(radii)
-        colors = self.builder.attribute_colors(pc, [mat], None, self.builder.material(mat, pc), n, {"POINT": n})
+        colors = None if mat is None else \
+            self.builder.attribute_colors(pc, [mat], None, self.builder.material(mat, pc), n, {"POINT": n})
         return _Cloud(positions[keep].astype(np.float64), radii[keep].astype(np.float64),
                       None if colors is None else colors[keep])
 
