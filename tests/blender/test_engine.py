@@ -334,6 +334,73 @@ def test_parse_frames_checks_each_frame_and_renders_it_once():
             batch.parse_frames(spec)
 
 
+def test_an_interrupted_batch_leaves_no_empty_frame_and_resumes(scene, tmp_path, monkeypatch, capsys):
+    """Ctrl-C during a frame (a KeyboardInterrupt where Blender would swallow it: here from the
+    progress callback, on the thread that polls the render): the render stops, no empty image is
+    left for the frame, the batch stops; --resume renders that frame next. The command says so in
+    one line, exit code 130."""
+    blend = saved_blend(scene, tmp_path / "anim.blend")
+    out = tmp_path / "out" / "f_####.png"
+
+    def interrupt(frame, fraction):
+        if frame == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        batch.render_file(blend, frames="1-3", output=out, progress=interrupt)
+    assert engine.last_render.interrupted and sorted(p.name for p in out.parent.iterdir()) == ["f_0001.png"]
+    assert not any(t.name == "durer-render" for t in threading.enumerate())
+    files = batch.render_file(blend, frames="1-3", output=out, resume=True)
+    assert [f.name for f in files] == ["f_0002.png", "f_0003.png"]
+    monkeypatch.setattr(batch, "render_file", lambda *a, **k: (_ for _ in ()).throw(KeyboardInterrupt))
+    assert batch.main([str(blend), "--frames", "1-3", "-o", str(out)]) == 130
+    assert capsys.readouterr().err.strip().endswith("interrupted; the frames written so far are whole "
+                                                    "(--resume goes on from them)")
+
+
+def test_a_failed_frame_does_not_stop_the_others(scene, tmp_path, capsys):
+    """A frame that cannot render (the camera keyed panoramic on frame 2): frames 1 and 3 are
+    written, the error names frame 2 and why, once; its empty image is not left behind."""
+    blend = saved_blend(scene, tmp_path / "anim.blend")
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+    camera = bpy.context.scene.camera.data
+    for frame, kind in ((1, "PERSP"), (2, "PANO"), (3, "PERSP")):
+        camera.type = kind
+        camera.keyframe_insert("type", frame=frame)
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    out = tmp_path / "out" / "f_####.png"
+    with pytest.raises(batch.BatchRenderError) as failure:
+        batch.render_file(blend, frames="1-3", output=out)
+    assert [f.name for f in failure.value.written] == ["f_0001.png", "f_0003.png"]
+    assert str(failure.value).startswith(f"1 of 3 frames failed: 2 (Frame 2 of {blend} failed: ValueError: Camera")
+    assert sorted(p.name for p in out.parent.iterdir()) == ["f_0001.png", "f_0003.png"]
+    assert batch.main([str(blend), "--frames", "1-3", "-o", str(out), "-q"]) == 1
+    printed = capsys.readouterr()
+    assert printed.out.count("image written to") == 2 and printed.err.count("Frame 2") == 1
+
+
+def test_output_format_from_the_extension_whatever_the_file_writes(scene, tmp_path):
+    """A file set to write video or multilayer EXR, rendered to x.png: PNG images (Blender 5 sorts
+    formats by medium); to x.exr from a multilayer file: multilayer, its passes kept; "#" in a
+    folder's name stays (Blender's frame_path numbers the file name only)."""
+    from helpers.exr import read_exr
+
+    blend = saved_blend(scene, tmp_path / "anim.blend")
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+    settings = bpy.context.scene.render.image_settings
+    settings.media_type, settings.file_format = "VIDEO", "FFMPEG"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    (png,) = batch.render_file(blend, frames="2", output=tmp_path / "take#1" / "f_##.png")
+    assert png == tmp_path / "take#1" / "f_02.png" and png.read_bytes()[:4] == b"\x89PNG"
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+    bpy.context.scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"
+    bpy.context.scene.render.image_settings.exr_codec = "NONE"  # what helpers.exr reads
+    bpy.context.scene.view_layers[0].use_pass_z = True
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    (exr,) = batch.render_file(blend, frames="2", output=tmp_path / "f_####.exr")
+    assert any(name.endswith("Depth.Z") for name in read_exr(exr))
+
+
 def test_render_file_frames_and_output(scene, tmp_path):
     blend = saved_blend(scene, tmp_path / "anim.blend")
     bpy.ops.wm.read_factory_settings(use_empty=True)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from helpers.blend import animated_blend, bpy
+from helpers.blend import animated_blend, bpy, falling_particles_blend
 
 import psutil
 
@@ -80,6 +80,19 @@ def test_multilayer_exr_with_passes_in_the_files_own_format_equals_sequential(cl
     for f in sequential:
         assert_same_image_file(tmp_path / "dask" / f.name, f)
         assert is_complete(tmp_path / "dask" / f.name)
+
+
+def test_a_simulation_renders_the_same_frames_on_workers_as_in_one_process(client, tmp_path):
+    """Falling particles, not baked: a worker given the frames in another order simulates them from
+    the cache baked on the client, so every frame is the sequential path's, bit for bit."""
+    blend = falling_particles_blend(tmp_path / "particles.blend")
+    sequential = batch.render_file(blend, frames="1-8", output=tmp_path / "seq" / "f_#.png")
+    assert len({np.asarray(Image.open(f)).tobytes() for f in sequential}) == 8
+    report = render_frames(blend, "8,3,6,1,5,2,7,4", tmp_path / "dask" / "f_#.png", client=client, progress=False,
+                           log=None)
+    assert sorted(report.written) == list(range(1, 9)) and not report.failed
+    for f in sequential:
+        assert_same_image_file(tmp_path / "dask" / f.name, f)
 
 
 def test_existing_scheduler_and_workers_started_as_processes(animation, external_scheduler, tmp_path):

@@ -56,3 +56,29 @@ def animated_blend(path: Path, frames: int = 12, width: int = 32, height: int = 
             obj.keyframe_insert("location", frame=frame)
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
     return path
+
+
+def falling_particles_blend(path: Path, frames: int = 8) -> Path:
+    """`animated_blend`'s camera and sun over a particle system, not baked: balls born over the
+    first frames fall under gravity, so each frame's particles are where the frames before left them."""
+    animated_blend(path, frames=frames, width=48, height=36, samples=1)
+    s = bpy.context.scene
+    for name in ("Red", "Blue"):
+        bpy.data.objects.remove(bpy.data.objects[name])
+    bm = bmesh.new()
+    bmesh.ops.create_grid(bm, x_segments=4, y_segments=4, size=1.5)
+    mesh = bpy.data.meshes.new("Emitter")
+    bm.to_mesh(mesh)
+    bm.free()
+    emitter = bpy.data.objects.new("Emitter", mesh)
+    emitter.location, emitter.rotation_euler = (0, 0, 1.5), (1.2, 0, 0)
+    emitter.show_instancer_for_render = emitter.show_instancer_for_viewport = False
+    s.collection.objects.link(emitter)
+    ball = _ball(s, "Ball", 0.12, (0.8, 0.6, 0.1), (0, 0, -30))
+    emitter.modifiers.new("Particles", "PARTICLE_SYSTEM")
+    part = emitter.particle_systems[0].settings
+    part.count, part.frame_start, part.frame_end, part.lifetime = 60, 1, frames // 2, 50
+    part.render_type, part.instance_object, part.particle_size, part.normal_factor = "OBJECT", ball, 1.0, 2.0
+    part.factor_random = 1.0  # random initial speeds: each frame's state is its own history
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return path

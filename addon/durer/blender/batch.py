@@ -37,7 +37,12 @@ FORMATS = {
 
 
 class BatchRenderError(RuntimeError):
-    """A frame failed to render (the message says which and why)."""
+    """Frames failed to render (the message says which and why); `written` holds the files the
+    other frames wrote."""
+
+    def __init__(self, message: str, written: list[Path] | None = None) -> None:
+        super().__init__(message)
+        self.written = written or []
 
 
 def _hard_range(owner: type, name: str) -> tuple[int, int]:
@@ -140,7 +145,8 @@ def render_file(
     resume:  skip frames whose output file exists and is complete (not in the returned list).
     threads: render threads per frame, overriding scene.durer.threads.
 
-    Raises FileNotFoundError for a missing file and BatchRenderError when a frame fails.
+    Raises FileNotFoundError for a missing file, and BatchRenderError once every frame was tried
+    if some failed (the others are written: the error's `written`).
     """
     import bpy
 
@@ -154,6 +160,7 @@ def render_file(
     explicit = configure_output(sc, output, len(frame_list))
 
     written: list[Path] = []
+    failed: dict[int, str] = {}
     pattern, use_extension = sc.render.filepath, sc.render.use_file_extension
     # Frames in a row: each reuses the last one's scene where only spheres and the camera moved.
     persistent = sc.render.use_persistent_data
@@ -166,15 +173,25 @@ def render_file(
             make_folder_for(target)
             sc.frame_set(frame)
             sc.render.filepath, sc.render.use_file_extension = str(target), False
-            _render_frame(bpy, engine, sc, blend, frame, len(frame_list) - i, progress)
-            sc.render.filepath, sc.render.use_file_extension = pattern, use_extension
+            try:
+                _render_frame(bpy, engine, sc, blend, frame, len(frame_list) - i, progress)
+            except BatchRenderError as exc:  # the other frames still render, as on a cluster
+                failed[frame] = str(exc)
+                continue
+            finally:
+                sc.render.filepath, sc.render.use_file_extension = pattern, use_extension
             if not target.is_file():
-                raise BatchRenderError(f"Frame {frame} of {blend} rendered but {target} was not written")
+                failed[frame] = f"Frame {frame} of {blend} rendered but {target} was not written"
+                continue
             written.append(target)
     finally:
         sc.render.filepath, sc.render.use_file_extension = pattern, use_extension
         sc.render.use_persistent_data = persistent
         engine.persistent.pop(sc.name, None)
+    if failed:
+        first = min(failed)
+        raise BatchRenderError(f"{len(failed)} of {len(frame_list)} frames failed: "
+                               f"{','.join(str(f) for f in sorted(failed))} ({failed[first]})", written)
     return written
 
 
@@ -238,9 +255,15 @@ def configure_output(sc: bpy.types.Scene, output: str | os.PathLike | None, fram
         out = os.path.join(out, "####")
     ext = Path(out).suffix.lower()
     if ext in FORMATS:
-        sc.render.image_settings.file_format = FORMATS[ext]
-        if FORMATS[ext] == "OPEN_EXR":
-            sc.render.image_settings.color_depth = "32"
+        settings = sc.render.image_settings
+        # Blender 5 sorts formats by media (image, multilayer image, video): pick the medium first.
+        # A file set to write multilayer EXRs keeps its passes with ".exr".
+        multilayer = settings.file_format == "OPEN_EXR_MULTILAYER" and ext == ".exr"
+        if hasattr(settings, "media_type"):
+            settings.media_type = "MULTI_LAYER_IMAGE" if multilayer else "IMAGE"
+        settings.file_format = "OPEN_EXR_MULTILAYER" if multilayer else FORMATS[ext]
+        if ext == ".exr":
+            settings.color_depth = "32"
     elif ext:
         raise ValueError(f"Unknown image extension {ext!r}: use one of {', '.join(sorted(FORMATS))}")
     if frame_count > 1 and "#" not in Path(out).name:
@@ -256,8 +279,9 @@ def frame_target(sc: bpy.types.Scene, explicit: str | None, frame: int) -> Path:
     import bpy
 
     # write_still does not number stills: resolve "#" and the extension per frame ourselves.
-    if explicit is not None:
-        return Path(bpy.path.abspath(re.sub(r"#+", lambda m: f"{frame:0{len(m.group())}d}", explicit)))
+    if explicit is not None:  # "#" runs in the file name only, as Blender's frame_path
+        folder, name = os.path.split(explicit)
+        return Path(bpy.path.abspath(os.path.join(folder, re.sub(r"#+", lambda m: f"{frame:0{len(m.group())}d}", name))))
     return Path(bpy.path.abspath(sc.render.frame_path(frame=frame)))
 
 
@@ -273,15 +297,22 @@ def _render_frame(bpy, engine, sc, blend: Path, frame: int, left: int, progress)
             progress(frame, fraction)
 
     engine.progress_hooks.append(hook)
+    target = Path(bpy.path.abspath(sc.render.filepath))
+    engine.last_render = engine.RenderInfo()  # a frame Blender fails before the engine runs keeps no stale error
     try:
         bpy.ops.render.render(write_still=True, scene=sc.name)
-    except RuntimeError as exc:
-        raise BatchRenderError(f"Frame {frame} of {blend} failed: {exc}") from None
+    except RuntimeError as exc:  # Blender's report ("Error: Dürer: ..."), unless the engine's own is there
+        target.unlink(missing_ok=True)
+        raise BatchRenderError(f"Frame {frame} of {blend} failed: {engine.last_render.error or exc}") from None
     finally:
         engine.progress_hooks.remove(hook)
         if bar is not None:
             bar.close()
     info = engine.last_render
+    if info.error or info.cancelled:
+        target.unlink(missing_ok=True)  # Blender writes the empty image anyway: no frame to resume from
+    if info.interrupted:
+        raise KeyboardInterrupt
     if info.error:
         raise BatchRenderError(f"Frame {frame} of {blend} failed: {info.error}")
     if info.cancelled:
@@ -332,6 +363,8 @@ def _main_distributed(args: argparse.Namespace, prog: str) -> int:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
     except BatchRenderError as exc:
+        for f in exc.written:
+            print(f"image written to {f}")
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
@@ -377,8 +410,14 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m durer render"
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
     except BatchRenderError as exc:
+        for f in exc.written:
+            print(f"image written to {f}")
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted; the frames written so far are whole (--resume goes on from them)",
+              file=sys.stderr)
+        return 130
     for f in files:
         print(f"image written to {f}")
     return 0

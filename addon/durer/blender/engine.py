@@ -31,6 +31,9 @@ class RenderInfo:
     warnings: list[str] = field(default_factory=list)
     error: str | None = None
     cancelled: bool = False
+    #: Ctrl-C reached the render (a command-line batch): Blender swallows the KeyboardInterrupt, so
+    #: the batch reads it here and stops.
+    interrupted: bool = False
     export_seconds: float = 0.0
     render_seconds: float = 0.0
     spheres: int = 0  # world-space spheres and ellipsoids
@@ -171,6 +174,9 @@ class DurerEngineMixin:
         info = last_render = RenderInfo()
         try:
             self._render(depsgraph, info)
+        except KeyboardInterrupt:
+            info.interrupted = info.cancelled = True
+            self.update_stats("", "Dürer | interrupted")
         except Exception as exc:  # noqa: BLE001 - never let an exception escape into Blender
             info.error = f"{type(exc).__name__}: {exc}"
             self.report({"ERROR"}, f"Dürer: {exc}")
@@ -311,15 +317,20 @@ class DurerEngineMixin:
         worker = threading.Thread(target=work, name="durer-render", daemon=True)
         worker.start()
         shown = -1.0
-        while worker.is_alive():
-            worker.join(POLL_SECONDS)
-            if not cancel.is_set() and self.break_requested():
-                cancel.set()
-            if progress[0] != shown:
-                shown = progress[0]
-                self.update_progress(shown)
-                for hook in progress_hooks:
-                    hook(shown)
+        try:
+            while worker.is_alive():
+                worker.join(POLL_SECONDS)
+                if not cancel.is_set() and self.break_requested():
+                    cancel.set()
+                if progress[0] != shown:
+                    shown = progress[0]
+                    self.update_progress(shown)
+                    for hook in progress_hooks:
+                        hook(shown)
+        except KeyboardInterrupt:  # the render thread stops too before the interrupt goes on
+            cancel.set()
+            worker.join()
+            raise
         error = out.get("error")
         if isinstance(error, durer.RenderCancelled):
             return error.result, True

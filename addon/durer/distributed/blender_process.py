@@ -63,6 +63,7 @@ def _render(scene: str, frame: int, target: str, blend_name: str) -> bytes:
     from ..blender import batch, engine
 
     sc = bpy.data.scenes[scene]
+    sc.render.use_persistent_data = True  # the frames of a batch: each reuses the last one's scene, as render_file
     sc.frame_set(frame)
     sc.render.filepath, sc.render.use_file_extension = target, False
     path = Path(target)

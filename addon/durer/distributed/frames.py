@@ -136,10 +136,27 @@ def _self_contained_copy() -> bytes:
         bpy.data.libraries.remove(library)
     if any(image.source == "FILE" and image.packed_file is None for image in bpy.data.images):
         bpy.ops.file.pack_all()
+    if _unbaked_point_caches():
+        # A simulation (particles, cloth, rigid bodies) steps from the frame before: a worker given
+        # frames out of order would simulate another history. Baked here, every worker reads it.
+        bpy.ops.ptcache.bake_all(bake=True)
     with tempfile.TemporaryDirectory(prefix="durer-ship-") as folder:
         copy = Path(folder) / "scene.blend"
         bpy.ops.wm.save_as_mainfile(filepath=str(copy), copy=True, compress=False)
         return copy.read_bytes()
+
+
+def _unbaked_point_caches() -> bool:
+    """Whether a scene's simulations (particle systems with physics, point-cache modifiers such as
+    cloth and soft bodies, rigid bodies) have caches not baked."""
+    import bpy
+
+    caches = [scene.rigidbody_world.point_cache for scene in bpy.data.scenes if scene.rigidbody_world]
+    for obj in bpy.data.objects:
+        caches += [system.point_cache for system in getattr(obj, "particle_systems", ())
+                   if system.settings.physics_type != "NO"]
+        caches += [modifier.point_cache for modifier in obj.modifiers if hasattr(modifier, "point_cache")]
+    return any(not cache.is_baked for cache in caches)
 
 
 def _linked_blocks() -> list[Any]:
