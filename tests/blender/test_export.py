@@ -515,8 +515,15 @@ def test_lights_are_radiometric_like_cycles(scene):
     spot_obj.scale = (2, 2, 2)  # the same cone, as in Cycles
     assert export(scene).warnings == []
     spot_obj.scale = (1, 2, 1)  # Cycles' cone an ellipse: said, not silently round
-    assert export(scene).warnings == [f"Spot light '{spot_obj.name}' is scaled unevenly: Cycles stretches its "
-                                      f"cone, Dürer keeps it round"]
+    said = [f"Spot light '{spot_obj.name}' is scaled unevenly: Cycles stretches its cone, Dürer keeps it round"]
+    assert export(scene).warnings == said
+    lamps = bpy.data.collections.new("Lamps")  # the spot twice more, by collection instances: said once
+    lamps.objects.link(spot_obj)
+    for x in (5, 10):
+        copy = link(scene, bpy.data.objects.new(f"Lamps {x}", None))
+        copy.instance_type, copy.instance_collection, copy.location = "COLLECTION", lamps, (x, 0, 0)
+    d = export(scene)
+    assert sum(light.kind == "spot" for light in d.lights) == 3 and d.warnings == said
 
 
 # --- camera ----------------------------------------------------------------------------------------

@@ -209,5 +209,5 @@ class SceneData:
         if self.skipped:
             listed = ", ".join(f"{n} {kind}" for kind, n in sorted(self.skipped.items()))
             out.append(f"Dürer skipped geometry it cannot render: {listed}")
-        out.extend(self.notes)
+        out.extend(dict.fromkeys(self.notes))  # once each: a light or material met many times says it once
         return out

@@ -189,7 +189,7 @@ def _light(b: Builder, obj, m: np.ndarray) -> None:
                             f"Dürer keeps it round")
     if obj.data.use_nodes:
         b.data.notes.append(f"Light '{obj.name}' uses shader nodes: Dürer takes its colour and power alone")
-    if light.kind != "sun" and not getattr(obj.data, "normalize", True):  # Blender 4.5 and later
+    if light.kind != "sun" and not getattr(obj.data, "normalize", True):  # not in every Blender version supported
         b.data.notes.append(f"Light '{obj.name}' is not normalized: Dürer takes its power as if it were "
                             f"(Cycles' light grows with its radius)")
 
