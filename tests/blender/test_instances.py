@@ -346,3 +346,23 @@ def test_instances_of_a_point_cloud_take_its_own_attribute_colours(scene):
     d = export(scene)
     assert d.sphere_count == 40 and d.warnings == []
     np.testing.assert_allclose(d.sphere_colors, np.tile(colours, (2, 1)), atol=1e-6)
+
+
+def test_instancers_of_spheres_alike_but_for_their_radius_keep_their_own(scene):
+    """Two instancers of UV spheres of one topology, radius 0.2 and 0.5 (small balls, big balls):
+    the meshes geometry nodes instance are temporary, and one freed can leave its address to the
+    other; every export gives each instancer its own radius (it once took the other's, most times)."""
+    rng = np.random.default_rng(0)
+    for name, radius, x in (("Small", 0.2, -2.0), ("Big", 0.5, 1.0)):
+        ball = uv_sphere(scene, name, radius=radius)
+        ball.hide_render = ball.hide_viewport = True
+        points = point_cloud.vertex_object(scene.collection, f"{name} points", rng.uniform(0, 1.5, (6, 3)) * (1, 1, 0) + (x, 0, 0))
+        point_cloud.instance_on_points(points, ball, rotate=False)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    from durer.blender.export.depsgraph import export_depsgraph
+
+    for _ in range(10):
+        d = export_depsgraph(depsgraph)
+        names = [o.name for o in d.objects]
+        for name, radius in (("Small points", 0.2), ("Big points", 0.5)):
+            np.testing.assert_allclose(d.sphere_radii[d.sphere_owners == names.index(name)], radius, rtol=1e-5)

@@ -12,7 +12,7 @@ from .lights import light_data
 from .materials import object_materials
 from .matrices import uniform_scale, world_matrix
 from .nodes import rgb
-from .shapes import MeshShape, cloud_points, mesh_shape, metaball_iso_radius
+from .shapes import MeshShape, cloud_points, mesh_key, mesh_shape, metaball_iso_radius
 from .world import ambient_occlusion, world_colors
 
 # Object types whose evaluated mesh also appears among the depsgraph's instances.
@@ -91,7 +91,7 @@ def _mesh(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
     if mode == "AUTO" and any(b.color_source(mat) for mat in mats):
         mode = "MESH"  # colours vary over it: not one sphere or plane of one colour
     axis_scale = tuple(np.round(np.linalg.norm(m[:3, :3], axis=0), 9)) if mode == "PLANE" else None
-    key = (me.as_pointer(), len(me.vertices), len(me.polygons), mode, axis_scale, len(mats))
+    key = (mesh_key(me), mode, axis_scale, len(mats))
     shape = b.shape_cache.get(key)
     if shape is None:
         shape = b.shape_cache[key] = mesh_shape(me, mode, axis_scale or (1.0, 1.0, 1.0), len(mats))

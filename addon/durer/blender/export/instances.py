@@ -16,7 +16,7 @@ import numpy as np
 from .builder import Builder
 from .materials import object_materials
 from .matrices import are_invertible, uniform_scales
-from .shapes import MeshShape, cloud_points, mesh_shape
+from .shapes import MeshShape, cloud_points, mesh_key, mesh_shape
 
 
 @dataclass
@@ -167,7 +167,7 @@ class InstanceBatches:
         """Keep instance `inst` (of mesh object `obj`, whose original is `original`) for `finish`
         if its mesh is a sphere; False if it is not (the caller exports it as before). The
         instance's data is only valid during the walk: what a batch needs of it is read now."""
-        key = (obj.data.as_pointer(), original.as_pointer() if original is not None else 0, mode)
+        key = (mesh_key(obj.data), original.as_pointer() if original is not None else 0, mode)
         batch = self.batches.get(key)
         if batch is None:
             batch = self.batches[key] = self._batch(obj, mode)
@@ -223,7 +223,7 @@ class InstanceBatches:
             self.builder.transformed_spheres(owner, m, cloud.positions, cloud.radii, material, cloud.colors)
 
     def _shape(self, me, mode: str, slot_count: int) -> MeshShape:
-        key = (me.as_pointer(), len(me.vertices), len(me.polygons), mode, None, slot_count)
+        key = (mesh_key(me), mode, slot_count)
         shape = self.builder.shape_cache.get(key)
         if shape is None:
             shape = self.builder.shape_cache[key] = mesh_shape(me, mode, (1.0, 1.0, 1.0), slot_count)
