@@ -29,18 +29,18 @@ void validate(const RenderSettings& s) {
   }
   if (s.passes == 0 || (s.passes & ~known) != 0) fail("passes must name at least one of " + names);
   requireCount(s.minSamples, "min_spp");
-  if (!(std::isfinite(s.timeLimit) && s.timeLimit >= 0)) fail("time_limit must be finite and >= 0 (0: none), got " + std::to_string(s.timeLimit));
-  if (!(std::isfinite(s.targetError) && s.targetError > 0)) fail("target_error must be finite and > 0, got " + std::to_string(s.targetError));
+  if (!(std::isfinite(s.timeLimit) && s.timeLimit >= 0)) fail("time_limit must be finite and >= 0 (0: none), got " + show(s.timeLimit));
+  if (!(std::isfinite(s.targetError) && s.targetError > 0)) fail("target_error must be finite and > 0, got " + show(s.targetError));
   if (s.maxBounces < 0 || s.maxBounces > kRenderLimits.maxBounces) {
     fail("max_bounces must be in [0, " + std::to_string(kRenderLimits.maxBounces) + "], got " + std::to_string(s.maxBounces));
   }
-  if (!(std::isfinite(s.minWeight) && s.minWeight >= 0)) fail("min_weight must be finite and >= 0, got " + std::to_string(s.minWeight));
+  if (!(std::isfinite(s.minWeight) && s.minWeight >= 0)) fail("min_weight must be finite and >= 0, got " + show(s.minWeight));
   const RenderSettings::AmbientOcclusion& ao = s.ambientOcclusion;
   constexpr int kMaxAoSamples = 1 << 16;
   if (ao.on && (ao.samples < 1 || ao.samples > kMaxAoSamples)) {
     fail("ambient_occlusion samples must be in [1, " + std::to_string(kMaxAoSamples) + "], got " + std::to_string(ao.samples));
   }
-  if (ao.on && !(ao.distance > 0)) fail("ambient_occlusion distance must be > 0 (inf: unlimited), got " + std::to_string(ao.distance));
+  if (ao.on && !(ao.distance > 0)) fail("ambient_occlusion distance must be > 0 (inf: unlimited), got " + show(ao.distance));
   const RenderSettings::Region& r = s.region;
   if (r.width != 0 && !(r.x >= 0 && r.y >= 0 && r.width >= 1 && r.height >= 1 && r.x <= s.width - r.width &&
                         r.y <= s.height - r.height)) {

@@ -597,7 +597,7 @@ void Scene::addSpotLight(const SpotLight& light) {
   requireNonNegativeColor(light.color, "color");
   requireAttenuation(light.attenuation);
   if (!(light.cosHalfAngle > -1 && light.cosHalfAngle < 1)) fail("half_angle_degrees must be in (0, 180)");
-  if (!(light.blend >= 0 && light.blend <= 1)) fail("blend must be in [0, 1], got " + std::to_string(light.blend));
+  if (!(light.blend >= 0 && light.blend <= 1)) fail("blend must be in [0, 1], got " + show(light.blend));
   SpotLight spot = light;
   spot.direction = safeNormalize(light.direction);
   m_spotLights.push_back(spot);

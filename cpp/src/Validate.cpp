@@ -18,10 +18,16 @@ std::string show(const Vec3d& v) {
 bool isFinite(const Vec3d& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 }  // namespace
 
+std::string show(double value) {
+  std::ostringstream s;
+  s << value;
+  return s.str();
+}
+
 void fail(const std::string& message) { throw std::invalid_argument(message); }
 
 void requireFinite(double value, const std::string& field) {
-  if (!std::isfinite(value)) fail(field + " must be finite, got " + std::to_string(value));
+  if (!std::isfinite(value)) fail(field + " must be finite, got " + show(value));
 }
 
 void requireFinite(const Vec3d& value, const std::string& field) {
@@ -29,7 +35,7 @@ void requireFinite(const Vec3d& value, const std::string& field) {
 }
 
 void requirePositive(double value, const std::string& field) {
-  if (!(std::isfinite(value) && value > 0)) fail(field + " must be finite and > 0, got " + std::to_string(value));
+  if (!(std::isfinite(value) && value > 0)) fail(field + " must be finite and > 0, got " + show(value));
 }
 
 void requireNonZero(const Vec3d& value, const std::string& field) {
@@ -66,8 +72,7 @@ std::string withPrecision(const char* precision) { return std::string(" with pre
 void requireRange(double tMin, double tMax, const std::string& minField, const std::string& maxField) {
   if (std::isnan(tMin)) fail(minField + " must not be NaN");
   if (std::isnan(tMax)) fail(maxField + " must not be NaN");
-  if (!(tMin < tMax)) fail(minField + " must be < " + maxField + ", got " + std::to_string(tMin) + " and " +
-                           std::to_string(tMax));
+  if (!(tMin < tMax)) fail(minField + " must be < " + maxField + ", got " + show(tMin) + " and " + show(tMax));
 }
 
 }  // namespace durer

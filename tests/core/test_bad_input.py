@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import array
 import math
 import pickle
@@ -132,6 +134,20 @@ CASES = [
 @pytest.mark.parametrize(("what", "call", "error", "field"), CASES, ids=[c[0] for c in CASES])
 def test_bad_input_is_rejected_naming_the_field(what, call, error, field):
     with pytest.raises(error, match=field):
+        call()
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: durer.cast(scene(), [[0, 0, 0]], [[0, 0, 1]], t_min=1e-9, t_max=1e-10),
+     "t_min must be < t_max, got 1e-09 and 1e-10"),
+    (lambda: scene().add_spheres([[0, 0, 0]], [-1e-9]), "radii[0] must be finite and > 0, got -1e-09"),
+    (lambda: durer.render(scene(), durer.OrthographicCamera(**ORTHO), 4, 4, min_weight=-1e-9),
+     "min_weight must be finite and >= 0, got -1e-09"),
+])
+def test_small_numbers_in_messages_show_as_given_not_as_zero(call, message):
+    """Errors show the offending value to six significant digits (1e-09), not fixed-point
+    (0.000000, which reads as if the value were zero)."""
+    with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
         call()
 
 
