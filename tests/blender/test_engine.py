@@ -381,8 +381,8 @@ def test_a_failed_frame_does_not_stop_the_others(scene, tmp_path, capsys):
 
 def test_output_format_from_the_extension_whatever_the_file_writes(scene, tmp_path):
     """A file set to write video or multilayer EXR, rendered to x.png: PNG images (Blender 5 sorts
-    formats by medium); to x.exr from a multilayer file: multilayer, its passes kept; "#" in a
-    folder's name stays (Blender's frame_path numbers the file name only)."""
+    formats by medium); to x.exr from a multilayer file: multilayer, its passes kept; the last "#"
+    run of the file name is the frame, as Blender's frame_path numbers it."""
     from helpers.exr import read_exr
 
     blend = saved_blend(scene, tmp_path / "anim.blend")
@@ -390,8 +390,8 @@ def test_output_format_from_the_extension_whatever_the_file_writes(scene, tmp_pa
     settings = bpy.context.scene.render.image_settings
     settings.media_type, settings.file_format = "VIDEO", "FFMPEG"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
-    (png,) = batch.render_file(blend, frames="2", output=tmp_path / "take#1" / "f_##.png")
-    assert png == tmp_path / "take#1" / "f_02.png" and png.read_bytes()[:4] == b"\x89PNG"
+    (png,) = batch.render_file(blend, frames="2", output=tmp_path / "take#1" / "f_##_v##.png")
+    assert png == tmp_path / "take#1" / "f_##_v02.png" and png.read_bytes()[:4] == b"\x89PNG"
     bpy.ops.wm.open_mainfile(filepath=str(blend))
     bpy.context.scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"
     bpy.context.scene.render.image_settings.exr_codec = "NONE"  # what helpers.exr reads

@@ -460,6 +460,10 @@ def test_shaders_are_read_as_cycles_reads_them(scene):
     double.operation, double.inputs[1].default_value = "MULTIPLY", 2.0
     tree.links.new(strength.outputs[0], double.inputs[0])
     tree.links.new(double.outputs[0], bsdf.inputs["Emission Strength"])
+    _, tree, bsdf = principled("Textured glow", 10)
+    bsdf.inputs["Emission Color"].default_value, bsdf.inputs["Emission Strength"].default_value = (1, 1, 1, 1), 3.0
+    noise = tree.nodes.new("ShaderNodeTexNoise")  # varies: the socket's own strength stands in
+    tree.links.new(noise.outputs["Fac"], bsdf.inputs["Emission Strength"])
     _, tree, bsdf = principled("Rerouted", 2)
     reroute, output = tree.nodes.new("NodeReroute"), tree.nodes["Material Output"]
     tree.links.new(bsdf.outputs[0], reroute.inputs[0])
@@ -481,6 +485,7 @@ def test_shaders_are_read_as_cycles_reads_them(scene):
     assert by_x[2].diffuse == pytest.approx((0.2, 0.2, 0.2)) and by_x[2].emission == (0.0, 0.0, 0.0)
     assert by_x[4].diffuse == by_x[6].diffuse == (0.0, 0.0, 0.0) and by_x[4].emission == (0.0, 0.0, 0.0)
     assert by_x[8].diffuse == (0.0, 1.0, 0.0)
+    assert by_x[10].emission == pytest.approx((3.0, 3.0, 3.0))
     assert d.warnings == ["Material 'Mixed': Dürer draws its Mix Shader surface in the material's viewport colour"]
 
 

@@ -349,12 +349,20 @@ def test_instances_of_a_point_cloud_take_its_own_attribute_colours(scene):
 
 
 def test_instancers_of_spheres_alike_but_for_their_radius_keep_their_own(scene):
-    """Two instancers of UV spheres of one topology, radius 0.2 and 0.5 (small balls, big balls):
-    the meshes geometry nodes instance are temporary, and one freed can leave its address to the
-    other; every export gives each instancer its own radius (it once took the other's, most times)."""
+    """Instancers of UV spheres of one topology, radius 0.2 and 0.5 (small balls, big balls), and
+    of an egg (the 0.2 sphere bulged but at its first and last vertices): the meshes geometry nodes
+    instance are temporary, and one freed leaves its address to the next; every export gives each
+    instancer its own shape (spheres of its radius; the egg's triangles)."""
     rng = np.random.default_rng(0)
-    for name, radius, x in (("Small", 0.2, -2.0), ("Big", 0.5, 1.0)):
+    for name, radius, x in (("Small", 0.2, -2.0), ("Big", 0.5, 1.0), ("Egg", 0.2, 4.0)):
         ball = uv_sphere(scene, name, radius=radius)
+        if name == "Egg":
+            co = np.empty(len(ball.data.vertices) * 3)
+            ball.data.vertices.foreach_get("co", co)
+            co = co.reshape(-1, 3)
+            co[1:-1, 2] *= 1.5
+            ball.data.vertices.foreach_set("co", co.ravel())
+            ball.data.update()
         ball.hide_render = ball.hide_viewport = True
         points = point_cloud.vertex_object(scene.collection, f"{name} points", rng.uniform(0, 1.5, (6, 3)) * (1, 1, 0) + (x, 0, 0))
         point_cloud.instance_on_points(points, ball, rotate=False)
@@ -366,3 +374,4 @@ def test_instancers_of_spheres_alike_but_for_their_radius_keep_their_own(scene):
         names = [o.name for o in d.objects]
         for name, radius in (("Small points", 0.2), ("Big points", 0.5)):
             np.testing.assert_allclose(d.sphere_radii[d.sphere_owners == names.index(name)], radius, rtol=1e-5)
+        assert d.sphere_count == 12 and [m.name for m in d.meshes] == ["Egg points"]

@@ -88,8 +88,8 @@ def test_point_light_has_no_falloff_and_uses_the_direction_to_it():
     assert (result.color[inside][:, 3] == 1).all()
 
 
-@pytest.mark.parametrize("shading", ["lit", "flat"])
-def test_a_partly_transparent_background_is_premultiplied_in_pixels_and_whole_in_mirrors(shading):
+@pytest.mark.parametrize("shading, sampler", [("lit", "stratified"), ("flat", "stratified"), ("lit", "adaptive")])
+def test_a_partly_transparent_background_is_premultiplied_in_pixels_and_whole_in_mirrors(shading, sampler):
     """Background (r, g, b, a): a pixel that sees nothing is (r·a, g·a, b·a, a); a mirror shows
     (r, g, b) times its reflectance, whatever a is (a transparent film still reflects the world)."""
     scene = durer.Scene()
@@ -102,12 +102,13 @@ def test_a_partly_transparent_background_is_premultiplied_in_pixels_and_whole_in
     else:
         scene.add_plane((0, 1, 0), 0.0, bounds=((-1, 0, -1), (2, 0, 0), (0, 0, 2)))
     camera = durer.OrthographicCamera(center=(0, 5, 0), direction=(0, -1, 0), up=(0, 0, -1), size=SIZE)
-    color = durer.render(scene, camera, W, H, max_bounces=1).color
+    color = durer.render(scene, camera, W, H, max_bounces=1, sampler=sampler, spp=4).color
     x, y = pixel_centres()
     inside = (np.abs(x) <= 1) & (np.abs(y) <= 1)
     np.testing.assert_allclose(color[~inside], np.broadcast_to([0.05, 0.1, 0.15, 0.25], ((~inside).sum(), 4)),
                                rtol=1e-6)
-    seen = [0.1, 0.2, 0.3, 1.0] if shading == "lit" else [0.8, 0.8, 0.8, 1.0]  # the mirror: half the world
+    # lit: the mirror shows half the world; flat: the plane's own colour (the default 0.8 grey)
+    seen = [0.1, 0.2, 0.3, 1.0] if shading == "lit" else [0.8, 0.8, 0.8, 1.0]
     np.testing.assert_allclose(color[inside], np.broadcast_to(seen, (inside.sum(), 4)), rtol=1e-6)
 
 

@@ -19,7 +19,7 @@ from helpers.blend import animated_blend, bpy, falling_particles_blend
 import psutil
 
 from durer.blender import batch
-from durer.distributed.frames import _self_contained_copy, render_frames
+from durer.distributed.frames import _self_contained_copy, _unbaked_point_caches, render_frames
 from durer.distributed.output import TEMP_SUFFIX, is_complete
 
 from helpers.distributed import TIMEOUT, assert_same_image_file
@@ -93,6 +93,24 @@ def test_a_simulation_renders_the_same_frames_on_workers_as_in_one_process(clien
     assert sorted(report.written) == list(range(1, 9)) and not report.failed
     for f in sequential:
         assert_same_image_file(tmp_path / "dask" / f.name, f)
+
+
+def test_the_shipped_copy_holds_the_bake_even_of_a_disk_cache(tmp_path):
+    """A simulation set to cache on disk (beside the user's file, where workers cannot read it) is
+    baked into the shipped copy itself; hair without dynamics is no simulation to bake."""
+    blend = falling_particles_blend(tmp_path / "particles.blend")
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+    emitter = bpy.data.objects["Emitter"]
+    emitter.particle_systems[0].point_cache.use_disk_cache = True
+    emitter.modifiers.new("Hair", "PARTICLE_SYSTEM")
+    emitter.particle_systems[1].settings.type = "HAIR"
+    bpy.ops.wm.save_mainfile()
+    assert len(_unbaked_point_caches()) == 1  # the falling particles, not the hair
+    (tmp_path / "ship.blend").write_bytes(_self_contained_copy())
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "ship.blend"))
+    cache = bpy.data.objects["Emitter"].particle_systems[0].point_cache
+    assert cache.is_baked and not cache.use_disk_cache and "in memory" in cache.info
+    assert _unbaked_point_caches() == []
 
 
 def test_existing_scheduler_and_workers_started_as_processes(animation, external_scheduler, tmp_path):

@@ -279,9 +279,10 @@ def frame_target(sc: bpy.types.Scene, explicit: str | None, frame: int) -> Path:
     import bpy
 
     # write_still does not number stills: resolve "#" and the extension per frame ourselves.
-    if explicit is not None:  # "#" runs in the file name only, as Blender's frame_path
+    if explicit is not None:  # the last "#" run of the file name, as Blender's frame_path
         folder, name = os.path.split(explicit)
-        return Path(bpy.path.abspath(os.path.join(folder, re.sub(r"#+", lambda m: f"{frame:0{len(m.group())}d}", name))))
+        name = re.sub(r"#+(?!.*#)", lambda m: f"{frame:0{len(m.group())}d}", name)
+        return Path(bpy.path.abspath(os.path.join(folder, name)))
     return Path(bpy.path.abspath(sc.render.frame_path(frame=frame)))
 
 
@@ -298,11 +299,17 @@ def _render_frame(bpy, engine, sc, blend: Path, frame: int, left: int, progress)
 
     engine.progress_hooks.append(hook)
     target = Path(bpy.path.abspath(sc.render.filepath))
+    before = target.stat().st_mtime_ns if target.exists() else None
     engine.last_render = engine.RenderInfo()  # a frame Blender fails before the engine runs keeps no stale error
+
+    def remove_written() -> None:  # Blender writes the empty image of a failed render: no frame to resume from
+        if target.exists() and target.stat().st_mtime_ns != before:
+            target.unlink()
+
     try:
         bpy.ops.render.render(write_still=True, scene=sc.name)
     except RuntimeError as exc:  # Blender's report ("Error: Dürer: ..."), unless the engine's own is there
-        target.unlink(missing_ok=True)
+        remove_written()
         raise BatchRenderError(f"Frame {frame} of {blend} failed: {engine.last_render.error or exc}") from None
     finally:
         engine.progress_hooks.remove(hook)
@@ -310,7 +317,7 @@ def _render_frame(bpy, engine, sc, blend: Path, frame: int, left: int, progress)
             bar.close()
     info = engine.last_render
     if info.error or info.cancelled:
-        target.unlink(missing_ok=True)  # Blender writes the empty image anyway: no frame to resume from
+        remove_written()
     if info.interrupted:
         raise KeyboardInterrupt
     if info.error:

@@ -136,9 +136,13 @@ def _self_contained_copy() -> bytes:
         bpy.data.libraries.remove(library)
     if any(image.source == "FILE" and image.packed_file is None for image in bpy.data.images):
         bpy.ops.file.pack_all()
-    if _unbaked_point_caches():
+    unbaked = _unbaked_point_caches()
+    if unbaked:
         # A simulation (particles, cloth, rigid bodies) steps from the frame before: a worker given
-        # frames out of order would simulate another history. Baked here, every worker reads it.
+        # frames out of order would simulate another history. Baked here into the copy (not to disk
+        # beside the user's file, which the workers do not have), every worker reads it.
+        for cache in unbaked:
+            cache.use_disk_cache = False
         bpy.ops.ptcache.bake_all(bake=True)
     with tempfile.TemporaryDirectory(prefix="durer-ship-") as folder:
         copy = Path(folder) / "scene.blend"
@@ -146,17 +150,18 @@ def _self_contained_copy() -> bytes:
         return copy.read_bytes()
 
 
-def _unbaked_point_caches() -> bool:
-    """Whether a scene's simulations (particle systems with physics, point-cache modifiers such as
-    cloth and soft bodies, rigid bodies) have caches not baked."""
+def _unbaked_point_caches() -> list[Any]:
+    """The caches of simulations not baked: particle systems with physics (hair only with its
+    dynamics on), point-cache modifiers such as cloth and soft bodies, rigid bodies."""
     import bpy
 
     caches = [scene.rigidbody_world.point_cache for scene in bpy.data.scenes if scene.rigidbody_world]
     for obj in bpy.data.objects:
         caches += [system.point_cache for system in getattr(obj, "particle_systems", ())
-                   if system.settings.physics_type != "NO"]
+                   if system.settings.physics_type != "NO"
+                   and (system.settings.type != "HAIR" or system.use_hair_dynamics)]
         caches += [modifier.point_cache for modifier in obj.modifiers if hasattr(modifier, "point_cache")]
-    return any(not cache.is_baked for cache in caches)
+    return [cache for cache in caches if not cache.is_baked]
 
 
 def _linked_blocks() -> list[Any]:

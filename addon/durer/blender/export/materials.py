@@ -82,9 +82,10 @@ def _principled(mat, node, viewport) -> MaterialData:
     transparent = BLACK
     if transmission > 0.0 and metallic < 1.0:
         transparent = _scale3(_scale3(base, (1.0 - metallic) * transmission), below)
-    ecol = linked_value(node, "Emission Color", "color")
-    estr = linked_value(node, "Emission Strength", "value")
-    emission = BLACK if ecol is None or not estr else tuple(c * float(estr) for c in rgb(ecol))
+    # What varies (a texture) falls back to the socket's own value, as Blender shows it unlinked.
+    ecol = color_input(node, "Emission Color", node.inputs["Emission Color"].default_value)
+    estr = scalar_input(node, "Emission Strength", node.inputs["Emission Strength"].default_value)
+    emission = tuple(c * estr for c in ecol) if estr else BLACK
     md = MaterialData(mat.name, diffuse, emission, transparent=transparent, ior=ior if any(transparent) else 1.0)
     return _with_lobe(md, spec, roughness)
 
@@ -139,7 +140,7 @@ def _diffuse(mat, node, viewport) -> MaterialData:
 def _emission(mat, node, viewport) -> MaterialData:
     """Unlit: colour × strength."""
     col = color_input(node, "Color", viewport)
-    strength = scalar_input(node, "Strength", 0.0)
+    strength = scalar_input(node, "Strength", node.inputs["Strength"].default_value)
     return MaterialData(mat.name, BLACK, tuple(c * strength for c in col))
 
 

@@ -53,13 +53,11 @@ def cloud_points(pc) -> tuple[np.ndarray, np.ndarray]:
     return positions.reshape(n, 3), radii
 
 
-def mesh_key(me) -> tuple:
-    """A mesh's identity in one export's caches: its address, and what tells another mesh made
-    later at that address apart (geometry-nodes instances' meshes are temporary: freed during the
-    walk, their memory reused), its counts and its first and last vertices."""
-    n = len(me.vertices)
-    ends = (tuple(me.vertices[0].co), tuple(me.vertices[n - 1].co)) if n else ()
-    return me.as_pointer(), n, len(me.polygons), ends
+def mesh_key(me) -> int:
+    """A mesh's identity in one export's caches: Blender's session-wide id of the datablock, never
+    given to another (not its address: geometry-nodes instances' meshes are temporary, freed during
+    the walk and their memory reused by the next)."""
+    return me.session_uid
 
 
 def _mesh_arrays(me) -> tuple[np.ndarray, int]:
