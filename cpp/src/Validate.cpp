@@ -10,17 +10,18 @@
 namespace durer {
 
 namespace {
-std::string show(const Vec3d& v) {
-  std::ostringstream s;
-  s << "(" << v.x << ", " << v.y << ", " << v.z << ")";
-  return s.str();
-}
 bool isFinite(const Vec3d& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 }  // namespace
 
 std::string show(double value) {
   std::ostringstream s;
   s << value;
+  return s.str();
+}
+
+std::string show(const Vec3d& value) {
+  std::ostringstream s;
+  s << "(" << value.x << ", " << value.y << ", " << value.z << ")";
   return s.str();
 }
 

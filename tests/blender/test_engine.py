@@ -354,8 +354,8 @@ def test_an_interrupted_batch_leaves_no_empty_frame_and_resumes(scene, tmp_path,
     assert [f.name for f in files] == ["f_0002.png", "f_0003.png"]
     monkeypatch.setattr(batch, "render_file", lambda *a, **k: (_ for _ in ()).throw(KeyboardInterrupt))
     assert batch.main([str(blend), "--frames", "1-3", "-o", str(out)]) == 130
-    assert capsys.readouterr().err.strip().endswith("interrupted; the frames written so far are whole "
-                                                    "(--resume goes on from them)")
+    assert capsys.readouterr().err.strip().endswith("interrupted: the frames written so far are complete; "
+                                                    "run again with --resume to go on")
 
 
 def test_a_failed_frame_does_not_stop_the_others(scene, tmp_path, capsys):

@@ -422,7 +422,7 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m durer render"
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
-        print(f"{prog}: interrupted; the frames written so far are whole (--resume goes on from them)",
+        print(f"{prog}: interrupted: the frames written so far are complete; run again with --resume to go on",
               file=sys.stderr)
         return 130
     for f in files:

@@ -7,8 +7,9 @@
 
 namespace durer {
 
-// A number as an error message shows it: 6 significant digits, 1e-09 not 0.000000.
+// A number or a vector as an error message shows it: 6 significant digits, 1e-09 not 0.000000.
 std::string show(double value);
+std::string show(const Vec3d& value);
 void requireFinite(double value, const std::string& field);
 void requireFinite(const Vec3d& value, const std::string& field);
 void requirePositive(double value, const std::string& field);  // finite and > 0
