@@ -144,9 +144,9 @@ def test_normal_pass_of_samples_on_opposite_faces(scene, tmp_path):
 def test_errors_are_reported_and_blender_stays_usable(scene):
     ball_scene(scene)
     scene.camera.data.type = "PANO"
-    with pytest.raises(RuntimeError, match="Dürer: Camera 'Camera' is pano"):
+    with pytest.raises(RuntimeError, match="Dürer: Camera 'Camera' is panoramic"):
         bpy.ops.render.render()
-    assert "Camera 'Camera' is pano" in engine.last_render.error
+    assert "Camera 'Camera' is panoramic" in engine.last_render.error
     scene.camera.data.type = "PERSP"
     assert bpy.ops.render.render() == {"FINISHED"}
     assert engine.last_render.error is None
@@ -477,7 +477,7 @@ def test_render_file_errors(scene, tmp_path):
     bpy.ops.wm.open_mainfile(filepath=str(blend))
     bpy.context.scene.camera.data.type = "PANO"
     bpy.ops.wm.save_mainfile()
-    with pytest.raises(batch.BatchRenderError, match="Frame 1 of .* failed: .*is pano"):
+    with pytest.raises(batch.BatchRenderError, match="Frame 1 of .* failed: .*is panoramic"):
         batch.render_file(blend, frames=1, output=tmp_path / "x.png")
     # Blender would clamp these silently (to 4096 and 1024): refused, naming them, before a render
     with pytest.raises(ValueError, match=r"^samples must be <= 4096, got 5000$"):

@@ -311,14 +311,16 @@ def test_session_shows_an_export_error_instead_of_the_last_image(scene):
     key, pixels = session.frame()
     assert key == (session.image.generation, 2) and pixels is session.image.mean() and pixels.shape == (24, 32, 4)
 
-    scene.camera.data.type = "PANO"
+    scene.camera.data.type = "PANO"  # the view is the viewport's own: the scene camera's kind is no error here
+    session.update(bpy.context.evaluated_depsgraph_get())
+    assert session.error is None
+    ball = bpy.data.objects["Ball"]
+    ball.location = (3e38, 0, 0)  # beyond the coordinates the core accepts
     session.update(bpy.context.evaluated_depsgraph_get())
     assert not session.view(region_view(), 32, 24) and session.frame() == (("error",), None)
-    assert session.status() == (
-        "Dürer | error: ValueError: Camera 'Camera' is pano: Dürer renders orthographic and perspective cameras"
-    )
+    assert session.status().startswith("Dürer | error: ValueError: centers[0] ± radii[0] must lie within ±1e+36")
 
-    scene.camera.data.type = "PERSP"
+    ball.location = (0, 0, 0)
     session.update(bpy.context.evaluated_depsgraph_get())
     assert session.view(region_view(), 32, 24) and session.error is None
     session.image.stop()

@@ -175,7 +175,7 @@ def test_broken_frame_is_reported_and_the_others_finish(animation, tmp_path):
     done = durer_render(str(broken), "-f", "1-6", "-o", str(tmp_path / "f_####.png"), "--workers", "2", "-q")
     assert done.returncode == 1
     assert "frame 4 failed: BatchRenderError: Frame 4 of broken.blend failed:" in done.stderr
-    assert "is pano" in done.stderr and "1 frames failed: 4" in done.stderr
+    assert "is panoramic" in done.stderr and "1 frames failed: 4" in done.stderr
     assert "6 frames: 5 rendered, 1 failed" in done.stderr
     assert sorted(p.name for p in tmp_path.glob("f_*.png")) == [f"f_{f:04d}.png" for f in (1, 2, 3, 5, 6)]
     for frame in (1, 2, 3, 5, 6):

@@ -188,7 +188,7 @@ class ViewportSession:
         `view` restarts if what Dürer renders or its settings changed (the scene camera aside: the
         view is the camera). A core scene whose spheres alone moved is refitted, not rebuilt."""
         try:
-            data = export_depsgraph(depsgraph)
+            data = export_depsgraph(depsgraph, with_camera=False)
             settings = {"passes": int(depsgraph.scene.durer.samples), "seed": int(depsgraph.scene.durer.seed),
                         "ambient_occlusion": data.ambient_occlusion, **pass_kwargs(depsgraph.scene.durer)}
             if (self._kept is not None and settings == self._settings

@@ -23,9 +23,7 @@ def camera_data(scene, cam_obj) -> CameraData:
                          f"Dürer renders through camera objects")
     cam = cam_obj.data
     if cam.type not in {"ORTHO", "PERSP"}:
-        raise ValueError(
-            f"Camera '{cam_obj.name}' is {cam.type.lower()}: Dürer renders orthographic and perspective cameras"
-        )
+        raise ValueError(f"Camera '{cam_obj.name}' is panoramic: Dürer renders orthographic and perspective cameras")
     # Blender (BKE_camera_params_compute_viewplane): AUTO fits the larger of xasp·W and yasp·H.
     if cam.sensor_fit == "AUTO":
         fit = "horizontal" if xasp * width >= yasp * height else "vertical"

@@ -269,10 +269,11 @@ CONVERTERS = {
 }
 
 
-def export_depsgraph(depsgraph, camera=None) -> SceneData:
+def export_depsgraph(depsgraph, camera=None, *, with_camera: bool = True) -> SceneData:
     """Everything Dürer renders, from an evaluated depsgraph (render or viewport).
 
-    `camera`: the camera object (default: the scene's camera).
+    `camera`: the camera object (default: the scene's camera); `with_camera` False: none (the
+    viewport renders its own view, whatever the scene's camera is).
     """
     scene = depsgraph.scene_eval
     b = Builder()
@@ -312,7 +313,7 @@ def export_depsgraph(depsgraph, camera=None) -> SceneData:
             convert(b, obj, world_matrix(inst.matrix_world), mode, infinite)
     batches.finish()
     data = b.finish()
-    cam_obj = camera if camera is not None else scene.camera
+    cam_obj = (camera if camera is not None else scene.camera) if with_camera else None
     if cam_obj is not None:
         try:
             cam_obj = cam_obj.evaluated_get(depsgraph)
