@@ -3,6 +3,7 @@ progress, cancel, errors, batch rendering and the extension package."""
 
 from __future__ import annotations
 
+import inspect
 import os
 import subprocess
 import sys
@@ -197,6 +198,33 @@ def test_camera_and_light_settings_dürer_does_not_simulate_are_reported(scene):
         f"Camera '{scene.camera.name}' has depth of field: Dürer renders everything in focus",
         "Motion blur is on: Dürer renders each frame at one instant",
     ]
+
+
+def test_view_layer_settings_dürer_does_not_follow_are_reported_and_its_panels_shown(scene):
+    """A material override, a filtered-out environment, passes Dürer does not write: said, naming
+    the view layer; the Particles and Physics tabs' panels and Color Management's curves are shown
+    for Dürer, its own panels carry the Blender settings it reads that no shown panel does."""
+    ball_scene(scene)
+    layer = scene.view_layers[0]
+    layer.material_override = bpy.data.materials.new("Clay")
+    layer.use_sky = False
+    layer.use_pass_mist = layer.use_pass_vector = True
+    assert bpy.ops.render.render() == {"FINISHED"}
+    assert engine.last_render.warnings == [
+        f"View layer '{layer.name}' overrides every material with 'Clay': Dürer renders each with its own",
+        f"View layer '{layer.name}' filters out Environment: Dürer renders them",
+        f"View layer '{layer.name}' asks for passes Dürer does not write: Mist, Vector",
+    ]
+    for panel in ("PARTICLE_PT_emission", "PHYSICS_PT_field", "RENDER_PT_color_management_curves",
+                  "RENDER_PT_simplify"):
+        assert "DURER" in getattr(bpy.types, panel).COMPAT_ENGINES, panel
+    for panel in ("DATA_PT_camera_dof", "DATA_PT_curves_surface", "DATA_PT_cone"):
+        assert "DURER" not in getattr(bpy.types, panel).COMPAT_ENGINES, panel
+    from durer.blender import ui
+
+    drawn = inspect.getsource(ui.DURER_PT_render.draw) + inspect.getsource(ui.DURER_PT_light.draw)
+    for setting in ('"film_transparent"', '"use_persistent_data"', '"distance"', '"use_shadow"'):
+        assert setting in drawn, setting
 
 
 def test_light_and_world_settings_dürer_does_not_follow_are_reported(scene):

@@ -358,21 +358,25 @@ _EEVEE_PANELS_WE_USE = {
     "EEVEE_WORLD_PT_surface",
     "VIEWLAYER_PT_eevee_layer_passes_data",
 }
-_PANEL_PREFIXES = ("RENDER_PT_", "DATA_PT_", "MATERIAL_PT_", "WORLD_PT_", "VIEWLAYER_PT_", "OBJECT_PT_")
+_PANEL_PREFIXES = ("RENDER_PT_", "DATA_PT_", "MATERIAL_PT_", "WORLD_PT_", "VIEWLAYER_PT_", "OBJECT_PT_",
+                   "PARTICLE_PT_", "PHYSICS_PT_", "TEXTURE_PT_")
 _SKIP_WORDS = (
     "eevee",
     "lightprobe",
     "freestyle",
     "gpencil",
     "grease",
-    "simplify",
     "stereoscopy",
     "volume",
     "shadow_terminator",
     "motion_blur",
     "dof",
     "hair",
-    "curves",
+    "data_pt_curves",
+    "data_pt_context_curves",
+    "custom_props_curves",
+    "data_pt_cone",
+    "data_pt_distance",
     "aov",
     "cryptomatte",
     "speaker",

@@ -63,6 +63,10 @@ class DURER_PT_render(_DurerPanel, bpy.types.Panel):
         col.prop(settings, "max_bounces")
         col.prop(settings, "min_weight")
         layout.prop(settings, "shade_back")
+        # Blender's own settings Dürer reads, whose panels (EEVEE's, Cycles') are not shown for it.
+        render = context.scene.render
+        layout.prop(render, "film_transparent", text="Transparent Film")
+        layout.prop(render, "use_persistent_data", text="Persistent Data")
         col = layout.column(heading="Ambient")
         row = col.row()
         row.active = not settings.use_custom_ambient
@@ -79,6 +83,11 @@ class DURER_PT_render(_DurerPanel, bpy.types.Panel):
         row = col.row()
         row.active = not settings.use_world_ao_distance
         row.prop(settings, "ao_distance")
+        world = context.scene.world
+        if world is not None:
+            row = col.row()
+            row.active = settings.use_world_ao_distance
+            row.prop(world.light_settings, "distance", text="World AO Distance")
 
 
 class DURER_PT_object(_DurerPanel, bpy.types.Panel):
@@ -125,11 +134,15 @@ class DURER_PT_light(_DurerPanel, bpy.types.Panel):
     @classmethod
     def poll(cls, context):
         light = getattr(context, "light", None)
-        return super().poll(context) and light is not None and light.type in {"POINT", "SPOT"}
+        return super().poll(context) and light is not None and light.type in {"SUN", "POINT", "SPOT"}
 
     def draw(self, context):
         layout = self.split_layout()
-        settings = context.light.durer
+        light = context.light
+        layout.prop(light, "use_shadow", text="Cast Shadows")  # shown by EEVEE's shadow panel only
+        if light.type == "SUN":
+            return
+        settings = light.durer
         layout.prop(settings, "use_attenuation")
         row = layout.row()
         row.active = settings.use_attenuation

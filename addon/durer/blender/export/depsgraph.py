@@ -269,6 +269,31 @@ CONVERTERS = {
 }
 
 
+#: View layer passes Blender offers that Dürer does not write (it writes Combined, Depth, Normal
+#: and the index passes), as the view layer names them.
+_UNWRITTEN_PASSES = {"use_pass_mist": "Mist", "use_pass_position": "Position", "use_pass_vector": "Vector",
+                     "use_pass_uv": "UV", "use_pass_ambient_occlusion": "Ambient Occlusion",
+                     "use_pass_emit": "Emission", "use_pass_environment": "Environment",
+                     "use_pass_shadow": "Shadow"}
+
+
+def _ignored_view_layer(layer) -> list[str]:
+    """Notes on the view layer's settings Dürer does not follow: overrides, filters, passes."""
+    notes = []
+    for name, what in (("material_override", "material"), ("world_override", "world")):
+        override = getattr(layer, name, None)
+        if override is not None:
+            notes.append(f"View layer '{layer.name}' overrides every {what} with '{override.name}': Dürer "
+                         f"renders each with its own")
+    hidden = [what for name, what in (("use_sky", "Environment"), ("use_solid", "Surfaces")) if not getattr(layer, name)]
+    if hidden:
+        notes.append(f"View layer '{layer.name}' filters out {' and '.join(hidden)}: Dürer renders them")
+    unwritten = [what for name, what in _UNWRITTEN_PASSES.items() if getattr(layer, name, False)]
+    if unwritten:
+        notes.append(f"View layer '{layer.name}' asks for passes Dürer does not write: {', '.join(unwritten)}")
+    return notes
+
+
 def export_depsgraph(depsgraph, camera=None, *, with_camera: bool = True) -> SceneData:
     """Everything Dürer renders, from an evaluated depsgraph (render or viewport).
 
@@ -324,6 +349,7 @@ def export_depsgraph(depsgraph, camera=None, *, with_camera: bool = True) -> Sce
     world_rgb, world_note = world_colors(scene.world)
     data.notes.extend(note for note in (_ignored_visibility(depsgraph), world_note) if note)
     data.notes.extend(_ignored_camera_settings(scene, cam_obj))
+    data.notes.extend(_ignored_view_layer(depsgraph.view_layer))
     # A transparent film: no world behind the objects, but mirrors and glass still show it.
     data.background = world_rgb + (0.0 if scene.render.film_transparent else 1.0,)
     settings = getattr(scene, "durer", None)
