@@ -9,6 +9,7 @@ Blender's data: an instancer's, and a particle system's once one of its particle
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import bpy
 import numpy as np
@@ -62,6 +63,39 @@ _OWN_COMPONENT = {"MESH": "mesh", "POINTCLOUD": "pointcloud", "CURVES": "curves"
                   "GREASEPENCIL": "grease_pencil"}
 
 
+def _instances_alone(obj) -> tuple[Any, Any, list] | None:
+    """(the evaluated geometry, its instances' point cloud, their references) of an object whose
+    geometry nodes make instances and nothing beside them that the walk would meet as instances of
+    it too; else None. The cloud and the references' data live as long as the geometry set and
+    the references do."""
+    original = obj.original or obj
+    if not any(modifier.type == "NODES" for modifier in getattr(original, "modifiers", ())):
+        return None
+    try:
+        geometry = bpy.types.GeometrySet.from_evaluated_object(obj)
+    except TypeError:  # an object type without geometry
+        return None
+    cloud = geometry.instances_pointcloud()
+    if cloud is None or len(cloud.points) == 0:
+        return None
+    own = _OWN_COMPONENT.get(obj.type)
+    if any(getattr(geometry, part) is not None for part in _OWN_COMPONENT.values() if part != own):
+        return None
+    return geometry, cloud, list(geometry.instance_references())
+
+
+def _instance_matrices(obj, cloud) -> tuple[np.ndarray, np.ndarray]:
+    """Each instance's world matrix ((N, 4, 4), float64) and reference index, from Blender's arrays."""
+    n = len(cloud.points)
+    values = np.empty(n * 16, np.float32)
+    cloud.attributes["instance_transform"].data.foreach_get("value", values)
+    index = np.zeros(n, np.int32)
+    if ".reference_index" in cloud.attributes:
+        cloud.attributes[".reference_index"].data.foreach_get("value", index)
+    # Blender's matrices are stored by column; the instancer's world matrix goes first.
+    return np.array(obj.matrix_world, np.float64) @ values.reshape(n, 4, 4).transpose(0, 2, 1), index
+
+
 class InstanceBatches:
     """The sphere instances seen in one depsgraph walk, by instanced mesh, object and settings."""
 
@@ -95,54 +129,20 @@ class InstanceBatches:
         other meshes stored once with every instance's matrix. Anything else (collections, objects,
         curves, meshes detected as planes, mesh instances scaled flat) is left to the walk. The
         instances are read as Auto: `obj`'s Primitive is for its own geometry."""
-        original = obj.original or obj
-        if not any(modifier.type == "NODES" for modifier in getattr(original, "modifiers", ())):
+        found = _instances_alone(obj)
+        if found is None:
             return
-        try:
-            geometry = bpy.types.GeometrySet.from_evaluated_object(obj)
-        except TypeError:  # an object type without geometry
+        geometry, cloud, references = found  # kept: the cloud and the references' data live as long
+        read = self._references(obj, references)
+        if read is None:
             return
-        cloud = geometry.instances_pointcloud()
-        if cloud is None or len(cloud.points) == 0:
-            return
-        own = _OWN_COMPONENT.get(obj.type)
-        if any(getattr(geometry, part) is not None for part in _OWN_COMPONENT.values() if part != own):
-            return  # geometry beside the instances, which the walk meets as instances of `obj` too
-        # Each reference's mesh or points live as long as its GeometrySet: keep them all.
-        references = list(geometry.instance_references())
-        kinds, mats, meshes = [], [], []
-        for reference in references:
-            if not isinstance(reference, bpy.types.GeometrySet) or reference.curves is not None or \
-                    reference.instances_pointcloud() is not None:
-                return
-            mesh, points = reference.mesh, reference.pointcloud
-            if points is not None:
-                if mesh is not None and len(mesh.polygons):  # faces beside the points: left to the walk
-                    return
-                mat = points.materials[0] if len(points.materials) else None
-                shape, data = self._cloud(points, mat), points
-            elif mesh is not None:
-                shape, data = self._shape(mesh, "AUTO", len(mesh.materials)), mesh
-                if shape.kind not in ("sphere", "triangles"):
-                    return
-            else:
-                return
-            meshes.append(data)
-            slot = shape.slot if shape.kind == "sphere" else 0
-            mats.append(data.materials[slot] if len(data.materials) else None)
-            kinds.append((shape, self.builder.material(mats[-1], obj)))
-        n = len(cloud.points)
-        values = np.empty(n * 16, np.float32)
-        cloud.attributes["instance_transform"].data.foreach_get("value", values)
-        index = np.zeros(n, np.int32)
-        if ".reference_index" in cloud.attributes:
-            cloud.attributes[".reference_index"].data.foreach_get("value", index)
-        # Blender's matrices are stored by column; the instancer's world matrix goes first.
-        world = np.array(obj.matrix_world, np.float64) @ values.reshape(n, 4, 4).transpose(0, 2, 1)
+        kinds, mats, meshes = read
+        world, index = _instance_matrices(obj, cloud)
         meshed = [i for i, (shape, _) in enumerate(kinds) if shape.kind == "triangles"]
         if meshed and not are_invertible(world[np.isin(index, meshed)]).all():
             return  # a mesh instance scaled flat: the walk puts it in world space
         # Instance attributes (an Attribute node of type Instancer) colour each instance's sphere.
+        n = len(index)
         materials = np.array([material for _, material in kinds], np.int32)[index]
         sphere_mats = [mat if shape.kind == "sphere" else None for mat, (shape, _) in zip(mats, kinds)]
         colors = self.builder.attribute_colors(cloud, sphere_mats, index if len(kinds) > 1 else None, materials, n,
@@ -162,6 +162,33 @@ class InstanceBatches:
             self._add_spheres(owner, world[chosen][:, :3, :], shape, material,
                               None if colors is None else colors[chosen])
         self.instancers.add(obj.as_pointer())
+
+    def _references(self, obj, references) -> tuple[list, list, list] | None:
+        """(each reference's shape and Dürer material, its Blender material, its mesh or points)
+        when every reference is a sphere or triangle mesh or a point cloud, read as Auto; else None
+        (the walk takes the instances one at a time)."""
+        kinds, mats, meshes = [], [], []
+        for reference in references:
+            if not isinstance(reference, bpy.types.GeometrySet) or reference.curves is not None or \
+                    reference.instances_pointcloud() is not None:
+                return None
+            mesh, points = reference.mesh, reference.pointcloud
+            if points is not None:
+                if mesh is not None and len(mesh.polygons):  # faces beside the points: left to the walk
+                    return None
+                mat = points.materials[0] if len(points.materials) else None
+                shape, data = self._cloud(points, mat), points
+            elif mesh is not None:
+                shape, data = self._shape(mesh, "AUTO", len(mesh.materials)), mesh
+                if shape.kind not in ("sphere", "triangles"):
+                    return None
+            else:
+                return None
+            meshes.append(data)
+            slot = shape.slot if shape.kind == "sphere" else 0
+            mats.append(data.materials[slot] if len(data.materials) else None)
+            kinds.append((shape, self.builder.material(mats[-1], obj)))
+        return kinds, mats, meshes
 
     def take(self, inst, obj, original, mode: str) -> bool:
         """Keep instance `inst` (of mesh object `obj`, whose original is `original`) for `finish`
