@@ -95,18 +95,18 @@ def _mesh(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
     shape = b.shape_cache.get(key)
     if shape is None:
         shape = b.shape_cache[key] = mesh_shape(me, mode, axis_scale or (1.0, 1.0, 1.0), len(mats))
-    _add_shape(b, obj, m, shape, infinite, me)
+    _add_shape(b, obj, m, shape, infinite, me, mats)
 
 
-def _add_shape(b: Builder, obj, m: np.ndarray, shape: MeshShape, infinite: bool, me) -> None:
-    """A detected sphere or plane of `obj` (world matrix m) with the material of the slot its faces
-    use, or its triangles (of mesh `me`) with their slots' materials; nothing for an empty shape."""
+def _add_shape(b: Builder, obj, m: np.ndarray, shape: MeshShape, infinite: bool, me, mats: list) -> None:
+    """A detected sphere or plane of `obj` (world matrix m, material slots `mats`) with the material
+    of the slot its faces use, or its triangles (of mesh `me`) with their slots' materials; nothing
+    for an empty shape."""
     if shape.kind == "triangles":
         b.triangles(obj, m, shape.parts, me)
         return
     if shape.kind == "empty":
         return
-    mats = object_materials(obj)
     mat = mats[shape.slot] if mats else None
     b.uncolored(mat, f"'{obj.name}' is rendered as one {shape.kind}, of one colour")
     if shape.kind == "sphere":
@@ -129,7 +129,8 @@ def _converted(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> Non
     try:
         axis_scale = np.linalg.norm(m[:3, :3], axis=0)
         # The arrays are copies (foreach_get), so they outlive the temporary mesh.
-        _add_shape(b, obj, m, mesh_shape(me, mode, axis_scale, len(object_materials(obj))), infinite, me)
+        mats = object_materials(obj)
+        _add_shape(b, obj, m, mesh_shape(me, mode, axis_scale, len(mats)), infinite, me, mats)
     finally:
         obj.to_mesh_clear()
 

@@ -165,13 +165,12 @@ def _triangles(me, slot_count: int) -> MeshShape:
     return MeshShape("triangles", parts=parts) if parts else MeshShape("empty")
 
 
-def mesh_shape(me, mode: str = "AUTO", axis_scale=(1.0, 1.0, 1.0), slot_count: int | None = None) -> MeshShape:
+def mesh_shape(me, mode: str, axis_scale, slot_count: int) -> MeshShape:
     """What a mesh (in its local coordinates) is for Dürer under the override `mode`: a sphere, a
     plane, or its triangles (Auto, when it is neither, and Mesh). `axis_scale`: the object's scale
-    along the local axes (picks a forced plane's normal); `slot_count`: the object's material
-    slots (default: the mesh's). Auto takes a mesh whose faces use several slots for triangles:
-    a sphere or plane has one material."""
-    slot_count = len(me.materials) if slot_count is None else slot_count
+    along the local axes (picks a forced plane's normal); `slot_count`: the material slots of the
+    object it belongs to. Auto takes a mesh whose faces use several slots for triangles: a sphere
+    or plane has one material."""
     co, _ = _mesh_arrays(me)
     if len(co) == 0:
         return MeshShape("empty")
