@@ -128,6 +128,45 @@ def test_point_cloud_instances_are_read_in_bulk(scene):
     np.testing.assert_allclose(centres[:, 2] - centres[:, 0], 0.3 * scales[:, None] * [0, 1, 0], atol=1e-5)
 
 
+@pytest.mark.parametrize("scale", [(1.7, 1.7, 1.7), (1.0, 1.0, 2.0)])
+def test_a_sphere_placed_any_way_is_the_same_sphere_bit_for_bit(scene, scale):
+    """A sphere object and an instance of its sphere under the same matrix, a point cloud and an
+    instance of it under the same matrix: the same world-space sphere, or the same ellipsoid, to
+    the bit (one rule places them all)."""
+    from helpers.blender import pointcloud_object
+
+    def placed(name):
+        obj = scene.objects[name]
+        obj.location, obj.rotation_euler, obj.scale = (0.3, -1.1, 2.9), (0.4, -0.7, 1.3), scale
+
+    uv_sphere(scene, "Ball", radius=0.5)
+    pointcloud_object(scene, "Cloud", np.zeros((1, 3)), radius=0.5)
+    for name, reference in (("Ball instancer", "Ball"), ("Cloud instancer", "Cloud")):
+        copy = scene.objects[reference].copy()
+        copy.name = f"{reference} reference"
+        link(scene, copy).hide_render = copy.hide_viewport = True
+        point_cloud.instance_on_points(point_cloud.vertex_object(scene.collection, name, np.zeros((1, 3))), copy,
+                                       rotate=False)
+        placed(name)
+        placed(reference)
+    data = export(scene)
+    owners = {obj.name: i for i, obj in enumerate(data.objects)}
+    if scale[0] == scale[2]:
+        assert data.sphere_count == 4 and data.ellipsoid_count == 0
+        sphere = {name: (data.sphere_centers[data.sphere_owners == owners[name]],
+                         data.sphere_radii[data.sphere_owners == owners[name]]) for name in owners}
+        for name, reference in (("Ball instancer", "Ball"), ("Cloud instancer", "Cloud")):
+            assert np.array_equal(sphere[name][0], sphere[reference][0])
+            assert np.array_equal(sphere[name][1], sphere[reference][1])
+        np.testing.assert_allclose(sphere["Cloud"][1], [0.85], rtol=1e-6)
+        return
+    assert data.sphere_count == 0 and data.ellipsoid_count == 4
+    groups = {g.name: g for g in data.transformed_spheres}
+    for name, reference in (("Ball instancer", "Ball"), ("Cloud instancer", "Cloud")):
+        for field in ("centers", "radii", "matrix"):
+            assert np.array_equal(getattr(groups[name], field), getattr(groups[reference], field)), (name, field)
+
+
 def test_instances_render_as_the_equivalent_point_cloud(scene):
     """Instance on Points of a UV sphere renders, pixel for pixel, as a point cloud of the same
     centres and radius (Mesh to Points) does: the instances are spheres, not meshes."""

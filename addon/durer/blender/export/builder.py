@@ -16,8 +16,8 @@ from .triangles import TrianglePart
 
 class _Singles:
     """Spheres given one at a time (an object each: sphere meshes, empties, metaball balls) in a
-    row of the walk, kept as given and made into arrays at `Builder.finish`, with one uniform-scale
-    test for all of them: numpy's cost per call is what a scene of many objects would pay."""
+    row of the walk, kept as given and placed all at once at `Builder.finish`: numpy's cost per
+    call is what a scene of many objects would pay."""
 
     def __init__(self) -> None:
         self.owners: list[int] = []
@@ -155,20 +155,60 @@ class Builder:
         return self.mesh_colors[key][1]
 
     # geometry
-    def spheres(self, owner: int, centers: np.ndarray, radii: np.ndarray, materials, colors=None) -> None:
+    def placed_spheres(self, owners, rows: np.ndarray, centers: np.ndarray, radii: np.ndarray, materials,
+                       colors=None) -> None:
+        """Spheres given in object space under K world matrices (rows: (K, 3, 4), their top three
+        rows): world-space spheres where a matrix is a uniform scale times a rotation, an exact
+        ellipsoid group where it is not, nothing where it is singular. Each matrix places P
+        spheres: centers (K or 1, P, 3), radii (K or 1, P), materials (a scalar or like radii),
+        colors (None or like centers); owners one index or (K,)."""
+        self._add_chunk(*self._placed(owners, rows, centers, radii, materials, colors))
+
+    def _placed(self, owners, rows, centers, radii, materials, colors) -> tuple:
+        """`placed_spheres`' world-space spheres as a chunk; its ellipsoids added meanwhile."""
+        linear, offset = rows[:, :, :3], rows[:, :, 3]
+        scales, uniform = uniform_scales(linear)
+        for k in np.flatnonzero(~uniform & (scales > 0)):  # sheared or squashed: exact ellipsoids
+            self.transformed_spheres(int(_row(owners, k)), np.vstack([rows[k], (0.0, 0.0, 0.0, 1.0)]), _row(centers, k),
+                                     _row(radii, k), _row(materials, k), None if colors is None else _row(colors, k))
+        chosen = slice(None) if uniform.all() else uniform
+        centers, radii, materials = _rows(centers, chosen), _rows(radii, chosen), _rows(materials, chosen)
+        colors = None if colors is None else _rows(colors, chosen)
+        linear, offset, scales = linear[chosen], offset[chosen], scales[chosen]
+        if len(rows) == 1 and np.array_equal(rows[0], IDENTITY[:3]):  # a point cloud as it was made
+            world = centers
+        else:  # in double precision (Blender stores float32 positions; Dürer intersects in double)
+            world = centers @ linear.transpose(0, 2, 1)
+            world += offset[:, None, :]
+        shape = (len(linear), centers.shape[1])
+        n = shape[0] * shape[1]
+        return (owners if np.ndim(owners) == 0 else np.repeat(owners[chosen], shape[1]), world.reshape(n, 3),
+                (scales[:, None] * radii).reshape(n),
+                materials if np.ndim(materials) == 0 else np.broadcast_to(materials, shape).reshape(n),
+                None if colors is None else np.broadcast_to(colors, (*shape, 3)).reshape(n, 3))
+
+    def _add_chunk(self, owners, centers, radii, materials, colors) -> None:
+        chunk = self._counted(owners, centers, radii, materials, colors)
+        if chunk is not None:
+            for chunks, value in zip((self.sphere_owners, self.centers, self.radii, self.mats, self.colors), chunk):
+                chunks.append(value)
+
+    def _counted(self, owners, centers, radii, materials, colors) -> tuple | None:
+        """A chunk's arrays, its spheres counted in `SceneData.sources`; None if it has none."""
         n = len(radii)
         if n == 0:
-            return
-        self.centers.append(np.asarray(centers).reshape(n, 3))
-        self.radii.append(np.asarray(radii).reshape(n))
-        self.mats.append(np.broadcast_to(np.asarray(materials, dtype=np.int32), (n,)))
-        self.sphere_owners.append(np.broadcast_to(np.int32(owner), (n,)))
-        self.data.sources[self.data.objects[owner].name] += n
-        self.colors.append(colors)
+            return None
+        sources, objects = self.data.sources, self.data.objects
+        if np.ndim(owners) == 0:  # one owner: no sort of a cloud's ids
+            sources[objects[owners].name] += n
+        else:
+            for owner, count in zip(*np.unique(owners, return_counts=True)):
+                sources[objects[owner].name] += int(count)
+        return (np.broadcast_to(np.asarray(owners, np.int32), (n,)), np.asarray(centers).reshape(n, 3),
+                np.asarray(radii).reshape(n), np.broadcast_to(np.asarray(materials, dtype=np.int32), (n,)), colors)
 
     def sphere(self, owner: int, m: np.ndarray, center, radius: float, material: int) -> None:
-        """A sphere in object space: a world-space sphere under a uniform scale, else an ellipsoid
-        (made at `finish`, with the other spheres given one at a time; in the walk's order)."""
+        """A sphere in object space under world matrix m, placed at `finish` (`_Singles`)."""
         run = self.centers[-1] if self.centers else None
         if not isinstance(run, _Singles):
             run = _Singles()
@@ -181,29 +221,17 @@ class Builder:
         run.materials.append(material)
 
     def _make_singles(self) -> None:
-        """Every `_Singles` run's spheres as the arrays `spheres` keeps (uniform scales) or as
-        ellipsoids (the others, after the walk's); spheres flattened to nothing are dropped."""
-        runs = [i for i, chunk in enumerate(self.centers) if isinstance(chunk, _Singles)]
-        if not runs:
-            return
-        matrices = np.array([m for i in runs for m in self.centers[i].matrices], np.float64)
-        scales, uniform = uniform_scales(matrices[:, :3, :3])
-        start = 0
-        for i in runs:
-            run = self.centers[i]
-            n = len(run.radii)
-            s, keep = scales[start : start + n], uniform[start : start + n]
-            m, centers = matrices[start : start + n], np.array(run.centers)
-            owners, materials = np.array(run.owners, np.int32), np.array(run.materials, np.int32)
-            world = np.einsum("nij,nj->ni", m[keep, :3, :3], centers[keep]) + m[keep, :3, 3]
-            self.centers[i], self.radii[i] = world, np.array(run.radii)[keep] * s[keep]
-            self.mats[i], self.sphere_owners[i], self.colors[i] = materials[keep], owners[keep], None
-            for owner in owners[keep]:
-                self.data.sources[self.data.objects[owner].name] += 1
-            for k in np.flatnonzero(~keep & (s > 0)):  # sheared or squashed: exact ellipsoids
-                self.transformed_spheres(int(owners[k]), m[k], centers[k : k + 1], np.array(run.radii[k : k + 1]),
-                                         int(materials[k]))
-            start += n
+        """Every `_Singles` run's spheres `placed_spheres`' way, where the run stands in the chunks
+        (their order is the walk's)."""
+        for i, run in enumerate(self.centers):
+            if not isinstance(run, _Singles):
+                continue
+            rows = np.array(run.matrices, np.float64)[:, :3]
+            chunk = self._placed(np.array(run.owners, np.int32), rows, np.array(run.centers)[:, None],
+                                 np.array(run.radii)[:, None], np.array(run.materials, np.int32)[:, None], None)
+            self.sphere_owners[i], self.centers[i], self.radii[i], self.mats[i], self.colors[i] = \
+                self._counted(*chunk) or (np.zeros(0, np.int32), np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int32),
+                                          None)
 
     def transformed_spheres(self, owner: int, m: np.ndarray, centers, radii, materials, colors=None) -> None:
         n = len(radii)
@@ -294,6 +322,16 @@ class Builder:
                 d.sphere_colors = _join([kd[mats] if c is None else c for c, mats in zip(self.colors, self.mats)],
                                         np.float64)
         return d
+
+
+def _row(a, k: int):
+    """Matrix k's part of `a` (one row of K, or the one row all matrices share), or a scalar."""
+    return a if np.ndim(a) == 0 else a[0 if len(a) == 1 else k]
+
+
+def _rows(a, chosen):
+    """The rows of `a` for the matrices chosen (a row all matrices share stays one)."""
+    return a if np.ndim(a) == 0 or len(a) == 1 else a[chosen]
 
 
 def _join(chunks: list[np.ndarray], dtype) -> np.ndarray:

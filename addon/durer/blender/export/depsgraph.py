@@ -6,7 +6,7 @@ import numpy as np
 
 from .builder import Builder
 from .camera import camera_data
-from .data import IDENTITY, SceneData
+from .data import SceneData
 from .instances import InstanceBatches
 from .lights import light_data
 from .materials import object_materials
@@ -69,20 +69,8 @@ def _pointcloud(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> No
             materials = materials[keep]
         if colors is not None:
             colors = colors[keep]
-    s, uniform = uniform_scale(m)
-    if s == 0.0:  # flattened to nothing
-        return
-    if not uniform:  # ellipsoids: the points stay in object space under the object's matrix
-        b.transformed_spheres(b.owner(obj), m, pos, radii, materials, colors)
-        return
-    # Transform in double precision (Blender stores float32 positions; Dürer intersects in double).
-    if np.array_equal(m, IDENTITY):
-        centers = pos
-    else:
-        centers = pos.astype(np.float64) @ m[:3, :3].T
-        centers += m[:3, 3]
-    radii = radii * s if s != 1.0 else radii
-    b.spheres(b.owner(obj), centers, radii, materials, colors)
+    b.placed_spheres(b.owner(obj), m[None, :3], pos[None], radii[None],
+                     materials if np.isscalar(materials) else materials[None], None if colors is None else colors[None])
 
 
 def _mesh(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:

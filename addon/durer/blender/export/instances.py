@@ -16,7 +16,7 @@ import numpy as np
 
 from .builder import Builder
 from .materials import object_materials
-from .matrices import are_invertible, uniform_scales
+from .matrices import are_invertible
 from .shapes import MeshShape, cloud_points, mesh_key, mesh_shape
 
 
@@ -157,10 +157,11 @@ class InstanceBatches:
                                             world[chosen], cloud, chosen)
                 continue
             if shape.kind == "points":
-                self._add_cloud(owner, world[chosen][:, :3, :], shape, material)
+                self.builder.placed_spheres(owner, world[chosen][:, :3, :], shape.positions[None], shape.radii[None],
+                                            material, None if shape.colors is None else shape.colors[None])
                 continue
             self._add_spheres(owner, world[chosen][:, :3, :], shape, material,
-                              None if colors is None else colors[chosen])
+                              None if colors is None else colors[chosen][:, None])
         self.instancers.add(obj.as_pointer())
 
     def _references(self, obj, references) -> tuple[list, list, list] | None:
@@ -236,19 +237,6 @@ class InstanceBatches:
         return _Cloud(positions[keep].astype(np.float64), radii[keep].astype(np.float64),
                       None if colors is None else colors[keep])
 
-    def _add_cloud(self, owner: int, rows: np.ndarray, cloud: _Cloud, material: int) -> None:
-        """Cloud's spheres under each matrix (rows: (K, 3, 4)): world-space spheres where a matrix is
-        a uniform scale times a rotation (all K x N at once), ellipsoids where it is not."""
-        linear, offset = rows[:, :, :3], rows[:, :, 3]
-        scale, uniform = uniform_scales(linear)
-        centers = np.einsum("kij,pj->kpi", linear[uniform], cloud.positions) + offset[uniform][:, None, :]
-        colors = None if cloud.colors is None else np.tile(cloud.colors, (int(uniform.sum()), 1))
-        self.builder.spheres(owner, centers.reshape(-1, 3), (scale[uniform][:, None] * cloud.radii).ravel(), material,
-                             colors)
-        for i in np.flatnonzero(~uniform & (scale > 0)):  # sheared or squashed: exact ellipsoids
-            m = np.vstack([rows[i], [0.0, 0.0, 0.0, 1.0]])
-            self.builder.transformed_spheres(owner, m, cloud.positions, cloud.radii, material, cloud.colors)
-
     def _shape(self, me, mode: str, slot_count: int) -> MeshShape:
         key = (mesh_key(me), mode, slot_count)
         shape = self.builder.shape_cache.get(key)
@@ -263,17 +251,7 @@ class InstanceBatches:
             if batch.shape is not None and batch.matrices.count:
                 self._add_spheres(batch.owner, batch.matrices.rows(), batch.shape, batch.material)
 
-    def _add_spheres(self, owner: int, rows: np.ndarray, shape: MeshShape, material: int,
-                     colors: np.ndarray | None = None) -> None:
-        """The spheres of `shape` under each matrix (rows: (N, 3, 4), the top three rows), with
-        their kd (colors (N, 3)) if given."""
-        linear, offset = rows[:, :, :3], rows[:, :, 3]
-        scale, uniform = uniform_scales(linear)
-        center = np.asarray(shape.center, dtype=np.float64)
-        centers = linear[uniform] @ center + offset[uniform]
-        self.builder.spheres(owner, centers, shape.radius * scale[uniform], material,
-                             None if colors is None else colors[uniform])
-        for i in np.flatnonzero(~uniform & (scale > 0)):  # sheared or squashed: exact ellipsoids
-            m = np.vstack([rows[i], [0.0, 0.0, 0.0, 1.0]])
-            self.builder.transformed_spheres(owner, m, center[None], np.array([shape.radius]), material,
-                                             None if colors is None else colors[i : i + 1])
+    def _add_spheres(self, owner: int, rows: np.ndarray, shape: MeshShape, material: int, colors=None) -> None:
+        """The sphere of `shape` under each matrix (rows: (N, 3, 4)), with its kd (colors (N, 1, 3))."""
+        self.builder.placed_spheres(owner, rows, np.asarray(shape.center, np.float64)[None, None],
+                                    np.array([[shape.radius]]), material, colors)
