@@ -1,5 +1,5 @@
 """The Dürer engine inside Blender: the Render button's operator, passes, the image datablock,
-progress, cancel, errors, batch rendering and the extension package."""
+progress, cancel, errors and batch rendering (the extension package: test_extension.py)."""
 
 from __future__ import annotations
 
@@ -7,12 +7,8 @@ import inspect
 import os
 import subprocess
 import sys
-import sysconfig
-import textwrap
 import threading
 import time
-import zipfile
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -33,7 +29,7 @@ bpy = blender_module("bpy")
 
 import durer
 import durer.blender
-from durer.blender import batch, engine, extension
+from durer.blender import batch, engine
 from durer.distributed import frames
 
 pytestmark = pytest.mark.blender
@@ -539,100 +535,3 @@ def test_batch_command_line(scene, tmp_path):
     done = subprocess.run(cmd[:5] + ["--frames", "x"], check=False, capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and "frames must look like" in done.stderr
 
-
-# --- the extension package -------------------------------------------------------------------------
-
-
-def wheel_of_installed_durer(directory: Path) -> Path:
-    """A wheel of the durer package this test runs (compiled core included): what pip would build,
-    without compiling again."""
-    pkg = Path(durer.__file__).resolve().parent
-    version = durer.__version__
-    tag = sysconfig.get_platform().replace("-", "_").replace(".", "_")
-    py = f"cp{sys.version_info.major}{sys.version_info.minor}"
-    path = directory / f"durer-{version}-{py}-{py}-{tag}.whl"
-    info = f"durer-{version}.dist-info"
-    with zipfile.ZipFile(path, "w") as z:
-        root = Path(durer.__file__).parent
-        written = set()
-        for folder, dirs, files in os.walk(root, followlinks=True):
-            dirs[:] = [d for d in dirs if d != "__pycache__"]
-            for name in sorted(files):
-                f = Path(folder) / name
-                arcname = "durer/" + f.relative_to(root).as_posix()
-                z.write(f.resolve(), arcname)
-                written.add(arcname)
-        core = Path(durer._core.__file__)  # an editable install keeps it in site-packages or the build tree
-        if f"durer/{core.name}" not in written:
-            z.write(core, f"durer/{core.name}")
-        z.writestr(f"{info}/METADATA", f"Metadata-Version: 2.1\nName: durer\nVersion: {version}\n")
-        z.writestr(
-            f"{info}/WHEEL", f"Wheel-Version: 1.0\nGenerator: test\nRoot-Is-Purelib: false\nTag: {py}-{py}-{tag}\n"
-        )
-        z.writestr(f"{info}/RECORD", "")
-    assert pkg.is_dir()
-    return path
-
-
-def test_extension_refuses_bad_wheels_in_one_line_and_leaves_no_partial_zip(tmp_path, capsys):
-    wheel = wheel_of_installed_durer(tmp_path)
-    (tmp_path / "foo.txt").write_text("")
-    missing = tmp_path / "missing.whl"
-    for bad, message in ((missing, f"--wheel {missing}: no such file"),
-                         (tmp_path / "foo.txt", "not a wheel file name: foo.txt")):
-        with pytest.raises(SystemExit) as exit_info:
-            extension.main(["--wheel", str(bad), "--dist", str(tmp_path / "dist")])
-        assert exit_info.value.code == 2 and capsys.readouterr().err.endswith(f"error: {message}\n")
-    # An extra wheel that vanishes while the zip is written: no truncated zip is left behind.
-    with pytest.raises(FileNotFoundError):
-        extension.build_zip([wheel, tmp_path / "gone-1.0-py3-none-any.whl"], tmp_path / "dist")
-    assert list((tmp_path / "dist").iterdir()) == []
-
-
-def test_extension_zip_installs_and_renders(tmp_path):
-    wheel = wheel_of_installed_durer(tmp_path)
-    assert extension.main(["--wheel", str(wheel), "--dist", str(tmp_path / "dist")]) == 0
-    zip_path = next((tmp_path / "dist").glob("durer-*.zip"))
-    platform = extension.blender_platforms(extension.wheel_tags(wheel)[2])[0]
-    assert zip_path.name == f"durer-{durer.__version__}-{platform.replace('-', '_')}.zip"
-    with zipfile.ZipFile(zip_path) as z:
-        assert set(z.namelist()) == {"blender_manifest.toml", "__init__.py", f"wheels/{wheel.name}"}
-        manifest = z.read("blender_manifest.toml").decode()
-    assert f'platforms = ["{platform}"]' in manifest and f'"./wheels/{wheel.name}"' in manifest
-    # A fresh Blender (own user directory) installs it like "Install from Disk" and renders.
-    user = tmp_path / "blender-user"
-    script = textwrap.dedent(f"""
-        import importlib.machinery, sys
-
-        class ExtensionDurerOnly:  # hide the durer this test runs from: use the extension's wheel
-            def find_spec(self, name, path=None, target=None):
-                if name != "durer":
-                    return None
-                paths = [p for p in sys.path if p.startswith({str(user)!r})]
-                spec = importlib.machinery.PathFinder.find_spec(name, paths)
-                if spec is None:
-                    raise ModuleNotFoundError("durer is not in the extension's site-packages")
-                return spec
-
-        sys.meta_path.insert(0, ExtensionDurerOnly())
-        import bpy
-        result = bpy.ops.extensions.package_install_files(
-            filepath={str(zip_path)!r}, repo="user_default", enable_on_install=True)
-        assert result == {{"FINISHED"}}, result
-        assert "bl_ext.user_default.durer" in sys.modules
-        assert "bl_ext.user_default.durer" in bpy.context.preferences.addons
-        s = bpy.context.scene
-        s.render.engine = "DURER"
-        s.render.resolution_x, s.render.resolution_y = 32, 24
-        s.render.filepath = {str(tmp_path / "ext.png")!r}
-        bpy.ops.render.render(write_still=True)
-        import durer, durer.blender.engine as e
-        assert e.last_render.error is None, e.last_render.error
-        assert durer.__file__.startswith({str(user)!r}), durer.__file__
-        """)
-    env = dict(os.environ, BLENDER_USER_RESOURCES=str(user))
-    done = subprocess.run(
-        [sys.executable, "-c", script], check=False, capture_output=True, text=True, timeout=300, env=env
-    )
-    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
-    assert (tmp_path / "ext.png").is_file()
