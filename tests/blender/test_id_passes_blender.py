@@ -1,20 +1,25 @@
 """Blender's index passes from Dürer (issue 14 item 3): IndexOB (the object's Pass Index) and IndexMA
 (the material's), equal to Cycles' on the same scene at every pixel away from silhouette edges, and
-Dürer's Object ID pass (every rendered object numbered from 1 in export order)."""
+Dürer's Object ID pass (the file's objects numbered from 1 in the order of their unique names, the
+same on every frame, the table saved with the image)."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
-from helpers.blender import (aim_camera, cube, light, link, material, pointcloud_object, quad, render_passes,
-                             use_cycles, uv_sphere, world)
+from helpers.blender import (aim_camera, cube, export, light, link, material, pointcloud_object, quad,
+                             render_passes, use_cycles, uv_sphere, world)
+from helpers.exr import read_exr, read_exr_headers
+from PIL import Image
 
 from helpers.blender_import import blender_module
 
 bpy = blender_module("bpy")
 
-from durer.blender import engine, point_cloud  # noqa: E402
-from durer.blender.build import IdTables  # noqa: E402
+from durer.blender import batch, engine, point_cloud  # noqa: E402
+from durer.blender.build import IdTables, object_numbers  # noqa: E402
 from durer.blender.export.depsgraph import export_depsgraph  # noqa: E402
 
 pytestmark = pytest.mark.blender
@@ -135,19 +140,133 @@ def test_instances_take_the_pass_index_cycles_gives_them(scene, tmp_path):
     assert (compared & (cycles > 0)).sum() > 200  # measured: 304 of the objects' 916 pixels are inside ones
 
 
-def test_object_id_numbers_every_rendered_object_in_export_order(scene, tmp_path):
+def saved_object_ids(metadata: dict) -> dict[int, str]:
+    """The Object ID table an image's metadata (an EXR header, a PNG's text) holds."""
+    return {int(number): name for number, name in json.loads(metadata[engine.OBJECT_IDS_FIELD]).items()}
+
+
+def test_object_id_numbers_objects_by_name_and_saves_its_table_with_the_image(scene, tmp_path):
+    """The objects that can be rendered are numbered in the order of their names (not the camera
+    nor the light); the table is last_render.object_ids, and the EXR's header and a PNG's text
+    carry it too."""
     index_scene(scene)
     scene.view_layers[0].durer.use_pass_object_id = True
     out = render_passes(scene, tmp_path / "durer.exr", normal=False, indexes=True)
-    names = engine.last_render.object_names
-    assert sorted(names) == sorted(OBJECT_INDEX)
-    from helpers.exr import read_exr
-
+    names = engine.last_render.object_ids
+    assert names == dict(enumerate(sorted(OBJECT_INDEX), 1))
     object_id = read_exr(tmp_path / "durer.exr")[f"{scene.view_layers[0].name}.Object ID.X"]
-    # Object ID i + 1 is names[i]: the same pixels as that object's Pass Index in IndexOB.
-    expected = np.array([0] + [OBJECT_INDEX[n] for n in names], np.float32)[object_id.astype(int)]
+    # Object ID n is names[n]: the same pixels as that object's Pass Index in IndexOB.
+    expected = np.array([0] + [OBJECT_INDEX[names[n]] for n in sorted(names)], np.float32)[object_id.astype(int)]
     np.testing.assert_array_equal(out["IndexOB"], expected)
-    assert set(np.unique(object_id)) == set(range(len(names) + 1))
+    assert set(np.unique(object_id)) == {0, *names}
+    assert saved_object_ids(read_exr_headers(tmp_path / "durer.exr")[0]) == names  # the first part's (Combined)
+    settings = scene.render.image_settings
+    settings.media_type, settings.file_format = "IMAGE", "PNG"
+    scene.render.filepath = str(tmp_path / "durer.png")
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    with Image.open(tmp_path / "durer.png") as png:
+        assert saved_object_ids(png.text) == names
+
+
+def rock_library(s, path) -> bpy.types.Collection:
+    """Collection "Rocks" of a library file `path`, linked: it holds object "Rock" (a sphere at
+    x = -1, Pass Index 5, a material of Pass Index 2), which this file never had."""
+    rock = uv_sphere(s, "Rock", radius=0.6, location=(-1, 0, 0))
+    rock.pass_index = 5
+    rock.data.materials.append(material("Moss", (0.2, 0.8, 0.2)))
+    rock.data.materials[0].pass_index = 2
+    rocks = bpy.data.collections.new("Rocks")
+    rocks.objects.link(rock)
+    bpy.data.libraries.write(str(path), {rocks})
+    bpy.data.objects.remove(rock)
+    bpy.data.collections.remove(rocks)
+    with bpy.data.libraries.load(str(path), link=True) as (_, linked):
+        linked.collections = ["Rocks"]
+    return linked.collections[0]
+
+
+def local_rock(s) -> bpy.types.Object:
+    """A local object "Rock" at x = -3, Pass Index 9, a material of Pass Index 4."""
+    rock = uv_sphere(s, "Rock", radius=0.6, location=(-3, 0, 0))
+    rock.pass_index = 9
+    rock.data.materials.append(material("Rust", (0.8, 0.2, 0.1)))
+    rock.data.materials[0].pass_index = 4
+    return rock
+
+
+def test_objects_of_one_name_in_a_file_and_its_library_are_told_apart(scene, tmp_path):
+    """A local "Rock", the library's "Rock" (linked into the scene, and instanced by an empty) and a
+    library override of it (a local copy Blender names "Rock.001"): three objects, by `name_full`."""
+    rocks = rock_library(scene, tmp_path / "rocks.blend")
+    local_rock(scene)
+    link(scene, rocks.objects[0])
+    empty = link(scene, bpy.data.objects.new("Rocks", None))
+    empty.instance_type, empty.instance_collection, empty.location = "COLLECTION", rocks, (2, 0, 0)
+    override = rocks.override_hierarchy_create(scene, bpy.context.view_layer).objects[0]
+    override.location = (3, 0, 0)
+    data = export(scene)
+    assert {o.name: o.pass_index for o in data.objects} == {"Rock": 9, "Rock [rocks.blend]": 5, "Rock.001": 5}
+    assert data.sources == {"Rock": 1, "Rock [rocks.blend]": 2, "Rock.001": 1}
+    assert list(object_numbers(bpy.data.objects, data)) == ["Rock", "Rock [rocks.blend]", "Rock.001", "Rocks"]
+
+
+def test_objects_of_one_name_keep_their_own_indices_and_ids(scene, tmp_path):
+    """A local "Rock" and one linked from a library: each its own Object and Material Index, as in
+    Cycles, and its own Object ID, which names it with its library."""
+    world(scene, (0, 0, 0))
+    light(scene, "SUN", energy=2.0, rotation=(0.3, 0.2, 0.1))
+    link(scene, rock_library(scene, tmp_path / "rocks.blend").objects[0])
+    local_rock(scene)
+    aim_camera(scene, (-2, -6, 0), (-2, 0, 0))
+    use_cycles(scene)
+    cycles = render_passes(scene, tmp_path / "cycles.exr", depth=False, normal=False, indexes=True)
+    scene.render.engine = "DURER"
+    scene.view_layers[0].durer.use_pass_object_id = True
+    durer_ = render_passes(scene, tmp_path / "durer.exr", depth=False, normal=False, indexes=True)
+    compared = away_from_edges(cycles["IndexOB"])
+    for name in ("IndexOB", "IndexMA"):
+        np.testing.assert_array_equal(durer_[name][compared], cycles[name][compared], err_msg=name)
+    counts = dict(zip(*np.unique(durer_["IndexOB"], return_counts=True)))
+    assert counts.keys() == {0, 5, 9} and abs(counts[5] - counts[9]) <= 4  # two spheres alike
+    object_id = read_exr(tmp_path / "durer.exr")[f"{scene.view_layers[0].name}.Object ID.X"]
+    named = {name: number for number, name in engine.last_render.object_ids.items()}
+    for index, name in ((9, "Rock"), (5, "Rock [rocks.blend]")):
+        assert set(np.unique(object_id[durer_["IndexOB"] == index])) == {named[name]}
+
+
+def test_object_ids_stay_the_same_over_an_animation_rendered_from_the_command_line(scene, tmp_path):
+    """Three balls, the first hidden on frame 2 (hide_render keyframed): each keeps its Object ID
+    on every frame `python -m durer render` writes, and each frame's own header decodes the ids."""
+    world(scene, (0, 0, 0))
+    for i in range(3):
+        ball = uv_sphere(scene, f"Ball {i + 1}", radius=0.4, location=(1.0 * i - 1, 0, 0))
+        ball.pass_index = 10 + i
+    first = bpy.data.objects["Ball 1"]
+    for frame, hidden in ((1, False), (2, True), (3, False)):
+        first.hide_render = hidden
+        first.keyframe_insert("hide_render", frame=frame)
+    aim_camera(scene, (0, -6, 0))
+    scene.render.resolution_x, scene.render.resolution_y = 48, 24
+    layer = scene.view_layers[0]
+    layer.use_pass_object_index = layer.durer.use_pass_object_id = True
+    settings = scene.render.image_settings
+    settings.media_type, settings.file_format, settings.exr_codec = "MULTI_LAYER_IMAGE", "OPEN_EXR_MULTILAYER", "NONE"
+    blend = tmp_path / "balls.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    assert batch.main([str(blend), "-q", "--frames", "1-3", "-o", str(tmp_path / "f_####.exr")]) == 0
+    pass_index = {f"Ball {i + 1}": 10 + i for i in range(3)}
+    seen = {}
+    for frame in (1, 2, 3):
+        path = tmp_path / f"f_{frame:04d}.exr"
+        names = saved_object_ids(read_exr_headers(path)[0])
+        assert names == {1: "Ball 1", 2: "Ball 2", 3: "Ball 3"}
+        passes = read_exr(path)
+        object_id, object_index = passes["ViewLayer.Object ID.X"], passes["ViewLayer.Object Index.X"]
+        hit = object_id > 0
+        decoded = np.array([pass_index[names[n]] for n in object_id[hit].astype(int)], np.float32)
+        np.testing.assert_array_equal(decoded, object_index[hit])
+        seen[frame] = set(np.unique(object_id[hit]))
+    assert seen == {1: {1, 2, 3}, 2: {2, 3}, 3: {1, 2, 3}}
 
 
 def test_export_keeps_pass_indices_and_tables_map_core_ids(scene):
@@ -158,7 +277,7 @@ def test_export_keeps_pass_indices_and_tables_map_core_ids(scene):
     by_name = {o.name: o.pass_index for o in data.objects}
     assert by_name == OBJECT_INDEX
     assert sorted(data.material_pass_indices) == sorted([0, *MATERIAL_INDEX.values()])  # 0: "Bare"'s
-    tables = IdTables.of(data)
+    tables = IdTables.of(data, object_numbers(bpy.data.objects, data))
     owners = np.array([[o.name for o in data.objects].index("Cloud")] * 12)
     np.testing.assert_array_equal(data.sphere_owners[data.sphere_owners == owners[0]], owners)
     objects = data.sphere_count + data.ellipsoid_count + len(data.planes) + len(data.meshes)

@@ -51,8 +51,8 @@ def _read_header(data: bytes, pos: int) -> tuple[dict, int]:
     return header, pos + 1
 
 
-def read_exr(path) -> dict[str, np.ndarray]:
-    """Return {channel name: (H, W) float32 array, top row first} for every channel."""
+def _read_headers(path) -> tuple[bytes, list[dict], int, bool]:
+    """The file's bytes, its parts' headers, where the offset tables start and whether it is multipart."""
     with open(path, "rb") as f:
         data = f.read()
     if data[:4] != b"v/1\x01":
@@ -70,6 +70,17 @@ def read_exr(path) -> dict[str, np.ndarray]:
             break
     if multipart:
         pos += 1
+    return data, headers, pos, multipart
+
+
+def read_exr_headers(path) -> list[dict]:
+    """Each part's header: {attribute name: value} (strings decoded, e.g. Blender's metadata)."""
+    return _read_headers(path)[1]
+
+
+def read_exr(path) -> dict[str, np.ndarray]:
+    """Return {channel name: (H, W) float32 array, top row first} for every channel."""
+    data, headers, pos, multipart = _read_headers(path)
     for h in headers:
         if h.get("compression", 0) != 0:
             raise ValueError("only uncompressed EXR (exr_codec='NONE') is supported")

@@ -7,6 +7,7 @@ Everything that depends on the core's API lives here, so the export stays plain 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, fields, is_dataclass
 from typing import Any
 
@@ -15,6 +16,7 @@ import numpy as np
 import durer
 
 from .export import CameraData, SceneData
+from .export.depsgraph import CONVERTERS
 
 #: Blender's Depth pass holds this where no object is hit (Cycles writes 1e10).
 DEPTH_MISS = 1.0e10
@@ -94,16 +96,18 @@ class IdTables:
 
     #: By core object id: the Blender object's pass_index (IndexOB).
     object_pass_index: np.ndarray
-    #: By core object id: the Blender object's 1-based place in SceneData.objects (Dürer's Object ID).
-    object_number: np.ndarray
+    #: By core object id: the Blender object's Object ID (`object_numbers`); None when not asked for.
+    object_number: np.ndarray | None
     #: By core material id: the Blender material's pass_index (IndexMA).
     material_pass_index: np.ndarray
 
     @classmethod
-    def of(cls, data: SceneData) -> IdTables:
+    def of(cls, data: SceneData, numbers: Mapping[str, int] | None) -> IdTables:
         """The tables of the core scene make_scene(data) builds: material 0 is the core's default
         (unused), then data.materials in order; objects in make_scene's add order (world-space
-        spheres, each ellipsoid, planes, meshes), one core object per sphere, plane or mesh."""
+        spheres, each ellipsoid, planes, meshes), one core object per sphere, plane or mesh.
+        `numbers`: the Object ID of every object in data.objects by its name (`object_numbers`), or
+        None when the Object ID pass is not wanted."""
         owners = np.concatenate([
             data.sphere_owners,
             *(np.full(len(g.radii), g.owner, np.int32) for g in data.transformed_spheres),
@@ -111,9 +115,10 @@ class IdTables:
             np.array([m.owner for m in data.meshes], np.int32),
         ]).astype(np.intp)
         object_pass = np.array([o.pass_index for o in data.objects], np.float32)
+        number = None if numbers is None else np.array([numbers[o.name] for o in data.objects], np.float32)
         return cls(
             object_pass_index=np.concatenate([[0], object_pass[owners]]).astype(np.float32),
-            object_number=np.concatenate([[0], owners + 1]).astype(np.float32),
+            object_number=None if number is None else np.concatenate([[0], number[owners]]).astype(np.float32),
             material_pass_index=np.array([0, 0, *data.material_pass_indices], np.float32),
         )
 
@@ -121,6 +126,18 @@ class IdTables:
     def lookup(table: np.ndarray, core_ids: np.ndarray) -> np.ndarray:
         """A Blender pass: table[core id + 1] per pixel (core ids -1 on a miss)."""
         return table[core_ids.astype(np.intp) + 1]
+
+
+def object_numbers(file_objects: Iterable, data: SceneData) -> dict[str, int]:
+    """Dürer's Object ID of each object by its unique name (`name_full`): its place, from 1, among
+    the names of the file's objects (`bpy.data.objects`) of the types Dürer renders, sorted;
+    hidden, excluded or in another scene, each is numbered, so that an object keeps its id on
+    every frame, view layer and render of the file while no object is added, removed or renamed.
+    The objects `data` holds are numbered too (they are the file's: evaluated objects and the
+    geometry their nodes make carry their original's name)."""
+    names = {obj.name_full for obj in file_objects if obj.type in CONVERTERS}
+    names.update(o.name for o in data.objects)
+    return {name: number for number, name in enumerate(sorted(names), 1)}
 
 
 def update_scene(previous: tuple[SceneData, durer.Scene] | None, data: SceneData) -> tuple[durer.Scene, bool]:

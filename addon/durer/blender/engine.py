@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import threading
 import time
 from dataclasses import dataclass, field
@@ -18,6 +19,9 @@ from .export.depsgraph import export_depsgraph
 IMAGE_NAME = "Dürer Render"
 #: How often the engine polls Blender's cancel flag (Esc) while Dürer renders, in seconds.
 POLL_SECONDS = 0.02
+#: The image metadata field (an EXR header attribute, a PNG text chunk) that holds the Object ID
+#: pass's table: JSON {"id": "object name", ...}, as last_render.object_ids.
+OBJECT_IDS_FIELD = "durer.object_ids"
 
 
 @dataclass
@@ -47,8 +51,10 @@ class RenderInfo:
     #: Adaptive sampler: the samples each pixel got, (H, W) int32, top row first (the core's
     #: result.samples over the whole frame); None for the fixed samplers.
     sample_counts: np.ndarray | None = None
-    #: The objects Dürer rendered, in export order: the Object ID pass shows object_names[i] as i + 1.
-    object_names: list[str] = field(default_factory=list)
+    #: The Object ID pass's table (build.object_numbers), the same on every frame of a file: id -> the
+    #: object's unique name (`name_full`), for every object numbered, rendered or not; empty
+    #: without the pass.
+    object_ids: dict[int, str] = field(default_factory=dict)
 
 
 def stats_line(width: int, height: int, samples: int, stats: dict, cancelled: bool = False,
@@ -205,7 +211,8 @@ class DurerEngineMixin:
         info.spheres, info.planes = data.sphere_count + data.ellipsoid_count, len(data.planes)
         info.triangles = data.triangle_count
         info.warnings = data.warnings
-        info.object_names = [o.name for o in data.objects]
+        numbers = build.object_numbers(bpy.data.objects, data) if layer.durer.use_pass_object_id else None
+        info.object_ids = {} if numbers is None else {number: name for name, number in numbers.items()}
         for message in info.warnings:
             self.report({"WARNING"}, message)
 
@@ -243,13 +250,16 @@ class DurerEngineMixin:
             if "Normal" in rl.passes and result.normal is not None:
                 normal = np.asarray(result.normal, np.float32)
                 rl.passes["Normal"].rect.foreach_set(_flip(normal[crop]).ravel())
-            tables = build.IdTables.of(data) if index_passes else None
+            tables = build.IdTables.of(data, numbers) if index_passes else None
             for name, _, core, table in index_passes:
                 if name in rl.passes and getattr(result, core) is not None:
                     ids = build.IdTables.lookup(getattr(tables, table), getattr(result, core)[crop])
                     rl.passes[name].rect.foreach_set(_flip(ids).ravel())
         finally:
             self.end_result(rr, cancel=False)
+        if numbers is not None:  # saved with the image, so that its ids can be read without this session
+            # The whole result's metadata: a tile's is dropped. JSON escapes non-ASCII: a PNG's text is Latin-1.
+            self.get_result().stamp_data_add_field(OBJECT_IDS_FIELD, json.dumps(info.object_ids))
         color = color[crop]
         if threading.current_thread() is threading.main_thread():
             store_image(color)

@@ -345,9 +345,10 @@ def _passes_changed(settings, _context) -> None:
 class DurerViewLayerSettings(bpy.types.PropertyGroup):
     use_pass_object_id: BoolProperty(
         name="Object ID",
-        description="Dürer's Object ID pass: every object Dürer renders numbered 1, 2, ... in the order it "
-        "exports them (0 where nothing is hit), whatever their Pass Index; the names in that order are "
-        "durer.blender.engine.last_render.object_names",
+        description="Dürer's Object ID pass: the file's objects numbered 1, 2, ... in the order of their "
+        "names, the same on every frame (0 where nothing is hit), whatever their Pass Index; the table of "
+        "names is saved with the image (metadata durer.object_ids) and in "
+        "durer.blender.engine.last_render.object_ids",
         default=False,
         update=_passes_changed,
     )

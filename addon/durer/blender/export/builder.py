@@ -30,7 +30,7 @@ class _Singles:
 class Builder:
     """One export's state: the `SceneData` being filled, sphere chunks to join at the end, the
     material ids given out (by Blender material and by value and pass index), the objects'
-    indices (by name) and the shapes of meshes seen."""
+    indices (by unique name) and the shapes of meshes seen."""
 
     def __init__(self) -> None:
         self.data = SceneData()
@@ -75,14 +75,14 @@ class Builder:
 
     # objects
     def owner(self, obj) -> int:
-        """The index of Blender object `obj` in SceneData.objects (added on first use)."""
-        return self.owner_named(obj.name, obj.pass_index)
-
-    def owner_named(self, name: str, pass_index: int) -> int:
+        """The index of Blender object `obj` in SceneData.objects (added on first use). Objects
+        are told apart by `name_full`: a linked object may share its name with a local one, not
+        its library (an evaluated object, and geometry its nodes make, carry the original's)."""
+        name = obj.name_full
         index = self.owners.get(name)
         if index is None:
             index = self.owners[name] = len(self.data.objects)
-            self.data.objects.append(ObjectData(name, int(pass_index)))
+            self.data.objects.append(ObjectData(name, int(obj.pass_index)))
         return index
 
     # attribute colours
@@ -249,21 +249,22 @@ class Builder:
         attribute colours of mesh `me` where the slot's material reads some."""
         mats = object_materials(obj)
         owner = self.owner(obj)
+        name = self.data.objects[owner].name
         flat = not is_invertible(m)
         for part in parts:
             mat = mats[min(part.slot, len(mats) - 1)] if mats else None
             material = self.material(mat, obj)
             colors = self.part_colors(me, part, mat)
-            self.data.sources[obj.name] += 1
+            self.data.sources[name] += 1
             if flat:  # the core needs an invertible transform: a mesh scaled flat goes in world space
                 vertices = transform_points(m, part.vertices.astype(np.float64))
-                self.data.meshes.append(MeshData(obj.name, owner, vertices, part.faces, material, IDENTITY, colors))
+                self.data.meshes.append(MeshData(name, owner, vertices, part.faces, material, IDENTITY, colors))
                 continue
             key = (id(part), owner, material, id(colors))
             if key in self.instanced:
                 self.instanced[key][1].append(m)
                 continue
-            mesh = MeshData(obj.name, owner, part.vertices, part.faces, material, m, colors)
+            mesh = MeshData(name, owner, part.vertices, part.faces, material, m, colors)
             self.data.meshes.append(mesh)
             self.instanced[key] = (mesh, [m])
 
@@ -274,6 +275,7 @@ class Builder:
         K instances (Scene.add_mesh_instances). A part whose material reads Instancer attributes
         takes each instance's colour from `instancer` (the instances' point cloud; `chosen`: which
         of its points these K are), else the mesh's own attribute colours."""
+        name = self.data.objects[owner].name
         for part in parts:
             mat = mats[min(part.slot, len(mats) - 1)] if mats else None
             material = self.material(mat, obj)
@@ -284,11 +286,11 @@ class Builder:
                 n = len(instancer.points)
                 colors = self.attribute_colors(instancer, [mat], None, material, n, {"POINT": n}, where="INSTANCER")
                 per_instance = None if colors is None else colors[chosen]
-            mesh = MeshData(obj.name, owner, part.vertices, part.faces, material, matrices[0],
+            mesh = MeshData(name, owner, part.vertices, part.faces, material, matrices[0],
                             None if per_instance is not None else self.part_colors(me, part, mat),
                             matrices if len(matrices) > 1 or per_instance is not None else None, per_instance)
             self.data.meshes.append(mesh)
-            self.data.sources[obj.name] += len(matrices)
+            self.data.sources[name] += len(matrices)
 
     def plane(self, owner: int, m: np.ndarray, shape: MeshShape, material: int, infinite: bool) -> None:
         corner = transform_points(m, shape.corner.reshape(1, 3))[0]

@@ -50,6 +50,8 @@ MaterialData = material_dataclass(
 class ObjectData:
     """A Blender object that gave Dürer geometry (instances of one object share it)."""
 
+    #: Unique among the file's objects: Blender's `name_full`, a linked object's name followed by
+    #: its library's ("Rock [lib.blend]"), as a local object may have the same name.
     name: str
     pass_index: int  # Blender's object.pass_index (Cycles' IndexOB)
 
@@ -172,8 +174,7 @@ class SceneData:
     materials: list[MaterialData] = field(default_factory=list)
     #: Blender's material.pass_index of each of `materials` (Cycles' IndexMA; 0 without a material).
     material_pass_indices: list[int] = field(default_factory=list)
-    #: The Blender objects that gave geometry, in the order they first did (the Object ID pass
-    #: numbers them from 1 in this order).
+    #: The Blender objects that gave geometry, in the order they first did.
     objects: list[ObjectData] = field(default_factory=list)
     lights: list[LightData] = field(default_factory=list)
     camera: CameraData | None = None
@@ -181,7 +182,8 @@ class SceneData:
     ambient: tuple[float, float, float] = (0.0, 0.0, 0.0)
     #: durer.render's ambient_occlusion=(samples, distance), None when off.
     ambient_occlusion: tuple[int, float] | None = None
-    #: Number of Dürer objects (spheres, planes, meshes) each Blender object contributed, by name.
+    #: Number of Dürer objects (spheres, planes, meshes) each Blender object contributed, by its
+    #: unique name (ObjectData.name).
     sources: Counter = field(default_factory=Counter)
     #: Geometry Dürer cannot render, counted by a short description ("volume", "area light", ...).
     skipped: Counter = field(default_factory=Counter)
