@@ -54,11 +54,12 @@ class Scene:
     def add_mesh(
         self, vertices: NDArray[np.float64], faces: NDArray[np.int64], material: int,
         transform: NDArray[np.float64] | None, colors: NDArray[np.float64] | None = None,
+        normals: NDArray[np.float64] | None = None,
     ) -> int: ...
     def add_mesh_instances(
         self, vertices: NDArray[np.float64], faces: NDArray[np.int64], material: int,
         transforms: NDArray[np.float64], colors: NDArray[np.float64] | None = None,
-        instance_colors: NDArray[np.float64] | None = None,
+        instance_colors: NDArray[np.float64] | None = None, normals: NDArray[np.float64] | None = None,
     ) -> int: ...
     def add_boxes(
         self, lo: NDArray[np.float64], hi: NDArray[np.float64], materials: NDArray[np.int32],

@@ -194,14 +194,19 @@ class Scene:
         *,
         transform: ArrayLike | None = None,
         colors: ArrayLike | None = None,
+        normals: ArrayLike | None = None,
     ) -> int:
         """Add a triangle mesh as one object with one material: `vertices` (V, 3), `faces` (F, 3)
         0-based vertex indices, each face a triangle wound as in add_triangles. `colors`: the
         diffuse colour in place of the material's (as in add_spheres), (V, 3) one per vertex or
         (F, 3, 3) one per face corner (a face's own colour: the same at its three corners),
-        interpolated across each face. Returns its object id."""
-        mesh = _mesh_arguments(vertices, faces, material, colors)
-        return self._add("add_mesh", *mesh[:3], _owned(_checks.transform(transform), transform), colors=mesh[3])
+        interpolated across each face. `normals`: a smooth mesh's normals in object space, laid
+        out as `colors` (nonzero, of any length; made unit), interpolated across each face and
+        shaded and written to the normal pass in place of the face's own; rays still leave and
+        meet a face by its own normal (the winding's). Returns its object id."""
+        mesh = _mesh_arguments(vertices, faces, material, colors, normals)
+        return self._add("add_mesh", *mesh[:3], _owned(_checks.transform(transform), transform), colors=mesh[3],
+                         normals=mesh[4])
 
     def add_mesh_instances(
         self,
@@ -212,18 +217,19 @@ class Scene:
         *,
         colors: ArrayLike | None = None,
         instance_colors: ArrayLike | None = None,
+        normals: ArrayLike | None = None,
     ) -> int:
         """Add the mesh of add_mesh seen through each of `transforms` ((N, 4, 4) or (N, 3, 4)
         world-from-object matrices, each invertible): one object whose triangles and hierarchy are
         stored once and shared by its N instances (instancing a rock a hundred thousand times costs
         one rock and a hierarchy over the instances). `instance_colors` (N, 3): each instance's
-        diffuse colour, in place of the material's and of `colors`. Returns its object id, which
-        every instance's hits report."""
-        mesh = _mesh_arguments(vertices, faces, material, colors)
+        diffuse colour, in place of the material's and of `colors`. `normals`: as in add_mesh.
+        Returns its object id, which every instance's hits report."""
+        mesh = _mesh_arguments(vertices, faces, material, colors, normals)
         matrices = _checks.transforms(transforms)
         per_instance = _checks.one_of_shapes(instance_colors, "instance_colors", (matrices.shape[0], 3))
         return self._add("add_mesh_instances", *mesh[:3], _owned(matrices, transforms), colors=mesh[3],
-                         instance_colors=_owned(per_instance, instance_colors))
+                         instance_colors=_owned(per_instance, instance_colors), normals=mesh[4])
 
     def add_boxes(
         self,
@@ -438,10 +444,14 @@ def _material_ids(material: Any, n: int) -> np.ndarray:
     return _checks.integer_array(material, "material", (n,), np.int32)
 
 
-def _mesh_arguments(vertices: ArrayLike, faces: ArrayLike, material: int, colors: ArrayLike | None) -> tuple:
-    """add_mesh's vertices, faces, material and colors, checked, as the core takes them."""
+def _mesh_arguments(vertices: ArrayLike, faces: ArrayLike, material: int, colors: ArrayLike | None,
+                    normals: ArrayLike | None) -> tuple:
+    """add_mesh's vertices, faces, material, colors and normals, checked, as the core takes them."""
     given = vertices
     vertices = _checks.float_array(vertices, "vertices", (None, 3))
     face_array = _checks.integer_array(faces, "faces", ("F", 3), np.int64)  # vertex indices: the core checks them
-    color_array = _checks.one_of_shapes(colors, "colors", (vertices.shape[0], 3), (face_array.shape[0], 3, 3))
-    return _owned(vertices, given), _owned(face_array, faces), _material_id(material), _owned(color_array, colors)
+    shapes = (vertices.shape[0], 3), (face_array.shape[0], 3, 3)
+    color_array = _checks.one_of_shapes(colors, "colors", *shapes)
+    normal_array = _checks.one_of_shapes(normals, "normals", *shapes)
+    return (_owned(vertices, given), _owned(face_array, faces), _material_id(material), _owned(color_array, colors),
+            _owned(normal_array, normals))

@@ -50,17 +50,23 @@ void requireShape(const py::array& a, const char* name, std::initializer_list<py
 }
 
 // An add's optional colours, one per primitive: (count, 3); else ValueError naming `colors`.
-ColorArray colorArray(const std::optional<DoubleArray>& colors, py::ssize_t count) {
+CornerValues colorArray(const std::optional<DoubleArray>& colors, py::ssize_t count) {
   if (!colors) return {};
   requireShape(*colors, "colors", {count, 3});
   return {colors->data(), false};
 }
 
-// Triangles' colours: as colorArray, or one per corner of each of `corners` triangles, (corners, 3, 3).
-ColorArray cornerColorArray(const std::optional<DoubleArray>& colors, py::ssize_t count, py::ssize_t corners) {
-  if (!colors || colors->ndim() != 3) return colorArray(colors, count);
-  requireShape(*colors, "colors", {corners, 3, 3});
-  return {colors->data(), true};
+// Triangles' colours, or a mesh's colours or normals (`name`): one per vertex (or triangle), (count, 3),
+// or one per corner of each of `corners` triangles, (corners, 3, 3).
+CornerValues cornerValues(const std::optional<DoubleArray>& values, py::ssize_t count, py::ssize_t corners,
+                          const char* name = "colors") {
+  if (!values) return {};
+  if (values->ndim() != 3) {
+    requireShape(*values, name, {count, 3});
+    return {values->data(), false};
+  }
+  requireShape(*values, name, {corners, 3, 3});
+  return {values->data(), true};
 }
 
 // An option table's names, in its order (Options.h).
@@ -421,36 +427,40 @@ PYBIND11_MODULE(_core, m) {
             const size_t n = static_cast<size_t>(vertices.shape(0));
             const bool each = perPrimitive(materials, n);
             return s.addTriangles(vertices.data(), materials.data(), n, each, OptionalAffine(transform).get(),
-                                  cornerColorArray(colors, vertices.shape(0), vertices.shape(0)));
+                                  cornerValues(colors, vertices.shape(0), vertices.shape(0)));
           },
           py::arg("vertices"), py::arg("materials"), py::arg("transform"), py::arg("colors") = py::none())
       .def(
           "add_mesh",
           [](Scene& s, const DoubleArray& vertices, const IndexArray& faces, int32_t material,
-             const std::optional<DoubleArray>& transform, const std::optional<DoubleArray>& colors) {
+             const std::optional<DoubleArray>& transform, const std::optional<DoubleArray>& colors,
+             const std::optional<DoubleArray>& normals) {
             requireShape(vertices, "vertices", {kAny, 3});
             requireShape(faces, "faces", {kAny, 3});
             return s.addMesh(vertices.data(), static_cast<size_t>(vertices.shape(0)), faces.data(),
                              static_cast<size_t>(faces.shape(0)), material, OptionalAffine(transform).get(),
-                             cornerColorArray(colors, vertices.shape(0), faces.shape(0)));
+                             cornerValues(colors, vertices.shape(0), faces.shape(0)),
+                             cornerValues(normals, vertices.shape(0), faces.shape(0), "normals"));
           },
-          py::arg("vertices"), py::arg("faces"), py::arg("material"), py::arg("transform"), py::arg("colors") = py::none())
+          py::arg("vertices"), py::arg("faces"), py::arg("material"), py::arg("transform"), py::arg("colors") = py::none(),
+          py::arg("normals") = py::none())
       .def(
           "add_mesh_instances",
           [](Scene& s, const DoubleArray& vertices, const IndexArray& faces, int32_t material,
              const DoubleArray& transforms, const std::optional<DoubleArray>& colors,
-             const std::optional<DoubleArray>& instanceColors) {
+             const std::optional<DoubleArray>& instanceColors, const std::optional<DoubleArray>& normals) {
             requireShape(vertices, "vertices", {kAny, 3});
             requireShape(faces, "faces", {kAny, 3});
             const std::vector<Affined> maps = affines(transforms, "transforms");
             if (instanceColors) requireShape(*instanceColors, "instance_colors", {transforms.shape(0), 3});
             return s.addMeshInstances(vertices.data(), static_cast<size_t>(vertices.shape(0)), faces.data(),
                                       static_cast<size_t>(faces.shape(0)), material, maps.data(), maps.size(),
-                                      cornerColorArray(colors, vertices.shape(0), faces.shape(0)),
-                                      instanceColors ? instanceColors->data() : nullptr);
+                                      cornerValues(colors, vertices.shape(0), faces.shape(0)),
+                                      instanceColors ? instanceColors->data() : nullptr,
+                                      cornerValues(normals, vertices.shape(0), faces.shape(0), "normals"));
           },
           py::arg("vertices"), py::arg("faces"), py::arg("material"), py::arg("transforms"),
-          py::arg("colors") = py::none(), py::arg("instance_colors") = py::none())
+          py::arg("colors") = py::none(), py::arg("instance_colors") = py::none(), py::arg("normals") = py::none())
       .def(
           "add_boxes",
           [](Scene& s, const DoubleArray& lo, const DoubleArray& hi, const IdArray& materials,

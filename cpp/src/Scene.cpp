@@ -24,6 +24,16 @@ std::string sphereField(size_t i) {
 
 Vec3d vec3At(const double* p, size_t i) { return Vec3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]); }
 
+// Vector i of p, unit: a normal as a triangle's corner keeps it (checked finite and nonzero; scaled by
+// a power of two first, exactly, so that neither a huge nor a tiny one over- or underflows).
+Vec3d unitAt(const double* p, size_t i) {
+  const Vec3d v = vec3At(p, i);
+  const double largest = std::max(std::fabs(v.x), std::max(std::fabs(v.y), std::fabs(v.z)));
+  const int e = -std::ilogb(largest);
+  const Vec3d scaled(std::scalbn(v.x, e), std::scalbn(v.y, e), std::scalbn(v.z, e));
+  return scaled / glm::length(scaled);
+}
+
 // The `count` colours of an add (count x 3 doubles, or none if null) finite, >= 0 and within the
 // colour limit; else an error naming colour i as field(i).
 template <typename Field>
@@ -36,6 +46,17 @@ void requireColors(const double* values, size_t count, const Field& field) {
     if (!(c.x >= 0 && c.y >= 0 && c.z >= 0 && c.x <= limit && c.y <= limit && c.z <= limit)) {
       requireNonNegativeColor(c, field(i));
     }
+  }
+}
+
+// A mesh's `count` normals finite and nonzero; else an error naming normal i as field(i).
+template <typename Field>
+void requireNormals(const double* values, size_t count, const Field& field) {
+  if (!values) return;
+  for (size_t i = 0; i < count; ++i) {
+    const Vec3d n = vec3At(values, i);
+    if (!(std::isfinite(n.x) && std::isfinite(n.y) && std::isfinite(n.z))) requireFinite(n, field(i));
+    if (n == Vec3d(0)) fail(field(i) + " = (0, 0, 0) has no direction: a normal must be nonzero");
   }
 }
 
@@ -182,7 +203,7 @@ std::pair<size_t, double> requireSpheres(const double* centers, const double* ra
 }  // namespace
 
 int32_t Scene::addSpheres(const double* centers, const double* radii, const int32_t* materials, size_t count,
-                          bool perSphere, const Affined* worldFromObject, const ColorArray& colors) {
+                          bool perSphere, const Affined* worldFromObject, const CornerValues& colors) {
   // Validate everything before changing anything.
   requireTransform(worldFromObject);
   const auto [farthest, reach] = requireSpheres(centers, radii, count);
@@ -344,7 +365,7 @@ size_t farthestPoint(size_t count, const Point& point, const Field& field) {
 }  // namespace
 
 int32_t Scene::addTriangles(const double* vertices, const int32_t* materials, size_t count, bool perTriangle,
-                            const Affined* worldFromObject, const ColorArray& colors) {
+                            const Affined* worldFromObject, const CornerValues& colors) {
   requireTransform(worldFromObject);
   const auto field = [](size_t i) { return "vertices[" + std::to_string(i / 3) + "][" + std::to_string(i % 3) + "]"; };
   for (size_t i = 0; i < 3 * count; ++i) {
@@ -380,7 +401,7 @@ int32_t Scene::addTriangles(const double* vertices, const int32_t* materials, si
 }
 
 Scene::Reach Scene::requireMesh(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount,
-                                int32_t material, const ColorArray& colors) const {
+                                int32_t material, const CornerValues& colors, const CornerValues& normals) const {
   const auto field = [](size_t i) { return "vertices[" + std::to_string(i) + "]"; };
   for (size_t i = 0; i < vertexCount; ++i) {
     const Vec3d v = vec3At(vertices, i);
@@ -399,11 +420,18 @@ Scene::Reach Scene::requireMesh(const double* vertices, size_t vertexCount, cons
   } else {
     requireColors(colors.values, vertexCount, colorField);
   }
+  if (normals.perCorner) {
+    requireNormals(normals.values, 3 * faceCount, [](size_t i) {
+      return "normals[" + std::to_string(i / 3) + "][" + std::to_string(i % 3) + "]";
+    });
+  } else {
+    requireNormals(normals.values, vertexCount, [](size_t i) { return "normals[" + std::to_string(i) + "]"; });
+  }
   return requireReach(vertexCount ? maxAbs(vec3At(vertices, farthest)) : 0, field(farthest), nullptr);
 }
 
 void Scene::addMeshTo(TriangleSet<double>& triangles, const double* vertices, const int64_t* faces, size_t faceCount,
-                      int32_t material, int32_t id, const ColorArray& colors) {
+                      int32_t material, int32_t id, const CornerValues& colors, const CornerValues& normals) {
   const bool given = colors.values && faceCount;
   prepareColors(triangles, given);
   triangles.reserve(triangles.size() + faceCount);
@@ -417,28 +445,35 @@ void Scene::addMeshTo(TriangleSet<double>& triangles, const double* vertices, co
     };
     addTo(triangles, makeTriangle(vec3At(vertices, v0), vec3At(vertices, v1), vec3At(vertices, v2)), material, id,
           given, colorsOf);
+    if (normals.values) {
+      const double* n = normals.values;
+      triangles.smoothLast(normals.perCorner
+                               ? TriangleSet<double>::Normals{unitAt(n, 3 * f), unitAt(n, 3 * f + 1), unitAt(n, 3 * f + 2)}
+                               : TriangleSet<double>::Normals{unitAt(n, v0), unitAt(n, v1), unitAt(n, v2)});
+    }
   }
 }
 
 int32_t Scene::addMesh(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount,
-                       int32_t material, const Affined* worldFromObject, const ColorArray& colors) {
+                       int32_t material, const Affined* worldFromObject, const CornerValues& colors,
+                       const CornerValues& normals) {
   requireTransform(worldFromObject);
-  const Reach mesh = requireMesh(vertices, vertexCount, faces, faceCount, material, colors);
+  const Reach mesh = requireMesh(vertices, vertexCount, faces, faceCount, material, colors, normals);
   requirePrimitiveRoom(faceCount);
   const Reach placed = requireReach(mesh.magnitude, mesh.field, worldFromObject);
   const int32_t id = takeObjectIds(1);
   const auto lock = changeGeometry();
-  addMeshTo(groupFor(worldFromObject).triangles(), vertices, faces, faceCount, material, id, colors);
+  addMeshTo(groupFor(worldFromObject).triangles(), vertices, faces, faceCount, material, id, colors, normals);
   noteReach(placed);
   return id;
 }
 
 int32_t Scene::addMeshInstances(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount,
                                 int32_t material, const Affined* worldFromObject, size_t count,
-                                const ColorArray& colors, const double* instanceColors) {
+                                const CornerValues& colors, const double* instanceColors, const CornerValues& normals) {
   if (count == 0) fail("transforms must hold at least one matrix");
   for (size_t i = 0; i < count; ++i) requireTransform(&worldFromObject[i], "transforms[" + std::to_string(i) + "]");
-  const Reach mesh = requireMesh(vertices, vertexCount, faces, faceCount, material, colors);
+  const Reach mesh = requireMesh(vertices, vertexCount, faces, faceCount, material, colors, normals);
   requireColors(instanceColors, count, [](size_t i) { return "instance_colors[" + std::to_string(i) + "]"; });
   if (faceCount > 0 && count > static_cast<size_t>(std::numeric_limits<int32_t>::max()) / faceCount) {
     fail("the scene cannot hold more than 2^31 - 1 primitives");
@@ -452,7 +487,7 @@ int32_t Scene::addMeshInstances(const double* vertices, size_t vertexCount, cons
   const int32_t id = takeObjectIds(1);
   const auto lock = changeGeometry();
   auto shared = std::make_shared<Group<double>>();
-  addMeshTo(shared->triangles(), vertices, faces, faceCount, material, id, colors);
+  addMeshTo(shared->triangles(), vertices, faces, faceCount, material, id, colors, normals);
   for (size_t i = 0; i < count; ++i) {
     const Vec3d color = instanceColors ? vec3At(instanceColors, i) : Vec3d(0);
     m_group.addInstance(worldFromObject[i], inverse(worldFromObject[i]), shared, instanceColors ? &color : nullptr);
@@ -463,7 +498,7 @@ int32_t Scene::addMeshInstances(const double* vertices, size_t vertexCount, cons
 }
 
 int32_t Scene::addBoxes(const double* lo, const double* hi, const int32_t* materials, size_t count, bool perBox,
-                        const Affined* worldFromObject, const ColorArray& colors) {
+                        const Affined* worldFromObject, const CornerValues& colors) {
   requireTransform(worldFromObject);
   for (size_t i = 0; i < count; ++i) {
     const Vec3d a = vec3At(lo, i), b = vec3At(hi, i);

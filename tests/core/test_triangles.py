@@ -290,3 +290,118 @@ def test_rays_passing_far_from_tiny_far_triangles_all_miss(rng, precision):
     hit = durer.cast(scene, origins[far], directions[far], t_min=-math.inf, precision=precision)
     assert far.sum() > 39000
     assert (hit.object_id == -1).all(), f"{(hit.object_id != -1).sum()} rays hit a triangle more than a unit away"
+
+
+def _barycentric_rays(triangle: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rays straight down onto points of `triangle` (in a z = const plane) at barycentric `weights`."""
+    targets = weights @ triangle
+    return targets + [0, 0, 5], np.broadcast_to([0.0, 0.0, -1.0], targets.shape)
+
+
+@pytest.mark.parametrize("per_corner", [False, True])
+def test_a_smooth_triangle_interpolates_its_corners_normals(rng, precision, per_corner):
+    """The normal at a hit is the corners' normals (made unit) weighted by its barycentrics, made
+    unit; the hit's t and ids are the flat triangle's."""
+    triangle = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0]], float)
+    normals = np.array([[0.3, 0.1, 1], [-0.2, 0.4, 2], [0.1, -0.5, 0.5]])
+    scene = durer.Scene()
+    given = normals[None] if per_corner else normals
+    scene.add_mesh(triangle, [[0, 1, 2]], normals=given)
+    weights = rng.dirichlet((1, 1, 1), 200)
+    origins, directions = _barycentric_rays(triangle, weights)
+    hit = durer.cast(scene, origins, directions, precision=precision)
+    unit = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    expected = weights @ unit
+    expected /= np.linalg.norm(expected, axis=1, keepdims=True)
+    tolerance = 1e-13 if precision == "double" else 2e-6
+    np.testing.assert_allclose(hit.normal, expected, atol=tolerance)
+    flat = durer.Scene()
+    flat.add_mesh(triangle, [[0, 1, 2]])
+    flat_hit = durer.cast(flat, origins, directions, precision=precision)
+    np.testing.assert_array_equal(flat_hit.normal, [[0, 0, 1]] * 200)
+    np.testing.assert_array_equal(hit.t, flat_hit.t)
+    np.testing.assert_allclose(hit.t, 5.0, rtol=1e-6)
+    assert (hit.object_id == 0).all()
+
+
+def test_a_smooth_icosphere_shades_as_the_sphere_it_approximates():
+    """An icosphere whose vertex normals are the sphere's: its normal pass within a few degrees of
+    the exact sphere's where the faceted mesh is off by up to its facets' angle, and so is its
+    Lambert shading; flat triangles added before and after keep their own normals."""
+    vertices, faces = icosphere(2)
+    camera = durer.OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0), 2.2)
+    error = {}
+    for smooth in (False, True):
+        scene = durer.Scene()
+        scene.add_triangles([[[-9, -9, -3], [9, -9, -3], [0, 9, -3]]])
+        scene.add_mesh(vertices, faces, normals=vertices if smooth else None)
+        scene.add_triangles([[[-9, -9, -4], [9, -9, -4], [0, 9, -4]]])
+        result = durer.render(scene, camera, 64, 64, passes=("depth", "normal"))
+        on_ball = result.depth < 4.5
+        exact = np.zeros(on_ball.shape + (3,))
+        ys, xs = np.nonzero(on_ball)
+        px = (xs + 0.5) / 64 * 2.2 - 1.1
+        py = 1.1 - (ys + 0.5) / 64 * 2.2
+        hit = np.stack([px, py, 5 - result.depth[on_ball]], axis=1)
+        exact[on_ball] = hit / np.linalg.norm(hit, axis=1, keepdims=True)
+        cosine = np.clip(np.sum(result.normal[on_ball] * exact[on_ball], axis=1), -1, 1)
+        error[smooth] = np.degrees(np.arccos(cosine))
+        floor = (result.depth > 7.5) & (result.depth < 8.5)
+        assert floor.sum() > 100
+        np.testing.assert_array_equal(result.normal[floor], [[0, 0, 1]] * floor.sum())
+    assert error[False].max() > 10 and np.median(error[False]) > 3
+    assert error[True].max() < 2.5 and np.median(error[True]) < 0.5
+
+
+def test_a_smooth_mesh_s_instances_turn_its_normals():
+    """add_mesh_instances with normals: each instance's normals turned by its matrix (its inverse
+    transpose), made unit."""
+    triangle = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0]], float)
+    normals = np.array([[0.3, 0.1, 1], [0.3, 0.1, 1], [0.3, 0.1, 1]])
+    turn = np.array([[0, -1, 0, 10], [1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], float)  # 90° about z, moved
+    squash = np.diag([1.0, 1.0, 4.0, 1.0])
+    scene = durer.Scene()
+    scene.add_mesh_instances(triangle, [[0, 1, 2]], [turn, squash], normals=normals)
+    hit = durer.cast(scene, [[9.5, 0.5, 5], [0.5, 0.5, 50]], [[0, 0, -1], [0, 0, -1]])
+    assert (hit.object_id == 0).all()
+    n = normals[0] / np.linalg.norm(normals[0])
+    turned = turn[:3, :3] @ n
+    squashed = np.linalg.inv(squash[:3, :3]).T @ n
+    np.testing.assert_allclose(hit.normal, [turned, squashed / np.linalg.norm(squashed)], atol=1e-14)
+
+
+def test_light_on_a_smooth_mesh_leaves_by_its_own_faces():
+    """A flat floor whose corner normals lean, lit from just below its plane but above its leaning
+    normals' horizon: shaded by the leaning normals and lit, as Cycles lights it, because its shadow
+    rays leave by the faces' own side (offset along the leaning normal, every ray started above the
+    floor and met it: all black)."""
+    floor = np.array([[-4, -4, 0], [4, -4, 0], [4, 4, 0], [-4, 4, 0]], float)
+    faces = np.array([[0, 1, 2], [0, 2, 3]])
+    lean = np.array([[0.9, 0, 1], [0.9, 0, 1], [0.9, 0, 1], [0.9, 0, 1]])
+    scene = durer.Scene()
+    scene.add_mesh(floor, faces, scene.add_material((1, 1, 1)), normals=lean)
+    light = np.array([-1.0, 0.0, 0.2])  # the direction light travels: toward the light is (1, 0, -0.2)
+    scene.add_directional_light(light, (1, 1, 1), shadows=True)
+    camera = durer.OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0), 6)
+    result = durer.render(scene, camera, 48, 48, passes=("color", "normal"))
+    n = lean[0] / np.linalg.norm(lean[0])
+    np.testing.assert_allclose(result.normal.reshape(-1, 3), [n] * 48 * 48, atol=1e-6)
+    expected = float(n @ -light / np.linalg.norm(light))
+    assert expected > 0.4
+    np.testing.assert_allclose(result.color[..., :3], expected, rtol=1e-5)
+    assert result.stats["shadow_rays"] == 48 * 48
+
+
+def test_bad_normals_name_the_argument():
+    scene = durer.Scene()
+    triangle, face = [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]]
+    with pytest.raises(ValueError, match=r"normals\[1\] = \(0, 0, 0\) has no direction"):
+        scene.add_mesh(triangle, face, normals=[[0, 0, 1], [0, 0, 0], [0, 0, 1]])
+    with pytest.raises(ValueError, match=r"normals\[0\]\[2\] must be finite"):
+        scene.add_mesh(triangle, face, normals=[[[0, 0, 1], [0, 0, 1], [0, np.nan, 1]]])
+    with pytest.raises(ValueError, match=r"normals must have shape \(3, 3\) or \(1, 3, 3\)"):
+        scene.add_mesh(triangle, face, normals=[[0, 0, 1]])
+    assert scene.triangle_count == 0
+    scene.add_mesh(triangle, face, normals=[[0, 0, 1e-300], [0, 0, 1e300], [5e-324, 0, 0]])  # any length
+    hit = durer.cast(scene, [[0.0, 0.0, 1.0]], [[0.0, 0.0, -1.0]])
+    np.testing.assert_array_equal(hit.normal, [[0, 0, 1]])

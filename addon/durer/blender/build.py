@@ -63,10 +63,10 @@ def make_scene(data: SceneData) -> durer.Scene:
     for mesh in data.meshes:
         if mesh.instances is not None:
             scene.add_mesh_instances(mesh.vertices, mesh.faces, mesh.instances, material=int(table[mesh.material]),
-                                     colors=mesh.colors, instance_colors=mesh.instance_colors)
+                                     colors=mesh.colors, instance_colors=mesh.instance_colors, normals=mesh.normals)
         else:
             scene.add_mesh(mesh.vertices, mesh.faces, material=int(table[mesh.material]), transform=mesh.transform,
-                           colors=mesh.colors)
+                           colors=mesh.colors, normals=mesh.normals)
     for light in data.lights:
         attenuation = light.attenuation
         if light.kind == "sun":

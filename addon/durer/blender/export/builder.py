@@ -256,7 +256,7 @@ class Builder:
             material = self.material(mat, obj)
             colors = self.part_colors(me, part, mat)
             self.data.sources[name] += 1
-            if flat:  # the core needs an invertible transform: a mesh scaled flat goes in world space
+            if flat:  # the core needs an invertible transform: a mesh scaled flat goes in world space, flat
                 vertices = transform_points(m, part.vertices.astype(np.float64))
                 self.data.meshes.append(MeshData(name, owner, vertices, part.faces, material, IDENTITY, colors))
                 continue
@@ -264,7 +264,7 @@ class Builder:
             if key in self.instanced:
                 self.instanced[key][1].append(m)
                 continue
-            mesh = MeshData(name, owner, part.vertices, part.faces, material, m, colors)
+            mesh = MeshData(name, owner, part.vertices, part.faces, material, m, colors, normals=part.normals)
             self.data.meshes.append(mesh)
             self.instanced[key] = (mesh, [m])
 
@@ -288,7 +288,8 @@ class Builder:
                 per_instance = None if colors is None else colors[chosen]
             mesh = MeshData(name, owner, part.vertices, part.faces, material, matrices[0],
                             None if per_instance is not None else self.part_colors(me, part, mat),
-                            matrices if len(matrices) > 1 or per_instance is not None else None, per_instance)
+                            matrices if len(matrices) > 1 or per_instance is not None else None, per_instance,
+                            part.normals)
             self.data.meshes.append(mesh)
             self.data.sources[name] += len(matrices)
 

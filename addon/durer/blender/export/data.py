@@ -97,6 +97,8 @@ class MeshData:
     instances: np.ndarray | None = None
     #: (K, 3) kd of each instance (geometry-nodes instance attributes), in place of `colors`; or None.
     instance_colors: np.ndarray | None = None
+    #: (F, 3, 3) each face's normals at its corners, object space (a smooth mesh); None: flat faces.
+    normals: np.ndarray | None = None
 
     @property
     def transform(self) -> np.ndarray | None:

@@ -22,6 +22,9 @@ class TrianglePart:
     corners: np.ndarray  # (F, 3) int32 the mesh's corner (loop) of each face's vertices
     vertex_ids: np.ndarray | None = None  # (V,) the mesh's vertex of each of `vertices` (None: the same)
     triangles: np.ndarray | None = None  # (F,) the mesh's loop triangle of each face (None: the same)
+    #: (F, 3, 3) float32 each face's normals at its corners, as Blender shades them (smooth faces,
+    #: sharp edges, custom normals); None when every face of the mesh is flat (its own normal).
+    normals: np.ndarray | None = None
 
 
 def mesh_triangles(me) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -77,16 +80,27 @@ def face_slots(me, slot_count: int) -> np.ndarray:
     return np.zeros(len(me.polygons), np.int32) if slots is None else clamp_slots(slots, slot_count)
 
 
+def corner_normals(me) -> np.ndarray | None:
+    """(L, 3) float32 the normal Blender shades each corner (loop) of mesh `me` with, or None when
+    its normals are its faces' own (no smooth face, no custom normals)."""
+    if me.normals_domain == "FACE":
+        return None
+    normals = np.empty(len(me.loops) * 3, np.float32)
+    me.corner_normals.foreach_get("vector", normals)
+    return normals.reshape(-1, 3)
+
+
 def split_by_slot(vertices: np.ndarray, faces: np.ndarray, slots: np.ndarray, slot_count: int,
-                  corners: np.ndarray) -> list[TrianglePart]:
-    """One part per material slot the faces use (`clamp_slots`), in slot order. A part of a split
-    mesh keeps only the vertices its faces use."""
+                  corners: np.ndarray, normals: np.ndarray | None = None) -> list[TrianglePart]:
+    """One part per material slot the faces use (`clamp_slots`), in slot order, with the faces'
+    corner normals if the mesh has some (`normals`, per corner). A part of a split mesh keeps only
+    the vertices its faces use."""
     if len(faces) == 0:
         return []
     slots = clamp_slots(slots, slot_count)
     used = np.flatnonzero(np.bincount(slots))  # linear in the face count, unlike np.unique's sort
     if len(used) == 1:
-        return [TrianglePart(int(used[0]), vertices, faces, corners)]
+        return [TrianglePart(int(used[0]), vertices, faces, corners, normals=_of(normals, corners))]
     parts = []
     for slot in used:
         chosen = slots == slot
@@ -97,11 +111,15 @@ def split_by_slot(vertices: np.ndarray, faces: np.ndarray, slots: np.ndarray, sl
         uses[part] = True
         number = np.cumsum(uses, dtype=np.int32) - 1
         parts.append(TrianglePart(int(slot), vertices[uses], number[part], corners[chosen], np.flatnonzero(uses),
-                                  np.flatnonzero(chosen)))
+                                  np.flatnonzero(chosen), _of(normals, corners[chosen])))
     return parts
+
+
+def _of(normals: np.ndarray | None, corners: np.ndarray) -> np.ndarray | None:
+    return None if normals is None else normals[corners]
 
 
 def triangle_parts(me, slot_count: int) -> list[TrianglePart]:
     """`split_by_slot` of `mesh_triangles(me)`: [] for a mesh without faces."""
     vertices, faces, slots, corners = mesh_triangles(me)
-    return split_by_slot(vertices, faces, slots, slot_count, corners)
+    return split_by_slot(vertices, faces, slots, slot_count, corners, corner_normals(me) if len(faces) else None)

@@ -78,6 +78,7 @@ class BoxSet : public PrimitiveSet<Box<Real>, Real> {
     h.t = t;
     h.normal = Vec3<Real>(0);
     h.normal[axis] = q[axis] < 0 ? Real(-1) : Real(1);
+    h.geometricNormal = h.normal;
     p[axis] = q[axis] < 0 ? b.lo[axis] : b.hi[axis];
     h.point = p;
     // The other two coordinates carry t's error: a few roundings of |o| + |t·d| each.

@@ -372,11 +372,17 @@ class Group {
     local.prim[0] = packet.prim[k] - inst.primBase;
     Hit<Real> h = inst.child->hitOwn(local, 0);
     if (inst.colored) h.colored = true, h.color = inst.color;
-    const Vec3<Real> n = wellScaled(inst.objectFromWorld.transposed(h.normal), h.normal);
-    h.normal = n / glm::length(n);
+    const bool smooth = h.normal != h.geometricNormal;
+    h.normal = worldNormal(inst, h.normal);
+    h.geometricNormal = smooth ? worldNormal(inst, h.geometricNormal) : h.normal;
     h.pointError = inst.worldFromObject.pointError(h.point, h.pointError);
     h.point = inst.worldFromObject.point(h.point);
     return h;
+  }
+
+  static Vec3<Real> worldNormal(const Instance<Real>& inst, const Vec3<Real>& normal) {
+    const Vec3<Real> n = wellScaled(inst.objectFromWorld.transposed(normal), normal);
+    return n / glm::length(n);
   }
 
   // The world-space box of everything in this group seen through worldFromObject; false (no

@@ -67,7 +67,7 @@ class PlaneSet : public PrimitiveSet<Plane<Real>, Real> {
                        packet.oz[k] + t * packet.dz[k]);
     Hit<Real> h;
     h.t = t;
-    h.normal = pl.normal;
+    h.normal = h.geometricNormal = pl.normal;
     // One projection step back onto the plane, measured from its point: the error is then a few
     // roundings of the coordinates' magnitude, whatever t's error was.
     h.point = p - glm::dot(pl.normal, p - pl.point) * pl.normal;

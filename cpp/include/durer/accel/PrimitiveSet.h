@@ -36,6 +36,8 @@ class PrimitiveSet {
  public:
   // A primitive's colour at each of its corners: linear RGB, its kd in place of its material's.
   using Colors = std::array<Vec3<Real>, kCorners>;
+  // A smooth primitive's unit normal at each of its corners (TriangleSet).
+  using Normals = std::array<Vec3<Real>, kCorners>;
 
   void add(const Prim& primitive, int32_t material, int32_t objectId) {
     m_primitives.push_back(primitive);
@@ -52,6 +54,7 @@ class PrimitiveSet {
     m_materials.reserve(n);
     m_objectIds.reserve(n);
     if (colored()) m_colors.reserve(n);
+    if (smooth()) m_normals.reserve(n);
   }
   size_t size() const { return m_primitives.size(); }
   const Prim& primitive(size_t i) const { return m_primitives[i]; }
@@ -60,6 +63,10 @@ class PrimitiveSet {
   // Whether the primitives carry colours: none do until an add gives some, and then all do.
   bool colored() const { return !m_colors.empty(); }
   const std::vector<Colors>& colors() const { return m_colors; }  // of primitive i; empty unless colored()
+  // Whether the primitives carry normals at their corners: none do until an add gives some, and
+  // then all do (TriangleSet gives the others their own normal at every corner).
+  bool smooth() const { return !m_normals.empty(); }
+  const std::vector<Normals>& normals() const { return m_normals; }  // of primitive i; empty unless smooth()
 
   // Asks for what the hit record of primitive `index` reads (the primitive, its ids and colour),
   // ahead of making it: a hit found through copies of the primitives (SphereGrid's records) finds
@@ -70,6 +77,7 @@ class PrimitiveSet {
     __builtin_prefetch(&m_objectIds[index]);
     __builtin_prefetch(&m_materials[index]);
     if (colored()) __builtin_prefetch(&m_colors[index]);
+    if (smooth()) __builtin_prefetch(&m_normals[index]);
   }
 
   // Makes the set colored(): each primitive already in it takes kdOf(its material id) at every corner.
@@ -99,6 +107,12 @@ class PrimitiveSet {
       for (int c = 0; c < kCorners; ++c) converted[c] = toReal<Real>(colors[c]);
       m_colors.push_back(converted);
     }
+    m_normals.reserve(other.normals().size());
+    for (const auto& normals : other.normals()) {
+      Normals converted;
+      for (int c = 0; c < kCorners; ++c) converted[c] = toReal<Real>(normals[c]);
+      m_normals.push_back(converted);
+    }
   }
 
   // Builds the hierarchy over the primitives' boxes boxOf(primitive, lo, hi) on up to `threads`
@@ -115,6 +129,7 @@ class PrimitiveSet {
     permute(m_materials, order, threads);
     permute(m_objectIds, order, threads);
     if (colored()) permute(m_colors, order, threads);
+    if (smooth()) permute(m_normals, order, threads);
     if (m_sourceIndex.empty()) {
       m_sourceIndex = order;
     } else {
@@ -209,6 +224,7 @@ class PrimitiveSet {
   }
 
   std::vector<Prim> m_primitives;
+  std::vector<Normals> m_normals;  // empty, or one entry per primitive
 
  private:
   template <typename T>

@@ -555,7 +555,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     const Vec3<Real> c = this->m_primitives[index].center;
     Hit<Real> h;
     h.t = packet.tHit[k];
-    h.normal = normal(packet, k, index);
+    h.normal = h.geometricNormal = normal(packet, k, index);
     // Reprojection onto the sphere (pbrt-v4): the point's error no longer depends on t's error.
     h.point = c + this->m_primitives[index].radius * h.normal;
     h.pointError = errorGamma<Real>(6) * (absolute(h.point - c) + absolute(c));

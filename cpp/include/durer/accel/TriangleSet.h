@@ -81,6 +81,8 @@ DURER_INLINE Real edgeFunction(Real ax, Real ay, Real bx, Real by) {
 
 template <typename Real>
 class TriangleSet : public PrimitiveSet<Triangle<Real>, Real, 3> {
+  using Base = PrimitiveSet<Triangle<Real>, Real, 3>;
+
  public:
   TriangleSet() = default;
   template <typename Other>
@@ -88,6 +90,25 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real, 3> {
     this->convertFrom(other, [](const Triangle<Other>& t) {
       return Triangle<Real>{toReal<Real>(t.v0), toReal<Real>(t.v1), toReal<Real>(t.v2), toReal<Real>(t.normal)};
     });
+  }
+
+  // A triangle, with its own normal at its corners if the set is smooth().
+  void add(const Triangle<Real>& tri, int32_t material, int32_t objectId) {
+    Base::add(tri, material, objectId);
+    if (this->smooth()) this->m_normals.push_back(flatNormals(tri));
+  }
+  void add(const Triangle<Real>& tri, int32_t material, int32_t objectId, const typename Base::Colors& colors) {
+    Base::add(tri, material, objectId, colors);
+    if (this->smooth()) this->m_normals.push_back(flatNormals(tri));
+  }
+  // The last triangle added is smooth: `normals` (unit) at v0, v1, v2. The first makes the set
+  // smooth(), every triangle before it flat.
+  void smoothLast(const typename Base::Normals& normals) {
+    if (!this->smooth()) {
+      this->m_normals.reserve(this->m_primitives.capacity());
+      for (const Triangle<Real>& tri : this->m_primitives) this->m_normals.push_back(flatNormals(tri));
+    }
+    this->m_normals.back() = normals;
   }
 
   // The hierarchy over the triangles' boxes, each grown by γ₁₆ of its largest extent and rounded
@@ -154,7 +175,8 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real, 3> {
     const Vec3<Real> p0 = b0 * tri.v0, p1 = b1 * tri.v1, p2 = b2 * tri.v2;
     Hit<Real> out;
     out.t = packet.tHit[k];
-    out.normal = tri.normal;
+    out.geometricNormal = tri.normal;
+    out.normal = this->smooth() ? smoothNormal(this->normals()[index], b0, b1, b2, tri.normal) : tri.normal;
     out.point = p0 + p1 + p2;
     out.pointError = errorGamma<Real>(7) * (absolute(p0) + absolute(p1) + absolute(p2));
     this->recordIds(out, index);
@@ -224,12 +246,19 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real, 3> {
     return std::min(p, std::min(q, r)) <= slack && std::max(p, std::max(q, r)) >= -slack;
   }
 
+  // The corners' normals interpolated by barycentrics b0, b1, b2, unit; the face's normal where
+  // they cancel (opposite normals at the corners).
+  static Vec3<Real> smoothNormal(const typename Base::Normals& n, Real b0, Real b1, Real b2, const Vec3<Real>& face) {
+    const Vec3<Real> sum = b0 * n[0] + b1 * n[1] + b2 * n[2];
+    const Real length = glm::length(sum);
+    return length > 0 && length < std::numeric_limits<Real>::infinity() ? sum / length : face;
+  }
+
+  static typename Base::Normals flatNormals(const Triangle<Real>& tri) { return {tri.normal, tri.normal, tri.normal}; }
+
   DURER_INLINE static Real max3(Real p, Real q, Real r) {
     return std::max(std::fabs(p), std::max(std::fabs(q), std::fabs(r)));
   }
-
- private:
-  using Base = PrimitiveSet<Triangle<Real>, Real, 3>;
 };
 
 }  // namespace durer

@@ -13,6 +13,10 @@ template <typename Real>
 struct Hit {
   Real t = std::numeric_limits<Real>::infinity();  // ray parameter, in units of the ray direction; inf on a miss
   Vec3<Real> normal{0};                            // unit, world space; sphere: outward; plane: as given; 0 on a miss
+  // Unit, world space: the surface's own normal, along which rays leaving it are offset and which
+  // decides the side a ray meets. `normal` but on a smooth triangle, whose `normal` (the one shaded
+  // and written to the Normal pass) interpolates its corners' normals.
+  Vec3<Real> geometricNormal{0};
   Vec3<Real> point{0};                             // world space, projected back onto the surface
   Vec3<Real> pointError{0};                        // per-component bound on |point - exact hit point| (RayOffset.h)
   int32_t objectId = -1;                           // id returned when the object was added; -1 on a miss
@@ -54,6 +58,12 @@ Real facingSign(Real directionDotNormal, bool shadeBack) {
 template <typename Real>
 Vec3<Real> shadingNormal(const Vec3<Real>& normal, const Vec3<Real>& direction, bool shadeBack) {
   return facingSign(glm::dot(direction, normal), shadeBack) * normal;
+}
+
+// A hit's normal on the side facingSign gives, the side decided by the surface's own normal.
+template <typename Real>
+Vec3<Real> shadingNormal(const Hit<Real>& hit, const Vec3<Real>& direction, bool shadeBack) {
+  return facingSign(glm::dot(direction, hit.geometricNormal), shadeBack) * hit.normal;
 }
 
 }  // namespace durer

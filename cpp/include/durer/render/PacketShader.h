@@ -63,7 +63,7 @@ class PacketShader {
 
   // The shading normal of a hit (Hit.h decides the side).
   Vec3<Real> shadingNormal(const Hit<Real>& hit, const Vec3<Real>& direction) const {
-    return durer::shadingNormal(hit.normal, direction, m_limits.shadeBack);
+    return durer::shadingNormal(hit, direction, m_limits.shadeBack);
   }
 
   // rgb[k] = the colour ray k of `packet` sees (its search done, hits[k] its hit records); depth:
@@ -148,7 +148,7 @@ class PacketShader {
           continue;
         }
         const int j = shadow.count++;
-        const Vec3<Real> origin = offsetRayOrigin(h.point, h.normal, h.pointError, toLight);
+        const Vec3<Real> origin = offsetRayOrigin(h.point, h.geometricNormal, h.pointError, toLight);
         const Vec3<Real> toward = light.shadowDirection(origin);
         shadow.ox[j] = origin.x, shadow.oy[j] = origin.y, shadow.oz[j] = origin.z;
         shadow.dx[j] = toward.x, shadow.dy[j] = toward.y, shadow.dz[j] = toward.z;
@@ -219,7 +219,7 @@ class PacketShader {
         cosineHemisphere(u, v, x, y, z);
         const Vec3<Real> w = static_cast<Real>(x) * tangent[j] + static_cast<Real>(y) * bitangent[j] +
                              static_cast<Real>(z) * normal[j];
-        const Vec3<Real> origin = offsetRayOrigin(h.point, h.normal, h.pointError, w);
+        const Vec3<Real> origin = offsetRayOrigin(h.point, h.geometricNormal, h.pointError, w);
         rays.ox[j] = origin.x, rays.oy[j] = origin.y, rays.oz[j] = origin.z;
         rays.dx[j] = w.x, rays.dy[j] = w.y, rays.dz[j] = w.z;
       }
@@ -292,7 +292,7 @@ class PacketShader {
       const bool transparent = m_effects.refraction && maxComponent(m.transparent) > 0;
       if (reflective && spawnable(weights[k] * maxComponent(m.reflective), depth, counters)) {
         const Vec3<Real> r = glm::reflect(d, n);  // the same for n and -n
-        children[count++] = {offsetRayOrigin(hits[k].point, n, hits[k].pointError, r), r, k, m.reflective,
+        children[count++] = {offsetRayOrigin(hits[k].point, hits[k].geometricNormal, hits[k].pointError, r), r, k, m.reflective,
                              weights[k] * maxComponent(m.reflective)};
         ++counters.reflection;
       }
@@ -302,7 +302,7 @@ class PacketShader {
           t = glm::reflect(d, n);
           ++counters.totalInternalReflections;
         }
-        children[count++] = {offsetRayOrigin(hits[k].point, n, hits[k].pointError, t), t, k, m.transparent,
+        children[count++] = {offsetRayOrigin(hits[k].point, hits[k].geometricNormal, hits[k].pointError, t), t, k, m.transparent,
                              weights[k] * maxComponent(m.transparent)};
         ++counters.refraction;
       }

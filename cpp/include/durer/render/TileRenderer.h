@@ -503,7 +503,7 @@ class TileRenderer {
     for (int k = 0; k < packet.count; ++k) {
       if (packet.prim[k] < ownEnd) continue;
       const Vec3<Real> n =
-          shadingNormal(m_group.hit(packet, k).normal, Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]), m_shadeBack);
+          shadingNormal(m_group.hit(packet, k), Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]), m_shadeBack);
       acc.addNormal(k, packet.tHit[k], packet.prim[k], n.x, n.y, n.z);
     }
   }

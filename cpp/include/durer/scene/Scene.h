@@ -21,12 +21,13 @@ struct PlaneBounds {
   Vec3d edge2;   // in the plane, not parallel to edge1
 };
 
-// Colours given with a geometry add: each primitive's kd (linear RGB; finite, >= 0, each channel within
-// the colour limit) in place of its material's, lit or flat. Null values: the materials' kd.
-struct ColorArray {
+// Vectors given with a geometry add, or none (null values). Colours: each primitive's kd (linear
+// RGB; finite, >= 0, each channel within the colour limit) in place of its material's, lit or flat.
+// A mesh's normals: its smooth normals (finite, nonzero, of any length), in object space.
+struct CornerValues {
   const double* values = nullptr;
-  // Triangles: three colours per triangle (at v0, v1, v2, interpolated across it) rather than one. A
-  // mesh: three per face (its corners) rather than one per vertex (shared by the faces that use it).
+  // Triangles: three per triangle (at v0, v1, v2, interpolated across it) rather than one. A mesh:
+  // three per face (its corners) rather than one per vertex (shared by the faces that use it).
   bool perCorner = false;
 };
 
@@ -43,12 +44,12 @@ class Scene {
   // an invertible affine map puts them in the transformed group of that map (see Instance in Group.h).
   // Object ids are returned for the first object; the others follow consecutively.
 
-  // Every add but addPlane takes colors (ColorArray): count x 3 doubles (spheres, boxes, triangles),
+  // Every add but addPlane takes colors (CornerValues): count x 3 doubles (spheres, boxes, triangles),
   // count x 3 x 3 (triangles per corner), vertexCount x 3 or faceCount x 3 x 3 (a mesh).
 
   // centers: count x 3 doubles; radii: count doubles; materials: count ids, or one id if !perSphere.
   int32_t addSpheres(const double* centers, const double* radii, const int32_t* materials, size_t count,
-                     bool perSphere, const Affined* worldFromObject = nullptr, const ColorArray& colors = {});
+                     bool perSphere, const Affined* worldFromObject = nullptr, const CornerValues& colors = {});
   // Moves spheres already added (an animation's next frame): ids are object ids addSpheres
   // returned, centers count x 3 doubles, radii count doubles or null to keep the radii. The
   // hierarchies already built are refitted at the next render, not rebuilt (rebuilt where refitting
@@ -58,20 +59,24 @@ class Scene {
                    const Affined* worldFromObject = nullptr);
   // vertices: count x 3 x 3 doubles (v0, v1, v2 of each triangle); one object per triangle.
   int32_t addTriangles(const double* vertices, const int32_t* materials, size_t count, bool perTriangle,
-                       const Affined* worldFromObject = nullptr, const ColorArray& colors = {});
+                       const Affined* worldFromObject = nullptr, const CornerValues& colors = {});
   // One object: faceCount triangles indexing vertexCount x 3 doubles by 0-based faces (faceCount x 3).
+  // `normals`, if given: shaded and written in place of each face's own normal, interpolated across
+  // it (a smooth mesh); rays still leave a face, and meet it, by its own normal.
   int32_t addMesh(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount, int32_t material,
-                  const Affined* worldFromObject = nullptr, const ColorArray& colors = {});
+                  const Affined* worldFromObject = nullptr, const CornerValues& colors = {},
+                  const CornerValues& normals = {});
   // The mesh of addMesh seen through each of `count` transforms (worldFromObject: count maps, each
   // invertible): one object whose triangles and hierarchy are stored once and shared by its
   // instances (Group::addInstance), however many there are. instanceColors (count x 3, or null):
   // each instance's kd, in place of the material's and the mesh's colours.
   int32_t addMeshInstances(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount,
                            int32_t material, const Affined* worldFromObject, size_t count,
-                           const ColorArray& colors = {}, const double* instanceColors = nullptr);
+                           const CornerValues& colors = {}, const double* instanceColors = nullptr,
+                           const CornerValues& normals = {});
   // lo, hi: count x 3 doubles, lo < hi in each axis; one object per box.
   int32_t addBoxes(const double* lo, const double* hi, const int32_t* materials, size_t count, bool perBox,
-                   const Affined* worldFromObject = nullptr, const ColorArray& colors = {});
+                   const Affined* worldFromObject = nullptr, const CornerValues& colors = {});
   void addDirectionalLight(const Vec3d& direction, const Vec3d& color, bool shadows);
   void addPointLight(const PointLight& light);
   void addSpotLight(const SpotLight& light);  // light.direction need not be unit
@@ -146,10 +151,10 @@ class Scene {
   void noteReach(const Reach& reach);
   // addMesh's checks of its arguments but the transform; returns the reach of its vertices (object space).
   Reach requireMesh(const double* vertices, size_t vertexCount, const int64_t* faces, size_t faceCount,
-                    int32_t material, const ColorArray& colors) const;
+                    int32_t material, const CornerValues& colors, const CornerValues& normals) const;
   // The mesh's triangles, object `id`, into `triangles` (the checks passed).
   void addMeshTo(TriangleSet<double>& triangles, const double* vertices, const int64_t* faces, size_t faceCount,
-                 int32_t material, int32_t id, const ColorArray& colors);
+                 int32_t material, int32_t id, const CornerValues& colors, const CornerValues& normals);
 
   // Drops the prepared geometry and holds the lock while the caller changes m_group.
   std::unique_lock<std::mutex> changeGeometry();
