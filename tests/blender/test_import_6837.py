@@ -1,6 +1,7 @@
-"""File › Import › 6.837 scene (.txt): every corpus scene imports, exports back to exactly the
-file's numbers, and renders with Dürer as `durer.raytracer.render_scene_file` renders it with the
-same flags; a malformed file is an ERROR report that creates nothing."""
+"""File › Import › 6.837 scene (.txt): every corpus scene imports into a new scene of its own,
+exports back to exactly the file's numbers, and renders with Dürer as
+`durer.course.raytracer.render_scene_file` renders it with the same flags, from an empty file or
+Blender's startup file alike; a malformed file is an ERROR report that creates nothing."""
 
 from __future__ import annotations
 
@@ -65,7 +66,10 @@ def empty():
 
 
 def import_file(path, **options):
-    return bpy.ops.import_scene.durer_6837(filepath=str(path), resolution_x=SIZE, resolution_y=SIZE, **options)
+    """Import through the operator; the new scene it makes active."""
+    result = bpy.ops.import_scene.durer_6837(filepath=str(path), resolution_x=SIZE, resolution_y=SIZE, **options)
+    assert result == {"FINISHED"}
+    return bpy.context.scene
 
 
 def durer_render() -> np.ndarray:
@@ -95,10 +99,10 @@ def test_the_menu_has_the_importer(empty):
 @pytest.mark.parametrize("path", SCENES, ids=lambda p: p.stem)
 def test_every_corpus_scene_imports_and_exports_its_numbers(empty, path):
     f = read_scene_file(path)
-    assert import_file(path) == {"FINISHED"}
+    scene = import_file(path)
     collection = bpy.data.collections[path.stem]
     kinds = [p.kind for p in f.primitives]
-    d = export(empty)
+    d = export(scene)
     assert not d.warnings and not d.skipped
     assert d.sphere_count + d.ellipsoid_count == kinds.count("sphere")
     assert len(d.planes) == kinds.count("plane") and all(p.bounds is None for p in d.planes)
@@ -120,7 +124,7 @@ def test_every_corpus_scene_imports_and_exports_its_numbers(empty, path):
     assert (cam.width, cam.height, cam.fit) == (SIZE, SIZE, "horizontal")
     direction = np.array(f.camera.direction) / np.linalg.norm(f.camera.direction)
     np.testing.assert_allclose(cam.direction, direction, atol=1e-6)
-    offset = empty.camera[imp.DEPTH_OFFSET_PROPERTY]
+    offset = scene.camera[imp.DEPTH_OFFSET_PROPERTY]
     np.testing.assert_allclose(cam.center + offset * cam.direction, f.camera.center, atol=1e-5)
     if f.camera.projection == "orthographic":
         assert cam.projection == "orthographic" and cam.size == pytest.approx(f.camera.size) and offset >= 1
@@ -155,12 +159,40 @@ def _numbers(m) -> tuple:
             f32(m.transparent), f32(m.ior if any(m.transparent) else 1.0))
 
 
+def test_from_the_startup_file_only_the_file_renders_and_the_startup_scene_stays(tmp_path):
+    """The README's steps in Blender's startup file (its Cube, Light and Camera): register, import,
+    F12. The import is a new scene named after the file, made the window's scene, so F12 renders
+    exactly what the raytracer writes, and the startup scene keeps its objects, world and camera."""
+    from durer.course.raytracer import render_scene_file
+
+    bpy.ops.wm.read_factory_settings()  # the startup file, not use_empty
+    durer.blender.register()
+    startup = bpy.context.scene
+    objects, world, camera = set(startup.objects), startup.world, startup.camera
+    assert {o.name for o in objects} == {"Cube", "Light", "Camera"}
+    path = CORPUS / "scene2_15_crazy_transforms.txt"
+    scene = import_file(path)
+    assert scene != startup and scene.name == path.stem and bpy.context.window.scene == scene
+    assert set(scene.objects).isdisjoint(objects) and len(scene.objects) == len(bpy.data.collections[path.stem].objects)
+    reference = render_scene_file(path, SIZE, SIZE, passes="color").color[..., :3]
+    assert match_fraction(durer_render(), reference) == 1.0
+    assert (set(startup.objects), startup.world, startup.camera) == (objects, world, camera)
+
+
+def test_a_file_with_nothing_to_render_imports_with_a_warning(empty, tmp_path, capfd):
+    path = tmp_path / "nothing.txt"
+    path.write_text("OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\nGroup { numObjects 0 }\n")
+    scene = import_file(path)
+    assert f"Warning: {path}: nothing to render: " in capfd.readouterr().out
+    assert [o.type for o in scene.objects] == ["CAMERA"]
+
+
 def test_options_reach_the_render_settings(empty):
-    assert import_file(CORPUS / "scene4_04_reflective_sphere.txt", shade_back=True, shadows=True, bounces=3,
-                       weight=0.05) == {"FINISHED"}
-    s = empty.durer
+    scene = import_file(CORPUS / "scene4_04_reflective_sphere.txt", shade_back=True, shadows=True, bounces=3,
+                        weight=0.05)
+    s = scene.durer
     assert (s.shade_back, s.max_bounces, s.samples, s.sampler, s.precision) == (True, 3, 1, "CENTER", "DOUBLE")
-    assert s.min_weight == pytest.approx(0.05) and empty.render.engine == "DURER"
+    assert s.min_weight == pytest.approx(0.05) and scene.render.engine == "DURER"
     assert all(light.use_shadow for light in bpy.data.lights)
     kwargs = engine.render_kwargs(s)
     assert kwargs["shade_back"] is True and kwargs["min_weight"] == 0.05 and kwargs["max_bounces"] == 3
@@ -169,37 +201,28 @@ def test_options_reach_the_render_settings(empty):
 def test_spheres_planes_and_meshes_keep_the_file_geometry(empty):
     """scene2_13's squashed, rotated sphere is an ellipsoid under the file's matrix; scene2_06's
     plane is y = -2 with normal +y; scene2_14's cubes share one mesh with the file's matrices."""
-    import_file(CORPUS / "scene2_13_rotated_squashed_sphere.txt")
+    scene = import_file(CORPUS / "scene2_13_rotated_squashed_sphere.txt")
     f = read_scene_file(CORPUS / "scene2_13_rotated_squashed_sphere.txt")
-    (g,) = export(empty).transformed_spheres
+    (g,) = export(scene).transformed_spheres
     np.testing.assert_allclose(g.matrix @ np.diag([g.radii[0]] * 3 + [1]), imp.sphere_matrix(f.primitives[0]),
                                atol=1e-6)
     np.testing.assert_allclose(g.centers, 0, atol=1e-7)
-    empty = _reset()
-    import_file(CORPUS / "scene2_06_plane.txt")
-    (plane,) = export(empty).planes
+    (plane,) = export(import_file(CORPUS / "scene2_06_plane.txt")).planes
     np.testing.assert_allclose(plane.normal, [0, 1, 0], atol=1e-7)
     assert plane.offset == pytest.approx(-2, abs=1e-6)
-    empty = _reset()
-    import_file(CORPUS / "scene2_14_axes_cube.txt")
+    scene = import_file(CORPUS / "scene2_14_axes_cube.txt")
     f = read_scene_file(CORPUS / "scene2_14_axes_cube.txt")
-    meshes = export(empty).meshes
+    meshes = export(scene).meshes
     assert len(meshes) == 4 and all(m.vertices is meshes[0].vertices for m in meshes)
     np.testing.assert_allclose(sorted(m.matrix.ravel().tolist() for m in meshes),
                                sorted(p.matrix.ravel().tolist() for p in f.primitives), atol=1e-6)
-
-
-def _reset():
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    durer.blender.register()
-    return bpy.context.scene
 
 
 # --- errors ----------------------------------------------------------------------------------------
 
 
 def _datablock_counts() -> dict[str, int]:
-    kinds = ("objects", "meshes", "materials", "lights", "cameras", "worlds", "collections")
+    kinds = ("scenes", "objects", "meshes", "materials", "lights", "cameras", "worlds", "collections")
     return {k: len(getattr(bpy.data, k)) for k in kinds}
 
 
@@ -213,14 +236,26 @@ def _datablock_counts() -> dict[str, int]:
     ids=["missing-brace", "bad-number", "missing-obj"],
 )
 def test_a_malformed_file_is_an_error_report_and_creates_nothing(empty, tmp_path, text, message):
-    import_file(CORPUS / "scene1_01.txt")  # something already there must stay as it is
-    before, world, camera = _datablock_counts(), empty.world, empty.camera
+    scene = import_file(CORPUS / "scene1_01.txt")  # something already there must stay as it is
+    before, world, camera = _datablock_counts(), scene.world, scene.camera
     bad = tmp_path / "bad.txt"
     bad.write_text("OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
                    "Materials { numMaterials 1 Material { diffuseColor 1 0 0 } }\n" * ("Materials" not in text) + text)
     with pytest.raises(RuntimeError, match=rf"Error: {bad}:\d+: .*{message}"):
         import_file(bad)
-    assert _datablock_counts() == before and empty.world == world and empty.camera == camera
+    assert _datablock_counts() == before and bpy.context.scene == scene
+    assert scene.world == world and scene.camera == camera
+
+
+def test_a_failure_while_building_removes_the_new_scene_and_all_it_made(empty, monkeypatch):
+    def fail(*_):
+        raise RuntimeError("the camera failed")
+
+    monkeypatch.setattr(imp._Builder, "camera", fail)  # the last object made, after all the others
+    before, scene = _datablock_counts(), bpy.context.scene
+    with pytest.raises(RuntimeError, match="the camera failed"):
+        imp.build_scene(read_scene_file(CORPUS / "scene4_14_faceted_gem.txt"))
+    assert _datablock_counts() == before and bpy.context.scene == scene
 
 
 def test_a_missing_file_is_an_error_report(empty, tmp_path):
@@ -243,7 +278,7 @@ def test_import_renders_like_the_raytracer(empty, run):
     from durer.course.raytracer import render_scene_file
 
     name, flags = run
-    assert import_file(CORPUS / name, **flags) == {"FINISHED"}
+    import_file(CORPUS / name, **flags)
     blender = durer_render()
     reference = render_scene_file(CORPUS / name, SIZE, SIZE, passes=("color",), **flags).color[..., :3]
     fraction = match_fraction(blender, reference)
@@ -257,13 +292,13 @@ def test_orthographic_camera_behind_the_spheres_sees_what_6837_sees(empty, tmp_p
     from durer.course.raytracer import render_scene_file
 
     path = CORPUS / "scene1_07.txt"
-    import_file(path)
-    out = render_passes(empty, tmp_path / "scene1_07.exr", normal=False)
+    scene = import_file(path)
+    out = render_passes(scene, tmp_path / "scene1_07.exr", normal=False)
     reference = render_scene_file(path, SIZE, SIZE, passes=("color", "depth"))
     assert match_fraction(out["color"][..., :3], reference.color[..., :3]) == 1.0
     hit = np.isfinite(reference.depth)
     assert (reference.depth[hit] < 0).any()  # hits behind the 6.837 camera's centre
-    offset = empty.camera[imp.DEPTH_OFFSET_PROPERTY]
+    offset = scene.camera[imp.DEPTH_OFFSET_PROPERTY]
     np.testing.assert_array_equal(out["depth"] < 1e9, hit)
     np.testing.assert_allclose(out["depth"][hit] - offset, reference.depth[hit], atol=1e-4)
 
@@ -308,7 +343,7 @@ def test_sheared_and_mirrored_transforms_render_like_the_raytracer(empty, tmp_pa
     (tmp_path / "cube.obj").write_text((CORPUS / "cube.obj").read_text())
     f = read_scene_file(path)
     assert all(imp.has_shear(p.matrix) for p in f.primitives[:3])
-    assert import_file(path, shade_back=shade_back, shadows=True, bounces=2, weight=0.01) == {"FINISHED"}
+    import_file(path, shade_back=shade_back, shadows=True, bounces=2, weight=0.01)
     blender = durer_render()
     reference = render_scene_file(path, SIZE, SIZE, passes=("color",), shade_back=shade_back, shadows=True,
                                   bounces=2, weight=0.01).color[..., :3]

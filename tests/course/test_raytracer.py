@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -153,6 +154,54 @@ def test_a_scene_needs_a_camera(tmp_path):
     path.write_text("Background { color 1 0 0 }")
     with pytest.raises(ValueError, match=r"s.txt: the scene has no camera"):
         render_scene_file(path, 4, 4)
+
+
+@pytest.mark.parametrize("options, error, name", [
+    ({"bounces": -1}, ValueError, "bounces"),
+    ({"bounces": 1.5}, TypeError, "bounces"),
+    ({"weight": "x"}, TypeError, "weight"),
+    ({"weight": -0.5}, ValueError, "weight"),
+    ({"spp": 0}, ValueError, "spp"),
+    ({"passes": ["colour"]}, ValueError, "passes"),
+])
+def test_bad_options_are_named_as_render_scene_file_names_them(tmp_path, options, error, name):
+    """durer.render calls them max_bounces and min_weight; the caller passed bounces and weight. The
+    options are checked before the file is read (this one does not exist)."""
+    with pytest.raises(error, match=rf"^{name} must be "):
+        render_scene_file(tmp_path / "never_read.txt", 4, 4, **options)
+
+
+def test_passes_may_be_one_name():
+    result = render_scene_file(CORPUS / "scene1_01.txt", 8, 8, passes="color")
+    assert result.stats["passes"] == ("color",) and result.depth is None and result.normal is None
+
+
+CAMERA_AND_BACKGROUND = ("OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+                         "Background { color 0.25 0.5 0.75 }\n")
+
+
+@pytest.mark.parametrize("groups", ["", "Group { numObjects 0 }\n", "Group { numObjects 1 Group { numObjects 0 } }\n"],
+                         ids=["no Group", "an empty Group", "nested empty Groups"])
+def test_a_scene_with_nothing_to_render_warns(tmp_path, capsys, groups):
+    """Legal (an empty Group says so explicitly) but seldom meant: the API warns, the command says so on
+    stderr and renders the background with exit code 0."""
+    path = tmp_path / "s.txt"
+    path.write_text(CAMERA_AND_BACKGROUND + groups)
+    message = (f"{path}: nothing to render: no Sphere, Plane, Triangle or TriangleMesh (no Group block, or only "
+               "empty ones); the image is the background colour")
+    with pytest.warns(raytracer.EmptySceneWarning, match=f"^{re.escape(message)}$"):
+        result = render_scene_file(path, 4, 4, passes="color")
+    np.testing.assert_allclose(result.color[..., :3], np.broadcast_to([0.25, 0.5, 0.75], (4, 4, 3)))
+    assert raytracer.main(["-input", str(path), "-size", "4", "4", "-output", str(tmp_path / "o.png")]) == 0
+    assert capsys.readouterr().err == f"raytracer: warning: {message}\n"
+    assert (tmp_path / "o.png").exists()
+
+
+def test_an_empty_group_beside_objects_renders_without_a_warning(tmp_path):
+    path = tmp_path / "s.txt"
+    path.write_text(CAMERA_AND_BACKGROUND + "Materials { numMaterials 1 Material { diffuseColor 1 0 0 } }\n"
+                    "Group { numObjects 2 Group { numObjects 0 } MaterialIndex 0 Sphere { center 0 0 0 radius 1 } }\n")
+    render_scene_file(path, 4, 4)  # the suite turns any warning into an error
 
 
 # --- to_scene ----------------------------------------------------------------------------------------

@@ -306,6 +306,43 @@ def test_obj_crlf_comments_blank_lines(tmp_path):
     assert not vertices.flags.writeable and not faces.flags.writeable
 
 
+BOM = b"\xef\xbb\xbf"  # UTF-8's byte order mark, which Windows Notepad writes first
+
+
+def test_a_byte_order_mark_is_not_part_of_the_text(tmp_path):
+    (tmp_path / "tri.obj").write_bytes(BOM + b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    text = "PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 30 }\n"
+    (tmp_path / "scene.txt").write_bytes(BOM + (text + one_primitive("TriangleMesh { obj_file tri.obj }")).encode())
+    scene = read_scene_file(tmp_path / "scene.txt")
+    assert scene.camera.projection == "perspective"
+    np.testing.assert_array_equal(scene.primitives[0].faces, [[0, 1, 2]])
+
+
+@pytest.mark.parametrize("end", ["\r", "\r\n", "\n"], ids=["CR", "CRLF", "LF"])
+def test_errors_are_at_their_line_whatever_ends_the_lines(tmp_path, end):
+    """Old Mac editors end lines with CR alone: lines are still counted (as str.splitlines counts them)."""
+    scene = one_primitive("Sphere {\ncenter 0 0 0\nradius abc }")
+    (tmp_path / "scene.txt").write_bytes(end.join(scene.splitlines()).encode())
+    with pytest.raises(SceneFileError, match=r"scene.txt:5: expected a number for 'radius', got 'abc'$"):
+        read_scene_file(tmp_path / "scene.txt")
+    (tmp_path / "bad.obj").write_bytes(end.join(["v 0 0 0", "v 1 0 0", "", "f 1 2 3"]).encode())
+    with pytest.raises(SceneFileError, match=r"bad.obj:4: face indices \(1, 2, 3\) out of range: expected 1..2"):
+        read_obj(tmp_path / "bad.obj")
+
+
+def test_a_corpus_scene_with_cr_line_ends_reads_the_same(tmp_path):
+    name = "scene2_14_axes_cube.txt"
+    (tmp_path / "cube.obj").write_bytes((CORPUS / "cube.obj").read_bytes().replace(b"\n", b"\r"))
+    (tmp_path / name).write_bytes((CORPUS / name).read_bytes().replace(b"\n", b"\r"))
+    ours, theirs = read_scene_file(tmp_path / name), read_scene_file(CORPUS / name)
+    assert (ours.camera, ours.lights, ours.materials) == (theirs.camera, theirs.lights, theirs.materials)
+    assert [(p.kind, p.source.rsplit(":", 1)[1]) for p in ours.primitives] == [
+        (p.kind, p.source.rsplit(":", 1)[1]) for p in theirs.primitives]  # the same objects at the same lines
+    for a, b in zip(ours.primitives, theirs.primitives):
+        np.testing.assert_array_equal(a.matrix, b.matrix)
+        np.testing.assert_array_equal(a.faces, b.faces)
+
+
 def test_an_obj_used_twice_is_read_once(tmp_path):
     write(tmp_path, CUBE_OBJ, "cube.obj")
     scene = read(tmp_path, """\
@@ -642,6 +679,19 @@ def test_malformed_obj_names_the_obj_file_and_line(tmp_path, obj, line, message)
     with pytest.raises(SceneFileError) as info:
         read_scene_file(path)
     assert (info.value.path, info.value.line, info.value.message) == (str(tmp_path / "bad.obj"), line, message)
+
+
+@pytest.mark.parametrize("obj", ["", "# nothing exported\n", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"],
+                         ids=["0 bytes", "comments only", "vertices only"])
+def test_an_obj_without_faces_is_an_error_at_the_triangle_mesh(tmp_path, obj):
+    """An empty export or the wrong file: a mesh without triangles would render nothing, silently."""
+    write(tmp_path, obj, "empty.obj")
+    path = write(tmp_path, one_primitive("TriangleMesh {\nobj_file empty.obj }"))
+    with pytest.raises(SceneFileError) as info:
+        read_scene_file(path)
+    assert (info.value.path, info.value.line) == (str(path), 4)
+    assert info.value.message == (f"the .obj file '{tmp_path / 'empty.obj'}' named by 'obj_file' has no faces: "
+                                  "expected at least one 'f i j k' line")
 
 
 def test_missing_scene_file_is_an_os_error(tmp_path):

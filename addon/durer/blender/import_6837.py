@@ -1,8 +1,11 @@
 """File › Import › 6.837 scene (.txt): an MIT 6.837 scene file as Blender objects that Dürer renders
 exactly as the ``raytracer`` command does (`durer.course.raytracer.render_scene_file` with the same flags).
 
-What becomes what (``durer.course.scene_file`` reads the file; every object goes into a new collection
-named after it):
+The file describes a whole scene (camera, lights, background, objects, render settings), so it
+becomes a new Blender scene named after the file, made the window's active scene: nothing of the
+scene open before (the startup file's Cube and Light) is rendered with it or changed, and that scene
+is one click away in the scene selector. What becomes what (``durer.course.scene_file`` reads the
+file; every object goes into a collection named after it):
 
 * Sphere: a smooth UV-sphere mesh of radius 1 (one mesh shared by all), ``object.durer.primitive``
   Sphere, so Dürer renders the exact sphere while the viewport and Cycles see the mesh. Its matrix is
@@ -75,16 +78,15 @@ class ImportOptions:
     weight: float = 0.0
 
 
-def build_scene(scene_file: SceneFile, scene, options: ImportOptions = ImportOptions()):
-    """Blender objects, materials, lights, world, camera and render settings for `scene_file`, in a
-    new collection named after the file. Anything that fails halfway is removed again."""
-    builder = _Builder(scene_file, scene)
+def build_scene(scene_file: SceneFile, options: ImportOptions = ImportOptions()) -> bpy.types.Scene:
+    """A new scene named after `scene_file` with its objects (in a collection named after it too),
+    materials, lights, world, camera and render settings. Anything that fails halfway is removed again."""
+    builder = _Builder(scene_file)
     try:
-        builder.build(options)
+        return builder.build(options)
     except Exception:
         builder.remove_created()
         raise
-    return builder.collection
 
 
 # --- geometry helpers ----------------------------------------------------------------------------
@@ -236,9 +238,9 @@ def roughness_for_exponent(exponent: float) -> float:
 
 
 class _Builder:
-    def __init__(self, scene_file: SceneFile, scene) -> None:
+    def __init__(self, scene_file: SceneFile) -> None:
         self.file = scene_file
-        self.scene = scene
+        self.scene = None
         self.stem = scene_file.path.stem
         self.created: list[tuple[object, object]] = []  # (bpy.data collection, datablock), newest last
         self.collection = None
@@ -256,10 +258,10 @@ class _Builder:
             datablocks.remove(block)
         self.created.clear()
 
-    def build(self, options: ImportOptions) -> None:
-        """Create everything first; change the scene's world, camera and settings last, so that a
-        failure before then leaves the scene as it was."""
+    def build(self, options: ImportOptions) -> bpy.types.Scene:
+        self.scene = self.new(bpy.data.scenes, self.stem)
         self.collection = self.new(bpy.data.collections, self.stem)
+        self.scene.collection.children.link(self.collection)
         self.materials = [self.material(i, m) for i, m in enumerate(self.file.materials)]
         half = plane_half_size(self.file)
         triangles: dict[tuple[int, bytes], list[ScenePrimitive]] = {}
@@ -277,13 +279,11 @@ class _Builder:
             self.triangles(batch)
         for i, light in enumerate(self.file.lights):
             self.light(i, light, options.shadows)
-        world = self.world()
-        camera = self.camera(self.file.camera) if self.file.camera is not None else None
-        self.scene.collection.children.link(self.collection)
-        self.scene.world = world
-        if camera is not None:
-            self.scene.camera = camera
+        self.scene.world = self.world()
+        if self.file.camera is not None:
+            self.scene.camera = self.camera(self.file.camera)
         self.render_settings(options)
+        return self.scene
 
     # objects
     def link(self, name: str, data, matrix: np.ndarray, material: int | None = None):
@@ -341,8 +341,6 @@ class _Builder:
     def triangle_mesh(self, p: ScenePrimitive, meshes: dict) -> None:
         """A mesh object; objects of one .obj share its mesh, except under a sheared matrix (their
         vertices are turned by the part of the matrix that Blender's object cannot hold)."""
-        if len(p.faces) == 0:
-            return
         path = p.mesh_path or Path(p.source)
         matrix, rotation = split_shear(p.matrix) if has_shear(p.matrix) else (p.matrix, None)
         key = (path, None if rotation is None else rotation.tobytes())
@@ -469,8 +467,8 @@ def _rotated(vertices: np.ndarray, rotation: np.ndarray | None) -> np.ndarray:
 
 
 class DURER_OT_import_6837(bpy.types.Operator, ImportHelper):
-    """Import an MIT 6.837 scene file (assignments 1-4) set up to render with Dürer as the course's
-    raytracer command does"""
+    """Import an MIT 6.837 scene file (assignments 1-4) as a new scene, set up to render with Dürer as
+    the course's raytracer command does"""
 
     bl_idname = "import_scene.durer_6837"
     bl_label = "Import 6.837 Scene"
@@ -508,10 +506,17 @@ class DURER_OT_import_6837(bpy.types.Operator, ImportHelper):
         except OSError as error:
             self.report({"ERROR"}, f"Cannot read {self.filepath}: {error.strerror or error}")
             return {"CANCELLED"}
-        collection = build_scene(scene_file, context.scene, options)
+        scene = build_scene(scene_file, options)
+        # A window-less context (a timer, a handler) renders the first window's scene.
+        window = context.window or next(iter(context.window_manager.windows), None)
+        if window is not None:
+            window.scene = scene
         if scene_file.camera is None:
-            self.report({"WARNING"}, f"{scene_file.path.name} has no camera: the scene's camera is unchanged")
-        self.report({"INFO"}, f"Imported {len(collection.all_objects)} objects into '{collection.name}'")
+            self.report({"WARNING"}, f"{scene_file.path.name} has no camera: add one to '{scene.name}' to render it")
+        if scene_file.nothing_to_render:
+            self.report({"WARNING"}, scene_file.nothing_to_render)
+        self.report({"INFO"}, f"Imported {len(scene.objects)} objects into the new scene '{scene.name}' (the scene "
+                              "open before is unchanged)")
         return {"FINISHED"}
 
 

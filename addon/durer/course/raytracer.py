@@ -16,6 +16,7 @@ import os
 import re
 import sys
 import time
+import warnings
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,9 +30,16 @@ from .scene_file import SceneFile, SceneFileError, read_scene_file
 
 IMAGE_FORMATS = {".png": "PNG", ".tga": "TGA"}
 _NEGATIVE_NUMBER = re.compile(r"-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
-#: The course's option for each of durer.render's arguments the options set (its errors name the argument).
-_OPTION_OF_ARGUMENT = {"width": "-size WIDTH", "height": "-size HEIGHT", "spp": "-spp", "max_bounces": "-bounces",
-                       "min_weight": "-weight"}
+# durer.render's errors begin with the name of the argument; each caller sees its own name for it.
+#: render_scene_file's name for each of durer.render's arguments it calls otherwise.
+_ARGUMENT_OF_RENDER = {"max_bounces": "bounces", "min_weight": "weight"}
+#: The course's option for each of render_scene_file's arguments the command line sets.
+_OPTION_OF_ARGUMENT = {"width": "-size WIDTH", "height": "-size HEIGHT", "spp": "-spp", "bounces": "-bounces",
+                       "weight": "-weight"}
+
+
+class EmptySceneWarning(UserWarning):
+    """A scene file with nothing to render (`SceneFile.nothing_to_render`): the image is the background."""
 
 
 @dataclass(frozen=True)
@@ -79,26 +87,51 @@ def render_scene_file(
     weight: float = 0.0,
     spp: int = 1,
     precision: str = "double",
-    passes: Iterable[str] = DEFAULT_PASSES,
+    passes: str | Iterable[str] = DEFAULT_PASSES,
 ) -> RenderResult:
     """Render a 6.837 scene (a SceneFile or its path) through its own camera, with the course's
-    defaults: one sample at each pixel centre, no bounces. Raises SceneFileError for a malformed
-    file and ValueError for a scene without a camera."""
+    defaults: one sample at each pixel centre, no bounces; `passes` is a pass name or names.
+
+    Raises TypeError or ValueError naming the argument for a bad option (before the file is read),
+    SceneFileError for a malformed file and ValueError for a scene without a camera; warns
+    (EmptySceneWarning) when the file has nothing to render."""
+    options = {"spp": spp, "precision": precision, "passes": passes, "shade_back": shade_back, "bounces": bounces,
+               "weight": weight}
+    _check_arguments(width, height, **options)
     if not isinstance(scene_file, SceneFile):
         scene_file = read_scene_file(scene_file)
     if scene_file.camera is None:
         raise ValueError(f"{scene_file.path}: the scene has no camera (an OrthographicCamera or PerspectiveCamera "
                          "block)")
+    if scene_file.nothing_to_render:
+        warnings.warn(scene_file.nothing_to_render, EmptySceneWarning, stacklevel=2)
     scene = scene_file.to_scene(shadows=shadows)
     try:
-        return render(scene, scene_file.camera.to_durer(), width, height, spp=spp, precision=precision,
-                      passes=tuple(passes), shade_back=shade_back, max_bounces=bounces, min_weight=weight)
+        return render(scene, scene_file.camera.to_durer(), width, height, **_render_arguments(options))
     except ValueError as error:
-        # What the file's items are refused for in this precision (the core's range messages say
-        # "with precision='...'") is the file's error, at an item's line; bad options are the caller's.
-        if precision not in PRECISIONS or "precision=" not in str(error):
+        # The options passed their checks, so what is refused now is the file's: its items in this
+        # precision (the core's range messages say "with precision='...'"), at an item's line.
+        if "precision=" not in str(error):
             raise
         raise scene_file.locate_refusal(error, precision) from None
+
+
+def _check_arguments(width: int, height: int, **options: Any) -> None:
+    """Raise the TypeError or ValueError `render_scene_file` would raise for these options (by
+    durer.render's own checks), naming its argument as the caller calls it."""
+    try:
+        check_options(width, height, **_render_arguments(options))
+    except (TypeError, ValueError) as error:
+        argument, space, rest = str(error).partition(" ")
+        if argument not in _ARGUMENT_OF_RENDER:
+            raise
+        raise type(error)(f"{_ARGUMENT_OF_RENDER[argument]}{space}{rest}") from None
+
+
+def _render_arguments(options: dict[str, Any]) -> dict[str, Any]:
+    """render_scene_file's options under durer.render's names."""
+    render_names = {ours: theirs for theirs, ours in _ARGUMENT_OF_RENDER.items()}
+    return {render_names.get(name, name): value for name, value in options.items()}
 
 
 def to_bytes(values: np.ndarray) -> np.ndarray:
@@ -200,8 +233,8 @@ def parse_arguments(argv: Sequence[str], parser: argparse.ArgumentParser | None 
     args = parser.parse_args(argv)
     width, height = args.size
     try:  # render's own limits (the core's among them), before the scene is read
-        check_options(width, height, spp=args.spp, max_bounces=args.bounces, min_weight=args.weight,
-                      precision=args.precision)
+        _check_arguments(width, height, spp=args.spp, bounces=args.bounces, weight=args.weight,
+                        precision=args.precision)
     except ValueError as error:
         argument, _, rest = str(error).partition(" ")
         parser.error(f"{_OPTION_OF_ARGUMENT.get(argument, argument)} {rest}")
@@ -241,7 +274,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     options = parse_arguments(argv)
     try:
-        run(options)
+        with warnings.catch_warnings():  # whatever the caller's filters: the command always says it
+            warnings.simplefilter("always", EmptySceneWarning)
+            warnings.showwarning = _show_warning
+            run(options)
     except (SceneFileError, OSError, ValueError) as error:
         print(f"raytracer: error: {error}", file=sys.stderr)
         return 1
@@ -249,3 +285,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"raytracer: error: not enough memory for a {options.width}x{options.height} image", file=sys.stderr)
         return 1
     return 0
+
+
+def _show_warning(message: Warning | str, *_: Any) -> None:
+    """A warning as one line on stderr, like the command's errors (not Python's file and line)."""
+    print(f"raytracer: warning: {message}", file=sys.stderr)

@@ -157,6 +157,15 @@ class SceneFile:
         return SceneFileError(self.path, line, f"Dürer cannot render this scene with precision='{precision}': {error}")
 
     @property
+    def nothing_to_render(self) -> str | None:
+        """Why every pixel will be the background, if the file has no primitive (no Group block, or
+        only empty ones: legal, `Group { numObjects 0 }` says so explicitly, but seldom meant); else None."""
+        if self.primitives:
+            return None
+        return (f"{self.path}: nothing to render: no Sphere, Plane, Triangle or TriangleMesh (no Group block, or "
+                "only empty ones); the image is the background colour")
+
+    @property
     def effective_ambient(self) -> Vec3:
         """(1, 1, 1) without lights (the A2+ parser forces it so that A1 scenes render flat), else
         `ambient`."""
@@ -182,9 +191,8 @@ class SceneFile:
         batches: dict[tuple[str, bytes], list[ScenePrimitive]] = {}
         for primitive in self.primitives:
             if primitive.kind == "mesh":
-                if len(primitive.faces):
-                    scene.add_mesh(primitive.vertices, primitive.faces, int(ids[primitive.material]),
-                                   transform=_transform_argument(primitive.matrix))
+                scene.add_mesh(primitive.vertices, primitive.faces, int(ids[primitive.material]),
+                               transform=_transform_argument(primitive.matrix))
             elif primitive.kind == "plane":
                 scene.add_plane(primitive.normal, primitive.offset, int(ids[primitive.material]),
                                 transform=_transform_argument(primitive.matrix))
@@ -224,7 +232,8 @@ def _read_text(path: Path) -> str:
         data = file.read(MAX_FILE_BYTES + 1)
     if len(data) > MAX_FILE_BYTES:
         raise OSError(errno.EFBIG, f"'{path}' is larger than {MAX_FILE_BYTES // 2**20} MiB")
-    return data.decode("utf-8", errors="replace")
+    # Windows editors (Notepad) may start a UTF-8 file with a byte order mark: not part of the text.
+    return data.decode("utf-8-sig", errors="replace")
 
 
 # --- transform ops -----------------------------------------------------------------------------
@@ -284,7 +293,7 @@ def read_obj(path: Path) -> tuple[np.ndarray, np.ndarray]:
     face_words: list[str] = []
     face_lines: list[int] = []
     defined_before: list[int] = []  # vertices read before each face
-    for number, raw in enumerate(text.split("\n"), 1):
+    for number, raw in enumerate(text.splitlines(), 1):  # lines end at \n, \r\n or \r alike
         line = raw.strip()
         if not line or line.startswith("#"):
             continue
@@ -342,7 +351,9 @@ class _Parser:
 
     def __init__(self, path: Path, text: str) -> None:
         self.path = path
-        self.tokens = [_Token(word, number) for number, line in enumerate(text.split("\n"), 1) for word in line.split()]
+        # Lines end at \n, \r\n or \r alike (old Mac editors write \r): line numbers as an editor shows them.
+        lines = enumerate(text.splitlines(), 1)
+        self.tokens = [_Token(word, number) for number, line in lines for word in line.split()]
         self.pos = 0
         self.open_blocks: list[_Token] = []  # for "… is not closed" at the end of the file
         self.scene = SceneFile(path)
@@ -653,6 +664,9 @@ class _Parser:
                 raise self.error(name.line, f"cannot read the .obj file '{path}' named by '{token.text}': "
                                             f"{error.strerror or error}") from None
         vertices, faces = self.obj_cache[path]
+        if not len(faces):  # an empty export or the wrong file: a mesh without triangles shows nothing
+            raise self.error(name.line, f"the .obj file '{path}' named by '{token.text}' has no faces: expected at "
+                                        "least one 'f i j k' line")
         return {"vertices": vertices, "faces": faces, "mesh_path": path}
 
     def transform(self, keyword: _Token, parent: np.ndarray) -> None:
