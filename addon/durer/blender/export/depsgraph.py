@@ -96,7 +96,7 @@ def _add_shape(b: Builder, obj, m: np.ndarray, shape: MeshShape, infinite: bool,
     if shape.kind == "empty":
         return
     mat = mats[shape.slot] if mats else None
-    b.uncolored(mat, f"'{obj.name}' is rendered as one {shape.kind}, of one colour")
+    b.uncolored(mat, f"'{obj.name_full}' is rendered as one {shape.kind}, of one colour")
     if shape.kind == "sphere":
         b.sphere(b.owner(obj), m, shape.center, shape.radius, b.material(mat, obj))
     else:
@@ -169,17 +169,17 @@ def _light(b: Builder, obj, m: np.ndarray) -> None:
         b.data.skipped[f"{obj.data.type.lower()} light"] += 1
         return
     if min(light.color) < 0:
-        b.data.notes.append(f"Light '{obj.name}' has a negative power or colour: Dürer leaves it out "
+        b.data.notes.append(f"Light '{obj.name_full}' has a negative power or colour: Dürer leaves it out "
                             f"(Cycles takes its light away)")
         return
     b.data.lights.append(light)
     if light.kind == "spot" and not uniform_scale(m)[1]:
-        b.data.notes.append(f"Spot light '{obj.name}' is scaled unevenly: Cycles stretches its cone, "
+        b.data.notes.append(f"Spot light '{obj.name_full}' is scaled unevenly: Cycles stretches its cone, "
                             f"Dürer keeps it round")
     if obj.data.use_nodes:
-        b.data.notes.append(f"Light '{obj.name}' uses shader nodes: Dürer takes its colour and power alone")
+        b.data.notes.append(f"Light '{obj.name_full}' uses shader nodes: Dürer takes its colour and power alone")
     if light.kind != "sun" and not getattr(obj.data, "normalize", True):  # not in every Blender version supported
-        b.data.notes.append(f"Light '{obj.name}' is not normalized: Dürer takes its power as if it were "
+        b.data.notes.append(f"Light '{obj.name_full}' is not normalized: Dürer takes its power as if it were "
                             f"(Cycles' light grows with its radius)")
 
 
@@ -202,7 +202,7 @@ def _ignored_visibility(depsgraph) -> str | None:
     for obj in depsgraph.objects:
         linking = getattr(obj, "light_linking", None)  # Blender 4.0 and later
         if linking is not None and (linking.receiver_collection or linking.blocker_collection):
-            found.setdefault("linking lights or shadows", []).append(obj.name)
+            found.setdefault("linking lights or shadows", []).append(obj.name_full)
         if obj.type in _NOT_RENDERED:
             continue
         settings = _durer_settings(obj, obj.original)
@@ -210,7 +210,7 @@ def _ignored_visibility(depsgraph) -> str | None:
             continue
         for name, asks, what in _IGNORED_LIGHT_VISIBILITY if obj.type == "LIGHT" else _IGNORED_VISIBILITY:
             if getattr(obj, name) == asks:
-                found.setdefault(what, []).append(obj.name)
+                found.setdefault(what, []).append(obj.name_full)
     if not found:
         return None
     listed = "; ".join(f"{', '.join(repr(n) for n in names[:3])}{' and others' if len(names) > 3 else ''} {what}"

@@ -223,7 +223,7 @@ class InstanceBatches:
         if shape.kind != "sphere":
             return _Batch(self.builder.owner(obj), None)
         mat = mats[shape.slot] if mats else None
-        self.builder.uncolored(mat, f"the instances of '{obj.name}' are spheres of one colour each")
+        self.builder.uncolored(mat, f"the instances of '{obj.name_full}' are spheres of one colour each")
         return _Batch(self.builder.owner(obj), shape, self.builder.material(mat, obj))
 
     def _cloud(self, pc, mat) -> _Cloud:
