@@ -28,7 +28,7 @@ RENDER_LIMITS: dict[str, int]
 class CameraSpec:
     def __init__(
         self, projection: str, center: _Triple, direction: _Triple, up: _Triple, size: float, fit: str,
-        shift_x: float, shift_y: float, pixel_aspect: float, t_min: float, t_max: float,
+        shift_x: float, shift_y: float, pixel_aspect: float, t_min: float, t_max: float, clip_planes: bool = False,
     ) -> None: ...
 
 class Scene:

@@ -31,7 +31,8 @@ class _Camera:
     _size_name: ClassVar[str]
     _spec: _core.CameraSpec = field(init=False, repr=False, compare=False)
 
-    def _build(self, size: float, fit: str, shift: ArrayLike, pixel_aspect: float, t_min: float, t_max: float) -> None:
+    def _build(self, size: float, fit: str, shift: ArrayLike, pixel_aspect: float, t_min: float, t_max: float,
+               clip_planes: bool = False) -> None:
         set_ = object.__setattr__
         set_(self, "center", _checks.vector3(self.center, "center"))
         set_(self, "direction", _checks.vector3(self.direction, "direction"))
@@ -42,8 +43,9 @@ class _Camera:
         set_(self, "shift", (float(sx), float(sy)))
         t_min, t_max = _checks.real(t_min, "t_min"), _checks.real(t_max, "t_max")
         aspect = _checks.real(pixel_aspect, "pixel_aspect")
+        clip_planes = _checks.boolean(clip_planes, "clip_planes")
         spec = _core.CameraSpec(self._projection, self.center, self.direction, self.up, size, fit, sx, sy, aspect,
-                                t_min, t_max)
+                                t_min, t_max, clip_planes)
         set_(self, "_spec", spec)
 
     def __reduce__(self) -> tuple[type, tuple[Any, ...]]:
@@ -81,7 +83,9 @@ class OrthographicCamera(_Camera):
 @dataclass(frozen=True)
 class PerspectiveCamera(_Camera):
     """Rays from `center` through an image plane; `fov_degrees` in (0, 180) spans the fitted
-    dimension (the larger one by default)."""
+    dimension (the larger one by default). With `clip_planes`, t_min and t_max bound the distance
+    along the view axis (a near and a far plane, as Blender's and Cycles' clip range) instead of t
+    along each ray; t is still measured along the ray."""
 
     fov_degrees: float = 60.0
     fit: str = "auto"
@@ -89,11 +93,13 @@ class PerspectiveCamera(_Camera):
     pixel_aspect: float = 1.0
     t_min: float = 0.0
     t_max: float = math.inf
+    clip_planes: bool = False
     _projection: ClassVar[str] = "perspective"
     _size_name: ClassVar[str] = "fov_degrees"
 
     def __post_init__(self) -> None:
-        self._build(self.fov_degrees, self.fit, self.shift, self.pixel_aspect, self.t_min, self.t_max)
+        self._build(self.fov_degrees, self.fit, self.shift, self.pixel_aspect, self.t_min, self.t_max,
+                    self.clip_planes)
 
 
 Camera = OrthographicCamera | PerspectiveCamera

@@ -157,7 +157,7 @@ Triple triple(const Vec3d& v) { return {v.x, v.y, v.z}; }
 
 CameraSpec cameraSpec(const std::string& projection, const Triple& center, const Triple& direction,
                       const Triple& up, double size, const std::string& fit, double shiftX, double shiftY,
-                      double pixelAspect, double tMin, double tMax) {
+                      double pixelAspect, double tMin, double tMax, bool clipPlanes) {
   CameraSpec spec;
   spec.projection = optionNamed(kProjectionNames, projection, "projection");
   spec.center = vec(center);
@@ -170,6 +170,7 @@ CameraSpec cameraSpec(const std::string& projection, const Triple& center, const
   spec.pixelAspect = pixelAspect;
   spec.tMin = tMin;
   spec.tMax = tMax;
+  spec.clipPlanes = clipPlanes;
   validate(spec);
   return spec;
 }
@@ -383,7 +384,7 @@ PYBIND11_MODULE(_core, m) {
   py::class_<CameraSpec>(m, "CameraSpec")
       .def(py::init(&cameraSpec), py::arg("projection"), py::arg("center"), py::arg("direction"), py::arg("up"),
            py::arg("size"), py::arg("fit"), py::arg("shift_x"), py::arg("shift_y"), py::arg("pixel_aspect"), py::arg("t_min"),
-           py::arg("t_max"));
+           py::arg("t_max"), py::arg("clip_planes") = false);
 
   py::class_<Scene>(m, "Scene")
       .def(py::init<>())

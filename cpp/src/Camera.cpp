@@ -67,7 +67,10 @@ Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
       m_width(width),
       m_height(height),
       m_tMin(static_cast<Real>(spec.tMin)),
-      m_tMax(static_cast<Real>(spec.tMax)) {
+      m_tMax(static_cast<Real>(spec.tMax)),
+      m_clipPlanes(spec.clipPlanes && m_perspective),
+      m_near(static_cast<Real>(spec.tMin)),
+      m_far(static_cast<Real>(spec.tMax)) {
   const Vec3d forward = safeNormalize(spec.direction);
   const Vec3d horizontal = glm::normalize(glm::cross(forward, safeNormalize(spec.up)));
   const Vec3d up = glm::cross(horizontal, forward);
@@ -80,6 +83,14 @@ Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
   m_pixelHeight = static_cast<Real>(window.pixelHeight);
   m_xOffset = static_cast<Real>(window.xOffset);
   m_yOffset = static_cast<Real>(window.yOffset);
+  if (m_clipPlanes) {
+    // A ray meets the far plane at far / cos(its angle to the axis), farthest through the window's
+    // farthest corner (at distance 1); a few ulps more cover the rays' rounding. The near plane's
+    // distance bounds t from below (t >= depth).
+    const double x = std::fmax(std::fabs(window.xOffset), std::fabs(window.xOffset + width * window.pixelWidth));
+    const double y = std::fmax(std::fabs(window.yOffset), std::fabs(window.yOffset - height * window.pixelHeight));
+    m_tMax = static_cast<Real>(spec.tMax * std::sqrt(1 + x * x + y * y) * (1 + 1e-6));
+  }
 }
 
 namespace {

@@ -311,3 +311,21 @@ def test_particles_on_an_emitter_hidden_in_renders_like_cycles(scene, tmp_path):
     # ~0.005 of the radius inside, more where a ray grazes (measured: median 1.0e-3, max 1.2e-2).
     error = np.abs(d["depth"][hit] - c["depth"][hit])
     assert np.median(error) <= 2e-3 and error.max() <= 0.03
+
+
+@pytest.mark.parametrize("wall, clip", [(9.5, (0.1, 10.0)), (0.5, (0.55, 100.0))])
+def test_perspective_clip_range_is_two_planes_as_in_cycles(scene, tmp_path, wall, clip):
+    """A wide lens before a wall across the view: Cycles clips at planes along the view axis, so a
+    wall at view depth 9.5 is whole under clip_end 10 (its corners 16 away along their rays) and
+    one at 0.5 gone with clip_start 0.55 (Dürer, clipping along the rays, hit 11 % and 78 %)."""
+    scene.render.resolution_x, scene.render.resolution_y = 64, 48
+    world(scene, (0, 0, 0))
+    quad(scene, "Wall", location=(0, 0, -wall), scale=(50, 50, 1))
+    cam = scene.camera
+    cam.location, cam.rotation_euler = (0, 0, 0), (0, 0, 0)
+    cam.data.lens = 18
+    cam.data.clip_start, cam.data.clip_end = clip
+    c, d = both(scene, tmp_path, normal=False)
+    cycles_hit, durer_hit = c["depth"] < MISS, d["depth"] < MISS
+    assert cycles_hit.all() if wall > 1 else not cycles_hit.any()
+    assert (cycles_hit == durer_hit).all()

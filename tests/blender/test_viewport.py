@@ -84,7 +84,7 @@ def test_every_pixel_centre_ray_projects_to_its_pixel_centre(name):
 def test_clip_planes_become_the_camera_range():
     persp = viewport.view_camera(a_view_matrix(), frustum(-0.03, 0.05, -0.02, 0.04, 0.1, 100.0, True), True, 8, 6)
     ortho = viewport.view_camera(a_view_matrix(), frustum(-3, 5, -2, 4, -50.0, 50.0, False), False, 8, 6)
-    assert (persp.t_min, persp.t_max) == pytest.approx((0.1, 100.0), rel=1e-5)
+    assert (persp.t_min, persp.t_max) == pytest.approx((0.1, 100.0), rel=1e-5) and persp.clip_planes
     assert (ortho.t_min, ortho.t_max) == pytest.approx((-50.0, 50.0), rel=1e-6)
     assert ortho.size == pytest.approx(8.0) and ortho.shift == pytest.approx((1.0 / 8.0, 1.0 / 8.0))
     assert ortho.center == pytest.approx((2.0, -7.0, 3.0))

@@ -117,3 +117,38 @@ def test_pixel_aspect_stretches_pixels_vertically():
     np.testing.assert_allclose(origins[0, :, 0], [-0.5, 0.5])
     with pytest.raises(ValueError, match="pixel_aspect"):
         durer.OrthographicCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), 2.0, pixel_aspect=0.0)
+
+
+@pytest.mark.parametrize("sampler", ["stratified", "adaptive"])
+def test_perspective_clip_planes_bound_the_distance_along_the_view_axis(precision, sampler):
+    """With clip_planes, t_min and t_max are planes across the view axis (Blender's clip range): a
+    wall at view depth 9.5 is whole under a far plane at 10, though its corners lie 16 away along
+    their rays; a wall at 0.5 before a near plane at 0.55 is cut away whole and the wall behind it
+    seen through it, where clipping along the rays kept its off-axis part."""
+    scene = durer.Scene()
+    near_wall, far_wall = scene.add_plane((0, 0, 1), -0.5), scene.add_plane((0, 0, 1), -9.5)
+    kw = dict(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), fov_degrees=120)
+
+    def seen(camera):
+        result = durer.render(scene, camera, 32, 24, precision=precision, sampler=sampler, depth="planar",
+                              passes=("depth", "object_id"))
+        return result.depth, result.object_id
+
+    depth, ids = seen(durer.PerspectiveCamera(**kw, t_min=0.55, t_max=10, clip_planes=True))
+    assert (ids == far_wall).all()
+    np.testing.assert_allclose(depth, 9.5, rtol=1e-6)
+    depth, ids = seen(durer.PerspectiveCamera(**kw, t_min=0.55, t_max=10))  # along the rays
+    assert ids[12, 16] == far_wall and ids[0, 0] == near_wall and (ids == near_wall).mean() > 0.9
+    depth, ids = seen(durer.PerspectiveCamera(**kw, t_min=0.45, t_max=9.4, clip_planes=True))
+    assert (ids == near_wall).all()
+    scene = durer.Scene()
+    scene.add_plane((0, 0, 1), -9.5)
+    depth, ids = seen(durer.PerspectiveCamera(**kw, t_max=9.4, clip_planes=True))
+    assert (ids == -1).all() and np.isinf(depth).all()
+    depth, ids = seen(durer.PerspectiveCamera(**kw, t_max=9.6, clip_planes=True))
+    assert (ids == 0).all()
+
+
+def test_clip_planes_is_a_flag():
+    with pytest.raises(TypeError, match="clip_planes"):
+        durer.PerspectiveCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), clip_planes="yes")

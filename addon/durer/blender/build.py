@@ -35,9 +35,8 @@ def make_camera(cam: CameraData) -> durer.OrthographicCamera | durer.Perspective
     if cam.projection == "orthographic":
         # Cycles starts orthographic rays on the camera plane + clip_start; depth counts from the plane.
         return durer.OrthographicCamera(center, direction, up, size=cam.size, **common)
-    # Cycles clips perspective rays at planes along the view axis; Dürer clips along the ray, which
-    # differs only off-axis near the clip distances.
-    return durer.PerspectiveCamera(center, direction, up, fov_degrees=cam.fov_degrees, **common)
+    # Cycles clips perspective rays at planes along the view axis.
+    return durer.PerspectiveCamera(center, direction, up, fov_degrees=cam.fov_degrees, clip_planes=True, **common)
 
 
 def make_scene(data: SceneData) -> durer.Scene:

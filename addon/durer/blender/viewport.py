@@ -60,7 +60,7 @@ def view_camera(view_matrix: Any, window_matrix: Any, is_perspective: bool, widt
     center, direction, up = tuple(center), tuple(direction), tuple(up)
     if is_perspective:
         fov = float(np.degrees(2.0 * np.arctan(0.5 * span_x)))
-        return durer.PerspectiveCamera(center, direction, up, fov_degrees=fov, **common)
+        return durer.PerspectiveCamera(center, direction, up, fov_degrees=fov, clip_planes=True, **common)
     return durer.OrthographicCamera(center, direction, up, size=float(span_x), **common)
 
 

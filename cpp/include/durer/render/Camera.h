@@ -25,6 +25,9 @@ struct CameraSpec {
   double pixelAspect = 1;  // a pixel's height / width on the image plane (Blender's pixel aspect y / x)
   double tMin = 0;         // camera rays count hits with t in [tMin, tMax), t in world units
   double tMax = 0;
+  // Perspective: tMin and tMax bound the distance along the view axis, not along each ray (planes,
+  // Blender's clip range); t stays along the ray.
+  bool clipPlanes = false;
 };
 
 void validate(const CameraSpec& spec);  // throws std::invalid_argument naming the field
@@ -68,6 +71,26 @@ class Camera {
             m_xOffset, m_yOffset, m_perspective};
   }
 
+  // Whether hits must lie between the near and far planes (CameraSpec::clipPlanes, perspective):
+  // the search's [tMin, tMax) along each ray holds them, and clip() keeps only them.
+  bool clipsAtPlanes() const { return m_clipPlanes; }
+
+  // Ray k of a packet this camera generated, searched (tHit, prim): a miss if its hit lies beyond the
+  // far plane; true if it lies before the near plane, which only rays off the axis can meet (the
+  // search counts t from tMin along the ray), and `tMin` is then where the ray crosses that plane.
+  bool clip(RayPacket<Real>& packet, int k, Real& tMin) const {
+    if (packet.prim[k] == kNoPrimitive) return false;
+    const Real scale = planarScale(packet.dx[k], packet.dy[k], packet.dz[k]);
+    const Real depth = packet.tHit[k] * scale;
+    if (!(depth < m_far)) {
+      packet.prim[k] = kNoPrimitive;
+      packet.tHit[k] = packet.tMax;
+      return false;
+    }
+    tMin = m_near / scale;
+    return depth < m_near && tMin > packet.tHit[k];
+  }
+
   // The factor that turns t along a unit camera ray with direction (dx, dy, dz) into the distance
   // along the view axis: the cosine to it for perspective rays, exactly 1 for orthographic ones.
   Real planarScale(Real dx, Real dy, Real dz) const {
@@ -87,7 +110,9 @@ class Camera {
   Vec3<Real> m_center, m_forward, m_horizontal, m_up;  // unit, orthonormal frame
   Real m_pixelWidth, m_pixelHeight;                    // image-plane units per pixel (at distance 1 for perspective)
   Real m_xOffset, m_yOffset;                           // image-plane position of sample (0, 0)
-  Real m_tMin, m_tMax;
+  Real m_tMin, m_tMax;   // the search's range along each ray
+  bool m_clipPlanes;
+  Real m_near, m_far;    // clipsAtPlanes(): the planes' distances along the view axis
 };
 
 // Inline so that render kernels can inline (and clone) it.

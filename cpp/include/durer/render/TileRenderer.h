@@ -137,6 +137,7 @@ class TileRenderer {
       packet.view = m_view.get();
       packet.tileX = x0, packet.tileY = y0, packet.tileWidth = w;
       counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
+      clipToPlanes(packet, counters);
       if (m_cancel.load(std::memory_order_relaxed)) return {};
       accumulate(packet, acc, counters);
       counters.camera += count;
@@ -231,6 +232,7 @@ class TileRenderer {
     packet.view = m_view.get();
     packet.tileX = tileX, packet.tileY = tileY, packet.tileWidth = tileWidth;
     counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
+    clipToPlanes(packet, counters);
     if (m_cancel.load(std::memory_order_relaxed)) return false;
     accumulate(packet, sink, counters);
     counters.camera += count;
@@ -533,6 +535,25 @@ class TileRenderer {
     for (int k = 0; k < packet.count; ++k) {
       const size_t m = static_cast<size_t>(materialOf[packet.prim[k]]);
       acc.addColor(k, m_flat.r[m], m_flat.g[m], m_flat.b[m], m_flat.a[m]);
+    }
+  }
+
+  // Camera rays searched: with a camera that clips at planes (Blender's clip range), hits beyond
+  // the far plane missed, and each ray whose hit lies before the near plane searched again from
+  // where it crosses that plane (one ray at a time: only rays off the axis, near the eye, meet one).
+  void clipToPlanes(RayPacket<Real>& packet, RayCounters& counters) const {
+    if (!m_camera.clipsAtPlanes()) return;
+    for (int k = 0; k < packet.count; ++k) {
+      Real tMin;
+      if (!m_camera.clip(packet, k, tMin)) continue;
+      RayPacket<Real> ray;
+      ray.count = 1;
+      ray.tMin = tMin, ray.tMax = packet.tMax;
+      ray.ox[0] = packet.ox[k], ray.oy[0] = packet.oy[k], ray.oz[0] = packet.oz[k];
+      ray.dx[0] = packet.dx[k], ray.dy[0] = packet.dy[k], ray.dz[0] = packet.dz[k];
+      counters.intersectionTests += m_group.template intersect<M>(ray, &m_cancel);
+      packet.tHit[k] = ray.tHit[0], packet.prim[k] = ray.prim[0];
+      m_camera.clip(packet, k, tMin);  // the far plane, for the hit found beyond the near one
     }
   }
 
