@@ -425,6 +425,24 @@ def test_output_format_from_the_extension_whatever_the_file_writes(scene, tmp_pa
     assert any(name.endswith("Depth.Z") for name in read_exr(exr))
 
 
+@pytest.mark.parametrize("passes", [True, False])
+def test_exr_output_from_a_file_writing_png_keeps_the_passes_asked_for(scene, tmp_path, passes):
+    """--output x.exr from a file set to PNG: a multilayer EXR with the passes its view layer asks
+    for (a single-layer EXR dropped Depth and Normal without a word), single-layer without."""
+    from helpers.exr import read_exr_headers
+
+    layer = scene.view_layers[0]
+    layer.use_pass_z = layer.use_pass_normal = passes
+    scene.render.image_settings.file_format = "PNG"
+    blend = saved_blend(scene, tmp_path / "png.blend")
+    (exr,) = batch.render_file(blend, frames="1", output=tmp_path / "f_####.exr")
+    channels = {name for header in read_exr_headers(exr) for name, _ in header["channels"]}
+    if passes:
+        assert {"ViewLayer.Depth.Z", "ViewLayer.Normal.X", "ViewLayer.Combined.R"} <= channels
+    else:
+        assert channels == {"R", "G", "B", "A"}
+
+
 def test_render_file_frames_and_output(scene, tmp_path):
     blend = saved_blend(scene, tmp_path / "anim.blend")
     bpy.ops.wm.read_factory_settings(use_empty=True)

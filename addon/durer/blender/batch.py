@@ -255,10 +255,14 @@ def configure_output(sc: bpy.types.Scene, output: str | os.PathLike | None, fram
         out = os.path.join(out, "####")
     ext = Path(out).suffix.lower()
     if ext in FORMATS:
+        from .engine import layer_passes
+
         settings = sc.render.image_settings
         # Blender 5 sorts formats by media (image, multilayer image, video): pick the medium first.
-        # A file set to write multilayer EXRs keeps its passes with ".exr".
-        multilayer = settings.file_format == "OPEN_EXR_MULTILAYER" and ext == ".exr"
+        # ".exr" keeps the passes: multilayer where the file writes multilayer EXRs or its view
+        # layers ask for passes beyond Combined (a single-layer EXR would drop them).
+        multilayer = ext == ".exr" and (settings.file_format == "OPEN_EXR_MULTILAYER" or
+                                        any(layer.use and layer_passes(layer) for layer in sc.view_layers))
         if hasattr(settings, "media_type"):
             settings.media_type = "MULTI_LAYER_IMAGE" if multilayer else "IMAGE"
         settings.file_format = "OPEN_EXR_MULTILAYER" if multilayer else FORMATS[ext]

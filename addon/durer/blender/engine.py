@@ -110,6 +110,17 @@ INDEX_PASSES = (
 )
 
 
+#: Channels of the passes beyond Combined that Dürer writes (RenderEngine.register_pass's layout).
+PASS_LAYOUTS = {"Depth": (1, "Z", "VALUE"), "Normal": (3, "XYZ", "VECTOR")} | {
+    name: (1, "X", "VALUE") for name, _, _, _ in INDEX_PASSES}
+
+
+def layer_passes(layer) -> list[str]:
+    """The passes beyond Combined that view layer `layer` asks for, by Blender's names."""
+    asked = [name for name, on in (("Depth", layer.use_pass_z), ("Normal", layer.use_pass_normal)) if on]
+    return asked + [name for name, wanted, _, _ in INDEX_PASSES if wanted(layer)]
+
+
 def _flip(rows_top_first: np.ndarray) -> np.ndarray:
     """Dürer images are top row first, Blender's bottom row first."""
     return np.ascontiguousarray(rows_top_first[::-1], dtype=np.float32)
@@ -167,13 +178,8 @@ class DurerEngineMixin:
 
     def update_render_passes(self, scene=None, renderlayer=None):
         self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
-        if renderlayer.use_pass_z:
-            self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
-        if renderlayer.use_pass_normal:
-            self.register_pass(scene, renderlayer, "Normal", 3, "XYZ", "VECTOR")
-        for name, wanted, _, _ in INDEX_PASSES:
-            if wanted(renderlayer):
-                self.register_pass(scene, renderlayer, name, 1, "X", "VALUE")
+        for name in layer_passes(renderlayer):
+            self.register_pass(scene, renderlayer, name, *PASS_LAYOUTS[name])
 
     def render(self, depsgraph):
         global last_render
