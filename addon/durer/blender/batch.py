@@ -10,7 +10,9 @@ import argparse
 import numbers
 import os
 import re
+import signal
 import sys
+import threading
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -165,8 +167,11 @@ def render_file(
     # Frames in a row: each reuses the last one's scene where only spheres and the camera moved.
     persistent = sc.render.use_persistent_data
     sc.render.use_persistent_data = True
+    restore = _catch_interrupts()
     try:
         for i, frame in enumerate(frame_list):
+            if engine.interrupt.is_set():
+                raise KeyboardInterrupt
             target = frame_target(sc, explicit, frame)
             if resume and is_complete(target):
                 continue
@@ -188,11 +193,28 @@ def render_file(
         sc.render.filepath, sc.render.use_file_extension = pattern, use_extension
         sc.render.use_persistent_data = persistent
         engine.persistent.pop(sc.name, None)
+        restore()
+        engine.interrupt.clear()
     if failed:
         first = min(failed)
         raise BatchRenderError(f"{len(failed)} of {len(frame_list)} frames failed: "
                                f"{','.join(str(f) for f in sorted(failed))} ({failed[first]})", written)
     return written
+
+
+def _catch_interrupts() -> Callable[[], object]:
+    """Ctrl-C sets engine.interrupt for the batch's duration instead of raising KeyboardInterrupt
+    wherever Python happens to be (inside Blender's own calls into the engine it was printed and
+    ignored, and the frame written blank); returns what puts the previous handler back (nothing to
+    do off the main thread, where signals cannot be caught)."""
+    from . import engine
+
+    engine.interrupt.clear()
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+    previous = signal.getsignal(signal.SIGINT)
+    signal.signal(signal.SIGINT, lambda *_: engine.interrupt.set())
+    return lambda: signal.signal(signal.SIGINT, previous)
 
 
 def setting_range(name: str) -> tuple[int, int]:
@@ -314,6 +336,8 @@ def _render_frame(bpy, engine, sc, blend: Path, frame: int, left: int, progress)
         bpy.ops.render.render(write_still=True, scene=sc.name)
     except RuntimeError as exc:  # Blender's report ("Error: Dürer: ..."), unless the engine's own is there
         remove_written()
+        if engine.last_render.interrupted:
+            raise KeyboardInterrupt from None
         raise BatchRenderError(f"Frame {frame} of {blend} failed: {engine.last_render.error or exc}") from None
     finally:
         engine.progress_hooks.remove(hook)

@@ -19,6 +19,9 @@ from .export.depsgraph import export_depsgraph
 IMAGE_NAME = "Dürer Render"
 #: How often the engine polls Blender's cancel flag (Esc) while Dürer renders, in seconds.
 POLL_SECONDS = 0.02
+#: Ctrl-C during a batch (batch.render_file's SIGINT handler sets it): the render stops at its next
+#: poll and ends as interrupted, as a KeyboardInterrupt would end it but at no arbitrary point.
+interrupt = threading.Event()
 #: The image metadata field (an EXR header attribute, a PNG text chunk) that holds the Object ID
 #: pass's table: JSON {"id": "object name", ...}, as last_render.object_ids.
 OBJECT_IDS_FIELD = "durer.object_ids"
@@ -121,6 +124,16 @@ def layer_passes(layer) -> list[str]:
     return asked + [name for name, wanted, _, _ in INDEX_PASSES if wanted(layer)]
 
 
+def _wait_through_interrupts(done: threading.Event) -> None:
+    """Wait until `done` is set, whatever further Ctrl-Cs come meanwhile."""
+    while True:
+        try:
+            done.wait()
+            return
+        except KeyboardInterrupt:
+            continue
+
+
 def _flip(rows_top_first: np.ndarray) -> np.ndarray:
     """Dürer images are top row first, Blender's bottom row first."""
     return np.ascontiguousarray(rows_top_first[::-1], dtype=np.float32)
@@ -189,6 +202,9 @@ class DurerEngineMixin:
         except KeyboardInterrupt:
             info.interrupted = info.cancelled = True
             self.update_stats("", "Dürer | interrupted")
+            # An error report keeps Blender from saving the frame: its EXR writer crashed on the
+            # empty result an interrupted render leaves.
+            self.report({"ERROR"}, "Dürer: interrupted")
         except Exception as exc:  # noqa: BLE001 - never let an exception escape into Blender
             info.error = f"{type(exc).__name__}: {exc}"
             self.report({"ERROR"}, f"Dürer: {exc}")
@@ -311,7 +327,7 @@ class DurerEngineMixin:
     def _run(self, core_scene, camera, w, h, passes, kwargs):
         """Render in a worker thread while this thread polls Esc (test_break) and shows progress,
         so every Blender call happens on the thread Blender called us on."""
-        cancel = threading.Event()
+        cancel, done = threading.Event(), threading.Event()
         progress = [0.0]
         out: dict = {}
 
@@ -329,14 +345,16 @@ class DurerEngineMixin:
                 )
             except BaseException as exc:  # noqa: BLE001 - handed to the calling thread
                 out["error"] = exc
+            finally:
+                done.set()
 
-        worker = threading.Thread(target=work, name="durer-render", daemon=True)
-        worker.start()
+        # Waited for on `done`, not by joining: on Python 3.11 a join that Ctrl-C interrupts marks the
+        # thread stopped while it still runs, and the core then rendered into freed memory.
+        threading.Thread(target=work, name="durer-render", daemon=True).start()
         shown = -1.0
         try:
-            while worker.is_alive():
-                worker.join(POLL_SECONDS)
-                if not cancel.is_set() and self.break_requested():
+            while not done.wait(POLL_SECONDS):
+                if not cancel.is_set() and (self.break_requested() or interrupt.is_set()):
                     cancel.set()
                 if progress[0] != shown:
                     shown = progress[0]
@@ -345,17 +363,19 @@ class DurerEngineMixin:
                         hook(shown)
         except KeyboardInterrupt:  # the render thread stops too before the interrupt goes on
             cancel.set()
-            worker.join()
+            _wait_through_interrupts(done)
             raise
         error = out.get("error")
-        if isinstance(error, durer.RenderCancelled):
-            return error.result, True
-        if error is not None:
+        cancelled = isinstance(error, durer.RenderCancelled)
+        if error is not None and not cancelled:
             raise error
-        self.update_progress(1.0)
-        for hook in progress_hooks:
-            hook(1.0)
-        return out.get("result"), False
+        if not cancelled:
+            self.update_progress(1.0)
+            for hook in progress_hooks:
+                hook(1.0)
+        if interrupt.is_set():  # Ctrl-C up to the last progress shown: the frame is not kept
+            raise KeyboardInterrupt
+        return (error.result, True) if cancelled else (out.get("result"), False)
 
 
 class DurerRenderEngine(DurerEngineMixin, bpy.types.RenderEngine):
