@@ -330,7 +330,12 @@ def _api_call(scene: durer.Scene, src: Source) -> None:
         faces = np.asarray(src.array((_count(src), 3), lambda: src.below(v + 1)))
         if not src.chance(56) and faces.dtype.kind == "f" and np.isfinite(faces).all():
             faces = faces.astype(np.int64)
-        scene.add_mesh(src.array((v, 3), src.small), faces, src.value(lambda: 0), transform=_transform(src))
+        normals = None
+        if src.chance(96):  # a smooth mesh: per vertex or per corner, of any length, now and then zero
+            shape = (v, 3) if src.chance(128) else (np.shape(faces)[0] if np.ndim(faces) else 0, 3, 3)
+            normals = src.array(shape, lambda: src.small() if src.chance(240) else 0.0)
+        scene.add_mesh(src.array((v, 3), src.small), faces, src.value(lambda: 0), transform=_transform(src),
+                       normals=normals)
     elif kind == 7:
         n = _count(src)
         lo = src.array((n, 3), src.small)
@@ -366,6 +371,8 @@ def _camera(src: Source, api: Any) -> Any:
     if src.chance(40):
         kwargs[src.choice(("t_min", "t_max"))] = src.value(src.small)
     orthographic = cls == "OrthographicCamera"
+    if not orthographic and src.chance(80):
+        kwargs["clip_planes"] = src.value(lambda: src.chance(128))
     kwargs["size" if orthographic else "fov_degrees"] = src.value(lambda: 1 + src.byte() / 16 if orthographic else
                                                                   10 + src.byte() / 2)
     direction = src.array((3,), lambda: src.small() - (8 if not src.chance(56) else 0))
