@@ -4,6 +4,8 @@ what a fresh export renders."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from helpers.blender import DEG, aim_camera, light, material, quad, world
@@ -67,7 +69,7 @@ def test_moving_points_reuse_the_scene_and_render_as_a_fresh_export(scene):
     for (a, _), (b, _) in zip(fresh, kept):
         np.testing.assert_array_equal(a, b)
     assert not np.array_equal(fresh[0][0], fresh[2][0])  # the points moved
-    sphere_scene = engine.persistent[scene.name][1]
+    sphere_scene = engine.persistent[scene.name, scene.view_layers[0].name][1]
     assert sphere_scene.hierarchy_counts["refitted"] == 2 and sphere_scene.hierarchy_counts["built"] == 1
 
 
@@ -95,3 +97,109 @@ def test_batch_frames_reuse_the_scene_and_leave_the_setting_alone(scene, tmp_pat
     assert len(files) == 3 and dict(reused) == {1: False, 2: True, 3: True}
     assert not engine.persistent  # let go after the last frame
     assert bpy.context.scene.render.use_persistent_data is False
+
+
+def test_each_view_layer_keeps_its_own_scene_between_frames(scene):
+    """Two view layers with Persistent Data (a render renders both): each refits its own kept core
+    scene on the next frame (one was kept per scene, so each layer rebuilt over the other's: 0 of
+    20 frames refitted)."""
+    exploding_cloud(scene, 500)
+    scene.view_layers.new("Second")
+    scene.render.use_persistent_data = True
+    scene.frame_set(1)
+    assert bpy.ops.render.render() == {"FINISHED"} and engine.last_render.error is None
+    kept = {key: core for key, (_, core) in engine.persistent.items()}
+    assert set(kept) == {(scene.name, "ViewLayer"), (scene.name, "Second")}
+    scene.frame_set(2)
+    assert bpy.ops.render.render() == {"FINISHED"} and engine.last_render.reused_scene
+    assert all(engine.persistent[key][1] is core for key, core in kept.items())
+    engine.persistent.clear()
+
+
+def falling_points(s) -> None:
+    """Ten points (spheres of radius 0.1) made at z = 5 by a geometry-nodes Simulation Zone that
+    moves them down 0.05 a frame, not baked: each frame is where the frames before left them."""
+    tree = bpy.data.node_groups.new("Falling", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes, links = tree.nodes, tree.links
+    points = nodes.new("GeometryNodePoints")
+    points.inputs["Count"].default_value, points.inputs["Position"].default_value = 10, (0, 0, 5)
+    start, end = nodes.new("GeometryNodeSimulationInput"), nodes.new("GeometryNodeSimulationOutput")
+    start.pair_with_output(end)
+    move = nodes.new("GeometryNodeSetPosition")
+    move.inputs["Offset"].default_value = (0, 0, -0.05)
+    links.new(points.outputs[0], start.inputs["Geometry"])
+    links.new(start.outputs["Geometry"], move.inputs["Geometry"])
+    links.new(move.outputs[0], end.inputs["Geometry"])
+    links.new(end.outputs["Geometry"], nodes.new("NodeGroupOutput").inputs[0])
+    obj = bpy.data.objects.new("Sim", bpy.data.meshes.new("Sim"))
+    s.collection.objects.link(obj)
+    obj.modifiers.new("Falling", "NODES").node_group = tree
+    s.render.resolution_x, s.render.resolution_y = 32, 32
+    world(s, (0.05, 0.05, 0.05))
+    light(s, "SUN", energy=3.0)
+    aim_camera(s, (0, -2, 4.8), (0, 0, 4.8))
+    s.frame_start, s.frame_end = 1, 6
+    s.frame_set(1)
+
+
+def test_resuming_an_unbaked_simulation_renders_the_frames_an_unbroken_batch_renders(scene, tmp_path):
+    """A Simulation Zone, not baked: a batch stopped after frame 3 and resumed renders frames 4-6 as
+    the whole batch does (the simulation steps through the frames done before; it started again at
+    frame 4 and every resumed frame differed)."""
+    falling_points(scene)
+    blend = tmp_path / "falling.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    out = tmp_path / "out" / "f_####.png"
+    whole = batch.render_file(blend, frames="1-6", output=out)
+    kept = [p.read_bytes() for p in whole]
+    assert len(set(kept)) == 6  # each frame its own
+    for path in whole[3:]:
+        path.unlink()
+    assert batch.simulated()
+    resumed = batch.render_file(blend, frames="1-6", output=out, resume=True)
+    assert [p.name for p in resumed] == ["f_0004.png", "f_0005.png", "f_0006.png"]
+    assert [p.read_bytes() for p in resumed] == kept[3:]
+
+
+def test_frames_are_written_whole_under_their_own_name(scene, tmp_path):
+    """Blender writes each frame under a hidden name and the batch renames it once whole: no frame
+    file exists half written (a process killed mid-write left one that --resume took as done)."""
+    exploding_cloud(scene, 100)
+    blend = tmp_path / "cloud.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    seen = []
+
+    @bpy.app.handlers.persistent  # kept through the batch's opening of the file
+    def written(*_):
+        seen.append(sorted(p.name for p in (tmp_path / "out").iterdir()))
+
+    bpy.app.handlers.render_write.append(written)
+    try:
+        batch.render_file(blend, frames="1-2", output=tmp_path / "out" / "f_####.exr")
+    finally:
+        bpy.app.handlers.render_write.remove(written)
+    assert seen == [[".f_0001.exr.part"], [".f_0002.exr.part", "f_0001.exr"]]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["f_0001.exr", "f_0002.exr"]
+
+
+def test_a_file_writing_video_needs_an_image_output(scene, tmp_path):
+    exploding_cloud(scene, 100)
+    scene.render.image_settings.media_type, scene.render.image_settings.file_format = "VIDEO", "FFMPEG"
+    blend = tmp_path / "video.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    with pytest.raises(ValueError, match=r"video\.blend writes a video \(FFMPEG\), which a batch of frames cannot: "
+                                         r"give --output with an image extension"):
+        batch.render_file(blend, frames="1-2")
+
+
+@pytest.mark.parametrize("pattern", ["f_####", "f_##", "take#1/f_###"])
+def test_frame_numbers_are_blender_s_negative_ones_included(scene, tmp_path, pattern):
+    """The batch's file names are Blender's own (RenderSettings.frame_path), minus sign included:
+    frame -1 of f_#### is f_-0001 (it was f_-001)."""
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.filepath = str(tmp_path / pattern)
+    explicit = str(tmp_path / (pattern + ".png"))
+    for frame in (-123, -1, 0, 7, 12345):
+        assert batch.frame_target(scene, explicit, frame) == Path(scene.render.frame_path(frame=frame))

@@ -19,7 +19,8 @@ from helpers.blend import animated_blend, bpy, falling_particles_blend
 import psutil
 
 from durer.blender import batch
-from durer.distributed.frames import _self_contained_copy, _unbaked_point_caches, render_frames
+from durer.blender.batch import unbaked_point_caches
+from durer.distributed.frames import _self_contained_copy, render_frames
 from durer.distributed.output import TEMP_SUFFIX, is_complete
 
 from helpers.distributed import TIMEOUT, assert_same_image_file
@@ -105,12 +106,12 @@ def test_the_shipped_copy_holds_the_bake_even_of_a_disk_cache(tmp_path):
     emitter.modifiers.new("Hair", "PARTICLE_SYSTEM")
     emitter.particle_systems[1].settings.type = "HAIR"
     bpy.ops.wm.save_mainfile()
-    assert len(_unbaked_point_caches()) == 1  # the falling particles, not the hair
+    assert len(unbaked_point_caches()) == 1  # the falling particles, not the hair
     (tmp_path / "ship.blend").write_bytes(_self_contained_copy())
     bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "ship.blend"))
     cache = bpy.data.objects["Emitter"].particle_systems[0].point_cache
     assert cache.is_baked and not cache.use_disk_cache and "in memory" in cache.info
-    assert _unbaked_point_caches() == []
+    assert unbaked_point_caches() == []
 
 
 def test_existing_scheduler_and_workers_started_as_processes(animation, external_scheduler, tmp_path):

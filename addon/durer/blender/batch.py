@@ -160,6 +160,11 @@ def render_file(
     if frame_list is None:
         frame_list = [sc.frame_current]
     explicit = configure_output(sc, output, len(frame_list))
+    if explicit is None and sc.render.is_movie_format:
+        raise ValueError(f"{blend} writes a video ({sc.render.image_settings.file_format}), which a batch of "
+                         "frames cannot: give --output with an image extension, e.g. out/frame_####.png")
+    # Frames done before a resume: an unbaked simulation steps through them, as it would have.
+    steps = resume and simulated()
 
     written: list[Path] = []
     failed: dict[int, str] = {}
@@ -174,10 +179,15 @@ def render_file(
                 raise KeyboardInterrupt
             target = frame_target(sc, explicit, frame)
             if resume and is_complete(target):
+                if steps:
+                    sc.frame_set(frame)
                 continue
             make_folder_for(target)
             sc.frame_set(frame)
-            sc.render.filepath, sc.render.use_file_extension = str(target), False
+            # Blender writes the frame in place: under another name, renamed once whole, so that a
+            # process killed mid-write leaves no partial file for --resume to take as done.
+            partial = target.with_name(f".{target.name}.part")
+            sc.render.filepath, sc.render.use_file_extension = str(partial), False
             try:
                 _render_frame(bpy, engine, sc, blend, frame, len(frame_list) - i, progress)
             except BatchRenderError as exc:  # the other frames still render, as on a cluster
@@ -185,14 +195,16 @@ def render_file(
                 continue
             finally:
                 sc.render.filepath, sc.render.use_file_extension = pattern, use_extension
-            if not target.is_file():
+            if not partial.is_file():
                 failed[frame] = f"Frame {frame} of {blend} rendered but {target} was not written"
                 continue
+            os.replace(partial, target)
             written.append(target)
     finally:
         sc.render.filepath, sc.render.use_file_extension = pattern, use_extension
         sc.render.use_persistent_data = persistent
-        engine.persistent.pop(sc.name, None)
+        for key in [key for key in engine.persistent if key[0] == sc.name]:
+            del engine.persistent[key]
         restore()
         engine.interrupt.clear()
     if failed:
@@ -200,6 +212,41 @@ def render_file(
         raise BatchRenderError(f"{len(failed)} of {len(frame_list)} frames failed: "
                                f"{','.join(str(f) for f in sorted(failed))} ({failed[first]})", written)
     return written
+
+
+def simulated() -> bool:
+    """Whether the open file holds a simulation that is not baked: it steps from the frame before,
+    so frames rendered out of order see another history (unbaked_point_caches, or a geometry-nodes
+    Simulation Zone)."""
+    import bpy
+
+    return bool(unbaked_point_caches()) or any(
+        _has_simulation_zone(modifier.node_group, set())
+        for obj in bpy.data.objects for modifier in obj.modifiers
+        if modifier.type == "NODES" and modifier.node_group is not None)
+
+
+def _has_simulation_zone(tree, seen: set) -> bool:
+    if tree.as_pointer() in seen:
+        return False
+    seen.add(tree.as_pointer())
+    return any(node.bl_idname == "GeometryNodeSimulationInput"
+               or (getattr(node, "node_tree", None) is not None and _has_simulation_zone(node.node_tree, seen))
+               for node in tree.nodes)
+
+
+def unbaked_point_caches() -> list:
+    """The caches of simulations not baked: particle systems with physics (hair only with its
+    dynamics on), point-cache modifiers such as cloth and soft bodies, rigid bodies."""
+    import bpy
+
+    caches = [scene.rigidbody_world.point_cache for scene in bpy.data.scenes if scene.rigidbody_world]
+    for obj in bpy.data.objects:
+        caches += [system.point_cache for system in getattr(obj, "particle_systems", ())
+                   if system.settings.physics_type != "NO"
+                   and (system.settings.type != "HAIR" or system.use_hair_dynamics)]
+        caches += [modifier.point_cache for modifier in obj.modifiers if hasattr(modifier, "point_cache")]
+    return [cache for cache in caches if not cache.is_baked]
 
 
 def _catch_interrupts() -> Callable[[], object]:
@@ -300,6 +347,11 @@ def configure_output(sc: bpy.types.Scene, output: str | os.PathLike | None, fram
     return out if ext in FORMATS else None
 
 
+def frame_number(frame: int, digits: int) -> str:
+    """`frame` zero-padded to `digits` digits, a minus sign before them (Blender's %0*d: -0001)."""
+    return ("-" if frame < 0 else "") + f"{abs(frame):0{digits}d}"
+
+
 def frame_target(sc: bpy.types.Scene, explicit: str | None, frame: int) -> Path:
     """The file frame `frame` is written to."""
     import bpy
@@ -307,7 +359,7 @@ def frame_target(sc: bpy.types.Scene, explicit: str | None, frame: int) -> Path:
     # write_still does not number stills: resolve "#" and the extension per frame ourselves.
     if explicit is not None:  # the last "#" run of the file name, as Blender's frame_path
         folder, name = os.path.split(explicit)
-        name = re.sub(r"#+(?!.*#)", lambda m: f"{frame:0{len(m.group())}d}", name)
+        name = re.sub(r"#+(?!.*#)", lambda m: frame_number(frame, len(m.group())), name)
         return Path(bpy.path.abspath(os.path.join(folder, name)))
     return Path(bpy.path.abspath(sc.render.frame_path(frame=frame)))
 

@@ -96,9 +96,10 @@ def stats_line(width: int, height: int, samples: int, stats: dict, cancelled: bo
 
 
 last_render = RenderInfo()
-#: The last render's exported data and core scene, by Blender scene name, kept while that scene's
-#: Render › Performance › Persistent Data is on (as Cycles keeps its data between renders).
-persistent: dict[str, tuple] = {}
+#: The last render's exported data and core scene, by Blender scene and view layer names, kept while
+#: that scene's Render › Performance › Persistent Data is on (as Cycles keeps its data between
+#: renders); each view layer its own (one scene kept for all, every layer rebuilt the other's).
+persistent: dict[tuple[str, str], tuple] = {}
 #: Callables given the finished fraction while Dürer renders (batch progress bars use this).
 progress_hooks: list = []
 
@@ -221,12 +222,13 @@ class DurerEngineMixin:
         cam_data = data.camera
         w, h = cam_data.width, cam_data.height
         keep = scene.render.use_persistent_data
-        previous = persistent.pop(scene.name, None) if keep else None
+        key = (scene.name, layer.name)
+        previous = persistent.pop(key, None) if keep else None
         if not keep:
             persistent.clear()
         core_scene, info.reused_scene = build.update_scene(previous, data)
         if keep:
-            persistent[scene.name] = (data, core_scene)
+            persistent[key] = (data, core_scene)
         camera = build.make_camera(cam_data)
         info.export_seconds = time.perf_counter() - t0
         info.width, info.height, info.samples = w, h, int(settings.samples)

@@ -122,7 +122,7 @@ def _self_contained_copy() -> bytes:
     """The open file with its external data packed and linked data made local, as .blend bytes."""
     import bpy
 
-    from ..blender.batch import BatchRenderError
+    from ..blender.batch import BatchRenderError, unbaked_point_caches
 
     linked = _linked_blocks()
     while linked:  # a block still used by linked blocks stays linked: users first, then their data
@@ -136,7 +136,7 @@ def _self_contained_copy() -> bytes:
         bpy.data.libraries.remove(library)
     if any(image.source == "FILE" and image.packed_file is None for image in bpy.data.images):
         bpy.ops.file.pack_all()
-    unbaked = _unbaked_point_caches()
+    unbaked = unbaked_point_caches()
     if unbaked:
         # A simulation (particles, cloth, rigid bodies) steps from the frame before: a worker given
         # frames out of order would simulate another history. Baked here into the copy (not to disk
@@ -148,20 +148,6 @@ def _self_contained_copy() -> bytes:
         copy = Path(folder) / "scene.blend"
         bpy.ops.wm.save_as_mainfile(filepath=str(copy), copy=True, compress=False)
         return copy.read_bytes()
-
-
-def _unbaked_point_caches() -> list[Any]:
-    """The caches of simulations not baked: particle systems with physics (hair only with its
-    dynamics on), point-cache modifiers such as cloth and soft bodies, rigid bodies."""
-    import bpy
-
-    caches = [scene.rigidbody_world.point_cache for scene in bpy.data.scenes if scene.rigidbody_world]
-    for obj in bpy.data.objects:
-        caches += [system.point_cache for system in getattr(obj, "particle_systems", ())
-                   if system.settings.physics_type != "NO"
-                   and (system.settings.type != "HAIR" or system.use_hair_dynamics)]
-        caches += [modifier.point_cache for modifier in obj.modifiers if hasattr(modifier, "point_cache")]
-    return [cache for cache in caches if not cache.is_baked]
 
 
 def _linked_blocks() -> list[Any]:
