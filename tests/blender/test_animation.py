@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers.blend import falling_points
 from helpers.blender import DEG, aim_camera, light, material, quad, world
 
 from helpers.blender_import import blender_module
@@ -114,34 +115,6 @@ def test_each_view_layer_keeps_its_own_scene_between_frames(scene):
     assert bpy.ops.render.render() == {"FINISHED"} and engine.last_render.reused_scene
     assert all(engine.persistent[key][1] is core for key, core in kept.items())
     engine.persistent.clear()
-
-
-def falling_points(s) -> None:
-    """Ten points (spheres of radius 0.1) made at z = 5 by a geometry-nodes Simulation Zone that
-    moves them down 0.05 a frame, not baked: each frame is where the frames before left them."""
-    tree = bpy.data.node_groups.new("Falling", "GeometryNodeTree")
-    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    nodes, links = tree.nodes, tree.links
-    points = nodes.new("GeometryNodePoints")
-    points.inputs["Count"].default_value, points.inputs["Position"].default_value = 10, (0, 0, 5)
-    start, end = nodes.new("GeometryNodeSimulationInput"), nodes.new("GeometryNodeSimulationOutput")
-    start.pair_with_output(end)
-    move = nodes.new("GeometryNodeSetPosition")
-    move.inputs["Offset"].default_value = (0, 0, -0.05)
-    links.new(points.outputs[0], start.inputs["Geometry"])
-    links.new(start.outputs["Geometry"], move.inputs["Geometry"])
-    links.new(move.outputs[0], end.inputs["Geometry"])
-    links.new(end.outputs["Geometry"], nodes.new("NodeGroupOutput").inputs[0])
-    obj = bpy.data.objects.new("Sim", bpy.data.meshes.new("Sim"))
-    s.collection.objects.link(obj)
-    obj.modifiers.new("Falling", "NODES").node_group = tree
-    s.render.resolution_x, s.render.resolution_y = 32, 32
-    world(s, (0.05, 0.05, 0.05))
-    light(s, "SUN", energy=3.0)
-    aim_camera(s, (0, -2, 4.8), (0, 0, 4.8))
-    s.frame_start, s.frame_end = 1, 6
-    s.frame_set(1)
 
 
 def test_resuming_an_unbaked_simulation_renders_the_frames_an_unbroken_batch_renders(scene, tmp_path):

@@ -10,6 +10,7 @@ bpy = blender_module("bpy")
 bmesh = blender_module("bmesh")
 
 import durer.blender
+from helpers.blender import aim_camera, light, world
 
 
 def _ball(s, name, radius, color, location):
@@ -82,3 +83,31 @@ def falling_particles_blend(path: Path, frames: int = 8) -> Path:
     part.factor_random = 1.0  # random initial speeds: each frame's state is its own history
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
     return path
+
+
+def falling_points(s) -> None:
+    """Ten points (spheres of radius 0.1) made at z = 5 by a geometry-nodes Simulation Zone that
+    moves them down 0.05 a frame, not baked: each frame is where the frames before left them."""
+    tree = bpy.data.node_groups.new("Falling", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes, links = tree.nodes, tree.links
+    points = nodes.new("GeometryNodePoints")
+    points.inputs["Count"].default_value, points.inputs["Position"].default_value = 10, (0, 0, 5)
+    start, end = nodes.new("GeometryNodeSimulationInput"), nodes.new("GeometryNodeSimulationOutput")
+    start.pair_with_output(end)
+    move = nodes.new("GeometryNodeSetPosition")
+    move.inputs["Offset"].default_value = (0, 0, -0.05)
+    links.new(points.outputs[0], start.inputs["Geometry"])
+    links.new(start.outputs["Geometry"], move.inputs["Geometry"])
+    links.new(move.outputs[0], end.inputs["Geometry"])
+    links.new(end.outputs["Geometry"], nodes.new("NodeGroupOutput").inputs[0])
+    obj = bpy.data.objects.new("Sim", bpy.data.meshes.new("Sim"))
+    s.collection.objects.link(obj)
+    obj.modifiers.new("Falling", "NODES").node_group = tree
+    s.render.resolution_x, s.render.resolution_y = 32, 32
+    world(s, (0.05, 0.05, 0.05))
+    light(s, "SUN", energy=3.0)
+    aim_camera(s, (0, -2, 4.8), (0, 0, 4.8))
+    s.frame_start, s.frame_end = 1, 6
+    s.frame_set(1)

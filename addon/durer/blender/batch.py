@@ -215,15 +215,20 @@ def render_file(
 
 
 def simulated() -> bool:
-    """Whether the open file holds a simulation that is not baked: it steps from the frame before,
-    so frames rendered out of order see another history (unbaked_point_caches, or a geometry-nodes
-    Simulation Zone)."""
+    """Whether the open file holds a simulation that may not be baked: it steps from the frame
+    before, so frames rendered out of order see another history (unbaked_point_caches, or
+    simulation_zones: Blender does not tell whether theirs are baked)."""
+    return bool(unbaked_point_caches()) or bool(simulation_zones())
+
+
+def simulation_zones() -> list:
+    """The geometry-nodes modifiers of the open file whose trees (or groups in them) hold a
+    Simulation Zone."""
     import bpy
 
-    return bool(unbaked_point_caches()) or any(
-        _has_simulation_zone(modifier.node_group, set())
-        for obj in bpy.data.objects for modifier in obj.modifiers
-        if modifier.type == "NODES" and modifier.node_group is not None)
+    return [modifier for obj in bpy.data.objects for modifier in obj.modifiers
+            if modifier.type == "NODES" and modifier.node_group is not None
+            and _has_simulation_zone(modifier.node_group, set())]
 
 
 def _has_simulation_zone(tree, seen: set) -> bool:

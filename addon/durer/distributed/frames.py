@@ -122,7 +122,7 @@ def _self_contained_copy() -> bytes:
     """The open file with its external data packed and linked data made local, as .blend bytes."""
     import bpy
 
-    from ..blender.batch import BatchRenderError, unbaked_point_caches
+    from ..blender.batch import BatchRenderError, simulation_zones, unbaked_point_caches
 
     linked = _linked_blocks()
     while linked:  # a block still used by linked blocks stays linked: users first, then their data
@@ -144,6 +144,15 @@ def _self_contained_copy() -> bytes:
         for cache in unbaked:
             cache.use_disk_cache = False
         bpy.ops.ptcache.bake_all(bake=True)
+    zones = simulation_zones()
+    if zones:  # Simulation Zones likewise, packed into the copy
+        for modifier in zones:
+            modifier.bake_target = "PACKED"
+            for bake in modifier.bakes:
+                bake.bake_target = "INHERIT"
+        owner = zones[0].id_data  # the operator asks for an active object, then bakes every one
+        with bpy.context.temp_override(active_object=owner, object=owner, selected_objects=[owner]):
+            bpy.ops.object.simulation_nodes_cache_bake(selected=False)
     with tempfile.TemporaryDirectory(prefix="durer-ship-") as folder:
         copy = Path(folder) / "scene.blend"
         bpy.ops.wm.save_as_mainfile(filepath=str(copy), copy=True, compress=False)
