@@ -285,6 +285,25 @@ def test_import_renders_like_the_raytracer(empty, run):
     assert fraction >= MATCH, f"{run_id(run)}: {fraction:.2%} of pixels match"
 
 
+@pytest.mark.parametrize("plane", ["Plane { normal 0 1 0 offset -1 }", "Plane { normal 1 1 0 offset -1 }",
+                                   "Transform { ZRotate 30 Plane { normal 0 1 0 offset -1 } }"])
+def test_a_plane_edge_on_to_an_orthographic_camera_is_not_seen(empty, tmp_path, plane):
+    """Rays parallel to an infinite plane never meet it: the import's plane, rotated by Blender's
+    float32 matrices (a normal off by 4e-8), was met 1e8 away, a band across the view."""
+    from durer.course.raytracer import render_scene_file
+
+    path = tmp_path / "edge.txt"
+    path.write_text("OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 6 }\n"
+                    "Lights { numLights 1 DirectionalLight { direction -0.3 -0.4 -1 color 0.8 0.8 0.8 } }\n"
+                    "Background { color 0.1 0.1 0.1 ambientLight 0.2 0.2 0.2 }\n"
+                    "Materials { numMaterials 2 Material { diffuseColor 1 0 0 } Material { diffuseColor 0 1 0 } }\n"
+                    f"Group {{ numObjects 2 MaterialIndex 0 Sphere {{ center 0 0 0 radius 1 }} MaterialIndex 1 {plane} }}\n")
+    import_file(path)
+    reference = render_scene_file(path, SIZE, SIZE, passes="color").color[..., :3]
+    assert (reference[..., 1] < 0.5).all()  # no green: the plane is not seen
+    assert match_fraction(durer_render(), reference) == 1.0
+
+
 def test_orthographic_camera_behind_the_spheres_sees_what_6837_sees(empty, tmp_path):
     """scene1_07's camera sits inside its spheres (6.837 counts hits from t = -inf): the moved-back
     camera gives the same image, and its Depth pass is 6.837's t plus the recorded offset."""

@@ -27,6 +27,10 @@ class _Singles:
         self.materials: list[int] = []
 
 
+#: A unit normal's component below this is float32 rounding (Blender's matrices), not a tilt.
+ROUNDED_ZERO = 8 * float(np.finfo(np.float32).eps)
+
+
 class Builder:
     """One export's state: the `SceneData` being filled, sphere chunks to join at the end, the
     material ids given out (by Blender material and by value and pass index), the objects'
@@ -304,9 +308,15 @@ class Builder:
         normal /= length
         if np.linalg.det(m[:3, :3]) < 0:
             normal = -normal
+        point = corner
+        if infinite:  # a component within Blender's float32 rounding of a rotation is 0 (else an
+            # infinite plane edge-on to an orthographic camera was met 1e8 away: a band across the view)
+            normal[np.abs(normal) < ROUNDED_ZERO] = 0.0
+            normal /= np.linalg.norm(normal)
+            point = corner + 0.5 * (e1 + e2)  # the quad's centre: the rounded tilt moves its corners most
         bounds = None if infinite else (corner, e1, e2)
         name = self.data.objects[owner].name
-        self.data.planes.append(PlaneData(name, owner, normal, float(normal @ corner), material, bounds))
+        self.data.planes.append(PlaneData(name, owner, normal, float(normal @ point), material, bounds))
         self.data.sources[name] += 1
 
     def finish(self) -> SceneData:
