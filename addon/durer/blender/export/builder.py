@@ -9,7 +9,7 @@ from ..._checks import is_invertible
 from .attribute_colors import ColorSource, Unmapped, color_source, part_colors, read_values
 from .data import IDENTITY, MeshData, ObjectData, PlaneData, SceneData, TransformedSpheres
 from .materials import material_data, object_materials
-from .matrices import transform_points, uniform_scales
+from .matrices import transform_points, uniform_scale, uniform_scales
 from .shapes import MeshShape
 from .triangles import TrianglePart
 
@@ -54,6 +54,10 @@ class Builder:
         # A mesh part of one object and material met again under another matrix (an instance) goes
         # into the MeshData first made of it: the core stores it once for all its matrices.
         self.instanced: dict[tuple, tuple[MeshData, list[np.ndarray]]] = {}
+        # Each mesh part's users (objects and instances) and the part of each MeshData: Cycles
+        # turns a smooth mesh of one user into world space (Builder.finish).
+        self.part_users: dict[int, int] = {}
+        self.mesh_parts: dict[int, int] = {}
 
     # materials
     def material(self, mat, obj) -> int:
@@ -264,12 +268,14 @@ class Builder:
                 vertices = transform_points(m, part.vertices.astype(np.float64))
                 self.data.meshes.append(MeshData(name, owner, vertices, part.faces, material, IDENTITY, colors))
                 continue
+            self.part_users[id(part)] = self.part_users.get(id(part), 0) + 1
             key = (id(part), owner, material, id(colors))
             if key in self.instanced:
                 self.instanced[key][1].append(m)
                 continue
             mesh = MeshData(name, owner, part.vertices, part.faces, material, m, colors, normals=part.normals)
             self.data.meshes.append(mesh)
+            self.mesh_parts[id(mesh)] = id(part)
             self.instanced[key] = (mesh, [m])
 
     def mesh_instances(self, obj, owner: int, parts: list[TrianglePart], me, mats: list, matrices: np.ndarray,
@@ -295,6 +301,8 @@ class Builder:
                             matrices if len(matrices) > 1 or per_instance is not None else None, per_instance,
                             part.normals)
             self.data.meshes.append(mesh)
+            self.mesh_parts[id(mesh)] = id(part)
+            self.part_users[id(part)] = self.part_users.get(id(part), 0) + len(matrices)
             self.data.sources[name] += len(matrices)
 
     def plane(self, owner: int, m: np.ndarray, shape: MeshShape, material: int, infinite: bool) -> None:
@@ -325,6 +333,10 @@ class Builder:
         for mesh, matrices in self.instanced.values():
             if len(matrices) > 1:
                 mesh.instances = np.array(matrices, np.float64)
+        for mesh in d.meshes:
+            if mesh.normals is not None and self.part_users.get(self.mesh_parts.get(id(mesh)), 0) == 1 \
+                    and not uniform_scale(mesh.matrix)[1]:
+                _smooth_in_world_space(mesh)
         if self.centers:  # at most one copy into float64, however many objects contributed
             d.sphere_centers = _join(self.centers, np.float64)
             d.sphere_radii = _join(self.radii, np.float64)
@@ -335,6 +347,18 @@ class Builder:
                 d.sphere_colors = _join([kd[mats] if c is None else c for c, mats in zip(self.colors, self.mats)],
                                         np.float64)
         return d
+
+
+def _smooth_in_world_space(mesh: MeshData) -> None:
+    """A smooth mesh of one user under a non-uniform scale or a shear, in world space with its
+    normals turned there and made unit, as Cycles shades it (its normals interpolated in object
+    space and turned after differed by up to 21 degrees); Cycles keeps a mesh of several users
+    (objects or instances) in its own space, as Dürer does."""
+    linear = mesh.matrix[:3, :3]
+    normals = mesh.normals.astype(np.float64) @ np.linalg.inv(linear)  # each corner's n @ M^-1 = M^-T n
+    mesh.normals = normals / np.linalg.norm(normals, axis=-1, keepdims=True)
+    mesh.vertices = transform_points(mesh.matrix, mesh.vertices.astype(np.float64))
+    mesh.matrix = IDENTITY
 
 
 def _row(a, k: int):

@@ -81,13 +81,39 @@ def face_slots(me, slot_count: int) -> np.ndarray:
 
 
 def corner_normals(me) -> np.ndarray | None:
-    """(L, 3) float32 the normal Blender shades each corner (loop) of mesh `me` with, or None when
-    its normals are its faces' own (no smooth face, no custom normals)."""
-    if me.normals_domain == "FACE":
+    """(L, 3) float32 the normal each corner (loop) of mesh `me` is shaded with, as Cycles shades
+    it, or None when its normals are its faces' own (no smooth face, no custom normals). NaN rows:
+    a flat face's corners, shaded by each of its triangles' own normal (`_of`)."""
+    domain = me.normals_domain
+    if domain == "FACE":
         return None
+    if domain == "CORNER" and not me.has_custom_normals and not _any(me, "sharp_edge", "EDGE"):
+        # Corner normals only because some faces are flat: Cycles shades the smooth faces with the
+        # vertex normals (over flat neighbours too), where Blender's corner normals split at them.
+        normals = np.empty(len(me.vertices) * 3, np.float32)
+        me.vertex_normals.foreach_get("vector", normals)
+        corner_verts = np.empty(len(me.loops), np.int32)
+        me.loops.foreach_get("vertex_index", corner_verts)
+        normals = normals.reshape(-1, 3)[corner_verts]
+        flat = _attribute(me, "sharp_face", "value", len(me.polygons), 1, bool)
+        if flat is not None:
+            totals = np.empty(len(me.polygons), np.int32)
+            me.polygons.foreach_get("loop_total", totals)
+            normals[np.repeat(flat, totals)] = np.nan
+        return normals
     normals = np.empty(len(me.loops) * 3, np.float32)
     me.corner_normals.foreach_get("vector", normals)
     return normals.reshape(-1, 3)
+
+
+def _any(me, name: str, domain: str) -> bool:
+    """Whether the mesh's boolean attribute `name` on `domain` is true anywhere."""
+    attribute = me.attributes.get(name)
+    if attribute is None or attribute.domain != domain:
+        return False
+    values = np.empty(len(attribute.data), bool)
+    attribute.data.foreach_get("value", values)
+    return bool(values.any())
 
 
 def split_by_slot(vertices: np.ndarray, faces: np.ndarray, slots: np.ndarray, slot_count: int,
@@ -100,7 +126,7 @@ def split_by_slot(vertices: np.ndarray, faces: np.ndarray, slots: np.ndarray, sl
     slots = clamp_slots(slots, slot_count)
     used = np.flatnonzero(np.bincount(slots))  # linear in the face count, unlike np.unique's sort
     if len(used) == 1:
-        return [TrianglePart(int(used[0]), vertices, faces, corners, normals=_of(normals, corners))]
+        return [TrianglePart(int(used[0]), vertices, faces, corners, normals=_of(normals, corners, vertices, faces))]
     parts = []
     for slot in used:
         chosen = slots == slot
@@ -111,12 +137,22 @@ def split_by_slot(vertices: np.ndarray, faces: np.ndarray, slots: np.ndarray, sl
         uses[part] = True
         number = np.cumsum(uses, dtype=np.int32) - 1
         parts.append(TrianglePart(int(slot), vertices[uses], number[part], corners[chosen], np.flatnonzero(uses),
-                                  np.flatnonzero(chosen), _of(normals, corners[chosen])))
+                                  np.flatnonzero(chosen), _of(normals, corners[chosen], vertices, faces[chosen])))
     return parts
 
 
-def _of(normals: np.ndarray | None, corners: np.ndarray) -> np.ndarray | None:
-    return None if normals is None else normals[corners]
+def _of(normals: np.ndarray | None, corners: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
+    """The faces' corner normals (F, 3, 3); a flat face's (NaN) its own normal at its three corners."""
+    if normals is None:
+        return None
+    at = normals[corners]
+    flat = np.isnan(at[:, 0, 0])
+    if flat.any():
+        v = vertices[faces[flat]].astype(np.float64)
+        own = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+        own[~own.any(axis=1)] = (0.0, 0.0, 1.0)  # a degenerate triangle, never hit, still needs a direction
+        at[flat] = own[:, None, :]
+    return at
 
 
 def triangle_parts(me, slot_count: int) -> list[TrianglePart]:
