@@ -30,6 +30,9 @@ void validate(const CameraSpec& spec) {
   requireFinite(spec.shiftY, "shift y");
   requirePositive(spec.pixelAspect, "pixel_aspect");
   requireRange(spec.tMin, spec.tMax, "t_min", "t_max");
+  if (spec.clipPlanes && spec.projection == Projection::Perspective && !(spec.tMin >= 0)) {
+    fail("t_min must be >= 0 with clip_planes (planes before the eye), got " + show(spec.tMin));
+  }
 }
 
 ImageWindow imageWindow(const CameraSpec& spec, int width, int height) {
@@ -85,8 +88,8 @@ Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
   m_yOffset = static_cast<Real>(window.yOffset);
   if (m_clipPlanes) {
     // A ray meets the far plane at far / cos(its angle to the axis), farthest through the window's
-    // farthest corner (at distance 1); a few ulps more cover the rays' rounding. The near plane's
-    // distance bounds t from below (t >= depth).
+    // farthest corner (at distance 1); 1e-6 more covers the rays' rounding in float (8 ulps). The
+    // near plane's distance bounds t from below (t >= depth: the planes are >= 0, validate()).
     const double x = std::fmax(std::fabs(window.xOffset), std::fabs(window.xOffset + width * window.pixelWidth));
     const double y = std::fmax(std::fabs(window.yOffset), std::fabs(window.yOffset - height * window.pixelHeight));
     m_tMax = static_cast<Real>(spec.tMax * std::sqrt(1 + x * x + y * y) * (1 + 1e-6));

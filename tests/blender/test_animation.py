@@ -4,6 +4,7 @@ what a fresh export renders."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -142,6 +143,9 @@ def test_frames_are_written_whole_under_their_own_name(scene, tmp_path):
     exploding_cloud(scene, 100)
     blend = tmp_path / "cloud.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    (tmp_path / "out").mkdir()
+    stale = tmp_path / "out" / f".f_0002.exr.{os.getpid()}.part"
+    stale.write_bytes(b"v/1\x01 cut short")  # left by a killed run of this process id: never promoted
     seen = []
 
     @bpy.app.handlers.persistent  # kept through the batch's opening of the file
@@ -153,8 +157,10 @@ def test_frames_are_written_whole_under_their_own_name(scene, tmp_path):
         batch.render_file(blend, frames="1-2", output=tmp_path / "out" / "f_####.exr")
     finally:
         bpy.app.handlers.render_write.remove(written)
-    assert seen == [[".f_0001.exr.part"], [".f_0002.exr.part", "f_0001.exr"]]
+    part = f"exr.{os.getpid()}.part"
+    assert seen == [sorted([f".f_0001.{part}", stale.name]), [f".f_0002.{part}", "f_0001.exr"]]
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["f_0001.exr", "f_0002.exr"]
+    assert (tmp_path / "out" / "f_0002.exr").stat().st_size > 1000
 
 
 def test_a_file_writing_video_needs_an_image_output(scene, tmp_path):
@@ -162,7 +168,7 @@ def test_a_file_writing_video_needs_an_image_output(scene, tmp_path):
     scene.render.image_settings.media_type, scene.render.image_settings.file_format = "VIDEO", "FFMPEG"
     blend = tmp_path / "video.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
-    with pytest.raises(ValueError, match=r"video\.blend writes a video \(FFMPEG\), which a batch of frames cannot: "
+    with pytest.raises(ValueError, match=r"^The file writes a video \(FFMPEG\), which a batch of frames cannot: "
                                          r"give --output with an image extension"):
         batch.render_file(blend, frames="1-2")
 

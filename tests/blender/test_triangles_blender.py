@@ -302,3 +302,24 @@ def test_normals_are_shaded_as_cycles_shades_them(scene, tmp_path, shading):
     angles = _normal_angles(c, d)
     assert len(angles) > 1000
     assert np.median(angles) < 0.05 and np.percentile(angles, 95) < 1.0, (np.median(angles), np.percentile(angles, 95))
+
+
+def test_a_smooth_mesh_with_a_zero_area_face_renders(scene, tmp_path):
+    """Blender gives a zero-area face's corners no normal (zeros): the export gives them the
+    face's own, so the mesh renders (the core rejected the zero normals and the render failed)."""
+    def build(bm):
+        a, b, c, d = (bm.verts.new(p) for p in ((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)))
+        bm.faces.new((a, b, c, d))
+        e, f, g = (bm.verts.new(p) for p in ((0, 0, 1), (1, 0, 1), (2, 0, 1)))  # collinear
+        bm.faces.new((e, f, g))
+
+    obj = mesh_object(scene, "Sliver", build)
+    obj.data.shade_smooth()
+    corner = np.empty(len(obj.data.loops) * 3, np.float32)
+    obj.data.corner_normals.foreach_get("vector", corner)
+    assert (~corner.reshape(-1, 3).any(axis=1)).any()  # Blender's zeros
+    (mesh,) = export(scene).meshes
+    assert (np.linalg.norm(mesh.normals, axis=2) > 0).all() and np.isfinite(mesh.normals).all()
+    aim_camera(scene, (0, -0.5, 6))
+    out = render_passes(scene, tmp_path / "sliver.exr")
+    assert engine.last_render.error is None and (out["depth"] < MISS).sum() > 100

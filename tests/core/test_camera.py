@@ -152,3 +152,21 @@ def test_perspective_clip_planes_bound_the_distance_along_the_view_axis(precisio
 def test_clip_planes_is_a_flag():
     with pytest.raises(TypeError, match="clip_planes"):
         durer.PerspectiveCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), clip_planes="yes")
+
+
+def test_a_ray_searched_past_the_near_plane_still_stops_at_the_far_one(precision):
+    """Off-axis rays meet the wall at view depth 0.5 before the near plane at 0.55: searched again
+    from that plane, they meet the wall at 9.5, beyond the far plane at 9.4: a miss, every pixel."""
+    scene = durer.Scene()
+    scene.add_plane((0, 0, 1), -0.5)
+    scene.add_plane((0, 0, 1), -9.5)
+    camera = durer.PerspectiveCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), fov_degrees=120, t_min=0.55, t_max=9.4,
+                                     clip_planes=True)
+    result = durer.render(scene, camera, 32, 24, precision=precision, passes=("depth", "object_id"))
+    assert (result.object_id == -1).all() and np.isinf(result.depth).all()
+
+
+def test_clip_planes_lie_before_the_eye():
+    with pytest.raises(ValueError, match=r"t_min must be >= 0 with clip_planes \(planes before the eye\), got -5"):
+        durer.PerspectiveCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), t_min=-5, t_max=-1, clip_planes=True)
+    durer.OrthographicCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), t_min=-5, t_max=-1)  # its planes are its t

@@ -405,3 +405,17 @@ def test_bad_normals_name_the_argument():
     scene.add_mesh(triangle, face, normals=[[0, 0, 1e-300], [0, 0, 1e300], [5e-324, 0, 0]])  # any length
     hit = durer.cast(scene, [[0.0, 0.0, 1.0]], [[0.0, 0.0, -1.0]])
     np.testing.assert_array_equal(hit.normal, [[0, 0, 1]])
+
+
+def test_glass_with_smooth_normals_is_entered_from_the_front_of_its_faces():
+    """A glass quad facing the camera whose corner normals lean past the oblique rays: the rays
+    enter it (the face decides the side), bent about its own normal where the smooth one leans
+    past the ray. Deciding by the smooth normal, all 64 were taken as leaving: total internal
+    reflection."""
+    quad = np.array([[-4, -4, 0], [4, -4, 0], [4, 4, 0], [-4, 4, 0]], float)
+    scene = durer.Scene()
+    glass = scene.add_material((0, 0, 0), transparent=(1, 1, 1), ior=1.5)
+    scene.add_mesh(quad, [[0, 1, 2], [0, 2, 3]], glass, normals=[[1, 0, 1.8]] * 4)
+    camera = durer.OrthographicCamera((-6, 0, 4), (0.9, 0, -0.436), (0, 1, 0), 1.0)
+    result = durer.render(scene, camera, 8, 8, max_bounces=1)
+    assert result.stats["refraction_rays"] == 64 and result.stats["total_internal_reflections"] == 0

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .. import _checks
-from ..distributed.output import is_complete
+from ..distributed.output import is_complete, temporary_path
 from ..visualize import make_folder_for
 
 if TYPE_CHECKING:
@@ -160,9 +160,6 @@ def render_file(
     if frame_list is None:
         frame_list = [sc.frame_current]
     explicit = configure_output(sc, output, len(frame_list))
-    if explicit is None and sc.render.is_movie_format:
-        raise ValueError(f"{blend} writes a video ({sc.render.image_settings.file_format}), which a batch of "
-                         "frames cannot: give --output with an image extension, e.g. out/frame_####.png")
     # Frames done before a resume: an unbaked simulation steps through them, as it would have.
     steps = resume and simulated()
 
@@ -186,7 +183,8 @@ def render_file(
             sc.frame_set(frame)
             # Blender writes the frame in place: under another name, renamed once whole, so that a
             # process killed mid-write leaves no partial file for --resume to take as done.
-            partial = target.with_name(f".{target.name}.part")
+            partial = temporary_path(target)
+            partial.unlink(missing_ok=True)
             sc.render.filepath, sc.render.use_file_extension = str(partial), False
             try:
                 _render_frame(bpy, engine, sc, blend, frame, len(frame_list) - i, progress)
@@ -258,13 +256,13 @@ def _catch_interrupts() -> Callable[[], object]:
     """Ctrl-C sets engine.interrupt for the batch's duration instead of raising KeyboardInterrupt
     wherever Python happens to be (inside Blender's own calls into the engine it was printed and
     ignored, and the frame written blank); returns what puts the previous handler back (nothing to
-    do off the main thread, where signals cannot be caught)."""
+    do off the main thread, where signals cannot be caught, nor where the handler is not Python's)."""
     from . import engine
 
     engine.interrupt.clear()
-    if threading.current_thread() is not threading.main_thread():
+    previous = signal.getsignal(signal.SIGINT) if threading.current_thread() is threading.main_thread() else None
+    if previous is None:  # not Python's to set (off the main thread, or a handler from C): Esc still stops
         return lambda: None
-    previous = signal.getsignal(signal.SIGINT)
     signal.signal(signal.SIGINT, lambda *_: engine.interrupt.set())
     return lambda: signal.signal(signal.SIGINT, previous)
 
@@ -322,6 +320,9 @@ def configure_output(sc: bpy.types.Scene, output: str | os.PathLike | None, fram
     pattern when it has a known image extension ("#" runs become the frame), else None (Blender's
     own frame_path numbering and extension apply)."""
     if output is None:
+        if sc.render.is_movie_format:
+            raise ValueError(f"The file writes a video ({sc.render.image_settings.file_format}), which a batch of "
+                             "frames cannot: give --output with an image extension, e.g. out/frame_####.png")
         return None
     out = str(Path(output).expanduser().resolve()) if not str(output).startswith("//") else str(output)
     if str(output).endswith(("/", os.sep)) or Path(out).is_dir():

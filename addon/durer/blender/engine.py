@@ -114,9 +114,10 @@ INDEX_PASSES = (
 )
 
 
-#: Channels of the passes beyond Combined that Dürer writes (RenderEngine.register_pass's layout).
-PASS_LAYOUTS = {"Depth": (1, "Z", "VALUE"), "Normal": (3, "XYZ", "VECTOR")} | {
-    name: (1, "X", "VALUE") for name, _, _, _ in INDEX_PASSES}
+#: The passes beyond Combined that Dürer writes, by Blender's name: the core pass each is made
+#: from, and its channels (RenderEngine.register_pass's layout).
+PASS_LAYOUTS = {"Depth": ("depth", 1, "Z", "VALUE"), "Normal": ("normal", 3, "XYZ", "VECTOR")} | {
+    name: (core, 1, "X", "VALUE") for name, _, core, _ in INDEX_PASSES}
 
 
 def layer_passes(layer) -> list[str]:
@@ -193,7 +194,7 @@ class DurerEngineMixin:
     def update_render_passes(self, scene=None, renderlayer=None):
         self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
         for name in layer_passes(renderlayer):
-            self.register_pass(scene, renderlayer, name, *PASS_LAYOUTS[name])
+            self.register_pass(scene, renderlayer, name, *PASS_LAYOUTS[name][1:])
 
     def render(self, depsgraph):
         global last_render
@@ -240,15 +241,8 @@ class DurerEngineMixin:
         for message in info.warnings:
             self.report({"WARNING"}, message)
 
-        passes = ["color"]
-        if layer.use_pass_z:
-            passes.append("depth")
-        if layer.use_pass_normal:
-            passes.append("normal")
+        passes = list(dict.fromkeys(["color"] + [PASS_LAYOUTS[name][0] for name in layer_passes(layer)]))
         index_passes = [entry for entry in INDEX_PASSES if entry[1](layer)]
-        for _, _, core, _ in index_passes:
-            if core not in passes:
-                passes.append(core)
         kwargs = render_kwargs(settings)
         kwargs["ambient_occlusion"] = data.ambient_occlusion
         self.update_stats("", f"Dürer | {w}x{h} | {info.samples} spp | rendering")

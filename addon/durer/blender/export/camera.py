@@ -19,11 +19,11 @@ def camera_data(scene, cam_obj) -> CameraData:
         raise ValueError(f"Render resolution {width}x{height} is empty")
     xasp, yasp = float(render.pixel_aspect_x), float(render.pixel_aspect_y)
     if cam_obj.type != "CAMERA":
-        raise ValueError(f"The scene's camera '{cam_obj.name}' is an object of type {cam_obj.type}, not a camera: "
+        raise ValueError(f"The scene's camera '{cam_obj.name_full}' is an object of type {cam_obj.type}, not a camera: "
                          f"Dürer renders through camera objects")
     cam = cam_obj.data
     if cam.type not in {"ORTHO", "PERSP"}:
-        raise ValueError(f"Camera '{cam_obj.name}' is panoramic: Dürer renders orthographic and perspective cameras")
+        raise ValueError(f"Camera '{cam_obj.name_full}' is panoramic: Dürer renders orthographic and perspective cameras")
     # Blender (BKE_camera_params_compute_viewplane): AUTO fits the larger of xasp·W and yasp·H.
     if cam.sensor_fit == "AUTO":
         fit = "horizontal" if xasp * width >= yasp * height else "vertical"

@@ -224,7 +224,7 @@ def _ignored_camera_settings(scene, cam_obj) -> list[str]:
     world hidden from the camera."""
     notes = []
     if cam_obj is not None and cam_obj.data.dof.use_dof:
-        notes.append(f"Camera '{cam_obj.name}' has depth of field: Dürer renders everything in focus")
+        notes.append(f"Camera '{cam_obj.name_full}' has depth of field: Dürer renders everything in focus")
     if scene.render.use_motion_blur:
         notes.append("Motion blur is on: Dürer renders each frame at one instant")
     visibility = getattr(scene.world, "cycles_visibility", None)  # with the Cycles add-on enabled

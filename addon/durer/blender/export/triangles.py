@@ -142,11 +142,12 @@ def split_by_slot(vertices: np.ndarray, faces: np.ndarray, slots: np.ndarray, sl
 
 
 def _of(normals: np.ndarray | None, corners: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
-    """The faces' corner normals (F, 3, 3); a flat face's (NaN) its own normal at its three corners."""
+    """The faces' corner normals (F, 3, 3); a flat face's (NaN), or one with a corner Blender gives
+    no direction (a zero-area face's zeros), its own normal at its three corners."""
     if normals is None:
         return None
     at = normals[corners]
-    flat = np.isnan(at[:, 0, 0])
+    flat = ~(np.abs(at).sum(axis=2) > 0).all(axis=1)  # NaN or zero at a corner
     if flat.any():
         v = vertices[faces[flat]].astype(np.float64)
         own = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])

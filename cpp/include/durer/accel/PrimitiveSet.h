@@ -3,7 +3,7 @@
 // intersectors: a kernel finds t, and one epilog records it. Here: the primitives with their ids
 // (ids, not pointers), the reorder to a hierarchy's order, the search over every primitive any ray
 // of a packet may meet with one cancel policy, the closer-hit epilog of the search and the ids of the
-// hit record, and the primitives' own colours where an add gave them.
+// hit record, the primitives' own colours where an add gave them, and triangles' corner normals.
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -77,7 +77,9 @@ class PrimitiveSet {
     __builtin_prefetch(&m_objectIds[index]);
     __builtin_prefetch(&m_materials[index]);
     if (colored()) __builtin_prefetch(&m_colors[index]);
-    if (smooth()) __builtin_prefetch(&m_normals[index]);
+    if constexpr (kCorners == 3) {
+      if (smooth()) __builtin_prefetch(&m_normals[index]);
+    }
   }
 
   // Makes the set colored(): each primitive already in it takes kdOf(its material id) at every corner.

@@ -298,7 +298,7 @@ class PacketShader {
       }
       if (transparent && spawnable(weights[k] * maxComponent(m.transparent), depth, counters)) {
         Vec3<Real> t;
-        if (!refract(d, n, m.ior, t)) {
+        if (!refract(d, hits[k], m.ior, t)) {
           t = glm::reflect(d, n);
           ++counters.totalInternalReflections;
         }
@@ -346,11 +346,15 @@ class PacketShader {
     return true;
   }
 
-  // Snell's law through the surface of normal n (outward) for unit d: entering when d·n < 0
-  // (η = 1/ior), leaving otherwise (η = ior, normal flipped). False on total internal reflection.
-  static bool refract(const Vec3<Real>& d, const Vec3<Real>& n, Real ior, Vec3<Real>& t) {
-    const bool entering = glm::dot(d, n) < 0;
-    const Vec3<Real> facing = entering ? n : -n;
+  // Snell's law through the surface of `hit` for unit d: entering where d meets its face from the
+  // front (η = 1/ior), leaving otherwise (η = ior), about its normal turned to the side d comes from
+  // (facingSign: the face decides, not a smooth normal, which may lean past the ray); about the
+  // face's own normal where a smooth one leans past the ray. False on total internal reflection.
+  static bool refract(const Vec3<Real>& d, const Hit<Real>& hit, Real ior, Vec3<Real>& t) {
+    const Real side = facingSign(glm::dot(d, hit.geometricNormal), true);
+    const bool entering = side > 0;
+    const Vec3<Real> shaded = side * hit.normal;
+    const Vec3<Real> facing = glm::dot(d, shaded) < 0 ? shaded : side * hit.geometricNormal;
     const Real eta = entering ? 1 / ior : ior;
     const Real cosIn = -glm::dot(d, facing);
     const Real k = 1 - eta * eta * (1 - cosIn * cosIn);
