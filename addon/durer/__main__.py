@@ -14,7 +14,7 @@ def demo(argv: Sequence[str]) -> int:
     from durer.visualize import image_path
 
     parser = argparse.ArgumentParser(prog="python -m durer demo", description=demo.__doc__)
-    parser.add_argument("--output", default="out/showcase.png", help="image file (PNG, JPEG, ...); default %(default)s")
+    parser.add_argument("--output", default="out/demo.png", help="image file (PNG, JPEG, ...); default %(default)s")
     parser.add_argument("--width", type=int, default=960)
     parser.add_argument("--height", type=int, default=540)
     parser.add_argument("--spp", type=int, default=16, help="samples per pixel (default %(default)s)")

@@ -293,7 +293,7 @@ def read_obj(path: Path) -> tuple[np.ndarray, np.ndarray]:
     face_words: list[str] = []
     face_lines: list[int] = []
     defined_before: list[int] = []  # vertices read before each face
-    for number, raw in enumerate(text.splitlines(), 1):  # lines end at \n, \r\n or \r alike
+    for number, raw in enumerate(text.splitlines(), 1):  # lines end at \n, \r\n, \r (and Python's other breaks)
         line = raw.strip()
         if not line or line.startswith("#"):
             continue
