@@ -35,7 +35,8 @@ def view_camera(view_matrix: Any, window_matrix: Any, is_perspective: bool, widt
     Works alike for the perspective and orthographic views and the camera view, whose window matrix
     holds the scene camera's lens, sensor fit, shift and the view's camera zoom and offset. The
     frustum may be off-centre (a shift): its window becomes Dürer's `shift`. Clipping follows the
-    near and far planes (for perspective as distances along the ray, as the F12 camera does)."""
+    near and far planes (for perspective as planes across the view axis, as the F12 camera and Cycles
+    clip)."""
     view = np.array(view_matrix, dtype=np.float64).reshape(4, 4)
     win = np.array(window_matrix, dtype=np.float64).reshape(4, 4)
     to_world = np.linalg.inv(view)

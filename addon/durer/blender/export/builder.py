@@ -163,8 +163,8 @@ class Builder:
         return self.mesh_colors[key][1]
 
     # geometry
-    def placed_spheres(self, owners, rows: np.ndarray, centers: np.ndarray, radii: np.ndarray, materials,
-                       colors=None) -> None:
+    def placed_spheres(self, owners: int | np.ndarray, rows: np.ndarray, centers: np.ndarray, radii: np.ndarray,
+                       materials: int | np.ndarray, colors: np.ndarray | None = None) -> None:
         """Spheres given in object space under K world matrices (rows: (K, 3, 4), their top three
         rows): world-space spheres where a matrix is a uniform scale times a rotation, an exact
         ellipsoid group where it is not, nothing where it is singular. Each matrix places P
