@@ -168,9 +168,11 @@ def test_a_file_writing_video_needs_an_image_output(scene, tmp_path):
     scene.render.image_settings.media_type, scene.render.image_settings.file_format = "VIDEO", "FFMPEG"
     blend = tmp_path / "video.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
-    with pytest.raises(ValueError, match=r"^The file writes a video \(FFMPEG\), which a batch of frames cannot: "
-                                         r"give --output with an image extension"):
-        batch.render_file(blend, frames="1-2")
+    for output in (None, tmp_path / "frames", tmp_path / "f_####"):  # the file's format names the frames
+        with pytest.raises(ValueError, match=r"^The file writes a video \(FFMPEG\), which a batch of frames "
+                                             r"cannot: give --output with an image extension"):
+            batch.render_file(blend, frames="1-2", output=output)
+    assert len(batch.render_file(blend, frames="1-2", output=tmp_path / "f_####.png")) == 2
 
 
 @pytest.mark.parametrize("pattern", ["f_####", "f_##", "take#1/f_###"])

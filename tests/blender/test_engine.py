@@ -404,6 +404,24 @@ def test_ctrl_c_stops_a_batch_at_the_render_s_next_poll(scene, tmp_path, ext):
     assert not any(t.name == "durer-render" for t in threading.enumerate())
 
 
+def test_a_batch_takes_ctrl_c_only_where_it_is_python_s_to_take():
+    """Ctrl-C ignored (a batch started in the background) stays ignored; Python's handler is
+    replaced for the batch and put back after."""
+    before = signal.getsignal(signal.SIGINT)
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        restore = batch._catch_interrupts()
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        restore()
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        restore = batch._catch_interrupts()
+        assert signal.getsignal(signal.SIGINT) is not signal.default_int_handler
+        restore()
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, before)
+
+
 def test_a_failed_frame_does_not_stop_the_others(scene, tmp_path, capsys):
     """A frame that cannot render (the camera keyed panoramic on frame 2): frames 1 and 3 are
     written, the error names frame 2 and why, once; its empty image is not left behind."""

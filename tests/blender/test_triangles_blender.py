@@ -271,7 +271,8 @@ def _normal_angles(c, d):
     return np.degrees(np.arccos(cosine))
 
 
-@pytest.mark.parametrize("shading", ["flat", "smooth", "by angle", "mixed", "squashed", "squashed, two users"])
+@pytest.mark.parametrize("shading", ["flat", "smooth", "by angle", "mixed", "squashed", "squashed, two users",
+                                     "squashed, mirrored"])
 def test_normals_are_shaded_as_cycles_shades_them(scene, tmp_path, shading):
     """Shade Flat, Shade Smooth and Smooth by Angle (sharp edges: normals per corner) as Blender
     shades them: the Normal pass as Cycles' (the faces' own normals were up to 78° off on a
@@ -290,7 +291,7 @@ def test_normals_are_shaded_as_cycles_shades_them(scene, tmp_path, shading):
     elif shading.startswith("squashed"):  # Cycles turns a mesh of one user into world space before
         # interpolating its normals, and keeps one of several users in its own space
         head.data.shade_smooth()
-        head.scale = (1.6, 1.0, 0.5)
+        head.scale = (-1.6, 1.0, 0.5) if shading.endswith("mirrored") else (1.6, 1.0, 0.5)
         if shading == "squashed, two users":
             twin = link(scene, bpy.data.objects.new("Twin", head.data))
             twin.location = (0, 30, 0)  # out of view

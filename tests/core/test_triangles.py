@@ -419,3 +419,18 @@ def test_glass_with_smooth_normals_is_entered_from_the_front_of_its_faces():
     camera = durer.OrthographicCamera((-6, 0, 4), (0.9, 0, -0.436), (0, 1, 0), 1.0)
     result = durer.render(scene, camera, 8, 8, max_bounces=1)
     assert result.stats["refraction_rays"] == 64 and result.stats["total_internal_reflections"] == 0
+
+
+def test_total_internal_reflection_at_a_smooth_face_turns_back_into_the_glass():
+    """Leaving glass at a grazing angle where the smooth normal leans past the ray: the ray is
+    bent about the face's own normal, totally reflected, and the reflection turns back below the
+    face (about the smooth normal it passed through the glass to the red light above)."""
+    quad = np.array([[-4, -4, 0], [4, -4, 0], [4, 4, 0], [-4, 4, 0]], float)
+    scene = durer.Scene()
+    glass = scene.add_material((0, 0, 0), transparent=(1, 1, 1), ior=1.5)
+    scene.add_mesh(quad, [[0, 1, 2], [0, 2, 3]], glass, normals=[[-1, 0, 1.8]] * 4)
+    scene.add_plane((0, 0, 1), 5.0, scene.add_material((0, 0, 0), emission=(1, 0, 0)))
+    camera = durer.OrthographicCamera((-6, 0, -4), (0.9, 0, 0.436), (0, 0, 1), 1.0)
+    result = durer.render(scene, camera, 8, 8, max_bounces=1)
+    assert result.stats["total_internal_reflections"] == 64
+    np.testing.assert_array_equal(result.color[..., :3], 0.0)  # the black background below, not the red above

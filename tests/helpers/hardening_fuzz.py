@@ -729,7 +729,7 @@ def cli_case(data: bytes, tally: Tally, folder: Path, extremes: bool = True) -> 
     """`python -m durer` in-process: exit 0, or 1/2 with one error line and no traceback."""
     tally.inputs["cli"] += 1
     argv = _argv(Source(data, extremes), folder)
-    with contextlib.chdir(folder):  # what a command writes by default (demo's out/showcase.png) goes there
+    with contextlib.chdir(folder):  # what a command writes by default (demo's out/demo.png) goes there
         status, stderr = run_cli(argv)
     if status not in (0, 1, 2):
         raise Finding(f"cli {argv}: exit status {status!r}\n{stderr}")

@@ -256,12 +256,13 @@ def _catch_interrupts() -> Callable[[], object]:
     """Ctrl-C sets engine.interrupt for the batch's duration instead of raising KeyboardInterrupt
     wherever Python happens to be (inside Blender's own calls into the engine it was printed and
     ignored, and the frame written blank); returns what puts the previous handler back (nothing to
-    do off the main thread, where signals cannot be caught, nor where the handler is not Python's)."""
+    do off the main thread, where signals cannot be caught, where the handler is not Python's, or
+    where Ctrl-C is ignored: a batch started in the background)."""
     from . import engine
 
     engine.interrupt.clear()
     previous = signal.getsignal(signal.SIGINT) if threading.current_thread() is threading.main_thread() else None
-    if previous is None:  # not Python's to set (off the main thread, or a handler from C): Esc still stops
+    if previous in (None, signal.SIG_IGN):  # not Python's (off the main thread, a handler from C) or ignored
         return lambda: None
     signal.signal(signal.SIGINT, lambda *_: engine.interrupt.set())
     return lambda: signal.signal(signal.SIGINT, previous)
@@ -320,10 +321,7 @@ def configure_output(sc: bpy.types.Scene, output: str | os.PathLike | None, fram
     pattern when it has a known image extension ("#" runs become the frame), else None (Blender's
     own frame_path numbering and extension apply)."""
     if output is None:
-        if sc.render.is_movie_format:
-            raise ValueError(f"The file writes a video ({sc.render.image_settings.file_format}), which a batch of "
-                             "frames cannot: give --output with an image extension, e.g. out/frame_####.png")
-        return None
+        return _image_format_needed(sc)
     out = str(Path(output).expanduser().resolve()) if not str(output).startswith("//") else str(output)
     if str(output).endswith(("/", os.sep)) or Path(out).is_dir():
         # A directory: frames are numbered inside it, as Blender does for an output path "dir/".
@@ -350,7 +348,15 @@ def configure_output(sc: bpy.types.Scene, output: str | os.PathLike | None, fram
         out = str(stem.with_name(stem.stem + "_####" + stem.suffix))
     sc.render.filepath = out
     sc.render.use_file_extension = True
-    return out if ext in FORMATS else None
+    return out if ext in FORMATS else _image_format_needed(sc)
+
+
+def _image_format_needed(sc: bpy.types.Scene) -> None:
+    """None (the file's own format names the frames), unless that format is a video: a batch
+    writes frames one by one, which a video file cannot take."""
+    if sc.render.is_movie_format:
+        raise ValueError(f"The file writes a video ({sc.render.image_settings.file_format}), which a batch of "
+                         "frames cannot: give --output with an image extension, e.g. out/frame_####.png")
 
 
 def frame_number(frame: int, digits: int) -> str:

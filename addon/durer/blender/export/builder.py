@@ -1,5 +1,6 @@
 """`Builder`: collects what the depsgraph walk finds into a `SceneData` (spheres joined into one
-array, materials deduplicated, meshes kept in object space)."""
+array, materials deduplicated, meshes kept in object space but a smooth mesh of one user under a
+non-uniform scale, turned into world space as Cycles does)."""
 
 from __future__ import annotations
 
@@ -334,8 +335,8 @@ class Builder:
             if len(matrices) > 1:
                 mesh.instances = np.array(matrices, np.float64)
         for mesh in d.meshes:
-            if mesh.normals is not None and self.part_users.get(self.mesh_parts.get(id(mesh)), 0) == 1 \
-                    and not uniform_scale(mesh.matrix)[1]:
+            if mesh.normals is not None and mesh.instances is None \
+                    and self.part_users.get(self.mesh_parts.get(id(mesh)), 0) == 1 and not uniform_scale(mesh.matrix)[1]:
                 _smooth_in_world_space(mesh)
         if self.centers:  # at most one copy into float64, however many objects contributed
             d.sphere_centers = _join(self.centers, np.float64)
@@ -359,6 +360,11 @@ def _smooth_in_world_space(mesh: MeshData) -> None:
     mesh.normals = normals / np.linalg.norm(normals, axis=-1, keepdims=True)
     mesh.vertices = transform_points(mesh.matrix, mesh.vertices.astype(np.float64))
     mesh.matrix = IDENTITY
+    if np.linalg.det(linear) < 0:  # a mirror reverses the winding in world space: wound back, corners alike
+        mesh.faces = mesh.faces[:, ::-1]
+        mesh.normals = mesh.normals[:, ::-1]
+        if mesh.colors is not None and mesh.colors.ndim == 3:
+            mesh.colors = mesh.colors[:, ::-1]
 
 
 def _row(a, k: int):

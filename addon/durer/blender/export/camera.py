@@ -37,7 +37,7 @@ def camera_data(scene, cam_obj) -> CameraData:
     sensor = cam.sensor_height if cam.sensor_fit == "VERTICAL" else cam.sensor_width
     fov = math.degrees(2.0 * math.atan(0.5 * sensor / cam.lens))
     return CameraData(
-        name=cam_obj.name,
+        name=cam_obj.name_full,
         projection="orthographic" if cam.type == "ORTHO" else "perspective",
         center=m[:3, 3].copy(),
         direction=direction,

@@ -83,11 +83,13 @@ class TransformedSpheres:
 @dataclass
 class MeshData:
     """One material's triangles of an object, in object space (Blender's float32 coordinates, so
-    instances of one mesh share the arrays), and the object's world matrix."""
+    instances of one mesh share the arrays), and the object's world matrix; in world space (float64,
+    the identity) when the matrix is singular, or for a smooth mesh of one user under a non-uniform
+    scale or shear (Builder.finish)."""
 
     name: str
     owner: int  # index into SceneData.objects
-    vertices: np.ndarray  # (V, 3) float32 (float64 in world space when the matrix is singular)
+    vertices: np.ndarray  # (V, 3) float32 (float64 in world space)
     faces: np.ndarray  # (F, 3) int32
     material: int  # index into SceneData.materials
     matrix: np.ndarray  # (4, 4) world-from-object
@@ -97,7 +99,7 @@ class MeshData:
     instances: np.ndarray | None = None
     #: (K, 3) kd of each instance (geometry-nodes instance attributes), in place of `colors`; or None.
     instance_colors: np.ndarray | None = None
-    #: (F, 3, 3) each face's normals at its corners, object space (a smooth mesh); None: flat faces.
+    #: (F, 3, 3) each face's normals at its corners, in the vertices' space (a smooth mesh); None: flat faces.
     normals: np.ndarray | None = None
 
     @property

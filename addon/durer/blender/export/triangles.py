@@ -22,8 +22,8 @@ class TrianglePart:
     corners: np.ndarray  # (F, 3) int32 the mesh's corner (loop) of each face's vertices
     vertex_ids: np.ndarray | None = None  # (V,) the mesh's vertex of each of `vertices` (None: the same)
     triangles: np.ndarray | None = None  # (F,) the mesh's loop triangle of each face (None: the same)
-    #: (F, 3, 3) float32 each face's normals at its corners, as Blender shades them (smooth faces,
-    #: sharp edges, custom normals); None when every face of the mesh is flat (its own normal).
+    #: (F, 3, 3) float32 each face's normals at its corners, as Cycles shades them (smooth faces,
+    #: sharp edges, custom normals, flat faces among smooth ones); None when every face is flat.
     normals: np.ndarray | None = None
 
 
@@ -151,8 +151,9 @@ def _of(normals: np.ndarray | None, corners: np.ndarray, vertices: np.ndarray, f
     if flat.any():
         v = vertices[faces[flat]].astype(np.float64)
         own = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
-        own[~own.any(axis=1)] = (0.0, 0.0, 1.0)  # a degenerate triangle, never hit, still needs a direction
-        at[flat] = own[:, None, :]
+        length = np.linalg.norm(own, axis=1, keepdims=True)
+        own = np.where(length > 0, own / np.where(length > 0, length, 1.0), (0.0, 0.0, 1.0))  # a degenerate
+        at[flat] = own[:, None, :]  # triangle, never hit, still needs a direction
     return at
 
 

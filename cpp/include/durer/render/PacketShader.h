@@ -297,9 +297,9 @@ class PacketShader {
         ++counters.reflection;
       }
       if (transparent && spawnable(weights[k] * maxComponent(m.transparent), depth, counters)) {
-        Vec3<Real> t;
-        if (!refract(d, hits[k], m.ior, t)) {
-          t = glm::reflect(d, n);
+        Vec3<Real> t, about;
+        if (!refract(d, hits[k], m.ior, t, about)) {
+          t = glm::reflect(d, about);
           ++counters.totalInternalReflections;
         }
         children[count++] = {offsetRayOrigin(hits[k].point, hits[k].geometricNormal, hits[k].pointError, t), t, k, m.transparent,
@@ -347,14 +347,15 @@ class PacketShader {
   }
 
   // Snell's law through the surface of `hit` for unit d: entering where d meets its face from the
-  // front (η = 1/ior), leaving otherwise (η = ior), about its normal turned to the side d comes from
-  // (facingSign: the face decides, not a smooth normal, which may lean past the ray); about the
-  // face's own normal where a smooth one leans past the ray. False on total internal reflection.
-  static bool refract(const Vec3<Real>& d, const Hit<Real>& hit, Real ior, Vec3<Real>& t) {
+  // front (η = 1/ior), leaving otherwise (η = ior; facingSign: the face decides, not a smooth normal),
+  // about `facing`, its normal turned to the side d comes from, or the face's own where a smooth
+  // one leans past the ray (total internal reflection reflects about it too). False on total
+  // internal reflection.
+  static bool refract(const Vec3<Real>& d, const Hit<Real>& hit, Real ior, Vec3<Real>& t, Vec3<Real>& facing) {
     const Real side = facingSign(glm::dot(d, hit.geometricNormal), true);
     const bool entering = side > 0;
     const Vec3<Real> shaded = side * hit.normal;
-    const Vec3<Real> facing = glm::dot(d, shaded) < 0 ? shaded : side * hit.geometricNormal;
+    facing = glm::dot(d, shaded) < 0 ? shaded : side * hit.geometricNormal;
     const Real eta = entering ? 1 / ior : ior;
     const Real cosIn = -glm::dot(d, facing);
     const Real k = 1 - eta * eta * (1 - cosIn * cosIn);
