@@ -39,10 +39,7 @@ def mesh_triangles(me) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     if vertices is None:
         vertices = np.empty(len(me.vertices) * 3, np.float32)
         me.vertices.foreach_get("co", vertices)
-    corner_verts = _attribute(me, ".corner_vert", "value", len(me.loops), 1, np.int32)
-    if corner_verts is None:
-        corner_verts = np.empty(len(me.loops), np.int32)
-        me.loops.foreach_get("vertex_index", corner_verts)
+    corner_verts = _corner_verts(me)
     tris = me.loop_triangles
     t = len(tris)
     corners = np.empty(t * 3, np.int32)
@@ -55,6 +52,15 @@ def mesh_triangles(me) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         slots = face_slots[polygons]
     corners = corners.reshape(t, 3)
     return vertices.reshape(-1, 3), corner_verts[corners], slots, corners
+
+
+def _corner_verts(me) -> np.ndarray:
+    """(L,) int32 the vertex of each corner (loop) of mesh `me`."""
+    corner_verts = _attribute(me, ".corner_vert", "value", len(me.loops), 1, np.int32)
+    if corner_verts is None:
+        corner_verts = np.empty(len(me.loops), np.int32)
+        me.loops.foreach_get("vertex_index", corner_verts)
+    return corner_verts
 
 
 def _attribute(me, name: str, field: str, n: int, width: int, dtype) -> np.ndarray | None:
@@ -87,14 +93,13 @@ def corner_normals(me) -> np.ndarray | None:
     domain = me.normals_domain
     if domain == "FACE":
         return None
-    if domain == "CORNER" and not me.has_custom_normals and not _any(me, "sharp_edge", "EDGE"):
+    sharp_edges = _attribute(me, "sharp_edge", "value", len(me.edges), 1, bool)
+    if domain == "CORNER" and not me.has_custom_normals and (sharp_edges is None or not sharp_edges.any()):
         # Corner normals only because some faces are flat: Cycles shades the smooth faces with the
         # vertex normals (over flat neighbours too), where Blender's corner normals split at them.
         normals = np.empty(len(me.vertices) * 3, np.float32)
         me.vertex_normals.foreach_get("vector", normals)
-        corner_verts = np.empty(len(me.loops), np.int32)
-        me.loops.foreach_get("vertex_index", corner_verts)
-        normals = normals.reshape(-1, 3)[corner_verts]
+        normals = normals.reshape(-1, 3)[_corner_verts(me)]
         flat = _attribute(me, "sharp_face", "value", len(me.polygons), 1, bool)
         if flat is not None:
             totals = np.empty(len(me.polygons), np.int32)
@@ -104,16 +109,6 @@ def corner_normals(me) -> np.ndarray | None:
     normals = np.empty(len(me.loops) * 3, np.float32)
     me.corner_normals.foreach_get("vector", normals)
     return normals.reshape(-1, 3)
-
-
-def _any(me, name: str, domain: str) -> bool:
-    """Whether the mesh's boolean attribute `name` on `domain` is true anywhere."""
-    attribute = me.attributes.get(name)
-    if attribute is None or attribute.domain != domain:
-        return False
-    values = np.empty(len(attribute.data), bool)
-    attribute.data.foreach_get("value", values)
-    return bool(values.any())
 
 
 def split_by_slot(vertices: np.ndarray, faces: np.ndarray, slots: np.ndarray, slot_count: int,
