@@ -324,3 +324,24 @@ def test_a_smooth_mesh_with_a_zero_area_face_renders(scene, tmp_path):
     aim_camera(scene, (0, -0.5, 6))
     out = render_passes(scene, tmp_path / "sliver.exr")
     assert engine.last_render.error is None and (out["depth"] < MISS).sum() > 100
+
+
+@pytest.mark.parametrize("elevation", [60, 20])
+def test_a_smooth_low_poly_sphere_is_lit_along_its_terminator_as_in_cycles(scene, tmp_path, elevation):
+    """A smooth 8 x 6 UV sphere read as a mesh under a sun from the side: the pixels Cycles lights
+    are the pixels Dürer lights (Cycles' shadow terminator offset; the faces' neighbours shadowed
+    207 of Cycles' 1,836 lit pixels)."""
+    from helpers.blender import light
+
+    scene.render.resolution_x, scene.render.resolution_y = 128, 96
+    ball = mesh_object(scene, "Ball", lambda bm: bmesh.ops.create_uvsphere(bm, u_segments=8, v_segments=6, radius=1.0))
+    ball.data.shade_smooth()
+    ball.data.materials.append(material("White", (0.8, 0.8, 0.8)))
+    ball.durer.primitive = "MESH"
+    light(scene, "SUN", energy=3.0, rotation=(0, (90 - elevation) * DEG, 0))
+    aim_camera(scene, (0, -5, 0))
+    c, d = both(scene, tmp_path, normal=False)
+    hit = (c["depth"] < MISS) & (d["depth"] < MISS)
+    cycles, durer_ = c["color"][..., :3].mean(-1), d["color"][..., :3].mean(-1)  # black: in shadow (black world)
+    assert (hit & (cycles > 0.02)).sum() > 1500
+    assert not (hit & (cycles > 0.02) & (durer_ < 1e-4)).any() and not (hit & (durer_ > 0.02) & (cycles < 1e-4)).any()

@@ -434,3 +434,44 @@ def test_total_internal_reflection_at_a_smooth_face_turns_back_into_the_glass():
     result = durer.render(scene, camera, 8, 8, max_bounces=1)
     assert result.stats["total_internal_reflections"] == 64
     np.testing.assert_array_equal(result.color[..., :3], 0.0)  # the black background below, not the red above
+
+
+def _low_poly_sphere(around: int = 8, rings: int = 6) -> tuple[np.ndarray, np.ndarray]:
+    """A UV sphere of radius 1 wound outward: (V, 3) vertices, which are also its smooth normals."""
+    vertices = [(0.0, 0.0, 1.0)]
+    for j in range(1, rings):
+        theta = math.pi * j / rings
+        vertices += [(math.sin(theta) * math.cos(phi), math.sin(theta) * math.sin(phi), math.cos(theta))
+                     for phi in 2 * math.pi * np.arange(around) / around]
+    vertices.append((0.0, 0.0, -1.0))
+    faces = [(0, 1 + i, 1 + (i + 1) % around) for i in range(around)]
+    for j in range(rings - 2):
+        for i in range(around):
+            a, b = 1 + j * around + i, 1 + j * around + (i + 1) % around
+            faces += [(a, a + around, b + around), (a, b + around, b)]
+    last, base = len(vertices) - 1, 1 + (rings - 2) * around
+    faces += [(base + i, last, base + (i + 1) % around) for i in range(around)]
+    v, f = np.array(vertices), np.array(faces)
+    inward = (np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]) * v[f].mean(axis=1)).sum(axis=1) < 0
+    f[inward] = f[inward][:, ::-1]
+    return v, f
+
+
+@pytest.mark.parametrize("elevation", [60, 30, 5])
+def test_a_smooth_low_poly_sphere_is_not_shadowed_along_its_terminator(precision, elevation):
+    """A smooth 8 x 6 sphere under a sun: every pixel its smooth normals light is lit, as Cycles
+    lights it (its shadow terminator offset): the shadow rays start on the smooth surface the
+    corners' normals describe, not on the flat faces, whose neighbours shadowed 196 of 2,398."""
+    vertices, faces = _low_poly_sphere()
+    sun = (-math.cos(math.radians(elevation)), 0.0, -math.sin(math.radians(elevation)))
+    camera = durer.OrthographicCamera((0, -5, 0), (0, 1, 0), (0, 0, 1), 2.4)
+    lit = {}
+    for shadows in (False, True):
+        scene = durer.Scene()
+        scene.add_mesh(vertices, faces, scene.add_material((0.8, 0.8, 0.8)), normals=vertices)
+        scene.add_directional_light(sun, (1, 1, 1), shadows=shadows)
+        result = durer.render(scene, camera, 96, 96, precision=precision)
+        lit[shadows] = result.color[..., 0]
+        assert (result.stats["shadow_rays"] > 1000) == shadows
+    assert (lit[False] > 1e-4).sum() > 1500
+    np.testing.assert_array_equal(lit[True], lit[False])

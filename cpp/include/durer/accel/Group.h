@@ -373,6 +373,7 @@ class Group {
     Hit<Real> h = inst.child->hitOwn(local, 0);
     if (inst.colored) h.colored = true, h.color = inst.color;
     const bool smooth = h.normal != h.geometricNormal;
+    if (h.lift != 0) h.lift *= static_cast<float>(glm::length(inst.worldFromObject.vector(h.normal)));
     h.normal = worldNormal(inst, h.normal);
     h.geometricNormal = smooth ? worldNormal(inst, h.geometricNormal) : h.normal;
     h.pointError = inst.worldFromObject.pointError(h.point, h.pointError);

@@ -176,7 +176,13 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real, 3> {
     Hit<Real> out;
     out.t = packet.tHit[k];
     out.geometricNormal = tri.normal;
-    out.normal = this->smooth() ? smoothNormal(this->normals()[index], b0, b1, b2, tri.normal) : tri.normal;
+    out.normal = tri.normal;
+    if (this->smooth()) {
+      const typename Base::Normals& n = this->normals()[index];
+      out.normal = smoothNormal(n, b0, b1, b2, tri.normal);
+      const Real toward = packet.dx[k] * tri.normal.x + packet.dy[k] * tri.normal.y + packet.dz[k] * tri.normal.z;
+      out.lift = static_cast<float>(terminatorLift(tri, n, b0, b1, b2, toward < 0 ? tri.normal : -tri.normal));
+    }
     out.point = p0 + p1 + p2;
     out.pointError = errorGamma<Real>(7) * (absolute(p0) + absolute(p1) + absolute(p2));
     this->recordIds(out, index);
@@ -255,6 +261,32 @@ class TriangleSet : public PrimitiveSet<Triangle<Real>, Real, 3> {
   }
 
   static typename Base::Normals flatNormals(const Triangle<Real>& tri) { return {tri.normal, tri.normal, tri.normal}; }
+
+  // Cycles' shadow terminator offset (shadow_ray_smooth_surface_offset): the smooth surface that a
+  // flat triangle and its corner normals n describe, a parabola in the barycentrics (u, v, w) held
+  // within each corner's tangent plane, lies this far from the face at (u, v, w) along the unit
+  // interpolated normal (signed; `front`: the face's normal on the side the ray comes from). In the
+  // triangle's space.
+  static Real terminatorLift(const Triangle<Real>& tri, const typename Base::Normals& n, Real u, Real v, Real w,
+                             const Vec3<Real>& front) {
+    const Vec3<Real> corner[3] = {tri.v0, tri.v1, tri.v2};
+    const Vec3<Real> p = u * corner[0] + v * corner[1] + w * corner[2];
+    const Vec3<Real> normal = u * n[0] + v * n[1] + w * n[2];
+    const Real a = glm::dot(n[2] - n[0], corner[0] - corner[2]);
+    const Real b = glm::dot(n[2] - n[1], corner[1] - corner[2]);
+    const Real c = glm::dot(n[1] - n[0], corner[1] - corner[0]);
+    const Real parabola = a * u * (u - 1) + (a + b + c) * u * v + b * v * (v - 1);
+    const Real side = glm::dot(normal, front) > 0 ? Real(1) : Real(-1);
+    Real envelope = std::numeric_limits<Real>::infinity();
+    for (int i = 0; i < 3; ++i) {
+      const Vec3<Real>& vi = corner[i];
+      const Real reach = std::max(std::max(side * glm::dot(corner[(i + 1) % 3] - vi, n[i]),
+                                           side * glm::dot(corner[(i + 2) % 3] - vi, n[i])), Real(0));
+      envelope = std::min(envelope, std::max(side * glm::dot(vi - p, n[i]) + reach, Real(0)));
+    }
+    const Real h = side > 0 ? std::max(envelope, parabola / 2) : std::min(-envelope, parabola / 2);
+    return h * glm::length(normal);
+  }
 
   DURER_INLINE static Real max3(Real p, Real q, Real r) {
     return std::max(std::fabs(p), std::max(std::fabs(q), std::fabs(r)));

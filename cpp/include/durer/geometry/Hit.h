@@ -21,6 +21,10 @@ struct Hit {
   Vec3<Real> pointError{0};                        // per-component bound on |point - exact hit point| (RayOffset.h)
   int32_t objectId = -1;                           // id returned when the object was added; -1 on a miss
   int32_t materialId = -1;                         // -1 on a miss
+  // A smooth triangle's terminator lift (Cycles' shadow terminator offset): how far the smooth
+  // surface its corner normals describe lies from the face at the point, along `normal`, signed,
+  // world units; 0 elsewhere. A float, in the record's padding: a heuristic's distance.
+  float lift = 0;
   bool colored = false;                            // whether the primitive has its own colour:
   Vec3<Real> color;                                // then its kd at the hit, in place of the material's (else unset)
   bool isHit() const { return objectId >= 0; }

@@ -148,7 +148,8 @@ class PacketShader {
           continue;
         }
         const int j = shadow.count++;
-        const Vec3<Real> origin = offsetRayOrigin(h.point, h.geometricNormal, h.pointError, toLight);
+        const Vec3<Real> origin = offsetRayOrigin(h.point, h.geometricNormal, h.pointError, toLight) +
+                                  terminatorOffset(h, normal[k], cosine, toLight);
         const Vec3<Real> toward = light.shadowDirection(origin);
         shadow.ox[j] = origin.x, shadow.oy[j] = origin.y, shadow.oz[j] = origin.z;
         shadow.dx[j] = toward.x, shadow.dy[j] = toward.y, shadow.dz[j] = toward.z;
@@ -344,6 +345,23 @@ class PacketShader {
       return false;
     }
     return true;
+  }
+
+  // Where a smooth triangle's shadow ray toward unit toLight starts beyond the face (Cycles'
+  // shadow_ray_offset with its default Geometry Offset, 0.1): near the terminator, where the
+  // shading normal (`shaded`, cosine = shaded·toLight) or the face turns from the light, on the
+  // smooth surface the corners' normals describe (Hit::lift) instead of the flat face, whose
+  // neighbours would shadow it (toward a light below the face too: from there the ray may meet the
+  // face itself, as in Cycles, which then skips no primitive). Zero elsewhere.
+  static Vec3<Real> terminatorOffset(const Hit<Real>& hit, const Vec3<Real>& shaded, Real cosine,
+                                     const Vec3<Real>& toLight) {
+    constexpr Real kCutoff = Real(0.1);
+    if (hit.lift == 0) return Vec3<Real>(0);
+    const Real side = glm::dot(shaded, hit.normal) < 0 ? Real(-1) : Real(1);  // the normal as shaded
+    const Real faceCosine = side * glm::dot(hit.geometricNormal, toLight);
+    const Real amount = cosine < kCutoff ? std::clamp(2 - (faceCosine + cosine) / kCutoff, Real(0), Real(1))
+                                         : std::clamp(1 - faceCosine / kCutoff, Real(0), Real(1));
+    return (amount * static_cast<Real>(hit.lift)) * hit.normal;
   }
 
   // Snell's law through the surface of `hit` for unit d: entering where d meets its face from the
