@@ -388,13 +388,13 @@ def _render_frame(bpy, engine, sc, blend: Path, frame: int, left: int, progress)
             progress(frame, fraction)
 
     engine.progress_hooks.append(hook)
+    # A path of the caller's own, not there yet (render_file's hidden name, a worker's temporary file):
+    # Blender writes the empty image of a failed render there, removed as it stands.
     target = Path(bpy.path.abspath(sc.render.filepath))
-    before = target.stat().st_mtime_ns if target.exists() else None
     engine.last_render = engine.RenderInfo()  # a frame Blender fails before the engine runs keeps no stale error
 
-    def remove_written() -> None:  # Blender writes the empty image of a failed render: no frame to resume from
-        if target.exists() and target.stat().st_mtime_ns != before:
-            target.unlink()
+    def remove_written() -> None:
+        target.unlink(missing_ok=True)
 
     try:
         bpy.ops.render.render(write_still=True, scene=sc.name)

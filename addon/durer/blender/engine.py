@@ -241,8 +241,9 @@ class DurerEngineMixin:
         for message in info.warnings:
             self.report({"WARNING"}, message)
 
-        passes = list(dict.fromkeys(["color"] + [PASS_LAYOUTS[name][0] for name in layer_passes(layer)]))
-        index_passes = [entry for entry in INDEX_PASSES if entry[1](layer)]
+        asked = layer_passes(layer)
+        passes = list(dict.fromkeys(["color"] + [PASS_LAYOUTS[name][0] for name in asked]))
+        index_passes = [entry for entry in INDEX_PASSES if entry[0] in asked]
         kwargs = render_kwargs(settings)
         kwargs["ambient_occlusion"] = data.ambient_occlusion
         self.update_stats("", f"Dürer | {w}x{h} | {info.samples} spp | rendering")
