@@ -71,6 +71,9 @@ class Scene:
         self, position: _Triple, direction: _Triple, color: _Triple, attenuation: _Triple, cos_half_angle: float,
         blend: float, shadows: bool,
     ) -> None: ...
+    def add_area_light(
+        self, position: _Triple, u: _Triple, v: _Triple, color: _Triple, ellipse: bool, samples: int, shadows: bool,
+    ) -> None: ...
     shading: str
     background: tuple[float, float, float, float]
     ambient: _Triple

@@ -309,6 +309,32 @@ class Scene:
             math.cos(math.radians(half)), _checks.real(blend, "blend"), _checks.boolean(shadows, "shadows"),
         )
 
+    def add_area_light(
+        self,
+        position: ArrayLike,
+        u: ArrayLike,
+        v: ArrayLike,
+        color: ArrayLike,
+        *,
+        ellipse: bool = False,
+        samples: int = 16,
+        shadows: bool = False,
+    ) -> None:
+        """A one-sided Lambertian light (Blender's area light): the parallelogram centred at
+        `position` with edge vectors `u` and `v` (the rectangle of sides |u| and |v| when they are
+        perpendicular), or with ellipse=True the ellipse inscribed in it, shining toward u × v.
+        `color` (linear RGB >= 0) is its intensity along that normal, in a point light's units with
+        inverse-square falloff: far away it lights as a point light of colour color·cos θ (θ off the
+        normal), and nothing behind it. Near it, a shaded point receives the integral over the
+        surface, estimated from `samples` points on it (at least 1, stratified, new ones for each
+        pixel sample); with shadows=True each casts a shadow ray, so shadows are soft."""
+        self._add(
+            "add_area_light",
+            _checks.vector3(position, "position"), _checks.vector3(u, "u"), _checks.vector3(v, "v"),
+            _checks.color(color, "color"), _checks.boolean(ellipse, "ellipse"), _checks.c_int(samples, "samples"),
+            _checks.boolean(shadows, "shadows"),
+        )
+
     @property
     def shading(self) -> str:
         """"auto" (default): lit where the scene has lights, else every hit takes its flat colour

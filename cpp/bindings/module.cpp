@@ -485,6 +485,9 @@ PYBIND11_MODULE(_core, m) {
               double cosHalfAngle, double blend, bool shadows) {
              s.addSpotLight(SpotLight{vec(p), vec(d), vec(c), vec(attenuation), cosHalfAngle, blend, shadows});
            })
+      .def("add_area_light",
+           [](Scene& s, const Triple& p, const Triple& u, const Triple& v, const Triple& c, bool ellipse, int samples,
+              bool shadows) { s.addAreaLight(AreaLight{vec(p), vec(u), vec(v), vec(c), ellipse, samples, shadows}); })
       .def_property(
           "shading", [](const Scene& s) { return optionName(kShadingModeNames, s.shadingMode()); },
           [](Scene& s, const std::string& mode) { s.setShading(optionNamed(kShadingModeNames, mode, "shading")); })
@@ -515,7 +518,7 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("material_count", [](const Scene& s) { return s.materials().size(); })
       .def_property_readonly("object_count", &Scene::objectCount)
       .def_property_readonly("light_count", [](const Scene& s) {
-        return s.directionalLights().size() + s.pointLights().size() + s.spotLights().size();
+        return s.directionalLights().size() + s.pointLights().size() + s.spotLights().size() + s.areaLights().size();
       });
 
   m.def("render", &renderPy, py::arg("scene"), py::arg("camera"), py::arg("width"), py::arg("height"),
@@ -540,7 +543,8 @@ PYBIND11_MODULE(_core, m) {
       py::arg("matrices"));
 
   m.attr("KERNEL_SET") = kernels().isa;  // the instruction set of the hot kernels this CPU runs
-  m.attr("RENDER_LIMITS") = py::dict(py::arg("side") = kRenderLimits.side, py::arg("max_bounces") = kRenderLimits.maxBounces);
+  m.attr("RENDER_LIMITS") = py::dict(py::arg("side") = kRenderLimits.side, py::arg("max_bounces") = kRenderLimits.maxBounces,
+                                     py::arg("rays_per_hit") = kRenderLimits.raysPerHit);
   m.attr("PRECISIONS") = names(kPrecisionNames);
   m.attr("SPHERE_METHODS") = names(kSphereMethodNames);
   m.attr("SAMPLERS") = names(kSamplerNames);

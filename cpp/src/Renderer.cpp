@@ -36,9 +36,9 @@ void validate(const RenderSettings& s) {
   }
   if (!(std::isfinite(s.minWeight) && s.minWeight >= 0)) fail("min_weight must be finite and >= 0, got " + show(s.minWeight));
   const RenderSettings::AmbientOcclusion& ao = s.ambientOcclusion;
-  constexpr int kMaxAoSamples = 1 << 16;
-  if (ao.on && (ao.samples < 1 || ao.samples > kMaxAoSamples)) {
-    fail("ambient_occlusion samples must be in [1, " + std::to_string(kMaxAoSamples) + "], got " + std::to_string(ao.samples));
+  if (ao.on && (ao.samples < 1 || ao.samples > kRenderLimits.raysPerHit)) {
+    fail("ambient_occlusion samples must be in [1, " + std::to_string(kRenderLimits.raysPerHit) + "], got " +
+         std::to_string(ao.samples));
   }
   if (ao.on && !(ao.distance > 0)) fail("ambient_occlusion distance must be > 0 (inf: unlimited), got " + show(ao.distance));
   const RenderSettings::Region& r = s.region;
@@ -68,7 +68,7 @@ EffectSet effectsFor(const Scene& scene, const RenderSettings& settings, const R
   e.specular = e.lit && any(&Material::specular);
   if (e.lit) {
     e.shadowingLights = shadowing(scene.directionalLights()) + shadowing(scene.pointLights()) +
-                        shadowing(scene.spotLights());
+                        shadowing(scene.spotLights()) + shadowing(scene.areaLights());
   }
   e.shadows = e.shadowingLights > 0;
   e.reflection = settings.maxBounces > 0 && any(&Material::reflective);

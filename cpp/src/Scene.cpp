@@ -639,6 +639,23 @@ void Scene::addSpotLight(const SpotLight& light) {
   noteReach(placed);
 }
 
+void Scene::addAreaLight(const AreaLight& light) {
+  requireFinite(light.position, "position");
+  requireFinite(light.u, "u");
+  requireFinite(light.v, "v");
+  // Every point of the surface within the coordinate limit (its corners bound it).
+  const Reach placed = requireReach(maxAbs(light.position) + (maxAbs(light.u) + maxAbs(light.v)) / 2,
+                                    "position, u and v (its corners)", nullptr);
+  const Vec3d normal = glm::cross(light.u, light.v);
+  if (!(glm::dot(normal, normal) > 0)) fail("u and v must span a surface (neither zero nor parallel)");
+  requireNonNegativeColor(light.color, "color");
+  if (light.samples < 1 || light.samples > kRenderLimits.raysPerHit) {
+    fail("samples must be in [1, " + std::to_string(kRenderLimits.raysPerHit) + "], got " + std::to_string(light.samples));
+  }
+  m_areaLights.push_back(light);
+  noteReach(placed);
+}
+
 void Scene::setBackground(const Vec4d& rgba) {
   requireNonNegativeColor(Vec3d(rgba), "background");
   if (!(std::isfinite(rgba.w) && rgba.w >= 0 && rgba.w <= 1)) fail("background alpha must be in [0, 1]");

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <vector>
 
 #include "durer/render/PixelSampler.h"
@@ -42,6 +43,30 @@ TEST_CASE("Owen-scrambled Sobol points: every power-of-two prefix is a (0,m,2)-n
       std::vector<double> u(size_t(1) << m), v(size_t(1) << m);
       for (uint32_t i = 0; i < (1u << m); ++i) PixelSampler::scrambledSobol(i, seed, u[i], v[i]);
       CHECK_MESSAGE(isNet(u, v, m), "seed ", seed, ", m ", m);
+    }
+  }
+}
+
+TEST_CASE("a hit's samples: each uniform over the square as keys vary, a net at every power of two") {
+  // 16,384 keys into a 4x4 grid: 1,024 a cell, standard deviation 31. Unshuffled, the scrambles'
+  // tied coordinates kept point 0 out of the lower-left and upper-right quarters (a few AO or area
+  // light samples per hit were biased).
+  for (const uint32_t index : {0u, 1u, 2u, 3u, 6u, 1000u}) {
+    int cells[4][4] = {};
+    for (uint32_t k = 0; k < 16384; ++k) {
+      double u, v;
+      PixelSampler::hitSample(index, k * 0x9e3779b9u, u, v);
+      ++cells[int(u * 4)][int(v * 4)];
+    }
+    for (const auto& row : cells) {
+      for (const int count : row) CHECK_MESSAGE(std::abs(count - 1024) < 160, "index ", index, ", count ", count);
+    }
+  }
+  for (const uint32_t key : {0u, 7u, 0xdeadbeefu}) {
+    for (int m = 0; m <= 8; ++m) {
+      std::vector<double> u(size_t(1) << m), v(size_t(1) << m);
+      for (uint32_t i = 0; i < (1u << m); ++i) PixelSampler::hitSample(i, key, u[i], v[i]);
+      CHECK_MESSAGE(isNet(u, v, m), "key ", key, ", m ", m);
     }
   }
 }

@@ -97,10 +97,10 @@ def test_skipped_geometry_is_counted_by_kind(scene):
     link(scene, bpy.data.objects.new("Curve", curve))  # beveled: triangles
     link(scene, bpy.data.objects.new("Fog", bpy.data.volumes.new("Fog")))
     link(scene, bpy.data.objects.new("Fog 2", bpy.data.volumes.new("Fog 2")))
-    light(scene, "AREA")
+    link(scene, bpy.data.objects.new("Pen", bpy.data.grease_pencils.new("Pen")))
     d = export(scene)
-    assert d.skipped == {"volume": 2, "area light": 1}
-    assert d.warnings[0] == "Dürer skipped geometry it cannot render: 1 area light, 2 volume"
+    assert d.skipped == {"volume": 2, "greasepencil": 1}
+    assert d.warnings[0] == "Dürer skipped geometry it cannot render: 1 greasepencil, 2 volume"
     assert sorted(m.name for m in d.meshes) == ["A", "Curve"]
 
 

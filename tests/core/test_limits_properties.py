@@ -51,6 +51,8 @@ FIELDS: dict[str, tuple[str, str, int | None]] = {
     "transparent": ("transparent", "transparent", None),
     "spot position": ("position", "spot", 2),
     "spot angle": ("half_angle_degrees", "spot_angle", None),
+    "area light position": ("position", "area", 0),
+    "area light edge": ("u", "area_u", None),
     "fov": ("fov_degrees", "fov", None),
     "camera centre": ("center", "eye", 0),
     "camera direction": ("direction", "view", 1),
@@ -79,7 +81,7 @@ def base_setup() -> dict[str, Any]:
     return {"center": [0.0, 0.0, 0.0], "radius": 1.0, "vertex": [0.0, 1.0, -1.0], "hi": [3.0, 1.0, 1.0],
             "offset": -2.0, "plane_normal": [0.0, 0.0, 1.0], "sun": [0.0, -1.0, -1.0], "exponent": 8.0,
             "view": [0.0, 0.0, -1.0], "stretch": [1.0, 1.0, 1.0], "transparent": 0.25, "spot": [0.0, 0.0, 6.0],
-            "spot_angle": 30.0, "fov": 40.0, "light": [2.0, 3.0, 4.0], "light_color": 1.0, "diffuse": 0.5, "emission": 0.0,
+            "area": [0.0, 2.0, 3.0], "area_u": 1.0, "spot_angle": 30.0, "fov": 40.0, "light": [2.0, 3.0, 4.0], "light_color": 1.0, "diffuse": 0.5, "emission": 0.0,
             "reflective": 0.5, "ior": 1.5, "attenuation": 1.0,
             "background": 0.1, "scale": 1.0, "eye": [0.0, 0.0, 5.0], "size": 4.0, "shift": 0.0, "aspect": 1.0,
             "length": 1.0}
@@ -99,6 +101,8 @@ def build(setup: dict[str, Any], perspective: bool) -> tuple[durer.Scene, Any]:
     scene.add_boxes([[-0.5, 1.0, -0.5]], [[0.5, 2.0, 0.5]], transform=np.diag([*setup["stretch"], 1.0]))
     scene.add_spot_light(setup["spot"], (0, 0, -1), (1, 1, 1), half_angle_degrees=setup["spot_angle"], blend=0.5,
                          attenuation=(0, 0, 1), shadows=True)
+    scene.add_area_light(setup["area"], (setup["area_u"], 0, 0), (0, -1.0, 0), (1, setup["light_color"], 1), samples=2,
+                         shadows=True)
     scene.add_plane(setup["plane_normal"], setup["offset"])
     scene.add_point_light(setup["light"], (setup["light_color"], 1.0, 1.0), attenuation=(setup["attenuation"], 0, 1),
                           shadows=True)

@@ -348,6 +348,9 @@ def _api_call(scene: durer.Scene, src: Source) -> None:
     elif kind == 9:
         scene.add_point_light(_vec(src), _color(src), attenuation=src.array((3,), lambda: src.byte() / 64),
                               shadows=src.value(lambda: src.chance(128)))
+    elif kind == 10 and src.chance(100):
+        scene.add_area_light(_vec(src), _vec(src), _vec(src), _color(src), ellipse=src.value(lambda: src.chance(128)),
+                             samples=src.value(lambda: src.below(5)), shadows=src.value(lambda: src.chance(128)))
     elif kind == 10:
         scene.add_spot_light(_vec(src), _vec(src), _color(src), half_angle_degrees=src.value(lambda: src.byte() / 1.5),
                              blend=src.value(lambda: src.byte() / 255), shadows=src.value(lambda: src.chance(128)))

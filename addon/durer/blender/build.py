@@ -80,6 +80,9 @@ def make_scene(data: SceneData) -> durer.Scene:
                 attenuation=attenuation,
                 shadows=light.shadows,
             )
+        elif light.kind == "area":
+            scene.add_area_light(light.position, *light.edges, light.color, ellipse=light.ellipse,
+                                 samples=data.light_samples, shadows=light.shadows)
         else:
             scene.add_point_light(light.position, light.color, attenuation=attenuation, shadows=light.shadows)
     scene.shading = "lit"  # a Blender scene without lights shows only the world's light, never flat colours

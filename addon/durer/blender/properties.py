@@ -296,7 +296,16 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
         default=16,
         min=1,
         soft_max=256,
-        max=65536,
+        max=durer._core.RENDER_LIMITS["rays_per_hit"],
+    )
+    light_samples: IntProperty(
+        name="Area Light Samples",
+        description="Points on each area light per shaded point (per camera sample), with a shadow ray to "
+        "each where it casts shadows: the noise of its light and soft shadows falls as samples grow",
+        default=16,
+        min=1,
+        soft_max=256,
+        max=durer._core.RENDER_LIMITS["rays_per_hit"],
     )
     use_world_ao_distance: BoolProperty(
         name="World AO Distance",

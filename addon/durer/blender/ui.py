@@ -63,6 +63,7 @@ class DURER_PT_render(_DurerPanel, bpy.types.Panel):
         col.prop(settings, "max_bounces")
         col.prop(settings, "min_weight")
         layout.prop(settings, "shade_back")
+        layout.prop(settings, "light_samples")
         # Blender's own settings Dürer reads, whose panels (EEVEE's, Cycles') are not shown for it.
         render = context.scene.render
         layout.prop(render, "film_transparent", text="Transparent Film")
@@ -134,13 +135,13 @@ class DURER_PT_light(_DurerPanel, bpy.types.Panel):
     @classmethod
     def poll(cls, context):
         light = getattr(context, "light", None)
-        return super().poll(context) and light is not None and light.type in {"SUN", "POINT", "SPOT"}
+        return super().poll(context) and light is not None and light.type in {"SUN", "POINT", "SPOT", "AREA"}
 
     def draw(self, context):
         layout = self.split_layout()
         light = context.light
         layout.prop(light, "use_shadow", text="Cast Shadows")  # shown by EEVEE's shadow panel only
-        if light.type == "SUN":
+        if light.type in {"SUN", "AREA"}:  # no falloff to choose
             return
         settings = light.durer
         layout.prop(settings, "use_attenuation")

@@ -110,16 +110,20 @@ class MeshData:
 
 @dataclass
 class LightData:
-    kind: str  # "sun", "point" or "spot"
+    kind: str  # "sun", "point", "spot" or "area"
     name: str
     color: np.ndarray  # (3,) Dürer colour: already includes strength and the radiometric factors
     direction: np.ndarray | None = None  # the way the light travels (sun, spot axis)
-    position: np.ndarray | None = None  # point, spot
+    position: np.ndarray | None = None  # point, spot; area: its centre
     falloff: str = "none"  # "none" (sun), "inverse_square" (point, spot) or "custom" (light.durer)
     attenuation: tuple[float, float, float] = NO_FALLOFF  # (c0, c1, c2): colour / (c0 + c1·d + c2·d²)
     spot_half_angle: float = math.pi  # radians
     spot_blend: float = 0.0  # Blender's spot_blend: smoothstep over (1 - cos half angle)·blend in cos
     shadows: bool = True  # Blender's light.use_shadow ("Cast Shadow")
+    #: area: the world-space edge vectors u, v of its rectangle (u × v the way it shines), and
+    #: whether it is the ellipse inscribed in it (Disk, Ellipse). Its colour is its intensity along u × v.
+    edges: tuple[np.ndarray, np.ndarray] | None = None
+    ellipse: bool = False
 
 
 @dataclass
@@ -186,10 +190,12 @@ class SceneData:
     ambient: tuple[float, float, float] = (0.0, 0.0, 0.0)
     #: durer.render's ambient_occlusion=(samples, distance), None when off.
     ambient_occlusion: tuple[int, float] | None = None
+    #: Points sampled on each area light per shaded hit (scene.durer.light_samples).
+    light_samples: int = 16
     #: Number of Dürer objects (spheres, planes, meshes) each Blender object contributed, by its
     #: unique name (ObjectData.name).
     sources: Counter = field(default_factory=Counter)
-    #: Geometry Dürer cannot render, counted by a short description ("volume", "area light", ...).
+    #: Geometry Dürer cannot render, counted by a short description ("volume", "hair curves", ...).
     skipped: Counter = field(default_factory=Counter)
     #: Other messages for the user (unsupported world or light settings, ...).
     notes: list[str] = field(default_factory=list)

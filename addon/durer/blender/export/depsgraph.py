@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .builder import Builder
@@ -33,6 +35,7 @@ _IGNORED_VISIBILITY = (
     ("is_shadow_catcher", True, "a shadow catcher"),
 )
 _IGNORED_LIGHT_VISIBILITY = (
+    ("visible_camera", True, "shown to the camera (Dürer draws no light itself)"),
     ("visible_diffuse", False, "lighting no diffuse surface"),
     ("visible_glossy", False, "making no highlight"),
 )
@@ -164,9 +167,11 @@ def _metaball_bases(depsgraph) -> dict[str, object]:
 
 
 def _light(b: Builder, obj, m: np.ndarray) -> None:
+    if getattr(getattr(obj.data, "cycles", None), "is_portal", False):
+        return  # a portal guides Cycles' world light and emits nothing itself
     light = light_data(obj, m)
     if light is None:
-        b.data.skipped[f"{obj.data.type.lower()} light"] += 1
+        b.data.notes.append(f"Area light '{obj.name_full}' has no area (its size or scale is 0): Dürer leaves it out")
         return
     if min(light.color) < 0:
         b.data.notes.append(f"Light '{obj.name_full}' has a negative power or colour: Dürer leaves it out "
@@ -178,7 +183,10 @@ def _light(b: Builder, obj, m: np.ndarray) -> None:
                             f"Dürer keeps it round")
     if obj.data.use_nodes:
         b.data.notes.append(f"Light '{obj.name_full}' uses shader nodes: Dürer takes its colour and power alone")
-    if light.kind != "sun" and not getattr(obj.data, "normalize", True):  # not in every Blender version supported
+    if light.kind == "area" and obj.data.spread < math.pi - 1e-6:
+        b.data.notes.append(f"Area light '{obj.name_full}' has a Spread of {math.degrees(obj.data.spread):.4g}°: "
+                            f"Dürer spreads its light as at 180° (Lambertian)")
+    if light.kind in ("point", "spot") and not getattr(obj.data, "normalize", True):
         b.data.notes.append(f"Light '{obj.name_full}' is not normalized: Dürer takes its power as if it were "
                             f"(Cycles' light grows with its radius)")
 
@@ -347,4 +355,6 @@ def export_depsgraph(depsgraph, camera=None, *, with_camera: bool = True) -> Sce
     elif settings is None or settings.use_world_lighting:
         data.ambient = world_rgb
     data.ambient_occlusion = ambient_occlusion(scene)
+    if settings is not None:
+        data.light_samples = int(scene.original.durer.light_samples)
     return data

@@ -1,7 +1,9 @@
 """Blender lights -> `LightData`, radiometric as in Cycles: a Sun of strength S gives irradiance S, so
 its Dürer colour (which multiplies kd·max(N·L, 0) with no 1/π) is colour·S/π; a Point or Spot light
 of power P has intensity colour·P/(4·π²) with inverse-square falloff (Cycles' diffuse BRDF is kd/π),
-or the falloff ``light.durer`` states (6.837's c0 + c1·d + c2·d²)."""
+or the falloff ``light.durer`` states (6.837's c0 + c1·d + c2·d²). An Area light of power P is a
+one-sided Lambertian emitter of radiance P/(π·A) over its world-space area A (P/π when not
+normalized), so its intensity along its normal is colour·P/π² (times A when not normalized)."""
 
 from __future__ import annotations
 
@@ -15,8 +17,8 @@ from .nodes import rgb
 
 
 def light_data(obj, m: np.ndarray) -> LightData | None:
-    """The Dürer light of a light object with world matrix `m`; None for a type Dürer cannot
-    render (area lights)."""
+    """The Dürer light of a light object with world matrix `m`; None for one that gives no light
+    Dürer can render (an area light scaled to no area)."""
     convert = CONVERTERS.get(obj.data.type)
     return None if convert is None else convert(obj, m)
 
@@ -62,5 +64,31 @@ def _spot(obj, m: np.ndarray) -> LightData:
                      shadows=bool(light.use_shadow), **_falloff(light))
 
 
+#: Area light shape -> (uses size_y, the inscribed ellipse).
+AREA_SHAPES: dict[str, tuple[bool, bool]] = {
+    "SQUARE": (False, False), "RECTANGLE": (True, False), "DISK": (False, True), "ELLIPSE": (True, True),
+}
+
+
+def _area(obj, m: np.ndarray) -> LightData | None:
+    """The rectangle (or inscribed ellipse) of sides size × size_y along the object's X and Y, as
+    its matrix stretches them, shining along its -Z; None when scaled to no area."""
+    light = obj.data
+    own_y, ellipse = AREA_SHAPES[light.shape]
+    u = m[:3, 0] * float(light.size)
+    v = m[:3, 1] * float(light.size_y if own_y else light.size)
+    normal = np.cross(u, v)
+    area = float(np.linalg.norm(normal)) * (math.pi / 4 if ellipse else 1.0)
+    if not area > 0:
+        return None
+    if np.dot(normal, -m[:3, 2]) < 0:  # u × v must point the way it shines (a mirrored object's too)
+        v = -v
+    intensity = _color_power(light) / math.pi**2
+    if not getattr(light, "normalize", True):
+        intensity = intensity * area
+    return LightData("area", obj.name_full, intensity, position=m[:3, 3].copy(), edges=(u, v), ellipse=ellipse,
+                     shadows=bool(light.use_shadow))
+
+
 #: Blender light type -> its converter.
-CONVERTERS: dict[str, Callable[..., LightData]] = {"SUN": _sun, "POINT": _point, "SPOT": _spot}
+CONVERTERS: dict[str, Callable[..., LightData | None]] = {"SUN": _sun, "POINT": _point, "SPOT": _spot, "AREA": _area}

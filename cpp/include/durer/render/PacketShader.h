@@ -110,64 +110,120 @@ class PacketShader {
   }
 
   // Σ over lights of max(N·L, 0)·light·kd (+ ks·light·max(N·H, 0)^exponent where N·L > 0), a light's
-  // term dropped where the shadow ray toward it is blocked. One light at a time, so that the shadow
-  // rays toward it go as one packet.
+  // term dropped where the shadow ray toward it is blocked; an area light is the mean of its
+  // samples' terms. One light (one sample) at a time, so that the shadow rays toward it go as one
+  // packet.
   template <bool Specular, bool Shadows>
   void addLights(const RayPacket<Real>& packet, const Hit<Real>* hits, Vec3<Real>* rgb, RayCounters& counters) const {
-    alignas(64) Vec3<Real> normal[kPacketSize], toViewer[kPacketSize];
+    Lit lit;
     for (int k = 0; k < packet.count; ++k) {
       if (!hits[k].isHit()) continue;
       ++counters.shadingEvaluations;
       const Vec3<Real> d = direction(packet, k);
-      normal[k] = shadingNormal(hits[k], d);
-      toViewer[k] = -glm::normalize(d);
+      lit.normal[k] = shadingNormal(hits[k], d);
+      lit.toViewer[k] = -glm::normalize(d);
     }
-    RayPacket<Real> shadow;
-    alignas(64) int pixelOf[kPacketSize];
-    alignas(64) Vec3<Real> term[kPacketSize];
+    bool keyed = false;
     for (size_t l = 0; l < m_shading.lights().size(); ++l) {
       const ShadingLight<Real>& light = m_shading.lights()[l];
-      shadow.count = 0;
-      for (int k = 0; k < packet.count; ++k) {
-        if (!hits[k].isHit()) continue;
-        const Hit<Real>& h = hits[k];
-        const Vec3<Real> toLight = light.toLight(h.point);
-        const Real cosine = glm::dot(normal[k], toLight);
-        if (!(cosine > 0)) continue;
-        const MaterialIn<Real>& m = m_shading.material(h.materialId);
-        // Colours first: their products are finite (Limits.h), so a huge falloff gives at most inf,
-        // never 0·inf, and shade() saturates it.
-        const Real falloff = light.falloff(h.point, toLight);
-        Vec3<Real> contribution = (cosine * falloff) * (light.color * diffuse(h, m));
-        if constexpr (Specular) {
-          contribution += (std::pow(highlight(normal[k], toLight + toViewer[k]), m.exponent) * falloff) *
-                          (light.color * m.specular);
-        }
-        if (!(Shadows && light.shadows)) {
-          rgb[k] += contribution;
-          continue;
-        }
-        const int j = shadow.count++;
-        const Vec3<Real> origin = offsetRayOrigin(h.point, h.geometricNormal, h.pointError, toLight) +
-                                  terminatorOffset(h, normal[k], cosine, toLight);
-        const Vec3<Real> toward = light.shadowDirection(origin);
-        shadow.ox[j] = origin.x, shadow.oy[j] = origin.y, shadow.oz[j] = origin.z;
-        shadow.dx[j] = toward.x, shadow.dy[j] = toward.y, shadow.dz[j] = toward.z;
-        pixelOf[j] = k;
-        term[j] = contribution;
+      const SphereView<Real>* view = l < m_lightViews.size() ? m_lightViews[l] : nullptr;
+      if (light.kind != ShadingLight<Real>::Kind::Area) {
+        addLight<Specular, Shadows, false>(packet, hits, lit, light, view, 0, 0, rgb, counters);
+        continue;
       }
-      if (shadow.count == 0) continue;
-      // t > 0: an offset of a few ulps of a number near 0 can underflow to t = -0 in the plane test.
-      shadow.tMin = std::numeric_limits<Real>::denorm_min();
-      shadow.tMax = light.shadowTMax();
-      shadow.view = l < m_lightViews.size() ? m_lightViews[l] : nullptr;
-      counters.intersectionTests += m_group.template occluded<M>(shadow, &m_cancel);
-      counters.shadow += shadow.count;
-      for (int j = 0; j < shadow.count; ++j) {
-        if (shadow.prim[j] == kNoPrimitive) rgb[pixelOf[j]] += term[j];
+      if (!keyed) {
+        for (int k = 0; k < packet.count; ++k) lit.key[k] = hits[k].isHit() ? rayKey(packet, k) : 0;
+        keyed = true;
+      }
+      // Each light's samples scrambled apart from the others' and the AO's, which share the ray's key.
+      const auto salt = static_cast<uint32_t>(mixBits(kAreaSampleSalt + l));
+      for (int s = 0; s < light.samples; ++s) {
+        addLight<Specular, Shadows, true>(packet, hits, lit, light, view, static_cast<uint32_t>(s), salt, rgb, counters);
       }
     }
   }
+
+  // What addLights knows of a packet's hits before the lights: shading normals, unit directions to
+  // the viewer, and (for area lights) the scramble of each hit's light samples.
+  struct Lit {
+    alignas(64) Vec3<Real> normal[kPacketSize];
+    alignas(64) Vec3<Real> toViewer[kPacketSize];
+    alignas(64) uint32_t key[kPacketSize];
+  };
+
+  // One light's terms (Area: its sample s, a point of its surface for each hit, scrambled by the hit's
+  // key ^ salt) added to rgb, through
+  // a packet of shadow rays where it casts shadows. Point, spot and area samples sit at t = 1 of
+  // their shadow rays, which need no epsilon there.
+  template <bool Specular, bool Shadows, bool Area>
+  void addLight(const RayPacket<Real>& packet, const Hit<Real>* hits, const Lit& lit, const ShadingLight<Real>& light,
+                const SphereView<Real>* view, uint32_t s, uint32_t salt, Vec3<Real>* rgb,
+                RayCounters& counters) const {
+    RayPacket<Real> shadow;
+    alignas(64) int pixelOf[kPacketSize];
+    alignas(64) Vec3<Real> term[kPacketSize];
+    shadow.count = 0;
+    for (int k = 0; k < packet.count; ++k) {
+      if (!hits[k].isHit()) continue;
+      const Hit<Real>& h = hits[k];
+      Vec3<Real> at, toLight;
+      Real falloff;
+      if constexpr (Area) {
+        double a, b;
+        PixelSampler::hitSample(s, lit.key[k] ^ salt, a, b);
+        at = light.surfacePoint(a, b);
+        const Vec3<Real> w = at - h.point;
+        const Real d2 = glm::dot(w, w);
+        const Real d = std::sqrt(d2);
+        if (!(d > 0)) continue;  // the hit is that point (or too near it for a direction)
+        toLight = w / d;
+        falloff = light.areaFalloff(toLight, d2);
+        if (!(falloff > 0)) continue;  // behind the surface
+      } else {
+        toLight = light.toLight(h.point);
+      }
+      const Real cosine = glm::dot(lit.normal[k], toLight);
+      if (!(cosine > 0)) continue;
+      const MaterialIn<Real>& m = m_shading.material(h.materialId);
+      if constexpr (!Area) falloff = light.falloff(h.point, toLight);
+      // Colours first: their products are finite (Limits.h), so a huge falloff gives at most inf,
+      // never 0·inf, and shade() saturates it.
+      Vec3<Real> contribution = (cosine * falloff) * (light.color * diffuse(h, m));
+      if constexpr (Specular) {
+        contribution += (std::pow(highlight(lit.normal[k], toLight + lit.toViewer[k]), m.exponent) * falloff) *
+                        (light.color * m.specular);
+      }
+      if (!(Shadows && light.shadows)) {
+        rgb[k] += contribution;
+        continue;
+      }
+      const int j = shadow.count++;
+      const Vec3<Real> origin = offsetRayOrigin(h.point, h.geometricNormal, h.pointError, toLight) +
+                                terminatorOffset(h, lit.normal[k], cosine, toLight);
+      Vec3<Real> toward;
+      if constexpr (Area) {
+        toward = at - origin;
+      } else {
+        toward = light.shadowDirection(origin);
+      }
+      shadow.ox[j] = origin.x, shadow.oy[j] = origin.y, shadow.oz[j] = origin.z;
+      shadow.dx[j] = toward.x, shadow.dy[j] = toward.y, shadow.dz[j] = toward.z;
+      pixelOf[j] = k;
+      term[j] = contribution;
+    }
+    if (shadow.count == 0) return;
+    // t > 0: an offset of a few ulps of a number near 0 can underflow to t = -0 in the plane test.
+    shadow.tMin = std::numeric_limits<Real>::denorm_min();
+    shadow.tMax = light.shadowTMax();
+    shadow.view = view;
+    counters.intersectionTests += m_group.template occluded<M>(shadow, &m_cancel);
+    counters.shadow += shadow.count;
+    for (int j = 0; j < shadow.count; ++j) {
+      if (shadow.prim[j] == kNoPrimitive) rgb[pixelOf[j]] += term[j];
+    }
+  }
+
+  static constexpr uint64_t kAreaSampleSalt = 0x9e3779b97f4a7c15ull;
 
   // Emission plus ambient · kd (lit; with Occlusion, the ambient light scaled by open[k]) or kd
   // (flat) of each hit, the background for misses.
@@ -215,7 +271,7 @@ class PacketShader {
       for (int j = 0; j < count; ++j) {
         const Hit<Real>& h = hits[hitOf[j]];
         double u, v;
-        PixelSampler::scrambledSobol(static_cast<uint32_t>(s), key[j], u, v);
+        PixelSampler::hitSample(static_cast<uint32_t>(s), key[j], u, v);
         double x, y, z;
         cosineHemisphere(u, v, x, y, z);
         const Vec3<Real> w = static_cast<Real>(x) * tangent[j] + static_cast<Real>(y) * bitangent[j] +
@@ -233,21 +289,10 @@ class PacketShader {
   }
 
   // A cosine-distributed unit direction (x, y, z), z up, for (u, v) in [0, 1)^2 (Malley's method: a
-  // uniform point of the unit disc lifted onto the hemisphere). The disc point is Shirley and Chiu's
-  // concentric map, which keeps the Sobol points' strata compact; its angle stays within ±π/4 of an
-  // axis, where short Taylor series give sine and cosine to 2e-9 (libm's sincos took a fifth of
-  // an AO render) in plain arithmetic, the same on every instruction set.
+  // uniform point of the unit disc lifted onto the hemisphere).
   static void cosineHemisphere(double u, double v, double& x, double& y, double& z) {
-    const double a = 2 * u - 1, b = 2 * v - 1;
-    const bool wide = std::fabs(a) > std::fabs(b);
-    const double r = wide ? a : b;
-    const double t = r == 0 ? 0 : kPi / 4 * (wide ? b / a : a / b);
-    const double t2 = t * t;
-    const double sine = t * (1 - t2 / 6 * (1 - t2 / 20 * (1 - t2 / 42 * (1 - t2 / 72))));
-    const double cosine = 1 - t2 / 2 * (1 - t2 / 12 * (1 - t2 / 30 * (1 - t2 / 56 * (1 - t2 / 90))));
-    x = r * (wide ? cosine : sine);
-    y = r * (wide ? sine : cosine);
-    z = std::sqrt(std::max(1 - r * r, 0.0));
+    concentricDisc(u, v, x, y);
+    z = std::sqrt(std::max(1 - x * x - y * y, 0.0));
   }
 
   // t, b such that (t, b, n) is a right-handed orthonormal frame, for unit n (Duff et al. 2017: no

@@ -17,6 +17,15 @@ inline uint64_t mixBits(uint64_t x) {
   return x ^ (x >> 31);
 }
 
+// Chris Wellons' lowbias32: a bijective 32-bit mix with low bias, in 32-bit multiplies (vectorises).
+inline uint32_t mixBits32(uint32_t x) {
+  x ^= x >> 16;
+  x *= 0x7feb352du;
+  x ^= x >> 15;
+  x *= 0x846ca68bu;
+  return x ^ (x >> 16);
+}
+
 class PixelSampler {
  public:
   PixelSampler(SamplerKind kind, int samplesPerPixel, uint64_t seed);
@@ -49,8 +58,18 @@ class PixelSampler {
                            double* u, double* v);
 
   // Point `index` in [0, 1)^2 of the 2-D Sobol sequence, Owen-scrambled by `seed`: indices 0 to
-  // 2^k - 1 are stratified in every dyadic box of 2^k cells.
+  // 2^k - 1 are stratified in every dyadic box of 2^k cells. The two coordinates' scrambles are tied
+  // (seeds a constant apart: a scramble's bit k depends on the seed's bits up to k), so a point is
+  // uniform over the square only at a random index — point 0 never falls in the lower-left or
+  // upper-right quarter: callers shuffle the index (sobolPoint, hitSample).
   static void scrambledSobol(uint32_t index, uint32_t seed, double& u, double& v);
+
+  // Point `index` of a hit's own samples (ambient occlusion directions, area light points), keyed by
+  // `key`: a net at every power of two like a pixel's Sobol samples, shuffled as theirs are, so each
+  // point is uniform over the square as keys vary and few samples are noisy, never biased.
+  static void hitSample(uint32_t index, uint32_t key, double& u, double& v) {
+    sobolPoint(index, mixBits32(key ^ 0x2545f491u), key, u, v);
+  }
 
  private:
   // Sample `index` of the pixel whose sobolSeeds are `order` and `points`.

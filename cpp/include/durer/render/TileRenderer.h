@@ -57,11 +57,13 @@ class TileRenderer {
     if (effects.shadows) {
       std::vector<const SphereView<Real>*> views;
       const bool viewed = viewsLights(effects);
+      using Kind = typename ShadingLight<Real>::Kind;
       for (const ShadingLight<Real>& light : m_shading.lights()) {
-        const bool sun = light.kind == ShadingLight<Real>::Kind::Directional;
-        m_lightViews.push_back(!light.shadows || !viewed ? nullptr
-                               : sun          ? lightViewOf(group.spheres(), -Vec3d(light.vector), settings)
-                                              : pointLightViewOf(group.spheres(), Vec3d(light.vector), settings));
+        // An area light's shadow rays leave for points all over it: no one point to see the spheres from.
+        const bool seen = light.shadows && viewed && light.kind != Kind::Area;
+        m_lightViews.push_back(!seen                           ? nullptr
+                               : light.kind == Kind::Directional ? lightViewOf(group.spheres(), -Vec3d(light.vector), settings)
+                                                                 : pointLightViewOf(group.spheres(), Vec3d(light.vector), settings));
         views.push_back(m_lightViews.back().get());
       }
       m_shader.useLightViews(std::move(views));

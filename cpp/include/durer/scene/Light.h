@@ -30,4 +30,19 @@ struct SpotLight {
   bool shadows = false;
 };
 
+// A one-sided Lambertian emitter (Blender's area light): the parallelogram centred at `position`
+// spanned by the edge vectors `u` and `v`, or the ellipse inscribed in it, shining toward u × v.
+// `color` is its radiant intensity along that normal in a point light's units, so that far away it
+// is a point light of colour color·cosθ with inverse-square falloff; near it, a shaded point
+// receives the integral over the surface, estimated from `samples` points on it (stratified, a
+// shadow ray toward each where it casts shadows), and its shadows are soft.
+struct AreaLight {
+  Vec3d position;  // world space, the centre
+  Vec3d u, v;      // world space, full edge lengths; u × v != 0
+  Vec3d color;     // linear RGB: radiant intensity along u × v
+  bool ellipse = false;
+  int samples = 16;  // points per shaded hit, in [1, RenderLimits::raysPerHit]
+  bool shadows = false;
+};
+
 }  // namespace durer

@@ -28,12 +28,14 @@ inline constexpr NumericLimits kLimits[] = {
 
 // What one render accepts besides numbers (durer._core.RENDER_LIMITS for the package and Blender's
 // settings): an image side, samples per pixel and min_spp up to `side` (keeps width·height·spp well
-// inside int64), and ray trees up to `maxBounces` deep.
+// inside int64), ray trees up to `maxBounces` deep, and up to `raysPerHit` ambient-occlusion rays or
+// area light samples per shaded hit.
 struct RenderLimits {
   int side;
   int maxBounces;
+  int raysPerHit;
 };
-inline constexpr RenderLimits kRenderLimits{1 << 20, 1000};
+inline constexpr RenderLimits kRenderLimits{1 << 20, 1000, 1 << 16};
 
 template <typename Real>
 constexpr double coordinateLimit() {

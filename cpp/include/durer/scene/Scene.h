@@ -80,6 +80,7 @@ class Scene {
   void addDirectionalLight(const Vec3d& direction, const Vec3d& color, bool shadows);
   void addPointLight(const PointLight& light);
   void addSpotLight(const SpotLight& light);  // light.direction need not be unit
+  void addAreaLight(const AreaLight& light);
   // What rays that meet nothing see (RGB), and how much of a pixel whose camera ray meets nothing
   // the background covers (alpha): such a pixel is premultiplied, (r·a, g·a, b·a, a), while rays
   // after a bounce see (r, g, b) whatever a is (a transparent film still reflects the world).
@@ -107,13 +108,16 @@ class Scene {
   const std::vector<DirectionalLight>& directionalLights() const { return m_directionalLights; }
   const std::vector<PointLight>& pointLights() const { return m_pointLights; }
   const std::vector<SpotLight>& spotLights() const { return m_spotLights; }
+  const std::vector<AreaLight>& areaLights() const { return m_areaLights; }
   ShadingMode shadingMode() const { return m_shading; }
   const Vec4d& background() const { return m_background; }
   const Vec3d& ambient() const { return m_ambient; }
   int32_t objectCount() const { return m_objectCount; }
   // Whether some primitive carries its own colours (then hits are shaded from their hit records).
   bool colored() const { return m_colored; }
-  bool hasLights() const { return !m_directionalLights.empty() || !m_pointLights.empty() || !m_spotLights.empty(); }
+  bool hasLights() const {
+    return !m_directionalLights.empty() || !m_pointLights.empty() || !m_spotLights.empty() || !m_areaLights.empty();
+  }
   // Whether hits are shaded with lights (Lit) or take their flat colour.
   bool lit() const { return m_shading == ShadingMode::Lit || (m_shading == ShadingMode::Auto && hasLights()); }
   // Throws std::invalid_argument naming the field unless every coordinate fits `limits` (the adds
@@ -186,6 +190,7 @@ class Scene {
   std::vector<DirectionalLight> m_directionalLights;
   std::vector<PointLight> m_pointLights;
   std::vector<SpotLight> m_spotLights;
+  std::vector<AreaLight> m_areaLights;
   ShadingMode m_shading = ShadingMode::Auto;
   Vec4d m_background{0, 0, 0, 1};
   Vec3d m_ambient{0};

@@ -1,0 +1,228 @@
+"""Area lights: the irradiance a floor receives from a rectangle, a parallelogram or an ellipse
+(against quadrature over the surface, and the closed form on a disc's axis), soft shadows (against
+the visibility-weighted quadrature), the far field (a point light of colour color·cos θ), the
+sampling's determinism, and bad input."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import durer
+
+HEIGHT = 1.0
+CAMERA = durer.OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0), 4.0)  # the floor z = 0, x and y in [-2, 2]
+N = 33
+
+
+def floor_points(n: int = N) -> np.ndarray:
+    origins, _ = CAMERA.rays(n, n)
+    points = origins.copy()
+    points[..., 2] = 0
+    return points
+
+
+def scene_with(*, ellipse: bool, u=(1.0, 0, 0), v=(0, -1.0, 0), color=(1.0, 1.0, 1.0), samples: int = 256,
+               shadows: bool = False, occluder: tuple[tuple[float, float, float], float] | None = None) -> durer.Scene:
+    """A white floor z = 0 under an area light centred at height HEIGHT (u × v pointing down)."""
+    scene = durer.Scene()
+    white = scene.add_material((1, 1, 1))
+    scene.add_plane((0, 0, 1), 0.0, material=white)
+    if occluder is not None:
+        scene.add_spheres([occluder[0]], occluder[1], material=white)
+    scene.add_area_light((0, 0, HEIGHT), u, v, color, ellipse=ellipse, samples=samples, shadows=shadows)
+    return scene
+
+
+def quadrature(points: np.ndarray, *, ellipse: bool, u, v, occluder=None, n: int = 400) -> np.ndarray:
+    """∫ cosθ_light·cosθ_floor / d² dA / area over the light (radiance 1/area: intensity 1 along the
+    normal), by the midpoint rule over (a, b) in [0, 1]², for each floor point; with an occluding
+    sphere, only the surface points the segment to it misses."""
+    u, v = np.asarray(u, float), np.asarray(v, float)
+    a = (np.arange(n) + 0.5) / n
+    aa, bb = [g.ravel() for g in np.meshgrid(a, a)]
+    if ellipse:  # polar: radius √a (uniform in area), angle 2πb
+        x, y = np.sqrt(aa) * np.cos(2 * np.pi * bb) / 2, np.sqrt(aa) * np.sin(2 * np.pi * bb) / 2
+    else:
+        x, y = aa - 0.5, bb - 0.5
+    surface = np.array([0, 0, HEIGHT]) + x[:, None] * u + y[:, None] * v
+    normal = np.cross(u, v) / np.linalg.norm(np.cross(u, v))
+    out = np.empty(points.shape[:-1])
+    for index in np.ndindex(out.shape):
+        p = points[index]
+        w = surface - p
+        d2 = (w * w).sum(axis=1)
+        cos_light = np.maximum(-(w @ normal), 0) / np.sqrt(d2)
+        cos_floor = np.maximum(w[:, 2], 0) / np.sqrt(d2)
+        seen = np.ones(len(w), bool)
+        if occluder is not None:
+            oc = p - np.asarray(occluder[0], float)
+            b = w @ oc
+            disc = b * b - d2 * (oc @ oc - occluder[1] ** 2)
+            t = (-b - np.sqrt(np.maximum(disc, 0))) / d2
+            seen = ~((disc > 0) & (t > 0) & (t < 1))
+        out[index] = (cos_light * cos_floor / d2 * seen).mean()
+    return out
+
+
+@pytest.mark.parametrize("ellipse", [False, True])
+def test_floor_irradiance_matches_quadrature(precision, ellipse):
+    u, v = (1.2, 0.0, 0.0), (0.0, -0.8, 0.0)
+    image = durer.render(scene_with(ellipse=ellipse, u=u, v=v), CAMERA, N, N, precision=precision).color[..., 0]
+    expected = quadrature(floor_points(), ellipse=ellipse, u=u, v=v)
+    np.testing.assert_allclose(image, expected, rtol=2e-3, atol=1e-5)  # measured: 256 samples, < 4e-4
+
+
+def test_disc_on_its_axis_is_the_closed_form():
+    # A disc of radius R at height h, intensity I along its normal: E = I / (h² + R²) below its centre.
+    radius = 0.5
+    scene = scene_with(ellipse=True, u=(2 * radius, 0, 0), v=(0, -2 * radius, 0), color=(2.0, 2.0, 2.0), samples=1024)
+    centre = durer.render(scene, CAMERA, N, N, precision="double").color[N // 2, N // 2, 0]
+    assert centre == pytest.approx(2.0 / (HEIGHT**2 + radius**2), rel=2e-4)
+
+
+def test_a_parallelogram_is_lit_uniformly_over_its_area():
+    u, v = (1.0, 0.3, 0.0), (0.4, -0.9, 0.1)  # sheared and tilted: still u × v downward
+    assert np.cross(u, v)[2] < 0
+    image = durer.render(scene_with(ellipse=False, u=u, v=v), CAMERA, N, N).color[..., 0]
+    np.testing.assert_allclose(image, quadrature(floor_points(), ellipse=False, u=u, v=v), rtol=2e-3, atol=1e-5)
+
+
+def test_far_away_it_is_a_point_light_of_colour_times_cosine():
+    # A 10 µm square 3 m off the floor, tilted: the light of a point light whose colour is I·cos θ.
+    u, v = np.array([1e-5, 0, 0]), np.array([0, -1e-5 * math.cos(0.6), 1e-5 * math.sin(0.6)])
+    scene = durer.Scene()
+    scene.add_plane((0, 0, 1), 0.0, material=scene.add_material((1, 1, 1)))
+    scene.add_area_light((0, 0, 3.0), u, v, (5.0, 5.0, 5.0), samples=4)
+    image = durer.render(scene, CAMERA, N, N, precision="double").color[..., 0]
+    points = floor_points()
+    to_light = np.array([0, 0, 3.0]) - points
+    d = np.linalg.norm(to_light, axis=-1)
+    normal = np.cross(u, v) / np.linalg.norm(np.cross(u, v))
+    cos_light = -(to_light @ normal) / d
+    expected = 5.0 * cos_light * (to_light[..., 2] / d) / d**2
+    np.testing.assert_allclose(image, expected, rtol=1e-5)
+
+
+def test_nothing_is_lit_behind_it():
+    scene = scene_with(ellipse=False, u=(1.0, 0, 0), v=(0, 1.0, 0))  # u × v up, away from the floor
+    image = durer.render(scene, CAMERA, N, N).color
+    np.testing.assert_array_equal(image[..., :3], 0.0)
+
+
+@pytest.mark.parametrize("ellipse", [False, True])
+def test_soft_shadows_match_the_visible_part_of_the_light(ellipse):
+    occluder = ((0.0, 0.0, 0.5), 0.2)
+    scene = scene_with(ellipse=ellipse, samples=1024, shadows=True, occluder=occluder)
+    camera = durer.OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0), 2.0)  # x and y in [-1, 1]
+    image = durer.render(scene, camera, 17, 17, precision="double").color[..., 0]
+    origins, _ = camera.rays(17, 17)
+    floor = np.hypot(origins[..., 0], origins[..., 1]) > 0.21  # pixels that see the floor, not the ball
+    points = origins[floor]
+    points[:, 2] = 0
+    expected = quadrature(points, ellipse=ellipse, u=(1.0, 0, 0), v=(0, -1.0, 0), occluder=occluder, n=300)
+    unshadowed = quadrature(points, ellipse=ellipse, u=(1.0, 0, 0), v=(0, -1.0, 0), n=300)
+    penumbra = (expected < 0.97 * unshadowed) & (expected > 0.03 * unshadowed)
+    assert penumbra.sum() >= 40, "the compared pixels should include a penumbra"
+    np.testing.assert_allclose(image[floor], expected, rtol=1.5e-2)  # measured: < 9e-3
+
+
+def test_without_shadows_occluders_do_not_block_it():
+    occluder = ((0.0, 0.0, 0.5), 0.2)
+    camera = durer.OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0), 2.0)
+    free = durer.render(scene_with(ellipse=False), camera, 17, 17).color
+    blocked = durer.render(scene_with(ellipse=False, occluder=occluder), camera, 17, 17).color
+    origins, _ = camera.rays(17, 17)
+    floor = np.hypot(origins[..., 0], origins[..., 1]) > 0.21
+    np.testing.assert_array_equal(blocked[floor], free[floor])
+
+
+def test_samples_are_fixed_by_the_seed_and_new_for_each_pixel_sample():
+    occluder = ((0.0, 0.0, 0.5), 0.2)
+    scene = scene_with(ellipse=True, samples=2, shadows=True, occluder=occluder)
+    camera = durer.OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0), 2.0)
+    render = lambda **kw: durer.render(scene, camera, 17, 17, precision="double", **kw).color[..., 0]  # noqa: E731
+    one = render(seed=7, threads=1)
+    np.testing.assert_array_equal(one, render(seed=7, threads=2))
+    assert (one != render(seed=8)).mean() > 0.5
+    # 64 pixel samples of 2 light samples each converge as 128 light samples would: each pixel
+    # sample draws its own points (its hits differ, so do their scrambles). Against the quadrature
+    # averaged over 4x4 points of each pixel (the 8x8 strata's mean), away from the ball.
+    origins, _ = camera.rays(68, 68)
+    points = origins.copy()
+    points[..., 2] = 0
+    exact = quadrature(points, ellipse=True, u=(1.0, 0, 0), v=(0, -1.0, 0), occluder=occluder, n=120)
+    exact = exact.reshape(17, 4, 17, 4).mean(axis=(1, 3))
+    many = render(seed=7, spp=64, sampler="stratified")
+    floor = np.hypot(*origins[1::4, 1::4, :2].transpose(2, 0, 1)) > 0.3
+    rmse = lambda image: np.sqrt(((image - exact)[floor] ** 2).mean())  # noqa: E731
+    assert rmse(many) < rmse(one) / 6, (rmse(one), rmse(many))  # 64 independent estimates: 1/8
+
+
+def test_highlight_of_a_small_area_light_is_a_point_lights():
+    def image(add_light):
+        scene = durer.Scene()
+        scene.add_plane((0, 0, 1), 0.0, material=scene.add_material((0.2, 0.2, 0.2), specular=(1, 1, 1), exponent=20))
+        add_light(scene)
+        camera = durer.PerspectiveCamera((0, -3, 2), (0, 3, -2), (0, 0, 1), 50.0)
+        return durer.render(scene, camera, 33, 33, precision="double").color[..., 0]
+
+    u, v = (1e-6, 0, 0), (0, -1e-6, 0)
+    area = image(lambda s: s.add_area_light((0.3, 0.5, 2.0), u, v, (3.0, 3.0, 3.0), samples=1))
+    # Straight below the light, cos θ_light = the floor's cosine: the point light's colour carries it.
+    points = np.array([0.3, 0.5, 2.0])
+    assert area.max() > 0.3
+    point = image(lambda s: s.add_point_light((0.3, 0.5, 2.0), (3.0, 3.0, 3.0), attenuation=(0, 0, 1)))
+    # The point light lacks the cos θ_light factor: the two agree where it is ~1, under the light.
+    origins, directions = durer.PerspectiveCamera((0, -3, 2), (0, 3, -2), (0, 0, 1), 50.0).rays(33, 33)
+    t = -origins[..., 2] / directions[..., 2]
+    hits = origins + t[..., None] * directions
+    to_light = points - hits
+    cos_light = to_light[..., 2] / np.linalg.norm(to_light, axis=-1)
+    np.testing.assert_allclose(area, point * cos_light, rtol=1e-4, atol=1e-7)
+
+
+def test_it_casts_shadows_in_the_effect_set():
+    scene = scene_with(ellipse=False, samples=4, shadows=True)
+    assert "shadows" in durer.render(scene, CAMERA, 9, 9).stats["effects"]
+    assert "shadows" not in durer.render(scene_with(ellipse=False, samples=4), CAMERA, 9, 9).stats["effects"]
+
+
+def test_counts_as_a_light_and_survives_pickling():
+    import pickle
+
+    scene = scene_with(ellipse=True, samples=8, shadows=True, occluder=((0.0, 0.0, 0.5), 0.2))
+    assert scene.light_count == 1
+    copy = pickle.loads(pickle.dumps(scene))
+    np.testing.assert_array_equal(durer.render(copy, CAMERA, 9, 9).color, durer.render(scene, CAMERA, 9, 9).color)
+
+
+@pytest.mark.parametrize(
+    "kwargs, error, field",
+    [
+        ({"u": (1, 0, 0), "v": (2, 0, 0)}, ValueError, "u and v"),
+        ({"u": (0, 0, 0)}, ValueError, "u and v"),
+        ({"u": (math.nan, 0, 0)}, ValueError, "u"),
+        ({"v": (0, math.inf, 0)}, ValueError, "v"),
+        ({"position": (0, 0, 2e36)}, ValueError, "position"),
+        ({"u": (3e36, 0, 0)}, ValueError, "u and v"),
+        ({"color": (1, -1, 1)}, ValueError, "color"),
+        ({"samples": 0}, ValueError, "samples"),
+        ({"samples": durer._core.RENDER_LIMITS["rays_per_hit"] + 1}, ValueError, "samples"),
+        ({"samples": 1.5}, TypeError, "samples"),
+        ({"ellipse": "yes"}, TypeError, "ellipse"),
+        ({"shadows": 1}, TypeError, "shadows"),
+        ({"u": (1, 0)}, ValueError, "u"),
+    ],
+)
+def test_bad_input_names_the_field(kwargs, error, field):
+    arguments = {"position": (0, 0, 1), "u": (1, 0, 0), "v": (0, 1, 0), "color": (1, 1, 1)} | kwargs
+    extra = {k: arguments.pop(k) for k in ("ellipse", "samples", "shadows") if k in arguments}
+    scene = durer.Scene()
+    with pytest.raises(error, match=field):
+        scene.add_area_light(arguments["position"], arguments["u"], arguments["v"], arguments["color"], **extra)
+    assert scene.light_count == 0
+    durer.Scene().add_area_light((0, 0, 1), (1, 0, 0), (0, 1, 0), (1, 1, 1),
+                                 samples=durer._core.RENDER_LIMITS["rays_per_hit"])
