@@ -258,13 +258,26 @@ class Scene:
         return np.arange(first, first + n, dtype=np.int32)
 
     # --- lights and background ------------------------------------------------------------------
-    def add_directional_light(self, direction: ArrayLike, color: ArrayLike, *, shadows: bool = False) -> None:
+    def add_directional_light(
+        self,
+        direction: ArrayLike,
+        color: ArrayLike,
+        *,
+        shadows: bool = False,
+        angle_degrees: float = 0.0,
+        samples: int = 16,
+    ) -> None:
         """A light infinitely far away. `direction` is the way the light travels (surfaces facing
         -direction are lit); `color` is linear RGB >= 0 and does not fall off. With shadows=True,
-        occluders between a point and the light block it (a shadow ray per lit point)."""
+        occluders between a point and the light block it (a shadow ray per lit point). A nonzero
+        `angle_degrees` (the angular diameter of the light's disc, in [0, 180): Blender's Sun Angle)
+        softens its shadows: its light times the fraction of `samples` shadow rays, spread over
+        the disc's directions, that nothing blocks."""
+        angle = _checks.finite_real(angle_degrees, "angle_degrees")
         self._add(
             "add_directional_light",
-            _checks.vector3(direction, "direction"), _checks.color(color, "color"), _checks.boolean(shadows, "shadows")
+            _checks.vector3(direction, "direction"), _checks.color(color, "color"), _checks.boolean(shadows, "shadows"),
+            math.radians(angle) / 2, _checks.c_int(samples, "samples"),
         )
 
     def add_point_light(
@@ -274,14 +287,20 @@ class Scene:
         *,
         attenuation: ArrayLike = (1.0, 0.0, 0.0),
         shadows: bool = False,
+        radius: float = 0.0,
+        samples: int = 16,
     ) -> None:
         """A light at `position`. `color` (linear RGB >= 0) arrives at distance d as
         color / (c0 + c1·d + c2·d²) with attenuation = (c0, c1, c2): (1, 0, 0), the default, is the
         6.837 light without falloff; (0, 0, 1) the physical inverse square of Cycles. With
-        shadows=True, occluders strictly between a point and the light block it."""
+        shadows=True, occluders strictly between a point and the light block it. A nonzero `radius`
+        (Blender's light Radius) makes it a sphere's light for shadows: its light unchanged, times
+        the fraction of `samples` shadow rays, toward points spread over the sphere as a shaded
+        point sees it, that nothing blocks (soft shadows)."""
         self._add(
             "add_point_light", _checks.vector3(position, "position"), _checks.color(color, "color"),
             _checks.color(attenuation, "attenuation"), _checks.boolean(shadows, "shadows"),
+            _checks.real(radius, "radius"), _checks.c_int(samples, "samples"),
         )
 
     def add_spot_light(
@@ -294,11 +313,13 @@ class Scene:
         blend: float = 0.0,
         attenuation: ArrayLike = (1.0, 0.0, 0.0),
         shadows: bool = False,
+        radius: float = 0.0,
+        samples: int = 16,
     ) -> None:
         """A point light that shines along `direction` within a cone of `half_angle_degrees` in
         (0, 180). `blend` in [0, 1] softens the edge as Blender's spot blend does:
-        smoothstep((cos θ − cos half) / ((1 − cos half)·blend)); 0 is a hard edge. `attenuation`
-        and `shadows` as for point lights."""
+        smoothstep((cos θ − cos half) / ((1 − cos half)·blend)); 0 is a hard edge. `attenuation`,
+        `shadows`, `radius` and `samples` as for point lights."""
         half = _checks.finite_real(half_angle_degrees, "half_angle_degrees")
         if not 0 < half < 180:
             raise ValueError(f"half_angle_degrees must be in (0, 180), got {half}")
@@ -307,6 +328,7 @@ class Scene:
             _checks.vector3(position, "position"), _checks.vector3(direction, "direction"),
             _checks.color(color, "color"), _checks.color(attenuation, "attenuation"),
             math.cos(math.radians(half)), _checks.real(blend, "blend"), _checks.boolean(shadows, "shadows"),
+            _checks.real(radius, "radius"), _checks.c_int(samples, "samples"),
         )
 
     def add_area_light(

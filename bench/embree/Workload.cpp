@@ -293,7 +293,7 @@ std::vector<int32_t> addToScene(const Workload& w, durer::Scene& scene) {
   const int32_t defaultMaterial = 0;
   const int32_t first = scene.addSpheres(w.centers.data(), w.radii.data(), &defaultMaterial, w.sphereCount(), false);
   if (w.groundPlane) scene.addPlane({0, 1, 0}, 0, defaultMaterial, nullptr);
-  if (w.sunDirection) scene.addDirectionalLight(*w.sunDirection, {1, 1, 1}, true);
+  if (w.sunDirection) scene.addDirectionalLight(durer::DirectionalLight{*w.sunDirection, {1, 1, 1}, true});
   std::vector<int32_t> ids(w.sphereCount());
   for (size_t i = 0; i < ids.size(); ++i) ids[i] = first + static_cast<int32_t>(i);
   return ids;

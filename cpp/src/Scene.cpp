@@ -603,22 +603,41 @@ Group<double>& Scene::groupFor(const Affined* m) {
   return m_group.transformed(*m, inverse(*m));
 }
 
-void Scene::addDirectionalLight(const Vec3d& direction, const Vec3d& color, bool shadows) {
-  requireNonZero(direction, "direction");
-  requireNonNegativeColor(color, "color");
-  m_directionalLights.push_back({safeNormalize(direction), color, shadows});
-}
-
 namespace {
 void requireAttenuation(const Vec3d& c) {
   requireNonNegativeColor(c, "attenuation");
   if (c.x == 0 && c.y == 0 && c.z == 0) fail("attenuation must not be all zero");
 }
+
+void requireSamples(int samples) {
+  if (samples < 1 || samples > kRenderLimits.raysPerHit) {
+    fail("samples must be in [1, " + std::to_string(kRenderLimits.raysPerHit) + "], got " + std::to_string(samples));
+  }
+}
+
+// A point or spot light's radius and samples; the field its sphere's reach is checked under.
+const char* requireRadius(const SoftShadows& soft) {
+  if (!(std::isfinite(soft.size) && soft.size >= 0)) fail("radius must be finite and >= 0, got " + show(soft.size));
+  requireSamples(soft.samples);
+  return soft.size > 0 ? "position and radius" : "position";
+}
 }  // namespace
+
+void Scene::addDirectionalLight(const DirectionalLight& light) {
+  requireNonZero(light.direction, "direction");
+  requireNonNegativeColor(light.color, "color");
+  if (!(light.soft.size >= 0 && light.soft.size < kPi / 2)) {
+    fail("angle_degrees must be in [0, 180), got " + show(light.soft.size * 360 / kPi));
+  }
+  requireSamples(light.soft.samples);
+  DirectionalLight sun = light;
+  sun.direction = safeNormalize(light.direction);
+  m_directionalLights.push_back(sun);
+}
 
 void Scene::addPointLight(const PointLight& light) {
   requireFinite(light.position, "position");
-  const Reach placed = requireReach(maxAbs(light.position), "position", nullptr);
+  const Reach placed = requireReach(maxAbs(light.position) + light.soft.size, requireRadius(light.soft), nullptr);
   requireNonNegativeColor(light.color, "color");
   requireAttenuation(light.attenuation);
   m_pointLights.push_back(light);
@@ -627,7 +646,7 @@ void Scene::addPointLight(const PointLight& light) {
 
 void Scene::addSpotLight(const SpotLight& light) {
   requireFinite(light.position, "position");
-  const Reach placed = requireReach(maxAbs(light.position), "position", nullptr);
+  const Reach placed = requireReach(maxAbs(light.position) + light.soft.size, requireRadius(light.soft), nullptr);
   requireNonZero(light.direction, "direction");
   requireNonNegativeColor(light.color, "color");
   requireAttenuation(light.attenuation);
@@ -649,9 +668,7 @@ void Scene::addAreaLight(const AreaLight& light) {
   const Vec3d normal = glm::cross(light.u, light.v);
   if (!(glm::dot(normal, normal) > 0)) fail("u and v must span a surface (neither zero nor parallel)");
   requireNonNegativeColor(light.color, "color");
-  if (light.samples < 1 || light.samples > kRenderLimits.raysPerHit) {
-    fail("samples must be in [1, " + std::to_string(kRenderLimits.raysPerHit) + "], got " + std::to_string(light.samples));
-  }
+  requireSamples(light.samples);
   m_areaLights.push_back(light);
   noteReach(placed);
 }

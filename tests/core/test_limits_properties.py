@@ -53,6 +53,7 @@ FIELDS: dict[str, tuple[str, str, int | None]] = {
     "spot angle": ("half_angle_degrees", "spot_angle", None),
     "area light position": ("position", "area", 0),
     "area light edge": ("u", "area_u", None),
+    "point light radius": ("radius", "radius_light", None),
     "fov": ("fov_degrees", "fov", None),
     "camera centre": ("center", "eye", 0),
     "camera direction": ("direction", "view", 1),
@@ -81,7 +82,7 @@ def base_setup() -> dict[str, Any]:
     return {"center": [0.0, 0.0, 0.0], "radius": 1.0, "vertex": [0.0, 1.0, -1.0], "hi": [3.0, 1.0, 1.0],
             "offset": -2.0, "plane_normal": [0.0, 0.0, 1.0], "sun": [0.0, -1.0, -1.0], "exponent": 8.0,
             "view": [0.0, 0.0, -1.0], "stretch": [1.0, 1.0, 1.0], "transparent": 0.25, "spot": [0.0, 0.0, 6.0],
-            "area": [0.0, 2.0, 3.0], "area_u": 1.0, "spot_angle": 30.0, "fov": 40.0, "light": [2.0, 3.0, 4.0], "light_color": 1.0, "diffuse": 0.5, "emission": 0.0,
+            "area": [0.0, 2.0, 3.0], "area_u": 1.0, "radius_light": 0.5, "spot_angle": 30.0, "fov": 40.0, "light": [2.0, 3.0, 4.0], "light_color": 1.0, "diffuse": 0.5, "emission": 0.0,
             "reflective": 0.5, "ior": 1.5, "attenuation": 1.0,
             "background": 0.1, "scale": 1.0, "eye": [0.0, 0.0, 5.0], "size": 4.0, "shift": 0.0, "aspect": 1.0,
             "length": 1.0}
@@ -105,7 +106,7 @@ def build(setup: dict[str, Any], perspective: bool) -> tuple[durer.Scene, Any]:
                          shadows=True)
     scene.add_plane(setup["plane_normal"], setup["offset"])
     scene.add_point_light(setup["light"], (setup["light_color"], 1.0, 1.0), attenuation=(setup["attenuation"], 0, 1),
-                          shadows=True)
+                          shadows=True, radius=setup["radius_light"], samples=2)
     scene.add_directional_light(setup["sun"], (0.5, setup["light_color"], 0.5))
     scene.background = (setup["background"], 0.0, 0.0)
     common = dict(center=setup["eye"], direction=setup["view"], up=(0, 1, 0), shift=(setup["shift"], 0.0),

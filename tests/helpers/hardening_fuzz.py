@@ -344,21 +344,31 @@ def _api_call(scene: durer.Scene, src: Source) -> None:
         hi = lo + extent if numeric and not src.chance(56) else src.array((n, 3), src.small)
         scene.add_boxes(lo, hi, material(n), transform=_transform(src))
     elif kind == 8:
-        scene.add_directional_light(_vec(src), _color(src), shadows=src.value(lambda: src.chance(128)))
+        scene.add_directional_light(_vec(src), _color(src), shadows=src.value(lambda: src.chance(128)),
+                                    **_soft(src, "angle_degrees", lambda: src.byte() * 0.8))
     elif kind == 9:
         scene.add_point_light(_vec(src), _color(src), attenuation=src.array((3,), lambda: src.byte() / 64),
-                              shadows=src.value(lambda: src.chance(128)))
+                              shadows=src.value(lambda: src.chance(128)),
+                              **_soft(src, "radius", lambda: abs(src.small())))
     elif kind == 10 and src.chance(100):
         scene.add_area_light(_vec(src), _vec(src), _vec(src), _color(src), ellipse=src.value(lambda: src.chance(128)),
                              samples=src.value(lambda: src.below(5)), shadows=src.value(lambda: src.chance(128)))
     elif kind == 10:
         scene.add_spot_light(_vec(src), _vec(src), _color(src), half_angle_degrees=src.value(lambda: src.byte() / 1.5),
-                             blend=src.value(lambda: src.byte() / 255), shadows=src.value(lambda: src.chance(128)))
+                             blend=src.value(lambda: src.byte() / 255), shadows=src.value(lambda: src.chance(128)),
+                             **_soft(src, "radius", lambda: abs(src.small())))
     elif kind == 11:
         setattr(scene, src.choice(("background", "ambient")),
                 src.array((src.choice((3, 4)),), lambda: src.byte() / 255))
     else:
         scene.shading = src.value(lambda: src.choice(("auto", "flat", "lit", "Lit", "")))
+
+
+def _soft(src: Source, size: str, ordinary: Callable[[], Any]) -> dict[str, Any]:
+    """A light's soft shadows, half the time: its size (radius or angle) and a few samples."""
+    if not src.chance(128):
+        return {}
+    return {size: src.value(ordinary), "samples": src.value(lambda: src.below(5))}
 
 
 def _camera(src: Source, api: Any) -> Any:

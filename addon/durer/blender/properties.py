@@ -298,10 +298,18 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
         soft_max=256,
         max=durer._core.RENDER_LIMITS["rays_per_hit"],
     )
+    soft_shadows: BoolProperty(
+        name="Soft Shadows",
+        description="Point and Spot lights' Radius and Suns' Angle soften their shadows as in Cycles, with "
+        "Light Samples shadow rays per shaded point; off: hard shadows from the light's centre, one ray "
+        "(Area lights' shadows are always soft)",
+        default=False,
+    )
     light_samples: IntProperty(
-        name="Area Light Samples",
-        description="Points on each area light per shaded point (per camera sample), with a shadow ray to "
-        "each where it casts shadows: the noise of its light and soft shadows falls as samples grow",
+        name="Light Samples",
+        description="Points on each area light, or shadow rays toward each light of some size with Soft "
+        "Shadows, per shaded point (per camera sample): the noise of their light and soft shadows falls "
+        "as samples grow",
         default=16,
         min=1,
         soft_max=256,

@@ -63,7 +63,9 @@ class DURER_PT_render(_DurerPanel, bpy.types.Panel):
         col.prop(settings, "max_bounces")
         col.prop(settings, "min_weight")
         layout.prop(settings, "shade_back")
-        layout.prop(settings, "light_samples")
+        col = layout.column(heading="Lights")
+        col.prop(settings, "soft_shadows")
+        col.prop(settings, "light_samples")
         # Blender's own settings Dürer reads, whose panels (EEVEE's, Cycles') are not shown for it.
         render = context.scene.render
         layout.prop(render, "film_transparent", text="Transparent Film")

@@ -120,6 +120,7 @@ class LightData:
     spot_half_angle: float = math.pi  # radians
     spot_blend: float = 0.0  # Blender's spot_blend: smoothstep over (1 - cos half angle)·blend in cos
     shadows: bool = True  # Blender's light.use_shadow ("Cast Shadow")
+    size: float = 0.0  # point, spot: the Radius (shadow_soft_size); sun: the Angle (radians, the disc's diameter)
     #: area: the world-space edge vectors u, v of its rectangle (u × v the way it shines), and
     #: whether it is the ellipse inscribed in it (Disk, Ellipse). Its colour is its intensity along u × v.
     edges: tuple[np.ndarray, np.ndarray] | None = None
@@ -190,8 +191,11 @@ class SceneData:
     ambient: tuple[float, float, float] = (0.0, 0.0, 0.0)
     #: durer.render's ambient_occlusion=(samples, distance), None when off.
     ambient_occlusion: tuple[int, float] | None = None
-    #: Points sampled on each area light per shaded hit (scene.durer.light_samples).
+    #: Points sampled on each area light, or shadow rays toward a light of some size, per shaded hit
+    #: (scene.durer.light_samples).
     light_samples: int = 16
+    #: Whether point and spot lights' Radius and suns' Angle soften their shadows (scene.durer.soft_shadows).
+    soft_shadows: bool = False
     #: Number of Dürer objects (spheres, planes, meshes) each Blender object contributed, by its
     #: unique name (ObjectData.name).
     sources: Counter = field(default_factory=Counter)

@@ -357,4 +357,5 @@ def export_depsgraph(depsgraph, camera=None, *, with_camera: bool = True) -> Sce
     data.ambient_occlusion = ambient_occlusion(scene)
     if settings is not None:
         data.light_samples = int(scene.original.durer.light_samples)
+        data.soft_shadows = bool(scene.original.durer.soft_shadows)
     return data

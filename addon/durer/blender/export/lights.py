@@ -46,14 +46,15 @@ def _falloff(light) -> dict:
 def _sun(obj, m: np.ndarray) -> LightData:
     light = obj.data
     color = _color_power(light) / math.pi
-    return LightData("sun", obj.name_full, color, direction=_axis(m), shadows=bool(light.use_shadow))
+    return LightData("sun", obj.name_full, color, direction=_axis(m), shadows=bool(light.use_shadow),
+                     size=float(light.angle))
 
 
 def _point(obj, m: np.ndarray) -> LightData:
     light = obj.data
     intensity = _color_power(light) / (4.0 * math.pi**2)
     return LightData("point", obj.name_full, intensity, position=m[:3, 3].copy(), shadows=bool(light.use_shadow),
-                     **_falloff(light))
+                     size=float(light.shadow_soft_size), **_falloff(light))
 
 
 def _spot(obj, m: np.ndarray) -> LightData:
@@ -61,7 +62,7 @@ def _spot(obj, m: np.ndarray) -> LightData:
     intensity = _color_power(light) / (4.0 * math.pi**2)
     return LightData("spot", obj.name_full, intensity, direction=_axis(m), position=m[:3, 3].copy(),
                      spot_half_angle=float(light.spot_size) / 2.0, spot_blend=float(light.spot_blend),
-                     shadows=bool(light.use_shadow), **_falloff(light))
+                     shadows=bool(light.use_shadow), size=float(light.shadow_soft_size), **_falloff(light))
 
 
 #: Area light shape -> (uses size_y, the inscribed ellipse).

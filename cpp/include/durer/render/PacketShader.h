@@ -110,9 +110,9 @@ class PacketShader {
   }
 
   // Σ over lights of max(N·L, 0)·light·kd (+ ks·light·max(N·H, 0)^exponent where N·L > 0), a light's
-  // term dropped where the shadow ray toward it is blocked; an area light is the mean of its
-  // samples' terms. One light (one sample) at a time, so that the shadow rays toward it go as one
-  // packet.
+  // term dropped where the shadow ray toward it is blocked (a light of some size: scaled by the
+  // fraction of its shadow rays that nothing blocks); an area light is the mean of its samples'
+  // terms. One light (one sample) at a time, so that the shadow rays toward it go as one packet.
   template <bool Specular, bool Shadows>
   void addLights(const RayPacket<Real>& packet, const Hit<Real>* hits, Vec3<Real>* rgb, RayCounters& counters) const {
     Lit lit;
@@ -127,7 +127,9 @@ class PacketShader {
     for (size_t l = 0; l < m_shading.lights().size(); ++l) {
       const ShadingLight<Real>& light = m_shading.lights()[l];
       const SphereView<Real>* view = l < m_lightViews.size() ? m_lightViews[l] : nullptr;
-      if (light.kind != ShadingLight<Real>::Kind::Area) {
+      const bool area = light.kind == ShadingLight<Real>::Kind::Area;
+      const bool soft = Shadows && light.shadows && light.spread > 0;
+      if (!area && !soft) {
         addLight<Specular, Shadows, false>(packet, hits, lit, light, view, 0, 0, rgb, counters);
         continue;
       }
@@ -136,7 +138,11 @@ class PacketShader {
         keyed = true;
       }
       // Each light's samples scrambled apart from the others' and the AO's, which share the ray's key.
-      const auto salt = static_cast<uint32_t>(mixBits(kAreaSampleSalt + l));
+      const auto salt = static_cast<uint32_t>(mixBits(kLightSampleSalt + l));
+      if (soft) {
+        addSoftLight<Specular>(packet, hits, lit, light, salt, rgb, counters);
+        continue;
+      }
       for (int s = 0; s < light.samples; ++s) {
         addLight<Specular, Shadows, true>(packet, hits, lit, light, view, static_cast<uint32_t>(s), salt, rgb, counters);
       }
@@ -144,17 +150,36 @@ class PacketShader {
   }
 
   // What addLights knows of a packet's hits before the lights: shading normals, unit directions to
-  // the viewer, and (for area lights) the scramble of each hit's light samples.
+  // the viewer, and (for area lights and soft shadows) the scramble of each hit's light samples.
   struct Lit {
     alignas(64) Vec3<Real> normal[kPacketSize];
     alignas(64) Vec3<Real> toViewer[kPacketSize];
     alignas(64) uint32_t key[kPacketSize];
   };
 
-  // One light's terms (Area: its sample s, a point of its surface for each hit, scrambled by the hit's
-  // key ^ salt) added to rgb, through
-  // a packet of shadow rays where it casts shadows. Point, spot and area samples sit at t = 1 of
-  // their shadow rays, which need no epsilon there.
+  // A light's term at hit k for unit toLight (cosine = N·toLight > 0) and its falloff there: kd's and
+  // the highlight's. Colours first: their products are finite (Limits.h), so a huge falloff gives
+  // at most inf, never 0·inf, and shade() saturates it.
+  template <bool Specular>
+  Vec3<Real> lightTerm(const Hit<Real>& h, const Lit& lit, int k, const ShadingLight<Real>& light,
+                       const Vec3<Real>& toLight, Real cosine, Real falloff) const {
+    const MaterialIn<Real>& m = m_shading.material(h.materialId);
+    Vec3<Real> term = (cosine * falloff) * (light.color * diffuse(h, m));
+    if constexpr (Specular) {
+      term += (std::pow(highlight(lit.normal[k], toLight + lit.toViewer[k]), m.exponent) * falloff) *
+              (light.color * m.specular);
+    }
+    return term;
+  }
+
+  // Where a shadow ray toward unit toLight leaves hit k.
+  Vec3<Real> shadowOrigin(const Hit<Real>& h, const Lit& lit, int k, const Vec3<Real>& toLight, Real cosine) const {
+    return offsetRayOrigin(h.point, h.geometricNormal, h.pointError, toLight) +
+           terminatorOffset(h, lit.normal[k], cosine, toLight);
+  }
+
+  // One light's terms (Area: its sample s, a point of its surface for each hit, scrambled by the
+  // hit's key ^ salt) added to rgb, through a packet of shadow rays where it casts shadows.
   template <bool Specular, bool Shadows, bool Area>
   void addLight(const RayPacket<Real>& packet, const Hit<Real>* hits, const Lit& lit, const ShadingLight<Real>& light,
                 const SphereView<Real>* view, uint32_t s, uint32_t salt, Vec3<Real>* rgb,
@@ -184,22 +209,14 @@ class PacketShader {
       }
       const Real cosine = glm::dot(lit.normal[k], toLight);
       if (!(cosine > 0)) continue;
-      const MaterialIn<Real>& m = m_shading.material(h.materialId);
       if constexpr (!Area) falloff = light.falloff(h.point, toLight);
-      // Colours first: their products are finite (Limits.h), so a huge falloff gives at most inf,
-      // never 0·inf, and shade() saturates it.
-      Vec3<Real> contribution = (cosine * falloff) * (light.color * diffuse(h, m));
-      if constexpr (Specular) {
-        contribution += (std::pow(highlight(lit.normal[k], toLight + lit.toViewer[k]), m.exponent) * falloff) *
-                        (light.color * m.specular);
-      }
+      const Vec3<Real> contribution = lightTerm<Specular>(h, lit, k, light, toLight, cosine, falloff);
       if (!(Shadows && light.shadows)) {
         rgb[k] += contribution;
         continue;
       }
       const int j = shadow.count++;
-      const Vec3<Real> origin = offsetRayOrigin(h.point, h.geometricNormal, h.pointError, toLight) +
-                                terminatorOffset(h, lit.normal[k], cosine, toLight);
+      const Vec3<Real> origin = shadowOrigin(h, lit, k, toLight, cosine);
       Vec3<Real> toward;
       if constexpr (Area) {
         toward = at - origin;
@@ -212,18 +229,121 @@ class PacketShader {
       term[j] = contribution;
     }
     if (shadow.count == 0) return;
+    traceShadows(shadow, light, view, counters);
+    for (int j = 0; j < shadow.count; ++j) {
+      if (shadow.prim[j] == kNoPrimitive) rgb[pixelOf[j]] += term[j];
+    }
+  }
+
+  // A light of some size casting shadows (a point or spot light's sphere, a sun's disc): its term as
+  // addLight's, times the share of its light that reaches the hit — of light.samples shadow rays per
+  // hit, spread uniformly over the cone of directions it fills seen from the ray's origin (each
+  // carrying the same radiance), those nothing blocks, each weighted by its cosine with the shading
+  // normal. Where none is blocked the share is 1 exactly: the hard light's image, without noise. No
+  // view: the rays do not all pass through the light's centre (or along its direction) as a view's must.
+  template <bool Specular>
+  void addSoftLight(const RayPacket<Real>& packet, const Hit<Real>* hits, const Lit& lit,
+                    const ShadingLight<Real>& light, uint32_t salt, Vec3<Real>* rgb, RayCounters& counters) const {
+    alignas(64) int pixelOf[kPacketSize];
+    alignas(64) Real open[kPacketSize], all[kPacketSize];  // the cosines of the unblocked rays, of all
+    alignas(64) Vec3<Real> term[kPacketSize], origin[kPacketSize];
+    ShadowCone cone[kPacketSize];
+    const bool sun = light.kind == ShadingLight<Real>::Kind::Directional;
+    int count = 0;
+    for (int k = 0; k < packet.count; ++k) {
+      if (!hits[k].isHit()) continue;
+      const Hit<Real>& h = hits[k];
+      const Vec3<Real> toLight = light.toLight(h.point);
+      const Real cosine = glm::dot(lit.normal[k], toLight);
+      if (!(cosine > 0)) continue;
+      const int j = count++;
+      pixelOf[j] = k;
+      term[j] = lightTerm<Specular>(h, lit, k, light, toLight, cosine, light.falloff(h.point, toLight));
+      open[j] = all[j] = 0;
+      origin[j] = shadowOrigin(h, lit, k, toLight, cosine);
+      cone[j] = sun ? ShadowCone::sunward(light.vector, light.spread) : ShadowCone::sphere(light.vector - origin[j], light.spread);
+    }
+    RayPacket<Real> shadow;
+    alignas(64) Real weight[kPacketSize];
+    for (int s = 0; s < light.samples && count > 0; ++s) {
+      shadow.count = count;
+      for (int j = 0; j < count; ++j) {
+        double a, b;
+        PixelSampler::hitSample(static_cast<uint32_t>(s), lit.key[pixelOf[j]] ^ salt, a, b);
+        Vec3<Real> unit;
+        const Vec3<Real> toward = cone[j].ray(a, b, unit);
+        weight[j] = std::max(glm::dot(lit.normal[pixelOf[j]], unit), Real(0));
+        all[j] += weight[j];
+        shadow.ox[j] = origin[j].x, shadow.oy[j] = origin[j].y, shadow.oz[j] = origin[j].z;
+        shadow.dx[j] = toward.x, shadow.dy[j] = toward.y, shadow.dz[j] = toward.z;
+      }
+      traceShadows(shadow, light, nullptr, counters);
+      for (int j = 0; j < count; ++j) open[j] += shadow.prim[j] == kNoPrimitive ? weight[j] : Real(0);
+    }
+    for (int j = 0; j < count; ++j) {
+      if (open[j] > 0) rgb[pixelOf[j]] += (open[j] / all[j]) * term[j];
+    }
+  }
+
+  // The cone of directions a light of some size fills seen from a shadow ray's origin, and the rays
+  // toward it: a sphere's (radius r at distance d: sin α = r / d) or a sun's (its half angle α).
+  struct ShadowCone {
+    Vec3<Real> axis, tangent, bitangent;  // unit: toward the light's centre (along the sun), and across
+    double oneMinusCos = 0;               // 1 − cos α (0: the one ray along the axis)
+    Real distance = 0, radius = 0;        // a sphere's: its centre's distance and its radius
+    bool sun = false;
+
+    // A sphere of radius r whose centre lies at `toCentre` (nonzero: the origin is offset from the hit,
+    // never at the light) from the origin; from inside it, the one ray to the centre (nothing between
+    // can block its light).
+    static ShadowCone sphere(const Vec3<Real>& toCentre, Real r) {
+      ShadowCone c;
+      c.distance = glm::length(toCentre);
+      c.axis = toCentre / c.distance;
+      const double sine = static_cast<double>(r) / static_cast<double>(c.distance);
+      if (sine < 1) c.oneMinusCos = sine * sine / (1 + std::sqrt(1 - sine * sine)), c.radius = r;
+      orthonormalFrame(c.axis, c.tangent, c.bitangent);
+      return c;
+    }
+    static ShadowCone sunward(const Vec3<Real>& direction, double oneMinusCos) {
+      ShadowCone c;
+      c.axis = direction, c.oneMinusCos = oneMinusCos, c.sun = true;
+      orthonormalFrame(c.axis, c.tangent, c.bitangent);
+      return c;
+    }
+
+    // The shadow ray for (a, b) in [0, 1)^2, uniform over the cone's solid angle (the unit disc's
+    // concentric map lifted onto the cap: cos θ = 1 − ρ²·(1 − cos α)), and its unit direction `w`:
+    // a sun's is w (t up to inf), a sphere's ends on the sphere's near side at t = 1.
+    Vec3<Real> ray(double a, double b, Vec3<Real>& w) const {
+      double x, y;
+      concentricDisc(a, b, x, y);
+      const double rho2 = x * x + y * y;
+      const double h = rho2 * oneMinusCos;                 // 1 − cos θ
+      const double sine = std::sqrt(h * (2 - h));          // sin θ
+      const double scale = rho2 > 0 ? sine / std::sqrt(rho2) : 0;
+      w = static_cast<Real>(x * scale) * tangent + static_cast<Real>(y * scale) * bitangent +
+          static_cast<Real>(1 - h) * axis;
+      if (sun) return w;
+      const Real across = distance * static_cast<Real>(sine);
+      return (distance * static_cast<Real>(1 - h) - std::sqrt(std::max(radius * radius - across * across, Real(0)))) * w;
+    }
+  };
+
+  // Traces the shadow rays of `shadow` toward `light`, t in (0, shadowTMax()): then prim[j] is
+  // kNoPrimitive where nothing blocks ray j. Point, spot and area samples sit at t = 1, which needs
+  // no epsilon.
+  void traceShadows(RayPacket<Real>& shadow, const ShadingLight<Real>& light, const SphereView<Real>* view,
+                    RayCounters& counters) const {
     // t > 0: an offset of a few ulps of a number near 0 can underflow to t = -0 in the plane test.
     shadow.tMin = std::numeric_limits<Real>::denorm_min();
     shadow.tMax = light.shadowTMax();
     shadow.view = view;
     counters.intersectionTests += m_group.template occluded<M>(shadow, &m_cancel);
     counters.shadow += shadow.count;
-    for (int j = 0; j < shadow.count; ++j) {
-      if (shadow.prim[j] == kNoPrimitive) rgb[pixelOf[j]] += term[j];
-    }
   }
 
-  static constexpr uint64_t kAreaSampleSalt = 0x9e3779b97f4a7c15ull;
+  static constexpr uint64_t kLightSampleSalt = 0x9e3779b97f4a7c15ull;
 
   // Emission plus ambient · kd (lit; with Occlusion, the ambient light scaled by open[k]) or kd
   // (flat) of each hit, the background for misses.

@@ -43,7 +43,8 @@ struct ShadingLight {
   bool shadows;            // whether shadow rays are cast toward it
   Vec3<Real> u, v;         // area: edge vectors
   bool ellipse;            // area: the ellipse inscribed in the parallelogram
-  int samples;             // area: points per shaded hit; else 1
+  int samples;             // area: points per shaded hit; a light of some size: shadow rays per hit
+  Real spread;             // point, spot: its sphere's radius; directional: 1 − cos of its half angle; 0: none
 
   // Area: the point of the surface for (a, b) in [0, 1)^2, uniform over it (an affine map of the
   // unit square, or of the unit disc for an ellipse).
@@ -103,22 +104,23 @@ class Shading {
     for (const Material& m : scene.materials()) m_materials.push_back(MaterialIn<Real>::from(m));
     const Vec3<Real> none(0);
     for (const DirectionalLight& l : scene.directionalLights()) {
+      const double half = l.soft.size, oneMinusCos = 2 * std::sin(half / 2) * std::sin(half / 2);
       m_lights.push_back({Kind::Directional, toReal<Real>(-l.direction), toReal<Real>(l.color), none, none, 0, 0,
-                          l.shadows, none, none, false, 1});
+                          l.shadows, none, none, false, l.soft.samples, static_cast<Real>(oneMinusCos)});
     }
     for (const PointLight& l : scene.pointLights()) {
       m_lights.push_back({Kind::Point, toReal<Real>(l.position), toReal<Real>(l.color), toReal<Real>(l.attenuation),
-                          none, 0, 0, l.shadows, none, none, false, 1});
+                          none, 0, 0, l.shadows, none, none, false, l.soft.samples, static_cast<Real>(l.soft.size)});
     }
     for (const SpotLight& l : scene.spotLights()) {
       m_lights.push_back({Kind::Spot, toReal<Real>(l.position), toReal<Real>(l.color), toReal<Real>(l.attenuation),
                           toReal<Real>(l.direction), static_cast<Real>(l.cosHalfAngle), static_cast<Real>(l.blend),
-                          l.shadows, none, none, false, 1});
+                          l.shadows, none, none, false, l.soft.samples, static_cast<Real>(l.soft.size)});
     }
     for (const AreaLight& l : scene.areaLights()) {
       m_lights.push_back({Kind::Area, toReal<Real>(l.position), toReal<Real>(l.color), Vec3<Real>(0, 0, 1),
                           toReal<Real>(glm::normalize(glm::cross(l.u, l.v))), 0, 0, l.shadows, toReal<Real>(l.u),
-                          toReal<Real>(l.v), l.ellipse, l.samples});
+                          toReal<Real>(l.v), l.ellipse, l.samples, 0});
     }
   }
 

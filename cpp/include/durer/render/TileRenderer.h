@@ -59,8 +59,9 @@ class TileRenderer {
       const bool viewed = viewsLights(effects);
       using Kind = typename ShadingLight<Real>::Kind;
       for (const ShadingLight<Real>& light : m_shading.lights()) {
-        // An area light's shadow rays leave for points all over it: no one point to see the spheres from.
-        const bool seen = light.shadows && viewed && light.kind != Kind::Area;
+        // An area light's shadow rays, and those of a light of some size, leave for points all over
+        // it: no one point (or direction) to see the spheres from.
+        const bool seen = light.shadows && viewed && light.kind != Kind::Area && !(light.spread > 0);
         m_lightViews.push_back(!seen                           ? nullptr
                                : light.kind == Kind::Directional ? lightViewOf(group.spheres(), -Vec3d(light.vector), settings)
                                                                  : pointLightViewOf(group.spheres(), Vec3d(light.vector), settings));

@@ -3,10 +3,19 @@
 
 namespace durer {
 
+// A light's soft shadows (a point or spot light's radius, a directional light's angle): its term
+// unchanged, times the fraction of `samples` shadow rays per shaded hit, toward points spread
+// uniformly over the cone it subtends there, that nothing blocks. 0: hard shadows, one ray.
+struct SoftShadows {
+  double size = 0;  // a sphere's radius (point, spot), or a cone's half angle in radians (directional)
+  int samples = 1;  // in [1, RenderLimits::raysPerHit]
+};
+
 struct DirectionalLight {
   Vec3d direction;       // unit, world space: the way the light travels (the surface sees it from -direction)
   Vec3d color;           // linear RGB, no falloff
   bool shadows = false;  // whether occluders block it (shadow rays are cast only for such lights)
+  SoftShadows soft;      // size: half the angle the light's disc spans, in [0, π/2)
 };
 
 // Point and spot lights fall off as color / (c0 + c1·d + c2·d²) at distance d: (1, 0, 0) is the
@@ -16,6 +25,7 @@ struct PointLight {
   Vec3d color;               // linear RGB
   Vec3d attenuation{1, 0, 0};  // c0, c1, c2 >= 0, not all 0
   bool shadows = false;      // whether occluders block it
+  SoftShadows soft;          // size: the radius of the sphere it shines from (its light unchanged)
 };
 
 // A point light restricted to a cone, its edge softened as Blender's (Cycles') spot blend:
@@ -28,6 +38,7 @@ struct SpotLight {
   double cosHalfAngle = 0;   // cos of the half opening angle, in (-1, 1)
   double blend = 0;          // [0, 1]
   bool shadows = false;
+  SoftShadows soft;          // as PointLight
 };
 
 // A one-sided Lambertian emitter (Blender's area light): the parallelogram centred at `position`

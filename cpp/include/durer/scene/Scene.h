@@ -77,7 +77,7 @@ class Scene {
   // lo, hi: count x 3 doubles, lo < hi in each axis; one object per box.
   int32_t addBoxes(const double* lo, const double* hi, const int32_t* materials, size_t count, bool perBox,
                    const Affined* worldFromObject = nullptr, const CornerValues& colors = {});
-  void addDirectionalLight(const Vec3d& direction, const Vec3d& color, bool shadows);
+  void addDirectionalLight(const DirectionalLight& light);  // light.direction need not be unit
   void addPointLight(const PointLight& light);
   void addSpotLight(const SpotLight& light);  // light.direction need not be unit
   void addAreaLight(const AreaLight& light);
