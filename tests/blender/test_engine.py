@@ -225,8 +225,8 @@ def test_view_layer_settings_dürer_does_not_follow_are_reported_and_its_panels_
 
 
 def test_light_and_world_settings_dürer_does_not_follow_are_reported(scene):
-    """Lights' ray visibility, shader nodes and unnormalized power, a negative light (left out:
-    Dürer cannot take light away), a world hidden from the camera: each said, naming it."""
+    """Lights' ray visibility and shader nodes, a negative light (left out: Dürer cannot take light
+    away), a world hidden from the camera: each said, naming it (an unnormalized light is converted)."""
     ball_scene(scene)
     sun = next(obj for obj in scene.objects if obj.type == "LIGHT")
     sun.visible_diffuse = False
@@ -237,7 +237,6 @@ def test_light_and_world_settings_dürer_does_not_follow_are_reported(scene):
     assert bpy.ops.render.render() == {"FINISHED"}
     assert engine.last_render.warnings == [
         "Light 'Lamp' uses shader nodes: Dürer takes its colour and power alone",
-        "Light 'Lamp' is not normalized: Dürer takes its power as if it were (Cycles' light grows with its radius)",
         "Light 'Dark' has a negative power or colour: Dürer leaves it out (Cycles takes its light away)",
         "Dürer renders every object as seen by every ray and lit by every light; it does not follow "
         f"Object › Visibility or light linking for '{sun.name}' lighting no diffuse surface",

@@ -174,3 +174,23 @@ def test_without_soft_shadows_the_shadow_is_hard(scene, tmp_path):
     bright = lum_c[floor].max()
     assert np.abs(lum_d - lum_c)[floor].max() > 0.2 * bright  # Cycles' penumbra, Dürer's hard edge
     assert export(scene).lights[0].size == pytest.approx(0.6)
+
+
+@pytest.mark.parametrize("kind, radius", [("POINT", 0.0), ("POINT", 0.5), ("SPOT", 1.0)])
+def test_a_light_not_normalized_is_as_bright_as_in_cycles(scene, tmp_path, kind, radius):
+    # Cycles makes its power that of each unit of its sphere's area: 4πr² times brighter (4 at r = 0).
+    lamp = {"energy": 20.0, "location": (0.2, 0.3, 2.5), "shadow_soft_size": radius, "normalize": False,
+            "use_soft_falloff": False}
+    if kind == "SPOT":
+        lamp["spot_size"] = math.radians(150)
+    floor_scene(scene, {"energy": 1.0, "size": 0.01})
+    bpy.data.objects.remove(bpy.data.objects["Area"])
+    light(scene, kind, **lamp)
+    use_cycles(scene, samples=64)
+    c = render_passes(scene, tmp_path / "cycles.exr", normal=False)
+    scene.render.engine = "DURER"
+    d = render_passes(scene, tmp_path / "durer.exr", normal=False)
+    lit = (c["depth"] < MISS) & (c["color"][..., 0] > 0.05 * c["color"][..., 0].max())
+    assert lit.mean() > 0.3
+    ratio = d["color"][lit][:, :3].sum() / c["color"][lit][:, :3].sum()
+    assert ratio == pytest.approx(1.0, abs=3e-3), ratio

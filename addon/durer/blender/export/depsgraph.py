@@ -186,9 +186,6 @@ def _light(b: Builder, obj, m: np.ndarray) -> None:
     if light.kind == "area" and obj.data.spread < math.pi - 1e-6:
         b.data.notes.append(f"Area light '{obj.name_full}' has a Spread of {math.degrees(obj.data.spread):.4g}°: "
                             f"Dürer spreads its light as at 180° (Lambertian)")
-    if light.kind in ("point", "spot") and not getattr(obj.data, "normalize", True):
-        b.data.notes.append(f"Light '{obj.name_full}' is not normalized: Dürer takes its power as if it were "
-                            f"(Cycles' light grows with its radius)")
 
 
 def _empty(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:

@@ -1,7 +1,7 @@
 """Blender lights -> `LightData`, radiometric as in Cycles: a Sun of strength S gives irradiance S, so
 its Dürer colour (which multiplies kd·max(N·L, 0) with no 1/π) is colour·S/π; a Point or Spot light
-of power P has intensity colour·P/(4·π²) with inverse-square falloff (Cycles' diffuse BRDF is kd/π),
-or the falloff ``light.durer`` states (6.837's c0 + c1·d + c2·d²). An Area light of power P is a
+of power P has intensity colour·P/(4·π²) with inverse-square falloff (Cycles' diffuse BRDF is kd/π;
+not Normalized: times 4πr² for radius r, 4 at radius 0), or the falloff ``light.durer`` states (6.837's c0 + c1·d + c2·d²). An Area light of power P is a
 one-sided Lambertian emitter of radiance P/(π·A) over its world-space area A (P/π when not
 normalized), so its intensity along its normal is colour·P/π² (times A when not normalized)."""
 
@@ -50,16 +50,25 @@ def _sun(obj, m: np.ndarray) -> LightData:
                      size=float(light.angle))
 
 
+def _unnormalized(light) -> float:
+    """How much brighter Cycles makes a Point or Spot light that is not Normalized: its power is
+    then that of each unit of its sphere's area, 4πr² (4 at radius 0; measured in Cycles 5.0)."""
+    if getattr(light, "normalize", True):
+        return 1.0
+    radius = float(light.shadow_soft_size)
+    return 4.0 * math.pi * radius**2 if radius > 0 else 4.0
+
+
 def _point(obj, m: np.ndarray) -> LightData:
     light = obj.data
-    intensity = _color_power(light) / (4.0 * math.pi**2)
+    intensity = _color_power(light) / (4.0 * math.pi**2) * _unnormalized(light)
     return LightData("point", obj.name_full, intensity, position=m[:3, 3].copy(), shadows=bool(light.use_shadow),
                      size=float(light.shadow_soft_size), **_falloff(light))
 
 
 def _spot(obj, m: np.ndarray) -> LightData:
     light = obj.data
-    intensity = _color_power(light) / (4.0 * math.pi**2)
+    intensity = _color_power(light) / (4.0 * math.pi**2) * _unnormalized(light)
     return LightData("spot", obj.name_full, intensity, direction=_axis(m), position=m[:3, 3].copy(),
                      spot_half_angle=float(light.spot_size) / 2.0, spot_blend=float(light.spot_blend),
                      shadows=bool(light.use_shadow), size=float(light.shadow_soft_size), **_falloff(light))
