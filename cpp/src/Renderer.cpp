@@ -61,16 +61,24 @@ EffectSet effectsFor(const Scene& scene, const RenderSettings& settings, const R
       return v.x > 0 || v.y > 0 || v.z > 0;
     });
   };
-  const auto shadowing = [](const auto& lights) {
-    return int(std::count_if(lights.begin(), lights.end(), [](const auto& l) { return l.shadows; }));
+  // Lights casting shadows whose rays views could serve (all through the light's point, or along its
+  // direction), and whether some light's rays go all over it instead (an area light, a light of some size).
+  const auto hard = [](const auto& lights) {
+    return int(std::count_if(lights.begin(), lights.end(), [](const auto& l) { return l.shadows && !(l.soft.size > 0); }));
+  };
+  const auto sampled = [](const auto& lights) {
+    return std::any_of(lights.begin(), lights.end(), [](const auto& l) { return l.shadows && l.soft.size > 0; });
   };
   e.lit = scene.lit();
   e.specular = e.lit && any(&Material::specular);
   if (e.lit) {
-    e.shadowingLights = shadowing(scene.directionalLights()) + shadowing(scene.pointLights()) +
-                        shadowing(scene.spotLights()) + shadowing(scene.areaLights());
+    e.viewedLights = hard(scene.directionalLights()) + hard(scene.pointLights()) + hard(scene.spotLights());
+    const auto& areas = scene.areaLights();
+    e.sampledShadows = sampled(scene.directionalLights()) || sampled(scene.pointLights()) ||
+                       sampled(scene.spotLights()) ||
+                       std::any_of(areas.begin(), areas.end(), [](const AreaLight& l) { return l.shadows; });
   }
-  e.shadows = e.shadowingLights > 0;
+  e.shadows = e.viewedLights > 0 || e.sampledShadows;
   e.reflection = settings.maxBounces > 0 && any(&Material::reflective);
   e.refraction = settings.maxBounces > 0 && any(&Material::transparent);
   const Vec3d& ambient = scene.ambient();

@@ -107,9 +107,10 @@ def test_far_away_it_is_a_point_light_of_colour_times_cosine():
 
 
 def test_nothing_is_lit_behind_it():
-    scene = scene_with(ellipse=False, u=(1.0, 0, 0), v=(0, 1.0, 0))  # u × v up, away from the floor
-    image = durer.render(scene, CAMERA, N, N).color
-    np.testing.assert_array_equal(image[..., :3], 0.0)
+    up = scene_with(ellipse=False, u=(1.0, 0, 0), v=(0, 1.0, 0))  # u × v up, away from the floor
+    np.testing.assert_array_equal(durer.render(up, CAMERA, N, N).color[..., :3], 0.0)
+    down = scene_with(ellipse=False, u=(1.0, 0, 0), v=(0, -1.0, 0))  # the same light turned over
+    assert (durer.render(down, CAMERA, N, N).color[..., 0] > 0).all()
 
 
 @pytest.mark.parametrize("ellipse", [False, True])

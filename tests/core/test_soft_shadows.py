@@ -91,16 +91,36 @@ def test_sun_of_some_angle():
     np.testing.assert_array_equal(soft[floor][fraction == 1], hard[floor][fraction == 1])
 
 
-def test_spot_light_keeps_its_cone():
+def test_spot_light_keeps_its_cone_and_traces_only_inside_it():
     spot = dict(half_angle_degrees=35.0, blend=0.3, attenuation=(0, 0, 1))
     soft = durer.render(scene_with(lambda s: s.add_spot_light((0.2, 0.1, 1.5), (0, 0, -1), (2, 2, 2), shadows=True,
-                                                               radius=0.3, samples=64, **spot)), CAMERA, N, N).color
+                                                               radius=0.3, samples=64, **spot)), CAMERA, N, N)
     hard = durer.render(scene_with(lambda s: s.add_spot_light((0.2, 0.1, 1.5), (0, 0, -1), (2, 2, 2), **spot)),
-                        CAMERA, N, N).color
-    _, floor = floor_points()
-    assert (soft[..., 0][floor] <= hard[..., 0][floor] * (1 + 1e-6)).all()
-    outside = floor & (hard[..., 0] == 0)  # beyond the cone: dark in both
-    assert outside.sum() > 20 and not soft[..., 0][outside].any()
+                        CAMERA, N, N).color[..., 0]
+    points, floor = floor_points()
+    lit = hard > 0
+    outside = floor & ~lit  # beyond the cone: dark in both
+    assert outside.sum() > 20 and not soft.color[..., 0][outside].any()
+    # Inside it, where the light's sphere is in sight of the floor past the ball, the hard light's value.
+    p = points[floor & lit]
+    to_centre = np.array([0.2, 0.1, 1.5]) - p
+    d = np.linalg.norm(to_centre, axis=1)
+    clear = unblocked(p, to_centre / d[:, None], np.sqrt(1 - (0.3 / d) ** 2)) == 1
+    assert clear.sum() > 100
+    np.testing.assert_array_equal(soft.color[..., 0][floor & lit][clear], hard[floor & lit][clear])
+    # Rays only where the light reaches: 64 for each pixel the cone lights (the ball's included).
+    assert soft.stats["shadow_rays"] == 64 * lit.sum()
+
+
+def test_a_cone_across_the_horizon_keeps_the_light():
+    # A sun 3° above the floor's horizon and 60° wide: some pixels' one sample falls below it.
+    def image(**kw):
+        scene = durer.Scene()
+        scene.add_plane((0, 0, 1), 0.0, material=scene.add_material((1, 1, 1)))
+        scene.add_directional_light((1, 0, -0.05), (1, 1, 1), shadows=True, **kw)
+        return durer.render(scene, CAMERA, N, N, seed=2).color
+
+    np.testing.assert_array_equal(image(angle_degrees=60.0, samples=1), image())  # 45 % black before
 
 
 def test_radius_zero_or_no_shadows_is_the_hard_light_bit_for_bit():
@@ -118,11 +138,24 @@ def test_radius_zero_or_no_shadows_is_the_hard_light_bit_for_bit():
     ).stats["shadow_rays"]
 
 
-def test_a_point_inside_the_lights_sphere_is_lit():
+def test_a_point_inside_the_lights_sphere_is_lit_as_by_the_hard_light():
     # The floor reaches into a big light's sphere: from there no shadow ray can be blocked.
-    image = durer.render(scene_with(lambda s: s.add_point_light((0.9, 0.9, 0.2), (1, 1, 1), shadows=True,
-                                                                 radius=0.5, samples=16)), CAMERA, N, N).color
-    assert np.isfinite(image).all() and image[..., 0].max() > 0
+    def image(**kw):
+        return durer.render(scene_with(lambda s: s.add_point_light((0.9, 0.9, 0.2), (1, 1, 1), shadows=True, **kw)),
+                            CAMERA, N, N).color[..., 0]
+
+    points, _ = floor_points()
+    inside = np.linalg.norm(points - np.array([0.9, 0.9, 0.2]), axis=-1) < 0.5
+    assert inside.sum() >= 10
+    np.testing.assert_array_equal(image(radius=0.5, samples=16)[inside], image()[inside])
+
+
+def test_a_render_with_soft_shadows_prepares_the_spheres_once():
+    scene = durer.Scene()
+    scene.add_spheres(np.random.default_rng(1).uniform(-1, 1, (2000, 3)), 0.02)
+    scene.add_directional_light((0.3, 0.2, -1.0), (1, 1, 1), shadows=True, angle_degrees=5.0, samples=4)
+    durer.render(scene, CAMERA, N, N)
+    assert scene.hierarchy_counts["built"] == 1  # not first without the hierarchy, then with it
 
 
 @pytest.mark.parametrize(

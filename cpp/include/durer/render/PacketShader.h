@@ -26,7 +26,8 @@ struct EffectSet {
   bool lit = false;         // lights (or scene shading "lit"): else flat colours
   bool specular = false;    // lit, and some material has a Phong highlight
   bool shadows = false;     // lit, and some light casts shadows
-  int shadowingLights = 0;  // lit: how many lights cast shadows
+  int viewedLights = 0;     // lit: how many lights cast shadows whose rays views could serve (hard ones)
+  bool sampledShadows = false;  // lit: an area light or a light of some size casts shadows (rays all over it)
   bool reflection = false;  // some material is reflective and maxBounces > 0
   bool refraction = false;  // some material is transparent and maxBounces > 0
   bool occlusion = false;   // lit, ambient occlusion asked for, and some ambient · kd to scale
@@ -128,7 +129,7 @@ class PacketShader {
       const ShadingLight<Real>& light = m_shading.lights()[l];
       const SphereView<Real>* view = l < m_lightViews.size() ? m_lightViews[l] : nullptr;
       const bool area = light.kind == ShadingLight<Real>::Kind::Area;
-      const bool soft = Shadows && light.shadows && light.spread > 0;
+      const bool soft = Shadows && light.shadows && !area && !light.viewable();
       if (!area && !soft) {
         addLight<Specular, Shadows, false>(packet, hits, lit, light, view, 0, 0, rgb, counters);
         continue;
@@ -144,7 +145,8 @@ class PacketShader {
         continue;
       }
       for (int s = 0; s < light.samples; ++s) {
-        addLight<Specular, Shadows, true>(packet, hits, lit, light, view, static_cast<uint32_t>(s), salt, rgb, counters);
+        addLight<Specular, Shadows, true>(packet, hits, lit, light, nullptr, static_cast<uint32_t>(s), salt, rgb,
+                                          counters);
       }
     }
   }
@@ -256,9 +258,11 @@ class PacketShader {
       const Vec3<Real> toLight = light.toLight(h.point);
       const Real cosine = glm::dot(lit.normal[k], toLight);
       if (!(cosine > 0)) continue;
+      const Vec3<Real> t = lightTerm<Specular>(h, lit, k, light, toLight, cosine, light.falloff(h.point, toLight));
+      if (!(maxComponent(t) > 0)) continue;  // outside a spot's cone, or a black surface: nothing to shadow
       const int j = count++;
       pixelOf[j] = k;
-      term[j] = lightTerm<Specular>(h, lit, k, light, toLight, cosine, light.falloff(h.point, toLight));
+      term[j] = t;
       open[j] = all[j] = 0;
       origin[j] = shadowOrigin(h, lit, k, toLight, cosine);
       cone[j] = sun ? ShadowCone::sunward(light.vector, light.spread) : ShadowCone::sphere(light.vector - origin[j], light.spread);
@@ -280,8 +284,25 @@ class PacketShader {
       traceShadows(shadow, light, nullptr, counters);
       for (int j = 0; j < count; ++j) open[j] += shadow.prim[j] == kNoPrimitive ? weight[j] : Real(0);
     }
+    // A hit whose samples all fell below its horizon (the cone crossing it: every weight 0) learnt
+    // nothing of its light: the hard light's ray toward the centre decides.
+    int hard = 0;
     for (int j = 0; j < count; ++j) {
-      if (open[j] > 0) rgb[pixelOf[j]] += (open[j] / all[j]) * term[j];
+      if (all[j] > 0) {
+        if (open[j] > 0) rgb[pixelOf[j]] += (open[j] / all[j]) * term[j];
+        continue;
+      }
+      const Vec3<Real> toward = light.shadowDirection(origin[j]);
+      shadow.ox[hard] = origin[j].x, shadow.oy[hard] = origin[j].y, shadow.oz[hard] = origin[j].z;
+      shadow.dx[hard] = toward.x, shadow.dy[hard] = toward.y, shadow.dz[hard] = toward.z;
+      pixelOf[hard] = pixelOf[j], term[hard] = term[j];
+      ++hard;
+    }
+    if (hard == 0) return;
+    shadow.count = hard;
+    traceShadows(shadow, light, nullptr, counters);
+    for (int j = 0; j < hard; ++j) {
+      if (shadow.prim[j] == kNoPrimitive) rgb[pixelOf[j]] += term[j];
     }
   }
 

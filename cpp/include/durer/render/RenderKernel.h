@@ -22,10 +22,10 @@ RenderStats renderWith(const RenderJob& job) {
   const EffectSet& effects = job.effects;
   // Camera rays search the scene's own spheres through the camera's view, and a light's shadow rays
   // through the light's (for a few lights), never their hierarchy: a render with no other rays
-  // (bounces, occlusion) is prepared without it (at 10M spheres most of a first render's time),
-  // unless a view is refused.
-  const bool viewsOnly =
-      !effects.bounces() && !effects.occlusion && tiles::TileRenderer<Real, M>::viewsLights(effects);
+  // (bounces, occlusion, shadow rays all over a light) is prepared without it (at 10M spheres most of
+  // a first render's time), unless a view is refused.
+  const bool viewsOnly = !effects.bounces() && !effects.occlusion && !effects.sampledShadows &&
+                         tiles::TileRenderer<Real, M>::viewsLights(effects);
   std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>(settings.threads, !viewsOnly);
   std::optional<tiles::TileRenderer<Real, M>> made;
   made.emplace(scene, *prepared, spec, settings, targets, effects, control.cancel);

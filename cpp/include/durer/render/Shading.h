@@ -29,22 +29,27 @@ inline void concentricDisc(double u, double v, double& x, double& y) {
 // A light in the render's precision: directional, point, spot and area alike. An area light is met
 // through points on its surface, `samples` of them per shaded hit (surfacePoint), each seen as a
 // point light of colour color · cosθ / samples (θ: off the light's normal) with inverse-square
-// falloff: their mean estimates the surface's integral.
+// falloff: their mean estimates the surface's integral. A light of some size (`spread`) casting
+// shadows sends `samples` shadow rays per hit toward points all over it (PacketShader::addSoftLight).
 template <typename Real>
 struct ShadingLight {
   enum class Kind { Directional, Point, Spot, Area };
-  Kind kind;
-  Vec3<Real> vector;       // directional: unit direction toward the light; point, spot: position; area: centre
-  Vec3<Real> color;        // linear RGB
-  Vec3<Real> attenuation;  // point, spot: c0, c1, c2 of color / (c0 + c1·d + c2·d²); area: (0, 0, 1)
-  Vec3<Real> axis;         // spot: unit direction it shines; area: unit normal, u × v
-  Real cosHalfAngle;       // spot
-  Real blend;              // spot, in [0, 1]
-  bool shadows;            // whether shadow rays are cast toward it
-  Vec3<Real> u, v;         // area: edge vectors
-  bool ellipse;            // area: the ellipse inscribed in the parallelogram
-  int samples;             // area: points per shaded hit; a light of some size: shadow rays per hit
-  Real spread;             // point, spot: its sphere's radius; directional: 1 − cos of its half angle; 0: none
+  Kind kind = Kind::Point;
+  Vec3<Real> vector{0};          // directional: unit direction toward the light; point, spot: position; area: centre
+  Vec3<Real> color{0};           // linear RGB
+  Vec3<Real> attenuation{0, 0, 1};  // point, spot: c0, c1, c2 of color / (c0 + c1·d + c2·d²)
+  Vec3<Real> axis{0};            // spot: unit direction it shines; area: unit normal, u × v
+  Real cosHalfAngle = 0;         // spot
+  Real blend = 0;                // spot, in [0, 1]
+  bool shadows = false;          // whether shadow rays are cast toward it
+  Vec3<Real> u{0}, v{0};         // area: edge vectors
+  bool ellipse = false;          // area: the ellipse inscribed in the parallelogram
+  int samples = 1;               // area: points per shaded hit; a light of some size: shadow rays per hit
+  Real spread = 0;               // point, spot: its sphere's radius; directional: 1 − cos of its half angle
+
+  // Whether its shadow rays all pass through one point (or run along one direction), so that a view
+  // of the spheres from there can serve them: not an area light's, nor a light of some size's.
+  bool viewable() const { return kind != Kind::Area && !(spread > 0); }
 
   // Area: the point of the surface for (a, b) in [0, 1)^2, uniform over it (an affine map of the
   // unit square, or of the unit disc for an ellipse).
@@ -102,25 +107,29 @@ class Shading {
   explicit Shading(const Scene& scene) : m_ambient(toReal<Real>(scene.ambient())) {
     using Kind = typename ShadingLight<Real>::Kind;
     for (const Material& m : scene.materials()) m_materials.push_back(MaterialIn<Real>::from(m));
-    const Vec3<Real> none(0);
     for (const DirectionalLight& l : scene.directionalLights()) {
-      const double half = l.soft.size, oneMinusCos = 2 * std::sin(half / 2) * std::sin(half / 2);
-      m_lights.push_back({Kind::Directional, toReal<Real>(-l.direction), toReal<Real>(l.color), none, none, 0, 0,
-                          l.shadows, none, none, false, l.soft.samples, static_cast<Real>(oneMinusCos)});
+      ShadingLight<Real>& light = add(Kind::Directional, -l.direction, l.color, l.shadows);
+      const double half = l.soft.size;
+      light.spread = static_cast<Real>(2 * std::sin(half / 2) * std::sin(half / 2));  // 1 − cos, no cancellation
+      light.samples = l.soft.samples;
     }
     for (const PointLight& l : scene.pointLights()) {
-      m_lights.push_back({Kind::Point, toReal<Real>(l.position), toReal<Real>(l.color), toReal<Real>(l.attenuation),
-                          none, 0, 0, l.shadows, none, none, false, l.soft.samples, static_cast<Real>(l.soft.size)});
+      ShadingLight<Real>& light = add(Kind::Point, l.position, l.color, l.shadows);
+      light.attenuation = toReal<Real>(l.attenuation);
+      light.spread = static_cast<Real>(l.soft.size), light.samples = l.soft.samples;
     }
     for (const SpotLight& l : scene.spotLights()) {
-      m_lights.push_back({Kind::Spot, toReal<Real>(l.position), toReal<Real>(l.color), toReal<Real>(l.attenuation),
-                          toReal<Real>(l.direction), static_cast<Real>(l.cosHalfAngle), static_cast<Real>(l.blend),
-                          l.shadows, none, none, false, l.soft.samples, static_cast<Real>(l.soft.size)});
+      ShadingLight<Real>& light = add(Kind::Spot, l.position, l.color, l.shadows);
+      light.attenuation = toReal<Real>(l.attenuation);
+      light.axis = toReal<Real>(l.direction);
+      light.cosHalfAngle = static_cast<Real>(l.cosHalfAngle), light.blend = static_cast<Real>(l.blend);
+      light.spread = static_cast<Real>(l.soft.size), light.samples = l.soft.samples;
     }
     for (const AreaLight& l : scene.areaLights()) {
-      m_lights.push_back({Kind::Area, toReal<Real>(l.position), toReal<Real>(l.color), Vec3<Real>(0, 0, 1),
-                          toReal<Real>(glm::normalize(glm::cross(l.u, l.v))), 0, 0, l.shadows, toReal<Real>(l.u),
-                          toReal<Real>(l.v), l.ellipse, l.samples, 0});
+      ShadingLight<Real>& light = add(Kind::Area, l.position, l.color, l.shadows);
+      light.axis = toReal<Real>(glm::normalize(glm::cross(l.u, l.v)));
+      light.u = toReal<Real>(l.u), light.v = toReal<Real>(l.v);
+      light.ellipse = l.ellipse, light.samples = l.samples;
     }
   }
 
@@ -132,6 +141,12 @@ class Shading {
   std::vector<MaterialIn<Real>> m_materials;  // by material id
   Vec3<Real> m_ambient;
   std::vector<ShadingLight<Real>> m_lights;
+
+  ShadingLight<Real>& add(typename ShadingLight<Real>::Kind kind, const Vec3d& vector, const Vec3d& color, bool shadows) {
+    ShadingLight<Real>& light = m_lights.emplace_back();
+    light.kind = kind, light.vector = toReal<Real>(vector), light.color = toReal<Real>(color), light.shadows = shadows;
+    return light;
+  }
 };
 
 }  // namespace durer

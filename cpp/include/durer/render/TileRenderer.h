@@ -57,14 +57,12 @@ class TileRenderer {
     if (effects.shadows) {
       std::vector<const SphereView<Real>*> views;
       const bool viewed = viewsLights(effects);
-      using Kind = typename ShadingLight<Real>::Kind;
       for (const ShadingLight<Real>& light : m_shading.lights()) {
-        // An area light's shadow rays, and those of a light of some size, leave for points all over
-        // it: no one point (or direction) to see the spheres from.
-        const bool seen = light.shadows && viewed && light.kind != Kind::Area && !(light.spread > 0);
-        m_lightViews.push_back(!seen                           ? nullptr
-                               : light.kind == Kind::Directional ? lightViewOf(group.spheres(), -Vec3d(light.vector), settings)
-                                                                 : pointLightViewOf(group.spheres(), Vec3d(light.vector), settings));
+        const bool seen = light.shadows && viewed && light.viewable();
+        const bool sun = light.kind == ShadingLight<Real>::Kind::Directional;
+        m_lightViews.push_back(!seen ? nullptr
+                               : sun ? lightViewOf(group.spheres(), -Vec3d(light.vector), settings)
+                                     : pointLightViewOf(group.spheres(), Vec3d(light.vector), settings));
         views.push_back(m_lightViews.back().get());
       }
       m_shader.useLightViews(std::move(views));
@@ -80,17 +78,18 @@ class TileRenderer {
     if (spheres == 0) return true;
     if (m_view == nullptr) return false;
     for (size_t l = 0; l < m_lightViews.size(); ++l) {
-      const bool needed = m_shading.lights()[l].shadows && spheres >= SphereView<Real>::kMinLightSpheres;
+      const ShadingLight<Real>& light = m_shading.lights()[l];
+      const bool needed = light.shadows && light.viewable() && spheres >= SphereView<Real>::kMinLightSpheres;
       if (needed && m_lightViews[l] == nullptr) return false;
     }
     return true;
   }
 
   // Whether the shadow rays toward the scene's lights search views of its spheres: where at most
-  // SphereSet::kMostLightViews lights cast shadows (or none does). Beyond, every light's shadow rays
-  // walk the spheres' hierarchy.
+  // SphereSet::kMostLightViews lights that views can serve cast shadows (or none does). Beyond, every
+  // light's shadow rays walk the spheres' hierarchy, as an area light's and a light of some size's do.
   static bool viewsLights(const EffectSet& effects) {
-    return size_t(effects.shadowingLights) <= SphereSet<Real>::kMostLightViews;
+    return size_t(effects.viewedLights) <= SphereSet<Real>::kMostLightViews;
   }
 
   // The whole image's tiles that meet the region (a region's tiles are the image's, clipped).
