@@ -15,6 +15,7 @@
 #include "durer/accel/TriangleSet.h"
 #include "durer/geometry/Hit.h"
 #include "durer/geometry/Slab.h"
+#include "durer/geometry/SphericalRectangle.h"
 #include "durer/math/Affine.h"
 #include "durer/math/Float.h"
 
@@ -469,4 +470,36 @@ TEST_CASE("facing: the shading normal flips only for shadeBack and a ray from be
   CHECK(shadingNormal(n, Vec3d(0, 0, 1), true) == -n);
   CHECK(shadingNormal(n, Vec3d(0, 0, 1), false) == n);
   CHECK(facingSign(0.0, true) == 1.0);  // grazing: kept
+}
+
+TEST_CASE("a spherical rectangle: its solid angle in closed form, its points on it, uniform in solid angle") {
+  // A 2a x 2b rectangle seen from height h above its centre: Ω = 4·asin(ab / √((a² + h²)(b² + h²))).
+  for (const double h : {0.01, 0.3, 1.0, 7.0}) {
+    const double a = 0.5, b = 0.25;
+    const SphericalRectangle seen(Vec3d(0, 0, h), Vec3d(-a, -b, 0), Vec3d(2 * a, 0, 0), Vec3d(0, 2 * b, 0));
+    CHECK(seen.solidAngle() == doctest::Approx(4 * std::asin(a * b / std::sqrt((a * a + h * h) * (b * b + h * h))))
+                                   .epsilon(1e-12));
+  }
+  // From behind (the side ex × ey points away from) or in its plane: nothing.
+  CHECK(SphericalRectangle(Vec3d(0, 0, -1), Vec3d(-1, -1, 0), Vec3d(2, 0, 0), Vec3d(0, 2, 0)).solidAngle() == 0);
+  CHECK(SphericalRectangle(Vec3d(3, 0, 0), Vec3d(-1, -1, 0), Vec3d(2, 0, 0), Vec3d(0, 2, 0)).solidAngle() == 0);
+  // Seen from off its axis, close: points lie on it, and the share falling in its lower-left quarter
+  // is that quarter's share of the solid angle.
+  const Vec3d p(0.3, -0.2, 0.15), corner(-1, -0.5, 0), ex(2, 0, 0), ey(0, 1, 0);
+  const SphericalRectangle seen(p, corner, ex, ey);
+  const double quarter = SphericalRectangle(p, corner, ex / 2.0, ey / 2.0).solidAngle() / seen.solidAngle();
+  const int n = 256;
+  int inQuarter = 0;
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) {
+      const Vec3d q = seen.point((i + 0.5) / n, (j + 0.5) / n);
+      REQUIRE(std::fabs(q.z) < 1e-12);
+      REQUIRE(q.x >= -1 - 1e-12);
+      REQUIRE(q.x <= 1 + 1e-12);
+      REQUIRE(q.y >= -0.5 - 1e-12);
+      REQUIRE(q.y <= 0.5 + 1e-12);
+      inQuarter += q.x < 0 && q.y < 0;
+    }
+  }
+  CHECK(double(inQuarter) / (n * n) == doctest::Approx(quarter).epsilon(0.01));
 }

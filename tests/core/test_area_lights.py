@@ -90,6 +90,26 @@ def test_a_parallelogram_is_lit_uniformly_over_its_area():
     np.testing.assert_allclose(image, quadrature(floor_points(), ellipse=False, u=u, v=v), rtol=2e-3, atol=1e-5)
 
 
+@pytest.mark.parametrize("height", [0.2, 0.05, 0.01])
+def test_a_rectangle_near_a_surface_is_sampled_by_solid_angle(height):
+    # Uniform over the area, 16 points under a 1 m square gave 27 % / 109 % / 635 % relative RMSE
+    # at these heights: by the solid angle they fill, each carries the same weight.
+    global HEIGHT
+    saved, HEIGHT = HEIGHT, height
+    try:
+        camera = durer.OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0), 1.6)  # |x|, |y| <= 0.8
+        image = durer.render(scene_with(ellipse=False, samples=16), camera, 9, 9, precision="double").color[..., 0]
+        origins, _ = camera.rays(9, 9)
+        points = origins.copy()
+        points[..., 2] = 0
+        exact = quadrature(points, ellipse=False, u=(1.0, 0, 0), v=(0, -1.0, 0), n=1000)
+    finally:
+        HEIGHT = saved
+    relative = image / exact - 1
+    assert np.sqrt((relative**2).mean()) < 0.06  # measured: 1.3 % / 2.3 % / 2.9 %
+    assert abs(relative.mean()) < 0.01
+
+
 def test_far_away_it_is_a_point_light_of_colour_times_cosine():
     # A 10 µm square 3 m off the floor, tilted: the light of a point light whose colour is I·cos θ.
     u, v = np.array([1e-5, 0, 0]), np.array([0, -1e-5 * math.cos(0.6), 1e-5 * math.sin(0.6)])

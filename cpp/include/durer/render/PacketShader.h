@@ -112,7 +112,7 @@ class PacketShader {
 
   // Σ over lights of max(N·L, 0)·light·kd (+ ks·light·max(N·H, 0)^exponent where N·L > 0), a light's
   // term dropped where the shadow ray toward it is blocked (a light of some size: scaled by the
-  // fraction of its shadow rays that nothing blocks); an area light is the mean of its samples'
+  // cosine-weighted share of its shadow rays that nothing blocks); an area light is the mean of its samples'
   // terms. One light (one sample) at a time, so that the shadow rays toward it go as one packet.
   template <bool Specular, bool Shadows>
   void addLights(const RayPacket<Real>& packet, const Hit<Real>* hits, Vec3<Real>* rgb, RayCounters& counters) const {
@@ -144,9 +144,20 @@ class PacketShader {
         addSoftLight<Specular>(packet, hits, lit, light, salt, rgb, counters);
         continue;
       }
+      // A rectangle large in a hit's sight is sampled by the solid angle it fills there (far off, by
+      // area: the two agree, and the construction loses digits on a tiny solid angle).
+      SphericalRectangle seen[kPacketSize];
+      const bool bySolidAngle = light.rectangle;
+      if (bySolidAngle) {
+        for (int k = 0; k < packet.count; ++k) {
+          if (!hits[k].isHit()) continue;
+          seen[k] = light.seenFrom(hits[k].point);
+          if (seen[k].solidAngle() < kLeastSampledSolidAngle) seen[k] = SphericalRectangle();
+        }
+      }
       for (int s = 0; s < light.samples; ++s) {
         addLight<Specular, Shadows, true>(packet, hits, lit, light, nullptr, static_cast<uint32_t>(s), salt, rgb,
-                                          counters);
+                                          counters, bySolidAngle ? seen : nullptr);
       }
     }
   }
@@ -181,11 +192,12 @@ class PacketShader {
   }
 
   // One light's terms (Area: its sample s, a point of its surface for each hit, scrambled by the
-  // hit's key ^ salt) added to rgb, through a packet of shadow rays where it casts shadows.
+  // hit's key ^ salt; by solid angle where seen[k] has one) added to rgb, through a packet of shadow
+  // rays where it casts shadows.
   template <bool Specular, bool Shadows, bool Area>
   void addLight(const RayPacket<Real>& packet, const Hit<Real>* hits, const Lit& lit, const ShadingLight<Real>& light,
-                const SphereView<Real>* view, uint32_t s, uint32_t salt, Vec3<Real>* rgb,
-                RayCounters& counters) const {
+                const SphereView<Real>* view, uint32_t s, uint32_t salt, Vec3<Real>* rgb, RayCounters& counters,
+                const SphericalRectangle* seen = nullptr) const {
     RayPacket<Real> shadow;
     alignas(64) int pixelOf[kPacketSize];
     alignas(64) Vec3<Real> term[kPacketSize];
@@ -198,13 +210,14 @@ class PacketShader {
       if constexpr (Area) {
         double a, b;
         PixelSampler::hitSample(s, lit.key[k] ^ salt, a, b);
-        at = light.surfacePoint(a, b);
+        const double solidAngle = seen ? seen[k].solidAngle() : 0;
+        at = solidAngle > 0 ? toReal<Real>(seen[k].point(a, b)) : light.surfacePoint(a, b);
         const Vec3<Real> w = at - h.point;
         const Real d2 = glm::dot(w, w);
         const Real d = std::sqrt(d2);
         if (!(d > 0)) continue;  // the hit is that point (or too near it for a direction)
         toLight = w / d;
-        falloff = light.areaFalloff(toLight, d2);
+        falloff = solidAngle > 0 ? light.solidAngleFalloff(solidAngle) : light.areaFalloff(toLight, d2);
         if (!(falloff > 0)) continue;  // behind the surface
       } else {
         toLight = light.toLight(h.point);
@@ -365,6 +378,8 @@ class PacketShader {
   }
 
   static constexpr uint64_t kLightSampleSalt = 0x9e3779b97f4a7c15ull;
+  // Below this many steradians a rectangle is sampled by area (pbrt-v4's threshold).
+  static constexpr double kLeastSampledSolidAngle = 1e-3;
 
   // Emission plus ambient · kd (lit; with Occlusion, the ambient light scaled by open[k]) or kd
   // (flat) of each hit, the background for misses.

@@ -4,6 +4,7 @@
 #include <limits>
 #include <vector>
 
+#include "durer/geometry/SphericalRectangle.h"
 #include "durer/math/Float.h"
 #include "durer/math/Vec.h"
 #include "durer/scene/Scene.h"
@@ -44,6 +45,8 @@ struct ShadingLight {
   bool shadows = false;          // whether shadow rays are cast toward it
   Vec3<Real> u{0}, v{0};         // area: edge vectors
   bool ellipse = false;          // area: the ellipse inscribed in the parallelogram
+  bool rectangle = false;        // area: a parallelogram whose edges are perpendicular
+  Real area = 0;                 // area: of the surface
   int samples = 1;               // area: points per shaded hit; a light of some size: shadow rays per hit
   Real spread = 0;               // point, spot: its sphere's radius; directional: 1 − cos of its half angle
 
@@ -59,6 +62,18 @@ struct ShadingLight {
       return vector + static_cast<Real>(a / 2) * u + static_cast<Real>(b / 2) * v;
     }
     return vector + static_cast<Real>(a - 0.5) * u + static_cast<Real>(b - 0.5) * v;
+  }
+
+  // Area, a rectangle: the rectangle seen from `point`, to sample by solid angle.
+  SphericalRectangle seenFrom(const Vec3<Real>& point) const {
+    const Vec3d corner = Vec3d(vector) - (Vec3d(u) + Vec3d(v)) / 2.0;
+    return SphericalRectangle(Vec3d(point), corner, Vec3d(u), Vec3d(v));
+  }
+
+  // Area, a rectangle: the falloff of a point sampled by solid angle where it fills `solidAngle`:
+  // Ω / (area · samples), so that the term is the radiance color / area times Ω cosθ / samples.
+  Real solidAngleFalloff(double solidAngle) const {
+    return static_cast<Real>(solidAngle / (static_cast<double>(area) * samples));
   }
 
   // Area: the falloff of the surface point toward which a hit sees unit toLight at squared distance
@@ -130,6 +145,9 @@ class Shading {
       light.axis = toReal<Real>(glm::normalize(glm::cross(l.u, l.v)));
       light.u = toReal<Real>(l.u), light.v = toReal<Real>(l.v);
       light.ellipse = l.ellipse, light.samples = l.samples;
+      const double parallelogram = glm::length(glm::cross(l.u, l.v));
+      light.area = static_cast<Real>(l.ellipse ? kPi / 4 * parallelogram : parallelogram);
+      light.rectangle = !l.ellipse && std::fabs(glm::dot(l.u, l.v)) <= 1e-12 * glm::length(l.u) * glm::length(l.v);
     }
   }
 
