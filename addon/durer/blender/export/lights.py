@@ -1,9 +1,10 @@
 """Blender lights -> `LightData`, radiometric as in Cycles: a Sun of strength S gives irradiance S, so
 its Dürer colour (which multiplies kd·max(N·L, 0) with no 1/π) is colour·S/π; a Point or Spot light
 of power P has intensity colour·P/(4·π²) with inverse-square falloff (Cycles' diffuse BRDF is kd/π;
-not Normalized: times 4πr² for radius r, 4 at radius 0), or the falloff ``light.durer`` states (6.837's c0 + c1·d + c2·d²). An Area light of power P is a
-one-sided Lambertian emitter of radiance P/(π·A) over its world-space area A (P/π when not
-normalized), so its intensity along its normal is colour·P/π² (times A when not normalized)."""
+not Normalized: times 4πr² for radius r, 4 at radius 0), or the falloff ``light.durer`` states
+(6.837's c0 + c1·d + c2·d²). An Area light of power P is a one-sided Lambertian emitter of radiance
+P/(π·A) over its world-space area A (P/π when not Normalized), so its intensity along its normal is
+colour·P/π² (times A when not Normalized)."""
 
 from __future__ import annotations
 

@@ -278,7 +278,8 @@ class PacketShader {
       term[j] = t;
       open[j] = all[j] = 0;
       origin[j] = shadowOrigin(h, lit, k, toLight, cosine);
-      cone[j] = sun ? ShadowCone::sunward(light.vector, light.spread) : ShadowCone::sphere(light.vector - origin[j], light.spread);
+      cone[j] = sun ? ShadowCone::sunward(light.vector, light.spread)
+                    : ShadowCone::sphere(light.vector - origin[j], light.spread);
     }
     RayPacket<Real> shadow;
     alignas(64) Real weight[kPacketSize];
@@ -360,7 +361,8 @@ class PacketShader {
           static_cast<Real>(1 - h) * axis;
       if (sun) return w;
       const Real across = distance * static_cast<Real>(sine);
-      return (distance * static_cast<Real>(1 - h) - std::sqrt(std::max(radius * radius - across * across, Real(0)))) * w;
+      const Real beyond = std::sqrt(std::max(radius * radius - across * across, Real(0)));
+      return (distance * static_cast<Real>(1 - h) - beyond) * w;  // d·cos θ − √(r² − d²·sin² θ)
     }
   };
 
