@@ -50,6 +50,18 @@ def test_a_mirrored_light_shines_where_cycles_does(scene):
     assert np.cross(u, v)[2] == pytest.approx(-1.0)
 
 
+def test_a_sheared_area_light_is_told(scene):
+    parent = bpy.data.objects.new("Stretch", None)
+    scene.collection.objects.link(parent)
+    parent.scale = (2, 1, 1)
+    lamp = light(scene, "AREA", name="Skewed", energy=10.0, location=(0, 0, 2), rotation=(0, 0, math.radians(40)))
+    lamp.parent = parent
+    light(scene, "AREA", name="Square", energy=10.0, location=(0, 0, 2), rotation=(0, 0, math.radians(40)))
+    bpy.context.view_layer.update()
+    notes = " ".join(export(scene).notes)
+    assert "'Skewed' is sheared" in notes and "Square" not in notes
+
+
 def test_lights_without_area_spread_and_portals_are_told(scene):
     light(scene, "AREA", name="Flat", energy=10.0, size=0.0)
     light(scene, "AREA", name="Grid", energy=10.0, spread=math.radians(60))
@@ -194,3 +206,23 @@ def test_a_light_not_normalized_is_as_bright_as_in_cycles(scene, tmp_path, kind,
     assert lit.mean() > 0.3
     ratio = d["color"][lit][:, :3].sum() / c["color"][lit][:, :3].sum()
     assert ratio == pytest.approx(1.0, abs=3e-3), ratio
+
+
+@pytest.mark.parametrize("height", [1.0, 2.5])
+def test_soft_falloff_near_a_light_of_some_radius_is_as_in_cycles(scene, tmp_path, height):
+    # Cycles' Soft Falloff (on by default) lights a point at d from a light of radius r as
+    # 1 / (d² + r²) where the inverse square says 1 / d²: 20 % darker at 1 m from a 0.5 m light.
+    floor_scene(scene, {"energy": 1.0, "size": 0.01})
+    bpy.data.objects.remove(bpy.data.objects["Area"])
+    light(scene, "POINT", energy=50.0, location=(0.3, 0.2, height), shadow_soft_size=0.5)
+    assert scene.objects["Point"].data.use_soft_falloff
+    use_cycles(scene, samples=256)
+    c = render_passes(scene, tmp_path / "cycles.exr", normal=False)
+    scene.render.engine = "DURER"
+    d = render_passes(scene, tmp_path / "durer.exr", normal=False)
+    lit = (c["depth"] < MISS) & (c["color"][..., 0] > 0.02 * c["color"][..., 0].max())
+    assert lit.mean() > 0.3
+    cc, dd = c["color"][lit][:, 0], d["color"][lit][:, 0]
+    # measured: totals within 7e-5, every pixel within 1.9e-3 (1 m) / 5.1e-4 (2.5 m)
+    assert dd.sum() / cc.sum() == pytest.approx(1.0, abs=3e-3)
+    assert np.abs(dd / cc - 1).max() < 0.01

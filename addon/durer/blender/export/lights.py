@@ -38,9 +38,15 @@ def _axis(m: np.ndarray) -> np.ndarray:
 
 
 def _falloff(light) -> dict:
+    """The falloff ``light.durer`` states, else Cycles': the inverse square, which Soft Falloff (on by
+    default) turns into 1 / (d² + r²) for a light of radius r (measured in Cycles 5.0: a floor 1 m
+    below a 0.5 m light 20 % darker than the inverse square says)."""
     settings = getattr(light.original or light, "durer", None)
     if settings is not None and settings.use_attenuation:
         return {"falloff": "custom", "attenuation": tuple(float(c) for c in settings.attenuation)}
+    radius = float(light.shadow_soft_size)
+    if getattr(light, "use_soft_falloff", False) and radius > 0:
+        return {"falloff": "inverse_square", "attenuation": (radius * radius, 0.0, 1.0)}
     return {"falloff": "inverse_square", "attenuation": INVERSE_SQUARE}
 
 

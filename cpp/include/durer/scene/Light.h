@@ -4,8 +4,9 @@
 namespace durer {
 
 // A light's soft shadows (a point or spot light's radius, a directional light's angle): its term
-// unchanged, times the fraction of `samples` shadow rays per shaded hit, toward points spread
-// uniformly over the cone it subtends there, that nothing blocks. 0: hard shadows, one ray.
+// unchanged, times the share of it that reaches a shaded hit — of `samples` shadow rays toward
+// points spread uniformly over the cone it subtends there, those nothing blocks, weighted by their
+// cosines with the normal. Size 0: hard shadows, one ray.
 struct SoftShadows {
   double size = 0;  // a sphere's radius (point, spot), or a cone's half angle in radians (directional)
   int samples = 1;  // in [1, RenderLimits::raysPerHit]
@@ -45,8 +46,9 @@ struct SpotLight {
 // spanned by the edge vectors `u` and `v`, or the ellipse inscribed in it, shining toward u × v.
 // `color` is its radiant intensity along that normal in a point light's units, so that far away it
 // is a point light of colour color·cosθ with inverse-square falloff; near it, a shaded point
-// receives the integral over the surface, estimated from `samples` points on it (stratified, a
-// shadow ray toward each where it casts shadows), and its shadows are soft.
+// receives the integral over the surface, estimated from `samples` points on it (stratified; a
+// rectangle's uniform in the solid angle it fills, an ellipse's or a parallelogram's over its area;
+// a shadow ray toward each where it casts shadows), and its shadows are soft.
 struct AreaLight {
   Vec3d position;  // world space, the centre
   Vec3d u, v;      // world space, full edge lengths; u × v != 0

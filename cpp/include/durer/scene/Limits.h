@@ -28,8 +28,8 @@ inline constexpr NumericLimits kLimits[] = {
 
 // What one render accepts besides numbers (durer._core.RENDER_LIMITS for the package and Blender's
 // settings): an image side, samples per pixel and min_spp up to `side` (keeps width·height·spp well
-// inside int64), ray trees up to `maxBounces` deep, and up to `raysPerHit` ambient-occlusion rays or
-// area light samples per shaded hit.
+// inside int64), ray trees up to `maxBounces` deep, and up to `raysPerHit` ambient-occlusion rays,
+// area light samples or soft shadow rays per shaded hit.
 struct RenderLimits {
   int side;
   int maxBounces;
