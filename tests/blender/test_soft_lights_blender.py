@@ -73,8 +73,9 @@ def test_lights_without_area_spread_and_portals_are_told(scene):
     assert "'Flat' has no area" in notes and "'Grid' has a Spread of 60°" in notes and "Window" not in notes
 
 
-def floor_scene(s, lamp_kwargs, occluder=False, size=(48, 36)):
-    """A grey floor under one area light, seen from above at an angle; Cycles direct light only."""
+def floor_scene(s, lamp_kwargs, occluder=False, size=(48, 36), kind="AREA"):
+    """A grey floor under one light of `kind` (an area light by default), seen from above at an
+    angle; Cycles direct light only."""
     world(s, (0, 0, 0))
     floor = quad(s, "Floor", scale=(4, 3, 1))
     floor.data.materials.append(material("Floor", (0.8, 0.8, 0.8)))
@@ -91,7 +92,7 @@ def floor_scene(s, lamp_kwargs, occluder=False, size=(48, 36)):
     cam.data.ortho_scale = 6.0
     s.render.resolution_x, s.render.resolution_y = size
     s.render.resolution_percentage = 100
-    light(s, "AREA", **lamp_kwargs)
+    light(s, kind, **lamp_kwargs)
     s.durer.light_samples = 256
 
 
@@ -140,9 +141,7 @@ def test_soft_shadow_as_in_cycles(scene, tmp_path):
 
 def ball_shadow(scene, tmp_path, kind, **lamp):
     """Cycles' and Dürer's luminance of the floor around a ball's shadow, and its brightest value."""
-    floor_scene(scene, {"energy": 1.0, "size": 0.01}, occluder=True)  # a dim, tiny area light: replaced below
-    bpy.data.objects.remove(bpy.data.objects["Area"])
-    light(scene, kind, **lamp)
+    floor_scene(scene, lamp, occluder=True, kind=kind)
     use_cycles(scene, samples=1024)
     c = render_passes(scene, tmp_path / "cycles.exr", normal=False, indexes=True)
     scene.render.engine = "DURER"
@@ -190,9 +189,7 @@ def test_without_soft_shadows_the_shadow_is_hard(scene, tmp_path):
 
 def floor_lit_by(scene, tmp_path, kind, samples, **lamp):
     """Cycles' and Dürer's red channel on the floor's lit pixels under one light of `kind`."""
-    floor_scene(scene, {"energy": 1.0, "size": 0.01})
-    bpy.data.objects.remove(bpy.data.objects["Area"])
-    light(scene, kind, **lamp)
+    floor_scene(scene, lamp, kind=kind)
     use_cycles(scene, samples=samples)
     c = render_passes(scene, tmp_path / "cycles.exr", normal=False)
     scene.render.engine = "DURER"

@@ -243,11 +243,7 @@ class PacketShader {
       pixelOf[j] = k;
       term[j] = contribution;
     }
-    if (shadow.count == 0) return;
-    traceShadows(shadow, light, view, counters);
-    for (int j = 0; j < shadow.count; ++j) {
-      if (shadow.prim[j] == kNoPrimitive) rgb[pixelOf[j]] += term[j];
-    }
+    addUnblocked(shadow, light, view, pixelOf, term, rgb, counters);
   }
 
   // A light of some size casting shadows (a point or spot light's sphere, a sun's disc): its term as
@@ -312,12 +308,8 @@ class PacketShader {
       pixelOf[hard] = pixelOf[j], term[hard] = term[j];
       ++hard;
     }
-    if (hard == 0) return;
     shadow.count = hard;
-    traceShadows(shadow, light, nullptr, counters);
-    for (int j = 0; j < hard; ++j) {
-      if (shadow.prim[j] == kNoPrimitive) rgb[pixelOf[j]] += term[j];
-    }
+    addUnblocked(shadow, light, nullptr, pixelOf, term, rgb, counters);
   }
 
   // The cone of directions a light of some size fills seen from a shadow ray's origin, and the rays
@@ -377,6 +369,17 @@ class PacketShader {
     shadow.view = view;
     counters.intersectionTests += m_group.template occluded<M>(shadow, &m_cancel);
     counters.shadow += shadow.count;
+  }
+
+  // The shadow rays of `shadow` traced (none: nothing to do), term[j] added to rgb[pixelOf[j]] for
+  // each that nothing blocks.
+  void addUnblocked(RayPacket<Real>& shadow, const ShadingLight<Real>& light, const SphereView<Real>* view,
+                    const int* pixelOf, const Vec3<Real>* term, Vec3<Real>* rgb, RayCounters& counters) const {
+    if (shadow.count == 0) return;
+    traceShadows(shadow, light, view, counters);
+    for (int j = 0; j < shadow.count; ++j) {
+      if (shadow.prim[j] == kNoPrimitive) rgb[pixelOf[j]] += term[j];
+    }
   }
 
   static constexpr uint64_t kLightSampleSalt = 0x9e3779b97f4a7c15ull;

@@ -17,15 +17,6 @@ inline uint64_t mixBits(uint64_t x) {
   return x ^ (x >> 31);
 }
 
-// Chris Wellons' lowbias32: a bijective 32-bit mix with low bias, in 32-bit multiplies (vectorises).
-inline uint32_t mixBits32(uint32_t x) {
-  x ^= x >> 16;
-  x *= 0x7feb352du;
-  x ^= x >> 15;
-  x *= 0x846ca68bu;
-  return x ^ (x >> 16);
-}
-
 class PixelSampler {
  public:
   PixelSampler(SamplerKind kind, int samplesPerPixel, uint64_t seed);
@@ -68,7 +59,7 @@ class PixelSampler {
   // `key`: a net at every power of two like a pixel's Sobol samples, shuffled as theirs are, so each
   // point is uniform over the square as keys vary and few samples are noisy, never biased.
   static void hitSample(uint32_t index, uint32_t key, double& u, double& v) {
-    sobolPoint(index, mixBits32(key ^ 0x2545f491u), key, u, v);
+    sobolPoint(index, static_cast<uint32_t>(mixBits(key ^ 0x2545f491u)), key, u, v);
   }
 
  private:
