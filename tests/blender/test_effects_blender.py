@@ -82,11 +82,15 @@ def f32(x):
 # --- material export -------------------------------------------------------------------------------
 
 
-def test_smooth_metal_is_a_mirror_of_its_base_colour(scene):
+def test_smooth_metal_is_a_mirror_of_its_base_colour_with_the_lights_glint(scene):
+    """A mirror for what rays meet; the lights (points and directions) glint in a highlight as
+    narrow as the lobe: roughness 0.05 -> 2/α² − 2 above the largest exponent, 1e4."""
     m = exported_material(scene, principled("Chrome", (0.9, 0.6, 0.3), Metallic=1.0, Roughness=0.05))
     assert m.reflective == pytest.approx((0.9, 0.6, 0.3))
-    assert m.diffuse == (0, 0, 0) and m.specular == (0, 0, 0) and m.transparent == (0, 0, 0)
-    assert m.effects == {"reflective": m.reflective}
+    assert m.exponent == materials.MAX_EXPONENT
+    np.testing.assert_allclose(m.specular, np.array([0.9, 0.6, 0.3]) * (1e4 + 8) / 8, rtol=1e-6)
+    assert m.diffuse == (0, 0, 0) and m.transparent == (0, 0, 0)
+    assert m.effects == {"reflective": m.reflective, "specular": m.specular, "exponent": 1e4}
 
 
 def test_half_metallic_splits_diffuse_and_mirror(scene):
@@ -94,7 +98,7 @@ def test_half_metallic_splits_diffuse_and_mirror(scene):
     m = exported_material(scene, principled("Half", base, Metallic=0.5, Roughness=0.0, Specular_IOR_Level=0.0))
     np.testing.assert_allclose(m.reflective, np.array(base) * 0.5, rtol=1e-6)
     np.testing.assert_allclose(m.diffuse, np.array(base) * 0.5, rtol=1e-6)
-    assert m.specular == (0, 0, 0)
+    np.testing.assert_allclose(m.specular, np.array(base) * 0.5 * (1e4 + 8) / 8, rtol=1e-6)
 
 
 def test_smooth_dielectric_reflects_its_fresnel_f0(scene):
@@ -137,9 +141,11 @@ def test_specular_level_zero_and_roughness_one(scene):
 def test_mirror_roughness_threshold(scene):
     at = exported_material(scene, principled("At", Metallic=1.0, Roughness=materials.MIRROR_ROUGHNESS))
     above = exported_material(scene, principled("Above", Metallic=1.0, Roughness=materials.MIRROR_ROUGHNESS + 0.01))
-    assert any(at.reflective) and not any(at.specular)
-    assert not any(above.reflective) and any(above.specular)
+    assert any(at.reflective) and not any(above.reflective)
+    # The highlight is continuous across the threshold: the same formula on both sides.
+    assert at.exponent == pytest.approx(2.0 / f32(materials.MIRROR_ROUGHNESS) ** 4 - 2.0, rel=1e-5)
     assert above.exponent == pytest.approx(2.0 / f32(materials.MIRROR_ROUGHNESS + 0.01) ** 4 - 2.0, rel=1e-5)
+    assert at.specular[0] == pytest.approx(0.8 * (at.exponent + 8) / 8, rel=1e-6)
 
 
 def test_transmission_is_refraction_with_the_ior(scene):
@@ -151,7 +157,7 @@ def test_transmission_is_refraction_with_the_ior(scene):
     np.testing.assert_allclose(m.transparent, np.array(base) * (1 - f0), rtol=1e-6)
     assert m.diffuse == (0, 0, 0)
     assert m.reflective == pytest.approx((f0,) * 3, rel=1e-6)
-    assert set(m.effects) == {"transparent", "ior", "reflective"}
+    assert set(m.effects) == {"transparent", "ior", "reflective", "specular", "exponent"}
     m = exported_material(
         scene, principled("Frosted", base, Transmission_Weight=0.5, IOR=1.33, Roughness=0.6, Specular_IOR_Level=0.0)
     )
@@ -220,7 +226,8 @@ def test_phong_exponent_and_lobe_helpers():
     assert materials.phong_exponent(1.0) == 1.0 and materials.phong_exponent(0.0) == materials.MAX_EXPONENT
     assert materials.fresnel_f0(1.5) == pytest.approx(0.04) and materials.fresnel_f0(1.0) == 0.0
     assert materials.specular_lobe((0, 0, 0), 0.0) == {}
-    assert materials.specular_lobe((0.5, 0.5, 0.5), 0.0) == {"reflective": (0.5, 0.5, 0.5)}
+    assert materials.specular_lobe((0.5, 0.5, 0.5), 0.0) == {
+        "reflective": (0.5, 0.5, 0.5), "specular": (0.5 * 10008 / 8,) * 3, "exponent": 1e4}
 
 
 # --- settings and stats line -----------------------------------------------------------------------
@@ -286,7 +293,9 @@ def mirror_ball_scene(s):
 def hand_built_mirror_scene():
     """The same scene written directly with durer (no export): the reference for the engine."""
     sc = durer.Scene()
-    chrome = sc.add_material(diffuse=(0, 0, 0), reflective=tuple(f32(c) for c in BASE))
+    glint = materials.MAX_EXPONENT  # roughness 0: the sun glints in the narrowest highlight
+    chrome = sc.add_material(diffuse=(0, 0, 0), reflective=tuple(f32(c) for c in BASE),
+                             specular=tuple(f32(c) * (glint + 8) / 8 for c in BASE), exponent=glint)
     glow = sc.add_material(diffuse=(0, 0, 0), emission=tuple(f32(c) for c in EMISSION))
     sc.add_spheres([[0.0, 0.0, 0.0]], [1.0], material=chrome)
     sc.add_plane((0, 1, 0), -10.0, material=glow, bounds=((-3, -10, -3), (0, 0, 6), (6, 0, 0)))
@@ -319,7 +328,16 @@ def test_mirror_ball_reflects_the_panel_and_the_world(scene, tmp_path):
     # The whole image equals durer's render of the same scene written by hand.
     sc, cam = hand_built_mirror_scene()
     ref = durer.render(sc, cam, W, H, passes=("color",), shade_back=True).color
-    np.testing.assert_allclose(out["color"], ref, atol=1e-6)
+    # (N·H)^10⁴ turns the sun direction's rounding (float32 in Blender, 1e-8) into 1e-4 of the glint.
+    np.testing.assert_allclose(out["color"], ref, rtol=1e-4, atol=1e-6)
+    # The sun glints where the ball's normal halves the angle between it and the camera (the
+    # passes' rows top first, 4 m across W pixels).
+    to_sun = np.array(bpy.data.objects["Sun"].matrix_world.to_3x3().col[2])
+    n = to_sun + (0, -1, 0)
+    n /= np.linalg.norm(n)
+    row, col = np.unravel_index(np.argmax(color.sum(axis=2)), (H, W))
+    assert color[row, col].max() > 10 * EMISSION[2]
+    assert abs(col + 0.5 - (W / 2 + n[0] * W / 4)) <= 1 and abs(row + 0.5 - (H / 2 - n[2] * W / 4)) <= 1
 
 
 def test_mirror_ball_centre_like_cycles(scene, tmp_path):

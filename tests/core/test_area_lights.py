@@ -1,7 +1,8 @@
 """Area lights: the irradiance a floor receives from a rectangle, a parallelogram or an ellipse
 (against quadrature over the surface, and the closed form on a disc's axis), soft shadows (against
 the visibility-weighted quadrature), the far field (a point light of colour color·cos θ), the
-sampling's determinism, and bad input."""
+sampling's determinism, the light seen in mirrors (its radiance π·color/area where a mirror direction
+meets it), and bad input."""
 
 from __future__ import annotations
 
@@ -203,6 +204,125 @@ def test_highlight_of_a_small_area_light_is_a_point_lights():
     to_light = points - hits
     cos_light = to_light[..., 2] / np.linalg.norm(to_light, axis=-1)
     np.testing.assert_allclose(area, point * cos_light, rtol=1e-4, atol=1e-7)
+
+
+REFLECTIVE = np.array([0.5, 0.25, 1.0])
+
+
+def mirror_floor(*, ellipse: bool = False, u=(1.0, 0, 0), v=(0, -0.5, 0), color=(1.0, 2.0, 3.0), shadows=False,
+                 occluder=None, **material) -> durer.Scene:
+    """A black mirror floor z = 0 under an area light at height 2 (u × v pointing down)."""
+    scene = durer.Scene()
+    mirror = scene.add_material((0, 0, 0), reflective=tuple(REFLECTIVE), **material)
+    scene.add_plane((0, 0, 1), 0.0, material=mirror)
+    if occluder is not None:
+        scene.add_spheres([occluder[0]], occluder[1], material=scene.add_material((0, 0, 0)))
+    scene.add_area_light((0, 0, 2.0), u, v, color, ellipse=ellipse, samples=4, shadows=shadows)
+    return scene
+
+
+def mirrored_inside(camera, size: int, *, ellipse: bool, u, v, margin: float):
+    """Which pixels' mirror ray (off the floor z = 0) meets the light at height 2 inside its shape,
+    which outside, each by more than `margin` in the light's coordinates (the rest: neither)."""
+    origins, directions = camera.rays(size, size)
+    t = -origins[..., 2] / directions[..., 2]
+    floor = origins + t[..., None] * directions
+    mirrored = directions * np.array([1, 1, -1])
+    n = np.cross(u, v)
+    w = floor - np.array([0, 0, 2.0])
+    w = w - ((w @ n) / (mirrored @ n))[..., None] * mirrored  # in the light's plane
+    a = np.cross(w, v) @ n / (n @ n)
+    b = np.cross(u, w) @ n / (n @ n)
+    radius = np.hypot(a, b) if ellipse else np.maximum(abs(a), abs(b))
+    return (t > 0) & (radius < 0.5 - margin), (t > 0) & (radius > 0.5 + margin)
+
+
+@pytest.mark.parametrize("ellipse", [False, True])
+def test_a_mirror_shows_it_with_its_radiance(precision, ellipse):
+    # Straight down, orthographic: the mirror ray goes straight up; the light's radiance is π·color
+    # over its area, so that its cosine-weighted integral is the irradiance the samples give.
+    camera = durer.OrthographicCamera((0, 0, 1), (0, 0, -1), (0, 1, 0), 2.0)
+    image = durer.render(mirror_floor(ellipse=ellipse), camera, 64, 64, precision=precision).color[..., :3]
+    area = 0.5 * (math.pi / 4 if ellipse else 1.0)
+    inside, outside = mirrored_inside(camera, 64, ellipse=ellipse, u=(1.0, 0, 0), v=(0, -0.5, 0), margin=0)
+    assert inside.sum() == (404 if ellipse else 512)
+    np.testing.assert_allclose(image[inside], np.broadcast_to(REFLECTIVE * [1, 2, 3] * math.pi / area, (inside.sum(), 3)),
+                               rtol=1e-6)
+    np.testing.assert_array_equal(image[outside], 0.0)
+
+
+def test_a_tilted_sheared_light_in_a_mirror_seen_in_perspective():
+    u, v = np.array([1.0, 0.3, 0.2]), np.array([0.4, -0.9, 0.1])  # u × v points down
+    assert np.cross(u, v)[2] < 0
+    camera = durer.PerspectiveCamera((0, -3, 1), (0, 3, -2.5), (0, 0, 1), 50.0)
+    image = durer.render(mirror_floor(u=u, v=v), camera, 96, 96, precision="double").color[..., 0]
+    inside, outside = mirrored_inside(camera, 96, ellipse=False, u=u, v=v, margin=0.02)
+    assert inside.sum() > 400 and outside.sum() > 4000
+    area = np.linalg.norm(np.cross(u, v))
+    np.testing.assert_allclose(image[inside], REFLECTIVE[0] * math.pi / area, rtol=1e-6)
+    np.testing.assert_array_equal(image[outside], 0.0)
+
+
+def test_a_white_mirror_and_a_white_floor_agree_as_the_light_fills_the_sky():
+    # A square of half side R at height h over a white floor: the floor below its centre receives
+    # (π·I/area)·F, F the square's form factor from there (four quadrants of a parallel rectangle
+    # seen from below its corner; 1 for the whole sky); a white mirror shows the radiance π·I/area.
+    half, intensity = 30.0, 2.0
+    shown = {}
+    for name, material in (("diffuse", {"diffuse": (1, 1, 1)}), ("mirror", {"diffuse": (0, 0, 0), "reflective": (1, 1, 1)})):
+        scene = durer.Scene()
+        scene.add_plane((0, 0, 1), 0.0, material=scene.add_material(**material))
+        scene.add_area_light((0, 0, HEIGHT), (2 * half, 0, 0), (0, -2 * half, 0), (intensity,) * 3, samples=4096)
+        shown[name] = durer.render(scene, CAMERA, N, N, precision="double").color[N // 2, N // 2, 0]
+    radiance = math.pi * intensity / (2 * half) ** 2
+    assert shown["mirror"] == pytest.approx(radiance, rel=1e-6)  # float32 pixels
+    a = half / HEIGHT
+    quadrant = (a / math.hypot(1, a) * math.atan(a / math.hypot(1, a))) / math.pi  # both terms of Howell's C-11
+    assert 4 * quadrant == pytest.approx(1, abs=2e-3)
+    assert shown["diffuse"] == pytest.approx(radiance * 4 * quadrant, rel=5e-3)
+
+
+def distance_to_segments(point, starts, ends):
+    """The distance from `point` to each segment starts[i]–ends[i]."""
+    along = ends - starts
+    t = np.clip(((point - starts) * along).sum(-1) / (along * along).sum(-1), 0, 1)
+    return np.linalg.norm(starts + t[..., None] * along - point, axis=-1)
+
+
+@pytest.mark.parametrize("shadows", [True, False])
+def test_what_blocks_the_mirror_ray_hides_it_where_it_casts_shadows(shadows):
+    # Seen at a slant, a ball above the floor stands in the way of some mirror rays to the light
+    # but in front of no pixel whose mirror ray reaches it.
+    ball, radius = np.array([0.1, -0.4, 1.2]), 0.2
+    camera = durer.OrthographicCamera((0, -2.5, 3), (0, 0.5, -1), (0, 1, 0.5), 3.0)
+    image = durer.render(mirror_floor(shadows=shadows, occluder=(tuple(ball), radius)), camera, 64, 64).color[..., 0]
+    inside, _ = mirrored_inside(camera, 64, ellipse=False, u=(1.0, 0, 0), v=(0, -0.5, 0), margin=0.02)
+    origins, directions = camera.rays(64, 64)
+    floor = origins + (-origins[..., 2] / directions[..., 2])[..., None] * directions
+    assert distance_to_segments(ball, origins, floor)[inside].min() > radius  # the camera sees the floor there
+    mirrored = directions * [1, 1, -1]
+    gap = distance_to_segments(ball, floor, floor + (2 / mirrored[..., 2:]) * mirrored)  # up to the light's height
+    behind, beside = inside & (gap < radius - 0.01), inside & (gap > radius + 0.01)
+    assert behind.sum() > 50 and beside.sum() > 100
+    lit = REFLECTIVE[0] * math.pi / 0.5
+    np.testing.assert_allclose(image[beside], lit, rtol=1e-6)
+    np.testing.assert_allclose(image[behind], 0.0 if shadows else lit, rtol=1e-6)
+
+
+def test_a_mirror_shows_it_by_its_direction_not_its_highlight_nor_its_bounces():
+    # A Phong lobe on a mirror would meet the light only where a sample point falls in it (a
+    # speckle): area lights are left to the mirror direction, the other lights keep their highlight.
+    camera = durer.PerspectiveCamera((0, -3, 1), (0, 3, -2.5), (0, 0, 1), 50.0)
+    render = lambda scene, **kw: durer.render(scene, camera, 48, 48, precision="double", **kw).color[..., :3]  # noqa: E731
+    plain = render(mirror_floor())
+    np.testing.assert_array_equal(render(mirror_floor(specular=(1, 1, 1), exponent=50)), plain)
+    # Direct light, as a highlight: no bounce needed (max_bounces 0 traces no mirror ray).
+    np.testing.assert_array_equal(render(mirror_floor(), max_bounces=0), plain)
+    spot = mirror_floor(specular=(1, 1, 1), exponent=50)
+    spot.add_point_light((0.5, 1.0, 2.0), (1, 1, 1))
+    assert (render(spot) > plain).any(axis=2).sum() > 20
+    facing_up = render(mirror_floor(u=(1.0, 0, 0), v=(0, 0.5, 0)))  # u × v up: its back faces the floor
+    np.testing.assert_array_equal(facing_up, 0.0)
 
 
 def test_it_casts_shadows_in_the_effect_set():

@@ -9,9 +9,10 @@ from ...material import COURSE_FIELDS
 from .data import BLACK, MaterialData
 from .nodes import color_input, linked_value, rgb, scalar_input
 
-#: Roughness at or below which a specular lobe is a mirror (reflection rays); above it, the lobe is
-#: a Phong highlight of the lights. At 0.2 the GGX width alpha = roughness² is 0.04, the Phong
-#: exponent of the same width ~1250: reflections in Cycles are still sharp there.
+#: Roughness at or below which a specular lobe is a mirror (reflection rays) as well as a Phong
+#: highlight of the lights (which mirror rays cannot meet); above it, the highlight alone. At 0.2 the
+#: GGX width alpha = roughness² is 0.04, the Phong exponent of the same width ~1250: reflections in
+#: Cycles are still sharp there.
 MIRROR_ROUGHNESS = 0.2
 #: Phong exponents are clamped to [1, MAX_EXPONENT] (roughness 1 gives 2/α² − 2 = 0).
 MAX_EXPONENT = 1.0e4
@@ -52,17 +53,19 @@ def phong_exponent(roughness: float) -> float:
 
 
 def specular_lobe(color, roughness: float) -> dict:
-    """A specular lobe of reflectance `color` (at normal incidence) and Blender roughness:
-    a mirror (``reflective = color``) at roughness <= MIRROR_ROUGHNESS, else a Phong highlight of
-    the same width (``exponent = phong_exponent(roughness)``) and the same peak as a normalised
-    Blinn-Phong BRDF of that reflectance, ``specular = color × (n + 8)/8`` (Dürer's light colours
-    already include Cycles' 1/π)."""
+    """A specular lobe of reflectance `color` (at normal incidence) and Blender roughness: a Phong
+    highlight of the lights as wide as the lobe (``exponent = phong_exponent(roughness)``) with the
+    peak of a normalised Blinn-Phong BRDF of that reflectance, ``specular = color × (n + 8)/8``
+    (Dürer's light colours already include Cycles' 1/π); at roughness <= MIRROR_ROUGHNESS also a
+    mirror (``reflective = color``) for what mirror rays meet: the lights are points and directions
+    no ray meets, so their glint is the highlight, as Cycles shows a light in a sharp reflection."""
     if not any(color):
         return {}
-    if np.float32(roughness) <= np.float32(MIRROR_ROUGHNESS):  # Blender stores float32 roughness
-        return {"reflective": rgb(color)}
     n = phong_exponent(roughness)
-    return {"specular": _scale3(color, (n + 8.0) / 8.0), "exponent": n}
+    lobe = {"specular": _scale3(color, (n + 8.0) / 8.0), "exponent": n}
+    if np.float32(roughness) <= np.float32(MIRROR_ROUGHNESS):  # Blender stores float32 roughness
+        lobe["reflective"] = rgb(color)
+    return lobe
 
 
 def _principled(mat, node, viewport) -> MaterialData:

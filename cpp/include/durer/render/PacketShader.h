@@ -113,7 +113,8 @@ class PacketShader {
   // Σ over lights of max(N·L, 0)·light·kd (+ ks·light·max(N·H, 0)^exponent where N·L > 0), a light's
   // term dropped where the shadow ray toward it is blocked (a light of some size: scaled by the
   // cosine-weighted share of its shadow rays that nothing blocks); an area light is the mean of its samples'
-  // terms. One light (one sample) at a time, so that the shadow rays toward it go as one packet.
+  // terms, and a mirror sees it along its mirror direction instead of in its highlight (addMirrored).
+  // One light (one sample) at a time, so that the shadow rays toward it go as one packet.
   template <bool Specular, bool Shadows>
   void addLights(const RayPacket<Real>& packet, const Hit<Real>* hits, Vec3<Real>* rgb, RayCounters& counters) const {
     Lit lit;
@@ -159,6 +160,7 @@ class PacketShader {
         addLight<Specular, Shadows, true>(packet, hits, lit, light, nullptr, static_cast<uint32_t>(s), salt, rgb,
                                           counters, bySolidAngle ? seen : nullptr);
       }
+      addMirrored<Shadows>(packet, hits, light, rgb, counters);
     }
   }
 
@@ -171,14 +173,15 @@ class PacketShader {
   };
 
   // A light's term at hit k for unit toLight (cosine = N·toLight > 0) and its falloff there: kd's and
-  // the highlight's. Colours first: their products are finite (Limits.h), so a huge falloff gives
-  // at most inf, never 0·inf, and shade() saturates it.
+  // the highlight's (none of an area light on a mirror: addMirrored). Colours first: their products
+  // are finite (Limits.h), so a huge falloff gives at most inf, never 0·inf, and shade() saturates it.
   template <bool Specular>
   Vec3<Real> lightTerm(const Hit<Real>& h, const Lit& lit, int k, const ShadingLight<Real>& light,
                        const Vec3<Real>& toLight, Real cosine, Real falloff) const {
     const MaterialIn<Real>& m = m_shading.material(h.materialId);
     Vec3<Real> term = (cosine * falloff) * (light.color * diffuse(h, m));
     if constexpr (Specular) {
+      if (light.kind == ShadingLight<Real>::Kind::Area && maxComponent(m.reflective) > 0) return term;
       term += (std::pow(highlight(lit.normal[k], toLight + lit.toViewer[k]), m.exponent) * falloff) *
               (light.color * m.specular);
     }
@@ -244,6 +247,43 @@ class PacketShader {
       term[j] = contribution;
     }
     addUnblocked(shadow, light, view, pixelOf, term, rgb, counters);
+  }
+
+  // An area light as a mirror shows it: where hit k's mirror direction (its mirror ray's, bounces or
+  // not: it is direct light, as a highlight is) meets the light's front, reflective · its radiance,
+  // π·color / area (the radiance whose cosine-weighted integral gives the samples' terms: a white
+  // floor under a light filling its sky and a white mirror show the same), unless blocked on the
+  // way where the light casts shadows. Exact where a highlight of its samples would be speckled: a
+  // mirror's lobe is a direction, which a handful of points on the light almost never meet.
+  template <bool Shadows>
+  void addMirrored(const RayPacket<Real>& packet, const Hit<Real>* hits, const ShadingLight<Real>& light,
+                   Vec3<Real>* rgb, RayCounters& counters) const {
+    RayPacket<Real> shadow;
+    alignas(64) int pixelOf[kPacketSize];
+    alignas(64) Vec3<Real> term[kPacketSize];
+    shadow.count = 0;
+    // Finite (a light of a tiny area: the largest number), so that a product with a black channel is 0.
+    const Real perArea = std::min(static_cast<Real>(kPi) / light.area, std::numeric_limits<Real>::max());
+    for (int k = 0; k < packet.count; ++k) {
+      if (!hits[k].isHit()) continue;
+      const Hit<Real>& h = hits[k];
+      const MaterialIn<Real>& m = m_shading.material(h.materialId);
+      if (!(maxComponent(m.reflective) > 0)) continue;
+      const Vec3<Real> r = glm::reflect(glm::normalize(direction(packet, k)), h.normal);  // as addBounces'
+      const Vec3<Real> origin = offsetRayOrigin(h.point, h.geometricNormal, h.pointError, r);
+      Vec3<Real> toward;
+      if (!light.mirroredFrom(origin, r, toward)) continue;
+      if (!(Shadows && light.shadows)) {
+        rgb[k] += perArea * (m.reflective * light.color);
+        continue;
+      }
+      const int j = shadow.count++;
+      shadow.ox[j] = origin.x, shadow.oy[j] = origin.y, shadow.oz[j] = origin.z;
+      shadow.dx[j] = toward.x, shadow.dy[j] = toward.y, shadow.dz[j] = toward.z;
+      pixelOf[j] = k;
+      term[j] = perArea * (m.reflective * light.color);
+    }
+    addUnblocked(shadow, light, nullptr, pixelOf, term, rgb, counters);
   }
 
   // A light of some size casting shadows (a point or spot light's sphere, a sun's disc): its term as

@@ -64,6 +64,21 @@ struct ShadingLight {
     return vector + static_cast<Real>(a - 0.5) * u + static_cast<Real>(b - 0.5) * v;
   }
 
+  // Area: whether the ray from `origin` along unit r meets the surface from its front, and then
+  // `toward`, the vector from origin to where it does (a shadow ray's, t in (0, 1)).
+  bool mirroredFrom(const Vec3<Real>& origin, const Vec3<Real>& r, Vec3<Real>& toward) const {
+    const Real facing = glm::dot(r, axis);
+    if (!(facing < 0)) return false;  // along the surface or at its back: it shines one way
+    const Real t = glm::dot(vector - origin, axis) / facing;
+    if (!(t > 0 && t < std::numeric_limits<Real>::infinity())) return false;
+    toward = t * r;
+    // Its coordinates along u and v from the centre (u, v need not be perpendicular): w = a·u + b·v.
+    const Vec3<Real> w = origin + toward - vector, n = glm::cross(u, v);
+    const Real nn = glm::dot(n, n);
+    const Real a = glm::dot(glm::cross(w, v), n) / nn, b = glm::dot(glm::cross(u, w), n) / nn;
+    return ellipse ? a * a + b * b <= Real(0.25) : std::fabs(a) <= Real(0.5) && std::fabs(b) <= Real(0.5);
+  }
+
   // Area, a rectangle: the rectangle seen from `point`, to sample by solid angle.
   SphericalRectangle seenFrom(const Vec3<Real>& point) const {
     const Vec3d corner = Vec3d(vector) - (Vec3d(u) + Vec3d(v)) / 2.0;
