@@ -146,12 +146,19 @@ class PacketShader {
         continue;
       }
       // A rectangle large in a hit's sight is sampled by the solid angle it fills there (far off, by
-      // area: the two agree, and the construction loses digits on a tiny solid angle).
+      // area: the two agree, and the construction loses digits on a tiny solid angle). An ellipse
+      // whose plane passes nearer a hit than its longer semi-axis is sampled by its rectangle's, points outside the
+      // ellipse carrying nothing: uniform over its area, the few points near the hit would weigh
+      // far above the rest; farther off, area sampling's weights vary less than that
+      // all-or-nothing (the two cross over about there: 16 samples at one semi-axis below a disc's
+      // centre, 8 % / 1 % relative RMSE by the rectangle / by area, at a fifth of it 12 % / 21 %).
       SphericalRectangle seen[kPacketSize];
-      const bool bySolidAngle = light.rectangle;
+      const bool bySolidAngle = light.perpendicular;
       if (bySolidAngle) {
         for (int k = 0; k < packet.count; ++k) {
           if (!hits[k].isHit()) continue;
+          const Real height = glm::dot(hits[k].point - light.vector, light.axis);
+          if (light.ellipse && !(height * height < light.semiAxis2)) continue;
           seen[k] = light.seenFrom(hits[k].point);
           if (seen[k].solidAngle() < kLeastSampledSolidAngle) seen[k] = SphericalRectangle();
         }
@@ -215,6 +222,7 @@ class PacketShader {
         PixelSampler::hitSample(s, lit.key[k] ^ salt, a, b);
         const double solidAngle = seen ? seen[k].solidAngle() : 0;
         at = solidAngle > 0 ? toReal<Real>(seen[k].point(a, b)) : light.surfacePoint(a, b);
+        if (solidAngle > 0 && light.ellipse && !light.inside(at)) continue;
         const Vec3<Real> w = at - h.point;
         const Real d2 = glm::dot(w, w);
         const Real d = std::sqrt(d2);

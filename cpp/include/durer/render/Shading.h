@@ -45,7 +45,8 @@ struct ShadingLight {
   bool shadows = false;          // whether shadow rays are cast toward it
   Vec3<Real> u{0}, v{0};         // area: edge vectors
   bool ellipse = false;          // area: the ellipse inscribed in the parallelogram
-  bool rectangle = false;        // area: a parallelogram whose edges are perpendicular
+  bool perpendicular = false;    // area: u ⟂ v (a rectangle, or an ellipse with them for axes)
+  Real semiAxis2 = 0;            // area: the square of max(|u|, |v|) / 2
   Real area = 0;                 // area: of the surface
   int samples = 1;               // area: points per shaded hit; a light of some size: shadow rays per hit
   Real spread = 0;               // point, spot: its sphere's radius; directional: 1 − cos of its half angle
@@ -64,6 +65,16 @@ struct ShadingLight {
     return vector + static_cast<Real>(a - 0.5) * u + static_cast<Real>(b - 0.5) * v;
   }
 
+  // Area: whether `point`, on the light's plane, lies on its surface (inside the ellipse, or the
+  // parallelogram; a point sampled on the parallelogram always does).
+  bool inside(const Vec3<Real>& point) const {
+    // Its coordinates along u and v from the centre (u, v need not be perpendicular): w = a·u + b·v.
+    const Vec3<Real> w = point - vector, n = glm::cross(u, v);
+    const Real nn = glm::dot(n, n);
+    const Real a = glm::dot(glm::cross(w, v), n) / nn, b = glm::dot(glm::cross(u, w), n) / nn;
+    return ellipse ? a * a + b * b <= Real(0.25) : std::fabs(a) <= Real(0.5) && std::fabs(b) <= Real(0.5);
+  }
+
   // Area: whether the ray from `origin` along unit r meets the surface from its front, and then
   // `toward`, the vector from origin to where it does (a shadow ray's, t in (0, 1)).
   bool mirroredFrom(const Vec3<Real>& origin, const Vec3<Real>& r, Vec3<Real>& toward) const {
@@ -72,21 +83,19 @@ struct ShadingLight {
     const Real t = glm::dot(vector - origin, axis) / facing;
     if (!(t > 0 && t < std::numeric_limits<Real>::infinity())) return false;
     toward = t * r;
-    // Its coordinates along u and v from the centre (u, v need not be perpendicular): w = a·u + b·v.
-    const Vec3<Real> w = origin + toward - vector, n = glm::cross(u, v);
-    const Real nn = glm::dot(n, n);
-    const Real a = glm::dot(glm::cross(w, v), n) / nn, b = glm::dot(glm::cross(u, w), n) / nn;
-    return ellipse ? a * a + b * b <= Real(0.25) : std::fabs(a) <= Real(0.5) && std::fabs(b) <= Real(0.5);
+    return inside(origin + toward);
   }
 
-  // Area, a rectangle: the rectangle seen from `point`, to sample by solid angle.
+  // Area, u ⟂ v: the rectangle (an ellipse's: the one around it) seen from `point`, to sample by
+  // solid angle.
   SphericalRectangle seenFrom(const Vec3<Real>& point) const {
     const Vec3d corner = Vec3d(vector) - (Vec3d(u) + Vec3d(v)) / 2.0;
     return SphericalRectangle(Vec3d(point), corner, Vec3d(u), Vec3d(v));
   }
 
-  // Area, a rectangle: the falloff of a point sampled by solid angle where it fills `solidAngle`:
-  // Ω / (area · samples), so that the term is the radiance color / area times Ω cosθ / samples.
+  // Area, u ⟂ v: the falloff of a point sampled by solid angle where its rectangle fills
+  // `solidAngle`: Ω / (area · samples), so that the term is the radiance color / area times
+  // Ω cosθ / samples (an ellipse's points outside it carry nothing: inside()).
   Real solidAngleFalloff(double solidAngle) const {
     return static_cast<Real>(solidAngle / (static_cast<double>(area) * samples));
   }
@@ -162,7 +171,8 @@ class Shading {
       light.ellipse = l.ellipse, light.samples = l.samples;
       const double parallelogram = glm::length(glm::cross(l.u, l.v));
       light.area = static_cast<Real>(l.ellipse ? kPi / 4 * parallelogram : parallelogram);
-      light.rectangle = !l.ellipse && std::fabs(glm::dot(l.u, l.v)) <= 1e-12 * glm::length(l.u) * glm::length(l.v);
+      light.perpendicular = std::fabs(glm::dot(l.u, l.v)) <= 1e-12 * glm::length(l.u) * glm::length(l.v);
+      light.semiAxis2 = static_cast<Real>(std::max(glm::dot(l.u, l.u), glm::dot(l.v, l.v)) / 4);
     }
   }
 
