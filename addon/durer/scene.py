@@ -68,7 +68,9 @@ class Scene:
 
         diffuse (kd): the flat colour without lights, the diffuse albedo with them;
         emission: added unlit (a light source seen directly; Blender's Emission);
-        specular (ks) and exponent: the Phong highlight ks·light·max(N·H, 0)^exponent, lit scenes only;
+        specular (ks) and exponent: the Phong highlight ks·light·max(N·H, 0)^exponent, lit scenes only
+        (on a reflective material, exponent >= _core.MIRROR_GLINT_EXPONENT: the mirror's glint of the
+        lights, without the area lights, which the mirror shows along its mirror direction);
         reflective: weight of what the mirror ray sees; transparent: weight of what the refracted ray
         sees, bent by Snell's law with index of refraction `ior` (> 0) inside the object.
         Only the effects some material calls for are simulated (see `render`'s stats["effects"]).
@@ -349,7 +351,9 @@ class Scene:
         inverse-square falloff: far away it lights as a point light of colour color·cos θ (θ off the
         normal), and nothing behind it. Near it, a shaded point receives the integral over the
         surface, estimated from `samples` points on it (at least 1, stratified, new ones for each
-        pixel sample); with shadows=True each casts a shadow ray, so shadows are soft."""
+        pixel sample); with shadows=True each casts a shadow ray, so shadows are soft. A reflective
+        material shows it where its mirror direction meets it: reflective · π·color / area (its
+        radiance), unless something stands in the way."""
         self._add(
             "add_area_light",
             _checks.vector3(position, "position"), _checks.vector3(u, "u"), _checks.vector3(v, "v"),

@@ -549,6 +549,7 @@ PYBIND11_MODULE(_core, m) {
   m.attr("KERNEL_SET") = kernels().isa;  // the instruction set of the hot kernels this CPU runs
   m.attr("RENDER_LIMITS") = py::dict(py::arg("side") = kRenderLimits.side, py::arg("max_bounces") = kRenderLimits.maxBounces,
                                      py::arg("rays_per_hit") = kRenderLimits.raysPerHit);
+  m.attr("MIRROR_GLINT_EXPONENT") = kMirrorGlintExponent;
   m.attr("PRECISIONS") = names(kPrecisionNames);
   m.attr("SPHERE_METHODS") = names(kSphereMethodNames);
   m.attr("SAMPLERS") = names(kSamplerNames);

@@ -77,6 +77,7 @@ EffectSet effectsFor(const Scene& scene, const RenderSettings& settings, const R
     e.sampledShadows = sampled(scene.directionalLights()) || sampled(scene.pointLights()) ||
                        sampled(scene.spotLights()) ||
                        std::any_of(areas.begin(), areas.end(), [](const AreaLight& l) { return l.shadows; });
+    e.mirroredLights = !areas.empty() && any(&Material::reflective);
   }
   e.shadows = e.viewedLights > 0 || e.sampledShadows;
   e.reflection = settings.maxBounces > 0 && any(&Material::reflective);

@@ -226,6 +226,8 @@ def test_phong_exponent_and_lobe_helpers():
     assert materials.phong_exponent(1.0) == 1.0 and materials.phong_exponent(0.0) == materials.MAX_EXPONENT
     assert materials.fresnel_f0(1.5) == pytest.approx(0.04) and materials.fresnel_f0(1.0) == 0.0
     assert materials.specular_lobe((0, 0, 0), 0.0) == {}
+    # Every mirror's highlight is the mirror's glint to the core: it leaves area lights to the mirror.
+    assert materials.phong_exponent(materials.MIRROR_ROUGHNESS) >= durer._core.MIRROR_GLINT_EXPONENT
     assert materials.specular_lobe((0.5, 0.5, 0.5), 0.0) == {
         "reflective": (0.5, 0.5, 0.5), "specular": (0.5 * 10008 / 8,) * 3, "exponent": 1e4}
 

@@ -37,7 +37,7 @@ _IGNORED_VISIBILITY = (
 _IGNORED_LIGHT_VISIBILITY = (
     ("visible_camera", True, "shown to the camera (Dürer draws no light itself)"),
     ("visible_diffuse", False, "lighting no diffuse surface"),
-    ("visible_glossy", False, "making no highlight"),
+    ("visible_glossy", False, "making no highlight nor showing in mirrors"),
 )
 
 

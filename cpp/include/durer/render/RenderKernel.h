@@ -22,9 +22,10 @@ RenderStats renderWith(const RenderJob& job) {
   const EffectSet& effects = job.effects;
   // Camera rays search the scene's own spheres through the camera's view, and a light's shadow rays
   // through the light's (for a few lights), never their hierarchy: a render with no other rays
-  // (bounces, occlusion, shadow rays all over a light) is prepared without it (at 10M spheres most of
-  // a first render's time), unless a view is refused.
+  // (bounces, occlusion, shadow rays all over a light, mirrors' rays toward area lights) is prepared
+  // without it (at 10M spheres most of a first render's time), unless a view is refused.
   const bool viewsOnly = !effects.bounces() && !effects.occlusion && !effects.sampledShadows &&
+                         !effects.mirroredLights &&
                          tiles::TileRenderer<Real, M>::viewsLights(effects);
   std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>(settings.threads, !viewsOnly);
   std::optional<tiles::TileRenderer<Real, M>> made;

@@ -45,8 +45,8 @@ struct ShadingLight {
   bool shadows = false;          // whether shadow rays are cast toward it
   Vec3<Real> u{0}, v{0};         // area: edge vectors
   bool ellipse = false;          // area: the ellipse inscribed in the parallelogram
-  bool perpendicular = false;    // area: u ⟂ v (a rectangle, or an ellipse with them for axes)
-  Real semiAxis2 = 0;            // area: the square of max(|u|, |v|) / 2
+  bool perpendicular = false;    // area: u ⟂ v to 1e-6 (a rectangle, or an ellipse with them for axes)
+  Real nearSquared = 0;          // area, an ellipse: (0.6 · its longer semi-axis)², where by area gets noisier
   Real area = 0;                 // area: of the surface
   int samples = 1;               // area: points per shaded hit; a light of some size: shadow rays per hit
   Real spread = 0;               // point, spot: its sphere's radius; directional: 1 − cos of its half angle
@@ -87,10 +87,12 @@ struct ShadingLight {
   }
 
   // Area, u ⟂ v: the rectangle (an ellipse's: the one around it) seen from `point`, to sample by
-  // solid angle.
+  // solid angle; v made exactly perpendicular to u (a shear of the nearly perpendicular parallelogram:
+  // the same area, a sliver of 1e-6 of it moved).
   SphericalRectangle seenFrom(const Vec3<Real>& point) const {
-    const Vec3d corner = Vec3d(vector) - (Vec3d(u) + Vec3d(v)) / 2.0;
-    return SphericalRectangle(Vec3d(point), corner, Vec3d(u), Vec3d(v));
+    const Vec3d a(u), b = Vec3d(v) - (glm::dot(Vec3d(v), a) / glm::dot(a, a)) * a;
+    const Vec3d corner = Vec3d(vector) - (a + b) / 2.0;
+    return SphericalRectangle(Vec3d(point), corner, a, b);
   }
 
   // Area, u ⟂ v: the falloff of a point sampled by solid angle where its rectangle fills
@@ -171,8 +173,9 @@ class Shading {
       light.ellipse = l.ellipse, light.samples = l.samples;
       const double parallelogram = glm::length(glm::cross(l.u, l.v));
       light.area = static_cast<Real>(l.ellipse ? kPi / 4 * parallelogram : parallelogram);
-      light.perpendicular = std::fabs(glm::dot(l.u, l.v)) <= 1e-12 * glm::length(l.u) * glm::length(l.v);
-      light.semiAxis2 = static_cast<Real>(std::max(glm::dot(l.u, l.u), glm::dot(l.v, l.v)) / 4);
+      // To 1e-6: edges from a float32 matrix (Blender's) are perpendicular to ~1e-8 at best.
+      light.perpendicular = std::fabs(glm::dot(l.u, l.v)) <= 1e-6 * glm::length(l.u) * glm::length(l.v);
+      light.nearSquared = static_cast<Real>(0.36 * std::max(glm::dot(l.u, l.u), glm::dot(l.v, l.v)) / 4);
     }
   }
 

@@ -22,6 +22,11 @@ struct MaterialIn {
   static MaterialIn from(const MaterialIn<double>& m);
 };
 
+// A reflective material's Phong lobe at least this narrow (about 2°) is its mirror's own reflection
+// of the lights, the glint of those no mirror ray meets (the Blender export's mirrors: roughness
+// <= 0.2, exponent >= 1248): an area light, which the mirror direction sees, is left out of it.
+inline constexpr double kMirrorGlintExponent = 1000;
+
 using Material = MaterialIn<double>;
 
 // The one description of a material's fields, in the struct's order: the binding takes materials
