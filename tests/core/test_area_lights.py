@@ -101,7 +101,7 @@ def test_a_light_near_a_surface_is_sampled_by_solid_angle(ellipse, height, rmse,
     # at these heights: by the solid angle they fill, each carries the same weight (measured 1.3 % /
     # 2.3 % / 2.9 %). Under the disc inscribed in it 21 % / 76 % / 82 % by area; by the solid angle
     # of the square around it, points outside the disc carrying nothing, 12 % / 14 % / 22 % (farther
-    # than its radius, by area: 1.1 % at height 1).
+    # than 0.6 of its radius, by area: 1.1 % at height 1).
     global HEIGHT
     saved, HEIGHT = HEIGHT, height
     try:
