@@ -24,6 +24,9 @@ MATERIAL_FIELDS: tuple[tuple[str, int, tuple[float, float, float] | float], ...]
 # The accepted numbers per precision (Limits.h, docs/numerics.md): {"float": {"coordinate": 1e18, "color": 1e18}, ...}
 LIMITS: dict[str, dict[str, float]]
 RENDER_LIMITS: dict[str, int]
+# A reflective material's Phong exponent from which its highlight is the mirror's glint (Material.h):
+# area lights are left to the mirror direction.
+MIRROR_GLINT_EXPONENT: float
 
 class CameraSpec:
     def __init__(
