@@ -66,7 +66,7 @@ struct ShadingLight {
   }
 
   // Area: whether `point`, on the light's plane, lies on its surface (inside the ellipse, or the
-  // parallelogram; a point sampled on the parallelogram always does).
+  // parallelogram).
   bool inside(const Vec3<Real>& point) const {
     // Its coordinates along u and v from the centre (u, v need not be perpendicular): w = a·u + b·v.
     const Vec3<Real> w = point - vector, n = glm::cross(u, v);
