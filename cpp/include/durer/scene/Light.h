@@ -47,8 +47,9 @@ struct SpotLight {
 // `color` is its radiant intensity along that normal in a point light's units, so that far away it
 // is a point light of colour color·cosθ with inverse-square falloff; near it, a shaded point
 // receives the integral over the surface, estimated from `samples` points on it (stratified; a
-// rectangle's uniform in the solid angle it fills, an ellipse's or a parallelogram's over its area;
-// a shadow ray toward each where it casts shadows), and its shadows are soft.
+// rectangle's uniform in the solid angle it fills, an ellipse's near its plane in its rectangle's,
+// farther off and a parallelogram's over its area; a shadow ray toward each where it casts
+// shadows), and its shadows are soft. A mirror sees it along its mirror direction.
 struct AreaLight {
   Vec3d position;  // world space, the centre
   Vec3d u, v;      // world space, full edge lengths; u × v != 0
