@@ -46,7 +46,7 @@ struct ShadingLight {
   Vec3<Real> u{0}, v{0};         // area: edge vectors
   bool ellipse = false;          // area: the ellipse inscribed in the parallelogram
   bool perpendicular = false;    // area: u ⟂ v to 1e-6 (a rectangle, or an ellipse with them for axes)
-  Real nearSquared = 0;          // area, an ellipse: (0.6 · its longer semi-axis)², where by area gets noisier
+  Real nearSquared = 0;          // area, an ellipse: 0.36 · the product of its semi-axes, where by area gets noisier
   Real area = 0;                 // area: of the surface
   int samples = 1;               // area: points per shaded hit; a light of some size: shadow rays per hit
   Real spread = 0;               // point, spot: its sphere's radius; directional: 1 − cos of its half angle
@@ -88,7 +88,7 @@ struct ShadingLight {
 
   // Area, u ⟂ v: the rectangle (an ellipse's: the one around it) seen from `point`, to sample by
   // solid angle; v made exactly perpendicular to u (a shear of the nearly perpendicular parallelogram:
-  // the same area, a sliver of 1e-6 of it moved).
+  // the same area, a sliver of cos·|v| / (4|u|) of it moved, cos <= 1e-6).
   SphericalRectangle seenFrom(const Vec3<Real>& point) const {
     const Vec3d a(u), b = Vec3d(v) - (glm::dot(Vec3d(v), a) / glm::dot(a, a)) * a;
     const Vec3d corner = Vec3d(vector) - (a + b) / 2.0;
@@ -175,7 +175,7 @@ class Shading {
       light.area = static_cast<Real>(l.ellipse ? kPi / 4 * parallelogram : parallelogram);
       // To 1e-6: edges from a float32 matrix (Blender's) are perpendicular to ~1e-8 at best.
       light.perpendicular = std::fabs(glm::dot(l.u, l.v)) <= 1e-6 * glm::length(l.u) * glm::length(l.v);
-      light.nearSquared = static_cast<Real>(0.36 * std::max(glm::dot(l.u, l.u), glm::dot(l.v, l.v)) / 4);
+      light.nearSquared = static_cast<Real>(0.36 * glm::length(l.u) * glm::length(l.v) / 4);
     }
   }
 
