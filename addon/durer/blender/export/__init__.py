@@ -16,8 +16,9 @@ Conventions (verified against Cycles in bpy 5.0.1, see docs/blender.md):
   renders exactly as an ellipsoid.
 * Lights are radiometric as in Cycles (see `lights`). Materials become 6.837 materials (see
   `materials.material_data`): ``material.durer`` states one exactly; else Principled metallic and
-  specular reflectance make a mirror (roughness <= MIRROR_ROUGHNESS) or a Phong highlight of the
-  same width and peak, transmission makes a transparent colour with the IOR. Light "Cast Shadow"
+  specular reflectance make a Phong highlight of the lobe's width and peak, and a mirror as well
+  at roughness <= MIRROR_ROUGHNESS (the highlight then the lights' glint), transmission makes a
+  transparent colour with the IOR. Light "Cast Shadow"
   -> shadows.
 * The camera keeps Blender's parameters (fit, shift in units of the fitted extent, clip range,
   pixel aspect) and the resolved image size.
