@@ -69,14 +69,15 @@ class Scene:
         transform: NDArray[np.float64] | None, colors: NDArray[np.float64] | None = None,
     ) -> int: ...
     def add_directional_light(
-        self, direction: _Triple, color: _Triple, shadows: bool, half_angle: float, samples: int,
+        self, direction: _Triple, color: _Triple, shadows: bool, half_angle: float, samples: int, soft: bool,
     ) -> None: ...
     def add_point_light(
         self, position: _Triple, color: _Triple, attenuation: _Triple, shadows: bool, radius: float, samples: int,
+        soft: bool,
     ) -> None: ...
     def add_spot_light(
         self, position: _Triple, direction: _Triple, color: _Triple, attenuation: _Triple, cos_half_angle: float,
-        blend: float, shadows: bool, radius: float, samples: int,
+        blend: float, shadows: bool, radius: float, samples: int, soft: bool,
     ) -> None: ...
     def add_area_light(
         self, position: _Triple, u: _Triple, v: _Triple, color: _Triple, ellipse: bool, samples: int, shadows: bool,

@@ -268,18 +268,20 @@ class Scene:
         shadows: bool = False,
         angle_degrees: float = 0.0,
         samples: int = 16,
+        soft_shadows: bool = True,
     ) -> None:
         """A light infinitely far away. `direction` is the way the light travels (surfaces facing
         -direction are lit); `color` is linear RGB >= 0 and does not fall off. With shadows=True,
         occluders between a point and the light block it (a shadow ray per lit point). A nonzero
         `angle_degrees` (the angular diameter of the light's disc, in [0, 180): Blender's Sun Angle)
-        softens its shadows: its light times the fraction of `samples` shadow rays, spread over
-        the disc's directions, that nothing blocks."""
+        spreads its highlights over the disc (their light kept) and softens its shadows: its light
+        times the fraction of `samples` shadow rays, spread over the disc's directions, that
+        nothing blocks (soft_shadows=False: hard shadows along `direction`)."""
         angle = _checks.finite_real(angle_degrees, "angle_degrees")
         self._add(
             "add_directional_light",
             _checks.vector3(direction, "direction"), _checks.color(color, "color"), _checks.boolean(shadows, "shadows"),
-            math.radians(angle) / 2, _checks.c_int(samples, "samples"),
+            math.radians(angle) / 2, _checks.c_int(samples, "samples"), _checks.boolean(soft_shadows, "soft_shadows"),
         )
 
     def add_point_light(
@@ -291,18 +293,21 @@ class Scene:
         shadows: bool = False,
         radius: float = 0.0,
         samples: int = 16,
+        soft_shadows: bool = True,
     ) -> None:
         """A light at `position`. `color` (linear RGB >= 0) arrives at distance d as
         color / (c0 + c1·d + c2·d²) with attenuation = (c0, c1, c2): (1, 0, 0), the default, is the
         6.837 light without falloff; (0, 0, 1) the physical inverse square of Cycles. With
         shadows=True, occluders strictly between a point and the light block it. A nonzero `radius`
-        (Blender's light Radius) makes it a sphere's light for shadows: its light unchanged, times
-        the fraction of `samples` shadow rays, toward points spread over the sphere as a shaded
-        point sees it, that nothing blocks (soft shadows)."""
+        (Blender's light Radius) makes it a sphere's light: its highlights spread over the sphere
+        as a shaded point sees it (their light kept), and its shadows are its light unchanged times
+        the fraction of `samples` shadow rays, toward points spread over the sphere, that nothing
+        blocks (soft shadows; soft_shadows=False: hard shadows from its centre)."""
         self._add(
             "add_point_light", _checks.vector3(position, "position"), _checks.color(color, "color"),
             _checks.color(attenuation, "attenuation"), _checks.boolean(shadows, "shadows"),
             _checks.real(radius, "radius"), _checks.c_int(samples, "samples"),
+            _checks.boolean(soft_shadows, "soft_shadows"),
         )
 
     def add_spot_light(
@@ -317,11 +322,12 @@ class Scene:
         shadows: bool = False,
         radius: float = 0.0,
         samples: int = 16,
+        soft_shadows: bool = True,
     ) -> None:
         """A point light that shines along `direction` within a cone of `half_angle_degrees` in
         (0, 180). `blend` in [0, 1] softens the edge as Blender's spot blend does:
         smoothstep((cos θ − cos half) / ((1 − cos half)·blend)); 0 is a hard edge. `attenuation`,
-        `shadows`, `radius` and `samples` as for point lights."""
+        `shadows`, `radius`, `samples` and `soft_shadows` as for point lights."""
         half = _checks.finite_real(half_angle_degrees, "half_angle_degrees")
         if not 0 < half < 180:
             raise ValueError(f"half_angle_degrees must be in (0, 180), got {half}")
@@ -331,6 +337,7 @@ class Scene:
             _checks.color(color, "color"), _checks.color(attenuation, "attenuation"),
             math.cos(math.radians(half)), _checks.real(blend, "blend"), _checks.boolean(shadows, "shadows"),
             _checks.real(radius, "radius"), _checks.c_int(samples, "samples"),
+            _checks.boolean(soft_shadows, "soft_shadows"),
         )
 
     def add_area_light(

@@ -475,19 +475,19 @@ PYBIND11_MODULE(_core, m) {
           },
           py::arg("lo"), py::arg("hi"), py::arg("materials"), py::arg("transform"), py::arg("colors") = py::none())
       .def("add_directional_light",
-           [](Scene& s, const Triple& d, const Triple& c, bool shadows, double halfAngle, int samples) {
-             s.addDirectionalLight(DirectionalLight{vec(d), vec(c), shadows, SoftShadows{halfAngle, samples}});
+           [](Scene& s, const Triple& d, const Triple& c, bool shadows, double halfAngle, int samples, bool soft) {
+             s.addDirectionalLight(DirectionalLight{vec(d), vec(c), shadows, SoftShadows{halfAngle, samples, soft}});
            })
       .def("add_point_light",
            [](Scene& s, const Triple& p, const Triple& c, const Triple& attenuation, bool shadows, double radius,
-              int samples) {
-             s.addPointLight(PointLight{vec(p), vec(c), vec(attenuation), shadows, SoftShadows{radius, samples}});
+              int samples, bool soft) {
+             s.addPointLight(PointLight{vec(p), vec(c), vec(attenuation), shadows, SoftShadows{radius, samples, soft}});
            })
       .def("add_spot_light",
            [](Scene& s, const Triple& p, const Triple& d, const Triple& c, const Triple& attenuation,
-              double cosHalfAngle, double blend, bool shadows, double radius, int samples) {
+              double cosHalfAngle, double blend, bool shadows, double radius, int samples, bool soft) {
              s.addSpotLight(SpotLight{vec(p), vec(d), vec(c), vec(attenuation), cosHalfAngle, blend, shadows,
-                                      SoftShadows{radius, samples}});
+                                      SoftShadows{radius, samples, soft}});
            })
       .def("add_area_light",
            [](Scene& s, const Triple& p, const Triple& u, const Triple& v, const Triple& c, bool ellipse, int samples,

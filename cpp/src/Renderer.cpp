@@ -64,10 +64,12 @@ EffectSet effectsFor(const Scene& scene, const RenderSettings& settings, const R
   // Lights casting shadows whose rays views could serve (all through the light's point, or along its
   // direction), and whether some light's rays go all over it instead (an area light, a light of some size).
   const auto hard = [](const auto& lights) {
-    return int(std::count_if(lights.begin(), lights.end(), [](const auto& l) { return l.shadows && !(l.soft.size > 0); }));
+    return int(std::count_if(lights.begin(), lights.end(),
+                             [](const auto& l) { return l.shadows && !(l.soft.sampled && l.soft.size > 0); }));
   };
   const auto sampled = [](const auto& lights) {
-    return std::any_of(lights.begin(), lights.end(), [](const auto& l) { return l.shadows && l.soft.size > 0; });
+    return std::any_of(lights.begin(), lights.end(),
+                       [](const auto& l) { return l.shadows && l.soft.sampled && l.soft.size > 0; });
   };
   e.lit = scene.lit();
   e.specular = e.lit && any(&Material::specular);

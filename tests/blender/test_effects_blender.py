@@ -302,7 +302,8 @@ def hand_built_mirror_scene():
     sc.add_spheres([[0.0, 0.0, 0.0]], [1.0], material=chrome)
     sc.add_plane((0, 1, 0), -10.0, material=glow, bounds=((-3, -10, -3), (0, 0, 6), (6, 0, 0)))
     sun = np.array(bpy.data.objects["Sun"].matrix_world.to_3x3().col[2])
-    sc.add_directional_light(-sun, np.full(3, 2.0 / math.pi), shadows=True)
+    angle = math.degrees(bpy.data.objects["Sun"].data.angle)  # Blender's 0.526°: it spreads the glint
+    sc.add_directional_light(-sun, np.full(3, 2.0 / math.pi), shadows=True, angle_degrees=angle, soft_shadows=False)
     sc.shading = "lit"
     sc.background = (*(f32(c) for c in WORLD), 1.0)
     sc.ambient = tuple(f32(c) for c in WORLD)
@@ -404,7 +405,7 @@ def test_default_material_gets_a_phong_highlight(scene, tmp_path):
     world(scene, (0, 0, 0))
     uv_sphere(scene, "Plastic").data.materials.append(bpy.data.materials.new("Default"))
     ortho_camera(scene, (0, -5, 0))
-    sun = light(scene, "SUN", energy=1.0)
+    sun = light(scene, "SUN", energy=1.0, angle=0.0)  # a point-like sun: the lobe's own highlight
     sun.rotation_euler = scene.camera.rotation_euler
     out = render_passes(scene, tmp_path / "phong.exr", depth=False, normal=False)
     expected = (f32(0.8) * 0.96 + 0.19) / math.pi

@@ -30,9 +30,9 @@ def chrome(name: str, roughness: float):
     return mat
 
 
-def lit_ball(s, roughness: float, kind: str):
+def lit_ball(s, roughness: float, kind: str, radius: float = 0.0):
     """An exact unit ball of chrome before a black world, seen orthographically along +Y; the
-    light 30° above the view axis (a Sun, or a Point light of Radius 0 six units away)."""
+    light 30° above the view axis (a Sun, or a Point light of `radius` six units away)."""
     world(s, (0.0, 0.0, 0.0))
     s.render.resolution_x = s.render.resolution_y = SIZE
     aim_camera(s, (0, -6, 0))
@@ -45,7 +45,7 @@ def lit_ball(s, roughness: float, kind: str):
     if kind == "SUN":
         light(s, "SUN", energy=3.0, rotation=(60 * DEG, 0, 0))
     else:
-        light(s, "POINT", energy=1000.0, location=tuple(6.0 * toward), shadow_soft_size=0.0)
+        light(s, "POINT", energy=1000.0, location=tuple(6.0 * toward), shadow_soft_size=radius)
 
 
 def glint(s, path, engine: str) -> np.ndarray:
@@ -73,6 +73,19 @@ def test_a_chrome_ball_glints_with_cycles_energy(scene, tmp_path, kind, roughnes
         cycles_glint.argmax(), cycles_glint.shape)
     if roughness >= 0.15:
         assert durer_glint.max() == pytest.approx(cycles_glint.max(), rel=0.1)
+
+
+def test_a_large_lights_glint_spreads_over_it_like_cycles(scene, tmp_path):
+    # A Point light of Radius 0.5 six units off: Cycles' glint is the sphere's image, 7.7 px across
+    # at 200 x 200 (measured: Dürer's 7.65 px, its peak 0.66-0.9 of Cycles' for roughness 0-0.3,
+    # where a glint as narrow as the material's lobe peaked 11x above it at roughness 0.1).
+    lit_ball(scene, 0.1, "POINT", radius=0.5)
+    durer_glint = glint(scene, tmp_path / "durer.exr", "DURER")
+    cycles_glint = glint(scene, tmp_path / "cycles.exr", "CYCLES")
+    assert 0.9 < durer_glint.sum() / cycles_glint.sum() < 1.0
+    assert 0.5 < durer_glint.max() / cycles_glint.max() < 1.1
+    spread = [(image > image.max() / 2).sum() for image in (durer_glint, cycles_glint)]
+    assert spread[0] == pytest.approx(spread[1], rel=0.4)
 
 
 def test_a_mirror_floor_shows_an_area_light_at_its_radiance_like_cycles(scene, tmp_path):

@@ -1,7 +1,8 @@
 """Soft shadows of a point or spot light's sphere (radius) and a sun's disc (angle): the light's own
 term, times the fraction of its shadow rays — spread uniformly over the cone of directions the light
 fills — that nothing blocks; against that fraction computed in numpy, and bit for bit the hard
-light's image where nothing is in the way."""
+light's image where nothing is in the way; hard shadows of a light of some size (soft_shadows=False);
+highlights spread over the light's size, keeping their light."""
 
 from __future__ import annotations
 
@@ -136,6 +137,46 @@ def test_radius_zero_or_no_shadows_is_the_hard_light_bit_for_bit():
                         CAMERA, N, N).stats["shadow_rays"] == 8 * durer.render(
         scene_with(lambda s: s.add_point_light((0.3, -0.2, 1.6), (3, 3, 3), shadows=True)), CAMERA, N, N
     ).stats["shadow_rays"]
+
+
+def test_soft_shadows_off_casts_the_hard_lights_shadows():
+    def render(**kw):
+        return durer.render(scene_with(lambda s: s.add_point_light((0.3, -0.2, 1.6), (3, 3, 3), attenuation=(0, 0, 1),
+                                                                    shadows=True, **kw)), CAMERA, N, N)
+
+    hard = render()
+    sized = render(radius=0.4, samples=8, soft_shadows=False)
+    np.testing.assert_array_equal(sized.color, hard.color)  # diffuse: the size only spreads highlights
+    assert sized.stats["shadow_rays"] == hard.stats["shadow_rays"]
+    assert render(radius=0.4, samples=8).stats["shadow_rays"] == 8 * hard.stats["shadow_rays"]
+    with pytest.raises(TypeError, match="soft_shadows"):
+        durer.Scene().add_point_light((0, 0, 1), (1, 1, 1), soft_shadows="no")
+
+
+@pytest.mark.parametrize("kind", ["point", "sun"])
+def test_a_highlight_spreads_over_the_lights_size_keeping_its_light(kind):
+    # A glossy floor (a normalised lobe, exponent 1000) seen from above: the highlight of a light of
+    # angular radius α spreads (the half vector's variance 1/n + α²/(8 ln 2)) and dims as the
+    # normalised lobe's peak does, its light kept (the sum over the floor: measured +1.0 % / +3.3 %,
+    # the (n + 8)/8 normalisation being approximate).
+    def image(size):
+        scene = durer.Scene()
+        n = 1000.0
+        scene.add_plane((0, 0, 1), 0.0, material=scene.add_material((0, 0, 0), specular=(0.05 * (n + 8) / 8,) * 3,
+                                                                     exponent=n))
+        if kind == "point":
+            scene.add_point_light((0, 0, 3.0), (9, 9, 9), attenuation=(0, 0, 1), radius=size, soft_shadows=False)
+        else:
+            scene.add_directional_light((0, 0, -1), (1, 1, 1), angle_degrees=math.degrees(2 * size))
+        camera = durer.PerspectiveCamera((0, 0, 3.0), (0, 0, -1), (0, 1, 0), 60.0)  # the whole highlight
+        return durer.render(scene, camera, 161, 161, precision="double", spp=4).color[..., 0]
+
+    alpha = 0.1  # radians: a 0.3 m sphere 3 m off, or a sun 11.5° across
+    sharp, spread = image(0.0), image(0.3 if kind == "point" else alpha)
+    assert spread.sum() == pytest.approx(sharp.sum(), rel=0.05)
+    n_spread = 1000.0 / (1 + 1000.0 * alpha**2 / (8 * math.log(2)))
+    assert spread.max() / sharp.max() == pytest.approx((n_spread + 8) / 1008, rel=0.05)
+    assert (spread > spread.max() / 2).sum() > 2 * (sharp > sharp.max() / 2).sum()  # measured: 2.7x / 2.8x
 
 
 def test_a_point_inside_the_lights_sphere_is_lit_as_by_the_hard_light():

@@ -365,10 +365,12 @@ def _api_call(scene: durer.Scene, src: Source) -> None:
 
 
 def _soft(src: Source, size: str, ordinary: Callable[[], Any]) -> dict[str, Any]:
-    """A light's soft shadows, half the time: its size (radius or angle) and a few samples."""
+    """A light's size, half the time (radius or angle: highlights spread over it), with a few samples
+    for soft shadows or none (soft_shadows=False)."""
     if not src.chance(128):
         return {}
-    return {size: src.value(ordinary), "samples": src.value(lambda: src.below(5))}
+    return {size: src.value(ordinary), "samples": src.value(lambda: src.below(5)),
+            "soft_shadows": src.value(lambda: src.chance(192))}
 
 
 def _camera(src: Source, api: Any) -> Any:

@@ -68,10 +68,11 @@ def make_scene(data: SceneData) -> durer.Scene:
                            colors=mesh.colors, normals=mesh.normals)
     for light in data.lights:
         attenuation = light.attenuation
-        size = light.size if data.soft_shadows else 0.0
+        size, soft = light.size, data.soft_shadows  # the size spreads highlights with soft shadows off too
         if light.kind == "sun":
             scene.add_directional_light(light.direction, light.color, shadows=light.shadows,
-                                        angle_degrees=min(math.degrees(size), 179.999), samples=data.light_samples)
+                                        angle_degrees=min(math.degrees(size), 179.999), samples=data.light_samples,
+                                        soft_shadows=soft)
         elif light.kind == "spot":
             scene.add_spot_light(
                 light.position,
@@ -83,13 +84,14 @@ def make_scene(data: SceneData) -> durer.Scene:
                 shadows=light.shadows,
                 radius=size,
                 samples=data.light_samples,
+                soft_shadows=soft,
             )
         elif light.kind == "area":
             scene.add_area_light(light.position, *light.edges, light.color, ellipse=light.ellipse,
                                  samples=data.light_samples, shadows=light.shadows)
         else:
             scene.add_point_light(light.position, light.color, attenuation=attenuation, shadows=light.shadows,
-                                  radius=size, samples=data.light_samples)
+                                  radius=size, samples=data.light_samples, soft_shadows=soft)
     scene.shading = "lit"  # a Blender scene without lights shows only the world's light, never flat colours
     scene.background = data.background
     scene.ambient = data.ambient

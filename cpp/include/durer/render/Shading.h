@@ -49,7 +49,8 @@ struct ShadingLight {
   Real nearSquared = 0;          // area, an ellipse: 0.36 · the product of its semi-axes, where by area gets noisier
   Real area = 0;                 // area: of the surface
   int samples = 1;               // area: points per shaded hit; a light of some size: shadow rays per hit
-  Real spread = 0;               // point, spot: its sphere's radius; directional: 1 − cos of its half angle
+  Real spread = 0;               // soft shadows: point, spot: its sphere's radius; directional: 1 − cos of its half angle
+  Real size = 0;                 // point, spot: its sphere's radius; directional: its half angle (highlights)
 
   // Whether its shadow rays all pass through one point (or run along one direction), so that a view
   // of the spheres from there can serve them: not an area light's, nor a light of some size's.
@@ -110,6 +111,15 @@ struct ShadingLight {
     return std::min(cosine / d2, std::numeric_limits<Real>::max()) / static_cast<Real>(samples);
   }
 
+  // Point, spot, directional of some size: the square of the angle its sphere's or disc's radius
+  // spans seen from `point` (at most 1: from inside the sphere, a radian).
+  Real angularRadius2(const Vec3<Real>& point) const {
+    if (kind == Kind::Directional) return size * size;
+    const Vec3<Real> w = vector - point;
+    const Real d2 = glm::dot(w, w);
+    return size * size < d2 ? size * size / d2 : Real(1);
+  }
+
   Vec3<Real> toLight(const Vec3<Real>& point) const {  // unit
     return kind == Kind::Directional ? vector : glm::normalize(vector - point);
   }
@@ -151,20 +161,23 @@ class Shading {
     for (const DirectionalLight& l : scene.directionalLights()) {
       ShadingLight<Real>& light = add(Kind::Directional, -l.direction, l.color, l.shadows);
       const double half = l.soft.size;
-      light.spread = static_cast<Real>(2 * std::sin(half / 2) * std::sin(half / 2));  // 1 − cos, no cancellation
+      light.size = static_cast<Real>(half);
+      if (l.soft.sampled) light.spread = static_cast<Real>(2 * std::sin(half / 2) * std::sin(half / 2));  // 1 − cos, no cancellation
       light.samples = l.soft.samples;
     }
     for (const PointLight& l : scene.pointLights()) {
       ShadingLight<Real>& light = add(Kind::Point, l.position, l.color, l.shadows);
       light.attenuation = toReal<Real>(l.attenuation);
-      light.spread = static_cast<Real>(l.soft.size), light.samples = l.soft.samples;
+      light.size = static_cast<Real>(l.soft.size), light.samples = l.soft.samples;
+      if (l.soft.sampled) light.spread = light.size;
     }
     for (const SpotLight& l : scene.spotLights()) {
       ShadingLight<Real>& light = add(Kind::Spot, l.position, l.color, l.shadows);
       light.attenuation = toReal<Real>(l.attenuation);
       light.axis = toReal<Real>(l.direction);
       light.cosHalfAngle = static_cast<Real>(l.cosHalfAngle), light.blend = static_cast<Real>(l.blend);
-      light.spread = static_cast<Real>(l.soft.size), light.samples = l.soft.samples;
+      light.size = static_cast<Real>(l.soft.size), light.samples = l.soft.samples;
+      if (l.soft.sampled) light.spread = light.size;
     }
     for (const AreaLight& l : scene.areaLights()) {
       ShadingLight<Real>& light = add(Kind::Area, l.position, l.color, l.shadows);

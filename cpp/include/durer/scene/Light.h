@@ -3,13 +3,15 @@
 
 namespace durer {
 
-// A light's soft shadows (a point or spot light's radius, a directional light's angle): its term
-// unchanged, times the share of it that reaches a shaded hit — of `samples` shadow rays toward
-// points spread uniformly over the cone it subtends there, those nothing blocks, weighted by their
-// cosines with the normal. Size 0: hard shadows, one ray.
+// A light's size (a point or spot light's radius, a directional light's angle) and its soft
+// shadows: its term unchanged, times the share of it that reaches a shaded hit — of `samples`
+// shadow rays toward points spread uniformly over the cone it subtends there, those nothing blocks,
+// weighted by their cosines with the normal. Size 0, or not `sampled`: hard shadows from its
+// centre, one ray. Either way its highlights spread over the cone (PacketShader::lightTerm).
 struct SoftShadows {
   double size = 0;  // a sphere's radius (point, spot), or a cone's half angle in radians (directional)
   int samples = 1;  // in [1, RenderLimits::raysPerHit]
+  bool sampled = true;
 };
 
 struct DirectionalLight {
