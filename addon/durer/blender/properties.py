@@ -302,7 +302,7 @@ class DurerSceneSettings(bpy.types.PropertyGroup):
         name="Soft Shadows",
         description="Point and Spot lights' Radius and Suns' Angle soften their shadows as in Cycles, with "
         "Light Samples shadow rays per shaded point; off: hard shadows from the light's centre, one ray "
-        "(Area lights' shadows are always soft)",
+        "(Area lights' shadows are always soft; the Radius and Angle spread highlights either way)",
         default=False,
     )
     light_samples: IntProperty(

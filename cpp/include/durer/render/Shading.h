@@ -30,8 +30,9 @@ inline void concentricDisc(double u, double v, double& x, double& y) {
 // A light in the render's precision: directional, point, spot and area alike. An area light is met
 // through points on its surface, `samples` of them per shaded hit (surfacePoint), each seen as a
 // point light of colour color · cosθ / samples (θ: off the light's normal) with inverse-square
-// falloff: their mean estimates the surface's integral. A light of some size (`spread`) casting
-// shadows sends `samples` shadow rays per hit toward points all over it (PacketShader::addSoftLight).
+// falloff: their mean estimates the surface's integral. A light of some size (`size`) spreads its
+// highlights over it; one with soft shadows (`spread`) casting shadows sends `samples` shadow rays
+// per hit toward points all over it (PacketShader::addSoftLight).
 template <typename Real>
 struct ShadingLight {
   enum class Kind { Directional, Point, Spot, Area };
@@ -53,7 +54,7 @@ struct ShadingLight {
   Real size = 0;                 // point, spot: its sphere's radius; directional: its half angle (highlights)
 
   // Whether its shadow rays all pass through one point (or run along one direction), so that a view
-  // of the spheres from there can serve them: not an area light's, nor a light of some size's.
+  // of the spheres from there can serve them: not an area light's, nor a soft-shadowed one's.
   bool viewable() const { return kind != Kind::Area && !(spread > 0); }
 
   // Area: the point of the surface for (a, b) in [0, 1)^2, uniform over it (an affine map of the
@@ -112,7 +113,8 @@ struct ShadingLight {
   }
 
   // Point, spot, directional of some size: the square of the angle its sphere's or disc's radius
-  // spans seen from `point` (at most 1: from inside the sphere, a radian).
+  // spans seen from `point` (a sphere's at most 1: from inside it, a radian; a disc's half angle
+  // below π/2).
   Real angularRadius2(const Vec3<Real>& point) const {
     if (kind == Kind::Directional) return size * size;
     const Vec3<Real> w = vector - point;
