@@ -65,11 +65,11 @@ EffectSet effectsFor(const Scene& scene, const RenderSettings& settings, const R
   // direction), and whether some light's rays go all over it instead (an area light, a light of some size).
   const auto hard = [](const auto& lights) {
     return int(std::count_if(lights.begin(), lights.end(),
-                             [](const auto& l) { return l.shadows && !(l.soft.sampled && l.soft.size > 0); }));
+                             [](const auto& l) { return l.shadows && !l.soft.on(); }));
   };
   const auto sampled = [](const auto& lights) {
     return std::any_of(lights.begin(), lights.end(),
-                       [](const auto& l) { return l.shadows && l.soft.sampled && l.soft.size > 0; });
+                       [](const auto& l) { return l.shadows && l.soft.on(); });
   };
   e.lit = scene.lit();
   e.specular = e.lit && any(&Material::specular);

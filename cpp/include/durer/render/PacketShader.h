@@ -299,8 +299,8 @@ class PacketShader {
       const Hit<Real>& h = hits[k];
       const MaterialIn<Real>& m = m_shading.material(h.materialId);
       if (!(maxComponent(m.reflective) > 0)) continue;
-      const Vec3<Real> r = glm::reflect(glm::normalize(direction(packet, k)), h.normal);  // as addBounces'
-      const Vec3<Real> origin = offsetRayOrigin(h.point, h.geometricNormal, h.pointError, r);
+      Vec3<Real> origin, r;
+      mirrorRay(h, glm::normalize(direction(packet, k)), origin, r);
       Vec3<Real> toward;
       if (!light.mirroredFrom(origin, r, toward)) continue;
       const int j = shadow.count++;
@@ -545,6 +545,13 @@ class PacketShader {
     return static_cast<uint32_t>(key);
   }
 
+  // The mirror ray of hit h for the unit direction d that found it: its origin and direction (the
+  // same for the shading normal and its opposite), as a bounce traces it and addMirrored tests it.
+  static void mirrorRay(const Hit<Real>& h, const Vec3<Real>& d, Vec3<Real>& origin, Vec3<Real>& r) {
+    r = glm::reflect(d, h.normal);
+    origin = offsetRayOrigin(h.point, h.geometricNormal, h.pointError, r);
+  }
+
   // A secondary ray waiting to be traced: where it starts and goes, whose colour it adds to, how much.
   struct Child {
     Vec3<Real> origin, direction;
@@ -561,13 +568,12 @@ class PacketShader {
       if (!hits[k].isHit()) continue;
       const MaterialIn<Real>& m = m_shading.material(hits[k].materialId);
       const Vec3<Real> d = glm::normalize(direction(packet, k));
-      const Vec3<Real>& n = hits[k].normal;
       const bool reflective = m_effects.reflection && maxComponent(m.reflective) > 0;
       const bool transparent = m_effects.refraction && maxComponent(m.transparent) > 0;
       if (reflective && spawnable(weights[k] * maxComponent(m.reflective), depth, counters)) {
-        const Vec3<Real> r = glm::reflect(d, n);  // the same for n and -n
-        children[count++] = {offsetRayOrigin(hits[k].point, hits[k].geometricNormal, hits[k].pointError, r), r, k, m.reflective,
-                             weights[k] * maxComponent(m.reflective)};
+        Vec3<Real> origin, r;
+        mirrorRay(hits[k], d, origin, r);
+        children[count++] = {origin, r, k, m.reflective, weights[k] * maxComponent(m.reflective)};
         ++counters.reflection;
       }
       if (transparent && spawnable(weights[k] * maxComponent(m.transparent), depth, counters)) {

@@ -31,7 +31,7 @@ inline void concentricDisc(double u, double v, double& x, double& y) {
 // through points on its surface, `samples` of them per shaded hit (surfacePoint), each seen as a
 // point light of colour color · cosθ / samples (θ: off the light's normal) with inverse-square
 // falloff: their mean estimates the surface's integral. A light of some size (`size`) spreads its
-// highlights over it; one with soft shadows (`spread`) casting shadows sends `samples` shadow rays
+// highlights over it; one with soft shadows (`softShadows`, `spread`) casting shadows sends `samples` shadow rays
 // per hit toward points all over it (PacketShader::addSoftLight).
 template <typename Real>
 struct ShadingLight {
@@ -50,12 +50,13 @@ struct ShadingLight {
   Real nearSquared = 0;          // area, an ellipse: 0.36 · the product of its semi-axes, where by area gets noisier
   Real area = 0;                 // area: of the surface
   int samples = 1;               // area: points per shaded hit; a light of some size: shadow rays per hit
+  bool softShadows = false;      // point, spot, directional: its shadows sampled over its size (SoftShadows::on)
   Real spread = 0;               // soft shadows: point, spot: its sphere's radius; directional: 1 − cos of its half angle
   Real size = 0;                 // point, spot: its sphere's radius; directional: its half angle (highlights)
 
   // Whether its shadow rays all pass through one point (or run along one direction), so that a view
   // of the spheres from there can serve them: not an area light's, nor a soft-shadowed one's.
-  bool viewable() const { return kind != Kind::Area && !(spread > 0); }
+  bool viewable() const { return kind != Kind::Area && !softShadows; }
 
   // Area: the point of the surface for (a, b) in [0, 1)^2, uniform over it (an affine map of the
   // unit square, or of the unit disc for an ellipse).
@@ -163,23 +164,23 @@ class Shading {
     for (const DirectionalLight& l : scene.directionalLights()) {
       ShadingLight<Real>& light = add(Kind::Directional, -l.direction, l.color, l.shadows);
       const double half = l.soft.size;
-      light.size = static_cast<Real>(half);
-      if (l.soft.sampled) light.spread = static_cast<Real>(2 * std::sin(half / 2) * std::sin(half / 2));  // 1 − cos, no cancellation
+      light.size = static_cast<Real>(half), light.softShadows = l.soft.on();
+      if (light.softShadows) light.spread = static_cast<Real>(2 * std::sin(half / 2) * std::sin(half / 2));  // 1 − cos, no cancellation
       light.samples = l.soft.samples;
     }
     for (const PointLight& l : scene.pointLights()) {
       ShadingLight<Real>& light = add(Kind::Point, l.position, l.color, l.shadows);
       light.attenuation = toReal<Real>(l.attenuation);
-      light.size = static_cast<Real>(l.soft.size), light.samples = l.soft.samples;
-      if (l.soft.sampled) light.spread = light.size;
+      light.size = static_cast<Real>(l.soft.size), light.samples = l.soft.samples, light.softShadows = l.soft.on();
+      if (light.softShadows) light.spread = light.size;
     }
     for (const SpotLight& l : scene.spotLights()) {
       ShadingLight<Real>& light = add(Kind::Spot, l.position, l.color, l.shadows);
       light.attenuation = toReal<Real>(l.attenuation);
       light.axis = toReal<Real>(l.direction);
       light.cosHalfAngle = static_cast<Real>(l.cosHalfAngle), light.blend = static_cast<Real>(l.blend);
-      light.size = static_cast<Real>(l.soft.size), light.samples = l.soft.samples;
-      if (l.soft.sampled) light.spread = light.size;
+      light.size = static_cast<Real>(l.soft.size), light.samples = l.soft.samples, light.softShadows = l.soft.on();
+      if (light.softShadows) light.spread = light.size;
     }
     for (const AreaLight& l : scene.areaLights()) {
       ShadingLight<Real>& light = add(Kind::Area, l.position, l.color, l.shadows);

@@ -12,6 +12,7 @@ struct SoftShadows {
   double size = 0;  // a sphere's radius (point, spot), or a cone's half angle in radians (directional)
   int samples = 1;  // in [1, RenderLimits::raysPerHit]
   bool sampled = true;
+  bool on() const { return sampled && size > 0; }  // its shadows sampled over it
 };
 
 struct DirectionalLight {
