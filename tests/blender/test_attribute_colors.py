@@ -333,6 +333,31 @@ def test_instanced_meshes_take_their_instance_colour_read_by_an_instancer_attrib
         np.testing.assert_allclose(d["color"][row, col, :3], c["color"][row, col, :3], rtol=0.02, atol=1e-3)
 
 
+def test_geometry_nodes_instances_of_a_mesh_coloured_by_its_own_attribute_stay_triangles(scene, tmp_path):
+    """A UV sphere painted in two colours (its default colour attribute, read by a Color Attribute
+    node) instanced on points: its triangles in each instance, with the mesh's colours, as Cycles
+    renders them (not a sphere of one colour: that is for Instancer attributes)."""
+    from durer.blender import point_cloud
+
+    points = point_cloud.vertex_object(scene.collection, "Points", grid_positions(3, spacing=1.5))
+    ball = uv_sphere(scene, "Ball", radius=0.5, location=(0, 0, 30))  # out of sight
+    z = np.array([v.co.z for v in ball.data.vertices])
+    set_attribute(ball.data, "Paint", "FLOAT_COLOR", "POINT", np.where((z > 0)[:, None], (0.9, 0.1, 0.1, 1), (0.1, 0.1, 0.9, 1)))
+    ball.data.color_attributes.default_color_name = "Paint"
+    ball.data.materials.append(attribute_material("Painted", lambda tree: tree.nodes.new("ShaderNodeVertexColor").outputs[0]))
+    point_cloud.instance_on_points(points, ball, rotate=False)
+    front_view(scene)
+    data = export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    assert data.warnings == [] and data.sphere_count == 0
+    instanced = [m for m in data.meshes if m.instances is not None]
+    assert len(instanced) == 1 and instanced[0].instances.shape == (9, 4, 4) and instanced[0].colors.shape == (len(z), 3)
+    c, d = both(scene, tmp_path, normal=False)
+    compare_shading(c, d, min_fraction=0.1)
+    hit = d["depth"] < 1e9
+    red, blue = d["color"][hit][:, 0] > d["color"][hit][:, 2], d["color"][hit][:, 2] > d["color"][hit][:, 0]
+    assert red.mean() > 0.3 and blue.mean() > 0.3  # both halves painted, in every instance
+
+
 def noise_into_base_color(tree):
     return tree.nodes.new("ShaderNodeTexNoise").outputs["Color"]
 

@@ -260,6 +260,8 @@ def test_stats_line_shows_the_effect_set():
     line = engine.stats_line(64, 48, 2, {"effects": ("diffuse", "reflection", "shadows"), "mrays_per_s": 12.34})
     assert line == "Dürer | 64x48 | 2 spp | diffuse + reflection + shadows | 12.3 Mrays/s"
     assert engine.stats_line(8, 8, 1, {}, cancelled=True) == "Dürer | 8x8 | 1 spp | cancelled"
+    # A slow rate (a big scene's export in a tiny image) keeps two digits, not "0.0".
+    assert engine.stats_line(8, 8, 1, {"mrays_per_s": 0.0312}) == "Dürer | 8x8 | 1 spp | 0.031 Mrays/s"
 
 
 # --- renders through bpy.ops.render.render ---------------------------------------------------------

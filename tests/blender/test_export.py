@@ -112,9 +112,11 @@ def test_empty_displayed_as_sphere(scene):
     e.scale = (2, 2, 2)
     axes = link(scene, bpy.data.objects.new("Axes", None))  # plain axes: not geometry, not skipped
     axes.empty_display_type = "PLAIN_AXES"
+    e.color = (0.1, 0.2, 0.3, 1.0)
     d = export(scene)
     np.testing.assert_allclose(d.sphere_radii, [1.0])
     np.testing.assert_allclose(d.sphere_centers, [[0, 1, 0]])
+    assert d.materials[d.sphere_materials[0]].diffuse == pytest.approx((0.1, 0.2, 0.3))  # Cycles draws no empty
     assert not d.skipped
 
 
@@ -434,7 +436,8 @@ def test_material_colours(scene):
     by_x = {round(c[0]): d.materials[m] for c, m in zip(d.sphere_centers, d.sphere_materials)}
     assert by_x[0].diffuse == pytest.approx((0.9, 0.1, 0.1))
     assert by_x[3].diffuse == (0, 0, 0) and by_x[3].emission == pytest.approx((4, 2, 0))
-    assert by_x[6].diffuse == pytest.approx((0.1, 0.2, 0.3))
+    # No material: Cycles' default surface (a default Principled BSDF), whatever the object colour.
+    assert by_x[6].diffuse == pytest.approx((0.768, 0.768, 0.768)) and by_x[6].exponent == 30
     assert by_x[9].diffuse == pytest.approx((0.25, 0.5, 0.75))
     assert len(d.materials) == 4  # identical colours share a material
 

@@ -87,7 +87,7 @@ def stats_line(width: int, height: int, samples: int, stats: dict, cancelled: bo
         parts.append(f"est. error {estimate:.1e}" + (" (time limit)" if stats.get("time_limit_reached") else ""))
     mrays = stats.get("mrays_per_s")
     if isinstance(mrays, (int, float)):
-        parts.append(f"{mrays:.1f} Mrays/s")
+        parts.append(f"{mrays:.1f} Mrays/s" if mrays >= 0.1 else f"{mrays:.2g} Mrays/s")  # a big export, a tiny image
     if refitted:
         parts.append("last frame's scene refitted")
     if cancelled:

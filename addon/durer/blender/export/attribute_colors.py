@@ -100,7 +100,8 @@ def read_values(attributes, keys: tuple[Key, ...], default_name: str | None, siz
     for key in keys:
         place, name = key
         if place != where:
-            raise Unmapped(f"it reads the {place.lower()} attribute '{name}' where there is none")
+            shown = f"'{name}'" if name else "(the default colour attribute)"
+            raise Unmapped(f"it reads the {place.lower()} attribute {shown} where there is none")
         real = default_name if name == "" else name
         attribute = attributes.get(real) if real else None
         if attribute is None:

@@ -109,6 +109,11 @@ class Builder:
                 self.fallback(mat.name, str(reason))
         return self.color_sources[key]
 
+    def reads_geometry(self, mat) -> bool:
+        """Whether `mat`'s kd reads attributes of the geometry it shades (not only its instancer's)."""
+        source = self.color_source(mat)
+        return source is not None and any(place == "GEOMETRY" for place, _ in source.attributes)
+
     def uncolored(self, mat, why: str) -> None:
         """Geometry with material `mat` that takes one colour: noted if `mat` reads attribute colours."""
         if self.color_source(mat) is not None:
@@ -203,18 +208,56 @@ class Builder:
                 chunks.append(value)
 
     def _counted(self, owners, centers, radii, materials, colors) -> tuple | None:
-        """A chunk's arrays, its spheres counted in `SceneData.sources`; None if it has none."""
+        """A chunk's arrays without its spheres of a centre or radius not finite (`_finite`), its
+        spheres counted in `SceneData.sources`; None if it has none."""
         n = len(radii)
         if n == 0:
             return None
+        centers, radii = np.asarray(centers).reshape(n, 3), np.asarray(radii).reshape(n)
+        keep = self._finite(owners, centers, radii)
+        if keep is not None:
+            owners, materials = _kept(owners, keep), _kept(materials, keep)
+            centers, radii, colors = centers[keep], radii[keep], None if colors is None else colors[keep]
+            n = len(radii)
+            if n == 0:
+                return None
         sources, objects = self.data.sources, self.data.objects
         if np.ndim(owners) == 0:  # one owner: no sort of a cloud's ids
             sources[objects[owners].name] += n
         else:
             for owner, count in zip(*np.unique(owners, return_counts=True)):
                 sources[objects[owner].name] += int(count)
-        return (np.broadcast_to(np.asarray(owners, np.int32), (n,)), np.asarray(centers).reshape(n, 3),
-                np.asarray(radii).reshape(n), np.broadcast_to(np.asarray(materials, dtype=np.int32), (n,)), colors)
+        return (np.broadcast_to(np.asarray(owners, np.int32), (n,)), centers, radii,
+                np.broadcast_to(np.asarray(materials, dtype=np.int32), (n,)), colors)
+
+    def faces_left_out(self, name: str, shape: MeshShape) -> None:
+        """Notes the faces of object `name`'s triangles (`shape`) left out for a vertex not finite."""
+        if shape.left_out:
+            self.data.notes.append(f"Dürer left out {shape.left_out} face(s) of '{name}' with a vertex that is not "
+                                   "finite, as Cycles does")
+
+    def _placeable(self, name: str, m: np.ndarray) -> bool:
+        """Whether world matrix m of object (or instance) `name` is finite; noted if not (Cycles
+        leaves such geometry out)."""
+        if np.isfinite(m).all():
+            return True
+        self.data.notes.append(f"Dürer left out '{name}' (or an instance of it) whose matrix is not finite, as Cycles does")
+        return False
+
+    def _finite(self, owners, centers: np.ndarray, radii: np.ndarray) -> np.ndarray | None:
+        """None if every sphere's centre and radius is finite, else which are, the others noted
+        by object: Cycles leaves such a point out (its bounds are not finite) and renders the rest,
+        where the core would refuse the whole scene."""
+        if np.isfinite(centers.sum() + radii.sum()):  # one pass; a sum that overflows checks each
+            return None
+        keep = np.isfinite(centers).all(axis=1) & np.isfinite(radii)
+        if keep.all():
+            return None
+        left = np.broadcast_to(np.asarray(owners), keep.shape)[~keep]
+        for owner, count in zip(*np.unique(left, return_counts=True)):
+            self.data.notes.append(f"Dürer left out {count} sphere(s) of '{self.data.objects[owner].name}' whose "
+                                   "position or radius is not finite, as Cycles does")
+        return keep
 
     def sphere(self, owner: int, m: np.ndarray, center, radius: float, material: int) -> None:
         """A sphere in object space under world matrix m, placed at `finish` (`_Singles`)."""
@@ -243,13 +286,17 @@ class Builder:
                                           None)
 
     def transformed_spheres(self, owner: int, m: np.ndarray, centers, radii, materials, colors=None) -> None:
+        centers, radii = np.asarray(centers, np.float64).reshape(-1, 3), np.asarray(radii, np.float64).reshape(-1)
+        keep = self._finite(owner, centers, radii)
+        if keep is not None:
+            centers, radii, materials = centers[keep], radii[keep], _kept(materials, keep)
+            colors = None if colors is None else colors[keep]
         n = len(radii)
         if n == 0:
             return
         materials = np.broadcast_to(np.asarray(materials, dtype=np.int32), (n,))
         name = self.data.objects[owner].name
-        group = TransformedSpheres(name, owner, np.asarray(centers, np.float64), np.asarray(radii, np.float64),
-                                   materials, m, colors)
+        group = TransformedSpheres(name, owner, centers, radii, materials, m, colors)
         self.data.transformed_spheres.append(group)
         self.data.sources[name] += n
 
@@ -259,6 +306,8 @@ class Builder:
         mats = object_materials(obj)
         owner = self.owner(obj)
         name = self.data.objects[owner].name
+        if not self._placeable(name, m):
+            return
         flat = not is_invertible(m)
         for part in parts:
             mat = mats[min(part.slot, len(mats) - 1)] if mats else None
@@ -307,6 +356,8 @@ class Builder:
             self.data.sources[name] += len(matrices)
 
     def plane(self, owner: int, m: np.ndarray, shape: MeshShape, material: int, infinite: bool) -> None:
+        if not self._placeable(self.data.objects[owner].name, m):
+            return
         corner = transform_points(m, shape.corner.reshape(1, 3))[0]
         e1 = m[:3, :3] @ shape.edge1
         e2 = m[:3, :3] @ shape.edge2
@@ -370,6 +421,11 @@ def _smooth_in_world_space(mesh: MeshData) -> None:
 def _row(a, k: int):
     """Matrix k's part of `a` (one row of K, or the one row all matrices share), or a scalar."""
     return a if np.ndim(a) == 0 else a[0 if len(a) == 1 else k]
+
+
+def _kept(a, keep: np.ndarray):
+    """The entries of `a` (a scalar for all, or one per sphere) of the spheres kept."""
+    return a if np.ndim(a) == 0 else np.asarray(a)[keep]
 
 
 def _rows(a, chosen):

@@ -94,6 +94,7 @@ def _add_shape(b: Builder, obj, m: np.ndarray, shape: MeshShape, infinite: bool,
     of the slot its faces use, or its triangles (of mesh `me`) with their slots' materials; nothing
     for an empty shape."""
     if shape.kind == "triangles":
+        b.faces_left_out(obj.name_full, shape)
         b.triangles(obj, m, shape.parts, me)
         return
     if shape.kind == "empty":

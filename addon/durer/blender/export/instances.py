@@ -153,6 +153,7 @@ class InstanceBatches:
             if not chosen.any():
                 continue
             if shape.kind == "triangles":  # coloured by the mesh's own attributes, if at all
+                self.builder.faces_left_out(obj.name_full, shape)
                 self.builder.mesh_instances(obj, owner, shape.parts, meshes[i], list(meshes[i].materials),
                                             world[chosen], cloud, chosen)
                 continue
@@ -179,8 +180,9 @@ class InstanceBatches:
                     return None
                 mat = points.materials[0] if len(points.materials) else None
                 shape, data = self._cloud(points, mat), points
-            elif mesh is not None:
-                shape, data = self._shape(mesh, "AUTO", len(mesh.materials)), mesh
+            elif mesh is not None:  # coloured by its own attributes: its triangles, not a sphere of one colour
+                own = any(self.builder.reads_geometry(mat) for mat in mesh.materials)
+                shape, data = self._shape(mesh, "MESH" if own else "AUTO", len(mesh.materials)), mesh
                 if shape.kind not in ("sphere", "triangles"):
                     return None
             else:

@@ -79,17 +79,22 @@ def _principled(mat, node, viewport) -> MaterialData:
     * Emission Color × Strength as emission. Linked inputs use the material's viewport settings.
     """
     base = color_input(node, "Base Color", viewport)
-    metallic, roughness, ior, transmission, f0, below = _principled_layers(mat, node)
+    # What varies (a texture) falls back to the socket's own value, as Blender shows it unlinked.
+    ecol = color_input(node, "Emission Color", node.inputs["Emission Color"].default_value)
+    estr = scalar_input(node, "Emission Strength", node.inputs["Emission Strength"].default_value)
+    emission = tuple(c * estr for c in ecol) if estr else BLACK
+    return _principled_material(mat.name, base, *_principled_layers(mat, node), emission)
+
+
+def _principled_material(name: str, base, metallic: float, roughness: float, ior: float, transmission: float,
+                         f0, below, emission=BLACK) -> MaterialData:
+    """`_principled`'s material from the BSDF's values (`_principled_layers`' order)."""
     spec = _add3(_scale3(base, metallic), _scale3(f0, 1.0 - metallic))
     diffuse = _scale3(_scale3(base, (1.0 - metallic) * (1.0 - transmission)), below)
     transparent = BLACK
     if transmission > 0.0 and metallic < 1.0:
         transparent = _scale3(_scale3(base, (1.0 - metallic) * transmission), below)
-    # What varies (a texture) falls back to the socket's own value, as Blender shows it unlinked.
-    ecol = color_input(node, "Emission Color", node.inputs["Emission Color"].default_value)
-    estr = scalar_input(node, "Emission Strength", node.inputs["Emission Strength"].default_value)
-    emission = tuple(c * estr for c in ecol) if estr else BLACK
-    md = MaterialData(mat.name, diffuse, emission, transparent=transparent, ior=ior if any(transparent) else 1.0)
+    md = MaterialData(name, diffuse, emission, transparent=transparent, ior=ior if any(transparent) else 1.0)
     return _with_lobe(md, spec, roughness)
 
 
@@ -102,10 +107,15 @@ def _principled_layers(mat, node) -> tuple:
     level = max(scalar_input(node, "Specular IOR Level", mat.specular_intensity), 0.0)
     tint = color_input(node, "Specular Tint", (1.0, 1.0, 1.0))
     transmission = _clamp01(scalar_input(node, "Transmission Weight", 0.0))
+    return (metallic, roughness, ior, transmission, *_dielectric_layer(ior, level, tint))
+
+
+def _dielectric_layer(ior: float, level: float, tint) -> tuple:
+    """(F0 per channel, 1 − F0 per channel) of a Principled BSDF's dielectric specular layer: what it
+    reflects does not reach the diffuse or transmission below."""
     f0 = tuple(min(fresnel_f0(ior) * 2.0 * level * c, 1.0) for c in tint)
-    # What the dielectric specular layer reflects does not reach the diffuse or transmission below.
-    below = tuple(1.0 - x for x in f0)
-    return metallic, roughness, ior, transmission, f0, below
+    return f0, tuple(1.0 - x for x in f0)
+
 
 
 def base_color_input(mat) -> tuple[object, str, tuple[float, float, float]] | None:
@@ -196,8 +206,16 @@ CONVERTERS = {
 }
 
 
+#: Cycles' surface for geometry without a material (Blender 5's default surface): a Principled BSDF
+#: of its defaults, Base Color 0.8, Roughness 0.5, IOR 1.5, Specular IOR Level 0.5.
+DEFAULT_SURFACE = _principled_material("(default surface)", (0.8, 0.8, 0.8), 0.0, 0.5, 1.5, 0.0,
+                                       *_dielectric_layer(1.5, 0.5, (1.0, 1.0, 1.0)))
+
+
 def material_data(mat, obj=None, notes: list[str] | None = None) -> MaterialData:
-    """Dürer's material for a Blender material (None: the object's colour).
+    """Dürer's material for a Blender material of object `obj`. None: Cycles' default surface
+    (`DEFAULT_SURFACE`), but an empty drawn as a sphere (which Cycles does not render) takes the
+    object's colour.
 
     ``material.durer`` with its override on comes first: the 6.837 material it states, as is. Else
     the shader linked to the Surface of the Material Output Cycles uses, by its converter in
@@ -206,7 +224,9 @@ def material_data(mat, obj=None, notes: list[str] | None = None) -> MaterialData
     shader: the material's viewport display colour, said in `notes`. No surface: black, as Cycles.
     """
     if mat is None:
-        return MaterialData("(object colour)") if obj is None else MaterialData("(object colour)", rgb(obj.color))
+        if getattr(obj, "type", None) == "EMPTY":
+            return MaterialData("(object colour)", rgb(obj.color))
+        return DEFAULT_SURFACE
     override = getattr(mat.original or mat, "durer", None)
     if override is not None and override.use_override:
         return override_material(mat.name, override)

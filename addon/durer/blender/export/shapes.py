@@ -36,6 +36,7 @@ class MeshShape:
     edge1: np.ndarray | None = None
     edge2: np.ndarray | None = None
     parts: list[TrianglePart] = field(default_factory=list)  # triangles: one part per material slot
+    left_out: int = 0  # triangles: faces left out, a vertex of each not finite (triangle_parts)
     slot: int = 0  # sphere or plane: the material slot its faces use (forced: most of them)
 
 
@@ -161,8 +162,8 @@ def _bbox_sphere(co: np.ndarray) -> MeshShape:
 def _triangles(me, slot_count: int) -> MeshShape:
     """The mesh's triangles, one part per material slot used ("empty" without faces: loose
     vertices and edges, like a curve without bevel, render as nothing in Cycles either)."""
-    parts = triangle_parts(me, slot_count)
-    return MeshShape("triangles", parts=parts) if parts else MeshShape("empty")
+    parts, left_out = triangle_parts(me, slot_count)
+    return MeshShape("triangles", parts=parts, left_out=left_out) if parts else MeshShape("empty")
 
 
 def mesh_shape(me, mode: str, axis_scale, slot_count: int) -> MeshShape:
@@ -174,13 +175,18 @@ def mesh_shape(me, mode: str, axis_scale, slot_count: int) -> MeshShape:
     co, _ = _mesh_arrays(me)
     if len(co) == 0:
         return MeshShape("empty")
+    finite = bool(np.isfinite(co.sum()))  # one pass; a sum that overflows checks each
+    if not finite:  # a vertex not finite: not a sphere or plane of Auto's; a forced one of the others
+        co = co[np.isfinite(co).all(axis=1)]
+        if mode == "AUTO" or len(co) == 0:
+            mode = "MESH"
     if mode == "MESH":
         return _triangles(me, slot_count)
     uses = np.bincount(face_slots(me, slot_count), minlength=1)
     if mode == "SPHERE":
         shape = _detect_sphere(me, co, strict=False) or _bbox_sphere(co)
     elif mode == "PLANE":
-        shape = _detect_plane(me, co) or _bbox_plane(me, co, axis_scale)
+        shape = (finite and _detect_plane(me, co)) or _bbox_plane(me, co, axis_scale)
     elif np.count_nonzero(uses) > 1:
         return _triangles(me, slot_count)
     else:

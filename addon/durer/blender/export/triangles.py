@@ -112,19 +112,21 @@ def corner_normals(me) -> np.ndarray | None:
 
 
 def split_by_slot(vertices: np.ndarray, faces: np.ndarray, slots: np.ndarray, slot_count: int,
-                  corners: np.ndarray, normals: np.ndarray | None = None) -> list[TrianglePart]:
+                  corners: np.ndarray, normals: np.ndarray | None = None,
+                  keep: np.ndarray | None = None) -> list[TrianglePart]:
     """One part per material slot the faces use (`clamp_slots`), in slot order, with the faces'
-    corner normals if the mesh has some (`normals`, per corner). A part of a split mesh keeps only
-    the vertices its faces use."""
+    corner normals if the mesh has some (`normals`, per corner); only the faces `keep` says, if
+    given. A part of a split mesh, or of some faces, keeps only the vertices its faces use."""
     if len(faces) == 0:
         return []
     slots = clamp_slots(slots, slot_count)
-    used = np.flatnonzero(np.bincount(slots))  # linear in the face count, unlike np.unique's sort
-    if len(used) == 1:
+    # linear in the face count, unlike np.unique's sort
+    used = np.flatnonzero(np.bincount(slots if keep is None else slots[keep], minlength=1))
+    if len(used) == 1 and keep is None:
         return [TrianglePart(int(used[0]), vertices, faces, corners, normals=_of(normals, corners, vertices, faces))]
     parts = []
     for slot in used:
-        chosen = slots == slot
+        chosen = slots == slot if keep is None else (slots == slot) & keep
         part = faces[chosen]
         # Renumber the vertices the part uses in their original order: a mask and a running count,
         # linear in the mesh's size (no sort).
@@ -152,7 +154,13 @@ def _of(normals: np.ndarray | None, corners: np.ndarray, vertices: np.ndarray, f
     return at
 
 
-def triangle_parts(me, slot_count: int) -> list[TrianglePart]:
-    """`split_by_slot` of `mesh_triangles(me)`: [] for a mesh without faces."""
+def triangle_parts(me, slot_count: int) -> tuple[list[TrianglePart], int]:
+    """`split_by_slot` of `mesh_triangles(me)` ([] for a mesh without faces), without the faces that
+    have a vertex not finite (Cycles leaves them out: their bounds are not), and how many those were."""
     vertices, faces, slots, corners = mesh_triangles(me)
-    return split_by_slot(vertices, faces, slots, slot_count, corners, corner_normals(me) if len(faces) else None)
+    keep = None
+    if not np.isfinite(vertices.sum(dtype=np.float64)):  # one pass; a sum that overflows checks each
+        finite = np.isfinite(vertices).all(axis=1)
+        keep = None if finite.all() else finite[faces].all(axis=1)
+    parts = split_by_slot(vertices, faces, slots, slot_count, corners, corner_normals(me) if len(faces) else None, keep)
+    return parts, 0 if keep is None else int(np.count_nonzero(~keep))
