@@ -216,7 +216,8 @@ int32_t Scene::addSpheres(const double* centers, const double* radii, const int3
   Group<double>& group = groupFor(worldFromObject);
   SphereSet<double>& spheres = group.spheres();
   if (count) {
-    m_sphereRuns.push_back({first, count, &group, spheres.size(), &group != &m_group, {}});
+    m_sphereRuns.push_back({first, count, &group, spheres.size(), &group != &m_group, {}, placed,
+                            spheres.size() + farthest});
     if (&group != &m_group) m_sphereRuns.back().worldFromObject = *worldFromObject;
   }
   const bool given = colors.values && count;
@@ -227,7 +228,6 @@ int32_t Scene::addSpheres(const double* centers, const double* radii, const int3
     addTo(spheres, Sphere<double>{c, radii[i]}, materials[perSphere ? i : 0], first + static_cast<int32_t>(i), given,
           [&] { return SphereSet<double>::Colors{vec3At(colors.values, i)}; });
   }
-  noteReach(placed);
   return first;
 }
 
@@ -264,6 +264,7 @@ void Scene::moveSpheres(const int32_t* ids, const double* centers, const double*
     const SphereRun* run;
     double extent;
     size_t index;
+    bool movesFarthest = false;  // whether the run's farthest sphere is among those moved
   };
   std::vector<Farthest> farthest;
   for (size_t i = 0; i < count; ++i) {
@@ -272,9 +273,11 @@ void Scene::moveSpheres(const int32_t* ids, const double* centers, const double*
     auto f = std::find_if(farthest.begin(), farthest.end(), [&](const Farthest& x) { return x.run == run; });
     if (f == farthest.end()) {
       farthest.push_back({run, extent, i});
+      f = farthest.end() - 1;
     } else if (extent > f->extent) {
       f->extent = extent, f->index = i;
     }
+    f->movesFarthest |= locate(i).second == run->farthest;
   }
   std::vector<Reach> placed;
   for (const Farthest& f : farthest) {
@@ -286,9 +289,41 @@ void Scene::moveSpheres(const int32_t* ids, const double* centers, const double*
     const auto [run, index] = locate(i);
     run->group->spheres().setSphere(index, {c, radii[i]});
   }
-  for (const Farthest& f : farthest) f.run->group->spheres().dropGrid();
-  for (const Reach& reach : placed) noteReach(reach);
+  for (size_t k = 0; k < farthest.size(); ++k) {
+    const Farthest& f = farthest[k];
+    SphereRun& run = m_sphereRuns[static_cast<size_t>(f.run - m_sphereRuns.data())];
+    run.group->spheres().dropGrid();
+    if (placed[k].magnitude >= run.reach.magnitude) {
+      run.reach = placed[k], run.farthest = locate(f.index).second;
+    } else if (f.movesFarthest) {
+      measureReach(run);  // the farthest came nearer: another sphere may be the farthest now
+    }
+  }
   m_preparedFloat.moved = m_preparedDouble.moved = true;
+}
+
+void Scene::measureReach(SphereRun& run) {
+  const SphereSet<double>& spheres = run.group->spheres();
+  double reach = 0;
+  size_t farthest = run.start;
+  for (size_t j = run.start; j < run.start + run.count; ++j) {
+    const Sphere<double>& sphere = spheres.primitive(j);
+    const double extent = maxAbs(sphere.center) + sphere.radius;
+    if (extent > reach) reach = extent, farthest = j;
+  }
+  // Within the widest limits: every sphere was checked when it was added or moved.
+  run.reach = requireReach(reach, "the sphere of object id " + std::to_string(run.firstId + (farthest - run.start)),
+                           run.transformed ? &run.worldFromObject : nullptr);
+  run.farthest = farthest;
+}
+
+Scene::Reach Scene::reach() const {
+  Reach all = m_reach;
+  for (const SphereRun& run : m_sphereRuns) {
+    if (run.reach.magnitude > all.magnitude) all.magnitude = run.reach.magnitude, all.field = run.reach.field;
+    all.world = std::fmax(all.world, run.reach.world);
+  }
+  return all;
 }
 
 int32_t Scene::addPlane(const Vec3d& normal, double offset, int32_t material, const PlaneBounds* bounds,
@@ -588,8 +623,9 @@ void Scene::noteReach(const Reach& reach) {
 
 void Scene::requireFits(const NumericLimits& limits, double rayReach) const {
   const std::string where = withPrecision(limits.precision);
-  requireWithin(m_reach.magnitude, limits.coordinate, m_reach.field, where);
-  const double world = std::fmax(m_reach.world, rayReach);
+  const Reach scene = reach();
+  requireWithin(scene.magnitude, limits.coordinate, scene.field, where);
+  const double world = std::fmax(scene.world, rayReach);
   std::ostringstream field;
   field << "transform: the scene and rays (reaching " << world << ") in its object space";
   for (const Instance<double>& instance : m_group.instances()) {

@@ -548,7 +548,7 @@ def Image_pixels(path):
     return px
 
 
-def test_render_file_errors(scene, tmp_path):
+def test_render_file_errors(scene, tmp_path, capsys):
     with pytest.raises(FileNotFoundError):
         batch.render_file(tmp_path / "missing.blend")
     # a name the system cannot look up (an OSError traceback before; found by the hardening fuzz)
@@ -567,6 +567,15 @@ def test_render_file_errors(scene, tmp_path):
         frames.render_frames(blend, client=None, threads=2**31)
     assert batch.main([str(tmp_path / "missing.blend")]) == 2
     assert batch.main([str(blend), "-q", "-f", "1", "-o", str(tmp_path / "y.png")]) == 1
+    # Bad input, exit code 2 (they were render errors, 1): a scene the file has not, a file not a .blend.
+    capsys.readouterr()
+    assert batch.main([str(blend), "-q", "--scene", "Nope"]) == 2
+    assert capsys.readouterr().err == f"python -m durer render: error: {blend} has no scene named 'Nope'\n"
+    (tmp_path / "notes.txt").write_text("not a .blend file")
+    assert batch.main([str(tmp_path / "notes.txt"), "-q"]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith(f"python -m durer render: error: Cannot open {tmp_path / 'notes.txt'}: ")
+    assert error.count("\n") == 1  # one line, not Blender's message with its own line break
 
 
 def test_batch_command_line(scene, tmp_path):

@@ -230,3 +230,34 @@ def test_a_move_beyond_what_float_holds_is_refused_by_a_float_render_not_a_doubl
     durer.cast(scene, origins, directions, precision="double")
     with pytest.raises(ValueError, match=r"centers\[0\] ± radii\[0\] must lie within ±1e\+18 with precision='float'"):
         durer.cast(scene, origins, directions, precision="float")
+
+
+def test_what_a_float_render_refuses_follows_the_spheres_where_they_are_now(rng):
+    """The scene's reach is its spheres' where they are now: a sphere moved beyond float's range and
+    back no longer stops a float render (it did, for good), nor does any sphere of several runs,
+    transformed or not, once none is out there; one still out there does, named by its object id."""
+    centers, radii = cloud(rng, 100)
+    scene = fresh(centers, radii)
+    scene.add_spheres(centers[:3], radii[:3], transform=np.diag([2.0, 2.0, 2.0, 1.0]))  # object ids 100-102
+    origins, directions = rays(rng, 200)
+    before = durer.cast(scene, origins, directions, precision="float")
+    scene.move_spheres([7, 101], [[1e20, 0, 0], [0, 4e18, 0]])
+    with pytest.raises(ValueError, match=r"centers\[0\] ± radii\[0\] must lie within ±1e\+18"):
+        durer.cast(scene, origins, directions, precision="float")
+    scene.move_spheres([7], [centers[7]])  # back: sphere 101 of that move is the farthest now
+    with pytest.raises(ValueError, match=r"centers\[1\] ± radii\[1\] must lie within ±1e\+18"):
+        durer.render(scene, durer.OrthographicCamera((0, 0, 30), (0, 0, -1), (0, 1, 0), 30), 8, 8,
+                     precision="float", passes=("depth",))
+    scene.move_spheres([101], [centers[1]])
+    after = durer.cast(scene, origins, directions, precision="float")
+    np.testing.assert_array_equal(after.t, before.t)
+    np.testing.assert_array_equal(after.object_id, before.object_id)
+    scene.move_spheres([5], [[0, 0, -2e18]])  # not the farthest before: the farthest now, by its own call's name
+    with pytest.raises(ValueError, match=r"centers\[0\] ± radii\[0\] must lie within ±1e\+18"):
+        durer.cast(scene, origins, directions, precision="float")
+    scene.move_spheres([6], [[0, 3e18, 0]])
+    scene.move_spheres([6], [centers[6]])  # the farthest back: the run measured again finds sphere 5
+    with pytest.raises(ValueError, match=r"the sphere of object id 5 must lie within ±1e\+18"):
+        durer.cast(scene, origins, directions, precision="float")
+    scene.move_spheres(np.arange(100), centers)  # every sphere of the run at once, back where it was
+    np.testing.assert_array_equal(durer.cast(scene, origins, directions, precision="float").t, before.t)

@@ -180,7 +180,10 @@ def test_stats_count_rays_and_tests():
     # Each camera ray tests the plane, and the sphere where the rows of its tile meet its footprint.
     assert stats["intersection_tests"] == camera_tests(scene, ortho(), 10, 7, spp=3)
     assert stats["rays"] < stats["intersection_tests"] < stats["rays"] * 2
-    assert stats["milliseconds"] > 0 and stats["mrays_per_s"] > 0 and stats["threads"] >= 1
+    assert stats["milliseconds"] > 0 and stats["mrays_per_s"] > 0
+    # The threads that ran: the image's two 8x8 tiles keep at most two busy, whatever was asked.
+    assert stats["threads"] == min(durer._core.default_thread_count(), 2)
+    assert durer.render(scene, ortho(), 10, 7, threads=2**31 - 1).stats["threads"] == 2
     assert (stats["width"], stats["height"], stats["spp"]) == (10, 7, 3)
     assert stats["precision"] == "double" and stats["sphere_method"] == "robust" and stats["cancelled"] is False
 
@@ -330,4 +333,7 @@ def test_save_image_refuses_nan_pixels_and_a_non_boolean_srgb(tmp_path):
         durer.save_image(tmp_path / "nan.png", pixels)
     with pytest.raises(TypeError, match="^srgb must be True or False, got str"):
         durer.save_image(tmp_path / "x.png", np.zeros((2, 2)), srgb="no")  # "no" was truthy: encoded
+    with pytest.raises(TypeError, match=r"^pixels must be floats in \[0, 1\], got an array of uint8 \(bytes"):
+        durer.save_image(tmp_path / "x.png", np.full((2, 2, 3), 128, np.uint8))  # was written 0 or 255
     assert not (tmp_path / "nan.png").exists() and not (tmp_path / "x.png").exists()
+    durer.save_image(tmp_path / "list.png", [[0, 1], [1, 0]], srgb=False)  # whole numbers of a list: 0 and 1

@@ -433,3 +433,40 @@ def test_two_spheres_tied_at_a_ray_are_either_sphere_at_the_same_depth():
     assert res.depth.reshape(-1)[730] == np.float32(alone[0])
     with pytest.raises(AssertionError):
         assert_render_matches_cast(scene, camera, 36, 36, "float")
+
+
+def ortho_rays(center, size, width, height, region):
+    """The pixel-centre rays of an orthographic camera at `center` looking down -z (up +y) over a
+    square `size` wide, for the pixels of `region` of a width x height image."""
+    x, y, w, h = region
+    px, py = np.meshgrid(np.arange(x, x + w) + 0.5, np.arange(y, y + h) + 0.5)
+    origins = np.stack([center[0] + (px / width - 0.5) * size, center[1] + (0.5 - py / height) * size,
+                        np.full(px.shape, center[2])], axis=-1)
+    return origins, np.broadcast_to([0.0, 0.0, -1.0], origins.shape)
+
+
+def test_a_region_of_a_huge_image_sees_through_a_view_of_its_own():
+    """A 65536 x 65536 image's view of the spheres would take ~0.6 GB whatever the region rendered
+    (the whole image's cells): a region of an image that large sees through a view of its region,
+    and finds what a cast of its rays finds."""
+    import resource
+
+    rng = np.random.default_rng(11)
+    centers = np.column_stack([rng.uniform(-0.01, 0.01, (400, 2)), rng.uniform(-1, 1, 400)])
+    scene = durer.Scene()
+    scene.add_spheres(centers, rng.uniform(1e-4, 4e-4, 400))  # 3-13 pixels
+    camera = durer.OrthographicCamera((0, 0, 3), (0, 0, -1), (0, 1, 0), size=2.0)
+    small = ortho_rays((0, 0, 3), 2.0, 40, 40, (0, 0, 40, 40))
+    np.testing.assert_allclose(small[0], camera.rays(40, 40)[0], rtol=0, atol=1e-15)  # the rays as the camera's
+    side, region = 65536, (32600, 32600, 336, 336)  # the cloud's middle, 0.02 across: ~650 pixels
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    part = durer.render(scene, camera, side, side, region=region, passes=("depth", "object_id"), threads=2)
+    grown_mb = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) / 1024
+    assert grown_mb < 100, f"the render's peak memory grew by {grown_mb:.0f} MB"  # the whole image's view: ~600
+    origins, directions = ortho_rays((0, 0, 3), 2.0, side, side, region)
+    cast = durer.cast(scene, origins.reshape(-1, 3), np.ascontiguousarray(directions.reshape(-1, 3)), threads=2)
+    ids = cast.object_id.reshape(part.object_id.shape)
+    assert (ids >= 0).mean() > 0.05
+    np.testing.assert_array_equal(part.object_id, ids)
+    hit = ids >= 0
+    np.testing.assert_allclose(part.depth[hit], cast.t.reshape(ids.shape)[hit], rtol=1e-6)

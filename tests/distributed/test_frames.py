@@ -235,11 +235,15 @@ def test_ctrl_c_leaves_no_partial_files_and_no_worker_processes(tmp_path):
     assert all(f.name.startswith("f_") and not f.name.endswith(TEMP_SUFFIX) and is_complete(f) for f in files)
 
 
-def test_cluster_options_are_checked_before_a_cluster_starts(animation):
+def test_cluster_options_are_checked_before_a_cluster_starts(animation, tmp_path):
     blend, _ = animation
+    (tmp_path / "single.png").write_bytes(b"")
+    in_the_way = str(tmp_path / "single.png" / "f_####.png")
     for args, message in ((["--workers", "-1"], "--workers must be >= 1, got -1"),
                           (["--workers", "2", "--threads", "0"], "--threads must be >= 1, got 0"),
-                          (["--workers", "2", "--frames", "3-1"], "frames must look like")):
+                          (["--workers", "2", "--frames", "3-1"], "frames must look like"),
+                          (["--workers", "2", "--samples", "-1"], "samples must be >= 1, got -1"),
+                          (["--workers", "2", "--output", in_the_way], "single.png' is a file, not a folder")):
         done = durer_render(str(blend), *args)
         assert done.returncode == 2 and message in done.stderr, done.stderr
         assert "dask:" not in done.stderr

@@ -108,6 +108,15 @@ def test_bad_arguments_raise_at_the_call_not_at_the_first_result(options, error,
         durer.render_many(SCENE, orbit_cameras(2), 8, 2**20 + 1)
 
 
+def test_every_camera_is_checked_at_the_call():
+    """A camera beyond float's range after good ones: refused before the first render (it raised in
+    the loop, after the renders before it)."""
+    far = durer.PerspectiveCamera((0, 0, 1e20), (0, 0, -1), (0, 1, 0))
+    with pytest.raises(ValueError, match=r"with precision='float'"):
+        durer.render_many(SCENE, orbit_cameras(2) + [far], 8, 8, precision="float")
+    assert len(list(durer.render_many(SCENE, orbit_cameras(2) + [far], 8, 8))) == 3  # double holds it
+
+
 class _CtrlCInAFinaliser:
     """Ctrl-C pressed while the garbage collector finalises an object (a Dask future, say): its
     KeyboardInterrupt is raised in __del__, where Python prints and drops it."""

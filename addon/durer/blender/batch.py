@@ -147,8 +147,9 @@ def render_file(
     resume:  skip frames whose output file exists and is complete (not in the returned list).
     threads: render threads per frame, overriding scene.durer.threads.
 
-    Raises FileNotFoundError for a missing file, and BatchRenderError once every frame was tried
-    if some failed (the others are written: the error's `written`).
+    Raises FileNotFoundError for a missing file, ValueError for a file Blender cannot open or a
+    scene it does not have, and BatchRenderError once every frame was tried if some failed (the
+    others are written: the error's `written`).
     """
     import bpy
 
@@ -277,6 +278,15 @@ def setting_range(name: str) -> tuple[int, int]:
     return _hard_range(DurerSceneSettings, name)
 
 
+def checked_overrides(samples: int | None, threads: int | None) -> tuple[int | None, int | None]:
+    """`samples` and `threads` overriding a file's settings, checked (None: the file's own)."""
+    if samples is not None:
+        samples = _checks.integer(samples, "samples", *setting_range("samples"))
+    if threads is not None:  # None, not 0, is "the file's setting" here
+        threads = _checks.integer(threads, "threads", 1, setting_range("threads")[1])
+    return samples, threads
+
+
 def open_blend(
     blend: Path, scene: str | None = None, samples: int | None = None, threads: int | None = None
 ) -> bpy.types.Scene:
@@ -292,18 +302,15 @@ def open_blend(
         raise ValueError(f"cannot open {blend}: {error.strerror}") from None
     if not found:
         raise FileNotFoundError(f"No such .blend file: {blend}")
-    if samples is not None:
-        samples = _checks.integer(samples, "samples", *setting_range("samples"))
-    if threads is not None:  # None, not 0, is "the file's setting" here
-        threads = _checks.integer(threads, "threads", 1, setting_range("threads")[1])
+    samples, threads = checked_overrides(samples, threads)
     register()
     try:
         bpy.ops.wm.open_mainfile(filepath=str(blend), load_ui=False)
     except RuntimeError as exc:
-        raise BatchRenderError(f"Cannot open {blend}: {exc}") from None
+        raise ValueError(f"Cannot open {blend}: {str(exc).strip()}") from None
     sc = bpy.data.scenes.get(scene) if scene else bpy.context.scene
     if sc is None:
-        raise BatchRenderError(f"{blend} has no scene named {scene!r}")
+        raise ValueError(f"{blend} has no scene named {scene!r}")
     if bpy.context.window is not None and bpy.context.window.scene != sc:
         bpy.context.window.scene = sc
     sc.render.engine = "DURER"
@@ -450,9 +457,13 @@ def _main_distributed(args: argparse.Namespace, prog: str) -> int:
         require_distributed()
         if args.workers is not None and args.workers < 0:
             raise ValueError(f"--workers must be >= 1, got {args.workers}")
-        parse_frames(args.frames)  # bad input is reported before a cluster starts
+        # Bad input is reported before a cluster starts, as in one process before any frame.
+        parse_frames(args.frames)
+        checked_overrides(args.samples, args.threads)
         if not Path(args.file).is_file():
             raise FileNotFoundError(f"No such .blend file: {Path(args.file).resolve()}")
+        if args.output is not None:
+            make_folder_for(Path(args.output).expanduser())  # a file standing where its folder goes
         with cluster(args.scheduler, args.workers or None) as client:
             report = render_frames(
                 args.file, frames=args.frames, output=args.output, samples=args.samples, client=client,

@@ -48,7 +48,8 @@ def render_many(
     here). `progress=True` draws one bar over all renders (stderr). `options` are `durer.render`'s
     (spp, seed, sampler, precision, passes, ...); results equal `durer.render`'s bit for bit and
     `result.stats["worker"]` names the worker ("local" without a client). A failing render raises
-    its error here after the remaining tasks are cancelled; bad arguments raise at the call.
+    its error here after the remaining tasks are cancelled; bad arguments (the options, any camera)
+    raise at the call, before any render.
     """
     scenes, camera_list = _pairs(scene, cameras)
     unknown = set(options) - _RENDER_OPTIONS
@@ -56,7 +57,8 @@ def render_many(
         raise TypeError(f"render_many got unexpected options: {', '.join(sorted(unknown))}")
     ordered = _checks.boolean(ordered, "ordered")
     progress = _checks.boolean(progress, "progress")
-    check_options(width, height, camera_list[0], threads=threads, **options)
+    for camera in {id(c): c for c in camera_list}.values():  # ~0.1 ms each
+        check_options(width, height, camera, threads=threads, **options)
     jobs = [dict(options, camera=c, width=width, height=height) for c in camera_list]
     return run_renders(scenes, jobs, client=client, ordered=ordered, progress=progress, threads=threads,
                        unit="render")

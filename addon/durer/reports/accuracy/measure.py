@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ... import _core
 from ...presets import PRESETS
 from ...render import PRECISIONS, SAMPLERS, SPHERE_METHODS, RenderResult, render
 from ...scene import Scene
@@ -378,7 +379,7 @@ def measure(config: Config, command: str = "python -m durer accuracy", log: Call
     width, height = config.aa_size
     showcase, showcase_camera = showcase_scene()
     edges, edges_camera = edge_scene(config.edge_spheres)
-    threads = int(render(showcase, showcase_camera, 8, 8).stats["threads"])
+    threads = _core.default_thread_count()  # what the renders below run on (threads=None)
 
     adaptive = "adaptive" in config.samplers
     sweep = dict(target_errors=config.target_errors if adaptive else (), adaptive_max_spps=config.adaptive_max_spps,

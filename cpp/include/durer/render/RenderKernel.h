@@ -38,21 +38,21 @@ RenderStats renderWith(const RenderJob& job) {
   const tiles::TileRenderer<Real, M>& tiles = *made;
   RenderStats stats;
   stats.effects = effects;
-  stats.threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
+  // A work item is a tile: more threads than tiles would have nothing to do (not started).
+  const int64_t tileCount = tiles.tileCount();
+  stats.threads = workersFor(settings.threads > 0 ? settings.threads : defaultThreadCount(), tileCount);
   if (settings.sampler == SamplerKind::Adaptive) {
     tiles::AdaptiveSampler<Real, M> adaptive(tiles, settings, targets);
     stats.counters = adaptive.render(stats.threads, control, job.poll, stats.adaptive);
     stats.cancelled = control.cancel.load();
     return stats;
   }
-  // A work item is a tile. The workers' shares are bands of the image (runPhases), so threads
-  // rarely write to the same cache line of the outputs, and only where the bands meet does one
-  // worker take another's tiles, a tile at a time.
-  const int64_t tileCount = tiles.tileCount();
-  const int workers = workersFor(stats.threads, tileCount);
-  std::vector<WorkerCounters> traced(static_cast<size_t>(workers));
+  // The workers' shares are bands of the image (runPhases), so threads rarely write to the same
+  // cache line of the outputs, and only where the bands meet does one worker take another's tiles,
+  // a tile at a time.
+  std::vector<WorkerCounters> traced(static_cast<size_t>(stats.threads));
   runParallel(
-      tileCount, workers, control,
+      tileCount, stats.threads, control,
       [&](int64_t tile, int worker) { traced[static_cast<size_t>(worker)].counters += tiles.render(tile); }, job.poll);
   for (const WorkerCounters& w : traced) stats.counters += w.counters;
   stats.cancelled = control.cancel.load();

@@ -563,27 +563,37 @@ class TileRenderer {
     return m_camera.planarScale(packet.dx[k], packet.dy[k], packet.dz[k]);
   }
 
+  // A view's cells take ~0.15 bytes a pixel, whatever the region rendered: above this many pixels
+  // (a 16384 x 16384 image's view: ~40 MB) a render of a region sees through a view of its region.
+  static constexpr int64_t kMostWholeViewPixels = int64_t(1) << 28;
+
   // The view of the scene's own spheres for this camera over the whole image (SphereView), shared
   // with the renders before of the same camera and size, whatever their regions (a distributed
-  // render's tiles, an adaptive render's margins).
+  // render's tiles, an adaptive render's margins); of the region alone in a huge image (a tile of a
+  // gigapixel poster: the whole image's took 9.5 GB at 262144²). Rays outside a view's cells search
+  // the hierarchy: the same hits.
   static std::shared_ptr<const SphereView<Real>> viewOf(const SphereSet<Real>& spheres, const CameraSpec& spec,
                                                         const RenderSettings& settings, const Camera<Real>& camera) {
     if (spheres.size() == 0) return nullptr;  // a camera's view pays from one sphere (SphereView::kMinLightSpheres)
+    const bool whole = int64_t(settings.width) * settings.height <= kMostWholeViewPixels;
+    const RenderSettings::Region seen = whole ? RenderSettings::Region{0, 0, settings.width, settings.height}
+                                              : regionOf(settings);
     const ViewKey key{{double(spec.projection), spec.center.x, spec.center.y, spec.center.z, spec.direction.x,
                        spec.direction.y, spec.direction.z, spec.up.x, spec.up.y, spec.up.z, spec.size, double(spec.fit),
                        spec.shiftX, spec.shiftY, spec.pixelAspect, spec.tMin, spec.tMax, double(settings.width),
-                       double(settings.height)}};
+                       double(settings.height), double(seen.x), double(seen.y), double(seen.width),
+                       double(seen.height)}};
     return spheres.view(key, [&] {
-      return std::shared_ptr<const SphereView<Real>>(
-          viewThrough(spheres, camera, settings.width, settings.height, settings));
+      return std::shared_ptr<const SphereView<Real>>(viewThrough(spheres, camera, seen, settings));
     });
   }
 
-  // The view of `spheres` over a width x height image seen through `camera`, on the render's threads
-  // (of the spheres listed in `only`, in increasing order, if given). `disks`: a light's, keeping
-  // each sphere's disk and core (SphereView::make).
+  // The view of `spheres` over the pixels `seen` of the image seen through `camera`, on the render's
+  // threads (of the spheres listed in `only`, in increasing order, if given). `disks`: a light's,
+  // keeping each sphere's disk and core (SphereView::make).
   static std::unique_ptr<SphereView<Real>> viewThrough(const SphereSet<Real>& spheres, const Camera<Real>& camera,
-                                                       int width, int height, const RenderSettings& settings,
+                                                       const RenderSettings::Region& seen,
+                                                       const RenderSettings& settings,
                                                        const std::vector<uint32_t>* only = nullptr,
                                                        bool disks = false) {
     const auto footprint = [&](size_t i, SampleBox& box, double& tLow, SampleDisk* disk) {
@@ -592,7 +602,8 @@ class TileRenderer {
     };
     const int threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
     const size_t count = only ? only->size() : spheres.size();
-    return SphereView<Real>::make(count, footprint, 0, 0, width, height, threads, only ? only->data() : nullptr, disks);
+    return SphereView<Real>::make(count, footprint, seen.x, seen.y, seen.width, seen.height, threads,
+                                  only ? only->data() : nullptr, disks);
   }
 
   // A light view's cells are this many mean sphere radii across (at the spheres' mean distance from
@@ -630,7 +641,7 @@ class TileRenderer {
       const Camera<Real> light(spec, pixels, pixels);
       // Its footprints are squares around disks: a shadow ray tests the spheres whose disk holds it,
       // and is blocked without a test by one whose core holds it and that lies wholly before it.
-      std::unique_ptr<SphereView<Real>> view = viewThrough(spheres, light, pixels, pixels, settings, nullptr, true);
+      std::unique_ptr<SphereView<Real>> view = viewThrough(spheres, light, {0, 0, pixels, pixels}, settings, nullptr, true);
       if (view) view->setLight(light.projection());
       return view;
     });
@@ -661,7 +672,7 @@ class TileRenderer {
       std::unique_ptr<SphereView<Real>> first;
       for (int face = 0; face < 6; ++face) {
         const Camera<Real> eye = cubeFace(position, face, pixels);
-        std::unique_ptr<SphereView<Real>> view = viewThrough(spheres, eye, pixels, pixels, settings, &faces[face], true);
+        std::unique_ptr<SphereView<Real>> view = viewThrough(spheres, eye, {0, 0, pixels, pixels}, settings, &faces[face], true);
         if (!view) return nullptr;
         view->setLight(eye.projection());
         if (first) {

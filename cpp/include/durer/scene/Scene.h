@@ -171,7 +171,13 @@ class Scene {
     size_t start;
     bool transformed;         // the group is a transformed one, seen through:
     Affined worldFromObject;
+    Reach reach;              // of its spheres where they are now (moveSpheres keeps it so)
+    size_t farthest = 0;      // the group's sphere that reach measured
   };
+  // Run's reach measured again over all its spheres, after a move took its farthest sphere nearer.
+  void measureReach(SphereRun& run);
+  // The farthest of every add's reach, the spheres' where they are now.
+  Reach reach() const;
   // Geometry as traced in one precision, and whether spheres have moved since it was made.
   template <typename Real>
   struct Prepared {
@@ -196,7 +202,7 @@ class Scene {
   Vec3d m_ambient{0};
   int32_t m_objectCount = 0;
   bool m_colored = false;
-  Reach m_reach;  // the largest of every add's (world: the largest world reach)
+  Reach m_reach;  // the largest of every add's but spheres' (world: the largest world reach): m_sphereRuns hold theirs
 };
 
 }  // namespace durer
