@@ -71,8 +71,9 @@ class RenderResult:
 
 
 class RenderCancelled(Exception):
-    """The render was cancelled; `result` holds the tiles finished before it stopped (the id
-    passes of the pixels not reached hold -1, unless reused through `out`)."""
+    """The render was cancelled; `result` holds the tiles finished before it stopped. The pixels not
+    reached (also in buffers reused through `out`) hold depth and error NaN, which no rendered pixel
+    has, colour (0, 0, 0, 0), normal 0, ids -1 and samples 0."""
 
     def __init__(self, result: RenderResult) -> None:
         super().__init__(f"render cancelled after {result.stats['rays']} of {result.stats['requested_rays']} rays")

@@ -84,6 +84,33 @@ def test_a_cancelled_renders_id_passes_are_misses_where_it_did_not_reach():
     assert (partial.object_id != -1).sum() * 256 == partial.stats["rays"]
 
 
+@pytest.mark.parametrize("sampler", ["stratified", "adaptive"])
+def test_the_pixels_a_cancel_left_unreached_are_marked_so(sampler):
+    """Depth and error NaN (a value no rendered pixel has; misses are inf), colour (0, 0, 0, 0),
+    normal 0, ids -1, samples 0 -- also in buffers reused through `out`, which held the render
+    before's (they held whatever the memory held, or depth 0, which looks like a hit)."""
+    scene, camera = heavy_scene()
+    scene.add_plane((0, 0, 1), -6.0)  # behind everything: every pixel rendered hits something
+    passes = ("color", "depth", "normal", "object_id", "material_id")
+    before = durer.render(scene, camera, 96, 96, spp=1, passes=passes)
+    stop = threading.Event()
+    timer = threading.Timer(0.3, stop.set)
+    timer.start()
+    with pytest.raises(durer.RenderCancelled) as info:
+        durer.render(scene, camera, 96, 96, spp=4096, sampler=sampler, min_spp=4096, passes=passes, cancel=stop,
+                     out=before)
+    timer.join()
+    partial = info.value.result
+    reached = np.isfinite(partial.depth)
+    # Stratified writes each tile once done (some were); adaptive its tiles after its last round.
+    assert 0 < reached.mean() < 0.9 if sampler == "stratified" else not reached.any()
+    assert (partial.color[~reached] == 0).all() and (partial.normal[~reached] == 0).all()
+    assert (partial.object_id[~reached] == -1).all() and (partial.material_id[~reached] == -1).all()
+    assert (partial.object_id[reached] >= 0).all() and (partial.depth[reached] > 0).all()
+    if sampler == "adaptive":
+        assert (partial.samples == 0).all() and np.isnan(partial.error).all()
+
+
 @contextmanager
 def ticking() -> Iterator[Callable[[], int]]:
     """A Python thread counting its turns (one every 1-2 ms) while the block runs; yields the count since

@@ -120,8 +120,13 @@ class AdaptiveSampler {
     // A tile is marked for the next round as soon as every tile around it has been sampled in this
     // one (its marking reads nothing else), by the worker that sampled the last of them: no pass
     // of its own. Tiles with no sampled tile around them keep their decision: nothing to add.
+    std::vector<uint8_t> written(m_tileCount, 0);  // a byte a tile: each written by one worker
     const WorkItem work = [&](int64_t i, int worker) {
-      if (writing.load(std::memory_order_relaxed)) return writeTile(m_state[static_cast<size_t>(i)]);
+      if (writing.load(std::memory_order_relaxed)) {
+        writeTile(m_state[static_cast<size_t>(i)]);
+        written[static_cast<size_t>(i)] = 1;
+        return;
+      }
       const int r = round.load(std::memory_order_relaxed);
       if (overTime(r)) {
         late = true;
@@ -174,6 +179,11 @@ class AdaptiveSampler {
     if (control.cancel.load()) {
       if (!writing.load()) ++stats.rounds;  // the round cancelled
       stats.timeLimitReached = late.load();
+      for (size_t u = 0; u < m_tileCount; ++u) {  // the output's pixels no tile wrote
+        if (written[u]) continue;
+        const int tx = m_firstTileX + static_cast<int>(u % m_tilesX), ty = m_firstTileY + static_cast<int>(u / m_tilesX);
+        m_tiles.markUnreached(tx * kTileSize, ty * kTileSize, kTileSize, kTileSize);
+      }
     } else {
       summarise(stats);
     }

@@ -51,11 +51,24 @@ RenderStats renderWith(const RenderJob& job) {
   // cache line of the outputs, and only where the bands meet does one worker take another's tiles,
   // a tile at a time.
   std::vector<WorkerCounters> traced(static_cast<size_t>(stats.threads));
+  std::vector<uint8_t> done(static_cast<size_t>(tileCount), 0);  // a byte a tile: each written by one worker
   runParallel(
       tileCount, stats.threads, control,
-      [&](int64_t tile, int worker) { traced[static_cast<size_t>(worker)].counters += tiles.render(tile); }, job.poll);
+      [&](int64_t tile, int worker) {
+        const RayCounters counters = tiles.render(tile);  // nothing if cancelled before it was written
+        traced[static_cast<size_t>(worker)].counters += counters;
+        done[static_cast<size_t>(tile)] = counters.camera > 0;
+      },
+      job.poll);
   for (const WorkerCounters& w : traced) stats.counters += w.counters;
   stats.cancelled = control.cancel.load();
+  if (stats.cancelled) {
+    for (int64_t tile = 0; tile < tileCount; ++tile) {
+      if (done[static_cast<size_t>(tile)]) continue;
+      const auto [x0, y0, w, h] = tiles.tileRect(tile);
+      tiles.markUnreached(x0, y0, w, h);
+    }
+  }
   return stats;
 }
 

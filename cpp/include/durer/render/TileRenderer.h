@@ -103,16 +103,42 @@ class TileRenderer {
     return renderTile(tile);
   }
 
+  // The pixels of the region that tile `tile` covers: x0, y0, w, h.
+  std::array<int, 4> tileRect(int64_t tile) const {
+    const int tileX = (m_firstTileX + static_cast<int>(tile % m_tilesX)) * kTileSize;
+    const int tileY = (m_firstTileY + static_cast<int>(tile / m_tilesX)) * kTileSize;
+    const int x0 = std::max(tileX, m_region.x), y0 = std::max(tileY, m_region.y);
+    return {x0, y0, std::min(tileX + kTileSize, m_region.x + m_region.width) - x0,
+            std::min(tileY + kTileSize, m_region.y + m_region.height) - y0};
+  }
+
+  // Marks the region's pixels in [x0, x0 + w) x [y0, y0 + h) as a cancelled render left them, not
+  // reached: depth and error NaN (no pixel rendered has them), colour (0, 0, 0, 0) as Blender shows
+  // a tile not rendered, normal 0, ids -1, samples 0 (the outputs are not cleared before: a render
+  // writes every pixel, and these held whatever their memory held, or an earlier render's in `out`).
+  void markUnreached(int x0, int y0, int w, int h) const {
+    const int xa = std::max(x0, m_region.x), xb = std::min(x0 + w, m_region.x + m_region.width);
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    for (int y = std::max(y0, m_region.y); y < std::min(y0 + h, m_region.y + m_region.height); ++y) {
+      for (int x = xa; x < xb; ++x) {
+        const size_t i = static_cast<size_t>(y - m_region.y) * m_region.width + (x - m_region.x);
+        if (m_targets.color) std::fill_n(m_targets.color + 4 * i, 4, 0.0f);
+        if (m_targets.depth) m_targets.depth[i] = nan;
+        if (m_targets.normal) std::fill_n(m_targets.normal + 3 * i, 3, 0.0f);
+        if (m_targets.objectId) m_targets.objectId[i] = -1;
+        if (m_targets.materialId) m_targets.materialId[i] = -1;
+        if (m_targets.samples) m_targets.samples[i] = 0;
+        if (m_targets.error) m_targets.error[i] = nan;
+      }
+    }
+  }
+
   // Whether a pass reads the pixels' normals' and nearest hit's sums (the normal and id passes).
   bool needsNormals() const { return m_needNormals; }
 
  private:
   RayCounters renderTile(int64_t tile) const {
-    const int tileX = (m_firstTileX + static_cast<int>(tile % m_tilesX)) * kTileSize;
-    const int tileY = (m_firstTileY + static_cast<int>(tile / m_tilesX)) * kTileSize;
-    const int x0 = std::max(tileX, m_region.x), y0 = std::max(tileY, m_region.y);
-    const int w = std::min(tileX + kTileSize, m_region.x + m_region.width) - x0;
-    const int h = std::min(tileY + kTileSize, m_region.y + m_region.height) - y0;
+    const auto [x0, y0, w, h] = tileRect(tile);
     const int count = w * h;
     Accumulator acc;
     acc.clear(count, m_targets.color != nullptr, m_needNormals, m_needNearest || m_sampler.samplesPerPixel() > 1);
