@@ -82,7 +82,7 @@ def save_image(path: str | Path, pixels: ArrayLike, *, srgb: bool = True) -> Pat
     """Write a top-row-first image ((H, W), (H, W, 3) or (H, W, 4) floats in [0, 1]) as 8-bit PNG
     (or any format Pillow knows by the extension). Colour channels of linear renders are sRGB
     encoded by default; pass srgb=False for data such as depth or normal visualisations."""
-    if isinstance(pixels, np.ndarray) and pixels.dtype.kind in "iu":  # bytes would all be 0 or 1 after the clip
+    if isinstance(pixels, np.ndarray) and pixels.dtype.kind in "iu":  # bytes were clipped to 1: written 0 or 255
         raise TypeError(f"pixels must be floats in [0, 1], got an array of {pixels.dtype} (bytes: divide by 255)")
     p = _checks._numeric_array(pixels, "pixels").astype(np.float64)  # a copy: the encoding below writes into it
     if p.ndim not in (2, 3) or (p.ndim == 3 and p.shape[2] not in (3, 4)):

@@ -260,6 +260,8 @@ void Scene::moveSpheres(const int32_t* ids, const double* centers, const double*
   }
   requireSpheres(centers, radii, count);
   // The farthest moved sphere of each run (a few runs: one per add), checked through its transform.
+  // A sphere named twice counts both places: the reach may be the earlier's, farther (a float
+  // render then refused where the later fits), never nearer than the spheres are.
   struct Farthest {
     const SphereRun* run;
     double extent;

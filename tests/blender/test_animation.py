@@ -67,7 +67,7 @@ def test_moving_points_reuse_the_scene_and_render_as_a_fresh_export(scene):
     scene.render.use_persistent_data = True
     kept = [render_frame(scene, f) for f in (1, 2, 3)]
     assert [reused for _, reused in kept] == [False, True, True]
-    assert "last frame's scene refitted" in engine.last_render.stats_line
+    assert "last frame's scene reused" in engine.last_render.stats_line
     for (a, _), (b, _) in zip(fresh, kept):
         np.testing.assert_array_equal(a, b)
     assert not np.array_equal(fresh[0][0], fresh[2][0])  # the points moved

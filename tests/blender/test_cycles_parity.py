@@ -238,6 +238,13 @@ def test_render_region_like_cycles(scene, tmp_path, crop):
     hit_c, hit_d = c["depth"] < MISS, d["depth"] < MISS
     assert hit_c.any() and np.array_equal(hit_c, hit_d)
     np.testing.assert_allclose(d["depth"][hit_c], c["depth"][hit_c], rtol=1e-4)
+    # The Image datablock holds what the saved file holds (without crop: the region in the whole
+    # frame; it held the region alone), bottom row first.
+    image = bpy.data.images["Dürer Render"]
+    assert tuple(image.size) == d["color"].shape[1::-1]
+    pixels = np.empty(len(image.pixels), np.float32)
+    image.pixels.foreach_get(pixels)
+    np.testing.assert_allclose(pixels.reshape(d["color"].shape)[::-1], d["color"], atol=1e-6)
 
 
 def test_spot_light_brightness_matches_cycles(scene, tmp_path):

@@ -206,11 +206,19 @@ def test_view_layer_settings_dürer_does_not_follow_are_reported_and_its_panels_
     layer.material_override = bpy.data.materials.new("Clay")
     layer.use_sky = False
     layer.use_pass_mist = layer.use_pass_vector = True
+    # And those a file set up for Cycles' compositing asks for (they went unsaid).
+    layer.use_pass_diffuse_direct = layer.use_pass_glossy_color = layer.use_pass_cryptomatte_object = True
+    layer.use_pass_cryptomatte_accurate = True  # a setting of the cryptomatte passes, no pass of its own
+    layer.cycles.use_pass_shadow_catcher = True
+    layer.aovs.add().name = "Wear"
+    layer.lightgroups.add(name="Key")
+    layer.use_pass_z = layer.use_pass_normal = layer.use_pass_object_index = True  # written: not said
     assert bpy.ops.render.render() == {"FINISHED"}
     assert engine.last_render.warnings == [
         f"View layer '{layer.name}' overrides every material with 'Clay': Dürer renders each with its own",
         f"View layer '{layer.name}' filters out Environment: Dürer renders them",
-        f"View layer '{layer.name}' asks for passes Dürer does not write: Mist, Vector",
+        f"View layer '{layer.name}' asks for passes Dürer does not write: Cryptomatte Object, Vector, Mist, "
+        "Diffuse Direct, Glossy Color, Shadow Catcher, AOV 'Wear', Light Group 'Key'",
     ]
     for panel in ("PARTICLE_PT_emission", "PHYSICS_PT_field", "RENDER_PT_color_management_curves",
                   "RENDER_PT_simplify"):

@@ -121,6 +121,45 @@ def test_camera_view_renders_the_f12_image(scene, name):
     assert images[1][..., 0].max() > 0.3  # the ball is in the frame
 
 
+def test_a_camera_view_of_a_huge_clip_range_renders_the_f12_image(scene):
+    """A perspective camera clipping from 1e-6 to 3.4e38 (a 6.837 scene imported: its far/near
+    beyond float32's precision, Blender's window matrix holds no far plane): the viewport renders
+    the F12 image (it raised in view_draw: t_max -inf, and then showed nothing, saying 'done')."""
+    ball_scene(scene, 32, 24)
+    aim_camera(scene, (1.5, -6, 1))
+    scene.camera.data.clip_start, scene.camera.data.clip_end = 1e-6, 3.4e38
+    scene.durer.samples = 2
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    window = scene.camera.evaluated_get(depsgraph).calc_matrix_camera(depsgraph, x=32, y=24)
+    assert window[2][2] == -1.0  # what float32 makes of -(far + near) / (far - near)
+    view = scene.camera.matrix_world.normalized().inverted()
+    got = viewport.view_camera(view, window, True, 32, 24)
+    assert got.t_max == np.inf and got.t_min == pytest.approx(1e-6, rel=1e-3)
+    f12 = build.make_camera(camera_data(scene, scene.camera))
+    core = build.make_scene(export_depsgraph(depsgraph))
+    images = [durer.render(core, c, 32, 24, spp=4, passes=("color",)).color for c in (got, f12)]
+    assert np.abs(images[0] - images[1]).max() < 1e-4 and images[1][..., 0].max() > 0.3
+    session = viewport.ViewportSession()
+    session.update(depsgraph)
+    assert session.view(SimpleNamespace(view_matrix=view, window_matrix=window, is_perspective=True), 32, 24)
+    assert session.image.wait(30) and session.status() == "Dürer | viewport | sample 2/2 | done"
+
+
+def test_a_view_the_core_refuses_is_said_not_raised(scene):
+    """A view the core cannot take (here a window matrix with a NaN) shows the error in the stats
+    line, and the next good view renders."""
+    ball_scene(scene, 32, 24)
+    session = viewport.ViewportSession()
+    session.update(bpy.context.evaluated_depsgraph_get())
+    rv3d = region_view()
+    bad = Matrix(rv3d.window_matrix)
+    bad[0][0] = float("nan")
+    assert not session.view(SimpleNamespace(view_matrix=rv3d.view_matrix, window_matrix=bad, is_perspective=True),
+                            32, 24)
+    assert session.status().startswith("Dürer | error: ValueError: ") and session.frame()[1] is None
+    assert session.view(rv3d, 32, 24) and session.image.wait(30) and session.status().endswith("| done")
+
+
 def sphere_scene(radius=1.0):
     scene = durer.Scene()
     red = scene.add_material(diffuse=(0.9, 0.1, 0.1))

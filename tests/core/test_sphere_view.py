@@ -7,6 +7,9 @@ in both precisions, for regions, and after the spheres move."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import durer
 import numpy as np
 import pytest
@@ -445,28 +448,66 @@ def ortho_rays(center, size, width, height, region):
     return origins, np.broadcast_to([0.0, 0.0, -1.0], origins.shape)
 
 
-def test_a_region_of_a_huge_image_sees_through_a_view_of_its_own():
+# A region of a huge image, rendered in a process of its own: its peak memory is the render's.
+HUGE_REGION = """
+import resource, sys, numpy as np, durer
+side, x, y, w, h = (int(v) for v in sys.argv[1:6])
+rng = np.random.default_rng(11)
+centers = np.column_stack([rng.uniform(-0.01, 0.01, (400, 2)), rng.uniform(-1, 1, 400)])
+scene = durer.Scene()
+scene.add_spheres(centers, rng.uniform(1e-4, 4e-4, 400))  # 3-13 pixels
+camera = durer.OrthographicCamera((0, 0, 3), (0, 0, -1), (0, 1, 0), size=2.0)
+part = durer.render(scene, camera, side, side, region=(x, y, w, h), passes=("depth", "object_id"), threads=2)
+np.save(sys.argv[6], np.stack([part.depth, part.object_id.astype(np.float32)]))
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss // 1024)
+"""
+
+
+def test_a_region_of_a_huge_image_sees_through_a_view_of_its_own(tmp_path):
     """A 65536 x 65536 image's view of the spheres would take ~0.6 GB whatever the region rendered
     (the whole image's cells): a region of an image that large sees through a view of its region,
     and finds what a cast of its rays finds."""
-    import resource
-
+    camera = durer.OrthographicCamera((0, 0, 3), (0, 0, -1), (0, 1, 0), size=2.0)
+    np.testing.assert_allclose(ortho_rays((0, 0, 3), 2.0, 40, 40, (0, 0, 40, 40))[0], camera.rays(40, 40)[0],
+                               rtol=0, atol=1e-15)  # the rays as the camera's
+    side, region = 65536, (32600, 32600, 336, 336)  # the cloud's middle, 0.02 across: ~650 pixels
+    peaks = []
+    for name, arguments in (("huge", (side, *region)), ("small", (64, 0, 0, 8, 8))):
+        done = subprocess.run([sys.executable, "-c", HUGE_REGION, *map(str, arguments), str(tmp_path / name)],
+                              capture_output=True, text=True, check=True)
+        peaks.append(int(done.stdout))
+    assert peaks[0] < peaks[1] + 100, f"peak memory {peaks[0]} MB against {peaks[1]} MB for a small image"
+    depth, ids = np.load(tmp_path / "huge.npy")
+    scene = durer.Scene()
     rng = np.random.default_rng(11)
     centers = np.column_stack([rng.uniform(-0.01, 0.01, (400, 2)), rng.uniform(-1, 1, 400)])
-    scene = durer.Scene()
-    scene.add_spheres(centers, rng.uniform(1e-4, 4e-4, 400))  # 3-13 pixels
-    camera = durer.OrthographicCamera((0, 0, 3), (0, 0, -1), (0, 1, 0), size=2.0)
-    small = ortho_rays((0, 0, 3), 2.0, 40, 40, (0, 0, 40, 40))
-    np.testing.assert_allclose(small[0], camera.rays(40, 40)[0], rtol=0, atol=1e-15)  # the rays as the camera's
-    side, region = 65536, (32600, 32600, 336, 336)  # the cloud's middle, 0.02 across: ~650 pixels
-    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    part = durer.render(scene, camera, side, side, region=region, passes=("depth", "object_id"), threads=2)
-    grown_mb = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) / 1024
-    assert grown_mb < 100, f"the render's peak memory grew by {grown_mb:.0f} MB"  # the whole image's view: ~600
+    scene.add_spheres(centers, rng.uniform(1e-4, 4e-4, 400))
     origins, directions = ortho_rays((0, 0, 3), 2.0, side, side, region)
     cast = durer.cast(scene, origins.reshape(-1, 3), np.ascontiguousarray(directions.reshape(-1, 3)), threads=2)
-    ids = cast.object_id.reshape(part.object_id.shape)
-    assert (ids >= 0).mean() > 0.05
-    np.testing.assert_array_equal(part.object_id, ids)
-    hit = ids >= 0
-    np.testing.assert_allclose(part.depth[hit], cast.t.reshape(ids.shape)[hit], rtol=1e-6)
+    cast_ids = cast.object_id.reshape(ids.shape)
+    assert (cast_ids >= 0).mean() > 0.05
+    np.testing.assert_array_equal(ids, cast_ids)
+    hit = cast_ids >= 0
+    np.testing.assert_allclose(depth[hit], cast.t.reshape(ids.shape)[hit], rtol=1e-6)
+
+
+@pytest.mark.parametrize("sampler", ["stratified", "adaptive"])
+def test_a_region_of_a_huge_image_is_that_part_of_a_larger_region(sampler):
+    """Above 2^28 pixels each region sees through a view of the pixels it samples -- adaptive
+    sampling's margin too, whose marking reads its neighbours: a region rendered alone equals the
+    same pixels rendered inside a larger region (as tiles of a poster must), bit for bit."""
+    side, size = 16392, 2.0  # just above 2^28 pixels
+    rng = np.random.default_rng(3)
+    px, py = rng.uniform(7950, 8090, 3000), rng.uniform(7950, 8090, 3000)
+    radii = rng.uniform(0.1, 0.6, 3000) * size / side  # below a pixel: the first samples miss some
+    centers = np.column_stack([(px / side - 0.5) * size, (0.5 - py / side) * size, rng.uniform(-1, 1, 3000)])
+    scene = durer.Scene()
+    scene.add_spheres(centers, radii, scene.add_material((0.9, 0.1, 0.1)))
+    camera = durer.OrthographicCamera((0, 0, 3), (0, 0, -1), (0, 1, 0), size=size)
+    options = dict(spp=64, sampler=sampler, threads=2, passes=("color", "depth", "object_id"), min_spp=4,
+                   target_error=0.002)
+    alone = durer.render(scene, camera, side, side, region=(8000, 8000, 40, 40), **options)
+    inside = durer.render(scene, camera, side, side, region=(7960, 7960, 120, 120), **options)
+    for name in ("color", "depth", "object_id") + (("samples",) if sampler == "adaptive" else ()):
+        np.testing.assert_array_equal(getattr(alone, name), getattr(inside, name)[40:80, 40:80], err_msg=name)
+    assert (alone.object_id >= 0).mean() > 0.2

@@ -91,6 +91,13 @@ def test_preview_options_are_accepted_and_ignored():
     ("-input s.txt -size 2 2 -output o.png -precision half", "argument -precision: invalid choice: 'half'"),
     ("-input s.txt -size 2 2 -output o.png -foo", "unrecognized option: -foo"),
     ("-inp s.txt -size 2 2 -output o.png", "unrecognized option: -inp"),  # no abbreviations
+    # before the render, not a traceback after it (Pillow's OverflowError writing the header)
+    ("-input s.txt -size 70000 1 -output o.png -depth 9 10 d.tga",
+     "-depth d.tga: a TGA image is at most 65535 pixels wide and tall, got -size 70000 1"),
+    ("-input s.txt -size 2 2 -output o.png -depth 9 10 o.png",  # the colour image was overwritten, exit 0
+     "-output and -depth name the same image o.png: the second would overwrite the first"),
+    ("-input s.txt -size 2 2 -output o.png -normals ./o.png",
+     "-output and -normals name the same image o.png: the second would overwrite the first"),
 ])
 def test_bad_options_exit_with_code_2(capsys, arguments, message):
     with pytest.raises(SystemExit) as info:

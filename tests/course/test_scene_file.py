@@ -318,6 +318,15 @@ def test_a_byte_order_mark_is_not_part_of_the_text(tmp_path):
     np.testing.assert_array_equal(scene.primitives[0].faces, [[0, 1, 2]])
 
 
+def test_control_characters_of_a_token_are_escaped_in_the_error(tmp_path):
+    """A binary file's bytes quoted raw vanished on a terminal ("got 'PerspectiveCamera'" for a token
+    that is not)."""
+    (tmp_path / "scene.txt").write_bytes(b"\x00\x01\x02PerspectiveCamera {\n}\n")
+    with pytest.raises(SceneFileError) as info:
+        read_scene_file(tmp_path / "scene.txt")
+    assert "got '\\x00\\x01\\x02PerspectiveCamera'" in str(info.value) and str(info.value).isprintable()
+
+
 @pytest.mark.parametrize("end", ["\r", "\r\n", "\n"], ids=["CR", "CRLF", "LF"])
 def test_errors_are_at_their_line_whatever_ends_the_lines(tmp_path, end):
     """Old Mac editors end lines with CR alone: lines are still counted (as str.splitlines counts them)."""

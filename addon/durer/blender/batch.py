@@ -457,13 +457,15 @@ def _main_distributed(args: argparse.Namespace, prog: str) -> int:
         require_distributed()
         if args.workers is not None and args.workers < 0:
             raise ValueError(f"--workers must be >= 1, got {args.workers}")
-        # Bad input is reported before a cluster starts, as in one process before any frame.
+        # The arguments are checked before a cluster starts (the file's scenes once it is open).
         parse_frames(args.frames)
-        checked_overrides(args.samples, args.threads)
-        if not Path(args.file).is_file():
-            raise FileNotFoundError(f"No such .blend file: {Path(args.file).resolve()}")
-        if args.output is not None:
-            make_folder_for(Path(args.output).expanduser())  # a file standing where its folder goes
+        checked_overrides(args.samples, None)  # main checked --threads
+        blend = Path(args.file)
+        if not blend.is_file():
+            raise FileNotFoundError(f"No such .blend file: {blend.resolve()}")
+        if args.output is not None:  # a file standing where its folder goes; "//": beside the .blend
+            output = args.output
+            make_folder_for(blend.resolve().parent / output[2:] if output.startswith("//") else Path(output).expanduser())
         with cluster(args.scheduler, args.workers or None) as client:
             report = render_frames(
                 args.file, frames=args.frames, output=args.output, samples=args.samples, client=client,

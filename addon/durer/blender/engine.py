@@ -61,11 +61,12 @@ class RenderInfo:
 
 
 def stats_line(width: int, height: int, samples: int, stats: dict, cancelled: bool = False,
-               refitted: bool = False) -> str:
+               reused: bool = False) -> str:
     """Blender's stats line after a render: size, samples and sampler (for Adaptive, the maximum and
     the mean a pixel got, and the RMS error it estimates), the effects Dürer simulated (the core
     derives them from the scene: flat, diffuse, specular, shadows, reflection, refraction, ambient
-    occlusion with its samples), speed, and whether the last frame's scene was refitted."""
+    occlusion with its samples), speed, and whether the last frame's core scene was reused (what moved
+    in it refitted: update_scene)."""
     sampler = stats.get("sampler")
     total = stats.get("samples")
     if sampler == "adaptive":
@@ -88,8 +89,8 @@ def stats_line(width: int, height: int, samples: int, stats: dict, cancelled: bo
     mrays = stats.get("mrays_per_s")
     if isinstance(mrays, (int, float)):
         parts.append(f"{mrays:.1f} Mrays/s" if mrays >= 0.1 else f"{mrays:.2g} Mrays/s")  # a big export, a tiny image
-    if refitted:
-        parts.append("last frame's scene refitted")
+    if reused:
+        parts.append("last frame's scene reused")
     if cancelled:
         parts.append("cancelled")
     return " | ".join(parts)
@@ -279,7 +280,12 @@ class DurerEngineMixin:
         if numbers is not None:  # saved with the image, so that its ids can be read without this session
             # The whole result's metadata: a tile's is dropped. JSON escapes non-ASCII: a PNG's text is Latin-1.
             self.get_result().stamp_data_add_field(OBJECT_IDS_FIELD, json.dumps(info.object_ids))
-        color = color[crop]
+        if scene.render.use_crop_to_border or crop == (slice(0, h), slice(0, w)):
+            color = color[crop]
+        else:  # the region in the whole frame, transparent around it, as Blender's result shows it
+            framed = np.zeros_like(color)
+            framed[crop] = color[crop]
+            color = framed
         if threading.current_thread() is threading.main_thread():
             store_image(color)
         else:  # Blender's UI renders in a job thread: create datablocks on the main thread

@@ -47,7 +47,9 @@ def view_camera(view_matrix: Any, window_matrix: Any, is_perspective: bool, widt
     span_x, span_y = 2.0 / win[0, 0], 2.0 / win[1, 1]
     if is_perspective:
         mid_x, mid_y = win[0, 2] / win[0, 0], win[1, 2] / win[1, 1]
-        near, far = win[2, 3] / (win[2, 2] - 1.0), win[2, 3] / (win[2, 2] + 1.0)
+        # far/near beyond ~1.7e7 (a 6.837 scene's clip range) leaves float32's win[2, 2] at -1: no far plane.
+        near = win[2, 3] / (win[2, 2] - 1.0)
+        far = win[2, 3] / (win[2, 2] + 1.0) if win[2, 2] + 1.0 < 0.0 else np.inf
     else:
         mid_x, mid_y = -win[0, 3] / win[0, 0], -win[1, 3] / win[1, 1]
         near, far = (win[2, 3] + 1.0) / win[2, 2], (win[2, 3] - 1.0) / win[2, 2]
@@ -214,7 +216,13 @@ class ViewportSession:
         if key == self._view_key:
             return False
         self._view_key = key
-        camera = region_camera(region_data, width, height)
+        try:
+            camera = region_camera(region_data, width, height)
+        except ValueError as exc:  # a view the core cannot take: said in the stats line, never raised in Blender
+            self.image.stop()
+            self.error = f"{type(exc).__name__}: {exc}"
+            return False
+        self.error = None
         self.image.restart(self.scene, camera, width, height, **self._settings)
         return True
 

@@ -179,5 +179,5 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"gallery: error: cannot write {args.page}: {error}", file=sys.stderr)
         return 1
     failed = sum(r.error is not None for r in rows)
-    print(f"wrote {args.page} ({len(rows)} commands, {failed} failed) in {seconds:.1f} s")
+    print(f"wrote {args.page} ({len(rows)} command{'s' if len(rows) != 1 else ''}, {failed} failed) in {seconds:.1f} s")
     return 1 if failed else 0

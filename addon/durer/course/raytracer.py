@@ -243,12 +243,18 @@ def parse_arguments(argv: Sequence[str], parser: argparse.ArgumentParser | None 
         near, far = _real(parser, "-depth MIN", args.depth[0]), _real(parser, "-depth MAX", args.depth[1])
         if not near < far:
             parser.error(f"-depth needs MIN < MAX, got {args.depth[0]} {args.depth[1]}")
-        depth = (near, far, _image_path(parser, "-depth", args.depth[2]))
+        depth = (near, far, _image_path(parser, "-depth", args.depth[2], width, height))
     ignored = tuple(name for name, given in (("-gui", args.gui), ("-tessellation", args.tessellation is not None),
                                              ("-gouraud", args.gouraud)) if given)
+    output = _image_path(parser, "-output", args.output, width, height)
+    normals = None if args.normals is None else _image_path(parser, "-normals", args.normals, width, height)
+    images = {"-output": output, "-depth": None if depth is None else depth[2], "-normals": normals}
+    for i, (option, path) in enumerate(images.items()):
+        for other, other_path in list(images.items())[i + 1:]:
+            if path is not None and other_path is not None and path.resolve() == other_path.resolve():
+                parser.error(f"{option} and {other} name the same image {path}: the second would overwrite the first")
     return RaytracerOptions(
-        input=Path(args.input), width=width, height=height, output=_image_path(parser, "-output", args.output),
-        depth=depth, normals=None if args.normals is None else _image_path(parser, "-normals", args.normals),
+        input=Path(args.input), width=width, height=height, output=output, depth=depth, normals=normals,
         shade_back=args.shade_back, shadows=args.shadows, bounces=args.bounces, weight=args.weight, spp=args.spp,
         precision=args.precision, ignored=ignored)
 
@@ -263,10 +269,19 @@ def _real(parser: argparse.ArgumentParser, name: str, text: str) -> float:
     return value
 
 
-def _image_path(parser: argparse.ArgumentParser, option: str, text: str) -> Path:
+#: The widest and tallest image a format holds (a TGA header's sizes are 16-bit).
+_MOST_PIXELS = {"TGA": 65535}
+
+
+def _image_path(parser: argparse.ArgumentParser, option: str, text: str, width: int, height: int) -> Path:
     path = Path(text)
-    if path.suffix.lower() not in IMAGE_FORMATS:
+    image_format = IMAGE_FORMATS.get(path.suffix.lower())
+    if image_format is None:
         parser.error(f"{option} {text}: the image must end in .png or .tga")
+    most = _MOST_PIXELS.get(image_format)
+    if most is not None and max(width, height) > most:
+        parser.error(f"{option} {text}: a {image_format} image is at most {most} pixels wide and tall, "
+                     f"got -size {width} {height}")
     return path
 
 

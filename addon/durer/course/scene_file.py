@@ -61,8 +61,10 @@ class SceneFileError(ValueError):
     def __init__(self, path: str | os.PathLike, line: int, message: str) -> None:
         self.path = str(path)
         self.line = line
-        self.message = message
-        super().__init__(f"{self.path}:{line}: {message}")
+        # What the file holds is quoted in the message: control characters escaped ('\x01'), not
+        # sent raw to the terminal, where they vanish or move the cursor.
+        self.message = "".join(c if c.isprintable() else repr(c)[1:-1] for c in message)
+        super().__init__(f"{self.path}:{line}: {self.message}")
 
 
 @dataclass(frozen=True)

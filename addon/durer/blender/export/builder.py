@@ -4,6 +4,8 @@ non-uniform scale, turned into world space as Cycles does)."""
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 
 from ..._checks import is_invertible
@@ -51,6 +53,8 @@ class Builder:
         self.metaball_bases: dict[str, object] = {}  # each metaball family's basis (the walk sets it)
         self.color_sources: dict[int, ColorSource | None] = {}  # by Blender material pointer
         self.fallbacks: set[str] = set()  # materials whose attribute colours were not used, noted once
+        # Spheres left out for a position or radius not finite, by object (noted at finish, summed).
+        self.nonfinite: Counter[str] = Counter()
         self.mesh_colors: dict[tuple, tuple] = {}  # (part, its colours) by (mesh, part, material)
         # A mesh part of one object and material met again under another matrix (an instance) goes
         # into the MeshData first made of it: the core stores it once for all its matrices.
@@ -182,6 +186,8 @@ class Builder:
         """`placed_spheres`' world-space spheres as a chunk; its ellipsoids added meanwhile."""
         linear, offset = rows[:, :, :3], rows[:, :, 3]
         scales, uniform = uniform_scales(linear)
+        for k in np.flatnonzero(~np.isfinite(scales)):  # neither kind below: left out, as Cycles does
+            self._matrix_left_out(self.data.objects[int(_row(owners, k))].name)
         for k in np.flatnonzero(~uniform & (scales > 0)):  # sheared or squashed: exact ellipsoids
             self.transformed_spheres(int(_row(owners, k)), np.vstack([rows[k], (0.0, 0.0, 0.0, 1.0)]), _row(centers, k),
                                      _row(radii, k), _row(materials, k), None if colors is None else _row(colors, k))
@@ -237,12 +243,15 @@ class Builder:
                                    "finite, as Cycles does")
 
     def _placeable(self, name: str, m: np.ndarray) -> bool:
-        """Whether world matrix m of object (or instance) `name` is finite; noted if not (Cycles
-        leaves such geometry out)."""
+        """Whether world matrix m of object (or instance) `name` is finite; noted if not."""
         if np.isfinite(m).all():
             return True
-        self.data.notes.append(f"Dürer left out '{name}' (or an instance of it) whose matrix is not finite, as Cycles does")
+        self._matrix_left_out(name)
         return False
+
+    def _matrix_left_out(self, name: str) -> None:
+        """Notes that object `name`, or an instance of it, was left out for a matrix not finite."""
+        self.data.notes.append(f"Dürer left out '{name}' (or an instance of it) whose matrix is not finite, as Cycles does")
 
     def _finite(self, owners, centers: np.ndarray, radii: np.ndarray) -> np.ndarray | None:
         """None if every sphere's centre and radius is finite, else which are, the others noted
@@ -255,8 +264,7 @@ class Builder:
             return None
         left = np.broadcast_to(np.asarray(owners), keep.shape)[~keep]
         for owner, count in zip(*np.unique(left, return_counts=True)):
-            self.data.notes.append(f"Dürer left out {count} sphere(s) of '{self.data.objects[owner].name}' whose "
-                                   "position or radius is not finite, as Cycles does")
+            self.nonfinite[self.data.objects[owner].name] += int(count)
         return keep
 
     def sphere(self, owner: int, m: np.ndarray, center, radius: float, material: int) -> None:
@@ -382,6 +390,9 @@ class Builder:
     def finish(self) -> SceneData:
         d = self.data
         self._make_singles()
+        for name, count in self.nonfinite.items():
+            d.notes.append(f"Dürer left out {count} sphere(s) of '{name}' whose position or radius is not finite, "
+                           "as Cycles does")
         for mesh, matrices in self.instanced.values():
             if len(matrices) > 1:
                 mesh.instances = np.array(matrices, np.float64)

@@ -93,8 +93,8 @@ def _add_shape(b: Builder, obj, m: np.ndarray, shape: MeshShape, infinite: bool,
     """A detected sphere or plane of `obj` (world matrix m, material slots `mats`) with the material
     of the slot its faces use, or its triangles (of mesh `me`) with their slots' materials; nothing
     for an empty shape."""
+    b.faces_left_out(obj.name_full, shape)
     if shape.kind == "triangles":
-        b.faces_left_out(obj.name_full, shape)
         b.triangles(obj, m, shape.parts, me)
         return
     if shape.kind == "empty":
@@ -267,12 +267,25 @@ CONVERTERS = {
 }
 
 
-#: View layer passes Blender offers that Dürer does not write (it writes Combined, Depth, Normal
-#: and the index passes), as the view layer names them.
-_UNWRITTEN_PASSES = {"use_pass_mist": "Mist", "use_pass_position": "Position", "use_pass_vector": "Vector",
-                     "use_pass_uv": "UV", "use_pass_ambient_occlusion": "Ambient Occlusion",
-                     "use_pass_emit": "Emission", "use_pass_environment": "Environment",
-                     "use_pass_shadow": "Shadow"}
+#: A view layer's `use_pass_*` settings that ask for no pass of their own.
+_NOT_PASSES = {"Cryptomatte Accurate"}
+
+
+def _unwritten_passes(layer) -> list[str]:
+    """The passes view layer `layer` asks for (its and its Cycles settings' `use_pass_*`, AOVs, light
+    groups, denoising data) that Dürer does not write, by Blender's names: those beyond Combined and
+    the engine's `PASS_LAYOUTS`."""
+    from ..engine import PASS_LAYOUTS  # the engine imports this module
+
+    written = {"Combined", *PASS_LAYOUTS}
+    asked = [prop.name for settings in (layer, getattr(layer, "cycles", None)) if settings is not None
+             for prop in settings.bl_rna.properties
+             if prop.identifier.startswith("use_pass_") and getattr(settings, prop.identifier)]
+    if getattr(getattr(layer, "cycles", None), "denoising_store_passes", False):
+        asked.append("Denoising Data")
+    asked += [f"AOV '{aov.name}'" for aov in getattr(layer, "aovs", ())]
+    asked += [f"Light Group '{group.name}'" for group in getattr(layer, "lightgroups", ())]
+    return [name for name in asked if name not in written and name not in _NOT_PASSES]
 
 
 def _ignored_view_layer(layer) -> list[str]:
@@ -286,7 +299,7 @@ def _ignored_view_layer(layer) -> list[str]:
     hidden = [what for name, what in (("use_sky", "Environment"), ("use_solid", "Surfaces")) if not getattr(layer, name)]
     if hidden:
         notes.append(f"View layer '{layer.name}' filters out {' and '.join(hidden)}: Dürer renders them")
-    unwritten = [what for name, what in _UNWRITTEN_PASSES.items() if getattr(layer, name, False)]
+    unwritten = _unwritten_passes(layer)
     if unwritten:
         notes.append(f"View layer '{layer.name}' asks for passes Dürer does not write: {', '.join(unwritten)}")
     return notes

@@ -240,7 +240,34 @@ def material_data(mat, obj=None, notes: list[str] | None = None) -> MaterialData
             notes.append(f"Material '{mat.name}': Dürer draws its {node.bl_label} surface in the material's "
                          f"viewport colour")
         return MaterialData(mat.name, viewport)
+    ignored = _ignored_inputs(mat, node)
+    if ignored and notes is not None:
+        notes.append(f"Material '{mat.name}': Dürer ignores its {', '.join(ignored)}")
     return convert(mat, node, viewport)
+
+
+#: Principled BSDF layers Dürer does not draw (docs/blender.md), by their weight input.
+_IGNORED_LAYERS = ("Coat Weight", "Sheen Weight", "Subsurface Weight")
+
+
+def _ignored_inputs(mat, node) -> list[str]:
+    """What a converted surface sets that its Dürer material leaves out: a bump or normal map, a
+    Principled BSDF's alpha below 1 (drawn opaque) and coat, sheen and subsurface layers, and the
+    output's displacement."""
+    ignored = []
+    normal = node.inputs.get("Normal")
+    if normal is not None and normal.is_linked:
+        ignored.append("Normal input (bump or normal map)")
+    if node.bl_idname == "ShaderNodeBsdfPrincipled":
+        alpha = node.inputs["Alpha"]
+        if alpha.is_linked or scalar_input(node, "Alpha", 1.0) < 1.0:
+            ignored.append("Alpha (drawn opaque)")
+        ignored += [name.removesuffix(" Weight") for name in _IGNORED_LAYERS
+                    if node.inputs[name].is_linked or scalar_input(node, name, 0.0) > 0.0]
+    output = mat.node_tree.get_output_node("CYCLES")
+    if output is not None and output.inputs["Displacement"].is_linked:
+        ignored.append("Displacement")
+    return ignored
 
 
 def surface_shader(tree):

@@ -36,7 +36,7 @@ class MeshShape:
     edge1: np.ndarray | None = None
     edge2: np.ndarray | None = None
     parts: list[TrianglePart] = field(default_factory=list)  # triangles: one part per material slot
-    left_out: int = 0  # triangles: faces left out, a vertex of each not finite (triangle_parts)
+    left_out: int = 0  # triangles, empty: faces left out, a vertex of each not finite (triangle_parts)
     slot: int = 0  # sphere or plane: the material slot its faces use (forced: most of them)
 
 
@@ -163,7 +163,7 @@ def _triangles(me, slot_count: int) -> MeshShape:
     """The mesh's triangles, one part per material slot used ("empty" without faces: loose
     vertices and edges, like a curve without bevel, render as nothing in Cycles either)."""
     parts, left_out = triangle_parts(me, slot_count)
-    return MeshShape("triangles", parts=parts, left_out=left_out) if parts else MeshShape("empty")
+    return MeshShape("triangles" if parts else "empty", parts=parts, left_out=left_out)
 
 
 def mesh_shape(me, mode: str, axis_scale, slot_count: int) -> MeshShape:

@@ -72,8 +72,8 @@ class AdaptiveSampler {
         m_firstSamples(std::min(settings.minSamples, settings.samplesPerPixel)),
         m_target(settings.targetError),
         m_timeLimit(settings.timeLimit),
-        m_rounds(roundsFor(m_firstSamples, m_maxSamples)),
-        m_work(workRegion(m_output, m_rounds, settings.width, settings.height)),
+        m_rounds(adaptiveRounds(m_firstSamples, m_maxSamples)),
+        m_work(sampledRegion(settings)),
         m_stride(m_work.width + 2),
         m_firstTileX(m_work.x / kTileSize),
         m_firstTileY(m_work.y / kTileSize),
@@ -89,6 +89,9 @@ class AdaptiveSampler {
       m_summary[static_cast<size_t>(y) * m_stride].present = m_summary[static_cast<size_t>(y) * m_stride + m_stride - 1].present = false;
     }
   }
+
+  // Its work items: the tiles of the pixels it samples (the output region and its margin).
+  int64_t tileCount() const { return static_cast<int64_t>(m_tileCount); }
 
   // Runs the rounds, then the writing of the output region, as the phases of one job on `threads`
   // workers; returns what was traced.
@@ -223,19 +226,6 @@ class AdaptiveSampler {
 
   Summary& summaryAt(int x, int y) {
     return m_summary[static_cast<size_t>(y - m_work.y + 1) * m_stride + (x - m_work.x + 1)];
-  }
-
-  static int roundsFor(int first, int max) {
-    int rounds = 0;
-    for (int n = first; n < max; n *= 2) ++rounds;
-    return rounds;
-  }
-
-  // The output region widened by `margin` pixels, clipped to the image.
-  static RenderSettings::Region workRegion(const RenderSettings::Region& r, int margin, int width, int height) {
-    const int x0 = std::max(0, r.x - margin), y0 = std::max(0, r.y - margin);
-    const int x1 = std::min(width, r.x + r.width + margin), y1 = std::min(height, r.y + r.height + margin);
-    return {x0, y0, x1 - x0, y1 - y0};
   }
 
   // Where a refining round's packet goes (TileRenderer::trace): sample j to pixel pixel[j] of the

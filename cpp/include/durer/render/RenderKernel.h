@@ -38,15 +38,18 @@ RenderStats renderWith(const RenderJob& job) {
   const tiles::TileRenderer<Real, M>& tiles = *made;
   RenderStats stats;
   stats.effects = effects;
-  // A work item is a tile: more threads than tiles would have nothing to do (not started).
-  const int64_t tileCount = tiles.tileCount();
-  stats.threads = workersFor(settings.threads > 0 ? settings.threads : defaultThreadCount(), tileCount);
+  // A work item is a tile (of the pixels sampled): more threads than tiles would have nothing to do
+  // (not started).
+  const int asked = settings.threads > 0 ? settings.threads : defaultThreadCount();
   if (settings.sampler == SamplerKind::Adaptive) {
     tiles::AdaptiveSampler<Real, M> adaptive(tiles, settings, targets);
+    stats.threads = workersFor(asked, adaptive.tileCount());
     stats.counters = adaptive.render(stats.threads, control, job.poll, stats.adaptive);
     stats.cancelled = control.cancel.load();
     return stats;
   }
+  const int64_t tileCount = tiles.tileCount();
+  stats.threads = workersFor(asked, tileCount);
   // The workers' shares are bands of the image (runPhases), so threads rarely write to the same
   // cache line of the outputs, and only where the bands meet does one worker take another's tiles,
   // a tile at a time.

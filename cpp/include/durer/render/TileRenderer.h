@@ -27,6 +27,24 @@ inline RenderSettings::Region regionOf(const RenderSettings& s) {
   return s.region.width != 0 ? s.region : RenderSettings::Region{0, 0, s.width, s.height};
 }
 
+// Adaptive sampling's refining rounds from `first` samples a pixel up to `max`, each doubling them.
+inline int adaptiveRounds(int first, int max) {
+  int rounds = 0;
+  for (int n = first; n < max; n *= 2) ++rounds;
+  return rounds;
+}
+
+// The pixels a render samples: its region, widened under adaptive sampling by a margin of as many
+// pixels as it has rounds (each round's marking reads a pixel's neighbours'), clipped to the image.
+inline RenderSettings::Region sampledRegion(const RenderSettings& s) {
+  const RenderSettings::Region r = regionOf(s);
+  if (s.sampler != SamplerKind::Adaptive) return r;
+  const int margin = adaptiveRounds(std::min(s.minSamples, s.samplesPerPixel), s.samplesPerPixel);
+  const int x0 = std::max(0, r.x - margin), y0 = std::max(0, r.y - margin);
+  const int x1 = std::min(s.width, r.x + r.width + margin), y1 = std::min(s.height, r.y + r.height + margin);
+  return {x0, y0, x1 - x0, y1 - y0};
+}
+
 template <typename Real, SphereMethod M>
 class TileRenderer {
  public:
@@ -590,7 +608,8 @@ class TileRenderer {
   }
 
   // A view's cells take ~0.15 bytes a pixel, whatever the region rendered: above this many pixels
-  // (a 16384 x 16384 image's view: ~40 MB) a render of a region sees through a view of its region.
+  // (a 16384 x 16384 image's view: ~40 MB) a render of a region sees through a view of the pixels it
+  // samples (sampledRegion: adaptive sampling's margin too).
   static constexpr int64_t kMostWholeViewPixels = int64_t(1) << 28;
 
   // The view of the scene's own spheres for this camera over the whole image (SphereView), shared
@@ -603,7 +622,7 @@ class TileRenderer {
     if (spheres.size() == 0) return nullptr;  // a camera's view pays from one sphere (SphereView::kMinLightSpheres)
     const bool whole = int64_t(settings.width) * settings.height <= kMostWholeViewPixels;
     const RenderSettings::Region seen = whole ? RenderSettings::Region{0, 0, settings.width, settings.height}
-                                              : regionOf(settings);
+                                              : sampledRegion(settings);
     const ViewKey key{{double(spec.projection), spec.center.x, spec.center.y, spec.center.z, spec.direction.x,
                        spec.direction.y, spec.direction.z, spec.up.x, spec.up.y, spec.up.z, spec.size, double(spec.fit),
                        spec.shiftX, spec.shiftY, spec.pixelAspect, spec.tMin, spec.tMax, double(settings.width),
