@@ -358,6 +358,86 @@ def test_geometry_nodes_instances_of_a_mesh_coloured_by_its_own_attribute_stay_t
     assert red.mean() > 0.3 and blue.mean() > 0.3  # both halves painted, in every instance
 
 
+def nested_assembly(scene, atom):
+    """Copies of a molecule as biological assemblies are built: an outer Instance on Points of a
+    geometry-nodes molecule, itself an Instance on Points of `atom`'s mesh on the molecule's three
+    points. The molecule's points carry "Col" (to its atoms' instances), the copies' points "Col"
+    too and "Tint" (to the copies' instances)."""
+    from durer.blender import point_cloud
+
+    molecule = point_cloud.vertex_object(scene.collection, "Molecule", [(0, 0, 0), (0.45, 0, 0), (-0.25, 0, 0.4)])
+    set_attribute(molecule.data, "Col", "FLOAT_COLOR", "POINT", [(0.9, 0.1, 0.1, 1), (0.1, 0.9, 0.1, 1), (0.1, 0.1, 0.9, 1)])
+    molecule.location = (0, 0, 40)  # out of sight
+    copies = point_cloud.vertex_object(scene.collection, "Assembly", grid_positions(2, spacing=2.0))
+    set_attribute(copies.data, "Col", "FLOAT_COLOR", "POINT", np.full((4, 4), 0.5))  # hidden by the atoms'
+    set_attribute(copies.data, "Tint", "FLOAT", "POINT", [0.25, 0.5, 0.75, 1.0])
+    group = bpy.data.node_groups.new("Assembly", "GeometryNodeTree")
+    group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes, links = group.nodes, group.links
+    given, out = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
+    info, atom_info = nodes.new("GeometryNodeObjectInfo"), nodes.new("GeometryNodeObjectInfo")
+    info.inputs["Object"].default_value, atom_info.inputs["Object"].default_value = molecule, atom
+    inner, outer = nodes.new("GeometryNodeInstanceOnPoints"), nodes.new("GeometryNodeInstanceOnPoints")
+    links.new(info.outputs["Geometry"], inner.inputs["Points"])
+    links.new(atom_info.outputs["Geometry"], inner.inputs["Instance"])
+    links.new(given.outputs[0], outer.inputs["Points"])
+    links.new(inner.outputs[0], outer.inputs["Instance"])
+    outer.inputs["Rotation"].default_value = (0, 0.5, 0)
+    links.new(outer.outputs[0], out.inputs[0])
+    copies.modifiers.new("Assembly", "NODES").node_group = group
+
+
+def instancer_tinted(tree):
+    """Base Color = the instancer attribute "Col" × "Tint": each read where Cycles finds it."""
+    col, tint = (tree.nodes.new("ShaderNodeAttribute") for _ in range(2))
+    col.attribute_type = tint.attribute_type = "INSTANCER"
+    col.attribute_name, tint.attribute_name = "Col", "Tint"
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type, mix.blend_type = "RGBA", "MULTIPLY"
+    mix.inputs["Factor"].default_value = 1.0
+    tree.links.new(col.outputs["Color"], mix.inputs[6])
+    tree.links.new(tint.outputs["Color"], mix.inputs[7])
+    return mix.outputs[2]
+
+
+@pytest.mark.parametrize("atom", ["uv sphere", "cube"])
+def test_nested_instances_take_each_level_s_instancer_attribute_as_cycles_does(scene, tmp_path, atom):
+    """Copies of a molecule of instanced atoms: each atom's "Col" from the innermost level that has it
+    (the molecule's points, not the copies'), "Tint" from the copies' (Blender's
+    find_geonode_attribute_rgba); Dürer took the copies one at a time, grey with a warning."""
+    shape = uv_sphere(scene, "Atom", radius=0.3, location=(0, 0, 50)) if atom == "uv sphere" else \
+        cube(scene, "Atom", size=0.4, location=(0, 0, 50))
+    shape.data.materials.append(attribute_material("Atoms", instancer_tinted))
+    shape.hide_render = shape.hide_viewport = True  # itself no instance: nothing to read there
+    nested_assembly(scene, shape)
+    front_view(scene)
+    data = export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    assert data.warnings == []
+    if atom == "uv sphere":
+        assert data.sphere_count == 12 and sorted({tuple(np.round(c, 4)) for c in data.sphere_colors}) == sorted(
+            {tuple(np.round(np.multiply(rgb, t), 4)) for rgb in ((0.9, 0.1, 0.1), (0.1, 0.9, 0.1), (0.1, 0.1, 0.9))
+             for t in (0.25, 0.5, 0.75, 1.0)})
+    else:
+        (mesh,) = data.meshes
+        assert mesh.instances.shape == (12, 4, 4) and mesh.instance_colors.shape == (12, 3)
+    c, d = both(scene, tmp_path, normal=False)
+    if atom == "uv sphere":  # each atom's centre pixel: its colour (a UV sphere's facets shade it within 6 %)
+        lit = 0
+        for x, _, z in data.sphere_centers:
+            ours, cycles = (image["color"][int(60 - z * 160 / 6), int(80 + x * 160 / 6), :3] for image in (d, c))
+            if cycles.sum() < 0.05:  # another atom's shadow
+                continue
+            lit += 1
+            np.testing.assert_allclose(ours / ours.sum(), cycles / cycles.sum(), atol=2e-3)
+            assert abs(ours.sum() / cycles.sum() - 1) < 0.06
+        assert lit >= 8
+    else:
+        compare_shading(c, d, min_fraction=0.02)
+    lit = d["color"][..., :3][d["color"][..., :3].sum(axis=-1) > 0.05]
+    assert len(np.unique(np.round(lit / lit.sum(axis=1, keepdims=True), 1), axis=0)) >= 3  # red, green, blue atoms
+
+
 def noise_into_base_color(tree):
     return tree.nodes.new("ShaderNodeTexNoise").outputs["Color"]
 

@@ -17,6 +17,7 @@ import numpy as np
 from .builder import Builder
 from .materials import object_materials
 from .matrices import are_invertible
+from .attribute_colors import read_values
 from .shapes import MeshShape, cloud_points, mesh_key, mesh_shape
 
 
@@ -84,16 +85,121 @@ def _instances_alone(obj) -> tuple[Any, Any, list] | None:
     return geometry, cloud, list(geometry.instance_references())
 
 
-def _instance_matrices(obj, cloud) -> tuple[np.ndarray, np.ndarray]:
-    """Each instance's world matrix ((N, 4, 4), float64) and reference index, from Blender's arrays."""
+def _instance_matrices(cloud) -> tuple[np.ndarray, np.ndarray]:
+    """Each instance's matrix in its instancer's space ((N, 4, 4), float64) and reference index, from
+    Blender's arrays."""
     n = len(cloud.points)
     values = np.empty(n * 16, np.float32)
     cloud.attributes["instance_transform"].data.foreach_get("value", values)
     index = np.zeros(n, np.int32)
     if ".reference_index" in cloud.attributes:
         cloud.attributes[".reference_index"].data.foreach_get("value", index)
-    # Blender's matrices are stored by column; the instancer's world matrix goes first.
-    return np.array(obj.matrix_world, np.float64) @ values.reshape(n, 4, 4).transpose(0, 2, 1), index
+    return values.reshape(n, 4, 4).transpose(0, 2, 1).astype(np.float64), index  # stored by column
+
+
+#: Instances nested deeper than this are left to the walk (Blender records four levels of instance
+#: attributes: DupliObject.instance_data).
+_MOST_NESTED = 4
+
+
+@dataclass
+class _Leaves:
+    """Instances flattened through nested instances to what they finally place (meshes, point
+    clouds): each one's matrix in the instancer's space, its reference among `references`, and for
+    each instance level met on the way, innermost first for any one instance, the level's instances
+    (a point cloud) and which of them each instance comes from (-1: not under it)."""
+
+    matrices: np.ndarray  # (L, 4, 4)
+    index: np.ndarray  # (L,)
+    references: list
+    levels: list[tuple[Any, np.ndarray]]
+    held: list = field(default_factory=list)  # the nested geometry sets read: their data lives as long
+
+
+def _leaves(cloud, references: list, depth: int = 1) -> _Leaves | None:
+    """The instances of `cloud` (whose references are `references`) flattened (`_Leaves`); None where
+    a reference holds instances beside other geometry or nesting is deeper than `_MOST_NESTED`."""
+    local, index = _instance_matrices(cloud)
+    parts: list[_Leaves] = []
+    for r, reference in enumerate(references):
+        chosen = np.flatnonzero(index == r)
+        if not len(chosen):
+            continue
+        inner = reference.instances_pointcloud() if isinstance(reference, bpy.types.GeometrySet) else None
+        if inner is None:  # what it places
+            parts.append(_Leaves(local[chosen], np.zeros(len(chosen), np.int32), [reference], [(cloud, chosen)]))
+            continue
+        if depth == _MOST_NESTED or any(getattr(reference, part) is not None for part in _OWN_COMPONENT.values()):
+            return None
+        below = _leaves(inner, list(reference.instance_references()), depth + 1)
+        if below is None:
+            return None
+        count = len(below.index)  # each chosen instance of this level places all of them
+        parts.append(_Leaves((local[chosen][:, None] @ below.matrices[None]).reshape(-1, 4, 4),
+                             np.tile(below.index, len(chosen)), below.references,
+                             [(c, np.tile(at, len(chosen))) for c, at in below.levels]
+                             + [(cloud, np.repeat(chosen, count))], [reference, *below.held]))
+    return _join_leaves(parts)
+
+
+def _join_leaves(parts: list[_Leaves]) -> _Leaves:
+    """The instances of `parts` in one `_Leaves`: references renumbered, each level's instances (one
+    array per level, a level met in several parts) spread to all."""
+    total = sum(len(p.index) for p in parts)
+    matrices, index, references, held, start = [], [], [], [], 0
+    levels: dict[int, tuple[Any, np.ndarray]] = {}  # by the level's pointer, innermost first
+    for part in parts:
+        matrices.append(part.matrices)
+        index.append(part.index + len(references))
+        references += part.references
+        held += part.held
+        for level, at in part.levels:
+            full = levels.setdefault(level.as_pointer(), (level, np.full(total, -1, np.int64)))[1]
+            full[start:start + len(at)] = at
+        start += len(part.index)
+    return _Leaves(np.concatenate(matrices) if matrices else np.zeros((0, 4, 4)),
+                   np.concatenate(index).astype(np.int32) if index else np.zeros(0, np.int32), references,
+                   list(levels.values()), held)
+
+
+class _LevelAttributes:
+    """The instance attributes an Attribute node of type Instancer reads for each of `levels`'
+    instances, as Cycles finds them (Blender's find_geonode_attribute_rgba): the innermost level that
+    has the attribute. Read as `read_values` reads a point cloud's: .attributes.get(name) with
+    data_type, domain and data.foreach_get."""
+
+    def __init__(self, levels: list[tuple[Any, np.ndarray]], n: int) -> None:
+        self.levels, self.n = levels, n
+        self.points = range(n)  # len(): the instances, as a point cloud's points
+        self.attributes = self
+
+    def get(self, name: str):
+        found = [(level, at) for level, at in self.levels if name in level.attributes]
+        return None if not found else _LevelAttribute(name, found, self.n)
+
+
+@dataclass
+class _LevelAttribute:
+    name: str
+    found: list  # (level, which of its instances each instance comes from), innermost first
+    n: int
+    data_type: str = "FLOAT_COLOR"  # every type read as RGBA (read_values' conversions)
+    domain: str = "POINT"
+
+    @property
+    def data(self) -> _LevelAttribute:
+        return self
+
+    def foreach_get(self, _field: str, out: np.ndarray) -> None:
+        rgba = np.zeros((self.n, 4), np.float32)
+        done = np.zeros(self.n, bool)
+        for level, at in self.found:
+            values, _ = read_values(level.attributes, (("INSTANCER", self.name),), None,
+                                    {"POINT": len(level.points)}, "INSTANCER")
+            take = ~done & (at >= 0)
+            rgba[take] = values[("INSTANCER", self.name)][at[take]]
+            done |= take
+        out[:] = rgba.ravel()
 
 
 class InstanceBatches:
@@ -133,11 +239,21 @@ class InstanceBatches:
         if found is None:
             return
         geometry, cloud, references = found  # kept: the cloud and the references' data live as long
+        instances = cloud  # the instance attributes, by instance
+        if any(isinstance(r, bpy.types.GeometrySet) and r.instances_pointcloud() is not None for r in references):
+            leaves = _leaves(cloud, references)  # nested instances (a molecule's copies): what they place
+            if leaves is None:
+                return
+            local, index, references = leaves.matrices, leaves.index, leaves.references
+            instances = _LevelAttributes(leaves.levels, len(index))
+            held = leaves.held  # noqa: F841 - kept: the nested clouds' data lives as long
+        else:
+            local, index = _instance_matrices(cloud)
         read = self._references(obj, references)
         if read is None:
             return
         kinds, mats, meshes = read
-        world, index = _instance_matrices(obj, cloud)
+        world = np.array(obj.matrix_world, np.float64) @ local
         meshed = [i for i, (shape, _) in enumerate(kinds) if shape.kind == "triangles"]
         if meshed and not are_invertible(world[np.isin(index, meshed)]).all():
             return  # a mesh instance scaled flat: the walk puts it in world space
@@ -145,8 +261,8 @@ class InstanceBatches:
         n = len(index)
         materials = np.array([material for _, material in kinds], np.int32)[index]
         sphere_mats = [mat if shape.kind == "sphere" else None for mat, (shape, _) in zip(mats, kinds)]
-        colors = self.builder.attribute_colors(cloud, sphere_mats, index if len(kinds) > 1 else None, materials, n,
-                                               {"POINT": n}, where="INSTANCER")
+        colors = self.builder.attribute_colors(instances, sphere_mats, index if len(kinds) > 1 else None, materials,
+                                               n, {"POINT": n}, where="INSTANCER")
         owner = self.builder.owner(obj)
         for i, (shape, material) in enumerate(kinds):
             chosen = index == i
@@ -155,7 +271,7 @@ class InstanceBatches:
             if shape.kind == "triangles":  # coloured by the mesh's own attributes, if at all
                 self.builder.faces_left_out(obj.name_full, shape)
                 self.builder.mesh_instances(obj, owner, shape.parts, meshes[i], list(meshes[i].materials),
-                                            world[chosen], cloud, chosen)
+                                            world[chosen], instances, chosen)
                 continue
             if shape.kind == "points":
                 self.builder.placed_spheres(owner, world[chosen][:, :3, :], shape.positions[None], shape.radii[None],
@@ -171,8 +287,7 @@ class InstanceBatches:
         (the walk takes the instances one at a time)."""
         kinds, mats, meshes = [], [], []
         for reference in references:
-            if not isinstance(reference, bpy.types.GeometrySet) or reference.curves is not None or \
-                    reference.instances_pointcloud() is not None:
+            if not isinstance(reference, bpy.types.GeometrySet) or reference.curves is not None:
                 return None
             mesh, points = reference.mesh, reference.pointcloud
             if points is not None:
