@@ -358,11 +358,12 @@ def test_geometry_nodes_instances_of_a_mesh_coloured_by_its_own_attribute_stay_t
     assert red.mean() > 0.3 and blue.mean() > 0.3  # both halves painted, in every instance
 
 
-def nested_assembly(scene, atom):
+def nested_assembly(scene, atom, lone=None):
     """Copies of a molecule as biological assemblies are built: an outer Instance on Points of a
     geometry-nodes molecule, itself an Instance on Points of `atom`'s mesh on the molecule's three
     points. The molecule's points carry "Col" (to its atoms' instances), the copies' points "Col"
-    too and "Tint" (to the copies' instances)."""
+    too and "Tint" (to the copies' instances). With `lone`, the copies' points also place one
+    `lone` each, 1.5 below, joined so that it is the first of the instancer's references."""
     from durer.blender import point_cloud
 
     molecule = point_cloud.vertex_object(scene.collection, "Molecule", [(0, 0, 0), (0.45, 0, 0), (-0.25, 0, 0.4)])
@@ -384,8 +385,22 @@ def nested_assembly(scene, atom):
     links.new(given.outputs[0], outer.inputs["Points"])
     links.new(inner.outputs[0], outer.inputs["Instance"])
     outer.inputs["Rotation"].default_value = (0, 0.5, 0)
-    links.new(outer.outputs[0], out.inputs[0])
+    if lone is None:
+        links.new(outer.outputs[0], out.inputs[0])
+    else:
+        lone_info, below, beside = (nodes.new(kind) for kind in ("GeometryNodeObjectInfo", "GeometryNodeTransform",
+                                                                 "GeometryNodeInstanceOnPoints"))
+        lone_info.inputs["Object"].default_value = lone
+        below.inputs["Translation"].default_value = (0, 0, -1.5)
+        links.new(given.outputs[0], below.inputs[0])
+        links.new(below.outputs[0], beside.inputs["Points"])
+        links.new(lone_info.outputs["Geometry"], beside.inputs["Instance"])
+        join = nodes.new("GeometryNodeJoinGeometry")
+        links.new(outer.outputs[0], join.inputs[0])  # Join lists its inputs last first: the lone ones lead
+        links.new(beside.outputs[0], join.inputs[0])
+        links.new(join.outputs[0], out.inputs[0])
     copies.modifiers.new("Assembly", "NODES").node_group = group
+    return copies
 
 
 def instancer_tinted(tree):
@@ -436,6 +451,29 @@ def test_nested_instances_take_each_level_s_instancer_attribute_as_cycles_does(s
         compare_shading(c, d, min_fraction=0.02)
     lit = d["color"][..., :3][d["color"][..., :3].sum(axis=-1) > 0.05]
     assert len(np.unique(np.round(lit / lit.sum(axis=1, keepdims=True), 1), axis=0)) >= 3  # red, green, blue atoms
+
+
+def test_a_nested_instance_takes_its_innermost_attribute_whatever_the_order_of_the_references(scene):
+    """The instancer's first reference a plain sphere, its second the molecule's copies: each atom's
+    "Col" is still its molecule point's (the innermost level), the lone spheres' the copies' (the
+    outer level: theirs). The copies' level came first for the atoms when it was met first."""
+    mat = attribute_material("Atoms", instancer_tinted)
+    atom, lone = uv_sphere(scene, "Atom", radius=0.2, location=(0, 0, 50)), uv_sphere(scene, "Lone", radius=0.3)
+    for shape in (atom, lone):
+        shape.data.materials.append(mat)
+        shape.hide_render = shape.hide_viewport = True
+    copies = nested_assembly(scene, atom, lone)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    geometry = bpy.types.GeometrySet.from_evaluated_object(copies.evaluated_get(depsgraph))
+    assert [r.instances_pointcloud() is not None for r in geometry.instance_references()] == [False, True]
+    data = export_depsgraph(depsgraph)
+    assert data.warnings == [] and data.sphere_count == 4 + 12
+    tints = (0.25, 0.5, 0.75, 1.0)
+    lone_rows = np.isclose(data.sphere_radii, 0.3)
+    atoms = {tuple(np.round(c, 4)) for c in data.sphere_colors[~lone_rows]}
+    assert atoms == {tuple(np.round(np.multiply(rgb, t), 4)) for t in tints
+                     for rgb in ((0.9, 0.1, 0.1), (0.1, 0.9, 0.1), (0.1, 0.1, 0.9))}
+    np.testing.assert_allclose(sorted(data.sphere_colors[lone_rows][:, 0]), np.multiply(0.5, tints))
 
 
 def noise_into_base_color(tree):

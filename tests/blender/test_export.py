@@ -588,5 +588,17 @@ def test_material_inputs_dürer_leaves_out_are_said_once_per_material(scene):
     for x in (0, 3):  # two objects, one message
         uv_sphere(scene, f"Ball {x}", location=(x, 0, 0)).data.materials.append(mat)
     uv_sphere(scene, "Plain", location=(6, 0, 0)).data.materials.append(material("Plain", (0.5, 0.5, 0.5)))
+    # What changes nothing in Cycles either: a muted bump and displacement, constants of no effect.
+    quiet = material("Quiet", (0.5, 0.5, 0.5))
+    tree, bsdf = quiet.node_tree, quiet.node_tree.nodes["Principled BSDF"]
+    bump, displacement = tree.nodes.new("ShaderNodeBump"), tree.nodes.new("ShaderNodeDisplacement")
+    bump.mute = displacement.mute = True
+    tree.links.new(bump.outputs["Normal"], bsdf.inputs["Normal"])
+    tree.links.new(displacement.outputs[0], tree.nodes["Material Output"].inputs["Displacement"])
+    for name, value in (("Alpha", 1.0), ("Coat Weight", 0.0)):
+        constant = tree.nodes.new("ShaderNodeValue")
+        constant.outputs[0].default_value = value
+        tree.links.new(constant.outputs[0], bsdf.inputs[name])
+    uv_sphere(scene, "Quiet", location=(9, 0, 0)).data.materials.append(quiet)
     assert export(scene).warnings == ["Material 'Frosted': Dürer ignores its Normal input (bump or normal map), "
                                       "Alpha (drawn opaque), Coat, Subsurface, Displacement"]

@@ -46,8 +46,8 @@ class RenderInfo:
     spheres: int = 0  # world-space spheres and ellipsoids
     planes: int = 0
     triangles: int = 0
-    #: Whether the last frame's core scene was reused (its spheres moved, the hierarchy refitted):
-    #: with Persistent Data on, when only sphere positions, radii and the camera changed.
+    #: Whether the last frame's core scene was reused (what moved in it moved, the hierarchy refitted):
+    #: with Persistent Data on, when only sphere positions, radii and the camera changed, or nothing.
     reused_scene: bool = False
     #: The last text the engine showed in Blender's stats line.
     stats_line: str = ""

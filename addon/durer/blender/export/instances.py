@@ -107,12 +107,12 @@ class _Leaves:
     """Instances flattened through nested instances to what they finally place (meshes, point
     clouds): each one's matrix in the instancer's space, its reference among `references`, and for
     each instance level met on the way, innermost first for any one instance, the level's instances
-    (a point cloud) and which of them each instance comes from (-1: not under it)."""
+    (a point cloud), which of them each instance comes from (-1: not under it) and its depth."""
 
     matrices: np.ndarray  # (L, 4, 4)
     index: np.ndarray  # (L,)
     references: list
-    levels: list[tuple[Any, np.ndarray]]
+    levels: list[tuple[Any, np.ndarray, int]]  # and each level's depth (the instancer's own: 1)
     held: list = field(default_factory=list)  # the nested geometry sets read: their data lives as long
 
 
@@ -127,7 +127,7 @@ def _leaves(cloud, references: list, depth: int = 1) -> _Leaves | None:
             continue
         inner = reference.instances_pointcloud() if isinstance(reference, bpy.types.GeometrySet) else None
         if inner is None:  # what it places
-            parts.append(_Leaves(local[chosen], np.zeros(len(chosen), np.int32), [reference], [(cloud, chosen)]))
+            parts.append(_Leaves(local[chosen], np.zeros(len(chosen), np.int32), [reference], [(cloud, chosen, depth)]))
             continue
         if depth == _MOST_NESTED or any(getattr(reference, part) is not None for part in _OWN_COMPONENT.values()):
             return None
@@ -137,29 +137,30 @@ def _leaves(cloud, references: list, depth: int = 1) -> _Leaves | None:
         count = len(below.index)  # each chosen instance of this level places all of them
         parts.append(_Leaves((local[chosen][:, None] @ below.matrices[None]).reshape(-1, 4, 4),
                              np.tile(below.index, len(chosen)), below.references,
-                             [(c, np.tile(at, len(chosen))) for c, at in below.levels]
-                             + [(cloud, np.repeat(chosen, count))], [reference, *below.held]))
+                             [(c, np.tile(at, len(chosen)), d) for c, at, d in below.levels]
+                             + [(cloud, np.repeat(chosen, count), depth)], [reference, *below.held]))
     return _join_leaves(parts)
 
 
 def _join_leaves(parts: list[_Leaves]) -> _Leaves:
     """The instances of `parts` in one `_Leaves`: references renumbered, each level's instances (one
-    array per level, a level met in several parts) spread to all."""
+    array per level, a level met in several parts) spread to all, the deepest levels first: an
+    instance has one level at each depth it passes, so that is innermost first for every instance."""
     total = sum(len(p.index) for p in parts)
     matrices, index, references, held, start = [], [], [], [], 0
-    levels: dict[int, tuple[Any, np.ndarray]] = {}  # by the level's pointer, innermost first
+    levels: dict[int, tuple[Any, np.ndarray, int]] = {}  # by the level's pointer (all held: none reused)
     for part in parts:
         matrices.append(part.matrices)
         index.append(part.index + len(references))
         references += part.references
         held += part.held
-        for level, at in part.levels:
-            full = levels.setdefault(level.as_pointer(), (level, np.full(total, -1, np.int64)))[1]
+        for level, at, depth in part.levels:
+            full = levels.setdefault(level.as_pointer(), (level, np.full(total, -1, np.int64), depth))[1]
             full[start:start + len(at)] = at
         start += len(part.index)
     return _Leaves(np.concatenate(matrices) if matrices else np.zeros((0, 4, 4)),
                    np.concatenate(index).astype(np.int32) if index else np.zeros(0, np.int32), references,
-                   list(levels.values()), held)
+                   sorted(levels.values(), key=lambda level: -level[2]), held)
 
 
 class _LevelAttributes:
@@ -168,13 +169,13 @@ class _LevelAttributes:
     has the attribute. Read as `read_values` reads a point cloud's: .attributes.get(name) with
     data_type, domain and data.foreach_get."""
 
-    def __init__(self, levels: list[tuple[Any, np.ndarray]], n: int) -> None:
+    def __init__(self, levels: list[tuple[Any, np.ndarray, int]], n: int) -> None:
         self.levels, self.n = levels, n
         self.points = range(n)  # len(): the instances, as a point cloud's points
         self.attributes = self
 
     def get(self, name: str):
-        found = [(level, at) for level, at in self.levels if name in level.attributes]
+        found = [(level, at) for level, at, _ in self.levels if name in level.attributes]
         return None if not found else _LevelAttribute(name, found, self.n)
 
 
@@ -193,10 +194,12 @@ class _LevelAttribute:
     def foreach_get(self, _field: str, out: np.ndarray) -> None:
         rgba = np.zeros((self.n, 4), np.float32)
         done = np.zeros(self.n, bool)
-        for level, at in self.found:
+        for level, at in self.found:  # a level below which every instance found it is not read
+            take = ~done & (at >= 0)
+            if not take.any():
+                continue
             values, _ = read_values(level.attributes, (("INSTANCER", self.name),), None,
                                     {"POINT": len(level.points)}, "INSTANCER")
-            take = ~done & (at >= 0)
             rgba[take] = values[("INSTANCER", self.name)][at[take]]
             done |= take
         out[:] = rgba.ravel()

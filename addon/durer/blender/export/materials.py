@@ -256,16 +256,18 @@ def _ignored_inputs(mat, node) -> list[str]:
     output's displacement."""
     ignored = []
     normal = node.inputs.get("Normal")
-    if normal is not None and normal.is_linked:
+    if normal is not None and _source_node(normal) is not None and \
+            _source_node(normal).bl_idname in ("ShaderNodeBump", "ShaderNodeNormalMap"):
         ignored.append("Normal input (bump or normal map)")
     if node.bl_idname == "ShaderNodeBsdfPrincipled":
-        alpha = node.inputs["Alpha"]
-        if alpha.is_linked or scalar_input(node, "Alpha", 1.0) < 1.0:
+        # A constant linked in counts as its value; one that varies (None) as set.
+        alpha = linked_value(node, "Alpha", "value")
+        if alpha is None or alpha < 1.0:
             ignored.append("Alpha (drawn opaque)")
         ignored += [name.removesuffix(" Weight") for name in _IGNORED_LAYERS
-                    if node.inputs[name].is_linked or scalar_input(node, name, 0.0) > 0.0]
+                    if (weight := linked_value(node, name, "value")) is None or weight > 0.0]
     output = mat.node_tree.get_output_node("CYCLES")
-    if output is not None and output.inputs["Displacement"].is_linked:
+    if output is not None and _source_node(output.inputs["Displacement"]) is not None:
         ignored.append("Displacement")
     return ignored
 
@@ -275,9 +277,12 @@ def surface_shader(tree):
     Surface of the tree's active Cycles output; None where there is none (a muted link or node,
     nothing linked)."""
     output = tree.get_output_node("CYCLES") if tree is not None else None
-    if output is None:
-        return None
-    socket = output.inputs["Surface"]
+    return None if output is None else _source_node(output.inputs["Surface"])
+
+
+def _source_node(socket):
+    """The node whose output reaches input `socket` (through reroutes); None where nothing does (a
+    muted link or node on the way, or nothing linked)."""
     while socket.is_linked:
         link = socket.links[0]
         if link.is_muted or link.from_node.mute:
