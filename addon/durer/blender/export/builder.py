@@ -186,8 +186,10 @@ class Builder:
         """`placed_spheres`' world-space spheres as a chunk; its ellipsoids added meanwhile."""
         linear, offset = rows[:, :, :3], rows[:, :, 3]
         scales, uniform = uniform_scales(linear)
-        for k in np.flatnonzero(~np.isfinite(scales)):  # neither kind below: left out, as Cycles does
-            self._matrix_left_out(self.data.objects[int(_row(owners, k))].name)
+        bad = ~np.isfinite(scales)  # neither kind below: left out, as Cycles does
+        if bad.any():
+            for owner in np.unique(np.broadcast_to(np.asarray(owners), bad.shape)[bad]):
+                self._matrix_left_out(self.data.objects[int(owner)].name)
         for k in np.flatnonzero(~uniform & (scales > 0)):  # sheared or squashed: exact ellipsoids
             self.transformed_spheres(int(_row(owners, k)), np.vstack([rows[k], (0.0, 0.0, 0.0, 1.0)]), _row(centers, k),
                                      _row(radii, k), _row(materials, k), None if colors is None else _row(colors, k))

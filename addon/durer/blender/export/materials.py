@@ -117,7 +117,6 @@ def _dielectric_layer(ior: float, level: float, tint) -> tuple:
     return f0, tuple(1.0 - x for x in f0)
 
 
-
 def base_color_input(mat) -> tuple[object, str, tuple[float, float, float]] | None:
     """(surface shader node, its colour input's name, the factors kd = colour × factors) for a
     material whose kd is its shader's colour input times constants (Principled BSDF: Base Color ×
@@ -256,8 +255,8 @@ def _ignored_inputs(mat, node) -> list[str]:
     output's displacement."""
     ignored = []
     normal = node.inputs.get("Normal")
-    if normal is not None and _source_node(normal) is not None and \
-            _source_node(normal).bl_idname in ("ShaderNodeBump", "ShaderNodeNormalMap"):
+    bump = None if normal is None else _source_node(normal)
+    if bump is not None and bump.bl_idname in ("ShaderNodeBump", "ShaderNodeNormalMap"):
         ignored.append("Normal input (bump or normal map)")
     if node.bl_idname == "ShaderNodeBsdfPrincipled":
         # A constant linked in counts as its value; one that varies (None) as set.

@@ -614,7 +614,7 @@ class TileRenderer {
 
   // The view of the scene's own spheres for this camera over the whole image (SphereView), shared
   // with the renders before of the same camera and size, whatever their regions (a distributed
-  // render's tiles, an adaptive render's margins); of the region alone in a huge image (a tile of a
+  // render's tiles, an adaptive render's margins); of the pixels a render samples in a huge image (a tile of a
   // gigapixel poster: the whole image's took 9.5 GB at 262144²). Rays outside a view's cells search
   // the hierarchy: the same hits.
   static std::shared_ptr<const SphereView<Real>> viewOf(const SphereSet<Real>& spheres, const CameraSpec& spec,
