@@ -118,10 +118,10 @@ def test_each_view_layer_keeps_its_own_scene_between_frames(scene):
     engine.persistent.clear()
 
 
-def test_resuming_an_unbaked_simulation_renders_the_frames_an_unbroken_batch_renders(scene, tmp_path):
-    """A Simulation Zone, not baked: a batch stopped after frame 3 and resumed renders frames 4-6 as
-    the whole batch does (the simulation steps through the frames done before; it started again at
-    frame 4 and every resumed frame differed)."""
+def test_an_unbaked_simulation_renders_the_frames_an_unbroken_batch_renders_in_any_order(scene, tmp_path):
+    """A Simulation Zone, not baked: a batch stopped after frame 3 and resumed, a frame alone, frames
+    out of order render as the whole batch does (the batch bakes the simulation in memory first, as a
+    cluster's copy is baked; one process started it again at the first frame asked for)."""
     falling_points(scene)
     blend = tmp_path / "falling.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
@@ -131,10 +131,14 @@ def test_resuming_an_unbaked_simulation_renders_the_frames_an_unbroken_batch_ren
     assert len(set(kept)) == 6  # each frame its own
     for path in whole[3:]:
         path.unlink()
-    assert batch.simulated()
+    assert batch.simulation_zones()
     resumed = batch.render_file(blend, frames="1-6", output=out, resume=True)
     assert [p.name for p in resumed] == ["f_0004.png", "f_0005.png", "f_0006.png"]
     assert [p.read_bytes() for p in resumed] == kept[3:]
+    shuffled = batch.render_file(blend, frames="5,1,3", output=tmp_path / "shuffled" / "f_####.png")
+    assert [p.read_bytes() for p in shuffled] == [kept[4], kept[0], kept[2]]
+    (alone,) = batch.render_file(blend, frames="4", output=tmp_path / "alone.png")
+    assert alone.read_bytes() == kept[3]
 
 
 def test_frames_are_written_whole_under_their_own_name(scene, tmp_path):

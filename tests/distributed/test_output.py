@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import struct
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -45,6 +47,41 @@ def test_is_complete_rejects_missing_empty_truncated_and_foreign_files(tmp_path)
         (tmp_path / name).write_bytes(content)
     assert [name for name in cases if is_complete(tmp_path / name)] == ["whole.png"]
     assert not is_complete(tmp_path / "missing.png")
-    (tmp_path / "a.exr").write_bytes(b"\x76\x2f\x31\x01" + bytes(100))
     (tmp_path / "b.exr").write_bytes(b"\x89PNG" + bytes(100))
-    assert is_complete(tmp_path / "a.exr") and not is_complete(tmp_path / "b.exr")
+    assert not is_complete(tmp_path / "b.exr")
+
+
+def scanline_exr(rows: int, multipart: bool = False) -> bytes:
+    """An uncompressed scanline OpenEXR of `rows` one-pixel rows of one float channel, as far as
+    is_complete reads one: headers, offset tables, chunks."""
+    def attribute(name, kind, value):
+        return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(value)) + value
+
+    header = (attribute("compression", "compression", b"\0") + attribute("dataWindow", "box2i",
+                                                                     struct.pack("<4i", 0, 0, 0, rows - 1)))
+    if multipart:
+        header += attribute("chunkCount", "int", struct.pack("<i", rows)) + attribute("type", "string", b"scanlineimage")
+    headers = b"\x76\x2f\x31\x01" + struct.pack("<i", 2 | (0x1000 if multipart else 0)) + header + b"\0"
+    headers += b"\0" if multipart else b""  # the empty header that ends a multipart file's
+    chunk = (4 if multipart else 0) + 8 + 4  # part number, scanline, size, one float
+    start = len(headers) + 8 * rows
+    offsets = struct.pack(f"<{rows}Q", *(start + chunk * y for y in range(rows)))
+    chunks = b"".join((struct.pack("<i", 0) if multipart else b"") + struct.pack("<ii", y, 4) + struct.pack("<f", 0.5)
+                      for y in range(rows))
+    return headers + offsets + chunks
+
+
+@pytest.mark.parametrize("multipart", [False, True], ids=["single part", "multipart (Blender's multilayer)"])
+def test_an_exr_cut_short_is_not_complete(tmp_path, multipart):
+    """A write stopped by a full disk leaves an EXR with its offsets unset (zeros) or its last chunks
+    missing: not complete, so that --resume renders it again (a file with the format's first bytes
+    was taken as complete; Blender reports "Saved" for such a file)."""
+    data = scanline_exr(5, multipart)
+    (tmp_path / "whole.exr").write_bytes(data)
+    assert is_complete(tmp_path / "whole.exr")
+    table = data.index(struct.pack("<Q", len(data) - 5 * ((4 if multipart else 0) + 12)))
+    unset = data[:table] + bytes(8 * 5) + data[table + 8 * 5:]
+    for name, content in {"cut.exr": data[:-3], "half.exr": data[: len(data) // 2], "unset.exr": unset,
+                          "headers.exr": data[:table], "magic.exr": data[:4] + bytes(100)}.items():
+        (tmp_path / name).write_bytes(content)
+        assert not is_complete(tmp_path / name), name

@@ -161,8 +161,7 @@ def render_file(
     if frame_list is None:
         frame_list = [sc.frame_current]
     explicit = configure_output(sc, output, len(frame_list))
-    # Frames done before a resume: an unbaked simulation steps through them, as it would have.
-    steps = resume and simulated()
+    bake_simulations()  # each frame the one history from the scene's start, whatever frames are asked, as on a cluster
 
     written: list[Path] = []
     failed: dict[int, str] = {}
@@ -177,8 +176,6 @@ def render_file(
                 raise KeyboardInterrupt
             target = frame_target(sc, explicit, frame)
             if resume and is_complete(target):
-                if steps:
-                    sc.frame_set(frame)
                 continue
             make_folder_for(target)
             sc.frame_set(frame)
@@ -194,8 +191,9 @@ def render_file(
                 continue
             finally:
                 sc.render.filepath, sc.render.use_file_extension = pattern, use_extension
-            if not partial.is_file():
-                failed[frame] = f"Frame {frame} of {blend} rendered but {target} was not written"
+            if not is_complete(partial, target.suffix):  # Blender says "Saved" even when the disk filled up
+                partial.unlink(missing_ok=True)
+                failed[frame] = f"Frame {frame} of {blend} rendered but {target} was not written whole (a full disk?)"
                 continue
             os.replace(partial, target)
             written.append(target)
@@ -213,11 +211,27 @@ def render_file(
     return written
 
 
-def simulated() -> bool:
-    """Whether the open file holds a simulation that may not be baked: it steps from the frame
-    before, so frames rendered out of order see another history (unbaked_point_caches, or
-    simulation_zones: Blender does not tell whether theirs are baked)."""
-    return bool(unbaked_point_caches()) or bool(simulation_zones())
+def bake_simulations() -> None:
+    """Bakes the open file's simulations that may not be baked, in memory (point caches: particles,
+    cloth, rigid bodies; Simulation Zones, packed into the file): each steps from the frame before,
+    so frames rendered one by one in any order, or by workers given some each, would each see
+    another history; baked, every frame reads the one history from the scene's start."""
+    import bpy
+
+    unbaked = unbaked_point_caches()
+    if unbaked:
+        for cache in unbaked:
+            cache.use_disk_cache = False
+        bpy.ops.ptcache.bake_all(bake=True)
+    zones = simulation_zones()
+    if zones:
+        for modifier in zones:
+            modifier.bake_target = "PACKED"
+            for bake in modifier.bakes:
+                bake.bake_target = "INHERIT"
+        owner = zones[0].id_data  # the operator asks for an active object, then bakes every one
+        with bpy.context.temp_override(active_object=owner, object=owner, selected_objects=[owner]):
+            bpy.ops.object.simulation_nodes_cache_bake(selected=False)
 
 
 def simulation_zones() -> list:

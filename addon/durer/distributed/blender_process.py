@@ -19,6 +19,8 @@ from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
 
+from .output import is_complete
+
 
 class BlenderProcess:
     """The child process and its connection; `call` sends a request and returns its reply or raises
@@ -69,8 +71,9 @@ def _render(scene: str, frame: int, target: str, blend_name: str) -> bytes:
     path = Path(target)
     try:
         batch._render_frame(bpy, engine, sc, Path(blend_name), frame, 1, False)
-        if not path.is_file():
-            raise batch.BatchRenderError(f"Frame {frame} of {blend_name} rendered but no image was written")
+        if not is_complete(path):  # Blender says "Saved" even when the disk filled up
+            raise batch.BatchRenderError(f"Frame {frame} of {blend_name} rendered but its image was not written "
+                                         "whole (a full disk?)")
         return path.read_bytes()
     finally:
         path.unlink(missing_ok=True)

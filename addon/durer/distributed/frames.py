@@ -97,9 +97,14 @@ def render_frames(
                     _say(bar, log, f"frame {frame} failed: {report.failed[frame]}")
                 else:
                     data, worker = future.result()
-                    write_atomic(targets[frame], data)
-                    report.written[frame] = targets[frame]
-                    tally.done_by[worker] += 1
+                    try:
+                        write_atomic(targets[frame], data)
+                    except OSError as error:  # a full disk here: that frame failed, the others go on
+                        report.failed[frame] = f"{type(error).__name__}: {error}"
+                        _say(bar, log, f"frame {frame} failed: {report.failed[frame]}")
+                    else:
+                        report.written[frame] = targets[frame]
+                        tally.done_by[worker] += 1
                 if bar is not None:
                     bar.update(1)
     finally:
@@ -122,7 +127,7 @@ def _self_contained_copy() -> bytes:
     """The open file with its external data packed and linked data made local, as .blend bytes."""
     import bpy
 
-    from ..blender.batch import BatchRenderError, simulation_zones, unbaked_point_caches
+    from ..blender.batch import BatchRenderError, bake_simulations
 
     linked = _linked_blocks()
     while linked:  # a block still used by linked blocks stays linked: users first, then their data
@@ -136,23 +141,7 @@ def _self_contained_copy() -> bytes:
         bpy.data.libraries.remove(library)
     if any(image.source == "FILE" and image.packed_file is None for image in bpy.data.images):
         bpy.ops.file.pack_all()
-    unbaked = unbaked_point_caches()
-    if unbaked:
-        # A simulation (particles, cloth, rigid bodies) steps from the frame before: a worker given
-        # frames out of order would simulate another history. Baked here into the copy (not to disk
-        # beside the user's file, which the workers do not have), every worker reads it.
-        for cache in unbaked:
-            cache.use_disk_cache = False
-        bpy.ops.ptcache.bake_all(bake=True)
-    zones = simulation_zones()
-    if zones:  # Simulation Zones likewise, packed into the copy
-        for modifier in zones:
-            modifier.bake_target = "PACKED"
-            for bake in modifier.bakes:
-                bake.bake_target = "INHERIT"
-        owner = zones[0].id_data  # the operator asks for an active object, then bakes every one
-        with bpy.context.temp_override(active_object=owner, object=owner, selected_objects=[owner]):
-            bpy.ops.object.simulation_nodes_cache_bake(selected=False)
+    bake_simulations()  # into the copy, not to disk beside the user's file, which the workers do not have
     with tempfile.TemporaryDirectory(prefix="durer-ship-") as folder:
         copy = Path(folder) / "scene.blend"
         bpy.ops.wm.save_as_mainfile(filepath=str(copy), copy=True, compress=False)
