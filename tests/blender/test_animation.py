@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers.blend import falling_points
+from helpers.blend import falling_particles_blend, falling_points
 from helpers.blender import DEG, aim_camera, light, material, quad, world
 
 from helpers.blender_import import blender_module
@@ -188,3 +188,13 @@ def test_frame_numbers_are_blender_s_negative_ones_included(scene, tmp_path, pat
     explicit = str(tmp_path / (pattern + ".png"))
     for frame in (-123, -1, 0, 7, 12345):
         assert batch.frame_target(scene, explicit, frame) == Path(scene.render.frame_path(frame=frame))
+
+
+def test_a_batch_bakes_a_simulation_only_up_to_its_last_frame(tmp_path):
+    """Frames 1-3 of a 40-frame particle simulation: baked up to frame 3, not the whole range (the
+    scene's end, lowered for the bake, is restored)."""
+    blend = falling_particles_blend(tmp_path / "particles.blend", frames=40)
+    batch.render_file(blend, frames="1-3", output=tmp_path / "out" / "f_####.png")
+    cache = bpy.data.objects["Emitter"].particle_systems[0].point_cache
+    assert cache.is_baked and cache.info.startswith("3 frames in memory")
+    assert bpy.context.scene.frame_end == 40

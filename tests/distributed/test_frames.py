@@ -107,7 +107,7 @@ def test_the_shipped_copy_holds_the_bake_even_of_a_disk_cache(tmp_path):
     emitter.particle_systems[1].settings.type = "HAIR"
     bpy.ops.wm.save_mainfile()
     assert len(unbaked_point_caches()) == 1  # the falling particles, not the hair
-    (tmp_path / "ship.blend").write_bytes(_self_contained_copy())
+    (tmp_path / "ship.blend").write_bytes(_self_contained_copy(bpy.context.scene.frame_end))
     bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "ship.blend"))
     cache = bpy.data.objects["Emitter"].particle_systems[0].point_cache
     assert cache.is_baked and not cache.use_disk_cache and "in memory" in cache.info
@@ -127,7 +127,7 @@ def test_the_shipped_copy_holds_the_bake_of_a_simulation_zone(tmp_path):
     scene.collection.objects.link(scene.camera)
     falling_points(scene)
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "falling.blend"))
-    (tmp_path / "ship.blend").write_bytes(_self_contained_copy())
+    (tmp_path / "ship.blend").write_bytes(_self_contained_copy(bpy.context.scene.frame_end))
     bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "ship.blend"))
     bpy.context.scene.frame_set(5)
     sim = bpy.data.objects["Sim"].evaluated_get(bpy.context.evaluated_depsgraph_get())
@@ -284,7 +284,7 @@ def test_linked_library_data_travels_with_the_file(client, tmp_path):
     for f in sequential:
         assert_same_image_file(tmp_path / "dask" / f.name, f)
     bpy.ops.wm.open_mainfile(filepath=str(main))  # what went to the workers holds the ball itself
-    (tmp_path / "shipped.blend").write_bytes(_self_contained_copy())
+    (tmp_path / "shipped.blend").write_bytes(_self_contained_copy(bpy.context.scene.frame_end))
     bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "shipped.blend"))
     linked = [block.name for name in dir(bpy.data) if isinstance(getattr(bpy.data, name), bpy.types.bpy_prop_collection)
               for block in getattr(bpy.data, name) if getattr(block, "library", None) is not None]

@@ -161,7 +161,7 @@ def render_file(
     if frame_list is None:
         frame_list = [sc.frame_current]
     explicit = configure_output(sc, output, len(frame_list))
-    bake_simulations()  # each frame the one history from the scene's start, whatever frames are asked, as on a cluster
+    bake_simulations(max(frame_list))  # each frame the one history from the scene's start, in any order, as on a cluster
 
     written: list[Path] = []
     failed: dict[int, str] = {}
@@ -211,27 +211,35 @@ def render_file(
     return written
 
 
-def bake_simulations() -> None:
+def bake_simulations(last: int) -> None:
     """Bakes the open file's simulations that may not be baked, in memory (point caches: particles,
-    cloth, rigid bodies; Simulation Zones, packed into the file): each steps from the frame before,
+    cloth, rigid bodies; Simulation Zones, packed into the file), from the scene's start up to frame
+    `last` (the last one rendered; beyond it nothing is asked): each steps from the frame before,
     so frames rendered one by one in any order, or by workers given some each, would each see
     another history; baked, every frame reads the one history from the scene's start."""
     import bpy
 
-    unbaked = unbaked_point_caches()
-    if unbaked:
-        for cache in unbaked:
-            cache.use_disk_cache = False
-        bpy.ops.ptcache.bake_all(bake=True)
-    zones = simulation_zones()
-    if zones:
-        for modifier in zones:
-            modifier.bake_target = "PACKED"
-            for bake in modifier.bakes:
-                bake.bake_target = "INHERIT"
-        owner = zones[0].id_data  # the operator asks for an active object, then bakes every one
-        with bpy.context.temp_override(active_object=owner, object=owner, selected_objects=[owner]):
-            bpy.ops.object.simulation_nodes_cache_bake(selected=False)
+    unbaked, zones = unbaked_point_caches(), simulation_zones()
+    if not unbaked and not zones:
+        return
+    scene = bpy.context.scene  # the scene the bake operators step through
+    end = scene.frame_end
+    scene.frame_end = max(min(end, last), scene.frame_start)
+    try:
+        if unbaked:
+            for cache in unbaked:
+                cache.use_disk_cache = False
+            bpy.ops.ptcache.bake_all(bake=True)
+        if zones:
+            for modifier in zones:
+                modifier.bake_target = "PACKED"
+                for bake in modifier.bakes:
+                    bake.bake_target = "INHERIT"
+            owner = zones[0].id_data  # the operator asks for an active object, then bakes every one
+            with bpy.context.temp_override(active_object=owner, object=owner, selected_objects=[owner]):
+                bpy.ops.object.simulation_nodes_cache_bake(selected=False)
+    finally:
+        scene.frame_end = end
 
 
 def simulation_zones() -> list:

@@ -70,7 +70,7 @@ def render_frames(
         frame_list = [sc.frame_current]
     explicit = batch.configure_output(sc, output, len(frame_list))
     targets = {frame: batch.frame_target(sc, explicit, frame) for frame in frame_list}
-    payload = _self_contained_copy()
+    payload = _self_contained_copy(max(frame_list))
 
     report = FramesReport()
     todo = []
@@ -123,8 +123,9 @@ def _say(bar: Any, log: TextIO | None, message: str) -> None:
         print(message, file=log)
 
 
-def _self_contained_copy() -> bytes:
-    """The open file with its external data packed and linked data made local, as .blend bytes."""
+def _self_contained_copy(last: int) -> bytes:
+    """The open file with its external data packed, linked data made local and its simulations baked
+    up to frame `last`, as .blend bytes."""
     import bpy
 
     from ..blender.batch import BatchRenderError, bake_simulations
@@ -141,7 +142,7 @@ def _self_contained_copy() -> bytes:
         bpy.data.libraries.remove(library)
     if any(image.source == "FILE" and image.packed_file is None for image in bpy.data.images):
         bpy.ops.file.pack_all()
-    bake_simulations()  # into the copy, not to disk beside the user's file, which the workers do not have
+    bake_simulations(last)  # into the copy, not to disk beside the user's file, which the workers do not have
     with tempfile.TemporaryDirectory(prefix="durer-ship-") as folder:
         copy = Path(folder) / "scene.blend"
         bpy.ops.wm.save_as_mainfile(filepath=str(copy), copy=True, compress=False)
