@@ -127,9 +127,14 @@ class Scene:
         if n == 0:
             return
         self._add("move_spheres", _owned(id_array, ids), _owned(centers, given), radii_array)
-        # A pickled scene replays only the last move of the same spheres (one per frame would pile up).
+        # A pickled scene replays only the last move of the same spheres (one per frame would pile up)...
         last = self._adds[-1]
         self._adds[:-1] = [add for add in self._adds[:-1] if not _superseded(add, last)]
+        # ... and moves of other sets of spheres each time are merged once they hold twice as many
+        # entries as there are spheres: the records stay within a few times the spheres' own size.
+        moved = sum(len(args[0]) for method, args, _ in self._adds if method == "move_spheres")
+        if moved > 2 * sum(len(args[1]) for method, args, _ in self._adds if method == "add_spheres"):
+            self._adds = _merged_moves(self._adds)
 
     def add_plane(
         self,
@@ -477,6 +482,39 @@ def _superseded(add: tuple[str, tuple[Any, ...], dict[str, Any]], move: tuple[st
     method, args, _ = add
     return (method == "move_spheres" and np.array_equal(args[0], move[1][0])
             and (move[1][2] is not None or args[2] is None))
+
+
+def _merged_moves(adds: list[tuple[str, tuple[Any, ...], dict[str, Any]]]) -> list:
+    """`adds` with their moves replaced by at most two at the end that leave every sphere where they
+    left it: one with radii for the spheres some move gave a radius (its last), one without for the
+    others (every id existed by the end of `adds`; the spheres' final state is all a replay keeps)."""
+    moves = [args for method, args, _ in adds if method == "move_spheres"]
+    ids = np.concatenate([m[0] for m in moves])
+    centers = np.concatenate([m[1] for m in moves])
+    sized = any(m[2] is not None for m in moves)
+    radii = np.concatenate([np.full(len(m[0]), np.nan) if m[2] is None else m[2] for m in moves]) if sized else None
+    unique, last = _last_of_each(ids)
+    given = np.flatnonzero(~np.isnan(radii)) if sized else np.zeros(0, np.int64)  # the entries that set a radius
+    radius_ids, last_radius = _last_of_each(ids[given])
+    with_radius = np.isin(unique, radius_ids, assume_unique=True)  # both sorted: aligned
+    merged = [add for add in adds if add[0] != "move_spheres"]
+    for chosen, sizes in ((with_radius, radii[given[last_radius]] if sized else None), (~with_radius, None)):
+        if chosen.any():
+            args = (unique[chosen], centers[last[chosen]], sizes)
+            for array in args:
+                if array is not None:
+                    array.flags.writeable = False  # read-only, as every recorded array
+            merged.append(("move_spheres", args, {}))
+    return merged
+
+
+def _last_of_each(ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct `ids` (object ids, >= 0), sorted, and the index of each one's last entry: a
+    maximum per id, linear (a sort took ten times as long)."""
+    last = np.full(int(ids.max(initial=-1)) + 1, -1, np.int64)
+    np.maximum.at(last, ids, np.arange(len(ids)))
+    unique = np.flatnonzero(last >= 0)
+    return unique.astype(ids.dtype), last[unique]
 
 
 def _radii(radii: Any, n: int) -> np.ndarray:
