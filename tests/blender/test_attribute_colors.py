@@ -34,7 +34,9 @@ pytestmark = pytest.mark.blender
 
 #: The foreach_set field that writes each attribute type (byte colours: their sRGB bytes).
 WRITE_FIELD = {"FLOAT_COLOR": "color", "BYTE_COLOR": "color_srgb", "FLOAT_VECTOR": "vector", "FLOAT": "value",
-               "INT": "value"}
+               "INT": "value", "INT8": "value", "BOOLEAN": "value", "FLOAT2": "vector"}
+#: The numpy type each attribute type is written from (float32 otherwise).
+WRITE_DTYPE = {"INT": np.int32, "INT8": np.int32, "BOOLEAN": bool}
 
 
 def srgb_to_linear(c):
@@ -44,7 +46,7 @@ def srgb_to_linear(c):
 
 def set_attribute(geometry, name, kind, domain, values):
     attribute = geometry.attributes.new(name, kind, domain)
-    dtype = np.int32 if kind == "INT" else np.float32
+    dtype = WRITE_DTYPE.get(kind, np.float32)
     attribute.data.foreach_set(WRITE_FIELD[kind], np.ascontiguousarray(values, dtype).ravel())
     return attribute
 
@@ -207,21 +209,52 @@ def test_colours_through_every_mapped_node_match_cycles(scene, tmp_path):
     assert engine.last_render.warnings == []
 
 
-@pytest.mark.parametrize("kind", ["FLOAT_COLOR", "BYTE_COLOR", "FLOAT_VECTOR", "FLOAT"])
+@pytest.mark.parametrize("kind", ["FLOAT_COLOR", "BYTE_COLOR", "FLOAT_VECTOR", "FLOAT", "INT", "INT8", "BOOLEAN",
+                                  "FLOAT2"])
 def test_each_attribute_type_gives_the_colour_blender_renders(scene, kind):
     rng = np.random.default_rng(4)
-    width = {"FLOAT_VECTOR": 3, "FLOAT": 1}.get(kind, 4)
+    width = {"FLOAT_VECTOR": 3, "FLOAT": 1, "FLOAT2": 2}.get(kind, 4)
     values = rng.uniform(0, 1, (9, width)).squeeze()
+    if kind in WRITE_DTYPE:  # integers, booleans: read as floats, as Cycles reads them
+        values = rng.integers(0, 2 if kind == "BOOLEAN" else 5, 9)
     mat = attribute_material("M", lambda tree: attribute_node(tree, "A"))
     colored_cloud(scene, grid_positions(3), mat, {"A": (kind, values)})
     data = export_depsgraph(bpy.context.evaluated_depsgraph_get())
     if kind == "BYTE_COLOR":  # stored as sRGB bytes, decoded to linear as Blender renders them
         expected = srgb_to_linear(np.round(values[:, :3] * 255) / 255)
-    elif kind == "FLOAT":
+    elif kind in ("FLOAT", "INT", "INT8", "BOOLEAN"):
         expected = np.repeat(values[:, None], 3, axis=1)
+    elif kind == "FLOAT2":
+        expected = np.column_stack([values, np.zeros(9)])
     else:
         expected = values[:, :3]
     np.testing.assert_allclose(data.sphere_colors, expected, rtol=1e-6, atol=1e-7)
+
+
+def test_an_integer_attribute_through_a_color_ramp_colours_atoms_as_cycles_does(scene, tmp_path):
+    """Atoms coloured by an integer element number through a constant Color Ramp, as molecular
+    add-ons colour them: each atom its element's colour, as Cycles renders it (integers fell back to
+    the material's colour, with a warning)."""
+    elements = np.arange(25) % 3
+
+    def ramp(tree):
+        node = tree.nodes.new("ShaderNodeValToRGB")
+        node.color_ramp.interpolation = "CONSTANT"
+        node.color_ramp.elements[0].color = (0.9, 0.1, 0.1, 1)  # 0: red
+        node.color_ramp.elements.new(0.3).color = (0.1, 0.8, 0.1, 1)  # 1 / 2.5: green (off the stop)
+        node.color_ramp.elements[-1].position, node.color_ramp.elements[-1].color = 0.6, (0.1, 0.2, 0.9, 1)  # 2: blue
+        scale = tree.nodes.new("ShaderNodeMath")
+        scale.operation, scale.inputs[1].default_value = "DIVIDE", 2.5
+        tree.links.new(attribute_node(tree, "element", "Fac"), scale.inputs[0])
+        tree.links.new(scale.outputs[0], node.inputs["Fac"])
+        return node.outputs["Color"]
+
+    colored_cloud(scene, grid_positions(), attribute_material("Elements", ramp), {"element": ("INT", elements)})
+    front_view(scene)
+    data = export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    assert data.warnings == [] and len(np.unique(data.sphere_colors, axis=0)) == 3
+    c, d = both(scene, tmp_path, normal=False)
+    compare_shading(c, d, min_fraction=0.15)
 
 
 def test_each_material_slot_of_a_mesh_reads_its_own_attribute_and_domain(scene):

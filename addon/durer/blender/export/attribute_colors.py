@@ -20,7 +20,8 @@ from .materials import base_color_input
 #: geometry's default colour attribute.
 Key = tuple[str, str]
 #: Attributes' values as RGBA rows, (N, 4) float32: colours as stored (byte colours decoded from
-#: sRGB as Blender renders them), vectors (x, y, z, 1), floats (v, v, v, 1).
+#: sRGB as Blender renders them), vectors (x, y, z, 1), 2D vectors (x, y, 0, 1), floats, integers
+#: and booleans (v, v, v, 1).
 Values = dict[Key, np.ndarray]
 #: A compiled socket: attribute values -> (N, 3) colours or (N,) values (or constants that broadcast).
 Expression = Callable[[Values], np.ndarray]
@@ -33,7 +34,10 @@ RAMP_TABLE_SIZE = 256
 COLOR_LIMIT = 1e18
 
 #: Attribute data type -> (foreach_get field, components).
-_FIELDS = {"FLOAT_COLOR": ("color", 4), "BYTE_COLOR": ("color", 4), "FLOAT_VECTOR": ("vector", 3), "FLOAT": ("value", 1)}
+_FIELDS = {"FLOAT_COLOR": ("color", 4), "BYTE_COLOR": ("color", 4), "FLOAT_VECTOR": ("vector", 3), "FLOAT": ("value", 1),
+           # read as floats, as Cycles reads them: integers and booleans (0, 1) as a float's
+           # (v, v, v), 2D vectors as (x, y, 0)
+           "INT": ("value", 1), "INT8": ("value", 1), "BOOLEAN": ("value", 1), "FLOAT2": ("vector", 2)}
 
 
 class Unmapped(Exception):
@@ -119,7 +123,7 @@ def read_values(attributes, keys: tuple[Key, ...], default_name: str | None, siz
             rgba = raw
         else:
             rgba = np.ones((n, 4), np.float32)
-            rgba[:, :3] = raw
+            rgba[:, :3] = raw if field[1] != 2 else np.column_stack([raw, np.zeros(n, np.float32)])
         values[key], domains[key] = rgba, attribute.domain
     return values, domains
 
