@@ -231,7 +231,8 @@ def test_each_attribute_type_gives_the_colour_blender_renders(scene, kind):
     np.testing.assert_allclose(data.sphere_colors, expected, rtol=1e-6, atol=1e-7)
 
 
-def test_an_integer_attribute_through_a_color_ramp_colours_atoms_as_cycles_does(scene, tmp_path):
+@pytest.mark.parametrize("on_stop", [False, True])
+def test_an_integer_attribute_through_a_color_ramp_colours_atoms_as_cycles_does(scene, tmp_path, on_stop):
     """Atoms coloured by an integer element number through a constant Color Ramp, as molecular
     add-ons colour them: each atom its element's colour, as Cycles renders it (integers fell back to
     the material's colour, with a warning)."""
@@ -241,8 +242,10 @@ def test_an_integer_attribute_through_a_color_ramp_colours_atoms_as_cycles_does(
         node = tree.nodes.new("ShaderNodeValToRGB")
         node.color_ramp.interpolation = "CONSTANT"
         node.color_ramp.elements[0].color = (0.9, 0.1, 0.1, 1)  # 0: red
-        node.color_ramp.elements.new(0.3).color = (0.1, 0.8, 0.1, 1)  # 1 / 2.5: green (off the stop)
+        node.color_ramp.elements.new(0.3).color = (0.1, 0.8, 0.1, 1)  # 1 / 2.5: green
         node.color_ramp.elements[-1].position, node.color_ramp.elements[-1].color = 0.6, (0.1, 0.2, 0.9, 1)  # 2: blue
+        if on_stop:  # 1 / 2.5 exactly on a stop: Cycles' table of 257 entries puts it below (red)
+            node.color_ramp.elements[1].position = 0.4
         scale = tree.nodes.new("ShaderNodeMath")
         scale.operation, scale.inputs[1].default_value = "DIVIDE", 2.5
         tree.links.new(attribute_node(tree, "element", "Fac"), scale.inputs[0])
@@ -252,7 +255,7 @@ def test_an_integer_attribute_through_a_color_ramp_colours_atoms_as_cycles_does(
     colored_cloud(scene, grid_positions(), attribute_material("Elements", ramp), {"element": ("INT", elements)})
     front_view(scene)
     data = export_depsgraph(bpy.context.evaluated_depsgraph_get())
-    assert data.warnings == [] and len(np.unique(data.sphere_colors, axis=0)) == 3
+    assert data.warnings == [] and len(np.unique(data.sphere_colors, axis=0)) == (2 if on_stop else 3)
     c, d = both(scene, tmp_path, normal=False)
     compare_shading(c, d, min_fraction=0.15)
 

@@ -29,7 +29,7 @@ COLOR, VALUE = "color", "value"
 #: Blender's scene-linear (Rec. 709) luminance: Cycles' implicit colour-to-value conversion.
 LUMINANCE = np.array([0.2126729, 0.7151522, 0.0721750])
 #: Cycles bakes a Color Ramp into this many entries and interpolates linearly between them.
-RAMP_TABLE_SIZE = 256
+RAMP_TABLE_SIZE = 257
 #: The largest colour component the core accepts (durer._core.LIMITS).
 COLOR_LIMIT = 1e18
 
@@ -268,8 +268,8 @@ def _mix(c: _Compiler, node, output: str) -> tuple[Expression, str]:
 
 
 def _color_ramp(c: _Compiler, node, output: str) -> tuple[Expression, str]:
-    """Cycles' baked table: Blender's own ramp evaluated at 256 points, interpolated linearly
-    between them (constant ramps take the entry below)."""
+    """Cycles' baked table: Blender's own ramp evaluated at RAMP_TABLE_SIZE points, interpolated
+    linearly between them (constant ramps take the entry below)."""
     ramp = node.color_ramp
     table = np.array([ramp.evaluate(i / (RAMP_TABLE_SIZE - 1)) for i in range(RAMP_TABLE_SIZE)], np.float64)
     interpolate = ramp.interpolation != "CONSTANT"
