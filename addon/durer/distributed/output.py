@@ -47,14 +47,15 @@ def is_complete(path: Path, suffix: str | None = None) -> bool:
     format's magic. `suffix`: the format's extension where the name has another (a temporary file)."""
     suffix = (suffix or path.suffix).lower()
     try:
-        if not path.is_file() or path.stat().st_size == 0:
+        size = path.stat().st_size if path.is_file() else 0
+        if size == 0:
             return False
         magic = _MAGIC.get(suffix)
         if magic is not None:
             with open(path, "rb") as file:
                 if file.read(len(magic)) != magic:
                     return False
-                return _exr_complete(file, path.stat().st_size) if suffix == ".exr" else True
+                return _exr_complete(file, size) if suffix == ".exr" else True
         from PIL import Image
 
         with Image.open(path) as image:
@@ -69,7 +70,6 @@ def _exr_complete(file: BinaryIO, size: int) -> bool:
     its offset tables name: each offset set, and the chunk at the last ending within the file.
     Scanline images, single-part or multipart (Blender's multilayer files); a tiled or deep image
     without a chunk count is taken as complete once its headers are there."""
-
     (version,) = struct.unpack("<i", file.read(4))
     multipart, tiled = bool(version & 0x1000), bool(version & 0x200)
     parts = []
@@ -101,10 +101,10 @@ def _exr_complete(file: BinaryIO, size: int) -> bool:
         chunk_type = parts[part].get("type", b"tiledimage" if tiled else b"scanlineimage")
         if chunk_type != b"scanlineimage":
             continue
-        here = file.tell()
-        file.seek(max(offsets) + (4 if multipart else 0) + 4)  # the part number, the first scanline
+        here, last = file.tell(), max(offsets) + (4 if multipart else 0)  # after the part number
+        file.seek(last + 4)  # after the chunk's first scanline: its length
         (length,) = struct.unpack("<i", file.read(4))
-        if max(offsets) + (4 if multipart else 0) + 8 + length > size:
+        if last + 8 + length > size:
             return False
         file.seek(here)
     return True
@@ -113,7 +113,6 @@ def _exr_complete(file: BinaryIO, size: int) -> bool:
 def _exr_header(file: BinaryIO) -> dict[str, bytes]:
     """One header's attributes (name -> raw value) from `file`, up to its closing null byte ({} for the
     empty header that ends a multipart file's headers)."""
-
     def name() -> str:
         out = bytearray()
         while (byte := file.read(1)) not in (b"\0", b""):

@@ -163,15 +163,14 @@ class Shading {
     for (const Material& m : scene.materials()) m_materials.push_back(MaterialIn<Real>::from(m));
     for (const DirectionalLight& l : scene.directionalLights()) {
       ShadingLight<Real>& light = add(Kind::Directional, -l.direction, l.color, l.shadows);
+      takeSize(light, l.soft);
       const double half = l.soft.size;
-      light.size = static_cast<Real>(half), light.softShadows = l.soft.on();
       if (light.softShadows) light.spread = static_cast<Real>(2 * std::sin(half / 2) * std::sin(half / 2));  // 1 − cos, no cancellation
-      light.samples = l.soft.samples;
     }
     for (const PointLight& l : scene.pointLights()) {
       ShadingLight<Real>& light = add(Kind::Point, l.position, l.color, l.shadows);
       light.attenuation = toReal<Real>(l.attenuation);
-      light.size = static_cast<Real>(l.soft.size), light.samples = l.soft.samples, light.softShadows = l.soft.on();
+      takeSize(light, l.soft);
       if (light.softShadows) light.spread = light.size;
     }
     for (const SpotLight& l : scene.spotLights()) {
@@ -179,7 +178,7 @@ class Shading {
       light.attenuation = toReal<Real>(l.attenuation);
       light.axis = toReal<Real>(l.direction);
       light.cosHalfAngle = static_cast<Real>(l.cosHalfAngle), light.blend = static_cast<Real>(l.blend);
-      light.size = static_cast<Real>(l.soft.size), light.samples = l.soft.samples, light.softShadows = l.soft.on();
+      takeSize(light, l.soft);
       if (light.softShadows) light.spread = light.size;
     }
     for (const AreaLight& l : scene.areaLights()) {
@@ -203,6 +202,11 @@ class Shading {
   std::vector<MaterialIn<Real>> m_materials;  // by material id
   Vec3<Real> m_ambient;
   std::vector<ShadingLight<Real>> m_lights;
+
+  // A point, spot or directional light's size, which spreads its highlights, and its soft shadows.
+  static void takeSize(ShadingLight<Real>& light, const SoftShadows& soft) {
+    light.size = static_cast<Real>(soft.size), light.samples = soft.samples, light.softShadows = soft.on();
+  }
 
   ShadingLight<Real>& add(typename ShadingLight<Real>::Kind kind, const Vec3d& vector, const Vec3d& color, bool shadows) {
     ShadingLight<Real>& light = m_lights.emplace_back();
