@@ -431,7 +431,8 @@ def test_a_batch_takes_ctrl_c_only_where_it_is_python_s_to_take():
 
 def test_a_failed_frame_does_not_stop_the_others(scene, tmp_path, capsys):
     """A frame that cannot render (the camera keyed panoramic on frame 2): frames 1 and 3 are
-    written, the error names frame 2 and why, once; its empty image is not left behind."""
+    written, each named as soon as it is in place, the error names frame 2 and why, once; its empty
+    image is not left behind."""
     blend = saved_blend(scene, tmp_path / "anim.blend")
     bpy.ops.wm.open_mainfile(filepath=str(blend))
     camera = bpy.context.scene.camera.data
@@ -440,8 +441,11 @@ def test_a_failed_frame_does_not_stop_the_others(scene, tmp_path, capsys):
         camera.keyframe_insert("type", frame=frame)
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
     out = tmp_path / "out" / "f_####.png"
+    events = []  # frames as they start rendering, files as they are put in place
     with pytest.raises(batch.BatchRenderError) as failure:
-        batch.render_file(blend, frames="1-3", output=out)
+        batch.render_file(blend, frames="1-3", output=out, on_written=lambda f: events.append(f.name),
+                          progress=lambda frame, fraction: events.append(frame) if frame not in events else None)
+    assert events == [1, "f_0001.png", 3, "f_0003.png"]  # each named before the next starts (2 fails at export)
     assert [f.name for f in failure.value.written] == ["f_0001.png", "f_0003.png"]
     assert str(failure.value).startswith(f"1 of 3 frames failed: 2 (Frame 2 of {blend} failed: ValueError: Camera")
     assert sorted(p.name for p in out.parent.iterdir()) == ["f_0001.png", "f_0003.png"]

@@ -133,6 +133,7 @@ def render_file(
     scene: str | None = None,
     resume: bool = False,
     threads: int | None = None,
+    on_written: Callable[[Path], object] | None = None,
 ) -> list[Path]:
     """Render frames of a .blend file with Dürer and write them; returns the written files.
 
@@ -146,6 +147,8 @@ def render_file(
     scene:   the scene to render (default: the file's active scene).
     resume:  skip frames whose output file exists and is complete (not in the returned list).
     threads: render threads per frame, overriding scene.durer.threads.
+    on_written: called with each file as soon as it is in place (the command line names it then:
+             Blender's own "Saved:" line names the temporary file the frame is written to first).
 
     Raises FileNotFoundError for a missing file, ValueError for a file Blender cannot open or a
     scene it does not have, and BatchRenderError once every frame was tried if some failed (the
@@ -197,6 +200,8 @@ def render_file(
                 continue
             os.replace(partial, target)
             written.append(target)
+            if on_written is not None:
+                on_written(target)
     finally:
         sc.render.filepath, sc.render.use_file_extension = pattern, use_extension
         sc.render.use_persistent_data = persistent
@@ -530,7 +535,7 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m durer render"
     if args.scheduler is not None or (args.workers is not None and args.workers != 1):
         return _main_distributed(args, prog)
     try:
-        files = render_file(
+        render_file(
             args.file,
             frames=args.frames,
             output=args.output,
@@ -539,21 +544,18 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m durer render"
             scene=args.scene,
             resume=bool(args.resume),
             threads=args.threads,
+            on_written=lambda f: print(f"image written to {f}", flush=True),
         )
     except (OSError, ValueError) as exc:  # OSError: a missing file, an output path that cannot be made
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
     except BatchRenderError as exc:
-        for f in exc.written:
-            print(f"image written to {f}")
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print(f"{prog}: interrupted: the frames written so far are complete; run again with --resume to go on",
               file=sys.stderr)
         return 130
-    for f in files:
-        print(f"image written to {f}")
     return 0
 
 
