@@ -155,13 +155,16 @@ def chain(tree):
 
 def swizzle(tree):
     """Attribute Color -> Separate Color -> Combine Color as (blue, red, the colour itself: a colour
-    into a factor is its luminance)."""
+    into a factor is its luminance, through a muted Invert: Cycles passes its colour through)."""
     separate, combine = tree.nodes.new("ShaderNodeSeparateColor"), tree.nodes.new("ShaderNodeCombineColor")
     color = attribute_node(tree, "Color")
     tree.links.new(color, separate.inputs["Color"])
     tree.links.new(separate.outputs["Blue"], combine.inputs["Red"])
     tree.links.new(separate.outputs["Red"], combine.inputs["Green"])
-    tree.links.new(color, combine.inputs["Blue"])
+    muted = tree.nodes.new("ShaderNodeInvert")
+    muted.mute = True
+    tree.links.new(color, muted.inputs["Color"])
+    tree.links.new(muted.outputs["Color"], combine.inputs["Blue"])
     return combine.outputs["Color"]
 
 
@@ -295,8 +298,11 @@ def test_principled_kd_scales_the_colour_and_color_attribute_nodes_read_the_defa
     mat = attribute_material("Half metal", color_attribute)
     mat.node_tree.nodes["Principled BSDF"].inputs["Metallic"].default_value = 0.5
     obj.data.materials.append(mat)
-    (mesh,) = export_depsgraph(bpy.context.evaluated_depsgraph_get()).meshes
-    np.testing.assert_allclose(mesh.colors, 0.5 * colors[:, :3], rtol=1e-6)
+    data = export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    np.testing.assert_allclose(data.meshes[0].colors, 0.5 * colors[:, :3], rtol=1e-6)
+    # Cycles tints the metal by the attribute too; Dürer's per-point colour is kd alone: said.
+    assert data.notes == ["Material 'Half metal': attribute colours tint its diffuse layer alone; the Viewport "
+                          "Display colour tints its metallic layer"]
 
 
 def test_points_of_a_plain_material_keep_its_kd_beside_coloured_ones(scene):
@@ -539,7 +545,7 @@ def test_an_unmapped_graph_falls_back_to_the_material_colour_with_one_message(sc
     front_view(scene)
     d = render_passes(scene, tmp_path / "durer.exr", normal=False)
     assert engine.last_render.warnings == [
-        f"Material 'Fallback' uses its own colour, not attribute colours: {reason}"]
+        f"Material 'Fallback' is drawn in its Viewport Display colour where Cycles varies its colour: {reason}"]
     assert "colors" not in engine.last_render.stats["effects"]
     lit = d["color"][..., :3].max(axis=-1) > 0.05
     assert lit.mean() > 0.1  # never silently black

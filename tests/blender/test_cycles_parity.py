@@ -395,3 +395,35 @@ def test_perspective_clip_range_is_two_planes_as_in_cycles(scene, tmp_path, wall
     cycles_hit, durer_hit = c["depth"] < MISS, d["depth"] < MISS
     assert cycles_hit.all() if wall > 1 else not cycles_hit.any()
     assert (cycles_hit == durer_hit).all()
+
+
+def test_tinted_principled_glass_like_cycles(scene, tmp_path):
+    """Principled glass tinted by its Base Color b in front of a glowing white wall: Cycles tints what
+    each surface passes by √b, so a ball (two surfaces) passes b·(1 − F0)² and a pane (one) √b·(1 − F0);
+    a Glass BSDF tints by its Color at each surface (both as Cycles, measured)."""
+    from helpers.blender import uv_sphere
+
+    world(scene, (0, 0, 0))
+    wall = quad(scene, "Wall", location=(0, 3, 0), scale=(9, 1, 3), rotation=(math.pi / 2, 0, 0))
+    wall.data.materials.append(material("Wall", emission=((1.0, 1.0, 1.0), 1.0)))
+    tint = (0.3, 0.5, 1.0)
+    glass = material("Glass", tint, roughness=0.0)
+    bsdf = glass.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Transmission Weight"].default_value, bsdf.inputs["IOR"].default_value = 1.0, 1.45
+    bsdf.inputs["Specular IOR Level"].default_value = 0.5
+    uv_sphere(scene, "Ball", radius=0.9, location=(-1.5, 0, 0)).data.materials.append(glass)
+    quad(scene, "Pane", location=(1.5, 0, 0), scale=(0.8, 1, 0.8), rotation=(math.pi / 2, 0, 0)).data.materials.append(glass)
+    cam = aim_camera(scene, (0, -10, 0)).data
+    cam.type, cam.ortho_scale = "ORTHO", 6.0
+    scene.render.resolution_x, scene.render.resolution_y = 48, 24
+    use_cycles(scene, samples=128, max_bounces=8)
+    c = render_passes(scene, tmp_path / "cycles.exr", normal=False)
+    scene.render.engine, scene.durer.max_bounces = "DURER", 8
+    d = render_passes(scene, tmp_path / "durer.exr", normal=False)
+    f0 = ((np.float32(1.45) - 1) / (np.float32(1.45) + 1)) ** 2
+    ball, pane = (slice(11, 13), slice(11, 13)), (slice(11, 13), slice(35, 37))
+    np.testing.assert_allclose(d["color"][ball][..., :3].mean(axis=(0, 1)), np.array(tint) * (1 - f0) ** 2, rtol=2e-3)
+    np.testing.assert_allclose(d["color"][pane][..., :3].mean(axis=(0, 1)), np.sqrt(tint) * (1 - f0), rtol=2e-3)
+    for at in (ball, pane):
+        np.testing.assert_allclose(c["color"][at][..., :3].mean(axis=(0, 1)), d["color"][at][..., :3].mean(axis=(0, 1)),
+                                   rtol=0.03)

@@ -149,12 +149,13 @@ def test_mirror_roughness_threshold(scene):
 
 
 def test_transmission_is_refraction_with_the_ior(scene):
-    """Transmission t: kd = b·(1 − t)·(1 − F0), transparent = b·t·(1 − F0), ior = IOR."""
+    """Transmission t: kd = b·(1 − t)·(1 − F0), transparent = √b·t·(1 − F0) (Cycles tints what each
+    surface passes by √b), ior = IOR."""
     base = (0.9, 0.95, 1.0)
     m = exported_material(scene, principled("Glass", base, Transmission_Weight=1.0, IOR=1.45, Roughness=0.0))
     f0 = ((f32(1.45) - 1) / (f32(1.45) + 1)) ** 2
     assert m.ior == pytest.approx(1.45, rel=1e-6)
-    np.testing.assert_allclose(m.transparent, np.array(base) * (1 - f0), rtol=1e-6)
+    np.testing.assert_allclose(m.transparent, np.sqrt(np.float32(base).astype(np.float64)) * (1 - f0), rtol=1e-6)
     assert m.diffuse == (0, 0, 0)
     assert m.reflective == pytest.approx((f0,) * 3, rel=1e-6)
     assert set(m.effects) == {"transparent", "ior", "reflective", "specular", "exponent"}
@@ -162,7 +163,7 @@ def test_transmission_is_refraction_with_the_ior(scene):
         scene, principled("Frosted", base, Transmission_Weight=0.5, IOR=1.33, Roughness=0.6, Specular_IOR_Level=0.0)
     )
     assert m.ior == pytest.approx(1.33, rel=1e-6)
-    np.testing.assert_allclose(m.transparent, np.array(base) * 0.5, rtol=1e-6)
+    np.testing.assert_allclose(m.transparent, np.sqrt(np.float32(base).astype(np.float64)) * 0.5, rtol=1e-6)
     np.testing.assert_allclose(m.diffuse, np.array(base) * 0.5, rtol=1e-6)
     # A metal is opaque whatever its transmission.
     m = exported_material(scene, principled("Metal", base, Transmission_Weight=1.0, Metallic=1.0))
@@ -453,3 +454,39 @@ def test_back_faces_are_shaded_like_cycles(scene, tmp_path):
     use_cycles(scene)
     cycles = render_passes(scene, tmp_path / "cycles.exr", depth=False, normal=False)["color"]
     np.testing.assert_allclose(cycles[H // 2, W // 2, :3], expected, rtol=1e-4)
+
+
+def _textured(mat, *names):
+    """`mat` with a Noise Texture linked into its surface shader's inputs `names` (a PBR map)."""
+    tree = mat.node_tree
+    node = tree.nodes["Material Output"].inputs["Surface"].links[0].from_node
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    for name in names:
+        tree.links.new(noise.outputs["Color" if node.inputs[name].type == "RGBA" else "Fac"], node.inputs[name])
+    return mat
+
+
+def test_inputs_linked_to_textures_take_a_stand_in_and_are_named(scene):
+    """A texture in an input Dürer cannot follow: the Viewport Display setting or the socket's own
+    value stands in, and the render's notes name the inputs (a metallic map silently drew a
+    diffuse ball 3.4 times brighter than Cycles). A texture in an emission colour that does not
+    glow changes nothing: not named."""
+    metal = _textured(principled("Map", Metallic=1.0, Roughness=0.9, Emission_Strength=0.0),
+                      "Metallic", "Roughness", "Emission Color")
+    metal.metallic, metal.roughness = 0.25, 0.5
+    glass = _textured(shader("Tinted", "ShaderNodeBsdfGlass", Color=(0.1, 0.8, 0.1)), "Color")
+    glow = _textured(shader("Sign", "ShaderNodeEmission", Color=(0.2, 0.6, 1.0), Strength=2.0), "Color")
+    for x, mat in enumerate((metal, glass, glow)):
+        uv_sphere(scene, mat.name, location=(3 * x, 0, 0)).data.materials.append(mat)
+    d = export(scene)
+    metal, glass, glow = (d.materials[int(m)] for m in d.sphere_materials[np.argsort(d.sphere_centers[:, 0])])
+    np.testing.assert_allclose(metal.diffuse, F32(0.8) * 0.75 * (1 - 0.04), rtol=1e-5)  # metallic 0.25 stands in
+    assert metal.exponent == pytest.approx(materials.phong_exponent(F32(0.5)))
+    assert glass.transparent == pytest.approx(tuple(F32(0.8) * (1 - 0.04) for _ in range(3)))  # viewport grey
+    assert glow.emission == pytest.approx((2.0 * F32(0.2), 2.0 * F32(0.6), 2.0))  # the socket's own colour
+    stand_in = ("linked to what varies over the surface (a texture, attributes): the material's Viewport Display "
+                "setting or the socket's own value")
+    assert sorted(n for n in d.warnings if "one value" in n) == [
+        f"Material 'Map': Dürer takes one value for its Metallic, Roughness, {stand_in}",
+        f"Material 'Sign': Dürer takes one value for its Color, {stand_in}",
+        f"Material 'Tinted': Dürer takes one value for its Color, {stand_in}"]

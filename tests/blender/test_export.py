@@ -444,8 +444,10 @@ def test_material_colours(scene):
 
 def test_shaders_are_read_as_cycles_reads_them(scene):
     """Constants linked into inputs (RGB and Value nodes, maths on them) are their values; the
-    surface is the one the Cycles output takes, through reroutes; a muted or missing one is
-    black; a shader Dürer does not convert is its viewport colour, said once."""
+    surface is the one the Cycles output takes, through reroutes and through muted nodes as Cycles
+    passes them (a muted Mix Shader: the shader its internal link takes); a muted BSDF or a missing surface is black;
+    a shader Dürer does not convert is its viewport colour, said once; an input linked to what
+    varies is named, and so is emission (it lights nothing in Dürer)."""
 
     def principled(name, x):
         mat = material(name, (0.2, 0.2, 0.2))
@@ -482,14 +484,30 @@ def test_shaders_are_read_as_cycles_reads_them(scene):
     mix = tree.nodes.new("ShaderNodeMixShader")
     tree.links.new(bsdf.outputs[0], mix.inputs[1])
     tree.links.new(mix.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    for name, x, into in (("Muted mix", 12, 1), ("Muted mix, second", 14, 2), ("Muted mix of nothing", 16, None)):
+        _, tree, bsdf = principled(name, x)
+        mix = tree.nodes.new("ShaderNodeMixShader")
+        if into is not None:
+            tree.links.new(bsdf.outputs[0], mix.inputs[into])
+        mix.mute = True
+        tree.links.new(mix.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
     d = export(scene)
     by_x = {round(float(c[0])): d.materials[m] for c, m in zip(d.sphere_centers, d.sphere_materials)}
+    # The Principled BSDF passed through (Blender's internal link takes the linked shader), or nothing.
+    assert by_x[12].diffuse == by_x[14].diffuse == by_x[2].diffuse and by_x[16].diffuse == (0.0, 0.0, 0.0)
     assert by_x[0].diffuse == pytest.approx((0.9, 0.5, 0.1)) and by_x[0].emission == pytest.approx((2.7, 1.5, 0.3))
     assert by_x[2].diffuse == pytest.approx((0.2, 0.2, 0.2)) and by_x[2].emission == (0.0, 0.0, 0.0)
     assert by_x[4].diffuse == by_x[6].diffuse == (0.0, 0.0, 0.0) and by_x[4].emission == (0.0, 0.0, 0.0)
     assert by_x[8].diffuse == (0.0, 1.0, 0.0)
     assert by_x[10].emission == pytest.approx((3.0, 3.0, 3.0))
-    assert d.warnings == ["Material 'Mixed': Dürer draws its Mix Shader surface in the material's viewport colour"]
+    assert sorted(d.warnings) == [
+        "Material 'Mixed': Dürer draws its Mix Shader surface in the material's viewport colour",
+        "Material 'RGB node' glows but lights nothing: Dürer draws its emission on its own surface (Cycles "
+        "lights the scene with it)",
+        "Material 'Textured glow' glows but lights nothing: Dürer draws its emission on its own surface "
+        "(Cycles lights the scene with it)",
+        "Material 'Textured glow': Dürer takes one value for its Emission Strength, linked to what varies over "
+        "the surface (a texture, attributes): the material's Viewport Display setting or the socket's own value"]
 
 
 def test_world_background_and_transparent_film(scene):

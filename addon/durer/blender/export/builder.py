@@ -11,7 +11,7 @@ import numpy as np
 from ..._checks import is_invertible
 from .attribute_colors import ColorSource, Unmapped, color_source, part_colors, read_values
 from .data import IDENTITY, MeshData, ObjectData, PlaneData, SceneData, TransformedSpheres
-from .materials import material_data, object_materials
+from .materials import layers_beyond_diffuse, material_data, object_materials
 from .matrices import transform_points, uniform_scale, uniform_scales
 from .shapes import MeshShape
 from .triangles import TrianglePart
@@ -111,6 +111,11 @@ class Builder:
             except Unmapped as reason:
                 self.color_sources[key] = None
                 self.fallback(mat.name, str(reason))
+            layers = layers_beyond_diffuse(mat) if self.color_sources[key] is not None else []
+            if layers:
+                self.data.notes.append(f"Material '{mat.name}': attribute colours tint its diffuse layer alone; the "
+                                       f"Viewport Display colour tints its {' and '.join(layers)} "
+                                       f"layer{'s' if len(layers) > 1 else ''}")
         return self.color_sources[key]
 
     def reads_geometry(self, mat) -> bool:
@@ -127,7 +132,8 @@ class Builder:
         """Notes once per material that its own colour stands in for its attribute colours."""
         if material not in self.fallbacks:
             self.fallbacks.add(material)
-            self.data.notes.append(f"Material '{material}' uses its own colour, not attribute colours: {reason}")
+            self.data.notes.append(f"Material '{material}' is drawn in its Viewport Display colour where Cycles "
+                                   f"varies its colour: {reason}")
 
     def attribute_colors(self, geometry, mats: list, slots: np.ndarray | None, materials, n: int,
                          sizes: dict[str, int], where: str = "GEOMETRY") -> np.ndarray | None:

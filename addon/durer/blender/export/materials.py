@@ -7,7 +7,7 @@ import numpy as np
 
 from ...material import COURSE_FIELDS
 from .data import BLACK, MaterialData
-from .nodes import color_input, linked_value, rgb, scalar_input
+from .nodes import Inputs, linked_value, passed_through, rgb
 
 #: Roughness at or below which a specular lobe is a mirror (reflection rays) as well as a Phong
 #: highlight of the lights (which mirror rays cannot meet); above it, the highlight alone. At 0.2 the
@@ -68,22 +68,27 @@ def specular_lobe(color, roughness: float) -> dict:
     return lobe
 
 
-def _principled(mat, node, viewport) -> MaterialData:
+def _principled(mat, inputs: Inputs, viewport) -> MaterialData:
     """Principled BSDF, with b = Base Color, m = Metallic, t = Transmission Weight, r = Roughness:
 
     * specular reflectance  s = b·m + F0·(1 − m), with the dielectric F0 = fresnel_f0(IOR) × 2 ×
       Specular IOR Level × Specular Tint (0.5 is Blender's "no adjustment"), made a mirror or a
       Phong lobe by `specular_lobe`;
-    * kd = b·(1 − m)·(1 − t)·(1 − F0);  transparent = b·(1 − m)·t·(1 − F0), ior = IOR (any
-      roughness): what the specular layer reflects does not reach the layers below;
+    * kd = b·(1 − m)·(1 − t)·(1 − F0);  transparent = √b·(1 − m)·t·(1 − F0), ior = IOR (any
+      roughness): what the specular layer reflects does not reach the layers below, and Cycles
+      tints what each surface of Principled glass passes by √b (a ball's two surfaces by b);
     * Emission Color × Strength as emission. Linked inputs use the material's viewport settings.
     """
-    base = color_input(node, "Base Color", viewport)
-    # What varies (a texture) falls back to the socket's own value, as Blender shows it unlinked.
-    ecol = color_input(node, "Emission Color", node.inputs["Emission Color"].default_value)
-    estr = scalar_input(node, "Emission Strength", node.inputs["Emission Strength"].default_value)
-    emission = tuple(c * estr for c in ecol) if estr else BLACK
-    return _principled_material(mat.name, base, *_principled_layers(mat, node), emission)
+    base = inputs.color("Base Color", viewport)
+    estr = inputs.scalar("Emission Strength", inputs.node.inputs["Emission Strength"].default_value)
+    emission = _scale3(_own_value_input(inputs, "Emission Color"), estr) if estr else BLACK
+    return _principled_material(mat.name, base, *_principled_layers(mat, inputs), emission)
+
+
+def _own_value_input(inputs: Inputs, name: str) -> tuple[float, float, float]:
+    """An emission colour (read only where the strength is not 0: a texture in a colour that does not
+    glow changes nothing): what varies falls back to the socket's own value, as Blender shows it unlinked."""
+    return inputs.color(name, inputs.node.inputs[name].default_value)
 
 
 def _principled_material(name: str, base, metallic: float, roughness: float, ior: float, transmission: float,
@@ -93,20 +98,21 @@ def _principled_material(name: str, base, metallic: float, roughness: float, ior
     diffuse = _scale3(_scale3(base, (1.0 - metallic) * (1.0 - transmission)), below)
     transparent = BLACK
     if transmission > 0.0 and metallic < 1.0:
-        transparent = _scale3(_scale3(base, (1.0 - metallic) * transmission), below)
+        tint = tuple(float(np.sqrt(max(c, 0.0))) for c in base)
+        transparent = _scale3(_scale3(tint, (1.0 - metallic) * transmission), below)
     md = MaterialData(name, diffuse, emission, transparent=transparent, ior=ior if any(transparent) else 1.0)
     return _with_lobe(md, spec, roughness)
 
 
-def _principled_layers(mat, node) -> tuple:
+def _principled_layers(mat, inputs: Inputs) -> tuple:
     """(metallic, roughness, IOR, transmission, dielectric F0 per channel, 1 − F0 per channel) of a
     Principled BSDF (see `_principled`)."""
-    metallic = _clamp01(scalar_input(node, "Metallic", mat.metallic))
-    roughness = _clamp01(scalar_input(node, "Roughness", mat.roughness))
-    ior = max(scalar_input(node, "IOR", 1.5), 1e-3)
-    level = max(scalar_input(node, "Specular IOR Level", mat.specular_intensity), 0.0)
-    tint = color_input(node, "Specular Tint", (1.0, 1.0, 1.0))
-    transmission = _clamp01(scalar_input(node, "Transmission Weight", 0.0))
+    metallic = _clamp01(inputs.scalar("Metallic", mat.metallic))
+    roughness = _clamp01(inputs.scalar("Roughness", mat.roughness))
+    ior = max(inputs.scalar("IOR", 1.5), 1e-3)
+    level = max(inputs.scalar("Specular IOR Level", mat.specular_intensity), 0.0)
+    tint = inputs.color("Specular Tint", (1.0, 1.0, 1.0))
+    transmission = _clamp01(inputs.scalar("Transmission Weight", 0.0))
     return (metallic, roughness, ior, transmission, *_dielectric_layer(ior, level, tint))
 
 
@@ -130,11 +136,27 @@ def base_color_input(mat) -> tuple[object, str, tuple[float, float, float]] | No
     if node is None:
         return None
     if node.bl_idname == "ShaderNodeBsdfDiffuse":
-        return node, "Color", (1.0, 1.0, 1.0)
+        return node, BASE_COLOR_INPUTS[node.bl_idname], (1.0, 1.0, 1.0)
     if node.bl_idname == "ShaderNodeBsdfPrincipled":
-        metallic, _, _, transmission, _, below = _principled_layers(mat, node)
-        return node, "Base Color", _scale3(below, (1.0 - metallic) * (1.0 - transmission))
+        metallic, _, _, transmission, _, below = _principled_layers(mat, Inputs(node))
+        return node, BASE_COLOR_INPUTS[node.bl_idname], _scale3(below, (1.0 - metallic) * (1.0 - transmission))
     return None
+
+
+def layers_beyond_diffuse(mat) -> list[str]:
+    """The layers of `mat`'s Principled BSDF that its Base Color tints besides the diffuse one
+    (metallic, transmission), by name: attribute colours reach the diffuse layer alone."""
+    node = surface_shader(mat.node_tree) if mat is not None else None
+    if node is None or node.bl_idname != "ShaderNodeBsdfPrincipled":
+        return []
+    metallic, _, _, transmission, _, _ = _principled_layers(mat, Inputs(node))
+    return [name for name, weight in (("metallic", metallic), ("transmission", transmission * (1.0 - metallic)))
+            if weight > 0.0]
+
+
+#: The shaders whose kd is a colour input times constants, to that input (`base_color_input`):
+#: attribute colours follow what is linked into it.
+BASE_COLOR_INPUTS = {"ShaderNodeBsdfDiffuse": "Color", "ShaderNodeBsdfPrincipled": "Base Color"}
 
 
 def _with_lobe(md: MaterialData, spec, roughness: float) -> MaterialData:
@@ -145,54 +167,53 @@ def _with_lobe(md: MaterialData, spec, roughness: float) -> MaterialData:
     return md
 
 
-def _diffuse(mat, node, viewport) -> MaterialData:
-    return MaterialData(mat.name, color_input(node, "Color", viewport))
+def _diffuse(mat, inputs: Inputs, viewport) -> MaterialData:
+    return MaterialData(mat.name, inputs.color("Color", viewport))
 
 
-def _emission(mat, node, viewport) -> MaterialData:
+def _emission(mat, inputs: Inputs, viewport) -> MaterialData:
     """Unlit: colour × strength."""
-    col = color_input(node, "Color", viewport)
-    strength = scalar_input(node, "Strength", node.inputs["Strength"].default_value)
-    return MaterialData(mat.name, BLACK, tuple(c * strength for c in col))
+    strength = inputs.scalar("Strength", inputs.node.inputs["Strength"].default_value)
+    return MaterialData(mat.name, BLACK, _scale3(_own_value_input(inputs, "Color"), strength) if strength else BLACK)
 
 
-def _roughness(mat, node) -> float:
-    return _clamp01(scalar_input(node, "Roughness", mat.roughness))
+def _roughness(mat, inputs: Inputs) -> float:
+    return _clamp01(inputs.scalar("Roughness", mat.roughness))
 
 
-def _glossy(mat, node, viewport) -> MaterialData:
+def _glossy(mat, inputs: Inputs, viewport) -> MaterialData:
     """A specular lobe of its Color (no diffuse)."""
-    return _with_lobe(MaterialData(mat.name, BLACK), color_input(node, "Color", viewport), _roughness(mat, node))
+    return _with_lobe(MaterialData(mat.name, BLACK), inputs.color("Color", viewport), _roughness(mat, inputs))
 
 
-def _metallic(mat, node, viewport) -> MaterialData:
+def _metallic(mat, inputs: Inputs, viewport) -> MaterialData:
     """A specular lobe of its Base Color (F82 Tint) or of the conductor's F0 (Physical Conductor)."""
-    if node.fresnel_type == "PHYSICAL_CONDUCTOR":
-        n, k = linked_value(node, "IOR", "color"), linked_value(node, "Extinction", "color")
+    if inputs.node.fresnel_type == "PHYSICAL_CONDUCTOR":
+        n, k = inputs.linked("IOR", "color"), inputs.linked("Extinction", "color")
         spec = viewport if n is None or k is None else conductor_f0(n, k)
     else:
-        spec = color_input(node, "Base Color", viewport)
-    return _with_lobe(MaterialData(mat.name, BLACK), spec, _roughness(mat, node))
+        spec = inputs.color("Base Color", viewport)
+    return _with_lobe(MaterialData(mat.name, BLACK), spec, _roughness(mat, inputs))
 
 
-def _glass(mat, node, viewport) -> MaterialData:
+def _glass(mat, inputs: Inputs, viewport) -> MaterialData:
     """Transparent Color·(1 − F0) with its IOR plus a specular lobe of Color·F0."""
-    color = color_input(node, "Color", viewport)
-    ior = max(scalar_input(node, "IOR", 1.5), 1e-3)
+    color = inputs.color("Color", viewport)
+    ior = max(inputs.scalar("IOR", 1.5), 1e-3)
     f0 = fresnel_f0(ior)
     transparent = _scale3(color, 1.0 - f0)
     md = MaterialData(mat.name, BLACK, transparent=transparent, ior=ior if any(transparent) else 1.0)
-    return _with_lobe(md, _scale3(color, f0), _roughness(mat, node))
+    return _with_lobe(md, _scale3(color, f0), _roughness(mat, inputs))
 
 
-def _refraction(mat, node, viewport) -> MaterialData:
+def _refraction(mat, inputs: Inputs, viewport) -> MaterialData:
     """Transparent Color with its IOR."""
-    color = color_input(node, "Color", viewport)
-    ior = max(scalar_input(node, "IOR", 1.5), 1e-3)
+    color = inputs.color("Color", viewport)
+    ior = max(inputs.scalar("IOR", 1.5), 1e-3)
     return MaterialData(mat.name, BLACK, transparent=color, ior=ior if any(color) else 1.0)
 
 
-#: The surface shader node's bl_idname -> its converter (material, node, viewport colour).
+#: The surface shader node's bl_idname -> its converter (material, its inputs, viewport colour).
 CONVERTERS = {
     "ShaderNodeBsdfPrincipled": _principled,
     "ShaderNodeBsdfDiffuse": _diffuse,
@@ -242,7 +263,17 @@ def material_data(mat, obj=None, notes: list[str] | None = None) -> MaterialData
     ignored = _ignored_inputs(mat, node)
     if ignored and notes is not None:
         notes.append(f"Material '{mat.name}': Dürer ignores its {', '.join(ignored)}")
-    return convert(mat, node, viewport)
+    inputs = Inputs(node, exempt=BASE_COLOR_INPUTS.get(node.bl_idname))
+    md = convert(mat, inputs, viewport)
+    if notes is not None:
+        if inputs.varying:
+            notes.append(f"Material '{mat.name}': Dürer takes one value for its {', '.join(inputs.varying)}, "
+                         f"linked to what varies over the surface (a texture, attributes): the material's "
+                         f"Viewport Display setting or the socket's own value")
+        if any(md.emission):
+            notes.append(f"Material '{mat.name}' glows but lights nothing: Dürer draws its emission on its own "
+                         f"surface (Cycles lights the scene with it)")
+    return md
 
 
 #: Principled BSDF layers Dürer does not draw (docs/blender.md), by their weight input.
@@ -280,15 +311,22 @@ def surface_shader(tree):
 
 
 def _source_node(socket):
-    """The node whose output reaches input `socket` (through reroutes); None where nothing does (a
-    muted link or node on the way, or nothing linked)."""
+    """The node whose output reaches input `socket` (through reroutes, and through muted nodes as
+    Cycles passes them: a muted Mix Shader passes its first shader); None where nothing does (a
+    muted link, a muted node that passes nothing there, nothing linked)."""
     while socket.is_linked:
         link = socket.links[0]
-        if link.is_muted or link.from_node.mute:
+        if link.is_muted:
             return None
-        if link.from_node.bl_idname != "NodeReroute":
-            return link.from_node
-        socket = link.from_node.inputs[0]
+        node = link.from_node
+        if node.mute:
+            socket = passed_through(node, link.from_socket)
+            if socket is None:
+                return None
+        elif node.bl_idname != "NodeReroute":
+            return node
+        else:
+            socket = node.inputs[0]
     return None
 
 
