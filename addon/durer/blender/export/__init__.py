@@ -9,7 +9,7 @@ Conventions (verified against Cycles in bpy 5.0.1, see docs/blender.md):
   metaball balls become spheres; flat quad meshes become bounded planes; every other mesh, curve,
   text and surface becomes triangles (its loop triangles, one Dürer mesh per material slot used,
   in object space with the object's matrix). ``object.durer.primitive`` overrides the detection
-  (Auto / Sphere / Plane / Mesh / Ignore); what Dürer cannot render (volumes, hair curves, grease
+  (Auto / Sphere / Plane / Mesh / Ignore); what Dürer cannot render (volumes, hair curves and hair particle systems, grease
   pencil, metaball capsules) is skipped and counted.
 * Spheres under a uniform scale are exported in world space; under a non-uniform scale or a
   shear they keep their object-space centre and radius with the object's matrix, which the core

@@ -25,14 +25,21 @@ _NOT_RENDERED = {"CAMERA", "ARMATURE", "LATTICE", "SPEAKER", "LIGHT_PROBE"}
 _SPHERE_MODES = {"AUTO", "SPHERE"}
 # Object › Visibility settings (Cycles') that the core has no counterpart for: the property, the
 # value that asks for what Dürer does not do, and what that is; for objects, and for lights. A
-# render with any says so.
+# render with any says so. Cycles follows these of an instanced object in each of its instances too.
 _IGNORED_VISIBILITY = (
     ("visible_camera", False, "hidden from the camera"),
     ("visible_shadow", False, "casting no shadows"),
     ("visible_glossy", False, "hidden from reflections"),
     ("visible_transmission", False, "hidden from refraction"),
-    ("is_holdout", True, "a holdout"),
     ("is_shadow_catcher", True, "a shadow catcher"),
+)
+# Those an object has through the view layer, set on it or on a collection of it (LayerCollection
+# Holdout, Indirect Only): the flag (read by `<flag>_get(view_layer=)`), the object's own property
+# (the cheaper read where no collection sets the flag) and what it asks for. Cycles takes them of
+# an instance's instancer, not of the instanced object.
+_IGNORED_LAYER_VISIBILITY = (
+    ("holdout", "is_holdout", "a holdout"),
+    ("indirect_only", None, "indirect only"),
 )
 _IGNORED_LIGHT_VISIBILITY = (
     ("visible_camera", True, "shown to the camera (Dürer draws no light itself)"),
@@ -116,7 +123,11 @@ def _converted(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> Non
     except RuntimeError:
         me = None
     if me is None:
-        b.data.skipped[obj.type.lower()] += 1
+        # A curve, surface, text or metaball with no mesh nor curves of its own (its geometry nodes
+        # output only instances, say) holds nothing more to render: what else they output (instances,
+        # point clouds, volumes) the walk meets as instances of it, and renders or counts there.
+        if obj.type not in _CONVERTED_TYPES:
+            b.data.skipped[obj.type.lower()] += 1
         return
     try:
         axis_scale = np.linalg.norm(m[:3, :3], axis=0)
@@ -128,8 +139,8 @@ def _converted(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> Non
 
 
 def _metaball(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:
-    """Auto: each ball a sphere (capsules and negative elements are skipped); another mode: the
-    evaluated mesh, as `_converted`."""
+    """Auto: each ball a sphere (capsules and negative elements are skipped); another mode (Mesh
+    for a family with instanced balls: `_metaball_families`): the evaluated mesh, as `_converted`."""
     if mode != "AUTO":
         _converted(b, obj, m, mode, infinite)
         return
@@ -154,17 +165,63 @@ def _split_name_number(name: str) -> tuple[str, int]:
     return (stem, int(number)) if dot and number.isdigit() else (name, 0)
 
 
-def _metaball_bases(depsgraph) -> dict[str, object]:
+def _metaball_families(depsgraph, shown: str) -> tuple[dict[str, object], set[str]]:
     """Each metaball family's basis, as Blender finds it (BKE_mball_basis_find): of the metaball
     objects named Name, Name.001, Name.002, ..., the one of the lowest number. Blender draws the
-    whole family as the basis's surface, with the basis's material and threshold."""
+    whole family as the basis's surface, with the basis's material and threshold. And the families
+    whose balls are instanced too: a member instanced on its parent's vertices or faces, or by a
+    particle system (itself or a collection holding it; `shown`: as in `_particle_settings`).
+    Blender puts such instances' balls into the basis's surface as well (the walk never meets
+    them), so those families render as that mesh; it leaves collection instances' balls out."""
     bases: dict[str, tuple[int, object]] = {}
+    members = []
     for obj in depsgraph.objects:
         if obj.type == "META":
             name, number = _split_name_number(obj.name)
+            members.append((name, obj))
             if name not in bases or number < bases[name][0]:
                 bases[name] = (number, obj)
-    return {name: obj for name, (_, obj) in bases.items()}
+    instanced = set()
+    if members:
+        by_particles = _particle_instanced(depsgraph, shown)
+        for name, obj in members:
+            parent = obj.parent
+            if (parent is not None and parent.instance_type in {"VERTS", "FACES"}) or obj.name_full in by_particles:
+                instanced.add(name)
+    return {name: obj for name, (_, obj) in bases.items()}, instanced
+
+
+def _particle_settings(obj, shown: str) -> list:
+    """The settings of object `obj`'s particle systems whose modifier is enabled (`shown`: its
+    show_render in a render, show_viewport in the viewport); the modifiers are read only where `obj`
+    has a particle system (most objects have none: one read)."""
+    if not obj.particle_systems:
+        return []
+    return [modifier.particle_system.settings for modifier in obj.modifiers
+            if modifier.type == "PARTICLE_SYSTEM" and getattr(modifier, shown)]
+
+
+def _count_hair(b: Builder, obj, shown: str) -> None:
+    """Counts as skipped each of object `obj`'s particle systems that Cycles draws as strands (Hair
+    rendered as Path): Dürer has no curve primitive."""
+    for settings in _particle_settings(obj, shown):
+        if settings.type == "HAIR" and settings.render_type == "PATH":
+            b.data.skipped["hair particle system"] += 1
+
+
+def _particle_instanced(depsgraph, shown: str) -> set[str]:
+    """The metaball objects (by `name_full`) that particle systems render, as an object or in a collection."""
+    found = set()
+    for obj in depsgraph.objects:
+        for settings in _particle_settings(obj, shown):
+            if settings.render_type == "OBJECT" and settings.instance_object is not None:
+                rendered = [settings.instance_object]
+            elif settings.render_type == "COLLECTION" and settings.instance_collection is not None:
+                rendered = settings.instance_collection.all_objects
+            else:
+                continue
+            found.update(o.name_full for o in rendered if o.type == "META")
+    return found
 
 
 def _light(b: Builder, obj, m: np.ndarray) -> None:
@@ -205,27 +262,58 @@ def _made_by_nodes(obj, original, depsgraph) -> bool:
     return data is not None and original is not None and data != original.evaluated_get(depsgraph).data
 
 
-def _ignored_visibility(depsgraph) -> str | None:
-    """A note naming the objects whose Visibility settings Dürer does not follow, or None."""
+def _collection_flags(layer) -> set[str]:
+    """Which of `_IGNORED_LAYER_VISIBILITY`'s flags a collection of view layer `layer` sets."""
+    found, stack = set(), [layer.layer_collection]
+    while stack:
+        collection = stack.pop()
+        found.update(flag for flag, _, _ in _IGNORED_LAYER_VISIBILITY if getattr(collection, flag))
+        stack.extend(collection.children)
+    return found
+
+
+def _ignored_visibility(depsgraph, instanced: dict) -> str | None:
+    """A note naming the objects whose Visibility settings Dürer does not follow, or None: the
+    depsgraph's objects, and the originals of objects the walk met as instances (`instanced`, in
+    the walk's order; some reach the render only so: a vertex instancer's child, a collection's
+    object instanced from an excluded collection), whose own settings Cycles follows in each copy."""
     found: dict[str, list[str]] = {}
+    layer = depsgraph.view_layer_eval
+    by_collection = _collection_flags(layer)
+    rest = dict(instanced)
     for obj in depsgraph.objects:
         linking = getattr(obj, "light_linking", None)  # Blender 4.0 and later
         if linking is not None and (linking.receiver_collection or linking.blocker_collection):
             found.setdefault("linking lights or shadows", []).append(obj.name_full)
         if obj.type in _NOT_RENDERED:
             continue
-        settings = _durer_settings(obj, obj.original)
-        if settings is not None and settings.primitive == "IGNORE":
+        original = obj.original
+        rest.pop(original, None)
+        if not _own_visibility(obj, original, found) or obj.type == "LIGHT":
             continue
-        for name, asks, what in _IGNORED_LIGHT_VISIBILITY if obj.type == "LIGHT" else _IGNORED_VISIBILITY:
-            if getattr(obj, name) == asks:
+        for flag, own, what in _IGNORED_LAYER_VISIBILITY:
+            if getattr(obj, f"{flag}_get")(view_layer=layer) if flag in by_collection else own and getattr(obj, own):
                 found.setdefault(what, []).append(obj.name_full)
+    for original in rest:
+        _own_visibility(original, original, found)
     if not found:
         return None
     listed = "; ".join(f"{', '.join(repr(n) for n in names[:3])}{' and others' if len(names) > 3 else ''} {what}"
                        for what, names in found.items())
     return (f"Dürer renders every object as seen by every ray and lit by every light; it does not follow "
             f"Object › Visibility or light linking for {listed}")
+
+
+def _own_visibility(obj, original, found: dict[str, list[str]]) -> bool:
+    """Adds object `obj` (original `original`) to `found` under each of its own Visibility settings
+    Dürer does not follow, if it is rendered: False where its Primitive is Ignore (nothing to say)."""
+    settings = _durer_settings(obj, original)
+    if settings is not None and settings.primitive == "IGNORE":
+        return False
+    for name, asks, what in _IGNORED_LIGHT_VISIBILITY if obj.type == "LIGHT" else _IGNORED_VISIBILITY:
+        if getattr(obj, name) == asks:
+            found.setdefault(what, []).append(obj.name_full)
+    return True
 
 
 def _ignored_camera_settings(scene, cam_obj) -> list[str]:
@@ -313,8 +401,13 @@ def export_depsgraph(depsgraph, camera=None, *, with_camera: bool = True) -> Sce
     """
     scene = depsgraph.scene_eval
     b = Builder()
-    b.metaball_bases = _metaball_bases(depsgraph)
+    shown = "show_render" if depsgraph.mode == "RENDER" else "show_viewport"  # a modifier enabled
+    b.metaball_bases, polygonized = _metaball_families(depsgraph, shown)
     batches = InstanceBatches(b)
+    # The originals of the objects met as instances, in the walk's order (bpy structs hash by pointer):
+    # their Visibility settings are said too. Instances `skips` passes add none (their instancer or
+    # their particle system's first particle did).
+    instanced: dict = {}
     for inst in depsgraph.object_instances:
         is_instance = inst.is_instance
         if is_instance and batches.skips(inst):
@@ -323,11 +416,13 @@ def export_depsgraph(depsgraph, camera=None, *, with_camera: bool = True) -> Sce
         kind = obj.type
         if kind in _NOT_RENDERED:
             continue
+        original = obj.original  # read once: the walk's per-instance cost is in such reads
+        if is_instance:
+            instanced[original] = None
         if kind == "LIGHT":
             if inst.show_self:
                 _light(b, obj, world_matrix(inst.matrix_world))
             continue
-        original = obj.original  # read once: the walk's per-instance cost is in such reads
         settings = _durer_settings(obj, original)
         mode = settings.primitive if settings is not None else "AUTO"
         if mode == "IGNORE":
@@ -336,6 +431,12 @@ def export_depsgraph(depsgraph, camera=None, *, with_camera: bool = True) -> Sce
             settings, mode = None, "AUTO"  # the Primitive is for the object's own geometry
         if not is_instance:
             batches.take_instancer(obj)
+            # Strands Cycles draws, whether the emitter is drawn or not (Show Emitter); the guard
+            # is the one read most objects (no particle system) cost.
+            if obj.particle_systems:
+                _count_hair(b, obj, shown)
+        if kind == "META" and mode == "AUTO" and _split_name_number(obj.name)[0] in polygonized:
+            mode = "MESH"  # its instanced balls are in the basis's mesh alone: no sphere per ball
         if not inst.show_self:
             continue  # an instancer Blender does not draw itself (a particle emitter with Show Emitter off)
         if kind == "MESH":
@@ -358,7 +459,7 @@ def export_depsgraph(depsgraph, camera=None, *, with_camera: bool = True) -> Sce
         data.camera = camera_data(scene, cam_obj)
 
     world_rgb, world_note = world_colors(scene.world)
-    data.notes.extend(note for note in (_ignored_visibility(depsgraph), world_note) if note)
+    data.notes.extend(note for note in (_ignored_visibility(depsgraph, instanced), world_note) if note)
     data.notes.extend(_ignored_camera_settings(scene, cam_obj))
     data.notes.extend(_ignored_view_layer(depsgraph.view_layer))
     # A transparent film: no world behind the objects, but mirrors and glass still show it.
