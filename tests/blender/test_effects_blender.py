@@ -476,17 +476,51 @@ def test_inputs_linked_to_textures_take_a_stand_in_and_are_named(scene):
     metal.metallic, metal.roughness = 0.25, 0.5
     glass = _textured(shader("Tinted", "ShaderNodeBsdfGlass", Color=(0.1, 0.8, 0.1)), "Color")
     glow = _textured(shader("Sign", "ShaderNodeEmission", Color=(0.2, 0.6, 1.0), Strength=2.0), "Color")
-    for x, mat in enumerate((metal, glass, glow)):
+    # Textures the material does not depend on: a tint at Specular IOR Level 0, a metal's IOR and transmission.
+    quiet = _textured(principled("Quiet", Metallic=1.0, Specular_IOR_Level=0.0), "Specular Tint", "IOR",
+                      "Transmission Weight")
+    for x, mat in enumerate((metal, glass, glow, quiet)):
         uv_sphere(scene, mat.name, location=(3 * x, 0, 0)).data.materials.append(mat)
     d = export(scene)
-    metal, glass, glow = (d.materials[int(m)] for m in d.sphere_materials[np.argsort(d.sphere_centers[:, 0])])
+    metal, glass, glow, _ = (d.materials[int(m)] for m in d.sphere_materials[np.argsort(d.sphere_centers[:, 0])])
     np.testing.assert_allclose(metal.diffuse, F32(0.8) * 0.75 * (1 - 0.04), rtol=1e-5)  # metallic 0.25 stands in
     assert metal.exponent == pytest.approx(materials.phong_exponent(F32(0.5)))
     assert glass.transparent == pytest.approx(tuple(F32(0.8) * (1 - 0.04) for _ in range(3)))  # viewport grey
     assert glow.emission == pytest.approx((2.0 * F32(0.2), 2.0 * F32(0.6), 2.0))  # the socket's own colour
-    stand_in = ("linked to what varies over the surface (a texture, attributes): the material's Viewport Display "
-                "setting or the socket's own value")
+    stand_in = ("linked to what it cannot evaluate (a texture, attributes, a node group): the material's Viewport "
+                "Display setting or the socket's own value")
     assert sorted(n for n in d.warnings if "one value" in n) == [
         f"Material 'Map': Dürer takes one value for its Metallic, Roughness, {stand_in}",
         f"Material 'Sign': Dürer takes one value for its Color, {stand_in}",
         f"Material 'Tinted': Dürer takes one value for its Color, {stand_in}"]
+
+
+def test_muted_nodes_pass_what_cycles_passes_and_loops_end(scene):
+    """A muted texture passes nothing: the input takes its own value, as in Cycles (it drew the
+    viewport colour with a warning); a muted Invert whose input is unlinked passes nothing either
+    (the consuming socket's value, not the Invert's input's); a loop of muted nodes (Blender marks
+    its closing link invalid, Cycles skips it) ends: it hung the export."""
+    muted = principled("Muted texture", base=(0.2, 0.7, 0.3))
+    tree = muted.node_tree
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.mute = True
+    tree.links.new(texture.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    loop = shader("Loop", "ShaderNodeEmission", Color=(0.3, 0.6, 0.2), Strength=1.5)
+    tree = loop.node_tree
+    first, second = tree.nodes.new("ShaderNodeInvert"), tree.nodes.new("ShaderNodeInvert")
+    first.mute = second.mute = True
+    tree.links.new(first.outputs["Color"], second.inputs["Color"])
+    tree.links.new(second.outputs["Color"], first.inputs["Color"])  # closes the loop: invalid
+    tree.links.new(second.outputs["Color"], tree.nodes["Emission"].inputs["Color"])
+    unlinked = shader("Unlinked invert", "ShaderNodeEmission", Color=(0.3, 0.6, 0.2), Strength=1.5)
+    tree = unlinked.node_tree
+    invert = tree.nodes.new("ShaderNodeInvert")
+    invert.inputs["Color"].default_value, invert.mute = (0.2, 0.5, 0.9, 1.0), True
+    tree.links.new(invert.outputs["Color"], tree.nodes["Emission"].inputs["Color"])
+    for x, mat in enumerate((muted, loop, unlinked)):
+        uv_sphere(scene, mat.name, location=(3 * x, 0, 0)).data.materials.append(mat)
+    d = export(scene)
+    muted, loop, unlinked = (d.materials[int(m)] for m in d.sphere_materials[np.argsort(d.sphere_centers[:, 0])])
+    np.testing.assert_allclose(muted.diffuse, F32((0.2, 0.7, 0.3)) * (1 - 0.04), rtol=1e-6)
+    assert loop.emission == unlinked.emission == pytest.approx(tuple(1.5 * F32((0.3, 0.6, 0.2))))
+    assert not [n for n in d.warnings if "Muted" in n or "one value" in n or "Viewport Display colour" in n]

@@ -506,8 +506,9 @@ def test_shaders_are_read_as_cycles_reads_them(scene):
         "lights the scene with it)",
         "Material 'Textured glow' glows but lights nothing: Dürer draws its emission on its own surface "
         "(Cycles lights the scene with it)",
-        "Material 'Textured glow': Dürer takes one value for its Emission Strength, linked to what varies over "
-        "the surface (a texture, attributes): the material's Viewport Display setting or the socket's own value"]
+        "Material 'Textured glow': Dürer takes one value for its Emission Strength, linked to what it cannot "
+        "evaluate (a texture, attributes, a node group): the material's Viewport Display setting or the socket's "
+        "own value"]
 
 
 def test_world_background_and_transparent_film(scene):

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .materials import base_color_input
-from .nodes import passed_through
+from .nodes import feeding_link
 
 #: An attribute an expression reads: (where, name), where "GEOMETRY" (the shaded geometry's own) or
 #: "INSTANCER" (its geometry-nodes instance's, Cycles' Attribute node type Instancer); name "" is the
@@ -163,22 +163,16 @@ class _Compiler:
         self.attributes: list[Key] = []
 
     def input(self, socket, kind: str) -> Expression:
-        """An input socket's value as `kind`: its own constant if unlinked (or its link muted, as
-        Cycles drops it), else what is linked."""
-        if not socket.is_linked or socket.links[0].is_muted:
+        """An input socket's value as `kind`: its own constant where nothing feeds it
+        (`feeding_link`: unlinked, muted, ...), else what is linked."""
+        link = feeding_link(socket)
+        if link is None:
             value = socket.default_value
-            constant = np.array(value[:3], np.float64) if socket.type in ("RGBA", "VECTOR") else np.float64(value)
-            return _as(lambda values: constant, COLOR if np.ndim(constant) else VALUE, kind)
-        link = socket.links[0]
+            constant = np.array(value[:3], np.float64) if _kind(socket) == COLOR else np.float64(value)
+            return _as(lambda values: constant, _kind(socket), kind)
         return _as(*self.output(link.from_node, link.from_socket), kind)
 
     def output(self, node, socket) -> tuple[Expression, str]:
-        if node.mute:  # Cycles passes the input its internal link joins to this output through
-            through = passed_through(node, socket)
-            if through is None:
-                raise Unmapped(f"node '{node.name}' is muted and passes nothing to its {socket.name}")
-            given = COLOR if through.type in ("RGBA", "VECTOR") else VALUE
-            return self.input(through, given), given
         compile_node = _NODES.get(node.bl_idname)
         if compile_node is None:
             raise Unmapped(f"node '{node.name}' ({node.bl_label}) is not mapped")
@@ -230,8 +224,12 @@ def _value(c: _Compiler, node, output: str) -> tuple[Expression, str]:
 
 def _reroute(c: _Compiler, node, output: str) -> tuple[Expression, str]:
     socket = node.inputs[0]
-    kind = COLOR if socket.type in ("RGBA", "VECTOR") else VALUE
-    return c.input(socket, kind), kind
+    return c.input(socket, _kind(socket)), _kind(socket)
+
+
+def _kind(socket) -> str:
+    """What a socket carries: a colour (colour and vector sockets) or a value."""
+    return COLOR if socket.type in ("RGBA", "VECTOR") else VALUE
 
 
 def _lerp(a, b, t):

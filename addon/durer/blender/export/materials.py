@@ -7,7 +7,7 @@ import numpy as np
 
 from ...material import COURSE_FIELDS
 from .data import BLACK, MaterialData
-from .nodes import Inputs, linked_value, passed_through, rgb
+from .nodes import Inputs, feeding_link, linked_value, rgb
 
 #: Roughness at or below which a specular lobe is a mirror (reflection rays) as well as a Phong
 #: highlight of the lights (which mirror rays cannot meet); above it, the highlight alone. At 0.2 the
@@ -80,15 +80,9 @@ def _principled(mat, inputs: Inputs, viewport) -> MaterialData:
     * Emission Color × Strength as emission. Linked inputs use the material's viewport settings.
     """
     base = inputs.color("Base Color", viewport)
-    estr = inputs.scalar("Emission Strength", inputs.node.inputs["Emission Strength"].default_value)
-    emission = _scale3(_own_value_input(inputs, "Emission Color"), estr) if estr else BLACK
+    # What varies (a texture) in the emission falls back to the socket's own value, as Blender shows it unlinked.
+    emission = _scale3(inputs.color("Emission Color"), inputs.scalar("Emission Strength"))
     return _principled_material(mat.name, base, *_principled_layers(mat, inputs), emission)
-
-
-def _own_value_input(inputs: Inputs, name: str) -> tuple[float, float, float]:
-    """An emission colour (read only where the strength is not 0: a texture in a colour that does not
-    glow changes nothing): what varies falls back to the socket's own value, as Blender shows it unlinked."""
-    return inputs.color(name, inputs.node.inputs[name].default_value)
 
 
 def _principled_material(name: str, base, metallic: float, roughness: float, ior: float, transmission: float,
@@ -173,8 +167,7 @@ def _diffuse(mat, inputs: Inputs, viewport) -> MaterialData:
 
 def _emission(mat, inputs: Inputs, viewport) -> MaterialData:
     """Unlit: colour × strength."""
-    strength = inputs.scalar("Strength", inputs.node.inputs["Strength"].default_value)
-    return MaterialData(mat.name, BLACK, _scale3(_own_value_input(inputs, "Color"), strength) if strength else BLACK)
+    return MaterialData(mat.name, BLACK, _scale3(inputs.color("Color"), inputs.scalar("Strength")))
 
 
 def _roughness(mat, inputs: Inputs) -> float:
@@ -189,8 +182,7 @@ def _glossy(mat, inputs: Inputs, viewport) -> MaterialData:
 def _metallic(mat, inputs: Inputs, viewport) -> MaterialData:
     """A specular lobe of its Base Color (F82 Tint) or of the conductor's F0 (Physical Conductor)."""
     if inputs.node.fresnel_type == "PHYSICAL_CONDUCTOR":
-        n, k = inputs.linked("IOR", "color"), inputs.linked("Extinction", "color")
-        spec = viewport if n is None or k is None else conductor_f0(n, k)
+        spec = conductor_f0(inputs.color("IOR"), inputs.color("Extinction"))
     else:
         spec = inputs.color("Base Color", viewport)
     return _with_lobe(MaterialData(mat.name, BLACK), spec, _roughness(mat, inputs))
@@ -263,13 +255,17 @@ def material_data(mat, obj=None, notes: list[str] | None = None) -> MaterialData
     ignored = _ignored_inputs(mat, node)
     if ignored and notes is not None:
         notes.append(f"Material '{mat.name}': Dürer ignores its {', '.join(ignored)}")
-    inputs = Inputs(node, exempt=BASE_COLOR_INPUTS.get(node.bl_idname))
+    exempt = BASE_COLOR_INPUTS.get(node.bl_idname)
+    inputs = Inputs(node, exempt)
     md = convert(mat, inputs, viewport)
     if notes is not None:
-        if inputs.varying:
-            notes.append(f"Material '{mat.name}': Dürer takes one value for its {', '.join(inputs.varying)}, "
-                         f"linked to what varies over the surface (a texture, attributes): the material's "
-                         f"Viewport Display setting or the socket's own value")
+        # Only inputs the material depends on: another stand-in for each changes it (a textured
+        # Specular Tint at Specular IOR Level 0, a textured IOR on a metal change nothing).
+        varying = [name for name in inputs.varying if convert(mat, Inputs(node, exempt, probe=name), viewport).key != md.key]
+        if varying:
+            notes.append(f"Material '{mat.name}': Dürer takes one value for its {', '.join(varying)}, linked to "
+                         f"what it cannot evaluate (a texture, attributes, a node group): the material's Viewport "
+                         f"Display setting or the socket's own value")
         if any(md.emission):
             notes.append(f"Material '{mat.name}' glows but lights nothing: Dürer draws its emission on its own "
                          f"surface (Cycles lights the scene with it)")
@@ -311,22 +307,13 @@ def surface_shader(tree):
 
 
 def _source_node(socket):
-    """The node whose output reaches input `socket` (through reroutes, and through muted nodes as
-    Cycles passes them: a muted Mix Shader passes its first shader); None where nothing does (a
-    muted link, a muted node that passes nothing there, nothing linked)."""
-    while socket.is_linked:
-        link = socket.links[0]
-        if link.is_muted:
-            return None
-        node = link.from_node
-        if node.mute:
-            socket = passed_through(node, link.from_socket)
-            if socket is None:
-                return None
-        elif node.bl_idname != "NodeReroute":
-            return node
-        else:
-            socket = node.inputs[0]
+    """The node whose output reaches input `socket`, through reroutes and muted nodes as Cycles
+    follows them (`feeding_link`: a muted Mix Shader passes its first linked shader); None where
+    nothing does."""
+    while (link := feeding_link(socket)) is not None:
+        if link.from_node.bl_idname != "NodeReroute":
+            return link.from_node
+        socket = link.from_node.inputs[0]
     return None
 
 

@@ -9,25 +9,34 @@ def rgb(value) -> tuple[float, float, float]:
 
 
 class Inputs:
-    """A shader node's inputs as a material converter reads them. An input linked to what varies
-    over the surface (a texture, attributes) takes the stand-in the converter gives, and is named
-    in `varying` for the warning; `exempt` names the input whose variation attribute colours
-    follow (its warnings are theirs)."""
+    """A shader node's inputs as a material converter reads them. An input linked to what Dürer
+    cannot evaluate (a texture, attributes, a node group) takes the stand-in the converter gives
+    (by default the socket's own value) and is named in `varying` for the warning; `exempt` names
+    the input whose variation attribute colours follow (its warnings are theirs). With `probe`,
+    that input, if it varies, takes another stand-in instead: what it changes tells whether the
+    material depends on it at all."""
 
-    def __init__(self, node, exempt: str | None = None) -> None:
+    def __init__(self, node, exempt: str | None = None, probe: str | None = None) -> None:
         self.node = node
         self.exempt = exempt
+        self.probe = probe
         self.varying: list[str] = []
 
-    def color(self, name: str, stand_in) -> tuple[float, float, float]:
+    def color(self, name: str, stand_in=None) -> tuple[float, float, float]:
         """Colour input `name`: its own value or the constant linked into it, else `stand_in`."""
         value = self.linked(name, "color")
-        return rgb(stand_in) if value is None else rgb(value)
+        if value is not None:
+            return rgb(value)
+        stand_in = rgb(self.node.inputs[name].default_value if stand_in is None else stand_in)
+        return tuple(0.25 if c > 0.5 else 0.75 for c in stand_in) if name == self.probe else stand_in
 
-    def scalar(self, name: str, stand_in: float) -> float:
+    def scalar(self, name: str, stand_in: float | None = None) -> float:
         """Value input `name`, as `color`."""
         value = self.linked(name, "value")
-        return float(stand_in) if value is None else float(value)
+        if value is not None:
+            return float(value)
+        stand_in = float(self.node.inputs[name].default_value if stand_in is None else stand_in)
+        return (0.25 if stand_in > 0.5 else 0.75) if name == self.probe else stand_in
 
     def linked(self, name: str, kind: str):
         """`linked_value`, noting an input whose value varies."""
@@ -37,13 +46,30 @@ class Inputs:
         return value
 
 
+def feeding_link(socket):
+    """The link whose value input `socket` takes as Cycles evaluates the graph: past muted nodes,
+    through their internal links. None where the socket takes its own value: nothing linked, a
+    muted link, an invalid one (Blender marks the link closing a loop so; Cycles skips it), or a
+    muted node that passes nothing there (no internal link, or one from an input so fed)."""
+    while socket.is_linked:
+        link = socket.links[0]
+        if link.is_muted or not link.is_valid:
+            return None
+        if not link.from_node.mute:
+            return link
+        socket = passed_through(link.from_node, link.from_socket)
+        if socket is None:
+            return None
+    return None
+
+
 def linked_value(node, name: str, kind: str):
-    """Socket `name`'s value, its own or a constant linked into it (a muted link counts as none,
-    as in Cycles); None where what is linked varies or there is no such socket."""
+    """Socket `name`'s value, its own (`feeding_link`) or a constant linked into it; None where what
+    is linked varies or there is no such socket."""
     socket = node.inputs.get(name)
     if socket is None:
         return None
-    if not socket.is_linked or socket.links[0].is_muted:
+    if feeding_link(socket) is None:
         return socket.default_value
     from .attribute_colors import constant_input  # it reads materials, which read this module
 
