@@ -449,9 +449,14 @@ def test_a_failed_frame_does_not_stop_the_others(scene, tmp_path, capsys):
     assert [f.name for f in failure.value.written] == ["f_0001.png", "f_0003.png"]
     assert str(failure.value).startswith(f"1 of 3 frames failed: 2 (Frame 2 of {blend} failed: ValueError: Camera")
     assert sorted(p.name for p in out.parent.iterdir()) == ["f_0001.png", "f_0003.png"]
+    bpy.context.scene.view_layers[0].use_pass_diffuse_color = True  # a pass Dürer does not write
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    capsys.readouterr()
     assert batch.main([str(blend), "--frames", "1-3", "-o", str(out), "-q"]) == 1
     printed = capsys.readouterr()
     assert printed.out.count("image written to") == 2 and printed.err.count("Frame 2") == 1
+    # The renders' warnings, which Blender shows only in its window: once for the batch.
+    assert printed.err.count("warning: View layer 'ViewLayer' asks for passes Dürer does not write: Diffuse Color") == 1
 
 
 def test_output_format_from_the_extension_whatever_the_file_writes(scene, tmp_path):

@@ -69,14 +69,17 @@ def test_multilayer_exr_with_passes_in_the_files_own_format_equals_sequential(cl
     bpy.ops.wm.open_mainfile(filepath=str(blend))
     sc = bpy.context.scene
     sc.view_layers[0].use_pass_z = sc.view_layers[0].use_pass_normal = True
+    sc.view_layers[0].use_pass_diffuse_color = True  # a pass Dürer does not write: warned, once a batch
     settings = sc.render.image_settings
     settings.media_type, settings.file_format = "MULTI_LAYER_IMAGE", "OPEN_EXR_MULTILAYER"
     settings.exr_codec, settings.color_depth = "NONE", "32"
     bpy.ops.wm.save_mainfile()
     # No extension: the file's own format (multilayer EXR), named by Blender's frame_path.
-    sequential = batch.render_file(blend, frames="1-3", output=tmp_path / "seq" / "f_##")
+    warned = []
+    sequential = batch.render_file(blend, frames="1-3", output=tmp_path / "seq" / "f_##", on_warning=warned.append)
     report = render_frames(blend, "1-3", tmp_path / "dask" / "f_##", client=client, progress=False, log=None)
     assert sorted(report.written) == [1, 2, 3] and not report.failed
+    assert warned == report.warnings == ["View layer 'ViewLayer' asks for passes Dürer does not write: Diffuse Color"]
     assert [f.name for f in sequential] == ["f_01.exr", "f_02.exr", "f_03.exr"]
     for f in sequential:
         assert_same_image_file(tmp_path / "dask" / f.name, f)

@@ -134,6 +134,7 @@ def render_file(
     resume: bool = False,
     threads: int | None = None,
     on_written: Callable[[Path], object] | None = None,
+    on_warning: Callable[[str], object] | None = None,
 ) -> list[Path]:
     """Render frames of a .blend file with Dürer and write them; returns the written files.
 
@@ -149,6 +150,8 @@ def render_file(
     threads: render threads per frame, overriding scene.durer.threads.
     on_written: called with each file as soon as it is in place (the command line names it then:
              Blender's own "Saved:" line names the temporary file the frame is written to first).
+    on_warning: called with each warning of the frames' renders (skipped geometry, materials Dürer
+             approximates), once per message in the batch (Blender shows them in its window only).
 
     Raises FileNotFoundError for a missing file, ValueError for a file Blender cannot open or a
     scene it does not have, and BatchRenderError once every frame was tried if some failed (the
@@ -168,6 +171,7 @@ def render_file(
 
     written: list[Path] = []
     failed: dict[int, str] = {}
+    warned: set[str] = set()
     pattern, use_extension = sc.render.filepath, sc.render.use_file_extension
     # Frames in a row: each reuses the last one's scene where only spheres and the camera moved.
     persistent = sc.render.use_persistent_data
@@ -194,6 +198,10 @@ def render_file(
                 continue
             finally:
                 sc.render.filepath, sc.render.use_file_extension = pattern, use_extension
+            for message in engine.last_render.warnings:
+                if on_warning is not None and message not in warned:
+                    warned.add(message)
+                    on_warning(message)
             if not is_complete(partial, target.suffix):  # Blender says "Saved" even when the disk filled up
                 partial.unlink(missing_ok=True)
                 failed[frame] = f"Frame {frame} of {blend} rendered but {target} was not written whole (a full disk?)"
@@ -545,6 +553,7 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m durer render"
             resume=bool(args.resume),
             threads=args.threads,
             on_written=lambda f: print(f"image written to {f}", flush=True),
+            on_warning=lambda message: print(f"warning: {message}", file=sys.stderr),
         )
     except (OSError, ValueError) as exc:  # OSError: a missing file, an output path that cannot be made
         print(f"{prog}: error: {exc}", file=sys.stderr)

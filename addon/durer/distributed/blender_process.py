@@ -59,7 +59,7 @@ def _open(path: str, scene: str) -> None:
     batch.open_blend(Path(path), scene)
 
 
-def _render(scene: str, frame: int, target: str, blend_name: str) -> bytes:
+def _render(scene: str, frame: int, target: str, blend_name: str) -> tuple[bytes, list[str]]:
     import bpy
 
     from ..blender import batch, engine
@@ -74,7 +74,7 @@ def _render(scene: str, frame: int, target: str, blend_name: str) -> bytes:
         if not is_complete(path):  # Blender says "Saved" even when the disk filled up
             raise batch.BatchRenderError(f"Frame {frame} of {blend_name} rendered but its image was not written "
                                          "whole (a full disk?)")
-        return path.read_bytes()
+        return path.read_bytes(), engine.last_render.warnings
     finally:
         path.unlink(missing_ok=True)
 

@@ -35,6 +35,7 @@ class FramesReport:
     written: dict[int, Path] = field(default_factory=dict)
     skipped: dict[int, Path] = field(default_factory=dict)
     failed: dict[int, str] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)  # what the renders warned of, each once
     summary: str = ""
 
 
@@ -58,8 +59,10 @@ def render_frames(
     bit for bit (Blender's File metadata stamp names the worker's copy of the .blend). `resume`
     skips frames whose output exists and is complete (`output.is_complete`). Each frame renders on
     `threads` threads (None: 1 per task). A frame that fails is reported in `failed` with its error
-    (and on `log`) and the others go on; a worker that dies has its frame re-run on another. One
-    progress bar counts frames (rate and ETA); `summary` is the closing line, also written to `log`.
+    (and on `log`) and the others go on; a worker that dies has its frame re-run on another. What
+    the renders warn of (skipped geometry, materials Dürer approximates) goes to `warnings` and
+    `log`, each message once. One progress bar counts frames (rate and ETA); `summary` is the
+    closing line, also written to `log`.
     """
     from ..blender import batch
 
@@ -96,7 +99,11 @@ def render_frames(
                     report.failed[frame] = f"{type(error).__name__}: {error}"
                     _say(bar, log, f"frame {frame} failed: {report.failed[frame]}")
                 else:
-                    data, worker = future.result()
+                    data, worker, warnings = future.result()
+                    for message in warnings:
+                        if message not in report.warnings:
+                            report.warnings.append(message)
+                            _say(bar, log, f"warning: {message}")
                     try:
                         write_atomic(targets[frame], data)
                     except OSError as error:  # a full disk here: that frame failed, the others go on
@@ -163,10 +170,10 @@ _local = threading.local()
 
 def render_frame_task(
     payload: bytes, frame: int, suffix: str, *, digest: str, scene: str, blend_name: str
-) -> tuple[bytes, str]:
+) -> tuple[bytes, str, list[str]]:
     """A Dask task: render `frame` of the shipped .blend through the sequential path in this worker
     thread's bpy process (which opens the file on its first task and keeps it open); returns the
-    image file's bytes and the worker's name."""
+    image file's bytes, the worker's name and the render's warnings."""
     process = getattr(_local, "process", None)
     if process is None or not process.alive():
         process = _local.process = BlenderProcess()
@@ -177,5 +184,5 @@ def render_frame_task(
         blend.write_bytes(payload)
         process.call("open", str(blend), scene)
         process.opened = digest
-    data = process.call("render", scene, frame, str(_local.folder / f"frame_{frame}{suffix}"), blend_name)
-    return data, worker_name()
+    data, warnings = process.call("render", scene, frame, str(_local.folder / f"frame_{frame}{suffix}"), blend_name)
+    return data, worker_name(), warnings
