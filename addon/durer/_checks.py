@@ -172,6 +172,16 @@ def boolean(value: Any, name: str) -> bool:
     return bool(value)
 
 
+def flags(value: Any, name: str, n: int) -> np.ndarray | None:
+    """One bool or (n,) bools as (n,) uint8 flags; None where none is set (the core's default)."""
+    array = np.asarray(value)
+    if array.dtype != np.bool_:
+        raise TypeError(f"{name} must be True, False or an array of bools, got {array.dtype if array.ndim else type(value).__name__}")
+    if array.ndim not in (0, 1) or (array.ndim == 1 and array.shape[0] != n):
+        raise ValueError(f"{name} must be one bool or {n} bools, got shape {array.shape}")
+    return np.ascontiguousarray(np.broadcast_to(array, (n,)), dtype=np.uint8) if array.any() else None
+
+
 def transform(value: Any, name: str = "transform") -> np.ndarray | None:
     """A world-from-object affine matrix, (4, 4) with bottom row (0, 0, 0, 1) or (3, 4), as a
     C-contiguous (3, 4) float64 array; None stays None (the identity). It must be invertible by the

@@ -40,6 +40,7 @@ class Scene:
     def add_spheres(
         self, centers: NDArray[np.float64], radii: NDArray[np.float64], materials: NDArray[np.int32],
         transform: NDArray[np.float64] | None, colors: NDArray[np.float64] | None = None,
+        one_sided: NDArray[np.uint8] | None = None,
     ) -> int: ...
     @property
     def hierarchy_counts(self) -> dict[str, float]: ...

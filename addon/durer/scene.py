@@ -92,12 +92,16 @@ class Scene:
         *,
         transform: ArrayLike | None = None,
         colors: ArrayLike | None = None,
+        one_sided: bool | ArrayLike = False,
     ) -> np.ndarray:
         """Add N spheres. `centers` (N, 3); `radii` (N,) or one radius for all, each finite and > 0;
         `material` one id or (N,) ids. Returns the (N,) int32 object ids. With `transform` (see the
         class docstring) a sphere can become an ellipsoid. `colors` (N, 3), linear RGB, finite and
         >= 0: each sphere's diffuse colour (kd) in place of its material's, lit or flat (the
-        material's other fields still apply)."""
+        material's other fields still apply). `one_sided` (one bool or (N,) bools): spheres met from
+        outside only: a ray that starts inside one (camera, mirror, refracted and shadow rays, `cast`
+        and `occluded`) passes through it and meets what lies beyond, as Cycles draws a point cloud's
+        points (it culls their inside). Two-sided spheres show their inside (a camera in a ball)."""
         given = centers
         centers = _checks.float_array(centers, "centers", (None, 3))
         n = centers.shape[0]
@@ -105,10 +109,11 @@ class Scene:
         materials = _material_ids(material, n)
         matrix = _owned(_checks.transform(transform), transform)
         color_array = _checks.one_of_shapes(colors, "colors", (n, 3))
+        sides = _checks.flags(one_sided, "one_sided", n)
         if n == 0:
             return np.empty(0, dtype=np.int32)
         first = self._add("add_spheres", _owned(centers, given), _owned(radii_array, radii), _owned(materials, material),
-                          matrix, colors=_owned(color_array, colors))
+                          matrix, colors=_owned(color_array, colors), one_sided=sides)
         return np.arange(first, first + n, dtype=np.int32)
 
     def move_spheres(self, ids: ArrayLike, centers: ArrayLike, radii: ArrayLike | None = None) -> None:

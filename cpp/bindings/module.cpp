@@ -30,6 +30,7 @@ namespace {
 using Triple = std::array<double, 3>;
 using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
 using IdArray = py::array_t<int32_t, py::array::c_style | py::array::forcecast>;
+using FlagArray = py::array_t<uint8_t, py::array::c_style | py::array::forcecast>;
 
 using IndexArray = py::array_t<int64_t, py::array::c_style | py::array::forcecast>;
 
@@ -392,15 +393,18 @@ PYBIND11_MODULE(_core, m) {
       .def(
           "add_spheres",
           [](Scene& s, const DoubleArray& centers, const DoubleArray& radii, const IdArray& materials,
-             const std::optional<DoubleArray>& transform, const std::optional<DoubleArray>& colors) {
+             const std::optional<DoubleArray>& transform, const std::optional<DoubleArray>& colors,
+             const std::optional<FlagArray>& oneSided) {
             requireShape(radii, "radii", {kAny});
             requireShape(centers, "centers", {radii.shape(0), 3});
+            if (oneSided) requireShape(*oneSided, "one_sided", {radii.shape(0)});
             const size_t n = static_cast<size_t>(radii.shape(0));
             const bool each = perPrimitive(materials, n);
             return s.addSpheres(centers.data(), radii.data(), materials.data(), n, each, OptionalAffine(transform).get(),
-                                colorArray(colors, radii.shape(0)));
+                                colorArray(colors, radii.shape(0)), oneSided ? oneSided->data() : nullptr);
           },
-          py::arg("centers"), py::arg("radii"), py::arg("materials"), py::arg("transform"), py::arg("colors") = py::none())
+          py::arg("centers"), py::arg("radii"), py::arg("materials"), py::arg("transform"), py::arg("colors") = py::none(),
+          py::arg("one_sided") = py::none())
       .def(
           "move_spheres",
           [](Scene& s, const IdArray& ids, const DoubleArray& centers, const std::optional<DoubleArray>& radii) {

@@ -203,7 +203,8 @@ std::pair<size_t, double> requireSpheres(const double* centers, const double* ra
 }  // namespace
 
 int32_t Scene::addSpheres(const double* centers, const double* radii, const int32_t* materials, size_t count,
-                          bool perSphere, const Affined* worldFromObject, const CornerValues& colors) {
+                          bool perSphere, const Affined* worldFromObject, const CornerValues& colors,
+                          const uint8_t* oneSided) {
   // Validate everything before changing anything.
   requireTransform(worldFromObject);
   const auto [farthest, reach] = requireSpheres(centers, radii, count);
@@ -227,6 +228,7 @@ int32_t Scene::addSpheres(const double* centers, const double* radii, const int3
     const Vec3d c(centers[3 * i], centers[3 * i + 1], centers[3 * i + 2]);
     addTo(spheres, Sphere<double>{c, radii[i]}, materials[perSphere ? i : 0], first + static_cast<int32_t>(i), given,
           [&] { return SphereSet<double>::Colors{vec3At(colors.values, i)}; });
+    if (oneSided && oneSided[i]) spheres.setOneSided(spheres.size() - 1);
   }
   return first;
 }

@@ -427,3 +427,34 @@ def test_tinted_principled_glass_like_cycles(scene, tmp_path):
     for at in (ball, pane):
         np.testing.assert_allclose(c["color"][at][..., :3].mean(axis=(0, 1)), d["color"][at][..., :3].mean(axis=(0, 1)),
                                    rtol=0.03)
+
+
+@pytest.mark.parametrize("projection", ["PERSP", "ORTHO"])
+@pytest.mark.parametrize("where", ["clip start through atoms", "camera in an atom"])
+def test_a_point_clouds_spheres_seen_from_inside_like_cycles(scene, tmp_path, projection, where):
+    """Zoomed into a molecule: where the clip start cuts atoms, or the camera sits in one, Cycles
+    culls a point's inside and shows what lies beyond; so does Dürer (a point's sphere is one-sided;
+    it drew the inner wall, dark, over 20-60 % of these images). A sphere mesh (a UV sphere around the
+    camera's first atom) is drawn from inside by both."""
+    from helpers.blender import uv_sphere
+
+    world(scene, (0, 0, 0))
+    light(scene, "SUN", energy=2.0, rotation=(math.radians(60), 0, math.radians(25)), angle=0.0)
+    rng = np.random.default_rng(2)
+    atoms = rng.uniform(-1.5, 1.5, (60, 3))
+    pointcloud_object(scene, "Atoms", atoms, radius=0.45).data.materials.append(material("Red", (0.8, 0.1, 0.1)))
+    uv_sphere(scene, "Shell", radius=0.3, location=(3.0, 0.0, 2.6)).data.materials.append(material("Shell"))
+    cam = aim_camera(scene, (0, -6, 0))
+    cam.data.type, cam.data.ortho_scale = projection, 5.0
+    if where == "camera in an atom":
+        cam.location, cam.data.clip_start = tuple(atoms[0] + (0.0, -0.1, 0.0)), 0.01
+    else:
+        cam.data.clip_start = 5.0
+    scene.render.resolution_x, scene.render.resolution_y = 64, 48
+    c, d = both(scene, tmp_path, normal=False)
+    cycles_hit, durer_hit = c["depth"] < MISS, d["depth"] < MISS
+    assert cycles_hit.mean() > 0.3
+    assert (cycles_hit != durer_hit).sum() <= 2  # a silhouette's pixel at most
+    both_hit = cycles_hit & durer_hit
+    np.testing.assert_allclose(d["depth"][both_hit], c["depth"][both_hit], rtol=1e-4, atol=5e-5)
+    np.testing.assert_allclose(d["color"][both_hit][:, :3], c["color"][both_hit][:, :3], atol=2e-3)

@@ -46,7 +46,7 @@ RAY_KINDS = ("fan", "random", "aimed", "grazing", "axis", "leaving")
 
 @dataclass
 class Batch:
-    """One add call. spheres: centers (N, 3), radii (N,); triangles: vertices (N, 3, 3); boxes:
+    """One add call. spheres: centers (N, 3), radii (N,), maybe one_sided (N,) bools; triangles: vertices (N, 3, 3); boxes:
     lo, hi (N, 3); mesh: vertices (V, 3), faces (F, 3); plane: normal (3,), offset, bounds or None.
     material: (N,) ids (one for a mesh or plane); transform: world-from-object (3, 4) or None."""
 
@@ -72,7 +72,7 @@ class Batch:
     def add_to(self, scene: durer.Scene) -> None:
         a, m = self.arrays, self.material
         if self.kind == "spheres":
-            scene.add_spheres(a["centers"], a["radii"], m, transform=self.transform)
+            scene.add_spheres(a["centers"], a["radii"], m, transform=self.transform, one_sided=a.get("one_sided", False))
         elif self.kind == "triangles":
             scene.add_triangles(a["vertices"], m, transform=self.transform)
         elif self.kind == "boxes":
@@ -143,7 +143,7 @@ def _literal(value: Any) -> str:
     array = np.asarray(value)
     if array.ndim == 0:
         return repr(array.item())
-    dtype = "int64" if array.dtype.kind in "iu" else "float64"
+    dtype = "bool" if array.dtype == bool else "int64" if array.dtype.kind in "iu" else "float64"
     return f"np.array({array.tolist()!r}, dtype={dtype})"
 
 
@@ -308,6 +308,14 @@ def make_case(shape: Shape) -> Case:
         batches.append(_make_batch(rng, "plane", 1, scale, offset, transform()))
     rng.shuffle(batches)
     origins, directions, kinds = _make_rays(rng, shape.rays, batches, scale, offset)
+    # A point cloud's spheres, one-sided (met from outside only), beside two-sided batches, drawn from
+    # a stream of their own (every other draw as before). One flag a batch, as the export adds them:
+    # a two-sided copy of a one-sided sphere, met at exactly the t a ray leaves the one-sided one, is
+    # passed with it (docs/reliability.md).
+    sides = np.random.default_rng([shape.seed, 1])
+    for batch in batches:
+        if batch.kind == "spheres" and sides.random() < 0.4:
+            batch.arrays["one_sided"] = np.ones(batch.size(), bool)
     options: dict[str, Any] = {"precision": shape.precision, "sphere_method": shape.sphere_method}
     if shape.ray_range == "line":
         options["t_min"] = -math.inf

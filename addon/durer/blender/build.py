@@ -54,9 +54,11 @@ def make_scene(data: SceneData) -> durer.Scene:
     )
     if data.sphere_count:
         scene.add_spheres(data.sphere_centers, data.sphere_radii, material=table[data.sphere_materials],
-                          colors=data.sphere_colors)
+                          colors=data.sphere_colors,
+                          one_sided=False if data.sphere_one_sided is None else data.sphere_one_sided)
     for g in data.transformed_spheres:
-        scene.add_spheres(g.centers, g.radii, material=table[g.materials], transform=g.matrix, colors=g.colors)
+        scene.add_spheres(g.centers, g.radii, material=table[g.materials], transform=g.matrix, colors=g.colors,
+                          one_sided=g.one_sided)
     for p in data.planes:
         scene.add_plane(p.normal, p.offset, material=int(table[p.material]), bounds=p.bounds)
     for mesh in data.meshes:

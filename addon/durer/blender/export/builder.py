@@ -47,6 +47,7 @@ class Builder:
         self.sphere_owners: list[np.ndarray] = []
         self.owners: dict[str, int] = {}
         self.colors: list[np.ndarray | None] = []  # per sphere chunk: attribute kd, or None
+        self.sides: list[bool] = []  # per sphere chunk: whether its spheres are one-sided (a point cloud's)
         self.material_ids: dict[tuple, int] = {}
         self.blender_materials: dict[int, int] = {}
         self.shape_cache: dict[tuple, MeshShape] = {}
@@ -180,15 +181,16 @@ class Builder:
 
     # geometry
     def placed_spheres(self, owners: int | np.ndarray, rows: np.ndarray, centers: np.ndarray, radii: np.ndarray,
-                       materials: int | np.ndarray, colors: np.ndarray | None = None) -> None:
+                       materials: int | np.ndarray, colors: np.ndarray | None = None, *, points: bool = False) -> None:
         """Spheres given in object space under K world matrices (rows: (K, 3, 4), their top three
         rows): world-space spheres where a matrix is a uniform scale times a rotation, an exact
         ellipsoid group where it is not, nothing where it is singular. Each matrix places P
         spheres: centers (K or 1, P, 3), radii (K or 1, P), materials (a scalar or like radii),
-        colors (None or like centers); owners one index or (K,)."""
-        self._add_chunk(*self._placed(owners, rows, centers, radii, materials, colors))
+        colors (None or like centers); owners one index or (K,). `points`: a point cloud's points,
+        one-sided as Cycles meets them (met from outside only)."""
+        self._add_chunk(*self._placed(owners, rows, centers, radii, materials, colors, points), points)
 
-    def _placed(self, owners, rows, centers, radii, materials, colors) -> tuple:
+    def _placed(self, owners, rows, centers, radii, materials, colors, points=False) -> tuple:
         """`placed_spheres`' world-space spheres as a chunk; its ellipsoids added meanwhile."""
         linear, offset = rows[:, :, :3], rows[:, :, 3]
         scales, uniform = uniform_scales(linear)
@@ -198,7 +200,8 @@ class Builder:
                 self._matrix_left_out(self.data.objects[int(owner)].name)
         for k in np.flatnonzero(~uniform & (scales > 0)):  # sheared or squashed: exact ellipsoids
             self.transformed_spheres(int(_row(owners, k)), np.vstack([rows[k], (0.0, 0.0, 0.0, 1.0)]), _row(centers, k),
-                                     _row(radii, k), _row(materials, k), None if colors is None else _row(colors, k))
+                                     _row(radii, k), _row(materials, k), None if colors is None else _row(colors, k),
+                                     points)
         chosen = slice(None) if uniform.all() else uniform
         centers, radii, materials = _rows(centers, chosen), _rows(radii, chosen), _rows(materials, chosen)
         colors = None if colors is None else _rows(colors, chosen)
@@ -215,11 +218,12 @@ class Builder:
                 materials if np.ndim(materials) == 0 else np.broadcast_to(materials, shape).reshape(n),
                 None if colors is None else np.broadcast_to(colors, (*shape, 3)).reshape(n, 3))
 
-    def _add_chunk(self, owners, centers, radii, materials, colors) -> None:
+    def _add_chunk(self, owners, centers, radii, materials, colors, points: bool = False) -> None:
         chunk = self._counted(owners, centers, radii, materials, colors)
         if chunk is not None:
             for chunks, value in zip((self.sphere_owners, self.centers, self.radii, self.mats, self.colors), chunk):
                 chunks.append(value)
+            self.sides.append(points)
 
     def _counted(self, owners, centers, radii, materials, colors) -> tuple | None:
         """A chunk's arrays without its spheres of a centre or radius not finite (`_finite`), its
@@ -282,6 +286,7 @@ class Builder:
             run = _Singles()
             for chunks in (self.centers, self.radii, self.mats, self.sphere_owners, self.colors):
                 chunks.append(run)
+            self.sides.append(False)
         run.owners.append(owner)
         run.matrices.append(m)
         run.centers.append(np.asarray(center, dtype=np.float64).reshape(3))
@@ -301,7 +306,8 @@ class Builder:
                 self._counted(*chunk) or (np.zeros(0, np.int32), np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int32),
                                           None)
 
-    def transformed_spheres(self, owner: int, m: np.ndarray, centers, radii, materials, colors=None) -> None:
+    def transformed_spheres(self, owner: int, m: np.ndarray, centers, radii, materials, colors=None,
+                            points: bool = False) -> None:
         centers, radii = np.asarray(centers, np.float64).reshape(-1, 3), np.asarray(radii, np.float64).reshape(-1)
         keep = self._finite(owner, centers, radii)
         if keep is not None:
@@ -312,7 +318,7 @@ class Builder:
             return
         materials = np.broadcast_to(np.asarray(materials, dtype=np.int32), (n,))
         name = self.data.objects[owner].name
-        group = TransformedSpheres(name, owner, centers, radii, materials, m, colors)
+        group = TransformedSpheres(name, owner, centers, radii, materials, m, colors, points)
         self.data.transformed_spheres.append(group)
         self.data.sources[name] += n
 
@@ -413,6 +419,8 @@ class Builder:
             d.sphere_radii = _join(self.radii, np.float64)
             d.sphere_materials = _join(self.mats, np.int32)
             d.sphere_owners = _join(self.sphere_owners, np.int32)
+            if any(self.sides):
+                d.sphere_one_sided = np.repeat(self.sides, [len(r) for r in self.radii])
             if any(c is not None for c in self.colors):
                 kd = np.array([m.diffuse for m in d.materials], np.float64)
                 d.sphere_colors = _join([kd[mats] if c is None else c for c, mats in zip(self.colors, self.mats)],

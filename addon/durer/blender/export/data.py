@@ -78,6 +78,7 @@ class TransformedSpheres:
     materials: np.ndarray  # (N,) int32 indices into SceneData.materials
     matrix: np.ndarray  # (4, 4) world-from-object
     colors: np.ndarray | None = None  # (N, 3) kd from attributes (attribute_colors.py), or None
+    one_sided: bool = False  # a point cloud's points: met from outside only (SceneData.sphere_one_sided)
 
 
 @dataclass
@@ -175,6 +176,9 @@ class SceneData:
     #: (N, 3) kd of each world-space sphere where some have attribute colours (the others: their
     #: material's kd), else None.
     sphere_colors: np.ndarray | None = None
+    #: (N,) bool: which world-space spheres are a point cloud's points, met from outside only as
+    #: Cycles meets them (a camera or clip start inside one sees what lies beyond); None if none is.
+    sphere_one_sided: np.ndarray | None = None
     #: Spheres under a non-uniform scale or shear (ellipsoids), per object.
     transformed_spheres: list[TransformedSpheres] = field(default_factory=list)
     planes: list[PlaneData] = field(default_factory=list)

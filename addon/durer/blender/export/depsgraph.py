@@ -80,7 +80,8 @@ def _pointcloud(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> No
         if colors is not None:
             colors = colors[keep]
     b.placed_spheres(b.owner(obj), m[None, :3], pos[None], radii[None],
-                     materials if np.isscalar(materials) else materials[None], None if colors is None else colors[None])
+                     materials if np.isscalar(materials) else materials[None], None if colors is None else colors[None],
+                     points=True)
 
 
 def _mesh(b: Builder, obj, m: np.ndarray, mode: str, infinite: bool) -> None:

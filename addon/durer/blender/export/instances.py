@@ -278,7 +278,7 @@ class InstanceBatches:
                 continue
             if shape.kind == "points":
                 self.builder.placed_spheres(owner, world[chosen][:, :3, :], shape.positions[None], shape.radii[None],
-                                            material, None if shape.colors is None else shape.colors[None])
+                                            material, None if shape.colors is None else shape.colors[None], points=True)
                 continue
             self._add_spheres(owner, world[chosen][:, :3, :], shape, material,
                               None if colors is None else colors[chosen][:, None])

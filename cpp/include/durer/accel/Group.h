@@ -141,6 +141,7 @@ class Group {
   // Ready for tracing: hierarchies where they pay (built on up to `threads` threads; this group's own
   // spheres' only if `ownSpheres`), the instances' packed ranges and world bounds.
   void prepare(int threads, bool ownSpheres = true) {
+    m_anyOneSided = m_spheres.anyOneSided();
     if (m_spheres.size() >= kBvhMinPrimitives) {
       if (ownSpheres) {
         m_spheres.buildBvh(threads);
@@ -154,6 +155,7 @@ class Group {
     std::set<const Group*> prepared;  // a shared child once
     for (Instance<Real>& inst : m_instances) {
       if (prepared.insert(inst.child.get()).second) inst.child->prepare(threads);
+      m_anyOneSided = m_anyOneSided || inst.child->m_anyOneSided;
       inst.primBase = static_cast<int32_t>(base);
       base += inst.child->primitiveCount();
       inst.bounded = inst.child->worldBounds(inst.worldFromObject, inst.lo, inst.hi);
@@ -182,7 +184,8 @@ class Group {
   template <SphereMethod M>
   int64_t intersect(RayPacket<Real>& packet, const std::atomic<bool>* cancel) const {
     packet.resetHits();
-    return search<M, false>(packet, 0, cancel);
+    const int64_t tests = search<M, false>(packet, 0, cancel);
+    return m_anyOneSided ? tests + passInsides<M, false>(packet, cancel) : tests;
   }
 
   // Shadow rays: whether each ray meets anything in [tMin, tMax) (prim != kNoPrimitive), its search
@@ -190,7 +193,8 @@ class Group {
   template <SphereMethod M>
   int64_t occluded(RayPacket<Real>& packet, const std::atomic<bool>* cancel) const {
     packet.resetHits();
-    return search<M, true>(packet, 0, cancel);
+    const int64_t tests = search<M, true>(packet, 0, cancel);
+    return m_anyOneSided ? tests + passInsides<M, true>(packet, cancel) : tests;
   }
 
   // Lowers each ray's tHit to its closest hit among this group's primitives (its transformed
@@ -237,6 +241,93 @@ class Group {
   }
 
  private:
+  // One-sided spheres (Scene::addSpheres: a point cloud's points, which Cycles meets from outside
+  // only) are found from both sides by the kernels, as every sphere; a ray whose hit is the far side
+  // of one it starts inside is searched again here, alone: past that side (with AnyHit, before and
+  // past it), as often as it meets such a side. Only those rays pay: a camera in a point's sphere, a
+  // clip start through some, a point seen inside another's sphere. The search again is the packet's
+  // own (through its view, if any, without the view's sure hits) with the other rays' hits already
+  // made: a packet's search for one ray.
+  template <SphereMethod M, bool AnyHit>
+  int64_t passInsides(RayPacket<Real>& packet, const std::atomic<bool>* cancel) const {
+    int64_t tests = 0;
+    std::unique_ptr<RayPacket<Real>> alone;  // the packet with one ray left to search, made on first need
+    for (int k = 0; k < packet.count; ++k) {
+      Real exit;
+      if (!startsInside<M>(packet, k, packet.tMin, exit)) continue;
+      if (!alone) alone = std::make_unique<RayPacket<Real>>(packet), alone->sureHits = false;
+      bool hit;
+      if constexpr (AnyHit) {
+        hit = occludedBesides<M>(*alone, k, packet.tMin, exit, packet.tMax, tests, cancel);
+      } else {
+        hit = false;
+        for (Real from = nextUp(std::max(exit, packet.tHit[k])); from < packet.tMax;
+             from = nextUp(std::max(exit, alone->tHit[k]))) {
+          tests += searchAlone<M, false>(*alone, k, from, packet.tMax, cancel);
+          hit = alone->prim[k] != kNoPrimitive;
+          if (!hit || !startsInside<M>(*alone, k, from, exit)) break;
+          hit = false;
+        }
+      }
+      packet.prim[k] = hit ? alone->prim[k] : kNoPrimitive;
+      packet.tHit[k] = hit ? alone->tHit[k] : packet.tMax;
+    }
+    return tests;
+  }
+
+  // Whether ray k of `alone` meets anything in [from, to) but the one-sided spheres it starts inside,
+  // one of which it leaves at `exit` (in [from, to)): its hit is then in `alone`.
+  template <SphereMethod M>
+  bool occludedBesides(RayPacket<Real>& alone, int k, Real from, Real exit, Real to, int64_t& tests,
+                       const std::atomic<bool>* cancel) const {
+    for (const auto& [lo, hi] : {std::pair<Real, Real>{from, exit}, std::pair<Real, Real>{nextUp(exit), to}}) {
+      if (!(lo < hi)) continue;
+      tests += searchAlone<M, true>(alone, k, lo, hi, cancel);
+      if (alone.prim[k] == kNoPrimitive) continue;
+      Real inner;
+      if (!startsInside<M>(alone, k, lo, inner)) return true;
+      // The search's own t of that side, should its kernel round the root otherwise: always past lo.
+      if (occludedBesides<M>(alone, k, lo, std::max(inner, alone.tHit[k]), hi, tests, cancel)) return true;
+    }
+    return false;
+  }
+
+  // Searches ray k of `alone` (a copy of a packet) in [from, to) as the packet's only ray: the
+  // others count as hit already, at from (no hit beats it, and AnyHit passes rays with one).
+  template <SphereMethod M, bool AnyHit>
+  int64_t searchAlone(RayPacket<Real>& alone, int k, Real from, Real to, const std::atomic<bool>* cancel) const {
+    alone.tMin = from;
+    alone.tMax = to;
+    for (int j = 0; j < alone.count; ++j) alone.tHit[j] = from, alone.prim[j] = 0;
+    alone.tHit[k] = to;
+    alone.prim[k] = kNoPrimitive;
+    return search<M, AnyHit>(alone, 0, cancel);
+  }
+
+  // Whether ray k's hit is a one-sided sphere (of this group or of a transformed group's child)
+  // that it meets first before `from` (it starts inside it); then `exit` is its far side's t.
+  template <SphereMethod M>
+  bool startsInside(const RayPacket<Real>& packet, int k, Real from, Real& exit) const {
+    const int32_t prim = packet.prim[k];
+    if (prim == kNoPrimitive) return false;
+    const auto index = static_cast<size_t>(prim);
+    if (index < m_spheres.size()) return m_spheres.oneSided(index) && m_spheres.template startsInside<M>(packet, k, index, from, exit);
+    if (index < ownPrimitiveCount() || m_instances.empty()) return false;
+    const Instance<Real>& inst = *(std::upper_bound(m_instances.begin(), m_instances.end(), prim,
+                                                    [](int32_t p, const Instance<Real>& i) { return p < i.primBase; }) - 1);
+    const auto local = static_cast<size_t>(prim - inst.primBase);
+    const SphereSet<Real>& spheres = inst.child->m_spheres;
+    if (!(local < spheres.size() && spheres.oneSided(local))) return false;
+    RayPacket<Real> world, object;
+    world.count = 1;
+    world.tMin = packet.tMin, world.tMax = packet.tMax;
+    world.ox[0] = packet.ox[k], world.oy[0] = packet.oy[k], world.oz[0] = packet.oz[k];
+    world.dx[0] = packet.dx[k], world.dy[0] = packet.dy[k], world.dz[0] = packet.dz[k];
+    world.tHit[0] = packet.tHit[k];
+    inst.toObject(world, object);  // the same t along the object-space ray
+    return spheres.template startsInside<M>(object, 0, local, from, exit);
+  }
+
   // ids(set), a per-primitive table of each primitive set, joined in packed order.
   template <typename Ids>
   void appendPerPrimitive(std::vector<int32_t>& out, const Ids& ids) const {
@@ -422,6 +513,7 @@ class Group {
   std::vector<uint32_t> m_boundedInstances;   // indices into m_instances, in m_instanceBvh's order
   std::vector<uint32_t> m_unboundedInstances;
   std::map<std::array<Real, 12>, size_t> m_instanceOf;
+  bool m_anyOneSided = false;  // whether a one-sided sphere is among the spheres, its children's too (prepare)
 };
 
 }  // namespace durer

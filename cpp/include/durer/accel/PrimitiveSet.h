@@ -43,6 +43,7 @@ class PrimitiveSet {
     m_primitives.push_back(primitive);
     m_materials.push_back(material);
     m_objectIds.push_back(objectId);
+    if (anyOneSided()) m_oneSided.push_back(0);
   }
   // Once colored(), every primitive added needs its colours too (its material's kd if it has none).
   void add(const Prim& primitive, int32_t material, int32_t objectId, const Colors& colors) {
@@ -55,6 +56,7 @@ class PrimitiveSet {
     m_objectIds.reserve(n);
     if (colored()) m_colors.reserve(n);
     if (smooth()) m_normals.reserve(n);
+    if (anyOneSided()) m_oneSided.reserve(n);
   }
   size_t size() const { return m_primitives.size(); }
   const Prim& primitive(size_t i) const { return m_primitives[i]; }
@@ -67,6 +69,15 @@ class PrimitiveSet {
   // then all do (TriangleSet gives the others their own normal at every corner).
   bool smooth() const { return !m_normals.empty(); }
   const std::vector<Normals>& normals() const { return m_normals; }  // of primitive i; empty unless smooth()
+  // Spheres met from outside only (Group::passInsides): none until one is marked so, then every
+  // primitive has an entry.
+  bool anyOneSided() const { return !m_oneSided.empty(); }
+  bool oneSided(size_t i) const { return anyOneSided() && m_oneSided[i]; }
+  const std::vector<uint8_t>& oneSidedFlags() const { return m_oneSided; }
+  void setOneSided(size_t i) {
+    if (!anyOneSided()) m_oneSided.assign(m_primitives.size(), 0);
+    m_oneSided[i] = 1;
+  }
 
   // Asks for what the hit record of primitive `index` reads (the primitive, its ids and colour),
   // ahead of making it: a hit found through copies of the primitives (SphereGrid's records) finds
@@ -103,6 +114,7 @@ class PrimitiveSet {
     for (size_t i = 0; i < other.size(); ++i) m_primitives.push_back(convert(other.primitive(i)));
     m_materials = other.materials();
     m_objectIds = other.objectIds();
+    m_oneSided = other.oneSidedFlags();
     m_colors.reserve(other.colors().size());
     for (const auto& colors : other.colors()) {
       Colors converted;
@@ -132,6 +144,7 @@ class PrimitiveSet {
     permute(m_objectIds, order, threads);
     if (colored()) permute(m_colors, order, threads);
     if (smooth()) permute(m_normals, order, threads);
+    if (anyOneSided()) permute(m_oneSided, order, threads);
     if (m_sourceIndex.empty()) {
       m_sourceIndex = order;
     } else {
@@ -241,6 +254,7 @@ class PrimitiveSet {
   std::vector<int32_t> m_materials;
   std::vector<int32_t> m_objectIds;
   std::vector<Colors> m_colors;         // empty, or one entry per primitive
+  std::vector<uint8_t> m_oneSided;      // empty, or one entry per primitive (1: met from outside only)
   Bvh<Real> m_bvh;                      // empty: brute force
   std::vector<uint32_t> m_sourceIndex;  // once reordered: primitive i's index in the set converted from
 };

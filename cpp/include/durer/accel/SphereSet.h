@@ -227,7 +227,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       if constexpr (AnyHit) {  // shadow rays toward a light, through its view (a sun's, or a point light's faces)
         compute();
         return packet.view->occluders(packet, [&](int k, uint32_t i, double sureT) {
-          if (sureT > 0) {  // its sphere data is often cold: not read where the view knows the answer
+          if (sureT > 0 && packet.sureHits) {  // its sphere data is often cold: not read where the view knows the answer
             packet.prim[k] = primBase + static_cast<int32_t>(i);
             packet.tHit[k] = static_cast<Real>(sureT);
           } else {
@@ -539,6 +539,28 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     return L::greaterMask(r2 - lineDistance2, bound);
   }
 #endif
+
+  // Whether ray k meets sphere `index` first before `from` (its near root is below: it starts
+  // inside it); then `exit` is its far side's t. The roots are the search's own test's; a ray whose
+  // point at `from` lies plainly outside the sphere skips them.
+  template <SphereMethod M>
+  bool startsInside(const RayPacket<Real>& packet, int k, size_t index, Real from, Real& exit) const {
+    const Sphere<Real>& s = this->m_primitives[index];
+    const Real dx = packet.dx[k], dy = packet.dy[k], dz = packet.dz[k];
+    const Real qx = packet.ox[k] + from * dx - s.center.x, qy = packet.oy[k] + from * dy - s.center.y,
+               qz = packet.oz[k] + from * dz - s.center.z;
+    // q's rounding, a few units of its terms' magnitudes: a point farther out than that is outside.
+    const Real slack = 8 * std::numeric_limits<Real>::epsilon() *
+                       (std::fabs(packet.ox[k]) + std::fabs(packet.oy[k]) + std::fabs(packet.oz[k]) +
+                        std::fabs(from) * (std::fabs(dx) + std::fabs(dy) + std::fabs(dz)) + std::fabs(s.center.x) +
+                        std::fabs(s.center.y) + std::fabs(s.center.z));
+    const Real reach = s.radius + slack;
+    if (!(qx * qx + qy * qy + qz * qz <= reach * reach)) return false;  // also a `from` of ±inf
+    const SphereRoots<Real> roots =
+        sphereRoots<M>(packet.ox[k], packet.oy[k], packet.oz[k], s.center, dx, dy, dz, sphereRayTerms<M>(dx, dy, dz), s.radius, from);
+    exit = roots.far;
+    return roots.near < from;
+  }
 
   Vec3<Real> normal(const RayPacket<Real>& packet, int k, size_t index) const {
     const Real t = packet.tHit[k];

@@ -28,6 +28,9 @@ struct RayPacket {
   // for camera rays the camera's, for a light's shadow rays the light's (a sun's image, a point or
   // spot light's cube faces). Camera rays also give the box of their sample positions [x0, x1, y0, y1].
   const SphereView<Real>* view = nullptr;
+  // Whether a light's view may record a hit it knows without a test (SphereView::sureHit): such hits
+  // hold for the whole segment from the origin to the light, not for a part of it (Group::passInsides).
+  bool sureHits = true;
   Real sampleBox[4] = {0, 0, 0, 0};
   // Camera rays one per pixel of the pixels [tileX, tileX + tileWidth) x [tileY, ...), row by row
   // (ray k at pixel (k % tileWidth, k / tileWidth) of them); tileWidth 0: in no such order.

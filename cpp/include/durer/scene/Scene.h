@@ -48,8 +48,11 @@ class Scene {
   // count x 3 x 3 (triangles per corner), vertexCount x 3 or faceCount x 3 x 3 (a mesh).
 
   // centers: count x 3 doubles; radii: count doubles; materials: count ids, or one id if !perSphere.
+  // oneSided, if given: count flags, non-zero for a sphere met from outside only (a ray starting
+  // inside it passes through it, as Cycles meets a point cloud's points; see Group::passInsides).
   int32_t addSpheres(const double* centers, const double* radii, const int32_t* materials, size_t count,
-                     bool perSphere, const Affined* worldFromObject = nullptr, const CornerValues& colors = {});
+                     bool perSphere, const Affined* worldFromObject = nullptr, const CornerValues& colors = {},
+                     const uint8_t* oneSided = nullptr);
   // Moves spheres already added (an animation's next frame): ids are object ids addSpheres
   // returned, centers count x 3 doubles, radii count doubles or null to keep the radii. The
   // hierarchies already built are refitted at the next render, not rebuilt (rebuilt where refitting
