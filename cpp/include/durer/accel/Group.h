@@ -142,6 +142,7 @@ class Group {
   // spheres' only if `ownSpheres`), the instances' packed ranges and world bounds.
   void prepare(int threads, bool ownSpheres = true) {
     m_anyOneSided = m_spheres.anyOneSided();
+    m_oneSidedRadius = m_spheres.largestOneSidedRadius();
     if (m_spheres.size() >= kBvhMinPrimitives) {
       if (ownSpheres) {
         m_spheres.buildBvh(threads);
@@ -170,6 +171,7 @@ class Group {
   template <typename Other>
   int refitFrom(const Group<Other>& source, int threads) {
     int rebuilt = m_spheres.refitFrom(source.spheres(), threads) ? 1 : 0;
+    m_oneSidedRadius = m_spheres.largestOneSidedRadius();
     std::set<const Group*> refitted;  // a shared child once
     for (size_t i = 0; i < m_instances.size(); ++i) {
       Instance<Real>& inst = m_instances[i];
@@ -250,9 +252,25 @@ class Group {
   // made: a packet's search for one ray.
   template <SphereMethod M, bool AnyHit>
   int64_t passInsides(RayPacket<Real>& packet, const std::atomic<bool>* cancel) const {
+    if (!(packet.tMin > -std::numeric_limits<Real>::infinity())) return 0;  // no ray starts anywhere
+    const Real reach = 2 * m_oneSidedRadius * (1 + Real(1) / 64);
+    const Real eps = std::numeric_limits<Real>::epsilon();
+    const auto own = static_cast<uint32_t>(m_spheres.size());
+    // A ray leaves a sphere it starts inside within twice its radius: a hit on the group's own
+    // spheres farther on (beyond the roots' rounding) is not such a side, told without reading the
+    // sphere (most rays; a loop that vectorises).
+    alignas(64) int32_t maybe[kPacketSize];
+    for (int k = 0; k < packet.count; ++k) {
+      const Real t = packet.tHit[k];
+      const Real ahead = t - packet.tMin - 16 * eps * (std::fabs(t) + std::fabs(packet.tMin));
+      const Real lengthSq = packet.dx[k] * packet.dx[k] + packet.dy[k] * packet.dy[k] + packet.dz[k] * packet.dz[k];
+      const bool far = static_cast<uint32_t>(packet.prim[k]) < own && ahead > 0 && ahead * ahead * lengthSq > reach * reach;
+      maybe[k] = far || packet.prim[k] == kNoPrimitive ? 0 : 1;
+    }
     int64_t tests = 0;
     std::unique_ptr<RayPacket<Real>> alone;  // the packet with one ray left to search, made on first need
     for (int k = 0; k < packet.count; ++k) {
+      if (!maybe[k]) continue;
       Real exit;
       if (!startsInside<M>(packet, k, packet.tMin, exit)) continue;
       if (!alone) alone = std::make_unique<RayPacket<Real>>(packet), alone->sureHits = false;
@@ -514,6 +532,7 @@ class Group {
   std::vector<uint32_t> m_unboundedInstances;
   std::map<std::array<Real, 12>, size_t> m_instanceOf;
   bool m_anyOneSided = false;  // whether a one-sided sphere is among the spheres, its children's too (prepare)
+  Real m_oneSidedRadius = 0;   // the largest of this group's own one-sided spheres' radii (prepare, refitFrom)
 };
 
 }  // namespace durer

@@ -540,6 +540,16 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   }
 #endif
 
+  // The largest radius of a one-sided sphere (0 without any).
+  Real largestOneSidedRadius() const {
+    Real largest = 0;
+    if (!this->anyOneSided()) return largest;
+    for (size_t i = 0; i < this->m_primitives.size(); ++i) {
+      if (this->oneSided(i)) largest = std::max(largest, this->m_primitives[i].radius);
+    }
+    return largest;
+  }
+
   // Whether ray k meets sphere `index` first before `from` (its near root is below: it starts
   // inside it); then `exit` is its far side's t. The roots are the search's own test's; a ray whose
   // point at `from` lies plainly outside the sphere skips them.
