@@ -227,9 +227,7 @@ class Group {
     // Spheres, most scenes' primitives, first: one count to compare with, not the four of ownPrimitiveCount.
     const auto index = static_cast<size_t>(prim);
     if (prim == kNoPrimitive || index < m_spheres.size() || index < ownPrimitiveCount()) return hitOwn(packet, k);
-    const auto after = std::upper_bound(m_instances.begin(), m_instances.end(), prim,
-                                        [](int32_t p, const Instance<Real>& inst) { return p < inst.primBase; });
-    return instanceHit(*(after - 1), packet, k);
+    return instanceHit(instanceOf(prim), packet, k);
   }
 
   // Material id of every packed primitive, in packed order.
@@ -247,18 +245,18 @@ class Group {
   // only) are found from both sides by the kernels, as every sphere; a ray whose hit is the far side
   // of one it starts inside is searched again here, alone: past that side (with AnyHit, before and
   // past it), as often as it meets such a side. Only those rays pay: a camera in a point's sphere, a
-  // clip start through some, a point seen inside another's sphere. The search again is the packet's
-  // own (through its view, if any, without the view's sure hits) with the other rays' hits already
-  // made: a packet's search for one ray.
+  // clip start through some, a point seen inside another's sphere. A ray starting inside K such
+  // spheres searches up to K times, each meeting them again: K² tests (a camera deep in an
+  // overlapping cloud).
   template <SphereMethod M, bool AnyHit>
   int64_t passInsides(RayPacket<Real>& packet, const std::atomic<bool>* cancel) const {
     if (!(packet.tMin > -std::numeric_limits<Real>::infinity())) return 0;  // no ray starts anywhere
+    // A ray leaves a sphere it starts inside within twice its radius: a hit on the group's own
+    // spheres farther on is not such a side, told without reading the sphere (most rays; a loop
+    // that vectorises). The margins: the radius rounded to this precision, the roots' rounding.
     const Real reach = 2 * m_oneSidedRadius * (1 + Real(1) / 64);
     const Real eps = std::numeric_limits<Real>::epsilon();
     const auto own = static_cast<uint32_t>(m_spheres.size());
-    // A ray leaves a sphere it starts inside within twice its radius: a hit on the group's own
-    // spheres farther on (beyond the roots' rounding) is not such a side, told without reading the
-    // sphere (most rays; a loop that vectorises).
     alignas(64) int32_t maybe[kPacketSize];
     for (int k = 0; k < packet.count; ++k) {
       const Real t = packet.tHit[k];
@@ -268,57 +266,74 @@ class Group {
       maybe[k] = far || packet.prim[k] == kNoPrimitive ? 0 : 1;
     }
     int64_t tests = 0;
-    std::unique_ptr<RayPacket<Real>> alone;  // the packet with one ray left to search, made on first need
     for (int k = 0; k < packet.count; ++k) {
-      if (!maybe[k]) continue;
       Real exit;
-      if (!startsInside<M>(packet, k, packet.tMin, exit)) continue;
-      if (!alone) alone = std::make_unique<RayPacket<Real>>(packet), alone->sureHits = false;
+      if (!maybe[k] || !startsInside<M>(packet, k, packet.tMin, exit)) continue;
+      RayPacket<Real> alone;
+      takeAlone(packet, k, alone);
       bool hit;
       if constexpr (AnyHit) {
-        hit = occludedBesides<M>(*alone, k, packet.tMin, exit, packet.tMax, tests, cancel);
+        hit = occludedBesides<M>(alone, packet.tMin, exit, packet.tMax, tests, cancel);
       } else {
         hit = false;
         for (Real from = nextUp(std::max(exit, packet.tHit[k])); from < packet.tMax;
-             from = nextUp(std::max(exit, alone->tHit[k]))) {
-          tests += searchAlone<M, false>(*alone, k, from, packet.tMax, cancel);
-          hit = alone->prim[k] != kNoPrimitive;
-          if (!hit || !startsInside<M>(*alone, k, from, exit)) break;
+             from = nextUp(std::max(exit, alone.tHit[0]))) {
+          tests += searchAlone<M, false>(alone, from, packet.tMax, cancel);
+          hit = alone.prim[0] != kNoPrimitive;
+          if (!hit || !startsInside<M>(alone, 0, from, exit)) break;
           hit = false;
         }
       }
-      packet.prim[k] = hit ? alone->prim[k] : kNoPrimitive;
-      packet.tHit[k] = hit ? alone->tHit[k] : packet.tMax;
+      packet.prim[k] = hit ? alone.prim[0] : kNoPrimitive;
+      packet.tHit[k] = hit ? alone.tHit[0] : packet.tMax;
     }
     return tests;
   }
 
-  // Whether ray k of `alone` meets anything in [from, to) but the one-sided spheres it starts inside,
-  // one of which it leaves at `exit` (in [from, to)): its hit is then in `alone`.
+  // Ray k of `packet` as a packet of its own: searched through the packet's view (a camera tile's
+  // cell, every sphere of its rows and columns, or a light's), without the view's sure hits (which
+  // hold for a shadow ray's whole segment to the light, not for part of it).
+  static void takeAlone(const RayPacket<Real>& packet, int k, RayPacket<Real>& alone) {
+    alone.count = 1;
+    alone.commonOrigin = true;
+    alone.coherent = false;
+    alone.view = packet.view;
+    alone.sureHits = false;
+    std::copy(packet.sampleBox, packet.sampleBox + 4, alone.sampleBox);
+    alone.tileX = packet.tileX, alone.tileY = packet.tileY, alone.tileWidth = 0;
+    alone.ox[0] = packet.ox[k], alone.oy[0] = packet.oy[k], alone.oz[0] = packet.oz[k];
+    alone.dx[0] = packet.dx[k], alone.dy[0] = packet.dy[k], alone.dz[0] = packet.dz[k];
+  }
+
+  // Whether ray 0 of `alone` meets anything in [from, to) but the one-sided spheres it starts inside,
+  // one of which it leaves at `exit` (in [from, to)): its hit is then in `alone`. The parts of
+  // [from, to) still to search are kept in a list, not a recursion as deep as the spheres nest.
   template <SphereMethod M>
-  bool occludedBesides(RayPacket<Real>& alone, int k, Real from, Real exit, Real to, int64_t& tests,
+  bool occludedBesides(RayPacket<Real>& alone, Real from, Real exit, Real to, int64_t& tests,
                        const std::atomic<bool>* cancel) const {
-    for (const auto& [lo, hi] : {std::pair<Real, Real>{from, exit}, std::pair<Real, Real>{nextUp(exit), to}}) {
+    std::vector<std::pair<Real, Real>> parts{{from, exit}, {nextUp(exit), to}};
+    while (!parts.empty()) {
+      const auto [lo, hi] = parts.back();
+      parts.pop_back();
       if (!(lo < hi)) continue;
-      tests += searchAlone<M, true>(alone, k, lo, hi, cancel);
-      if (alone.prim[k] == kNoPrimitive) continue;
+      tests += searchAlone<M, true>(alone, lo, hi, cancel);
       Real inner;
-      if (!startsInside<M>(alone, k, lo, inner)) return true;
+      if (alone.prim[0] == kNoPrimitive) continue;
+      if (!startsInside<M>(alone, 0, lo, inner)) return true;
       // The search's own t of that side, should its kernel round the root otherwise: always past lo.
-      if (occludedBesides<M>(alone, k, lo, std::max(inner, alone.tHit[k]), hi, tests, cancel)) return true;
+      inner = std::max(inner, alone.tHit[0]);
+      parts.push_back({lo, inner});
+      parts.push_back({nextUp(inner), hi});
     }
     return false;
   }
 
-  // Searches ray k of `alone` (a copy of a packet) in [from, to) as the packet's only ray: the
-  // others count as hit already, at from (no hit beats it, and AnyHit passes rays with one).
+  // Searches `alone` (takeAlone's) in [from, to).
   template <SphereMethod M, bool AnyHit>
-  int64_t searchAlone(RayPacket<Real>& alone, int k, Real from, Real to, const std::atomic<bool>* cancel) const {
+  int64_t searchAlone(RayPacket<Real>& alone, Real from, Real to, const std::atomic<bool>* cancel) const {
     alone.tMin = from;
     alone.tMax = to;
-    for (int j = 0; j < alone.count; ++j) alone.tHit[j] = from, alone.prim[j] = 0;
-    alone.tHit[k] = to;
-    alone.prim[k] = kNoPrimitive;
+    alone.resetHits();
     return search<M, AnyHit>(alone, 0, cancel);
   }
 
@@ -331,18 +346,12 @@ class Group {
     const auto index = static_cast<size_t>(prim);
     if (index < m_spheres.size()) return m_spheres.oneSided(index) && m_spheres.template startsInside<M>(packet, k, index, from, exit);
     if (index < ownPrimitiveCount() || m_instances.empty()) return false;
-    const Instance<Real>& inst = *(std::upper_bound(m_instances.begin(), m_instances.end(), prim,
-                                                    [](int32_t p, const Instance<Real>& i) { return p < i.primBase; }) - 1);
-    const auto local = static_cast<size_t>(prim - inst.primBase);
+    const Instance<Real>& inst = instanceOf(prim);
     const SphereSet<Real>& spheres = inst.child->m_spheres;
+    const auto local = static_cast<size_t>(prim - inst.primBase);
     if (!(local < spheres.size() && spheres.oneSided(local))) return false;
-    RayPacket<Real> world, object;
-    world.count = 1;
-    world.tMin = packet.tMin, world.tMax = packet.tMax;
-    world.ox[0] = packet.ox[k], world.oy[0] = packet.oy[k], world.oz[0] = packet.oz[k];
-    world.dx[0] = packet.dx[k], world.dy[0] = packet.dy[k], world.dz[0] = packet.dz[k];
-    world.tHit[0] = packet.tHit[k];
-    inst.toObject(world, object);  // the same t along the object-space ray
+    RayPacket<Real> object;
+    objectRay(inst, packet, k, object);
     return spheres.template startsInside<M>(object, 0, local, from, exit);
   }
 
@@ -422,6 +431,27 @@ class Group {
     return m_boxes.hit(packet, k, index - m_triangles.size());
   }
 
+  // The instance whose child holds packed primitive `prim` (one of an instance's).
+  const Instance<Real>& instanceOf(int32_t prim) const {
+    return *(std::upper_bound(m_instances.begin(), m_instances.end(), prim,
+                              [](int32_t p, const Instance<Real>& inst) { return p < inst.primBase; }) - 1);
+  }
+
+  // Ray k of `packet` alone, in instance inst's object space (the same t along it), with its hit:
+  // `local`'s ray 0, its primitive the child's own index.
+  static void objectRay(const Instance<Real>& inst, const RayPacket<Real>& packet, int k, RayPacket<Real>& local) {
+    RayPacket<Real> world;
+    world.count = 1;
+    world.tMin = packet.tMin;
+    world.tMax = packet.tMax;
+    world.ox[0] = packet.ox[k], world.oy[0] = packet.oy[k], world.oz[0] = packet.oz[k];
+    world.dx[0] = packet.dx[k], world.dy[0] = packet.dy[k], world.dz[0] = packet.dz[k];
+    world.tHit[0] = packet.tHit[k];
+    inst.toObject(world, local);
+    local.tHit[0] = packet.tHit[k];
+    local.prim[0] = packet.prim[k] - inst.primBase;
+  }
+
   // The top-level hierarchy over the bounded instances' world boxes, from a few instances on (so
   // that thousands cost a walk down a tree, not a loop); the unbounded ones (an infinite plane)
   // are searched by every packet.
@@ -469,16 +499,8 @@ class Group {
   // The child's hit record for ray k, found again in object space (the same map gives the same
   // object-space ray, bit for bit), then brought back to world space.
   Hit<Real> instanceHit(const Instance<Real>& inst, const RayPacket<Real>& packet, int k) const {
-    RayPacket<Real> world, local;
-    world.count = 1;
-    world.tMin = packet.tMin;
-    world.tMax = packet.tMax;
-    world.ox[0] = packet.ox[k], world.oy[0] = packet.oy[k], world.oz[0] = packet.oz[k];
-    world.dx[0] = packet.dx[k], world.dy[0] = packet.dy[k], world.dz[0] = packet.dz[k];
-    world.tHit[0] = packet.tHit[k];
-    inst.toObject(world, local);
-    local.tHit[0] = packet.tHit[k];
-    local.prim[0] = packet.prim[k] - inst.primBase;
+    RayPacket<Real> local;
+    objectRay(inst, packet, k, local);
     Hit<Real> h = inst.child->hitOwn(local, 0);
     if (inst.colored) h.colored = true, h.color = inst.color;
     const bool smooth = h.normal != h.geometricNormal;

@@ -70,7 +70,8 @@ class PrimitiveSet {
   bool smooth() const { return !m_normals.empty(); }
   const std::vector<Normals>& normals() const { return m_normals; }  // of primitive i; empty unless smooth()
   // Spheres met from outside only (Group::passInsides): none until one is marked so, then every
-  // primitive has an entry.
+  // primitive has an entry. A sphere's alone, kept here with the other per-primitive arrays that
+  // add, convertFrom and reorder carry (other sets never mark one: an empty vector).
   bool anyOneSided() const { return !m_oneSided.empty(); }
   bool oneSided(size_t i) const { return anyOneSided() && m_oneSided[i]; }
   const std::vector<uint8_t>& oneSidedFlags() const { return m_oneSided; }
