@@ -265,6 +265,9 @@ class Group {
       const bool far = static_cast<uint32_t>(packet.prim[k]) < own && ahead > 0 && ahead * ahead * lengthSq > reach * reach;
       maybe[k] = far || packet.prim[k] == kNoPrimitive ? 0 : 1;
     }
+    int any = 0;
+    for (int k = 0; k < packet.count; ++k) any |= maybe[k];
+    if (!any) return 0;  // most packets
     int64_t tests = 0;
     for (int k = 0; k < packet.count; ++k) {
       Real exit;
