@@ -36,7 +36,7 @@ def test_camera_rays_pass_the_inside_of_one_sided_spheres_as_a_cast_does(precisi
                durer.PerspectiveCamera((0.3, -0.2, 0.1), (-0.1, 0.3, -1), (0, 1, 0), fov_degrees=60, t_min=0.15),
                durer.OrthographicCamera((0.0, 0.1, 0.2), (1, 1, -1), (0, 1, 0), size=1.5, t_min=0.0)]
     for camera in cameras:
-        seen, hit = assert_render_matches_cast(one, camera, 64, 48, precision, spheres=(centers, radii))
+        seen, hit = assert_render_matches_cast(one, camera, 64, 48, precision, spheres=(centers, radii, True))
         inside = durer.render(two, camera, width=64, height=48, passes=PASSES, precision=precision, threads=2)
         passed = seen.object_id != inside.object_id
         assert passed.mean() > 0.01, camera  # rays that started inside a sphere now meet what lies beyond

@@ -48,14 +48,14 @@ def _exact_ties(spheres, origins, directions, camera, precision, ids, cast_ids, 
     tie = np.zeros(len(ids), bool)
     if spheres is None:
         return tie
-    centers, radii = spheres
+    centers, radii, *one_sided = spheres  # (centres, radii[, one_sided])
     for j in np.flatnonzero((ids != cast_ids) & (ids >= 0) & (cast_ids >= 0)):
         if max(ids[j], cast_ids[j]) >= len(radii):
             continue  # not a sphere
         alone = []
         for sphere in (ids[j], cast_ids[j]):
             one = durer.Scene()
-            one.add_spheres(centers[sphere:sphere + 1], radii[sphere:sphere + 1])
+            one.add_spheres(centers[sphere:sphere + 1], radii[sphere:sphere + 1], one_sided=bool(one_sided and one_sided[0]))
             alone.append(durer.cast(one, origins[j:j + 1], directions[j:j + 1], t_min=camera.t_min,
                                     t_max=camera.t_max, precision=precision).t[0])
         tie[j] = alone[0] == alone[1] == cast_t[j]
@@ -73,10 +73,10 @@ def cloud(rng, n, scale, offset, radius):
     return scene_of(*cloud_spheres(rng, n, scale, offset, radius))
 
 
-def scene_of(centers, radii):
+def scene_of(centers, radii, one_sided=False):
     scene = durer.Scene()
     material = scene.add_material(diffuse=(0.5, 0.5, 0.5))
-    scene.add_spheres(centers, radii, material=material)
+    scene.add_spheres(centers, radii, material=material, one_sided=one_sided)
     return scene
 
 
@@ -110,7 +110,9 @@ def view_cases(draw):
         region = (x, y, draw(st.integers(1, width - x)), draw(st.integers(1, height - y)))
     precision = draw(st.sampled_from(["float", "double"]))
     spheres = cloud_spheres(rng, n, scale, offset, radius)
-    return scene_of(*spheres), spheres, camera, width, height, precision, region
+    # One-sided (a point cloud's): an eye among them passes the insides of those it starts in.
+    one_sided = draw(st.booleans())
+    return scene_of(*spheres, one_sided), (*spheres, one_sided), camera, width, height, precision, region
 
 
 
