@@ -28,7 +28,7 @@ class Inputs:
         if value is not None:
             return rgb(value)
         stand_in = rgb(self.node.inputs[name].default_value if stand_in is None else stand_in)
-        return tuple(0.25 if c > 0.5 else 0.75 for c in stand_in) if name == self.probe else stand_in
+        return tuple(_another(c) for c in stand_in) if name == self.probe else stand_in
 
     def scalar(self, name: str, stand_in: float | None = None) -> float:
         """Value input `name`, as `color`."""
@@ -36,7 +36,7 @@ class Inputs:
         if value is not None:
             return float(value)
         stand_in = float(self.node.inputs[name].default_value if stand_in is None else stand_in)
-        return (0.25 if stand_in > 0.5 else 0.75) if name == self.probe else stand_in
+        return _another(stand_in) if name == self.probe else stand_in
 
     def linked(self, name: str, kind: str):
         """`linked_value`, noting an input whose value varies."""
@@ -44,6 +44,11 @@ class Inputs:
         if value is None and name != self.exempt and name not in self.varying and name in self.node.inputs:
             self.varying.append(name)
         return value
+
+
+def _another(value: float) -> float:
+    """A probe's stand-in: a value other than `value`, within [0, 1] (a factor's range)."""
+    return 0.25 if value > 0.5 else 0.75
 
 
 def feeding_link(socket):

@@ -320,8 +320,8 @@ class Group {
       parts.pop_back();
       if (!(lo < hi)) continue;
       tests += searchAlone<M, true>(alone, lo, hi, cancel);
-      Real inner;
       if (alone.prim[0] == kNoPrimitive) continue;
+      Real inner;
       if (!startsInside<M>(alone, 0, lo, inner)) return true;
       // The search's own t of that side, should its kernel round the root otherwise: always past lo.
       inner = std::max(inner, alone.tHit[0]);
@@ -450,8 +450,7 @@ class Group {
     world.ox[0] = packet.ox[k], world.oy[0] = packet.oy[k], world.oz[0] = packet.oz[k];
     world.dx[0] = packet.dx[k], world.dy[0] = packet.dy[k], world.dz[0] = packet.dz[k];
     world.tHit[0] = packet.tHit[k];
-    inst.toObject(world, local);
-    local.tHit[0] = packet.tHit[k];
+    inst.toObject(world, local);  // the hit so far too
     local.prim[0] = packet.prim[k] - inst.primBase;
   }
 
