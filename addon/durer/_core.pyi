@@ -32,6 +32,8 @@ class CameraSpec:
     def __init__(
         self, projection: str, center: _Triple, direction: _Triple, up: _Triple, size: float, fit: str,
         shift_x: float, shift_y: float, pixel_aspect: float, t_min: float, t_max: float, clip_planes: bool = False,
+        aperture_radius: float = 0.0, focus_distance: float = 1.0, aperture_blades: int = 0,
+        aperture_rotation: float = 0.0, aperture_ratio: float = 1.0,
     ) -> None: ...
 
 class Scene:

@@ -22,7 +22,16 @@ class _Camera:
     "horizontal"/"vertical". `shift` moves the image window by (x right, y up) in units of that
     span (Blender's shift_x/shift_y). `pixel_aspect` is a pixel's height / width on the image plane
     (Blender's pixel aspect y / x); "auto" fit compares width with height·pixel_aspect. Camera rays
-    count hits with t in [t_min, t_max)."""
+    count hits with t in [t_min, t_max).
+
+    Depth of field (a thin lens, as Cycles'): with `aperture_radius` > 0 (world units) each sample's
+    ray leaves a point of the aperture — in the plane through `center` across the view axis, around
+    the eye (perspective) or the pixel's own origin (orthographic) — toward the point where the
+    pinhole ray meets the plane of focus, `focus_distance` along the view axis (required with an
+    aperture). The aperture is a disc, or with `aperture_blades` >= 3 the regular polygon inscribed
+    in it turned by `aperture_rotation` radians; `aperture_ratio` > 1 narrows it horizontally (an
+    anamorphic lens's oval bokeh). Anti-aliasing samples sample the lens too: more samples, less
+    noise in the blur. `rays` gives the pinhole rays (through the lens's centre)."""
 
     center: tuple[float, float, float]
     direction: tuple[float, float, float]
@@ -33,6 +42,7 @@ class _Camera:
 
     def _build(self, size: float, fit: str, shift: ArrayLike, pixel_aspect: float, t_min: float, t_max: float,
                clip_planes: bool = False) -> None:
+        lens = self._lens()
         set_ = object.__setattr__
         set_(self, "center", _checks.vector3(self.center, "center"))
         set_(self, "direction", _checks.vector3(self.direction, "direction"))
@@ -45,8 +55,22 @@ class _Camera:
         aspect = _checks.real(pixel_aspect, "pixel_aspect")
         clip_planes = _checks.boolean(clip_planes, "clip_planes")
         spec = _core.CameraSpec(self._projection, self.center, self.direction, self.up, size, fit, sx, sy, aspect,
-                                t_min, t_max, clip_planes)
+                                t_min, t_max, clip_planes, **lens)
         set_(self, "_spec", spec)
+
+    def _lens(self) -> dict[str, float | int]:
+        # Types here; values (ranges, the limits per precision) by the core's checks.
+        aperture = _checks.real(self.aperture_radius, "aperture_radius")
+        focus = self.focus_distance
+        if focus is None:
+            if aperture > 0:
+                raise ValueError("focus_distance must be given with aperture_radius > 0 (the plane of focus's "
+                                 "distance along the view axis)")
+            focus = 1.0
+        return {"aperture_radius": aperture, "focus_distance": _checks.real(focus, "focus_distance"),
+                "aperture_blades": _checks.integer(self.aperture_blades, "aperture_blades"),
+                "aperture_rotation": _checks.real(self.aperture_rotation, "aperture_rotation"),
+                "aperture_ratio": _checks.real(self.aperture_ratio, "aperture_ratio")}
 
     def __reduce__(self) -> tuple[type, tuple[Any, ...]]:
         # The core's CameraSpec does not pickle: a camera pickles as its constructor arguments.
@@ -73,6 +97,11 @@ class OrthographicCamera(_Camera):
     pixel_aspect: float = 1.0
     t_min: float = -math.inf
     t_max: float = math.inf
+    aperture_radius: float = 0.0
+    focus_distance: float | None = None
+    aperture_blades: int = 0
+    aperture_rotation: float = 0.0
+    aperture_ratio: float = 1.0
     _projection: ClassVar[str] = "orthographic"
     _size_name: ClassVar[str] = "size"
 
@@ -94,6 +123,11 @@ class PerspectiveCamera(_Camera):
     t_min: float = 0.0
     t_max: float = math.inf
     clip_planes: bool = False
+    aperture_radius: float = 0.0
+    focus_distance: float | None = None
+    aperture_blades: int = 0
+    aperture_rotation: float = 0.0
+    aperture_ratio: float = 1.0
     _projection: ClassVar[str] = "perspective"
     _size_name: ClassVar[str] = "fov_degrees"
 

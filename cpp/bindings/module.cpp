@@ -158,7 +158,8 @@ Triple triple(const Vec3d& v) { return {v.x, v.y, v.z}; }
 
 CameraSpec cameraSpec(const std::string& projection, const Triple& center, const Triple& direction,
                       const Triple& up, double size, const std::string& fit, double shiftX, double shiftY,
-                      double pixelAspect, double tMin, double tMax, bool clipPlanes) {
+                      double pixelAspect, double tMin, double tMax, bool clipPlanes, double apertureRadius,
+                      double focusDistance, int apertureBlades, double apertureRotation, double apertureRatio) {
   CameraSpec spec;
   spec.projection = optionNamed(kProjectionNames, projection, "projection");
   spec.center = vec(center);
@@ -172,6 +173,11 @@ CameraSpec cameraSpec(const std::string& projection, const Triple& center, const
   spec.tMin = tMin;
   spec.tMax = tMax;
   spec.clipPlanes = clipPlanes;
+  spec.apertureRadius = apertureRadius;
+  spec.focusDistance = focusDistance;
+  spec.apertureBlades = apertureBlades;
+  spec.apertureRotation = apertureRotation;
+  spec.apertureRatio = apertureRatio;
   validate(spec);
   return spec;
 }
@@ -385,7 +391,9 @@ PYBIND11_MODULE(_core, m) {
   py::class_<CameraSpec>(m, "CameraSpec")
       .def(py::init(&cameraSpec), py::arg("projection"), py::arg("center"), py::arg("direction"), py::arg("up"),
            py::arg("size"), py::arg("fit"), py::arg("shift_x"), py::arg("shift_y"), py::arg("pixel_aspect"), py::arg("t_min"),
-           py::arg("t_max"), py::arg("clip_planes") = false);
+           py::arg("t_max"), py::arg("clip_planes") = false, py::arg("aperture_radius") = 0.0,
+           py::arg("focus_distance") = 1.0, py::arg("aperture_blades") = 0, py::arg("aperture_rotation") = 0.0,
+           py::arg("aperture_ratio") = 1.0);
 
   py::class_<Scene>(m, "Scene")
       .def(py::init<>())

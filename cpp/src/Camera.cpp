@@ -33,6 +33,15 @@ void validate(const CameraSpec& spec) {
   if (spec.clipPlanes && spec.projection == Projection::Perspective && !(spec.tMin >= 0)) {
     fail("t_min must be >= 0 with clip_planes (planes before the eye), got " + show(spec.tMin));
   }
+  if (!(std::isfinite(spec.apertureRadius) && spec.apertureRadius >= 0)) {
+    fail("aperture_radius must be finite and >= 0, got " + show(spec.apertureRadius));
+  }
+  if (spec.apertureRadius > 0) requirePositive(spec.focusDistance, "focus_distance");
+  if (spec.apertureBlades != 0 && spec.apertureBlades < 3) {
+    fail("aperture_blades must be 0 (a disc) or at least 3, got " + std::to_string(spec.apertureBlades));
+  }
+  requireFinite(spec.apertureRotation, "aperture_rotation");
+  requirePositive(spec.apertureRatio, "aperture_ratio");
 }
 
 ImageWindow imageWindow(const CameraSpec& spec, int width, int height) {
@@ -61,7 +70,16 @@ double requireRaysWithin(const CameraSpec& spec, int width, int height, const Nu
                 std::string("the image window (center, ") + (perspective ? "fov_degrees" : "size") +
                     ", shift, pixel_aspect at " + std::to_string(width) + "x" + std::to_string(height) + ")",
                 where);
-  return perspective ? maxAbs(spec.center) : maxAbs(spec.center) + window;
+  // An aperture moves the origins up to its reach off the pinhole's, and the rays aim at points up
+  // to focus_distance times the window's reach (at unit distance) from the eye's plane.
+  const double lens = spec.apertureRadius > 0 ? spec.apertureRadius * std::fmax(1, 1 / spec.apertureRatio) : 0;
+  if (spec.apertureRadius > 0) {
+    requireWithin(lens + (perspective ? maxAbs(spec.center) : maxAbs(spec.center) + window), limits.coordinate,
+                  "aperture_radius (with center and aperture_ratio)", where);
+    requireWithin(spec.focusDistance * (perspective ? 1 + window : 1), limits.coordinate,
+                  "focus_distance (with the image window)", where);
+  }
+  return lens + (perspective ? maxAbs(spec.center) : maxAbs(spec.center) + window);
 }
 
 template <typename Real>
@@ -73,7 +91,11 @@ Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
       m_tMax(static_cast<Real>(spec.tMax)),
       m_clipPlanes(spec.clipPlanes && m_perspective),
       m_near(static_cast<Real>(spec.tMin)),
-      m_far(static_cast<Real>(spec.tMax)) {
+      m_far(static_cast<Real>(spec.tMax)),
+      m_lensRadius(spec.apertureRadius),
+      m_lensScaleX(1 / spec.apertureRatio),
+      m_focus(static_cast<Real>(spec.focusDistance)),
+      m_blades(spec.apertureBlades) {
   const Vec3d forward = safeNormalize(spec.direction);
   const Vec3d horizontal = glm::normalize(glm::cross(forward, safeNormalize(spec.up)));
   const Vec3d up = glm::cross(horizontal, forward);
@@ -92,7 +114,17 @@ Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
     // near plane's distance bounds t from below (t >= depth: the planes are >= 0, validate()).
     const double x = std::fmax(std::fabs(window.xOffset), std::fabs(window.xOffset + width * window.pixelWidth));
     const double y = std::fmax(std::fabs(window.yOffset), std::fabs(window.yOffset - height * window.pixelHeight));
-    m_tMax = static_cast<Real>(spec.tMax * std::sqrt(1 + x * x + y * y) * (1 + 1e-6));
+    double slope2 = x * x + y * y;
+    if (hasLens()) {  // a lens tilts a ray by up to its reach over the focus distance more
+      const double r = std::sqrt(slope2) + m_lensRadius * std::fmax(1, m_lensScaleX) / spec.focusDistance;
+      slope2 = r * r;
+    }
+    m_tMax = static_cast<Real>(spec.tMax * std::sqrt(1 + slope2) * (1 + 1e-6));
+  }
+  for (int i = 0; m_blades > 0 && i <= m_blades; ++i) {  // corner i at rotation + (2i - 1) pi / blades
+    const double angle = spec.apertureRotation + (2 * i - 1) * kPi / m_blades;
+    m_corners.push_back(std::cos(angle));
+    m_corners.push_back(std::sin(angle));
   }
 }
 
@@ -179,10 +211,20 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
   constexpr double m = kMarginPixels;
   if (!m_perspective) {
     const double reach = orthographicReach(image, q, radius);
-    if (q.z + reach < static_cast<double>(m_tMin)) return false;  // wholly behind the image plane
+    // A lens's rays lean from the axis by up to lensSlope: t exceeds the depth by up to that factor.
+    const double lean = hasLens() ? std::sqrt(1 + lensSlope() * lensSlope()) * (1 + 1e-6) : 1;
+    const double deepest = q.z + reach;
+    if ((deepest > 0 ? deepest * lean : deepest) < static_cast<double>(m_tMin)) return false;  // wholly before t_min
     box = {image.sampleX(q.x - reach) - m, image.sampleX(q.x + reach) + m, image.sampleY(q.y + reach) - m,
            image.sampleY(q.y - reach) + m};
     tLow = q.z - reach;
+    if (hasLens()) {
+      // A lens ray through sample x meets depth z at x + L (1 - z / focus), L its point on the lens.
+      const double spread = lensShift(q.z - reach, deepest);
+      const double slack = eps * ((1 + lensSlope()) * (std::fabs(q.z) + reach) + lensReach());
+      widen(box, lensReachX() * spread + slack, lensReachY() * spread + slack, image);
+      tLow = (tLow < 0 ? tLow * lean : tLow) - slack;
+    }
     if (disk) {
       const double shrunk = radius - (reach - radius);
       *disk = {image.sampleX(q.x), image.sampleY(q.y), reach / std::min(image.pixelWidth, image.pixelHeight) + m,
@@ -198,11 +240,45 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
   }
   box = {image.sampleX(x0) - m, image.sampleX(x1) + m, image.sampleY(y1) - m, image.sampleY(y0) + m};
   tLow = distance - reach;
+  if (hasLens()) {
+    // A lens ray through the sample at x (at unit distance) meets depth z where the eye sees
+    // x + L (1/z - 1/focus), L its point on the lens: the pinhole's footprint, widened by that shift
+    // over the sphere's depths; none if they reach the lens's plane. Its origin lies within the
+    // lens's reach of the eye, so its t within that of the eye's.
+    const double near = q.z - reach;
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    if (!(near > 0)) {
+      box = {-inf, inf, -inf, inf};
+    } else {
+      const double spread = lensShift(near, q.z + reach);
+      const ImageWindow w{image.pixelWidth, image.pixelHeight, image.xOffset, image.yOffset};
+      const double window = std::hypot(std::max(std::fabs(w.xOffset), std::fabs(w.xOffset + m_width * w.pixelWidth)),
+                                       std::max(std::fabs(w.yOffset), std::fabs(w.yOffset - m_height * w.pixelHeight)));
+      const double slack = eps * (1 + window + lensSlope() + (maxAbs(image.center) + lensReach()) / near);
+      widen(box, lensReachX() * spread + slack, lensReachY() * spread + slack, image);
+    }
+    tLow -= lensReach() + eps * (maxAbs(image.center) + lensReach());
+  }
   if (disk) {  // seenRange's widening of the angles, as a radius
     const double widening = kAngleWidening * eps * distance;
     *disk = perspectiveDisk(image, q, distance, reach + widening, radius - (reach - radius) - widening);
   }
   return true;
+}
+
+template <typename Real>
+double Camera<Real>::lensShift(double near, double far) const {
+  const double focus = static_cast<double>(m_focus);
+  if (!m_perspective) return std::max(std::fabs(1 - near / focus), std::fabs(1 - far / focus));
+  if (!(near > 0)) return std::numeric_limits<double>::infinity();
+  return std::max(std::fabs(1 / near - 1 / focus), std::fabs(1 / far - 1 / focus));
+}
+
+template <typename Real>
+double Camera<Real>::lensBlur(const Vec3d& center, double radius) const {
+  const ParallelProjection image = projection();
+  const double depth = image.inFrame(center).z;
+  return lensReach() * lensShift(depth - radius, depth + radius) / std::min(image.pixelWidth, image.pixelHeight);
 }
 
 template class Camera<float>;

@@ -204,3 +204,92 @@ TEST_CASE_TEMPLATE("a footprint holds every sample whose camera ray meets the sp
   CHECK(orthographic.probed > 80);
   CHECK(orthographic.compared > 5);
 }
+
+namespace {
+
+// Through a lens: every sample whose ray, from any point of the aperture, meets the sphere lies in
+// its box, no nearer than its lower bound on t. Returns how many spheres some ray met.
+template <typename Real>
+int checkLens(const CameraSpec& spec, std::mt19937_64& random) {
+  constexpr int kWidth = 24, kHeight = 16, kPerPixel = 2;
+  const Camera<Real> camera(spec, kWidth, kHeight);
+  REQUIRE(camera.hasLens());
+  // The lens's corners and rim (its points farthest out) and its centre.
+  const double lens[] = {0.0, 0.125, 0.5, 0.875, 1 - 1e-12};
+  std::uniform_real_distribution<double> unit(-1, 1), radius(0.01, 1.5), distance(0, 12);
+  int met = 0;
+  for (int sphere = 0; sphere < 40; ++sphere) {
+    const Vec3d c = spec.center + distance(random) * glm::normalize(Vec3d(unit(random), unit(random), unit(random)));
+    const double r = radius(random);
+    SampleBox box{};
+    double tLow = 0;
+    const bool seen = camera.footprint(c, r, box, tLow);
+    bool hit = false;
+    for (const double u : lens) {
+      for (const double v : lens) {
+        for (int row = 0; row < kHeight * kPerPixel; ++row) {
+          Real sampleX[kWidth * kPerPixel], sampleY[kWidth * kPerPixel];
+          double lensU[kWidth * kPerPixel], lensV[kWidth * kPerPixel];
+          for (int col = 0; col < kWidth * kPerPixel; ++col) {
+            sampleX[col] = Real((col + 0.5) / kPerPixel), sampleY[col] = Real((row + 0.5) / kPerPixel);
+            lensU[col] = u, lensV[col] = v;
+          }
+          for (int start = 0; start < kWidth * kPerPixel; start += kPacketSize) {
+            RayPacket<Real> packet;
+            const int count = std::min(kPacketSize, kWidth * kPerPixel - start);
+            camera.generate(packet, sampleX + start, sampleY + start, count, lensU + start, lensV + start);
+            RayPacket<double> rays;
+            for (int k = 0; k < count; ++k) {
+              rays.ox[k] = double(packet.ox[k]), rays.oy[k] = double(packet.oy[k]), rays.oz[k] = double(packet.oz[k]);
+              rays.dx[k] = double(packet.dx[k]), rays.dy[k] = double(packet.dy[k]), rays.dz[k] = double(packet.dz[k]);
+              const double t = meetAt(rays, k, c, r);
+              if (!(t < std::numeric_limits<double>::infinity())) continue;
+              const double x = double(sampleX[start + k]), y = double(sampleY[start + k]);
+              CAPTURE(sphere);
+              CAPTURE(u);
+              CAPTURE(v);
+              REQUIRE(seen);
+              REQUIRE(box.x0 <= x);
+              REQUIRE(x <= box.x1);
+              REQUIRE(box.y0 <= y);
+              REQUIRE(y <= box.y1);
+              REQUIRE(tLow <= t * (1 + 1e-9));
+              hit = true;
+            }
+          }
+        }
+      }
+    }
+    met += hit ? 1 : 0;
+  }
+  return met;
+}
+
+}  // namespace
+
+TEST_CASE_TEMPLATE("through a lens, a footprint holds every sample whose ray from any of its points meets the sphere",
+                   Real, float, double) {
+  std::mt19937_64 random(11);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  int met = 0;
+  for (const int blades : {0, 5}) {
+    for (const double ratio : {1.0, 0.5, 2.0}) {
+      for (const double aperture : {0.05, 0.6}) {
+        CameraSpec spec;
+        spec.projection = Projection::Perspective;
+        spec.center = Vec3d(unit(random), unit(random), unit(random)) * 5.0;
+        spec.direction = Vec3d(unit(random), unit(random), unit(random));
+        spec.size = 70;
+        spec.tMin = 0;
+        spec.tMax = std::numeric_limits<double>::infinity();
+        spec.apertureRadius = aperture, spec.focusDistance = 4, spec.apertureBlades = blades;
+        spec.apertureRotation = 0.4, spec.apertureRatio = ratio;
+        met += checkLens<Real>(spec, random);
+        spec.projection = Projection::Orthographic;
+        spec.size = 8;
+        met += checkLens<Real>(spec, random);
+      }
+    }
+  }
+  CHECK(met > 150);  // of 960 spheres, scattered all around the cameras
+}

@@ -180,10 +180,11 @@ def test_visibility_settings_dürer_does_not_follow_are_reported(scene):
 
 
 def test_camera_and_light_settings_dürer_does_not_simulate_are_reported(scene):
-    """Depth of field, motion blur and light linking (set in Cycles, say): rendered without them,
-    and said once per render; the depth-of-field panels are not shown for Dürer."""
+    """Motion blur and light linking (set in Cycles, say): rendered without them, and said once per
+    render; depth of field is rendered (nothing said), its panels shown for Dürer."""
     ball_scene(scene)
-    assert "DURER" not in bpy.types.DATA_PT_camera_dof.COMPAT_ENGINES
+    assert "DURER" in bpy.types.DATA_PT_camera_dof.COMPAT_ENGINES
+    assert "DURER" in bpy.types.DATA_PT_camera_dof_aperture.COMPAT_ENGINES
     scene.camera.data.dof.use_dof = True
     scene.render.use_motion_blur = True
     sun = next(obj for obj in scene.objects if obj.type == "LIGHT")
@@ -192,7 +193,6 @@ def test_camera_and_light_settings_dürer_does_not_simulate_are_reported(scene):
     assert engine.last_render.warnings == [
         "Dürer renders every object as seen by every ray and lit by every light; it does not follow "
         f"Object › Visibility or light linking for '{sun.name}' linking lights or shadows",
-        f"Camera '{scene.camera.name}' has depth of field: Dürer renders everything in focus",
         "Motion blur is on: Dürer renders each frame at one instant",
     ]
 
@@ -223,7 +223,7 @@ def test_view_layer_settings_dürer_does_not_follow_are_reported_and_its_panels_
     for panel in ("PARTICLE_PT_emission", "PHYSICS_PT_field", "RENDER_PT_color_management_curves",
                   "RENDER_PT_simplify"):
         assert "DURER" in getattr(bpy.types, panel).COMPAT_ENGINES, panel
-    for panel in ("DATA_PT_camera_dof", "DATA_PT_curves_surface", "DATA_PT_cone"):
+    for panel in ("DATA_PT_curves_surface", "DATA_PT_cone"):
         assert "DURER" not in getattr(bpy.types, panel).COMPAT_ENGINES, panel
     from durer.blender import ui
 

@@ -141,7 +141,8 @@ def test_a_camera_view_of_a_huge_clip_range_renders_the_f12_image(scene):
     assert np.abs(images[0] - images[1]).max() < 1e-4 and images[1][..., 0].max() > 0.3
     session = viewport.ViewportSession()
     session.update(depsgraph)
-    assert session.view(SimpleNamespace(view_matrix=view, window_matrix=window, is_perspective=True), 32, 24)
+    assert session.view(SimpleNamespace(view_matrix=view, window_matrix=window, is_perspective=True,
+                                        view_perspective="CAMERA"), 32, 24)
     assert session.image.wait(30) and session.status() == "Dürer | viewport | sample 2/2 | done"
 
 
@@ -154,7 +155,8 @@ def test_a_view_the_core_refuses_is_said_not_raised(scene):
     rv3d = region_view()
     bad = Matrix(rv3d.window_matrix)
     bad[0][0] = float("nan")
-    assert not session.view(SimpleNamespace(view_matrix=rv3d.view_matrix, window_matrix=bad, is_perspective=True),
+    assert not session.view(SimpleNamespace(view_matrix=rv3d.view_matrix, window_matrix=bad, is_perspective=True,
+                                            view_perspective="CAMERA"),
                             32, 24)
     assert session.status().startswith("Dürer | error: ValueError: ") and session.frame()[1] is None
     assert session.view(rv3d, 32, 24) and session.image.wait(30) and session.status().endswith("| done")
@@ -280,7 +282,8 @@ def test_session_restarts_on_a_changed_view_or_scene(scene):
     # Headless, a RegionView3D keeps the matrices it was last drawn with (setting view_matrix moves
     # the view only at the next draw): the moved view is given as the matrices Blender would draw.
     moved_view = SimpleNamespace(view_matrix=Matrix.Translation((0.2, 0, 0)) @ rv3d.view_matrix,
-                                 window_matrix=rv3d.window_matrix, is_perspective=rv3d.is_perspective)
+                                 window_matrix=rv3d.window_matrix, is_perspective=rv3d.is_perspective,
+                                 view_perspective=rv3d.view_perspective)
     assert session.view(moved_view, 40, 24) and not session.view(moved_view, 40, 24)
     session.image.stop()
 

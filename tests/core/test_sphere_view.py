@@ -13,8 +13,8 @@ import sys
 import durer
 import numpy as np
 import pytest
-from helpers.view_fuzz import (PASSES, assert_render_matches_cast, brute_force_shadows, check, check_sun, cloud,
-                               scene_of, sun_cases, view_cases)
+from helpers.view_fuzz import (PASSES, assert_render_matches_cast, brute_force_shadows, check, check_lens, check_sun,
+                               cloud, lens_cases, scene_of, sun_cases, view_cases)
 from hypothesis import HealthCheck, given, settings
 
 
@@ -23,6 +23,13 @@ from hypothesis import HealthCheck, given, settings
 @given(view_cases())
 def test_camera_rays_find_what_a_cast_finds(case):
     check(case)
+
+
+@settings(max_examples=100, deadline=None, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(lens_cases())
+def test_lens_rays_find_through_the_view_what_a_hierarchy_finds(case):
+    check_lens(case)
 
 
 @pytest.mark.parametrize("precision", ["float", "double"])

@@ -1,7 +1,8 @@
 """Random cases for the views of the spheres (cpp/include/durer/accel/SphereView.h): sphere clouds
 at scales from 1e-3 to 1e4 and offsets to 1e6, seen by orthographic and perspective cameras from
 inside and outside, at odd image sizes and regions, in both precisions; a render's camera rays must
-find exactly what a cast of the same rays finds, and its shadow rays toward a sun or a point light
+find exactly what a cast of the same rays finds (through a lens: what a walk of a hierarchy finds),
+and its shadow rays toward a sun or a point light
 (through the light's view) what a brute force over every sphere finds
 (tests/core/test_sphere_view.py runs a fixed number, bench/fuzz_traversal.py --views as many as time
 allows, docs/reliability.md)."""
@@ -82,9 +83,23 @@ def scene_of(centers, radii, one_sided=False):
 
 @st.composite
 def view_cases(draw):
+    n = draw(st.one_of(st.integers(1, 15), st.integers(16, 400)))  # a camera's view serves from one sphere
+    return _cloud_case(draw, n, (1, 40))
+
+
+@st.composite
+def lens_cases(draw):
+    """Sphere clouds as view_cases() draws them, denser (200 to 3,000 spheres) and in larger images,
+    seen through a lens (depth of field): an aperture from a thousandth of the cloud's size to three
+    times it, focused before, in or beyond the cloud, any blades, turn and ratio."""
+    return _cloud_case(draw, draw(st.integers(200, 3000)), (16, 64), lens=True)
+
+
+def _cloud_case(draw, n: int, sides: tuple[int, int], lens: bool = False):
+    """n spheres in a cloud at scales 1e-3 to 1e4 and offsets to 1e6, a camera among them or outside
+    (with a lens if asked), an image of `sides` pixels a side, perhaps a region, a precision, sidedness."""
     seed = draw(st.integers(0, 2**32 - 1))
     rng = np.random.default_rng(seed)
-    n = draw(st.one_of(st.integers(1, 15), st.integers(16, 400)))  # a camera's view serves from one sphere
     scale = 10.0 ** draw(st.floats(-3, 4))
     offset = 10.0 ** draw(st.floats(-2, 6)) * rng.normal(size=3) if draw(st.booleans()) else np.zeros(3)
     radius = 10.0 ** draw(st.floats(-3, -0.3))
@@ -96,14 +111,21 @@ def view_cases(draw):
     up = rng.normal(size=3)
     shift = tuple(draw(st.sampled_from([(0.0, 0.0), (0.3, -0.2)])))
     aspect = draw(st.sampled_from([1.0, 0.75]))
+    common = dict(shift=shift, pixel_aspect=aspect)
+    if lens:
+        distance = float(np.linalg.norm(offset - center)) + scale
+        common.update(aperture_radius=scale * 10.0 ** draw(st.floats(-3, 0.5)),
+                      focus_distance=distance * 10.0 ** draw(st.floats(-1.5, 1)),
+                      aperture_blades=draw(st.sampled_from([0, 3, 5, 8])),
+                      aperture_rotation=draw(st.floats(0, 2 * math.pi)),
+                      aperture_ratio=draw(st.sampled_from([1.0, 0.5, 2.0])))
     if perspective:
         camera = durer.PerspectiveCamera(tuple(center), tuple(direction), tuple(up),
-                                         fov_degrees=draw(st.floats(5, 150)), shift=shift, pixel_aspect=aspect)
+                                         fov_degrees=draw(st.floats(5, 150)), **common)
     else:
         camera = durer.OrthographicCamera(tuple(center), tuple(direction), tuple(up), size=2.5 * scale,
-                                          shift=shift, pixel_aspect=aspect,
-                                          t_min=draw(st.sampled_from([-math.inf, 0.0])))
-    width, height = draw(st.integers(1, 40)), draw(st.integers(1, 40))
+                                          t_min=draw(st.sampled_from([-math.inf, 0.0])), **common)
+    width, height = draw(st.integers(*sides)), draw(st.integers(*sides))
     region = None
     if draw(st.booleans()):
         x, y = draw(st.integers(0, width - 1)), draw(st.integers(0, height - 1))
@@ -113,8 +135,6 @@ def view_cases(draw):
     # One-sided (a point cloud's): an eye among them passes the insides of those it starts in.
     one_sided = draw(st.booleans())
     return scene_of(*spheres, one_sided), (*spheres, one_sided), camera, width, height, precision, region
-
-
 
 
 @st.composite
@@ -224,6 +244,28 @@ def brute_force_shadows(points, to_light, centers, radii, own_ids, tolerance=1e-
     return blocked, unclear
 
 
+def assert_lens_render_matches_hierarchy(scene, spheres, camera, width, height, precision, region=None):
+    """A lens's camera rays find through the camera's view (its footprints widened by the lens) what
+    they find walking a hierarchy: the same spheres, halved, in a group scaled by 2 (exact in binary:
+    the rays in its space are the world's halved, and every t bit for bit the same), which no view
+    serves. Depth and object ids bit for bit."""
+    centers, radii, one_sided = spheres
+    halved = durer.Scene()
+    material = halved.add_material(diffuse=(0.5, 0.5, 0.5))
+    halved.add_spheres(centers / 2, radii / 2, material=material, transform=np.hstack([2 * np.eye(3), np.zeros((3, 1))]),
+                       one_sided=one_sided)
+    kwargs = dict(spp=4, sampler="random", passes=("depth", "object_id"), precision=precision, region=region, threads=2)
+    viewed = durer.render(scene, camera, width, height, **kwargs)
+    walked = durer.render(halved, camera, width, height, **kwargs)
+    np.testing.assert_array_equal(viewed.depth, walked.depth)
+    np.testing.assert_array_equal(viewed.object_id, walked.object_id)
+
+
+def check_lens(case: tuple[Any, ...]) -> None:
+    """One case of lens_cases(): raises AssertionError where the view and the hierarchy differ."""
+    assert_lens_render_matches_hierarchy(*case)
+
+
 def check(case: tuple[Any, ...]) -> None:
     """One case of view_cases(): raises AssertionError where the render and the cast differ."""
     scene, spheres, camera, width, height, precision, region = case
@@ -237,7 +279,7 @@ def fuzz(cfg: Any, seed: int | None = None) -> int:
 
     ran = 0
 
-    for cases, checker in ((view_cases(), check), (sun_cases(), check_sun)):
+    for cases, checker in ((view_cases(), check), (lens_cases(), check_lens), (sun_cases(), check_sun)):
         @cfg
         @hypothesis.given(cases)
         def one(case: tuple[Any, ...]) -> None:

@@ -190,7 +190,7 @@ def test_report_writes_sections_tables_and_plots(tmp_path):
     for image in names - {"accuracy.md"}:
         assert f"]({image})" in text
     # Tables: the slopes (fitted, not made up), the points, the adaptive sweep, precision, methods, effects, presets.
-    assert "| sobol | -1.00 |" in text and "| random | -0.50 |" in text and "| center | -0.00 |" in text
+    assert "| sobol | -1.00 |" in text and "| random | -0.50 |" in text and "| center | +0.00 |" in text
     assert "| sampler | spp | samples/pixel | RMSE | worst pixel | ms | ms / stratified same spp |" in text
     assert "| adaptive | 64 | 32.0 |" in text
     assert "| 256 | 4 | 0.01 | 20.0 | 3.98e-03 | 4.86e-03 | 1.22 | 2.21e-02 | 1.6 | 0.25 | 0.06 |" in text

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, fields, is_dataclass
+from dataclasses import asdict, dataclass, fields, is_dataclass
 from typing import Any
 
 import numpy as np
@@ -23,13 +23,15 @@ DEPTH_MISS = 1.0e10
 
 
 def make_camera(cam: CameraData) -> durer.OrthographicCamera | durer.PerspectiveCamera:
-    """The Dürer camera for Blender's camera parameters (fit, shift, pixel aspect, clip range)."""
+    """The Dürer camera for Blender's camera parameters (fit, shift, pixel aspect, clip range, depth
+    of field)."""
     common = {
         "fit": cam.fit,
         "shift": cam.shift,
         "pixel_aspect": cam.pixel_aspect,
         "t_min": cam.clip_start,
         "t_max": cam.clip_end,
+        **asdict(cam.lens),
     }
     center, direction, up = tuple(cam.center), tuple(cam.direction), tuple(cam.up)
     if cam.projection == "orthographic":

@@ -409,7 +409,6 @@ _SKIP_WORDS = (
     "volume",
     "shadow_terminator",
     "motion_blur",
-    "dof",
     "hair",
     "data_pt_curves",
     "data_pt_context_curves",

@@ -9,7 +9,7 @@ thread; only `texture` and `draw` need a GPU, which bpy in background mode has n
 from __future__ import annotations
 
 import threading
-from dataclasses import replace
+from dataclasses import asdict, replace
 from typing import Any
 
 import gpu
@@ -19,6 +19,7 @@ from gpu_extras.presets import draw_texture_2d
 import durer
 
 from . import build, engine  # engine imports this module too: used at call time only
+from .export import LensData, lens_data
 from .export.depsgraph import export_depsgraph
 
 #: The sampler of every pass: one uniformly random sample per pixel, independent between seeds, so
@@ -27,10 +28,11 @@ from .export.depsgraph import export_depsgraph
 PASS_SAMPLER = "random"
 
 
-def view_camera(view_matrix: Any, window_matrix: Any, is_perspective: bool, width: int,
-                height: int) -> durer.OrthographicCamera | durer.PerspectiveCamera:
+def view_camera(view_matrix: Any, window_matrix: Any, is_perspective: bool, width: int, height: int,
+                lens: LensData | None = None) -> durer.OrthographicCamera | durer.PerspectiveCamera:
     """The Dürer camera whose width x height image is what OpenGL shows through these matrices
-    (Blender's RegionView3D.view_matrix, world -> view, and window_matrix, view -> clip).
+    (Blender's RegionView3D.view_matrix, world -> view, and window_matrix, view -> clip), through
+    `lens` (default: a pinhole).
 
     Works alike for the perspective and orthographic views and the camera view, whose window matrix
     holds the scene camera's lens, sensor fit, shift and the view's camera zoom and offset. The
@@ -59,6 +61,7 @@ def view_camera(view_matrix: Any, window_matrix: Any, is_perspective: bool, widt
         "pixel_aspect": (span_y / height) / (span_x / width),
         "t_min": float(near),
         "t_max": float(far),
+        **asdict(lens or LensData()),
     }
     center, direction, up = tuple(center), tuple(direction), tuple(up)
     if is_perspective:
@@ -67,9 +70,18 @@ def view_camera(view_matrix: Any, window_matrix: Any, is_perspective: bool, widt
     return durer.OrthographicCamera(center, direction, up, size=float(span_x), **common)
 
 
-def region_camera(region_data, width: int, height: int) -> durer.OrthographicCamera | durer.PerspectiveCamera:
+def region_camera(region_data, width: int, height: int,
+                  lens: LensData | None = None) -> durer.OrthographicCamera | durer.PerspectiveCamera:
     """`view_camera` of a RegionView3D (`context.region_data`) drawn at width x height pixels."""
-    return view_camera(region_data.view_matrix, region_data.window_matrix, region_data.is_perspective, width, height)
+    return view_camera(region_data.view_matrix, region_data.window_matrix, region_data.is_perspective, width, height,
+                       lens)
+
+
+def scene_lens(scene) -> LensData:
+    """The depth of field of the scene's camera, which the camera view shows as F12 renders it (its
+    aperture and focus distance are world quantities: the view's zoom leaves them)."""
+    cam_obj = scene.camera
+    return lens_data(cam_obj) if cam_obj is not None and cam_obj.type == "CAMERA" else LensData()
 
 
 def pass_kwargs(settings) -> dict:
@@ -175,6 +187,7 @@ class ViewportSession:
         self._kept: tuple | None = None  # (export data, core scene), for build.update_scene
         self._settings: dict = {}
         self._view_key: tuple | None = None
+        self._lens = LensData()  # the scene camera's, for the camera view
         #: The GPU texture last drawn, and its `frame` key.
         self.texture = None
         self.texture_key: tuple | None = None
@@ -192,6 +205,7 @@ class ViewportSession:
         view is the camera). A core scene whose spheres alone moved is refitted, not rebuilt."""
         try:
             data = export_depsgraph(depsgraph, with_camera=False)
+            self._lens = scene_lens(depsgraph.scene)  # a change restarts the camera view's image in `view`
             settings = {"passes": int(depsgraph.scene.durer.samples), "seed": int(depsgraph.scene.durer.seed),
                         "ambient_occlusion": data.ambient_occlusion, **pass_kwargs(depsgraph.scene.durer)}
             if (self._kept is not None and settings == self._settings
@@ -208,16 +222,18 @@ class ViewportSession:
 
     def view(self, region_data, width: int, height: int) -> bool:
         """Show this view (a RegionView3D drawn at width x height): restart the image if the view's
-        matrices or size changed since the last call, or the scene since `update`; whether it did."""
+        matrices or size changed since the last call, or the scene since `update` (in the camera
+        view, the scene camera's depth of field too); whether it did."""
         if self._kept is None:
             return False
+        lens = self._lens if region_data.view_perspective == "CAMERA" else LensData()
         key = (tuple(map(tuple, region_data.view_matrix)), tuple(map(tuple, region_data.window_matrix)),
-               bool(region_data.is_perspective), width, height)
+               bool(region_data.is_perspective), width, height, lens)
         if key == self._view_key:
             return False
         self._view_key = key
         try:
-            camera = region_camera(region_data, width, height)
+            camera = region_camera(region_data, width, height, lens)
         except ValueError as exc:  # a view the core cannot take: said in the stats line, never raised in Blender
             self.image.stop()
             self.error = f"{type(exc).__name__}: {exc}"

@@ -31,9 +31,10 @@ light type), `world`, `camera`, `matrices` and `nodes` (socket values).
 
 from __future__ import annotations
 
-from .camera import camera_data
+from .camera import camera_data, lens_data
 from .data import (
     CameraData,
+    LensData,
     LightData,
     MaterialData,
     MeshData,
@@ -47,6 +48,7 @@ from .world import world_colors
 
 __all__ = [
     "CameraData",
+    "LensData",
     "LightData",
     "MaterialData",
     "MeshData",
@@ -55,6 +57,7 @@ __all__ = [
     "TransformedSpheres",
     "camera_data",
     "export_depsgraph",
+    "lens_data",
     "material_data",
     "world_colors",
 ]

@@ -129,6 +129,18 @@ class LightData:
 
 
 @dataclass
+class LensData:
+    """A camera's thin lens, as Cycles reads Blender's Depth of Field; the defaults are a pinhole
+    (durer's cameras' aperture fields, which these are named after)."""
+
+    aperture_radius: float = 0.0  # world units
+    focus_distance: float | None = None  # the plane of focus along the view axis; None without an aperture
+    aperture_blades: int = 0  # 0: a disc; >= 3: a regular polygon
+    aperture_rotation: float = 0.0  # radians
+    aperture_ratio: float = 1.0  # > 1 narrows the aperture horizontally (an anamorphic lens)
+
+
+@dataclass
 class CameraData:
     name: str
     projection: str  # "orthographic" or "perspective"
@@ -145,6 +157,7 @@ class CameraData:
     width: int  # pixels, after resolution percentage
     height: int
     pixel_aspect: float  # pixel height / pixel width (Blender's pixel_aspect_y / pixel_aspect_x)
+    lens: LensData = field(default_factory=LensData)  # depth of field (the default: none)
 
     @property
     def extent(self) -> float:

@@ -317,12 +317,10 @@ def _own_visibility(obj, original, found: dict[str, list[str]]) -> bool:
     return True
 
 
-def _ignored_camera_settings(scene, cam_obj) -> list[str]:
-    """Notes on what the camera sees that Dürer does not simulate: depth of field, motion blur, a
-    world hidden from the camera."""
+def _ignored_camera_settings(scene) -> list[str]:
+    """Notes on what the camera sees that Dürer does not simulate: motion blur, a world hidden from
+    the camera."""
     notes = []
-    if cam_obj is not None and cam_obj.data.dof.use_dof:
-        notes.append(f"Camera '{cam_obj.name_full}' has depth of field: Dürer renders everything in focus")
     if scene.render.use_motion_blur:
         notes.append("Motion blur is on: Dürer renders each frame at one instant")
     visibility = getattr(scene.world, "cycles_visibility", None)  # with the Cycles add-on enabled
@@ -461,7 +459,7 @@ def export_depsgraph(depsgraph, camera=None, *, with_camera: bool = True) -> Sce
 
     world_rgb, world_note = world_colors(scene.world)
     data.notes.extend(note for note in (_ignored_visibility(depsgraph, instanced), world_note) if note)
-    data.notes.extend(_ignored_camera_settings(scene, cam_obj))
+    data.notes.extend(_ignored_camera_settings(scene))
     data.notes.extend(_ignored_view_layer(depsgraph.view_layer))
     # A transparent film: no world behind the objects, but mirrors and glass still show it.
     data.background = world_rgb + (0.0 if scene.render.film_transparent else 1.0,)

@@ -12,6 +12,12 @@ from .occlusion import markdown_section
 from .targets import targets
 
 
+def _slope(value: float) -> str:
+    """A fitted slope, signed, two decimals; one that rounds to zero (a flat curve, fitted as ±1e-17
+    by one machine's arithmetic or another's) as +0.00."""
+    return f"{round(value, 2) + 0.0:+.2f}"
+
+
 def _fmt(value: float, digits: int = 2) -> str:
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return "—"
@@ -34,7 +40,7 @@ def aa_tables(aa: AntiAliasing) -> str:
         last = max((p for p in aa.points if p.sampler == s), key=lambda p: p.spp)
         slope = aa.slope(s)
         note = " (vs samples taken)" if s == "adaptive" else ""
-        lines.append(f"| {s} | {slope:+.2f}{note} | {_fmt(last.rmse)} | {_fmt(last.worst)} |" if not math.isnan(slope)
+        lines.append(f"| {s} | {_slope(slope)}{note} | {_fmt(last.rmse)} | {_fmt(last.worst)} |" if not math.isnan(slope)
                      else f"| {s} | — | {_fmt(last.rmse)} | {_fmt(last.worst)} |")
     lines += ["", "| sampler | spp | samples/pixel | RMSE | worst pixel | ms | ms / stratified same spp |",
               "| --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
@@ -273,7 +279,7 @@ def summary(report: Report) -> str:
     """A few lines for the terminal."""
     lines = []
     for aa in report.antialiasing:
-        slopes = ", ".join(f"{s} {aa.slope(s):+.2f}" for s in dict.fromkeys(p.sampler for p in aa.points)
+        slopes = ", ".join(f"{s} {_slope(aa.slope(s))}" for s in dict.fromkeys(p.sampler for p in aa.points)
                            if not math.isnan(aa.slope(s)))
         lines.append(f"{aa.scene}: fitted slopes {slopes}")
     by = {(t.scene, t.precision, t.method): t for t in report.timings}

@@ -77,7 +77,7 @@ struct ParallelProjection {
 // What a view is made for: the camera as given and the image size (a light's: its direction). Two
 // renders with equal keys of the same prepared spheres share the view.
 struct ViewKey {
-  static constexpr int kSize = 24;
+  static constexpr int kSize = 26;
   double values[kSize] = {};
   bool light = false;  // a light's view, not a camera's
   bool operator==(const ViewKey& other) const {

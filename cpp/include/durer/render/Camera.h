@@ -1,6 +1,7 @@
 #pragma once
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "durer/Options.h"
 #include "durer/accel/SphereView.h"
@@ -28,6 +29,18 @@ struct CameraSpec {
   // Perspective: tMin and tMax bound the distance along the view axis, not along each ray (planes,
   // Blender's clip range); t stays along the ray.
   bool clipPlanes = false;
+  // Depth of field, as a thin lens (Cycles' camera): each ray leaves a point of the aperture, in the
+  // plane through the eye (perspective) or the pixel's origin (orthographic) across the view axis,
+  // toward the point where the pinhole ray meets the plane of focus, focusDistance along the view
+  // axis (world units). The aperture is a disc of radius apertureRadius (world units; 0: a pinhole,
+  // everything in focus), or with apertureBlades >= 3 the regular polygon inscribed in it, turned
+  // by apertureRotation radians (its first edge's corners at ±pi/blades); apertureRatio > 1 narrows it
+  // horizontally (an anamorphic lens's oval bokeh).
+  double apertureRadius = 0;
+  double focusDistance = 1;
+  int apertureBlades = 0;
+  double apertureRotation = 0;
+  double apertureRatio = 1;
 };
 
 void validate(const CameraSpec& spec);  // throws std::invalid_argument naming the field
@@ -52,7 +65,17 @@ class Camera {
  public:
   Camera(const CameraSpec& spec, int width, int height);
 
-  void generate(RayPacket<Real>& packet, const Real* sampleX, const Real* sampleY, int count) const;
+  // Rays through the sample positions; with a lens (hasLens) and lens samples (lensU, lensV in
+  // [0, 1)^2, one per ray), from the aperture's points they map to; without them, through its centre.
+  void generate(RayPacket<Real>& packet, const Real* sampleX, const Real* sampleY, int count,
+                const double* lensU = nullptr, const double* lensV = nullptr) const;
+
+  // Whether rays leave an aperture of some size (depth of field): no two share an origin.
+  bool hasLens() const { return m_lensRadius > 0; }
+  // How far the lens's rays through one sample position spread, in pixels, over the depths of the
+  // sphere (center, radius) along the view axis: its blur's radius (inf where it reaches the lens's
+  // plane of a perspective camera). 0 without a lens.
+  double lensBlur(const Vec3d& center, double radius) const;
 
   // Where camera rays may meet the sphere (center, radius): the box [x0, x1] x [y0, y1] of the
   // sample positions (pixels, as generate takes them) whose rays may meet it, and a lower bound on
@@ -62,7 +85,9 @@ class Camera {
   // With `disk`, also the disk about its centre's position that holds the box's positions that may
   // meet it, and its core: the positions whose ray lines pass through the sphere, shrunk by the
   // same bounds and margin (an orthographic camera: the sphere's own disk; a perspective one: the
-  // disks about the projected centre that hold its projected ellipse and lie within it).
+  // disks about the projected centre that hold its projected ellipse and lie within it). With a
+  // lens, the box and the bound hold for rays from anywhere on it (the disk is the pinhole's: lights
+  // have no lens).
   bool footprint(const Vec3d& center, double radius, SampleBox& box, double& tLow, SampleDisk* disk = nullptr) const;
 
   // The frame and image window in double, as rounded to Real (where a point lies on the image).
@@ -113,16 +138,49 @@ class Camera {
   Real m_tMin, m_tMax;   // the search's range along each ray
   bool m_clipPlanes;
   Real m_near, m_far;    // clipsAtPlanes(): the planes' distances along the view axis
+  // The aperture (CameraSpec): radius (0: none), the plane of focus's distance, horizontal scale
+  // (1 / apertureRatio), its blades (0: a disc) and their corners (x, y on the unit circle, the
+  // first again at the end).
+  double m_lensRadius, m_lensScaleX;
+  Real m_focus;
+  int m_blades;
+  std::vector<double> m_corners;
+
+  // The aperture's point for lens sample (u, v), in world units along the horizontal and up axes.
+  void lensPoint(double u, double v, Real& x, Real& y) const;
+  // How far a lens point lies from the lens's centre at most: along the horizontal axis, the up axis,
+  // and either (with room for their rounding); the largest lean of a lens ray off the pinhole ray's
+  // direction it replaces, as a slope (the reach over the focus distance).
+  double lensReachX() const { return m_lensRadius * m_lensScaleX * (1 + 1e-6); }
+  double lensReachY() const { return m_lensRadius * (1 + 1e-6); }
+  double lensReach() const { return std::max(lensReachX(), lensReachY()); }
+  double lensSlope() const { return lensReach() / static_cast<double>(m_focus); }
+  // A lens ray's shift off the pinhole ray of its sample position, per unit of its lens point's
+  // distance from the centre, at most over the depths [near, far] along the view axis: at unit
+  // distance for a perspective camera (|1/z - 1/focus|; inf from the lens's plane on), in world
+  // units for an orthographic one (|1 - z/focus|).
+  double lensShift(double near, double far) const;
+  // Widens a footprint's box by dx, dy (image-plane units: world units orthographic, at unit distance
+  // perspective) on each side.
+  static void widen(SampleBox& box, double dx, double dy, const ParallelProjection& image) {
+    box.x0 -= dx / image.pixelWidth, box.x1 += dx / image.pixelWidth;
+    box.y0 -= dy / image.pixelHeight, box.y1 += dy / image.pixelHeight;
+  }
 };
 
 // Inline so that render kernels can inline (and clone) it.
 template <typename Real>
-inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX, const Real* sampleY, int count) const {
+inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX, const Real* sampleY, int count,
+                                   const double* lensU, const double* lensV) const {
+  const bool lens = lensU != nullptr && hasLens();
   packet.count = count;
   packet.tMin = m_tMin;
   packet.tMax = m_tMax;
-  packet.commonOrigin = m_perspective;
-  packet.coherent = true;
+  packet.commonOrigin = m_perspective && !lens;
+  // A lens's rays spread over the aperture from the start: where no view serves them (the scene's
+  // own spheres have the camera's, its footprints widened by the lens), they walk the hierarchy (or a
+  // cloud's grid) ray by ray, as shadow and mirror rays do (docs/benchmarks.md: depth of field).
+  packet.coherent = !lens;
   packet.view = nullptr;
   packet.tileWidth = 0;
   // The samples' box, over their bits: image positions are >= +0.
@@ -135,7 +193,22 @@ inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX,
   packet.sampleBox[2] = fromNonNegativeBits<Real>(y0), packet.sampleBox[3] = fromNonNegativeBits<Real>(y1);
   // Plain component arithmetic so that the loop vectorises.
   const Vec3<Real> c = m_center, f = m_forward, h = m_horizontal, u = m_up;
-  if (m_perspective) {
+  if (lens) {
+    for (int k = 0; k < count; ++k) {
+      const Real x = sampleX[k] * m_pixelWidth + m_xOffset;
+      const Real y = m_yOffset - sampleY[k] * m_pixelHeight;
+      Real lx, ly;
+      lensPoint(lensU[k], lensV[k], lx, ly);
+      const Vec3<Real> offset = lx * h + ly * u;  // from the pinhole ray's origin to the aperture's point
+      // The pinhole ray's origin, and where it meets the plane of focus, relative to it.
+      const Vec3<Real> origin = m_perspective ? c : c + x * h + y * u;
+      const Vec3<Real> focus = m_perspective ? m_focus * (f + x * h + y * u) : m_focus * f;
+      const Vec3<Real> d = focus - offset;
+      const Real inv = 1 / std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+      packet.ox[k] = origin.x + offset.x, packet.oy[k] = origin.y + offset.y, packet.oz[k] = origin.z + offset.z;
+      packet.dx[k] = d.x * inv, packet.dy[k] = d.y * inv, packet.dz[k] = d.z * inv;
+    }
+  } else if (m_perspective) {
     for (int k = 0; k < count; ++k) {
       const Real x = sampleX[k] * m_pixelWidth + m_xOffset;
       const Real y = m_yOffset - sampleY[k] * m_pixelHeight;
@@ -153,6 +226,28 @@ inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX,
       packet.dx[k] = f.x, packet.dy[k] = f.y, packet.dz[k] = f.z;
     }
   }
+}
+
+template <typename Real>
+inline void Camera<Real>::lensPoint(double u, double v, Real& x, Real& y) const {
+  double px, py;
+  if (m_blades == 0) {  // Shirley and Chiu's concentric map: the square's strata stay compact on the disc
+    const double a = 2 * u - 1, b = 2 * v - 1;
+    if (a == 0 && b == 0) {
+      px = py = 0;
+    } else {
+      const bool wide = std::fabs(a) > std::fabs(b);
+      const double r = wide ? a : b, phi = wide ? kPi / 4 * (b / a) : kPi / 2 - kPi / 4 * (a / b);
+      px = r * std::cos(phi), py = r * std::sin(phi);
+    }
+  } else {  // a corner's triangle (centre and two corners) by u, then uniform in it
+    const double scaled = u * m_blades;
+    const int corner = std::min(static_cast<int>(scaled), m_blades - 1);
+    const double s = std::sqrt(scaled - corner);  // the distance's fraction from the centre
+    const double* p = &m_corners[2 * static_cast<size_t>(corner)];
+    px = s * ((1 - v) * p[0] + v * p[2]), py = s * ((1 - v) * p[1] + v * p[3]);
+  }
+  x = static_cast<Real>(px * m_lensScaleX * m_lensRadius), y = static_cast<Real>(py * m_lensRadius);
 }
 
 }  // namespace durer

@@ -26,6 +26,19 @@ class PixelSampler {
   // per-pixel hash, which at ~10 ns a primary ray would cost as much as the tracing.
   bool centred() const { return m_kind == SamplerKind::Center || (m_kind == SamplerKind::Stratified && m_spp == 1); }
 
+  // The lens samples (Camera::generate's) of samples index[j] of the pixels with linear indices
+  // pixel[j], j < count, whatever the sampler (a centred one's too: the pixel's centre seen through
+  // the whole lens): Owen-scrambled Sobol points of their own, in an order shuffled by a key of their
+  // own, so that a pixel's lens points are a net at every power of two and paired with its positions
+  // at random (Burley 2020's padding: where a sample lies in the pixel says nothing of where it
+  // leaves the lens).
+  void lensOffsets(const uint64_t* pixel, const uint32_t* index, int count, double* u, double* v) const {
+    for (int j = 0; j < count; ++j) {
+      const uint64_t key = mixBits(pixelSeed(pixel[j]) ^ 0x6a09e667f3bcc909ull);
+      sobolPoint(index[j], static_cast<uint32_t>(key), static_cast<uint32_t>(key >> 32), u[j], v[j]);
+    }
+  }
+
   // The seeds of pixels with linear indices pixel[j], j < count, for offsets(): a pixel's hash,
   // made once for all its samples. A centred sampler's offsets read none: left as they are.
   void pixelSeeds(const uint64_t* pixel, int count, uint64_t* seed) const {
