@@ -68,7 +68,8 @@ class _Camera:
                                  "distance along the view axis)")
             focus = 1.0
         return {"aperture_radius": aperture, "focus_distance": _checks.real(focus, "focus_distance"),
-                "aperture_blades": _checks.integer(self.aperture_blades, "aperture_blades"),
+                # The core's int: its own check says which counts it takes.
+                "aperture_blades": _checks.integer(self.aperture_blades, "aperture_blades", -2**31, 2**31 - 1),
                 "aperture_rotation": _checks.real(self.aperture_rotation, "aperture_rotation"),
                 "aperture_ratio": _checks.real(self.aperture_ratio, "aperture_ratio")}
 
@@ -78,7 +79,8 @@ class _Camera:
 
     def rays(self, width: int, height: int, precision: str = "double") -> tuple[np.ndarray, np.ndarray]:
         """The pixel-centre rays: origins and unit directions, each (height, width, 3), top row
-        first, exactly as `render` generates them with spp=1."""
+        first, exactly as `render` generates them with spp=1 (through a lens, it samples the lens
+        even then: these are the rays through the lens's centre)."""
         width = _checks.image_side(width, "width")  # render's rule: the same rays
         height = _checks.image_side(height, "height")
         _checks.string(precision, "precision")

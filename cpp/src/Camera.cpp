@@ -37,8 +37,9 @@ void validate(const CameraSpec& spec) {
     fail("aperture_radius must be finite and >= 0, got " + show(spec.apertureRadius));
   }
   if (spec.apertureRadius > 0) requirePositive(spec.focusDistance, "focus_distance");
-  if (spec.apertureBlades != 0 && spec.apertureBlades < 3) {
-    fail("aperture_blades must be 0 (a disc) or at least 3, got " + std::to_string(spec.apertureBlades));
+  if (spec.apertureBlades != 0 && (spec.apertureBlades < 3 || spec.apertureBlades > kMostApertureBlades)) {
+    fail("aperture_blades must be 0 (a disc) or from 3 to " + std::to_string(kMostApertureBlades) + ", got " +
+         std::to_string(spec.apertureBlades));
   }
   requireFinite(spec.apertureRotation, "aperture_rotation");
   requirePositive(spec.apertureRatio, "aperture_ratio");
@@ -61,8 +62,7 @@ double requireRaysWithin(const CameraSpec& spec, int width, int height, const Nu
   requireWithin(maxAbs(spec.center), limits.coordinate, "center", where);
   const ImageWindow w = imageWindow(spec, width, height);
   // The farthest sample from the window's centre along each axis (the frame is orthonormal).
-  const double x = std::fmax(std::fabs(w.xOffset), std::fabs(w.xOffset + width * w.pixelWidth));
-  const double y = std::fmax(std::fabs(w.yOffset), std::fabs(w.yOffset - height * w.pixelHeight));
+  const double x = w.reachX(width), y = w.reachY(height);
   // NaN (an aspect whose product with the height overflows) fails as well as a reach beyond the limit.
   const double window = std::isnan(x + y) ? std::numeric_limits<double>::infinity() : x + y;
   const bool perspective = spec.projection == Projection::Perspective;
@@ -72,7 +72,7 @@ double requireRaysWithin(const CameraSpec& spec, int width, int height, const Nu
                 where);
   // An aperture moves the origins up to its reach off the pinhole's, and the rays aim at points up
   // to focus_distance times the window's reach (at unit distance) from the eye's plane.
-  const double lens = spec.apertureRadius > 0 ? spec.apertureRadius * std::fmax(1, 1 / spec.apertureRatio) : 0;
+  const double lens = apertureReach(spec);
   if (spec.apertureRadius > 0) {
     requireWithin(lens + (perspective ? maxAbs(spec.center) : maxAbs(spec.center) + window), limits.coordinate,
                   "aperture_radius (with center and aperture_ratio)", where);
@@ -112,16 +112,15 @@ Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
     // A ray meets the far plane at far / cos(its angle to the axis), farthest through the window's
     // farthest corner (at distance 1); 1e-6 more covers the rays' rounding in float (8 ulps). The
     // near plane's distance bounds t from below (t >= depth: the planes are >= 0, validate()).
-    const double x = std::fmax(std::fabs(window.xOffset), std::fabs(window.xOffset + width * window.pixelWidth));
-    const double y = std::fmax(std::fabs(window.yOffset), std::fabs(window.yOffset - height * window.pixelHeight));
+    const double x = window.reachX(width), y = window.reachY(height);
     double slope2 = x * x + y * y;
     if (hasLens()) {  // a lens tilts a ray by up to its reach over the focus distance more
-      const double r = std::sqrt(slope2) + m_lensRadius * std::fmax(1, m_lensScaleX) / spec.focusDistance;
+      const double r = std::sqrt(slope2) + apertureReach(spec) / spec.focusDistance;
       slope2 = r * r;
     }
     m_tMax = static_cast<Real>(spec.tMax * std::sqrt(1 + slope2) * (1 + 1e-6));
   }
-  for (int i = 0; m_blades > 0 && i <= m_blades; ++i) {  // corner i at rotation + (2i - 1) pi / blades
+  for (int i = 0; hasLens() && m_blades > 0 && i <= m_blades; ++i) {  // corner i at rotation + (2i - 1) pi / blades
     const double angle = spec.apertureRotation + (2 * i - 1) * kPi / m_blades;
     m_corners.push_back(std::cos(angle));
     m_corners.push_back(std::sin(angle));
@@ -175,8 +174,8 @@ bool seenRange(double x, double z, double r, double angle, double distance, doub
 
 template <typename Real>
 double Camera<Real>::orthographicReach(const ParallelProjection& image, const Vec3d& q, double radius) const {
-  const double window = std::max(std::fabs(image.xOffset), std::fabs(image.xOffset + m_width * image.pixelWidth)) +
-                        std::max(std::fabs(image.yOffset), std::fabs(image.yOffset - m_height * image.pixelHeight));
+  const ImageWindow w{image.pixelWidth, image.pixelHeight, image.xOffset, image.yOffset};
+  const double window = w.reachX(m_width) + w.reachY(m_height);
   return radius + kFootprintEps<Real> * (maxAbs(image.center) + window + std::fabs(q.z) + radius);
 }
 
@@ -243,21 +242,34 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
   if (hasLens()) {
     // A lens ray through the sample at x (at unit distance) meets depth z where the eye sees
     // x + L (1/z - 1/focus), L its point on the lens: the pinhole's footprint, widened by that shift
-    // over the sphere's depths; none if they reach the lens's plane. Its origin lies within the
-    // lens's reach of the eye, so its t within that of the eye's.
-    const double near = q.z - reach;
-    constexpr double inf = std::numeric_limits<double>::infinity();
-    if (!(near > 0)) {
-      box = {-inf, inf, -inf, inf};
+    // over the sphere's depths. Its origin lies within the lens's reach of the eye, so its t within
+    // that of the eye's.
+    const double near = q.z - reach, far = q.z + reach;
+    const ImageWindow w{image.pixelWidth, image.pixelHeight, image.xOffset, image.yOffset};
+    const double window = std::hypot(w.reachX(m_width), w.reachY(m_height));
+    const double origin = eps * (maxAbs(image.center) + lensReach());  // the origins' rounding, world units
+    if (near > 0) {
+      const double slack = eps * (1 + window + lensSlope()) + origin / near;
+      widen(box, lensReachX() * lensShift(near, far) + slack, lensReachY() * lensShift(near, far) + slack, image);
     } else {
-      const double spread = lensShift(near, q.z + reach);
-      const ImageWindow w{image.pixelWidth, image.pixelHeight, image.xOffset, image.yOffset};
-      const double window = std::hypot(std::max(std::fabs(w.xOffset), std::fabs(w.xOffset + m_width * w.pixelWidth)),
-                                       std::max(std::fabs(w.yOffset), std::fabs(w.yOffset - m_height * w.pixelHeight)));
-      const double slack = eps * (1 + window + lensSlope() + (maxAbs(image.center) + lensReach()) / near);
-      widen(box, lensReachX() * spread + slack, lensReachY() * spread + slack, image);
+      // Across the lens's plane the shift is unbounded; in three dimensions, such a ray lies at
+      // L (1 - z/focus) + z x across the axis at depth z in (0, far], so it meets the sphere only if
+      // x lies beyond (q - r - |L| m) / far on a side the sphere and the lens leave clear along an
+      // axis (m: the most |1 - z/focus| reaches), anywhere otherwise.
+      constexpr double inf = std::numeric_limits<double>::infinity();
+      const double most = std::max(1.0, std::fabs(1 - far / static_cast<double>(m_focus)));
+      const double slack = eps * (1 + window + lensSlope());
+      const auto range = [&](double across, double lens, double& lo, double& hi) {
+        const double low = across - (reach + origin) - lens * most, high = across + (reach + origin) + lens * most;
+        lo = low > 0 ? low / far - slack : -inf;
+        hi = high < 0 ? high / far + slack : inf;
+      };
+      range(q.x, lensReachX(), x0, x1);
+      range(q.y, lensReachY(), y0, y1);
+      box = {image.sampleX(x0) - m, image.sampleX(x1) + m, image.sampleY(y1) - m, image.sampleY(y0) + m};
     }
-    tLow -= lensReach() + eps * (maxAbs(image.center) + lensReach());
+    // Every lens ray leaves the lens's plane (to its rounding) with t at least the depth it reaches.
+    tLow = std::max(tLow - lensReach(), near) - origin;
   }
   if (disk) {  // seenRange's widening of the angles, as a radius
     const double widening = kAngleWidening * eps * distance;
@@ -276,8 +288,12 @@ double Camera<Real>::lensShift(double near, double far) const {
 
 template <typename Real>
 double Camera<Real>::lensBlur(const Vec3d& center, double radius) const {
+  if (!hasLens()) return 0;
   const ParallelProjection image = projection();
   const double depth = image.inFrame(center).z;
+  // Wholly behind the lens's plane, no ray meets it; across it, its footprint is unbounded on a side
+  // through a lens as through the pinhole (Camera::footprint): the lens adds nothing to count.
+  if (m_perspective && !(depth - radius > 0)) return 0;
   return lensReach() * lensShift(depth - radius, depth + radius) / std::min(image.pixelWidth, image.pixelHeight);
 }
 

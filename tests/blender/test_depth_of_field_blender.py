@@ -160,7 +160,7 @@ def test_the_camera_view_shows_the_cameras_depth_of_field(scene):
     zoomed[0][0] *= 2.0
     zoomed[1][1] *= 2.0
     in_zoom = viewport.region_camera(SimpleNamespace(view_matrix=view, window_matrix=zoomed, is_perspective=True),
-                                     w, h, viewport.scene_lens(scene))
+                                     w, h, viewport.camera_lens(scene.camera, depsgraph))
     assert in_zoom.aperture_radius == f12.aperture_radius == pytest.approx(0.2 / 1.5)
     assert in_zoom.focus_distance == f12.focus_distance == pytest.approx(3.0)
     core = build.make_scene(export(scene))
@@ -185,6 +185,10 @@ def test_the_camera_view_shows_the_cameras_depth_of_field(scene):
     # measured: 138 pixels lit, the brightest 0.44 (the sharp sphere's 32, at 1)
     assert (blurred > 0.02).sum() > 100 and blurred.max() < 0.6
     assert blurred.sum() == pytest.approx(sharp.sum(), rel=0.1)  # the lens moves light, keeps it: 23.0, 22.2
+    # A 3D view's Local Camera (view_draw passes its lens), here one without depth of field: in focus.
+    region = SimpleNamespace(view_matrix=view, window_matrix=window, is_perspective=True, view_perspective="CAMERA")
+    assert session.view(region, w, h, viewport.LensData()) and session.image.wait(30)
+    assert session.image.mean()[..., 0].max() == 1.0
     scene.camera.data.dof.aperture_fstop = 8.0
     session.update(bpy.context.evaluated_depsgraph_get())
     assert shown("CAMERA").max() > 0.9  # the same view restarted at f/8: a blur of 0.5 px

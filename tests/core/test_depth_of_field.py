@@ -129,6 +129,18 @@ def test_planar_depth_of_a_plane_across_the_axis_is_exact_through_the_lens():
     np.testing.assert_allclose(res.depth, 7.0, rtol=1e-6)
 
 
+def test_planar_depth_through_an_orthographic_lens_is_along_the_axis():
+    # An orthographic lens's rays lean off the axis too: t along each is longer than the depth.
+    scene = durer.Scene()
+    scene.add_plane((0, 0, 1), -7.0)
+    camera = durer.OrthographicCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), size=4.0, aperture_radius=0.5,
+                                      focus_distance=2.0)
+    planar = durer.render(scene, camera, 40, 30, spp=4, passes=("depth",), depth="planar")
+    along = durer.render(scene, camera, 40, 30, spp=4, passes=("depth",))
+    np.testing.assert_allclose(planar.depth, 7.0, rtol=1e-6)
+    assert along.depth.max() > 7.01  # the rays' t: 1 / cos of their lean
+
+
 @pytest.mark.parametrize("precision", ["double", "float"])
 def test_far_clip_plane_holds_for_rays_tilted_by_the_lens(precision):
     # A wide aperture focused near tilts the corner rays well beyond the window's corner: the search's
@@ -206,6 +218,24 @@ def test_lens_cameras_are_values():
     np.testing.assert_array_equal(bokeh(again, spp=16), bokeh(camera, spp=16))
 
 
+def test_a_camera_inside_a_cloud_keeps_its_view_through_a_small_lens():
+    # Spheres all around the eye: those behind the lens's plane cannot be met, those across it list
+    # everywhere; a lens blurring the rest by a fraction of a pixel still searches the camera's view,
+    # testing what the pinhole tests (not the hierarchy's walk: 9x more here).
+    rng = np.random.default_rng(3)
+    centers = rng.uniform(-10, 10, (50_000, 3))
+    scene = durer.Scene()
+    scene.add_spheres(centers, 0.05)
+    walked = durer.Scene()
+    walked.add_spheres(centers / 2, 0.025, transform=np.hstack([2 * np.eye(3), np.zeros((3, 1))]))
+    pinhole = durer.PerspectiveCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), fov_degrees=60)
+    lens = durer.PerspectiveCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), fov_degrees=60, aperture_radius=1e-5,
+                                   focus_distance=5.0)
+    tests = {name: durer.render(s, c, 160, 120, passes=("depth",)).stats["intersection_tests"]
+             for name, s, c in (("pinhole", scene, pinhole), ("lens", scene, lens), ("walk", walked, lens))}
+    assert tests["lens"] < 1.5 * tests["pinhole"] and tests["walk"] > 3 * tests["lens"]
+
+
 @pytest.mark.parametrize(("fields", "message"), [
     ({"aperture_radius": -0.1, "focus_distance": 1.0}, "aperture_radius"),
     ({"aperture_radius": math.nan, "focus_distance": 1.0}, "aperture_radius"),
@@ -214,6 +244,8 @@ def test_lens_cameras_are_values():
     ({"aperture_radius": 0.1, "focus_distance": math.inf}, "focus_distance"),
     ({"aperture_blades": 2}, "aperture_blades"),
     ({"aperture_blades": -3}, "aperture_blades"),
+    ({"aperture_blades": 101}, "aperture_blades"),
+    ({"aperture_blades": 2**40}, "aperture_blades"),
     ({"aperture_rotation": math.inf}, "aperture_rotation"),
     ({"aperture_ratio": 0.0}, "aperture_ratio"),
 ])

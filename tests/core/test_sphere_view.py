@@ -33,6 +33,18 @@ def test_lens_rays_find_through_the_view_what_a_hierarchy_finds(case):
 
 
 @pytest.mark.parametrize("precision", ["float", "double"])
+def test_a_perspective_camera_searching_from_negative_t_sees_behind_its_eye(precision):
+    # t_min < 0 runs each ray backwards from the eye too, where its image has no footprint: such a
+    # camera's rays walk the hierarchy, and find the spheres behind the eye as a cast does.
+    rng = np.random.default_rng(9)
+    centers = np.vstack([rng.uniform(-3, 3, (2000, 3)) + (0, 0, -10), rng.uniform(-3, 3, (20, 3)) + (0, 0, 10)])
+    radii = rng.uniform(0.05, 0.3, len(centers))
+    camera = durer.PerspectiveCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), fov_degrees=50, t_min=-30.0)
+    _, hit = assert_render_matches_cast(scene_of(centers, radii), camera, 48, 48, precision, spheres=(centers, radii))
+    assert hit.mean() > 0.5
+
+
+@pytest.mark.parametrize("precision", ["float", "double"])
 def test_a_dense_cloud_seen_from_inside_and_outside(precision):
     """10,000 spheres filling a cube: perspective views from its centre (spheres all around the eye,
     some crossing the plane through it) and from outside, and an orthographic view that also sees

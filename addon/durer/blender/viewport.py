@@ -77,11 +77,13 @@ def region_camera(region_data, width: int, height: int,
                        lens)
 
 
-def scene_lens(scene) -> LensData:
-    """The depth of field of the scene's camera, which the camera view shows as F12 renders it (its
-    aperture and focus distance are world quantities: the view's zoom leaves them)."""
-    cam_obj = scene.camera
-    return lens_data(cam_obj) if cam_obj is not None and cam_obj.type == "CAMERA" else LensData()
+def camera_lens(cam_obj, depsgraph) -> LensData:
+    """The depth of field of camera object `cam_obj` as evaluated in `depsgraph` (animated or driven
+    settings as F12 renders them), which the camera view shows (its aperture and focus distance are
+    world quantities: the view's zoom leaves them); none for no camera."""
+    if cam_obj is None or cam_obj.type != "CAMERA":
+        return LensData()
+    return lens_data(cam_obj.evaluated_get(depsgraph))
 
 
 def pass_kwargs(settings) -> dict:
@@ -205,7 +207,7 @@ class ViewportSession:
         view is the camera). A core scene whose spheres alone moved is refitted, not rebuilt."""
         try:
             data = export_depsgraph(depsgraph, with_camera=False)
-            self._lens = scene_lens(depsgraph.scene)  # a change restarts the camera view's image in `view`
+            self._lens = camera_lens(depsgraph.scene.camera, depsgraph)  # a change restarts the camera view's image
             settings = {"passes": int(depsgraph.scene.durer.samples), "seed": int(depsgraph.scene.durer.seed),
                         "ambient_occlusion": data.ambient_occlusion, **pass_kwargs(depsgraph.scene.durer)}
             if (self._kept is not None and settings == self._settings
@@ -220,13 +222,16 @@ class ViewportSession:
         self._kept, self._settings, self.error = (data, scene), settings, None
         self._view_key = None
 
-    def view(self, region_data, width: int, height: int) -> bool:
+    def view(self, region_data, width: int, height: int, lens: LensData | None = None) -> bool:
         """Show this view (a RegionView3D drawn at width x height): restart the image if the view's
         matrices or size changed since the last call, or the scene since `update` (in the camera
-        view, the scene camera's depth of field too); whether it did."""
+        view, its camera's depth of field too: `lens`, the scene camera's if None); whether it did."""
         if self._kept is None:
             return False
-        lens = self._lens if region_data.view_perspective == "CAMERA" else LensData()
+        if region_data.view_perspective != "CAMERA":
+            lens = LensData()
+        elif lens is None:
+            lens = self._lens
         key = (tuple(map(tuple, region_data.view_matrix)), tuple(map(tuple, region_data.window_matrix)),
                bool(region_data.is_perspective), width, height, lens)
         if key == self._view_key:
@@ -278,7 +283,10 @@ def view_draw(render_engine, context, depsgraph) -> None:
     uploaded only when it holds new passes."""
     current = session(render_engine)
     region = context.region
-    current.view(context.region_data, region.width, region.height)
+    space = context.space_data  # a 3D view with a Local Camera shows that camera in its camera view
+    local = space.camera if getattr(space, "use_local_camera", False) else None
+    current.view(context.region_data, region.width, region.height,
+                 None if local is None else camera_lens(local, depsgraph))
     render_engine.update_stats("", current.status())
     if current.image.running:
         render_engine.tag_redraw()

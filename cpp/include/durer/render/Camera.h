@@ -45,10 +45,23 @@ struct CameraSpec {
 
 void validate(const CameraSpec& spec);  // throws std::invalid_argument naming the field
 
+// The most blades an aperture may have (Blender's limit); more would only round the polygon further.
+constexpr int kMostApertureBlades = 100;
+
+// How far a point of the aperture lies from its centre at most (world units; 0 without a lens).
+inline double apertureReach(const CameraSpec& spec) {
+  return spec.apertureRadius > 0 ? spec.apertureRadius * std::fmax(1, 1 / spec.apertureRatio) : 0;
+}
+
 // The image plane's pixel pitch and the position of sample (0, 0) on it (at distance 1 for
 // perspective), in double: Camera<Real> rounds them to its precision.
 struct ImageWindow {
   double pixelWidth, pixelHeight, xOffset, yOffset;
+
+  // The farthest sample position of a width x height image from the window's centre, along each
+  // axis (image-plane units).
+  double reachX(int width) const { return std::fmax(std::fabs(xOffset), std::fabs(xOffset + width * pixelWidth)); }
+  double reachY(int height) const { return std::fmax(std::fabs(yOffset), std::fabs(yOffset - height * pixelHeight)); }
 };
 ImageWindow imageWindow(const CameraSpec& spec, int width, int height);
 
@@ -73,8 +86,9 @@ class Camera {
   // Whether rays leave an aperture of some size (depth of field): no two share an origin.
   bool hasLens() const { return m_lensRadius > 0; }
   // How far the lens's rays through one sample position spread, in pixels, over the depths of the
-  // sphere (center, radius) along the view axis: its blur's radius (inf where it reaches the lens's
-  // plane of a perspective camera). 0 without a lens.
+  // sphere (center, radius) along the view axis: its blur's radius (0 where it reaches the lens's
+  // plane of a perspective camera: its footprint is unbounded with or without a lens). 0 without a
+  // lens.
   double lensBlur(const Vec3d& center, double radius) const;
 
   // Where camera rays may meet the sphere (center, radius): the box [x0, x1] x [y0, y1] of the
@@ -117,9 +131,10 @@ class Camera {
   }
 
   // The factor that turns t along a unit camera ray with direction (dx, dy, dz) into the distance
-  // along the view axis: the cosine to it for perspective rays, exactly 1 for orthographic ones.
+  // along the view axis: the cosine to it for perspective rays and a lens's, exactly 1 for
+  // orthographic pinhole ones (along the axis).
   Real planarScale(Real dx, Real dy, Real dz) const {
-    return m_perspective ? dx * m_forward.x + dy * m_forward.y + dz * m_forward.z : Real(1);
+    return m_perspective || hasLens() ? dx * m_forward.x + dy * m_forward.y + dz * m_forward.z : Real(1);
   }
 
  private:
@@ -140,7 +155,7 @@ class Camera {
   Real m_near, m_far;    // clipsAtPlanes(): the planes' distances along the view axis
   // The aperture (CameraSpec): radius (0: none), the plane of focus's distance, horizontal scale
   // (1 / apertureRatio), its blades (0: a disc) and their corners (x, y on the unit circle, the
-  // first again at the end).
+  // first again at the end; none without a lens).
   double m_lensRadius, m_lensScaleX;
   Real m_focus;
   int m_blades;
@@ -153,7 +168,7 @@ class Camera {
   // direction it replaces, as a slope (the reach over the focus distance).
   double lensReachX() const { return m_lensRadius * m_lensScaleX * (1 + 1e-6); }
   double lensReachY() const { return m_lensRadius * (1 + 1e-6); }
-  double lensReach() const { return std::max(lensReachX(), lensReachY()); }
+  double lensReach() const { return std::max(lensReachX(), lensReachY()); }  // apertureReach, with room
   double lensSlope() const { return lensReach() / static_cast<double>(m_focus); }
   // A lens ray's shift off the pinhole ray of its sample position, per unit of its lens point's
   // distance from the centre, at most over the depths [near, far] along the view axis: at unit

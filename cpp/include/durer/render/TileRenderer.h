@@ -308,7 +308,8 @@ class TileRenderer {
   // pixel without covering it, which the samples may have missed (adaptive sampling's geometric
   // edges, AdaptiveSampler). A footprint is the ellipse inscribed in the sphere's sample box
   // (Camera::footprint): the disk itself seen orthographically, close to the projected ellipse in
-  // perspective. Without a view (none made) nothing is marked.
+  // perspective; through a lens, widened by the sphere's blur (the rim where its blurred image may
+  // begin). Without a view (none made) nothing is marked.
   void markSilhouettes(int x0, int y0, int w, int h, const float* farthest, bool* crossed) const {
     if (m_view == nullptr) return;
     const float deepest = *std::max_element(farthest, farthest + w * h);
@@ -633,7 +634,10 @@ class TileRenderer {
   static std::shared_ptr<const SphereView<Real>> viewOf(const SphereSet<Real>& spheres, const CameraSpec& spec,
                                                         const RenderSettings& settings, const Camera<Real>& camera) {
     if (spheres.size() == 0) return nullptr;  // a camera's view pays from one sphere (SphereView::kMinLightSpheres)
-    if (camera.hasLens() && meanLensBlur(spheres, camera) > kMostLensBlurPixels) return nullptr;
+    // A perspective camera's rays searched from t < 0 also run backwards from the eye, where no
+    // footprint on its image looks.
+    if (spec.projection == Projection::Perspective && spec.tMin < 0) return nullptr;
+    if (camera.hasLens() && meanLensBlur(spheres, camera, settings) > kMostLensBlurPixels) return nullptr;
     const bool whole = int64_t(settings.width) * settings.height <= kMostWholeViewPixels;
     const RenderSettings::Region seen = whole ? RenderSettings::Region{0, 0, settings.width, settings.height}
                                               : sampledRegion(settings);
@@ -654,14 +658,17 @@ class TileRenderer {
   static constexpr double kMostLensBlurPixels = 3;
 
   // The mean of the spheres' blur radii through the camera's lens (Camera::lensBlur), over up to
-  // 1,024 of them spread through the set.
-  static double meanLensBlur(const SphereSet<Real>& spheres, const Camera<Real>& camera) {
+  // 1,024 of them spread through the set, each at most the image's width and height (a footprint
+  // wider than the image costs no more).
+  static double meanLensBlur(const SphereSet<Real>& spheres, const Camera<Real>& camera,
+                             const RenderSettings& settings) {
     const size_t count = spheres.size(), step = std::max<size_t>(1, count / 1024);
+    const double image = double(settings.width) + double(settings.height);
     double sum = 0;
     size_t taken = 0;
     for (size_t i = 0; i < count; i += step, ++taken) {
       const Sphere<Real>& sphere = spheres.primitive(i);
-      sum += std::min(camera.lensBlur(Vec3d(sphere.center), double(sphere.radius)), 1e9);
+      sum += std::min(camera.lensBlur(Vec3d(sphere.center), double(sphere.radius)), image);
     }
     return sum / double(taken);
   }
