@@ -118,27 +118,20 @@ def test_orthographic_blur_grows_with_the_distance_from_the_plane_of_focus():
     assert (side // 2 - ys.min()) * pixel == pytest.approx(blur, abs=RADIUS + pixel)
 
 
-def test_planar_depth_of_a_plane_across_the_axis_is_exact_through_the_lens():
+@pytest.mark.parametrize("camera", [
+    durer.PerspectiveCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), fov_degrees=60, aperture_radius=0.5, focus_distance=2.0),
+    durer.OrthographicCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), size=4.0, aperture_radius=0.5, focus_distance=2.0),
+], ids=["perspective", "orthographic"])
+def test_planar_depth_of_a_plane_across_the_axis_is_exact_through_the_lens(camera):
     # Every ray leaves the lens's plane, so a plane parallel to it lies at the same distance along
-    # the axis from all of them, whatever the lens point: Blender's Depth is exact, not blurred.
+    # the axis from all of them, whatever the lens point: Blender's Depth is exact, not blurred;
+    # t along the leaning rays is longer (an orthographic lens's rays lean too).
     scene = durer.Scene()
     scene.add_plane((0, 0, 1), -7.0)
-    camera = durer.PerspectiveCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), fov_degrees=60, aperture_radius=0.5,
-                                     focus_distance=2.0)
-    res = durer.render(scene, camera, 40, 30, spp=4, passes=("depth",), depth="planar")
-    np.testing.assert_allclose(res.depth, 7.0, rtol=1e-6)
-
-
-def test_planar_depth_through_an_orthographic_lens_is_along_the_axis():
-    # An orthographic lens's rays lean off the axis too: t along each is longer than the depth.
-    scene = durer.Scene()
-    scene.add_plane((0, 0, 1), -7.0)
-    camera = durer.OrthographicCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), size=4.0, aperture_radius=0.5,
-                                      focus_distance=2.0)
     planar = durer.render(scene, camera, 40, 30, spp=4, passes=("depth",), depth="planar")
     along = durer.render(scene, camera, 40, 30, spp=4, passes=("depth",))
     np.testing.assert_allclose(planar.depth, 7.0, rtol=1e-6)
-    assert along.depth.max() > 7.01  # the rays' t: 1 / cos of their lean
+    assert along.depth.max() > 7.01  # 1 / cos of their lean
 
 
 @pytest.mark.parametrize("precision", ["double", "float"])
