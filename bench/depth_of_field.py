@@ -4,7 +4,7 @@ walk of the hierarchy, on the same spheres and rays.
 
     python bench/depth_of_field.py [--spheres N] [--runs N] [--threads 2] [--markdown FILE]
 
-The scene: N spheres (default 1,000,000, radius 0.02; 1,000 of radius 0.2 with --spheres 1000)
+The scene: N spheres (default 1,000,000; radius 0.02, or 0.2 below 100,000 spheres)
 uniform in the cube [-10, 10]^3 (seeded), a perspective camera 30 units in front of it focused on
 its centre (45° field of view), 1920x1080, depth only, 1 spp. Each lens row renders the spheres as
 given (`view`: the camera's view of them, made while the spheres' mean blur is at most

@@ -174,7 +174,7 @@ bool seenRange(double x, double z, double r, double angle, double distance, doub
 
 template <typename Real>
 double Camera<Real>::orthographicReach(const ParallelProjection& image, const Vec3d& q, double radius) const {
-  const ImageWindow w{image.pixelWidth, image.pixelHeight, image.xOffset, image.yOffset};
+  const ImageWindow w = window();
   const double window = w.reachX(m_width) + w.reachY(m_height);
   return radius + kFootprintEps<Real> * (maxAbs(image.center) + window + std::fabs(q.z) + radius);
 }
@@ -245,7 +245,7 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
     // over the sphere's depths. Its origin lies within the lens's reach of the eye, so its t within
     // that of the eye's.
     const double near = q.z - reach, far = q.z + reach;
-    const ImageWindow w{image.pixelWidth, image.pixelHeight, image.xOffset, image.yOffset};
+    const ImageWindow w = window();
     const double window = std::hypot(w.reachX(m_width), w.reachY(m_height));
     const double origin = eps * (maxAbs(image.center) + lensReach());  // the origins' rounding, world units
     if (near > 0) {

@@ -54,7 +54,7 @@ def test_a_point_out_of_focus_spreads_over_the_aperture_disc(precision):
     # The light is conserved: the image holds the sphere's own disc (MC noise of 256 samples a pixel).
     assert image.sum() * PIXEL**2 == pytest.approx(math.pi * OWN**2, rel=0.02)
     # Lit pixels lie within the blur's radius plus the sphere's own and half a pixel's diagonal, and
-    # reach it: the disc is BLUR across, 29 pixels here where the sphere alone covers one.
+    # reach it: the disc's radius is BLUR, 29 pixels here where the sphere alone covers one.
     reach = (BLUR + OWN + PIXEL * math.sqrt(0.5)) / BLUR
     left, right, down, up = extent(image)
     for end in (-left, right, -down, up):
@@ -149,8 +149,8 @@ def test_far_clip_plane_holds_for_rays_tilted_by_the_lens(precision):
 
 
 def test_the_render_meets_the_nearest_sphere_along_each_lens_ray():
-    # Spheres overlapping in depth, a wide lens: the hierarchy's walk for rays that share neither
-    # origin nor direction. Each pixel's one sample at its centre (sampler "center") aims at the
+    # Spheres overlapping in depth, a wide lens: the camera's view, its footprints widened by 2.2
+    # pixels on average, for rays that share neither origin nor direction. Each pixel's one sample at its centre (sampler "center") aims at the
     # pinhole ray's point on the plane of focus; from the hit point the normal gives, the ray's origin
     # is where the line through the two meets the lens's plane. It lies within the aperture, and a
     # cast of that ray meets the same sphere at the same t (to the normal pass's float rounding).

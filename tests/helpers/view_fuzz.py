@@ -90,8 +90,9 @@ def view_cases(draw):
 @st.composite
 def lens_cases(draw):
     """Sphere clouds as view_cases() draws them, denser (200 to 3,000 spheres) and in larger images,
-    seen through a lens (depth of field): an aperture from a thousandth of the cloud's size to three
-    times it, focused before, in or beyond the cloud, any blades, turn and ratio."""
+    seen through a lens (depth of field) focused before, in or beyond the cloud, any blades, turn and
+    ratio, its aperture chosen for a mean blur of 0.01 to 4 pixels: mostly through the camera's view
+    (which serves a lens up to 3), sometimes past it."""
     return _cloud_case(draw, draw(st.integers(200, 3000)), (16, 64), lens=True)
 
 
@@ -111,27 +112,35 @@ def _cloud_case(draw, n: int, sides: tuple[int, int], lens: bool = False):
     up = rng.normal(size=3)
     shift = tuple(draw(st.sampled_from([(0.0, 0.0), (0.3, -0.2)])))
     aspect = draw(st.sampled_from([1.0, 0.75]))
+    width, height = draw(st.integers(*sides)), draw(st.integers(*sides))
+    fov = draw(st.floats(5, 150))
+    spheres = cloud_spheres(rng, n, scale, offset, radius)
     common = dict(shift=shift, pixel_aspect=aspect)
     if lens:
-        distance = float(np.linalg.norm(offset - center)) + scale
-        common.update(aperture_radius=scale * 10.0 ** draw(st.floats(-3, 0.5)),
-                      focus_distance=distance * 10.0 ** draw(st.floats(-1.5, 1)),
+        focus = (float(np.linalg.norm(offset - center)) + scale) * 10.0 ** draw(st.floats(-1.5, 1))
+        # A pixel's width (at unit distance, or in world units) and each sphere's shift per unit of
+        # aperture (the lens's blur, Camera::lensBlur, at the sphere's centre).
+        extent = 2 * math.tan(math.radians(fov / 2)) if perspective else 2.5 * scale
+        pixel = extent / max(width, height * aspect) * min(1.0, aspect)
+        depth = (spheres[0] - center) @ direction
+        shift_of = (np.where(depth - spheres[1] > 0, np.abs(1 / np.maximum(depth, 1e-300) - 1 / focus), 0.0)
+                    if perspective else np.abs(1 - depth / focus))
+        blur = 10.0 ** draw(st.floats(-2, 0.6))
+        aperture = blur * pixel / max(float(np.mean(shift_of)), 1e-300)
+        common.update(aperture_radius=min(aperture, 1e3 * scale), focus_distance=focus,
                       aperture_blades=draw(st.sampled_from([0, 3, 5, 8])),
                       aperture_rotation=draw(st.floats(0, 2 * math.pi)),
                       aperture_ratio=draw(st.sampled_from([1.0, 0.5, 2.0])))
     if perspective:
-        camera = durer.PerspectiveCamera(tuple(center), tuple(direction), tuple(up),
-                                         fov_degrees=draw(st.floats(5, 150)), **common)
+        camera = durer.PerspectiveCamera(tuple(center), tuple(direction), tuple(up), fov_degrees=fov, **common)
     else:
         camera = durer.OrthographicCamera(tuple(center), tuple(direction), tuple(up), size=2.5 * scale,
                                           t_min=draw(st.sampled_from([-math.inf, 0.0])), **common)
-    width, height = draw(st.integers(*sides)), draw(st.integers(*sides))
     region = None
     if draw(st.booleans()):
         x, y = draw(st.integers(0, width - 1)), draw(st.integers(0, height - 1))
         region = (x, y, draw(st.integers(1, width - x)), draw(st.integers(1, height - y)))
     precision = draw(st.sampled_from(["float", "double"]))
-    spheres = cloud_spheres(rng, n, scale, offset, radius)
     # One-sided (a point cloud's): an eye among them passes the insides of those it starts in.
     one_sided = draw(st.booleans())
     return scene_of(*spheres, one_sided), (*spheres, one_sided), camera, width, height, precision, region

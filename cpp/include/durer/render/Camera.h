@@ -161,6 +161,8 @@ class Camera {
   int m_blades;
   std::vector<double> m_corners;
 
+  // The image window as rounded to Real, in double (projection()'s).
+  ImageWindow window() const { return {m_pixelWidth, m_pixelHeight, m_xOffset, m_yOffset}; }
   // The aperture's point for lens sample (u, v), in world units along the horizontal and up axes.
   void lensPoint(double u, double v, Real& x, Real& y) const;
   // How far a lens point lies from the lens's centre at most: along the horizontal axis, the up axis,
@@ -192,9 +194,10 @@ inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX,
   packet.tMin = m_tMin;
   packet.tMax = m_tMax;
   packet.commonOrigin = m_perspective && !lens;
-  // A lens's rays spread over the aperture from the start: where no view serves them (the scene's
-  // own spheres have the camera's, its footprints widened by the lens), they walk the hierarchy (or a
-  // cloud's grid) ray by ray, as shadow and mirror rays do (docs/benchmarks.md: depth of field).
+  // A lens's rays spread over the aperture from the start: where no view serves them (the camera's
+  // view of the scene's own spheres does, its footprints widened by their blur, while that blur is
+  // small: TileRenderer::viewOf), they walk the hierarchy (or a cloud's grid) ray by ray, as shadow
+  // and mirror rays do (docs/benchmarks.md: depth of field).
   packet.coherent = !lens;
   packet.view = nullptr;
   packet.tileWidth = 0;

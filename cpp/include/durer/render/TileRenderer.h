@@ -658,11 +658,11 @@ class TileRenderer {
   static constexpr double kMostLensBlurPixels = 3;
 
   // The mean of the spheres' blur radii through the camera's lens (Camera::lensBlur), over up to
-  // 1,024 of them spread through the set, each at most the image's width and height (a footprint
+  // 1,024 of them spread through the set, each at most the image's width plus height (a footprint
   // wider than the image costs no more).
   static double meanLensBlur(const SphereSet<Real>& spheres, const Camera<Real>& camera,
                              const RenderSettings& settings) {
-    const size_t count = spheres.size(), step = std::max<size_t>(1, count / 1024);
+    const size_t count = spheres.size(), step = (count + 1023) / 1024;
     const double image = double(settings.width) + double(settings.height);
     double sum = 0;
     size_t taken = 0;
