@@ -64,41 +64,9 @@ def test_workers_render_frames_identical_to_sequential_and_resume(animation, tmp
     assert (tmp_path / "out" / "f_0001.png").stat().st_mtime_ns == stamp
 
 
-def test_multilayer_exr_with_passes_in_the_files_own_format_equals_sequential(client, tmp_path):
-    blend = animated_blend(tmp_path / "passes.blend", frames=3)
-    bpy.ops.wm.open_mainfile(filepath=str(blend))
-    sc = bpy.context.scene
-    sc.view_layers[0].use_pass_z = sc.view_layers[0].use_pass_normal = True
-    sc.view_layers[0].use_pass_diffuse_color = True  # a pass Dürer does not write: warned, once a batch
-    settings = sc.render.image_settings
-    settings.media_type, settings.file_format = "MULTI_LAYER_IMAGE", "OPEN_EXR_MULTILAYER"
-    settings.exr_codec, settings.color_depth = "NONE", "32"
-    bpy.ops.wm.save_mainfile()
-    # No extension: the file's own format (multilayer EXR), named by Blender's frame_path.
-    warned = []
-    sequential = batch.render_file(blend, frames="1-3", output=tmp_path / "seq" / "f_##", on_warning=warned.append)
-    report = render_frames(blend, "1-3", tmp_path / "dask" / "f_##", client=client, progress=False, log=None)
-    assert sorted(report.written) == [1, 2, 3] and not report.failed
-    assert warned == report.warnings == ["View layer 'ViewLayer' asks for passes Dürer does not write: Diffuse Color"]
-    assert [f.name for f in sequential] == ["f_01.exr", "f_02.exr", "f_03.exr"]
-    for f in sequential:
-        assert_same_image_file(tmp_path / "dask" / f.name, f)
-        assert is_complete(tmp_path / "dask" / f.name)
-
-
-def test_a_simulation_renders_the_same_frames_on_workers_as_in_one_process(client, tmp_path):
-    """Falling particles, not baked: a worker given the frames in another order simulates them from
-    the cache baked on the client, so every frame is the sequential path's, bit for bit."""
-    blend = falling_particles_blend(tmp_path / "particles.blend")
-    sequential = batch.render_file(blend, frames="1-8", output=tmp_path / "seq" / "f_#.png")
-    assert len({np.asarray(Image.open(f)).tobytes() for f in sequential}) == 8
-    report = render_frames(blend, "8,3,6,1,5,2,7,4", tmp_path / "dask" / "f_#.png", client=client, progress=False,
-                           log=None)
-    assert sorted(report.written) == list(range(1, 9)) and not report.failed
-    for f in sequential:
-        assert_same_image_file(tmp_path / "dask" / f.name, f)
-
-
+# The bakes below run before any test of this module starts the session's local cluster: Blender's
+# bake operators must not run beside other Python threads (the cluster's event loop in this
+# process; a simulation zone's bake beside it crashed the interpreter once in CI).
 def test_the_shipped_copy_holds_the_bake_even_of_a_disk_cache(tmp_path):
     """A simulation set to cache on disk (beside the user's file, where workers cannot read it) is
     baked into the shipped copy itself; hair without dynamics is no simulation to bake."""
@@ -139,6 +107,41 @@ def test_the_shipped_copy_holds_the_bake_of_a_simulation_zone(tmp_path):
     z = np.empty(len(cloud.points) * 3, np.float32)
     cloud.attributes["position"].data.foreach_get("vector", z)
     np.testing.assert_allclose(z[2::3], 5 - 5 * 0.05, atol=1e-5)
+
+
+def test_multilayer_exr_with_passes_in_the_files_own_format_equals_sequential(client, tmp_path):
+    blend = animated_blend(tmp_path / "passes.blend", frames=3)
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+    sc = bpy.context.scene
+    sc.view_layers[0].use_pass_z = sc.view_layers[0].use_pass_normal = True
+    sc.view_layers[0].use_pass_diffuse_color = True  # a pass Dürer does not write: warned, once a batch
+    settings = sc.render.image_settings
+    settings.media_type, settings.file_format = "MULTI_LAYER_IMAGE", "OPEN_EXR_MULTILAYER"
+    settings.exr_codec, settings.color_depth = "NONE", "32"
+    bpy.ops.wm.save_mainfile()
+    # No extension: the file's own format (multilayer EXR), named by Blender's frame_path.
+    warned = []
+    sequential = batch.render_file(blend, frames="1-3", output=tmp_path / "seq" / "f_##", on_warning=warned.append)
+    report = render_frames(blend, "1-3", tmp_path / "dask" / "f_##", client=client, progress=False, log=None)
+    assert sorted(report.written) == [1, 2, 3] and not report.failed
+    assert warned == report.warnings == ["View layer 'ViewLayer' asks for passes Dürer does not write: Diffuse Color"]
+    assert [f.name for f in sequential] == ["f_01.exr", "f_02.exr", "f_03.exr"]
+    for f in sequential:
+        assert_same_image_file(tmp_path / "dask" / f.name, f)
+        assert is_complete(tmp_path / "dask" / f.name)
+
+
+def test_a_simulation_renders_the_same_frames_on_workers_as_in_one_process(client, tmp_path):
+    """Falling particles, not baked: a worker given the frames in another order simulates them from
+    the cache baked on the client, so every frame is the sequential path's, bit for bit."""
+    blend = falling_particles_blend(tmp_path / "particles.blend")
+    sequential = batch.render_file(blend, frames="1-8", output=tmp_path / "seq" / "f_#.png")
+    assert len({np.asarray(Image.open(f)).tobytes() for f in sequential}) == 8
+    report = render_frames(blend, "8,3,6,1,5,2,7,4", tmp_path / "dask" / "f_#.png", client=client, progress=False,
+                           log=None)
+    assert sorted(report.written) == list(range(1, 9)) and not report.failed
+    for f in sequential:
+        assert_same_image_file(tmp_path / "dask" / f.name, f)
 
 
 def test_existing_scheduler_and_workers_started_as_processes(animation, external_scheduler, tmp_path):
