@@ -20,7 +20,7 @@ import psutil
 
 from durer.blender import batch
 from durer.blender.batch import unbaked_point_caches
-from durer.distributed.frames import _self_contained_copy, render_frames
+from durer.distributed.frames import _self_contained_copy, prepare_frames, render_frames, run_frames
 from durer.distributed.output import TEMP_SUFFIX, is_complete
 
 from helpers.distributed import TIMEOUT, assert_same_image_file
@@ -295,6 +295,20 @@ def test_linked_library_data_travels_with_the_file(client, tmp_path):
     linked = [block.name for name in dir(bpy.data) if isinstance(getattr(bpy.data, name), bpy.types.bpy_prop_collection)
               for block in getattr(bpy.data, name) if getattr(block, "library", None) is not None]
     assert "Red" in bpy.data.objects and not linked and not list(bpy.data.libraries)
+
+
+def test_frames_prepared_without_a_cluster_render_on_one_started_after(animation, client, tmp_path):
+    """prepare_frames needs no cluster (as the render command runs it, before starting one): the
+    outputs named, the copy made; run_frames then renders what render_frames renders."""
+    blend, sequential = animation
+    job = prepare_frames(blend, "2,3", tmp_path / "f_####.png")
+    assert job.targets == {2: tmp_path / "f_0002.png", 3: tmp_path / "f_0003.png"}
+    assert job.payload.startswith(b"BLENDER") and job.blend_name == blend.name
+    assert not any(path.exists() for path in job.targets.values())
+    report = run_frames(job, client=client, progress=False, log=None)
+    assert sorted(report.written) == [2, 3]
+    for frame in (2, 3):
+        assert_same_image_file(tmp_path / f"f_{frame:04d}.png", sequential[frame])
 
 
 def test_a_finished_run_resumes_to_nothing_and_no_resume_renders_again(animation, client, tmp_path):

@@ -487,7 +487,7 @@ def _main_distributed(args: argparse.Namespace, prog: str) -> int:
     """--workers / --scheduler: the frames as Dask tasks (durer.distributed.frames)."""
     try:
         from ..distributed.client import cluster, require_distributed
-        from ..distributed.frames import render_frames
+        from ..distributed.frames import prepare_frames, run_frames
 
         require_distributed()
         if args.workers is not None and args.workers < 0:
@@ -501,11 +501,12 @@ def _main_distributed(args: argparse.Namespace, prog: str) -> int:
         if args.output is not None:  # a file standing where its folder goes; "//": beside the .blend
             output = args.output
             make_folder_for(blend.resolve().parent / output[2:] if output.startswith("//") else Path(output).expanduser())
+        # The file is prepared before a cluster starts: its simulations' bakes are Blender operators,
+        # which must not run beside a local cluster's threads in this process.
+        job = prepare_frames(args.file, frames=args.frames, output=args.output, samples=args.samples,
+                             scene=args.scene, threads=args.threads)
         with cluster(args.scheduler, args.workers or None) as client:
-            report = render_frames(
-                args.file, frames=args.frames, output=args.output, samples=args.samples, client=client,
-                scene=args.scene, resume=args.resume is not False, threads=args.threads, progress=not args.quiet,
-            )
+            report = run_frames(job, client=client, resume=args.resume is not False, progress=not args.quiet)
     except (OSError, ValueError, ImportError) as exc:  # OSError: a missing file, an unreachable scheduler
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2

@@ -39,6 +39,17 @@ class FramesReport:
     summary: str = ""
 
 
+@dataclass
+class FramesJob:
+    """The frames of a .blend file as `prepare_frames` leaves them for a cluster: each frame's output
+    file and the file's self-contained copy, which goes to the cluster once."""
+
+    targets: dict[int, Path]  # frame -> its output file
+    payload: bytes            # the .blend bytes every worker opens
+    scene: str                # the scene rendered
+    blend_name: str           # the user's file's name (the workers' copy keeps it)
+
+
 def render_frames(
     path: str | Path,
     frames: Any = None,
@@ -52,7 +63,8 @@ def render_frames(
     progress: bool = True,
     log: TextIO | None = sys.stderr,
 ) -> FramesReport:
-    """Render frames of a .blend file on the cluster of `client` (a `distributed.Client`).
+    """Render frames of a .blend file on the cluster of `client` (a `distributed.Client`):
+    `prepare_frames`, then `run_frames`.
 
     frames, output, samples and scene as in `durer.blender.batch.render_file`; every format it
     writes (PNG, EXR with the view layer's passes, ...) comes out with the same pixels and passes,
@@ -63,7 +75,27 @@ def render_frames(
     the renders warn of (skipped geometry, materials Dürer approximates) goes to `warnings` and
     `log`, each message once. One progress bar counts frames (rate and ETA); `summary` is the
     closing line, also written to `log`.
+
+    The preparation runs Blender's operators (the copy's simulation bakes), which must not run
+    beside other Python threads: with a local cluster in this process, call `prepare_frames` before
+    starting it, then `run_frames` (as `python -m durer render --workers` does).
     """
+    job = prepare_frames(path, frames, output, samples, scene=scene, threads=threads)
+    return run_frames(job, client=client, resume=resume, progress=progress, log=log)
+
+
+def prepare_frames(
+    path: str | Path,
+    frames: Any = None,
+    output: str | Path | None = None,
+    samples: int | None = None,
+    *,
+    scene: str | None = None,
+    threads: int | None = None,
+) -> FramesJob:
+    """Open the .blend file in this process, apply the settings (as `render_frames` takes them), name
+    each frame's output file and make the file's self-contained copy (external data packed, linked
+    data made local, simulations baked into it), all without a cluster."""
     from ..blender import batch
 
     blend = Path(path).expanduser().resolve()
@@ -73,8 +105,14 @@ def render_frames(
         frame_list = [sc.frame_current]
     explicit = batch.configure_output(sc, output, len(frame_list))
     targets = {frame: batch.frame_target(sc, explicit, frame) for frame in frame_list}
-    payload = _self_contained_copy(max(frame_list))
+    return FramesJob(targets, _self_contained_copy(max(frame_list)), sc.name, blend.name)
 
+
+def run_frames(
+    job: FramesJob, *, client: Any, resume: bool = True, progress: bool = True, log: TextIO | None = sys.stderr
+) -> FramesReport:
+    """Render a prepared job's frames on the cluster of `client`, as `render_frames` says."""
+    targets, payload = job.targets, job.payload
     report = FramesReport()
     todo = []
     for frame, target in targets.items():
@@ -87,10 +125,10 @@ def render_frames(
     try:
         if todo:
             shared = client.scatter(payload, hash=False)
-            job = dict(digest=hashlib.sha256(payload).hexdigest(), scene=sc.name, blend_name=blend.name)
+            task = dict(digest=hashlib.sha256(payload).hexdigest(), scene=job.scene, blend_name=job.blend_name)
 
             def submit(i: int) -> Any:
-                return client.submit(render_frame_task, shared, todo[i], targets[todo[i]].suffix, pure=False, **job)
+                return client.submit(render_frame_task, shared, todo[i], targets[todo[i]].suffix, pure=False, **task)
 
             for i, future in stream(client, len(todo), submit, ordered=False):
                 frame = todo[i]
