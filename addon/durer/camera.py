@@ -28,8 +28,8 @@ class _Camera:
     ray leaves a point of the aperture — in the plane through `center` across the view axis, around
     the eye (perspective) or the pixel's own origin (orthographic) — toward the point where the
     pinhole ray meets the plane of focus, `focus_distance` along the view axis (required with an
-    aperture). The aperture is a disc, or with `aperture_blades` >= 3 the regular polygon inscribed
-    in it turned by `aperture_rotation` radians; `aperture_ratio` > 1 narrows it horizontally (an
+    aperture). The aperture is a disc, or with `aperture_blades` from 3 to 100 the regular polygon
+    inscribed in it turned by `aperture_rotation` radians; `aperture_ratio` > 1 narrows it horizontally (an
     anamorphic lens's oval bokeh). Anti-aliasing samples sample the lens too: more samples, less
     noise in the blur. `rays` gives the pinhole rays (through the lens's centre)."""
 

@@ -171,7 +171,7 @@ class TileRenderer {
     for (int row = 0, k = 0; row < h; ++row) {
       for (int col = 0; col < w; ++col, ++k) {
         pixelX[k] = x0 + col, pixelY[k] = y0 + row;
-        pixels[k] = static_cast<uint64_t>(y0 + row) * m_settings.width + (x0 + col);
+        pixels[k] = pixelIndex(x0 + col, y0 + row);
       }
     }
     m_sampler.pixelSeeds(pixels, count, seeds);  // none for a centred sampler: its offsets read none
@@ -256,9 +256,13 @@ class TileRenderer {
     }
   };
 
+  // Pixel (x, y)'s linear index in the whole image: what its samples' hashes are keyed by
+  // (PixelSampler), whatever region or tile renders it.
+  uint64_t pixelIndex(int x, int y) const { return static_cast<uint64_t>(y) * m_settings.width + x; }
+
   // The Sobol scrambling seeds of pixel (x, y) (PixelSampler::sobolSeeds), for sobolPositions.
   void sobolSeeds(int x, int y, uint32_t& order, uint32_t& points) const {
-    m_sampler.sobolSeeds(static_cast<uint64_t>(y) * m_settings.width + x, order, points);
+    m_sampler.sobolSeeds(pixelIndex(x, y), order, points);
   }
 
   // Positions in the image of Sobol samples indices[j] of pixels (x[j], y[j]) with those seeds, for
@@ -272,7 +276,7 @@ class TileRenderer {
     for (int j = 0; j < count; ++j) sampleX[j] = static_cast<Real>(x[j] + u[j]), sampleY[j] = static_cast<Real>(y[j] + v[j]);
     if (!m_camera.hasLens()) return;
     alignas(64) uint64_t pixels[kPacketSize];
-    for (int j = 0; j < count; ++j) pixels[j] = static_cast<uint64_t>(y[j]) * m_settings.width + x[j];
+    for (int j = 0; j < count; ++j) pixels[j] = pixelIndex(x[j], y[j]);
     m_sampler.lensOffsets(pixels, indices, count, lensU, lensV);
   }
 
