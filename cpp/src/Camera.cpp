@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <type_traits>
 
 #include "durer/math/Float.h"
 #include "durer/scene/Validate.h"
@@ -108,6 +109,8 @@ Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
   m_pixelHeight = static_cast<Real>(window.pixelHeight);
   m_xOffset = static_cast<Real>(window.xOffset);
   m_yOffset = static_cast<Real>(window.yOffset);
+  const double reach = 1 + window.reachX(width) + window.reachY(height);  // room for the rounding too
+  m_inverseSqrt = std::is_same_v<Real, double> && m_perspective && reach * reach < kInverseSqrtMost;
   if (m_clipPlanes) {
     // A ray meets the far plane at far / cos(its angle to the axis), farthest through the window's
     // farthest corner (at distance 1); 1e-6 more covers the rays' rounding in float (8 ulps). The

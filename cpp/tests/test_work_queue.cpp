@@ -1,10 +1,13 @@
 // Phased jobs (doctest): every item of every phase runs exactly once, next() only once a phase is
 // done, as adaptive sampling's rounds need; a throw from poll, work or next cancels the job and
-// reaches the caller.
+// reaches the caller; poll sees the progress.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <stdexcept>
+#include <thread>
 #include <vector>
 
 #include "durer/render/WorkQueue.h"
@@ -111,4 +114,28 @@ TEST_CASE("runParallel: one phase") {
   runParallel(64, 4, control, [&](int64_t item, int) { sum.fetch_add(item); }, [] {});
   CHECK(sum.load() == 64 * 63 / 2);
   CHECK(control.done.load() == 64);
+}
+
+TEST_CASE("poll sees the items finished so far, and the job's end sees them all") {
+  JobControl control;
+  std::vector<double> seen;
+  std::atomic<int64_t> ran{0};
+  // 40 items of 2 ms on 2 workers (~40 ms), polled every millisecond: progress moves while it runs.
+  runParallel(
+      40, 2, control,
+      [&](int64_t, int) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        ran.fetch_add(1);
+      },
+      [&] {
+        const int64_t before = ran.load(), done = control.done.load();
+        CHECK(done <= before);  // never counts an item not yet finished
+        seen.push_back(control.fraction());
+      },
+      1);
+  CHECK(control.done.load() == 40);
+  CHECK(control.fraction() == 1.0);
+  CHECK(seen.front() == 0.0);
+  CHECK(std::any_of(seen.begin(), seen.end(), [](double f) { return f > 0 && f < 1; }));
+  CHECK(std::is_sorted(seen.begin(), seen.end()));
 }

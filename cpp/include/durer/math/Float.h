@@ -197,6 +197,20 @@ DURER_INLINE Vec3<Real> wellScaled(const Vec3<Real>& v, const Vec3<Real>& otherw
   return power == power ? v * power : otherwise * inversePowerOfTwo(largest(otherwise));
 }
 
+// 1 / sqrt(s) for s in [kInverseSqrtLeast, kInverseSqrtMost], to 2.2 units in the last place (a
+// square root and a division: 1.5): the float square root and division's 24 bits, then two Newton
+// steps in double. Where a loop vectorises it, the double square root and division it replaces wait
+// on the divider (a perspective camera's ray directions: 13 % of a one-sphere render,
+// docs/benchmarks.md). Plain IEEE operations, no estimate instructions (whose bits differ between
+// instruction sets): every kernel set computes the same number.
+constexpr double kInverseSqrtLeast = 1e-30, kInverseSqrtMost = 1e30;  // float(s) normal, s·y² finite
+DURER_INLINE double inverseSqrt(double s) {
+  const double y0 = 1.0f / std::sqrt(static_cast<float>(s));
+  const double half = 0.5 * s;
+  const double y1 = y0 * (1.5 - half * y0 * y0);
+  return y1 * (1.5 - half * y1 * y1);
+}
+
 // a·b - c·d with one rounding error instead of a catastrophic cancellation (Kahan; pbrt-v4's
 // DifferenceOfProducts): the fma recovers the rounding error of c·d exactly.
 template <typename Real>

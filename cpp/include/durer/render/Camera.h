@@ -1,6 +1,7 @@
 #pragma once
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 #include <vector>
 
 #include "durer/Options.h"
@@ -146,6 +147,9 @@ class Camera {
                                     double shrunk);
 
   bool m_perspective;
+  // Whether generate scales a perspective ray's direction to unit length by inverseSqrt: in double,
+  // where its squared length (1 + the window's reach squared at most) lies in inverseSqrt's range.
+  bool m_inverseSqrt;
   int m_width, m_height;
   Vec3<Real> m_center, m_forward, m_horizontal, m_up;  // unit, orthonormal frame
   Real m_pixelWidth, m_pixelHeight;                    // image-plane units per pixel (at distance 1 for perspective)
@@ -227,14 +231,20 @@ inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX,
       packet.dx[k] = d.x * inv, packet.dy[k] = d.y * inv, packet.dz[k] = d.z * inv;
     }
   } else if (m_perspective) {
-    for (int k = 0; k < count; ++k) {
-      const Real x = sampleX[k] * m_pixelWidth + m_xOffset;
-      const Real y = m_yOffset - sampleY[k] * m_pixelHeight;
-      const Real dx = f.x + x * h.x + y * u.x, dy = f.y + x * h.y + y * u.y, dz = f.z + x * h.z + y * u.z;
-      const Real inv = 1 / std::sqrt(dx * dx + dy * dy + dz * dz);
-      packet.ox[k] = c.x, packet.oy[k] = c.y, packet.oz[k] = c.z;
-      packet.dx[k] = dx * inv, packet.dy[k] = dy * inv, packet.dz[k] = dz * inv;
+    const auto directions = [&](auto unitScale) DURER_INLINE_LAMBDA {
+      for (int k = 0; k < count; ++k) {
+        const Real x = sampleX[k] * m_pixelWidth + m_xOffset;
+        const Real y = m_yOffset - sampleY[k] * m_pixelHeight;
+        const Real dx = f.x + x * h.x + y * u.x, dy = f.y + x * h.y + y * u.y, dz = f.z + x * h.z + y * u.z;
+        const Real inv = unitScale(dx * dx + dy * dy + dz * dz);
+        packet.ox[k] = c.x, packet.oy[k] = c.y, packet.oz[k] = c.z;
+        packet.dx[k] = dx * inv, packet.dy[k] = dy * inv, packet.dz[k] = dz * inv;
+      }
+    };
+    if constexpr (std::is_same_v<Real, double>) {
+      if (m_inverseSqrt) return directions([](double s) DURER_INLINE_LAMBDA { return inverseSqrt(s); });
     }
+    directions([](Real s) DURER_INLINE_LAMBDA { return 1 / std::sqrt(s); });
   } else {
     for (int k = 0; k < count; ++k) {
       const Real x = sampleX[k] * m_pixelWidth + m_xOffset;

@@ -9,7 +9,7 @@ namespace durer {
 // Shared between a long job, the thread that started it and whoever may cancel it.
 struct JobControl {
   std::atomic<bool> cancel{false};   // in: set to stop the job early (checked per work item and inside long loops)
-  std::atomic<int64_t> done{0};      // out: work items finished
+  std::atomic<int64_t> done{0};      // out: work items finished (runPhases: as of its latest poll)
   std::atomic<int64_t> total{0};     // out: work items in the job (a phased job: in its current phase)
   // done / total, at most 1 (a phase's counts change while others read them), 1 for no items.
   double fraction() const {
@@ -30,7 +30,8 @@ using WorkItem = std::function<void(int64_t item, int worker)>;
 // which returns the next phase's item count (0: the job is done). The workers wait for each other
 // between phases on their own, so the calling thread sleeps through the whole job (adaptive
 // sampling's rounds: a caller woken at each round would take a CPU from a worker). control.total
-// and control.done count the current phase's items. The calling thread does no work: it calls
+// and control.done count the current phase's items, control.done as of the latest poll() (and the
+// job's end): the workers count on their own. The calling thread does no work: it calls
 // poll() once first, then about every `pollMilliseconds` until the job ends. A throw from poll
 // cancels the job (control.cancel), as does one from work or next; the first one thrown reaches the
 // caller once every worker has stopped. Items of a phase: fewer than 2^31.
