@@ -81,8 +81,9 @@ class Camera {
 
   // Rays through the sample positions; with a lens (hasLens) and lens samples (lensU, lensV in
   // [0, 1)^2, one per ray), from the aperture's points they map to; without them, through its centre.
+  // `box`: the samples' box [x0, x1, y0, y1] where the caller knows it (else generate finds it).
   void generate(RayPacket<Real>& packet, const Real* sampleX, const Real* sampleY, int count,
-                const double* lensU = nullptr, const double* lensV = nullptr) const;
+                const double* lensU = nullptr, const double* lensV = nullptr, const Real* box = nullptr) const;
 
   // Whether rays leave an aperture of some size (depth of field): no two share an origin.
   bool hasLens() const { return m_lensRadius > 0; }
@@ -192,7 +193,7 @@ class Camera {
 // Inline so that render kernels can inline (and clone) it.
 template <typename Real>
 inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX, const Real* sampleY, int count,
-                                   const double* lensU, const double* lensV) const {
+                                   const double* lensU, const double* lensV, const Real* box) const {
   const bool lens = lensU != nullptr && hasLens();
   packet.count = count;
   packet.tMin = m_tMin;
@@ -205,14 +206,17 @@ inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX,
   packet.coherent = !lens;
   packet.view = nullptr;
   packet.tileWidth = 0;
-  // The samples' box, over their bits: image positions are >= +0.
-  auto x0 = nonNegativeBits(sampleX[0]), x1 = x0, y0 = nonNegativeBits(sampleY[0]), y1 = y0;
-  for (int k = 1; k < count; ++k) {
-    x0 = std::min(x0, nonNegativeBits(sampleX[k])), x1 = std::max(x1, nonNegativeBits(sampleX[k]));
-    y0 = std::min(y0, nonNegativeBits(sampleY[k])), y1 = std::max(y1, nonNegativeBits(sampleY[k]));
+  if (box != nullptr) {
+    std::copy(box, box + 4, packet.sampleBox);
+  } else {  // the samples' box, over their bits: image positions are >= +0
+    auto x0 = nonNegativeBits(sampleX[0]), x1 = x0, y0 = nonNegativeBits(sampleY[0]), y1 = y0;
+    for (int k = 1; k < count; ++k) {
+      x0 = std::min(x0, nonNegativeBits(sampleX[k])), x1 = std::max(x1, nonNegativeBits(sampleX[k]));
+      y0 = std::min(y0, nonNegativeBits(sampleY[k])), y1 = std::max(y1, nonNegativeBits(sampleY[k]));
+    }
+    packet.sampleBox[0] = fromNonNegativeBits<Real>(x0), packet.sampleBox[1] = fromNonNegativeBits<Real>(x1);
+    packet.sampleBox[2] = fromNonNegativeBits<Real>(y0), packet.sampleBox[3] = fromNonNegativeBits<Real>(y1);
   }
-  packet.sampleBox[0] = fromNonNegativeBits<Real>(x0), packet.sampleBox[1] = fromNonNegativeBits<Real>(x1);
-  packet.sampleBox[2] = fromNonNegativeBits<Real>(y0), packet.sampleBox[3] = fromNonNegativeBits<Real>(y1);
   // Plain component arithmetic so that the loop vectorises.
   const Vec3<Real> c = m_center, f = m_forward, h = m_horizontal, u = m_up;
   if (lens) {

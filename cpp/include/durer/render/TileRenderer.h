@@ -183,6 +183,8 @@ class TileRenderer {
       }
     };
     w == kTileSize ? pixelsOf(std::integral_constant<int, kTileSize>()) : pixelsOf(w);
+    // A centred sampler's samples lie at the pixels' centres (exact in Real): their box, known.
+    const Real centres[4] = {Real(x0 + 0.5), Real(x0 + w - 0.5), Real(y0 + 0.5), Real(y0 + h - 0.5)};
     m_sampler.pixelSeeds(pixels, count, seeds);  // none for a centred sampler: its offsets read none
     for (int s = 0; s < m_sampler.samplesPerPixel(); ++s) {
       m_sampler.offsets(seeds, count, s, u, v);
@@ -193,7 +195,8 @@ class TileRenderer {
         std::fill(index, index + count, static_cast<uint32_t>(s));
         m_sampler.lensOffsets(pixels, index, count, lensU, lensV);
       }
-      m_camera.generate(packet, sampleX, sampleY, count, lens ? lensU : nullptr, lens ? lensV : nullptr);
+      m_camera.generate(packet, sampleX, sampleY, count, lens ? lensU : nullptr, lens ? lensV : nullptr,
+                        m_sampler.centred() ? centres : nullptr);
       packet.view = m_view.get();
       packet.tileX = x0, packet.tileY = y0, packet.tileWidth = w;
       counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
