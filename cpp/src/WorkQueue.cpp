@@ -182,7 +182,7 @@ class PhasedJob {
           break;
         }
         std::atomic<int64_t>& finished = m_shares[static_cast<size_t>(worker)].finished;
-        finished.store(finished.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+        finished.store(finished.load(std::memory_order_relaxed) + 1, std::memory_order_release);
       }
       if (m_arrived.fetch_add(1, std::memory_order_acq_rel) + 1 == m_workers) {
         m_arrived.store(0, std::memory_order_relaxed);
@@ -224,7 +224,8 @@ class PhasedJob {
 
   // A worker's share of the phase's items: [front, back), packed in one word so that its owner
   // (from the front) and a thief (from the back) take items with one compare-and-swap each; and the
-  // items the worker finished in the phase, its own or taken, written by it alone. The workers count
+  // items the worker finished in the phase, its own or taken, counted by it alone (the phase's last
+  // worker resets every count for the next phase). The workers count
   // on their own cache lines and the watching thread adds the counts up for control.done: one
   // counter shared by the workers, its line passed between the CPUs at every item (a tile), took
   // 12 % of a two-thread render of one sphere (docs/benchmarks.md).
@@ -237,7 +238,7 @@ class PhasedJob {
   // phase's items: a count read meanwhile may mix the two phases, which fraction() bounds).
   void publish() {
     int64_t finished = 0;
-    for (const Share& s : m_shares) finished += s.finished.load(std::memory_order_relaxed);
+    for (const Share& s : m_shares) finished += s.finished.load(std::memory_order_acquire);  // after the items' work
     m_control.done.store(finished, std::memory_order_relaxed);
   }
   static uint64_t pack(uint64_t front, uint64_t back) { return front | back << 32; }

@@ -139,3 +139,19 @@ TEST_CASE("poll sees the items finished so far, and the job's end sees them all"
   CHECK(std::any_of(seen.begin(), seen.end(), [](double f) { return f > 0 && f < 1; }));
   CHECK(std::is_sorted(seen.begin(), seen.end()));
 }
+
+TEST_CASE("each phase counts its own items: the job ends with the last phase's count") {
+  JobControl control;
+  int phase = 0;
+  std::vector<int64_t> totals;
+  runPhases(1000, 2, control, [](int64_t, int) {},
+            [&]() -> int64_t {
+              ++phase;
+              return phase == 1 ? 3 : phase == 2 ? 2 : 0;
+            },
+            [&] { totals.push_back(control.total.load()); });
+  CHECK(phase == 3);
+  CHECK(control.total.load() == 2);
+  CHECK(control.done.load() == 2);  // not 1,005: the earlier phases' counts were reset
+  CHECK(control.fraction() == 1.0);
+}

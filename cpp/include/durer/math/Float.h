@@ -197,9 +197,10 @@ DURER_INLINE Vec3<Real> wellScaled(const Vec3<Real>& v, const Vec3<Real>& otherw
   return power == power ? v * power : otherwise * inversePowerOfTwo(largest(otherwise));
 }
 
-// 1 / sqrt(s) for s in [kInverseSqrtLeast, kInverseSqrtMost], to 2.2 units in the last place (a
-// square root and a division: 1.5): the float square root and division's 24 bits, then two Newton
-// steps in double. Where a loop vectorises it, the double square root and division it replaces wait
+// 1 / sqrt(s) for s in [kInverseSqrtLeast, kInverseSqrtMost], to 3 units in the last place (a
+// square root and a division: 1.5; about 3 roundings of 2^-53 each in the last step, an ulp 2^-52
+// or 2^-53 of the result): the float square root and division's 24 bits, then two Newton steps in
+// double. Where a loop vectorises it, the double square root and division it replaces wait
 // on the divider (a perspective camera's ray directions: 13 % of a one-sphere render,
 // docs/benchmarks.md). Plain IEEE operations, no estimate instructions (whose bits differ between
 // instruction sets): every kernel set computes the same number.
