@@ -315,3 +315,32 @@ TEST_CASE_TEMPLATE("through a lens, a footprint holds every sample whose ray fro
   }
   CHECK(met > 250);  // of 1,440 spheres, scattered all around the cameras
 }
+
+TEST_CASE_TEMPLATE("placeSamples gives the positions and exactly their box", Real, float, double) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> offset(0, 1);
+  std::uniform_int_distribution<int> pixel(0, (1 << 20) - 1);  // the validated widths' range
+  for (int round = 0; round < 2000; ++round) {
+    const int count = 1 + round % kPacketSize;
+    int x[kPacketSize], y[kPacketSize];
+    double u[kPacketSize], v[kPacketSize];
+    for (int k = 0; k < count; ++k) {
+      x[k] = pixel(rng), y[k] = pixel(rng);
+      // Offsets near 1 round a float position onto the next pixel's edge: the box must hold it.
+      u[k] = round % 3 == 0 ? std::nextafter(1.0, 0.0) : offset(rng), v[k] = offset(rng);
+    }
+    Real sx[kPacketSize], sy[kPacketSize], box[4];
+    placeSamples(x, y, u, v, count, sx, sy, box);
+    Real lo[2] = {sx[0], sy[0]}, hi[2] = {sx[0], sy[0]};
+    for (int k = 0; k < count; ++k) {
+      CHECK(sx[k] == static_cast<Real>(x[k] + u[k]));
+      CHECK(sy[k] == static_cast<Real>(y[k] + v[k]));
+      lo[0] = std::min(lo[0], sx[k]), hi[0] = std::max(hi[0], sx[k]);
+      lo[1] = std::min(lo[1], sy[k]), hi[1] = std::max(hi[1], sy[k]);
+    }
+    CHECK(box[0] == lo[0]);
+    CHECK(box[1] == hi[0]);
+    CHECK(box[2] == lo[1]);
+    CHECK(box[3] == hi[1]);
+  }
+}

@@ -296,7 +296,7 @@ class AdaptiveSampler {
   // round; the later half of them are its last round's. False if cancelled.
   bool firstPass(TileState& t, RayCounters& counters) {
     const int count = t.w * t.h, firstOfLast = m_firstSamples - m_firstSamples / 2;
-    alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
+    alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize], box[4];
     alignas(64) double lensU[kPacketSize], lensV[kPacketSize];
     alignas(64) int px[kPacketSize], py[kPacketSize];
     alignas(64) uint32_t s[kPacketSize], order[kPacketSize], points[kPacketSize];  // sample numbers, seeds
@@ -314,8 +314,10 @@ class AdaptiveSampler {
     for (int sample = 0; sample < m_firstSamples; ++sample) {
       std::fill(s, s + count, static_cast<uint32_t>(sample));
       FirstPassSink sink{t, static_cast<uint32_t>(sample), sample >= firstOfLast, m_tiles.needsNormals()};
-      m_tiles.sobolPositions(px, py, order, points, s, count, sampleX, sampleY, lensU, lensV);
-      if (!m_tiles.trace(sampleX, sampleY, lensU, lensV, count, sink, prim, along, counters, t.x0, t.y0, t.w)) return false;
+      m_tiles.sobolPositions(px, py, order, points, s, count, sampleX, sampleY, box, lensU, lensV);
+      if (!m_tiles.trace(sampleX, sampleY, box, lensU, lensV, count, sink, prim, along, counters, t.x0, t.y0, t.w)) {
+        return false;
+      }
       for (int row = 0, k = 0; row < t.h; ++row) {  // by rows: no division to find a pixel's summary
         Summary* line = &summaryAt(t.x0, t.y0 + row);
         for (int col = 0; col < t.w; ++col, ++k) noteGeometry(t, k, line[col], k, k + 1, s, prim, along);
@@ -333,7 +335,7 @@ class AdaptiveSampler {
   // made together). All of a pixel's new samples are the last round's (its second half). False if
   // cancelled.
   bool refine(TileState& t, RayCounters& counters) {
-    alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
+    alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize], box[4];
     alignas(64) double lensU[kPacketSize], lensV[kPacketSize];
     alignas(64) int pixel[kPacketSize], px[kPacketSize], py[kPacketSize];
     alignas(64) uint32_t s[kPacketSize], order[kPacketSize], points[kPacketSize];  // sample numbers, seeds
@@ -342,8 +344,8 @@ class AdaptiveSampler {
     PixelSink sink{t, pixel, m_tiles.needsNormals()};
     int n = 0;
     const auto flush = [&] {
-      m_tiles.sobolPositions(px, py, order, points, s, n, sampleX, sampleY, lensU, lensV);
-      if (!m_tiles.trace(sampleX, sampleY, lensU, lensV, n, sink, prim, along, counters)) return false;
+      m_tiles.sobolPositions(px, py, order, points, s, n, sampleX, sampleY, box, lensU, lensV);
+      if (!m_tiles.trace(sampleX, sampleY, box, lensU, lensV, n, sink, prim, along, counters)) return false;
       for (int j = 0, end; j < n; j = end) {  // a pixel's samples are consecutive: one run each
         for (end = j + 1; end < n && pixel[end] == pixel[j];) ++end;
         noteGeometry(t, pixel[j], summaryAt(px[j], py[j]), j, end, s, prim, along);

@@ -1,6 +1,7 @@
 #pragma once
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <type_traits>
 #include <vector>
 
@@ -81,9 +82,9 @@ class Camera {
 
   // Rays through the sample positions; with a lens (hasLens) and lens samples (lensU, lensV in
   // [0, 1)^2, one per ray), from the aperture's points they map to; without them, through its centre.
-  // `box`: the samples' box [x0, x1, y0, y1] where the caller knows it (else generate finds it).
+  // The packet's sampleBox is the caller's to set where a view searches it (placeSamples finds it).
   void generate(RayPacket<Real>& packet, const Real* sampleX, const Real* sampleY, int count,
-                const double* lensU = nullptr, const double* lensV = nullptr, const Real* box = nullptr) const;
+                const double* lensU = nullptr, const double* lensV = nullptr) const;
 
   // Whether rays leave an aperture of some size (depth of field): no two share an origin.
   bool hasLens() const { return m_lensRadius > 0; }
@@ -190,10 +191,29 @@ class Camera {
   }
 };
 
+// Sample positions (x[k] + u[k], y[k] + v[k]) in Real for k < count (pixels' corners and offsets in
+// [0, 1): positions >= +0), and their box [x0, x1, y0, y1] (RayPacket::sampleBox, which the camera's
+// view searches by), found over the positions' bits in the same loop: a reduction over the positions
+// once they were stored waited on the stores (10 % of a 16-spp render of one sphere; a centred
+// sampler's tile knows its box: docs/benchmarks.md).
+template <typename Real, typename Pixel>
+DURER_INLINE void placeSamples(const Pixel* x, const Pixel* y, const double* u, const double* v, int count,
+                               Real* sampleX, Real* sampleY, Real* box) {
+  auto x0 = nonNegativeBits(std::numeric_limits<Real>::infinity()), x1 = nonNegativeBits(Real(0)), y0 = x0, y1 = x1;
+  for (int k = 0; k < count; ++k) {
+    const Real sx = static_cast<Real>(x[k] + u[k]), sy = static_cast<Real>(y[k] + v[k]);
+    sampleX[k] = sx, sampleY[k] = sy;
+    x0 = std::min(x0, nonNegativeBits(sx)), x1 = std::max(x1, nonNegativeBits(sx));
+    y0 = std::min(y0, nonNegativeBits(sy)), y1 = std::max(y1, nonNegativeBits(sy));
+  }
+  box[0] = fromNonNegativeBits<Real>(x0), box[1] = fromNonNegativeBits<Real>(x1);
+  box[2] = fromNonNegativeBits<Real>(y0), box[3] = fromNonNegativeBits<Real>(y1);
+}
+
 // Inline so that render kernels can inline (and clone) it.
 template <typename Real>
 inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX, const Real* sampleY, int count,
-                                   const double* lensU, const double* lensV, const Real* box) const {
+                                   const double* lensU, const double* lensV) const {
   const bool lens = lensU != nullptr && hasLens();
   packet.count = count;
   packet.tMin = m_tMin;
@@ -206,17 +226,6 @@ inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX,
   packet.coherent = !lens;
   packet.view = nullptr;
   packet.tileWidth = 0;
-  if (box != nullptr) {
-    std::copy(box, box + 4, packet.sampleBox);
-  } else {  // the samples' box, over their bits: image positions are >= +0
-    auto x0 = nonNegativeBits(sampleX[0]), x1 = x0, y0 = nonNegativeBits(sampleY[0]), y1 = y0;
-    for (int k = 1; k < count; ++k) {
-      x0 = std::min(x0, nonNegativeBits(sampleX[k])), x1 = std::max(x1, nonNegativeBits(sampleX[k]));
-      y0 = std::min(y0, nonNegativeBits(sampleY[k])), y1 = std::max(y1, nonNegativeBits(sampleY[k]));
-    }
-    packet.sampleBox[0] = fromNonNegativeBits<Real>(x0), packet.sampleBox[1] = fromNonNegativeBits<Real>(x1);
-    packet.sampleBox[2] = fromNonNegativeBits<Real>(y0), packet.sampleBox[3] = fromNonNegativeBits<Real>(y1);
-  }
   // Plain component arithmetic so that the loop vectorises.
   const Vec3<Real> c = m_center, f = m_forward, h = m_horizontal, u = m_up;
   if (lens) {

@@ -183,20 +183,23 @@ class TileRenderer {
       }
     };
     w == kTileSize ? pixelsOf(std::integral_constant<int, kTileSize>()) : pixelsOf(w);
-    // A centred sampler's samples lie at the pixels' centres (exact in Real): their box, known.
-    const Real centres[4] = {Real(x0 + 0.5), Real(x0 + w - 0.5), Real(y0 + 0.5), Real(y0 + h - 0.5)};
     m_sampler.pixelSeeds(pixels, count, seeds);  // none for a centred sampler: its offsets read none
     for (int s = 0; s < m_sampler.samplesPerPixel(); ++s) {
       m_sampler.offsets(seeds, count, s, u, v);
-      for (int k = 0; k < count; ++k) {
-        sampleX[k] = static_cast<Real>(pixelX[k] + u[k]), sampleY[k] = static_cast<Real>(pixelY[k] + v[k]);
+      if (m_sampler.centred()) {  // the samples lie at the pixels' centres (exact in Real): their box, known
+        for (int k = 0; k < count; ++k) {
+          sampleX[k] = static_cast<Real>(pixelX[k] + u[k]), sampleY[k] = static_cast<Real>(pixelY[k] + v[k]);
+        }
+        const Real centres[4] = {Real(x0 + 0.5), Real(x0 + w - 0.5), Real(y0 + 0.5), Real(y0 + h - 0.5)};
+        std::copy(centres, centres + 4, packet.sampleBox);
+      } else {
+        placeSamples(pixelX, pixelY, u, v, count, sampleX, sampleY, packet.sampleBox);
       }
       if (lens) {
         std::fill(index, index + count, static_cast<uint32_t>(s));
         m_sampler.lensOffsets(pixels, index, count, lensU, lensV);
       }
-      m_camera.generate(packet, sampleX, sampleY, count, lens ? lensU : nullptr, lens ? lensV : nullptr,
-                        m_sampler.centred() ? centres : nullptr);
+      m_camera.generate(packet, sampleX, sampleY, count, lens ? lensU : nullptr, lens ? lensV : nullptr);
       packet.view = m_view.get();
       packet.tileX = x0, packet.tileY = y0, packet.tileWidth = w;
       counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
@@ -280,32 +283,34 @@ class TileRenderer {
   }
 
   // Positions in the image of Sobol samples indices[j] of pixels (x[j], y[j]) with those seeds, for
-  // j < count (up to a packet): several pixels' samples in one vectorised loop; with a lens, their
-  // lens samples too (PixelSampler::lensOffsets; lensU and lensV are left as they are without one).
+  // j < count (up to a packet), and their box (placeSamples): several pixels' samples in one
+  // vectorised loop; with a lens, their lens samples too (PixelSampler::lensOffsets; lensU and lensV
+  // are left as they are without one).
   void sobolPositions(const int* x, const int* y, const uint32_t* order, const uint32_t* points,
-                      const uint32_t* indices, int count, Real* sampleX, Real* sampleY, double* lensU,
+                      const uint32_t* indices, int count, Real* sampleX, Real* sampleY, Real* box, double* lensU,
                       double* lensV) const {
     alignas(64) double u[kPacketSize], v[kPacketSize];
     PixelSampler::sobolOffsets(order, points, indices, count, u, v);
-    for (int j = 0; j < count; ++j) sampleX[j] = static_cast<Real>(x[j] + u[j]), sampleY[j] = static_cast<Real>(y[j] + v[j]);
+    placeSamples(x, y, u, v, count, sampleX, sampleY, box);
     if (!m_camera.hasLens()) return;
     alignas(64) uint64_t pixels[kPacketSize];
     for (int j = 0; j < count; ++j) pixels[j] = pixelIndex(x[j], y[j]);
     m_sampler.lensOffsets(pixels, indices, count, lensU, lensV);
   }
 
-  // Traces the samples at (sampleX[j], sampleY[j]) for j < count (through the lens at (lensU[j],
-  // lensV[j]), sobolPositions') as one packet and adds them to
+  // Traces the samples at (sampleX[j], sampleY[j]) for j < count, whose box is `box` (through the
+  // lens at (lensU[j], lensV[j]), sobolPositions') as one packet and adds them to
   // `sink` (an Accumulator's interface, entry j for sample j, in order); prim[j] gets the primitive
   // sample j met and t[j] how far along its ray (inf on a miss, whatever the depth pass measures).
   // With a tileWidth, sample j lies in pixel (tileX + j % tileWidth, tileY + j / tileWidth), which
   // the camera's view culls by (RayPacket::tileWidth); 0: in no such order. False if cancelled.
   template <typename Sink>
-  bool trace(const Real* sampleX, const Real* sampleY, const double* lensU, const double* lensV, int count,
-             Sink& sink, int32_t* prim, Real* t, RayCounters& counters, int tileX = 0, int tileY = 0,
+  bool trace(const Real* sampleX, const Real* sampleY, const Real* box, const double* lensU, const double* lensV,
+             int count, Sink& sink, int32_t* prim, Real* t, RayCounters& counters, int tileX = 0, int tileY = 0,
              int tileWidth = 0) const {
     RayPacket<Real> packet;
     m_camera.generate(packet, sampleX, sampleY, count, lensU, lensV);
+    std::copy(box, box + 4, packet.sampleBox);
     packet.view = m_view.get();
     packet.tileX = tileX, packet.tileY = tileY, packet.tileWidth = tileWidth;
     counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
