@@ -3,7 +3,10 @@
 // lies in the core it was made from, and tight, so that they spare the tests they are for.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <memory>
 #include <random>
 
 #include "durer/accel/SphereView.h"
@@ -90,4 +93,27 @@ TEST_CASE("a disk rounded once and placed in each cell is the disk made in that 
   CHECK(placedInside > 30000);  // both kinds: disks within 16 bits of their cell and disks beyond
   CHECK(Disk::quantise(1e12, 0, 1, 0.5).inCell(0, 0).radius == Disk::kEverywhere);  // beyond 32 bits
   CHECK(Disk::quantise(NAN, 0, 1, 0.5).inCell(0, 0).radius == Disk::kEverywhere);
+}
+
+TEST_CASE("a camera view searches a packet by the box of its samples, and declines one without a box") {
+  using View = durer::SphereView<double>;
+  // One sphere seen on pixels [2, 6] x [2, 6] of a 16 x 16 image, from t = 1 on.
+  const auto footprint = [](size_t, durer::SampleBox& box, double& tLow, durer::SampleDisk*) {
+    box = {2, 6, 2, 6};
+    tLow = 1;
+    return true;
+  };
+  const std::unique_ptr<View> view = View::make(1, footprint, 0, 0, 16, 16, 1);
+  durer::RayPacket<double> packet;
+  packet.count = durer::kPacketSize;
+  packet.tMax = std::numeric_limits<double>::infinity();
+  packet.resetHits();
+  int met = 0;
+  const auto test = [&](uint32_t, int, int, bool) { ++met; };
+  CHECK(view->search(packet, test) == -1);  // no box set: the caller searches otherwise
+  CHECK(met == 0);
+  const double box[4] = {0.5, 7.5, 0.5, 7.5};  // the first tile's pixel centres
+  std::copy(box, box + 4, packet.sampleBox);
+  CHECK(view->search(packet, test) > 0);
+  CHECK(met == 1);
 }

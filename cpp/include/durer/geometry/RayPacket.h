@@ -1,5 +1,6 @@
 #pragma once
 #include <cstdint>
+#include <limits>
 
 namespace durer {
 
@@ -26,12 +27,16 @@ struct RayPacket {
   bool coherent = false;               // neighbouring rays of one camera tile: worth traversing together
   // The render's index of the sphere set searched by where the spheres appear (SphereView), or null:
   // for camera rays the camera's, for a light's shadow rays the light's (a sun's image, a point or
-  // spot light's cube faces). Camera rays also give the box of their sample positions [x0, x1, y0, y1].
+  // spot light's cube faces). Camera rays searched through a view carry the box of their sample
+  // positions [x0, x1, y0, y1], set by the caller that placed them (placeSamples).
   const SphereView<Real>* view = nullptr;
   // Whether a light's view may record a hit it knows without a test (SphereView::sureHit): such hits
   // hold for the whole segment from the origin to the light, not for a part of it (Group::passInsides).
   bool sureHits = true;
-  Real sampleBox[4] = {0, 0, 0, 0};
+  // NaN until set: a view asked to search a packet without a box finds it outside its cells and
+  // declines (SphereView::search returns -1: the caller searches otherwise), never a wrong cell.
+  static constexpr Real kNoBox = std::numeric_limits<Real>::quiet_NaN();
+  Real sampleBox[4] = {kNoBox, kNoBox, kNoBox, kNoBox};
   // Camera rays one per pixel of the pixels [tileX, tileX + tileWidth) x [tileY, ...), row by row
   // (ray k at pixel (k % tileWidth, k / tileWidth) of them); tileWidth 0: in no such order.
   int tileX = 0, tileY = 0, tileWidth = 0;
