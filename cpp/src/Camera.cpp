@@ -109,13 +109,13 @@ Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
   m_pixelHeight = static_cast<Real>(window.pixelHeight);
   m_xOffset = static_cast<Real>(window.xOffset);
   m_yOffset = static_cast<Real>(window.yOffset);
-  const double reach = 1 + window.reachX(width) + window.reachY(height);  // room for the rounding too
+  const double x = window.reachX(width), y = window.reachY(height);  // the farthest sample, each axis
+  const double reach = 1 + x + y;  // a direction's length at most, with room for the rounding
   m_inverseSqrt = std::is_same_v<Real, double> && m_perspective && reach * reach < kInverseSqrtMost;
   if (m_clipPlanes) {
     // A ray meets the far plane at far / cos(its angle to the axis), farthest through the window's
     // farthest corner (at distance 1); 1e-6 more covers the rays' rounding in float (8 ulps). The
     // near plane's distance bounds t from below (t >= depth: the planes are >= 0, validate()).
-    const double x = window.reachX(width), y = window.reachY(height);
     double slope2 = x * x + y * y;
     if (hasLens()) {  // a lens tilts a ray by up to its reach over the focus distance more
       const double r = std::sqrt(slope2) + apertureReach(spec) / spec.focusDistance;

@@ -225,10 +225,10 @@ class PhasedJob {
   // A worker's share of the phase's items: [front, back), packed in one word so that its owner
   // (from the front) and a thief (from the back) take items with one compare-and-swap each; and the
   // items the worker finished in the phase, its own or taken, counted by it alone (the phase's last
-  // worker resets every count for the next phase). The workers count
-  // on their own cache lines and the watching thread adds the counts up for control.done: one
-  // counter shared by the workers, its line passed between the CPUs at every item (a tile), took
-  // 12 % of a two-thread render of one sphere (docs/benchmarks.md).
+  // worker resets every count for the next phase). The workers count on their own cache lines and
+  // the watching thread adds the counts up for control.done: one counter shared by the workers, its
+  // line passed between the CPUs at every item (a tile), took 12 % of a two-thread render of one
+  // sphere (docs/benchmarks.md).
   struct alignas(64) Share {
     std::atomic<uint64_t> ends{0};
     std::atomic<int64_t> finished{0};
