@@ -30,7 +30,10 @@ class _Flag(Protocol):
 class RenderResult:
     """Float32 arrays, top row first (numpy convention); a pass not requested is None.
 
-    color  (H, W, 4): linear RGBA; the box-filtered mean of the pixel's samples.
+    color  (H, W, 4): linear RGBA; the box-filtered mean of the pixel's samples (with
+                      sampler="adaptive" through an orthographic camera, where a sphere's
+                      silhouette crosses the pixel: the means of its samples inside and outside
+                      the silhouette weighed by their exact shares of the pixel).
     depth  (H, W):    the pixel's nearest sample hit: with depth="ray" its t along the unit camera
                       ray (the distance from the ray origin), with depth="planar" its distance
                       along the camera's view axis (Blender's Depth); +inf where every sample missed.
@@ -54,7 +57,9 @@ class RenderResult:
     samples (H, W):   int32 samples each pixel took, with sampler="adaptive" (else None).
     error   (H, W):   float32, with sampler="adaptive": the estimated RMS error over RGB of the
                       pixel's colour, from the difference of the means of the two halves of its
-                      samples (0 where they agree; else None).
+                      samples (each made as the colour is; 0 where they agree); a pixel of two
+                      samples: from how far its colour lies from its four neighbours' mean; inf
+                      where a float render's sums overflowed (else None).
     """
 
     color: np.ndarray | None

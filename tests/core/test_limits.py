@@ -249,6 +249,21 @@ def test_a_pixel_brighter_than_float32_saturates(precision):
 
 
 @pytest.mark.parametrize("precision", PRECISIONS)
+def test_adaptive_sampling_of_a_pixel_brighter_than_float32_saturates(precision):
+    """The same overflow under adaptive sampling, on a sphere whose silhouette crosses pixels (their
+    samples inside and outside it are weighed apart): colours saturate, never NaN; where a float
+    render's sums overflowed, the estimated error is infinite (unknown), never NaN."""
+    scene = durer.Scene()
+    scene.add_spheres([[0.3, -0.2, 0]], 1.3, material=scene.add_material(diffuse=(1e18, 1e18, 1e18)))
+    scene.add_point_light((0, 0, 30), (1e18, 1e18, 1e18), attenuation=(1e-3, 0, 0))
+    result = durer.render(scene, durer.OrthographicCamera(**ORTHO), 16, 16, spp=16, sampler="adaptive",
+                          precision=precision)
+    assert not np.isnan(result.color).any() and not np.isnan(result.error).any()
+    assert result.color[..., 0].max() == FLOAT_MAX
+    assert not math.isnan(result.stats["estimated_rmse"])
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
 def test_a_back_face_lit_from_straight_behind_has_no_highlight(precision):
     """The plane z = 0 (normal +z) seen from below, the sun straight above: toLight + toViewer = 0,
     the half vector has no direction (the colour was NaN with a specular material); the highlight is

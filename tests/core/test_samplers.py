@@ -13,8 +13,8 @@ import pytest
 import durer
 from durer.render import SAMPLERS
 from helpers.coverage import (
-    C, COVERAGE, CUT, SIZE, THETA, WHITE_ON_BLACK, half_plane_scene, pixel_camera, pixel_centres, render_values,
-    vertical_edge_coverage,
+    C, COVERAGE, CUT, SIZE, THETA, WHITE_ON_BLACK, disc_coverage, half_plane_scene, pixel_camera, pixel_centres,
+    render_values, vertical_edge_coverage,
 )
 
 FIXED = tuple(s for s in SAMPLERS if s != "adaptive")  # a fixed number of samples per pixel
@@ -99,28 +99,91 @@ def test_adaptive_sample_counts(spp, min_spp):
         assert counts.min() == first and counts.max() == spp
 
 
-def test_adaptive_spends_its_samples_on_edges():
-    # A flat-coloured disc (no lights) on black. Every pixel the silhouette may cross takes at least
-    # half of spp, those whose first samples all missed the edge too (their neighbours differ from
-    # them by most of the disc's contrast with black, an RMS of 0.65, and a pixel takes half that
-    # over target_error, 32 samples, before an edge it may not have seen is ruled out); pixels more
-    # than a pixel and a half away from it have identical samples and neighbours and stop after the
-    # first 4.
-    size, spp, radius = 32, 64, 9.3
+def test_adaptive_spends_its_samples_on_edges_and_weighs_a_silhouettes_parts_exactly():
+    # A flat-coloured disc (no lights) on black, seen orthographically. Every pixel the silhouette may
+    # cross takes at least half of spp, those whose first samples all missed the edge too (their
+    # neighbours differ from them by most of the disc's contrast with black, an RMS of 0.65, and a
+    # pixel takes half that over target_error, 32 samples, before an edge it may not have seen is
+    # ruled out); pixels more than a pixel and a half away from it have identical samples and
+    # neighbours and stop after the first 4. Where the silhouette crosses a pixel its samples inside
+    # the disc and outside are weighed by their exact shares of the pixel (PixelStratum): once both
+    # parts have a sample the pixel is exact -- the disc's colour times its share -- to float
+    # rounding, where the plain mean of 64 stratified samples is off by up to a few percent of the
+    # contrast. A part none of the samples reached keeps the pixel refining while its share exceeds
+    # target_error (0.01): no pixel is off by more than that share of the contrast.
+    size, spp, radius, centre = 32, 64, 9.3, (0.3, -0.2)
+    colour = np.array([0.9, 0.6, 0.3])
     scene = durer.Scene()
     scene.background = WHITE_ON_BLACK
-    scene.add_spheres([[0.3, -0.2, -50]], [radius], material=scene.add_material((0.9, 0.6, 0.3)))
+    scene.add_spheres([[centre[0], centre[1], -50]], [radius], material=scene.add_material(tuple(colour)))
     result = durer.render(scene, pixel_camera(size, size), size, size, spp=spp, sampler="adaptive")
     counts = result.samples
     x, y = pixel_centres(size, size)
-    distance = np.abs(np.hypot(x - 0.3, y + 0.2) - radius)
+    distance = np.abs(np.hypot(x - centre[0], y - centre[1]) - radius)
     cut = distance <= math.sqrt(0.5)  # the silhouette may cross the pixel
     far = distance > math.sqrt(0.5) + 1.5
     assert cut.sum() >= 80 and far.sum() > 700
-    assert counts[cut].min() == spp // 2 and np.mean(counts[cut] == spp) > 0.9
+    assert counts[cut].min() == spp // 2
     np.testing.assert_array_equal(counts[far], 4)
     np.testing.assert_array_equal(result.error[far], 0)  # identical samples: nothing to doubt
     assert result.stats["samples"] < 0.3 * size * size * spp
+    share = disc_coverage(*centre, radius, size, size)
+    exact = share[..., None] * colour
+    off = np.abs(result.color[..., :3] - exact).max(axis=-1)
+    crossed = cut & (share > 0) & (share < 1)
+    assert np.mean(off[crossed] < 2e-6) > 0.85
+    inexact = crossed & (off >= 2e-6)  # a part no sample reached: at most target_error of the pixel
+    assert np.minimum(share, 1 - share)[inexact].max() <= 0.01
+    assert off.max() <= 0.01 * colour.max() + 2e-6
+    plain = durer.render(scene, pixel_camera(size, size), size, size, spp=spp, sampler="stratified").color
+    assert np.abs(plain[..., :3] - exact).max() > 0.01 * colour.max()
+
+    # Without a colour pass there is nothing to weigh: the edge pixels stop as geometry alone decides
+    # (no part "unsampled" for want of a colour sample keeps them refining to spp).
+    depth = durer.render(scene, pixel_camera(size, size), size, size, spp=spp, sampler="adaptive", passes=("depth",))
+    assert depth.samples.max() < spp and depth.samples[cut].min() >= 16
+
+
+def plain_mean_counts(values: np.ndarray, samples: np.ndarray) -> np.ndarray:
+    """How many of a pixel's samples saw a flat channel of value 1, from the pixel's value and its
+    sample count, and how far that is from a whole number (0 for every pixel whose value is the plain
+    mean of its samples)."""
+    counts = values * samples
+    return np.abs(counts - np.round(counts))
+
+
+def test_a_silhouette_weighs_its_parts_only_where_it_is_the_edge_seen():
+    # Two flat discs (red and green, no lights) on black that cut through each other: where both
+    # overlap a pixel, the edge seen there may be where they cut, not a silhouette, and the pixel keeps
+    # the plain mean of its samples (a whole number of samples saw red, and of green). Elsewhere on
+    # the silhouettes the parts are weighed (some pixels' red is not a whole number of samples).
+    size = 32
+    scene = durer.Scene()
+    scene.background = WHITE_ON_BLACK
+    red, green = scene.add_material((1, 0, 0)), scene.add_material((0, 1, 0))
+    scene.add_spheres([[-3.1, 0.4, -50], [3.3, -0.2, -50]], [6.2, 5.7], material=np.array([red, green], np.int32))
+    result = durer.render(scene, pixel_camera(size, size), size, size, spp=16, sampler="adaptive")
+    x, y = pixel_centres(size, size)
+    near = [np.hypot(x - cx, y - cy) < r + 1 for cx, cy, r in ((-3.1, 0.4, 6.2), (3.3, -0.2, 5.7))]
+    both = near[0] & near[1]
+    assert both.sum() >= 10
+    n = result.samples
+    for channel in (0, 1):
+        assert plain_mean_counts(result.color[..., channel], n)[both].max() < 1e-3
+    assert plain_mean_counts(result.color[..., 0], n)[near[0] & ~both].max() > 0.05
+
+
+def test_a_perspective_camera_keeps_the_plain_mean():
+    # Only an orthographic camera's silhouettes are discs of its image: through a perspective one every
+    # pixel's value is the plain mean of its samples.
+    scene = durer.Scene()
+    scene.background = WHITE_ON_BLACK
+    scene.add_spheres([[0.3, -0.2, -10]], [2.0], material=scene.add_material((1, 1, 1)))
+    camera = durer.PerspectiveCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), fov_degrees=30)
+    result = durer.render(scene, camera, 32, 32, spp=16, sampler="adaptive")
+    edge = (result.color[..., 0] > 0) & (result.color[..., 0] < 1)
+    assert edge.sum() >= 30
+    assert plain_mean_counts(result.color[..., 0], result.samples).max() < 1e-3
 
 
 def test_a_smaller_target_error_never_takes_fewer_samples():

@@ -187,7 +187,10 @@ def markdown(report: Report, plots: dict[str, str]) -> str:
         "(default 0.01), or that sit on an "
         "edge their own or their neighbours' samples show (other geometry, or a colour contrast an unseen edge "
         "could hide in) or that a sphere's silhouette crosses (from the camera's view of the spheres), so its "
-        "samples/pixel column is what it actually took. The slopes are "
+        "samples/pixel column is what it actually took; where a silhouette crosses a pixel (both scenes are seen "
+        "orthographically), its samples inside and outside are weighed by their exact shares of the pixel "
+        "(post-stratification), and a part no sample has reached keeps the pixel refining while its share exceeds "
+        "`target_error`. The slopes are "
         "least-squares fits of log RMSE against log spp (adaptive: against the samples it took); plain Monte "
         "Carlo converges as spp^-0.5. The reference's own error puts a floor under the curves at the highest spp.",
     ]
@@ -212,8 +215,9 @@ def markdown(report: Report, plots: dict[str, str]) -> str:
             bounds = "; ".join(f"{spp}-spp stratified's RMSE and worst pixel: {_samples(n)} samples/pixel"
                                + ("" if math.isinf(n) else f" ({n / spp:.2f} of its samples)")
                                for spp, n in a.oracle.items())
-            parts += ["", "A bound on any sampler that gives each pixel a power-of-two count of Sobol samples, as "
-                      "adaptive does: an oracle that knew every pixel's expected error after 1, 2, 4, … samples (the "
+            parts += ["", "A bound on any sampler that gives each pixel a power-of-two count of Sobol samples and "
+                      "takes their plain mean, as adaptive does where no silhouette is weighed: an oracle that knew "
+                      "every pixel's expected error after 1, 2, 4, … samples (the "
                       f"RMS over {c.oracle_seeds} seeds) and chose each pixel's count with the fewest samples in all "
                       f"would need, to reach {bounds}."]
             if a.oracle_fine:

@@ -83,8 +83,8 @@ def _oracle_note(aa: AntiAliasing, spp: int) -> str:
     if samples is None:
         return ""
     note = ("; no choice of power-of-two Sobol counts per pixel reaches both" if math.isinf(samples) else
-            f"; an oracle choosing each pixel's power-of-two Sobol count from its expected error would need "
-            f"{samples:.1f} samples/pixel = {samples / spp:.2f} of stratified's")
+            f"; an oracle choosing each pixel's power-of-two Sobol count from its expected error (plain means) "
+            f"would need {samples:.1f} samples/pixel = {samples / spp:.2f} of stratified's")
     if fine is None:
         return note
     return note + (" (with counts in quarter steps between powers of two: "

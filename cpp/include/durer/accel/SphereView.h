@@ -282,13 +282,25 @@ class SphereView {
   // to 7) its footprint covers.
   template <typename F>
   void forCellOf(int x, int y, double before, const F& f) const {
+    forCellWhile(x, y, [&](uint32_t sphere, float tLow, std::array<int, 2> rows, std::array<int, 2> columns) {
+      if (!(double(tLow) < before)) return false;
+      f(sphere, tLow, rows, columns);
+      return true;
+    });
+  }
+
+  // As forCellOf, for every sphere of the cell while f returns true.
+  template <typename F>
+  void forCellWhile(int x, int y, const F& f) const {
     const int cx = x / kCell - m_cellX, cy = y / kCell - m_cellY;
     if (x < 0 || y < 0 || cx < 0 || cy < 0 || cx >= m_cellsX || cy >= m_cellsY) return;
     const size_t cell = size_t(cy) * size_t(m_cellsX) + size_t(cx);
-    for (uint32_t e = m_first[cell]; e != m_first[cell + 1] && double(m_entries[e].tLow) < before; ++e) {
+    for (uint32_t e = m_first[cell]; e != m_first[cell + 1]; ++e) {
       const uint16_t span = m_spans[e];
-      f(m_entries[e].sphere, m_entries[e].tLow, std::array<int, 2>{firstRowOf(span), lastRowOf(span)},
-        std::array<int, 2>{firstColumnOf(span), lastColumnOf(span)});
+      if (!f(m_entries[e].sphere, m_entries[e].tLow, std::array<int, 2>{firstRowOf(span), lastRowOf(span)},
+             std::array<int, 2>{firstColumnOf(span), lastColumnOf(span)})) {
+        return;
+      }
     }
   }
 

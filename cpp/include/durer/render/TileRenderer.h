@@ -15,6 +15,7 @@
 #include "durer/render/Kernels.h"
 #include "durer/render/PacketShader.h"
 #include "durer/render/PixelSampler.h"
+#include "durer/render/PixelStratum.h"
 #include "durer/render/Renderer.h"
 #include "durer/render/Shading.h"
 
@@ -36,11 +37,13 @@ inline int adaptiveRounds(int first, int max) {
 }
 
 // The pixels a render samples: its region, widened under adaptive sampling by a margin of as many
-// pixels as it has rounds (each round's marking reads a pixel's neighbours'), clipped to the image.
+// pixels as it has rounds (each round's marking reads a pixel's neighbours'), and one more (a pixel
+// of two samples reports its error from its neighbours' means: AdaptiveSampler::residualError),
+// clipped to the image.
 inline RenderSettings::Region sampledRegion(const RenderSettings& s) {
   const RenderSettings::Region r = regionOf(s);
   if (s.sampler != SamplerKind::Adaptive) return r;
-  const int margin = adaptiveRounds(std::min(s.minSamples, s.samplesPerPixel), s.samplesPerPixel);
+  const int margin = adaptiveRounds(std::min(s.minSamples, s.samplesPerPixel), s.samplesPerPixel) + 1;
   const int x0 = std::max(0, r.x - margin), y0 = std::max(0, r.y - margin);
   const int x1 = std::min(s.width, r.x + r.width + margin), y1 = std::min(s.height, r.y + r.height + margin);
   return {x0, y0, x1 - x0, y1 - y0};
@@ -360,6 +363,104 @@ class TileRenderer {
       }
     };
     m_view->forCellOf(x0, y0, deepest, mark);
+  }
+
+  // Whether pixels may have a silhouette stratum (silhouetteStrata): through an orthographic camera
+  // without a lens, with a view of the scene's own spheres. There a sphere's silhouette is exactly a
+  // disk of the image (its radius over the pixel's width and height).
+  bool stratifies() const { return m_view != nullptr && !m_camera.projection().perspective && !m_camera.hasLens(); }
+
+  // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0): the silhouette of the
+  // nearest of the camera's view's spheres whose silhouette's edge crosses the pixel, PixelStratum
+  // (none where !stratifies()). Nearest by the centre's depth, which is the depth of a silhouette's
+  // points (a large sphere's front may lie nearer than a small one's that hides its edge). A pixel
+  // keeps none where the scene's own spheres may hide that edge: behind a sphere covering the whole
+  // pixel (whose surface there lies before its centre's depth), or where another sphere overlapping
+  // the silhouette's disk may lie in front of the edge (its front nearer than the edge): the two may
+  // hide each other's parts there, or cut through each other, and the edge seen is then not the
+  // silhouette's (a part of the stratum holding colours its samples may all have missed would settle
+  // the pixel on a wrong mean). Other geometry (planes, triangles, boxes, groups' spheres) and a
+  // t_min cutting into a sphere are not looked at: an edge of theirs in a part only costs the
+  // stratum its gain (any exact split of the pixel keeps the mean consistent). The view lists a cell's spheres by their fronts' depths: once every pixel has an edge or
+  // a cover nearer than the next one's front, the rest can change nothing and are not read.
+  void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata) const {
+    std::fill(strata, strata + w * h, PixelStratum{});
+    if (!stratifies()) return;
+    const ParallelProjection image = m_camera.projection();
+    const int cellX = x0 / kTileSize * kTileSize, cellY = y0 / kTileSize * kTileSize, count = w * h;
+    const double inf = std::numeric_limits<double>::infinity();
+    struct Disk {
+      uint32_t sphere;
+      Vec3d q;  // its centre in the frame (q.z: the depth of its silhouette)
+      double radius;
+    };
+    Disk chosen[kPacketSize];
+    double hidden[kPacketSize];  // the depth behind which a sphere covering the pixel hides everything
+    std::fill(chosen, chosen + count, Disk{0, Vec3d(inf), 0});
+    std::fill(hidden, hidden + count, inf);
+    // f(k, x, y) for the tile's pixels in a sphere's span of rows and columns of the cell.
+    const auto forPixels = [&](std::array<int, 2> rows, std::array<int, 2> columns, const auto& f) {
+      const int row0 = std::max(rows[0], y0 - cellY), row1 = std::min(rows[1], y0 + h - 1 - cellY);
+      const int column0 = std::max(columns[0], x0 - cellX), column1 = std::min(columns[1], x0 + w - 1 - cellX);
+      for (int row = row0; row <= row1; ++row) {
+        for (int column = column0; column <= column1; ++column) {
+          f((cellY + row - y0) * w + (cellX + column - x0), cellX + column, cellY + row);
+        }
+      }
+    };
+    // A sphere can change a pixel's choice only if its centre lies before both the chosen edge and
+    // the cover (a sphere's edge or cover lies no nearer than its front): the farthest of the pixels'
+    // nearer of the two bounds the fronts still worth reading.
+    double settled = inf;
+    m_view->forCellWhile(x0, y0, [&](uint32_t i, float tLow, std::array<int, 2> rows, std::array<int, 2> columns) {
+      if (double(tLow) >= settled) return false;
+      const Sphere<Real>& sphere = m_group.spheres().primitive(i);
+      const Vec3d q = image.inFrame(Vec3d(sphere.center));
+      const double r = double(sphere.radius), cx = image.sampleX(q.x), cy = image.sampleY(q.y);
+      const double iu = image.pixelWidth / r, iv = image.pixelHeight / r;
+      bool changed = false;
+      forPixels(rows, columns, [&](int k, int x, int y) {
+        if (!(q.z < std::min(hidden[k], chosen[k].q.z))) return;
+        // The square's nearest point and farthest corner in the frame where the disk is the unit disk.
+        const double u0 = (x - cx) * iu, u1 = (x + 1 - cx) * iu, v0 = (y - cy) * iv, v1 = (y + 1 - cy) * iv;
+        const double nu = u0 > 0 ? u0 : u1 < 0 ? u1 : 0, nv = v0 > 0 ? v0 : v1 < 0 ? v1 : 0;
+        const double far = std::max(u0 * u0, u1 * u1) + std::max(v0 * v0, v1 * v1);
+        if (far <= 1) {
+          hidden[k] = q.z, changed = true;
+        } else if (nu * nu + nv * nv < 1) {
+          chosen[k] = {i, q, r}, changed = true;
+        }
+      });
+      if (changed) {
+        settled = -inf;
+        for (int k = 0; k < count; ++k) settled = std::max(settled, std::min(hidden[k], chosen[k].q.z));
+      }
+      return true;
+    });
+    double deepest = -inf;  // the farthest edge still chosen
+    for (int k = 0; k < count; ++k) {
+      if (!(chosen[k].q.z < hidden[k])) chosen[k].q.z = inf;  // none, or hidden
+      if (chosen[k].q.z < inf) deepest = std::max(deepest, chosen[k].q.z);
+    }
+    m_view->forCellOf(x0, y0, deepest, [&](uint32_t i, float, std::array<int, 2> rows, std::array<int, 2> columns) {
+      const Sphere<Real>& sphere = m_group.spheres().primitive(i);
+      const Vec3d q = image.inFrame(Vec3d(sphere.center));
+      const double r = double(sphere.radius);
+      forPixels(rows, columns, [&](int k, int, int) {
+        const Disk& c = chosen[k];
+        if (c.sphere == i || !(q.z - r < c.q.z)) return;
+        const double dx = q.x - c.q.x, dy = q.y - c.q.y, reach = r + c.radius;
+        if (dx * dx + dy * dy < reach * reach) chosen[k].q.z = inf;
+      });
+    });
+    for (int row = 0, k = 0; row < h; ++row) {
+      for (int column = 0; column < w; ++column, ++k) {
+        const Disk& c = chosen[k];
+        if (!(c.q.z < inf)) continue;
+        strata[k] = PixelStratum::of(x0 + column, y0 + row, image.sampleX(c.q.x), image.sampleY(c.q.y),
+                                     c.radius / image.pixelWidth, c.radius / image.pixelHeight);
+      }
+    }
   }
 
   // Whether pixel (x, y)'s square crosses the edge of the ellipse inscribed in `box`: in the frame

@@ -1,0 +1,119 @@
+// Unit tests of a pixel's silhouette stratum: the exact area of the unit disk within a rectangle,
+// and a pixel's share of an ellipse, against numerical integration (doctest).
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <random>
+
+#include "durer/math/Float.h"
+#include "durer/render/PixelStratum.h"
+
+using namespace durer;
+
+namespace {
+
+// The same area by the midpoint rule over x of the chord's part within [v0, v1] (error ~1e-9 with
+// this many steps: the chord's square-root ends).
+double integrated(double u0, double u1, double v0, double v1) {
+  const int steps = 400000;
+  const double a = std::max(u0, -1.0), b = std::min(u1, 1.0);
+  if (a >= b) return 0;
+  const double h = (b - a) / steps;
+  double sum = 0;
+  for (int i = 0; i < steps; ++i) {
+    const double x = a + (i + 0.5) * h, s = std::sqrt(1 - x * x);
+    sum += std::max(0.0, std::min(v1, s) - std::max(v0, -s));
+  }
+  return sum * h;
+}
+
+}  // namespace
+
+TEST_CASE("the unit disk's area within a rectangle: exact cases and numerical integration") {
+  CHECK(unitDiskRectangleArea(-2, 2, -2, 2) == doctest::Approx(kPi).epsilon(1e-15));
+  CHECK(unitDiskRectangleArea(-2, 2, 0, 2) == doctest::Approx(kPi / 2).epsilon(1e-15));
+  CHECK(unitDiskRectangleArea(0, 2, 0, 2) == doctest::Approx(kPi / 4).epsilon(1e-15));
+  CHECK(unitDiskRectangleArea(-0.5, 0.5, -0.5, 0.5) == doctest::Approx(1.0).epsilon(1e-15));  // inside
+  CHECK(unitDiskRectangleArea(1, 2, -1, 1) == 0);
+  CHECK(unitDiskRectangleArea(0.8, 2, 0.8, 2) == 0);  // the corner beyond the disk
+  CHECK(unitDiskRectangleArea(0.5, 0.5, -1, 1) == 0);  // empty
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> at(-1.6, 1.6), size(0.01, 1.5);
+  for (int i = 0; i < 300; ++i) {
+    const double u0 = at(rng), v0 = at(rng), u1 = u0 + size(rng), v1 = v0 + size(rng);
+    const double exact = unitDiskRectangleArea(u0, u1, v0, v1);
+    CHECK_MESSAGE(std::abs(exact - integrated(u0, u1, v0, v1)) < 1e-8, u0, " ", u1, " ", v0, " ", v1);
+  }
+  // A sliver: the rectangle grazing the disk's edge, its area tiny, neither negative nor lost.
+  const double sliver = unitDiskRectangleArea(-0.1, 0.1, 0.999, 2);
+  CHECK(sliver > 0);
+  CHECK(sliver == doctest::Approx(integrated(-0.1, 0.1, 0.999, 2)).epsilon(1e-4));
+}
+
+TEST_CASE("a pixel's stratum: its share is the fraction of the pixel the ellipse covers, and its mean weighs the parts by it") {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> offset(-1.5, 2.5), axis(0.3, 2.5);
+  int tested = 0;
+  for (int i = 0; i < 200; ++i) {
+    const int x = 5, y = 9;
+    const PixelStratum p = PixelStratum::of(x, y, x + offset(rng), y + offset(rng), axis(rng), axis(rng));
+    if (!p.any()) continue;
+    ++tested;
+    const int n = 1000;  // a 1000 x 1000 grid of the pixel's points
+    int inside = 0;
+    for (int a = 0; a < n; ++a) {
+      for (int b = 0; b < n; ++b) inside += p.contains(x + (a + 0.5) / n, y + (b + 0.5) / n);
+    }
+    CHECK(p.share > 0);
+    CHECK(p.share < 1);
+    CHECK(std::abs(double(inside) / (double(n) * n) - double(p.share)) < 4e-3);  // the edge's cells
+  }
+  CHECK(tested > 50);
+  // An ellipse whose edge does not cross the pixel gives no stratum: covering it, or beside it.
+  CHECK_FALSE(PixelStratum::of(0, 0, 0.5, 0.5, 3, 3).any());
+  CHECK_FALSE(PixelStratum::of(0, 0, 5, 5, 1, 1).any());
+  // The mean: a quarter of the pixel inside, where 1 of 8 samples fell (colour 1), the rest 0.2:
+  // 0.25 * 1 + 0.75 * 0.2 = 0.4 (the plain mean: 0.3). With no sample inside, or none outside, the plain mean.
+  const PixelStratum q = PixelStratum::of(0, 0, 0, 0, 1, 1);  // the unit disk about the corner: pi / 4
+  REQUIRE(q.any());
+  CHECK(double(q.share) == doctest::Approx(kPi / 4).epsilon(1e-7));
+  PixelStratum quarter = q;
+  quarter.share = 0.25f;
+  CHECK(quarter.mean(1.0 + 7 * 0.2, 8.0, 1.0, 1.0) == doctest::Approx(0.4).epsilon(1e-15));
+  CHECK(quarter.mean(1.6, 8.0, 0.0, 0.0) == doctest::Approx(0.2).epsilon(1e-15));
+  CHECK(quarter.mean(8.0, 8.0, 8.0, 8.0) == doctest::Approx(1.0).epsilon(1e-15));
+}
+
+TEST_CASE("a wide silhouette's share stays exact to 2e-6 of the pixel; wider ones keep no stratum") {
+  // The share in the pixel's own frame, for a circle of radius r about (cx, cy): the midpoint rule
+  // over x across the pixel of the chord's part within it, the chord's half height as
+  // sqrt((r - d)(r + d)) (no r^2 - d^2 to cancel).
+  const auto reference = [](int x, int y, double cx, double cy, double r) {
+    const int steps = 200000;
+    double sum = 0;
+    for (int i = 0; i < steps; ++i) {
+      const double d = std::abs(x + (i + 0.5) / steps - cx);
+      if (d >= r) continue;
+      const double half = std::sqrt((r - d) * (r + d));
+      sum += std::max(0.0, std::min(y + 1.0, cy + half) - std::max(double(y), cy - half));
+    }
+    return sum / steps;
+  };
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> unit(0, 1);
+  int tested = 0;
+  for (int i = 0; i < 60; ++i) {
+    const double r = std::pow(2.0, 12 * unit(rng));  // 1 to 4096 pixels
+    const double angle = 2 * kPi * unit(rng), reach = r + unit(rng) - 0.5;  // the edge near pixel (0, 0)
+    // The centre rounded to float (as the stratum keeps it), the radius a float's inverse's inverse.
+    const double cx = double(float(0.5 - reach * std::cos(angle))), cy = double(float(0.5 - reach * std::sin(angle)));
+    const PixelStratum p = PixelStratum::of(0, 0, cx, cy, r, r);
+    if (!p.any()) continue;
+    ++tested;
+    const double radius = 1 / double(p.inverseAx);
+    CHECK_MESSAGE(std::abs(double(p.share) - reference(0, 0, cx, cy, radius)) < 2e-6, "r ", r, " angle ", angle);
+  }
+  CHECK(tested > 40);
+  CHECK(PixelStratum::of(0, 0, 0.5 - 4095.5, 0.5, 4095.5, 4095.5).any());
+  CHECK_FALSE(PixelStratum::of(0, 0, 0.5 - 5000, 0.5, 5000, 5000).any());  // beyond kMostAxis
+}
