@@ -3,14 +3,13 @@
 // sphere's image crosses a pixel, its samples' colours form two populations: those inside the
 // silhouette and those outside. The plain mean weighs each by the share of samples that happened to
 // fall in it; the stratified mean weighs each by its exact share of the pixel's area, so what the
-// samples' positions decide is gone and only the colours' spread within each part is left. On small
-// spheres -- an edge in most pixels -- it reaches the plain mean's error with about half the samples
-// (docs/accuracy.md).
+// samples' positions decide is gone and only the colours' spread within each part is left (what it
+// gains and costs: docs/benchmarks.md, forty-second round).
 //
-// The silhouette is the ellipse inscribed in the sphere's sample box (Camera::footprint: the disk
-// itself seen orthographically, close to the projected ellipse in perspective). Any region whose area
-// is known exactly keeps the estimate consistent; the nearer it follows the colours' edge, the more
-// it removes. Used by adaptive sampling (AdaptiveSampler).
+// The silhouette is a sphere's image through an orthographic camera: a disk (an axis-aligned ellipse
+// where pixels are not square; TileRenderer::silhouetteStrata). Any region whose area is known
+// exactly keeps the estimate consistent; the nearer it follows the colours' edge, the more it
+// removes. Used by adaptive sampling (AdaptiveSampler).
 #include <algorithm>
 #include <cmath>
 #include <utility>

@@ -381,8 +381,9 @@ class TileRenderer {
   // silhouette's (a part of the stratum holding colours its samples may all have missed would settle
   // the pixel on a wrong mean). Other geometry (planes, triangles, boxes, groups' spheres) and a
   // t_min cutting into a sphere are not looked at: an edge of theirs in a part only costs the
-  // stratum its gain (any exact split of the pixel keeps the mean consistent). The view lists a cell's spheres by their fronts' depths: once every pixel has an edge or
-  // a cover nearer than the next one's front, the rest can change nothing and are not read.
+  // stratum its gain (any exact split of the pixel keeps the mean consistent). The view lists a
+  // cell's spheres by their fronts' depths: once every pixel has an edge or a cover nearer than the
+  // next one's front, the rest can change nothing and are not read.
   void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata) const {
     std::fill(strata, strata + w * h, PixelStratum{});
     if (!stratifies()) return;
