@@ -206,7 +206,6 @@ class AdaptiveSampler {
   }
 
  private:
-  // A tile's pixels (clipped to the work region) and what adaptive sampling keeps of them.
   // A tile's pixels' silhouette strata and the sums of their samples inside them (kept only where
   // pixels may have one: m_strata; 92 bytes a pixel in double, 56 in float).
   struct StratumState {
@@ -214,8 +213,13 @@ class AdaptiveSampler {
     Real inR[kPacketSize], inG[kPacketSize], inB[kPacketSize], inA[kPacketSize];  // sums of the samples in it
     Real inside[kPacketSize];                             // their count
     Real lastInR[kPacketSize], lastInG[kPacketSize], lastInB[kPacketSize], lastInside[kPacketSize];  // of the second half
+
+    // Pixel k's mean of one channel by its stratum (PixelStratum::mean), from the channel's sum over
+    // all the pixel's `count` samples and over those inside (`in`).
+    Real mean(int k, Real sum, Real count, Real in) const { return strata[k].mean(sum, count, in, inside[k]); }
   };
 
+  // A tile's pixels (clipped to the work region) and what adaptive sampling keeps of them.
   struct TileState {
     int x0, y0, w, h;
     Sums sums;                                            // every sample so far
@@ -255,8 +259,8 @@ class AdaptiveSampler {
     if (last) s.lastInR[k] += r, s.lastInG[k] += g, s.lastInB[k] += b, s.lastInside[k] += 1;
   }
 
-  // For a tile with strata: marks inside[j] whether sample j, at (sampleX[j], sampleY[j]) in pixel k = pixel[j] of the tile
-  // (pixel == nullptr: k = j), lies in the pixel's stratum.
+  // For a tile with strata: marks inside[j] whether sample j, at (sampleX[j], sampleY[j]) in pixel
+  // k = pixel[j] of the tile (pixel == nullptr: k = j), lies in the pixel's stratum.
   static void markInside(const TileState& t, const Real* sampleX, const Real* sampleY, const int* pixel, int count,
                          bool* inside) {
     for (int j = 0; j < count; ++j) {
@@ -457,13 +461,12 @@ class AdaptiveSampler {
     }
     for (int k = 0; t.stratum && k < count; ++k) {  // a stratum's pixels: their estimates and means by its parts
       const StratumState& u = *t.stratum;
-      const PixelStratum& p = u.strata[k];
-      if (!p.any() || !sampled[k]) continue;  // an unsampled pixel's summary stands (below)
+      if (!u.strata[k].any() || !sampled[k]) continue;  // an unsampled pixel's summary stands (below)
       error[k] = stratifiedError(t, k);
       const Real n = t.sums.samples[k];
-      meanR[k] = static_cast<float>(p.mean(t.sums.r[k], n, u.inR[k], u.inside[k]));
-      meanG[k] = static_cast<float>(p.mean(t.sums.g[k], n, u.inG[k], u.inside[k]));
-      meanB[k] = static_cast<float>(p.mean(t.sums.b[k], n, u.inB[k], u.inside[k]));
+      meanR[k] = static_cast<float>(u.mean(k, t.sums.r[k], n, u.inR[k]));
+      meanG[k] = static_cast<float>(u.mean(k, t.sums.g[k], n, u.inG[k]));
+      meanB[k] = static_cast<float>(u.mean(k, t.sums.b[k], n, u.inB[k]));
     }
     // Sums that overflowed (a float render's colours saturate) leave the error unknown: infinite, not
     // the NaN of inf - inf (such a pixel is never settled before its last round, as an infinite error
@@ -728,13 +731,12 @@ class AdaptiveSampler {
       const int k0 = slotOf(t, x0, y);
       for (int k = k0; t.stratum && k < k0 + x1 - x0; ++k) {  // a stratum's pixels: their means by its parts, as sums
         const StratumState& u = *t.stratum;
-        const PixelStratum& p = u.strata[k];
-        if (!p.any()) continue;
-        const Real n = t.sums.samples[k], inside = u.inside[k];
-        t.sums.r[k] = p.mean(t.sums.r[k], n, u.inR[k], inside) * n;
-        t.sums.g[k] = p.mean(t.sums.g[k], n, u.inG[k], inside) * n;
-        t.sums.b[k] = p.mean(t.sums.b[k], n, u.inB[k], inside) * n;
-        t.sums.a[k] = p.mean(t.sums.a[k], n, u.inA[k], inside) * n;
+        if (!u.strata[k].any()) continue;
+        const Real n = t.sums.samples[k];
+        t.sums.r[k] = u.mean(k, t.sums.r[k], n, u.inR[k]) * n;
+        t.sums.g[k] = u.mean(k, t.sums.g[k], n, u.inG[k]) * n;
+        t.sums.b[k] = u.mean(k, t.sums.b[k], n, u.inB[k]) * n;
+        t.sums.a[k] = u.mean(k, t.sums.a[k], n, u.inA[k]) * n;
       }
       m_tiles.writeRow(t.sums, k0, x1 - x0, first);
       for (int i = 0; i < x1 - x0; ++i) {

@@ -372,7 +372,7 @@ class TileRenderer {
 
   // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0): the silhouette of the
   // nearest of the camera's view's spheres whose silhouette's edge crosses the pixel, PixelStratum
-  // (none where !stratifies()). Nearest by the centre's depth, which is the depth of a silhouette's
+  // (for a render that stratifies()). Nearest by the centre's depth, which is the depth of a silhouette's
   // points (a large sphere's front may lie nearer than a small one's that hides its edge). A pixel
   // keeps none where the scene's own spheres may hide that edge: behind a sphere covering the whole
   // pixel (whose surface there lies before its centre's depth), or where another sphere overlapping
@@ -386,7 +386,6 @@ class TileRenderer {
   // next one's front, the rest can change nothing and are not read.
   void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata) const {
     std::fill(strata, strata + w * h, PixelStratum{});
-    if (!stratifies()) return;
     const ParallelProjection image = m_camera.projection();
     const int cellX = x0 / kTileSize * kTileSize, cellY = y0 / kTileSize * kTileSize, count = w * h;
     const double inf = std::numeric_limits<double>::infinity();
@@ -418,17 +417,14 @@ class TileRenderer {
       const Sphere<Real>& sphere = m_group.spheres().primitive(i);
       const Vec3d q = image.inFrame(Vec3d(sphere.center));
       const double r = double(sphere.radius), cx = image.sampleX(q.x), cy = image.sampleY(q.y);
-      const double iu = image.pixelWidth / r, iv = image.pixelHeight / r;
+      const double ax = r / image.pixelWidth, ay = r / image.pixelHeight;
       bool changed = false;
       forPixels(rows, columns, [&](int k, int x, int y) {
         if (!(q.z < std::min(hidden[k], chosen[k].q.z))) return;
-        // The square's nearest point and farthest corner in the frame where the disk is the unit disk.
-        const double u0 = (x - cx) * iu, u1 = (x + 1 - cx) * iu, v0 = (y - cy) * iv, v1 = (y + 1 - cy) * iv;
-        const double nu = u0 > 0 ? u0 : u1 < 0 ? u1 : 0, nv = v0 > 0 ? v0 : v1 < 0 ? v1 : 0;
-        const double far = std::max(u0 * u0, u1 * u1) + std::max(v0 * v0, v1 * v1);
-        if (far <= 1) {
+        const Cover cover = coverOf(cx, cy, ax, ay, x, y);
+        if (cover == Cover::Inside) {
           hidden[k] = q.z, changed = true;
-        } else if (nu * nu + nv * nv < 1) {
+        } else if (cover == Cover::Crosses) {
           chosen[k] = {i, q, r}, changed = true;
         }
       });
@@ -464,17 +460,25 @@ class TileRenderer {
     }
   }
 
-  // Whether pixel (x, y)'s square crosses the edge of the ellipse inscribed in `box`: in the frame
-  // where that ellipse is the unit disk, the square's nearest point lies inside and its farthest
-  // corner outside. Not for a box reaching infinity (a sphere reaching a perspective eye's plane).
+  // Whether pixel (x, y)'s square crosses the edge of the ellipse inscribed in `box` (Cover of the
+  // ellipse). Not for a box reaching infinity (a sphere reaching a perspective eye's plane).
   static bool crossesInscribedEllipse(const SampleBox& box, int x, int y) {
     const double cx = (box.x0 + box.x1) / 2, cy = (box.y0 + box.y1) / 2;
     const double ax = (box.x1 - box.x0) / 2, ay = (box.y1 - box.y0) / 2;
     if (!(std::isfinite(cx) && std::isfinite(cy) && ax > 0 && ay > 0)) return false;
+    return coverOf(cx, cy, ax, ay, x, y) == Cover::Crosses;
+  }
+
+  // How pixel (x, y)'s square lies against the axis-aligned ellipse of centre (cx, cy) and semi-axes
+  // ax, ay: in the frame where the ellipse is the unit disk, its farthest corner inside (Inside), or
+  // its nearest point inside and its farthest corner outside (Crosses), or neither (Outside).
+  enum class Cover { Outside, Crosses, Inside };
+  static Cover coverOf(double cx, double cy, double ax, double ay, int x, int y) {
     const double u0 = (x - cx) / ax, u1 = (x + 1 - cx) / ax, v0 = (y - cy) / ay, v1 = (y + 1 - cy) / ay;
     const double nu = u0 > 0 ? u0 : u1 < 0 ? u1 : 0, nv = v0 > 0 ? v0 : v1 < 0 ? v1 : 0;
     const double fu = std::max(u0 * u0, u1 * u1), fv = std::max(v0 * v0, v1 * v1);
-    return nu * nu + nv * nv < 1 && fu + fv > 1;
+    if (fu + fv <= 1) return Cover::Inside;
+    return nu * nu + nv * nv < 1 ? Cover::Crosses : Cover::Outside;
   }
 
   // Writes entries [k0, k0 + count) of `acc` (count <= kPacketSize) to the region's pixels
