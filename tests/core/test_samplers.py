@@ -154,23 +154,33 @@ def plain_mean_counts(values: np.ndarray, samples: np.ndarray) -> np.ndarray:
 
 def test_a_silhouette_weighs_its_parts_only_where_it_is_the_edge_seen():
     # Two flat discs (red and green, no lights) on black that cut through each other: where both
-    # overlap a pixel, the edge seen there may be where they cut, not a silhouette, and the pixel keeps
-    # the plain mean of its samples (a whole number of samples saw red, and of green). Elsewhere on
-    # the silhouettes the parts are weighed (some pixels' red is not a whole number of samples).
+    # reach into a pixel, the edge seen there may be where they cut, not a silhouette, and the pixel
+    # keeps the plain mean of its samples (a whole number of samples saw red, and of green).
+    # Elsewhere on the silhouettes -- next to the overlap too, where only one disc reaches into the
+    # pixel -- the parts are weighed (some pixels' red is not a whole number of samples).
     size = 32
+    discs = ((-3.1, 0.4, 6.2), (3.3, -0.2, 5.7))
     scene = durer.Scene()
     scene.background = WHITE_ON_BLACK
     red, green = scene.add_material((1, 0, 0)), scene.add_material((0, 1, 0))
-    scene.add_spheres([[-3.1, 0.4, -50], [3.3, -0.2, -50]], [6.2, 5.7], material=np.array([red, green], np.int32))
+    scene.add_spheres([[cx, cy, -50] for cx, cy, _ in discs], [r for *_, r in discs],
+                      material=np.array([red, green], np.int32))
     result = durer.render(scene, pixel_camera(size, size), size, size, spp=16, sampler="adaptive")
     x, y = pixel_centres(size, size)
-    near = [np.hypot(x - cx, y - cy) < r + 1 for cx, cy, r in ((-3.1, 0.4, 6.2), (3.3, -0.2, 5.7))]
+
+    def reaches(cx: float, cy: float, r: float) -> np.ndarray:  # the disc reaches into the pixel's square
+        return np.hypot(np.maximum(np.abs(x - cx) - 0.5, 0), np.maximum(np.abs(y - cy) - 0.5, 0)) < r
+
+    near = [reaches(*d) for d in discs]
     both = near[0] & near[1]
     assert both.sum() >= 10
     n = result.samples
     for channel in (0, 1):
         assert plain_mean_counts(result.color[..., channel], n)[both].max() < 1e-3
-    assert plain_mean_counts(result.color[..., 0], n)[near[0] & ~both].max() > 0.05
+    weighed = plain_mean_counts(result.color[..., 0], n) > 0.05
+    assert weighed[near[0] & ~both].any()
+    beside = near[0] & ~both & (np.hypot(x - discs[1][0], y - discs[1][1]) < discs[1][2] + 1.5)  # the overlap's ends
+    assert weighed[beside].any()
 
 
 def test_a_perspective_camera_keeps_the_plain_mean():

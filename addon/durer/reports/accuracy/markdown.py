@@ -190,7 +190,8 @@ def markdown(report: Report, plots: dict[str, str]) -> str:
         "samples/pixel column is what it actually took; where a silhouette crosses a pixel (both scenes are seen "
         "orthographically), its samples inside and outside are weighed by their exact shares of the pixel "
         "(post-stratification), and a part no sample has reached keeps the pixel refining while its share exceeds "
-        "`target_error`. The slopes are "
+        "`target_error`, a part whose samples all lie in one half of them while its share times 1/2 over the root "
+        "of its samples does. The slopes are "
         "least-squares fits of log RMSE against log spp (adaptive: against the samples it took); plain Monte "
         "Carlo converges as spp^-0.5. The reference's own error puts a floor under the curves at the highest spp.",
     ]

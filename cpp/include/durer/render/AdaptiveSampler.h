@@ -31,9 +31,10 @@
 // In a colour render, where an orthographic camera sees a sphere's silhouette cross a pixel
 // (TileRenderer::silhouetteStrata), the pixel's mean is its stratum's (PixelStratum): the mean of
 // its samples inside the silhouette and that of those outside, weighed by their exact shares of the
-// pixel; its error estimate the difference of its halves' means made the same way. A part no sample
-// has reached yet keeps the pixel marked while its share exceeds targetError (its colour may differ
-// by about 1).
+// pixel; its error estimate the difference of its halves' means made the same way. A part that
+// estimate cannot see keeps the pixel marked while what it may put the mean off by exceeds
+// targetError (unresolvedShare): one no sample has reached yet, by its share (its colour may differ
+// by about 1), one whose samples all lie in one half, by its share times the spread of a colour.
 // What the render reports as a pixel's error (`result.error`, the estimated RMSE) is its last
 // round's estimate alone: the average leans toward the larger errors of fewer samples; a pixel of
 // two samples reports how far its mean lies from its neighbours' (residualError).
@@ -71,6 +72,7 @@ class AdaptiveSampler {
   static constexpr int kHistorySamples = 4;       // the fewest samples whose estimate later rounds average in
   static constexpr double kNeighbourWeight = 0.25;  // of the neighbourhood's mean squared error (its RMS: half)
   static constexpr double kUnseenShare = 0.5;     // of the contrast an unseen edge's bound, expected
+  static constexpr double kPartSpread = 0.5;      // the largest standard deviation of a colour in [0, 1]
 
   AdaptiveSampler(const Tiles& tiles, const RenderSettings& settings, const RenderTargets& targets)
       : m_tiles(tiles),
@@ -591,15 +593,22 @@ class AdaptiveSampler {
     return static_cast<float>(std::sqrt((e * e + last * last * before / taken) / 2));
   }
 
-  // The share of pixel k's square in a part of its stratum that none of its samples has reached
-  // (0: none such). That part's colour is unknown: it may be off the pixel's by about 1 (a lit sphere
-  // against a dark ground), which would put the pixel's mean off by up to this share.
-  static double unsampledShare(const TileState& t, int k) {
-    if (t.stratum == nullptr) return 0;
-    const PixelStratum& p = t.stratum->strata[k];
-    const Real inside = t.stratum->inside[k];
-    if (!p.any()) return 0;
-    return inside == 0 ? double(p.share) : inside == t.sums.samples[k] ? 1 - double(p.share) : 0;
+  // How far pixel k's stratified mean may be off for want of samples its error estimate can see: a
+  // part of its stratum none of its samples has reached counts its share of the pixel (its colour is
+  // unknown: it may be off the pixel's by about 1, a lit sphere against a dark ground); a part whose
+  // samples all lie in one half (its spread is then invisible to the halves' difference) its share
+  // times kPartSpread over the root of its samples (a colour in [0, 1] spreads by at most 1/2). 0
+  // without a stratum, or where both halves reached both parts.
+  static double unresolvedShare(const TileState& t, int k) {
+    if (t.stratum == nullptr || !t.stratum->strata[k].any()) return 0;
+    const StratumState& u = *t.stratum;
+    const double share = double(u.strata[k].share), n = double(t.sums.samples[k]), last = t.last[k];
+    const double inside = double(u.inside[k]), lastInside = double(u.lastInside[k]);
+    const auto part = [](double share, double samples, double inLast) {
+      if (samples == 0) return share;
+      return inLast == 0 || inLast == samples ? share * kPartSpread / std::sqrt(samples) : 0.0;
+    };
+    return part(share, inside, lastInside) + part(1 - share, n - inside, last - lastInside);
   }
 
   static int slotOf(const TileState& t, int x, int y) { return (y - t.y0) * t.w + (x - t.x0); }
@@ -640,12 +649,12 @@ class AdaptiveSampler {
           const double squaredError = std::max(own * own, kNeighbourWeight * neighbourhood / around);
           const double resolved = taken * m_target / kUnseenShare;  // the contrast `taken` samples resolve
           const double inf = std::numeric_limits<double>::infinity();
-          const double unsampled = unsampledShare(t, k);
+          const double unresolved = unresolvedShare(t, k);
           if (squaredError <= m_target * m_target && squaredError < inf && (!edge || taken >= kEdgeSamples) &&
-              squaredContrast <= resolved * resolved && squaredContrast < inf && unsampled <= m_target) {
+              squaredContrast <= resolved * resolved && squaredContrast < inf && unresolved <= m_target) {
             continue;
           }
-          error = std::max(std::sqrt(squaredError), unsampled), contrast = std::sqrt(squaredContrast);
+          error = std::max(std::sqrt(squaredError), unresolved), contrast = std::sqrt(squaredContrast);
         }
         t.add[k] = level - taken;
         t.priority = std::max(t.priority, static_cast<float>(std::max(error, contrast / taken)));

@@ -375,11 +375,12 @@ class TileRenderer {
   // (for a render that stratifies()). Nearest by the centre's depth, which is the depth of a silhouette's
   // points (a large sphere's front may lie nearer than a small one's that hides its edge). A pixel
   // keeps none where the scene's own spheres may hide that edge: behind a sphere covering the whole
-  // pixel (whose surface there lies before its centre's depth), or where another sphere overlapping
-  // the silhouette's disk may lie in front of the edge (its front nearer than the edge): the two may
-  // hide each other's parts there, or cut through each other, and the edge seen is then not the
-  // silhouette's (a part of the stratum holding colours its samples may all have missed would settle
-  // the pixel on a wrong mean). Other geometry (planes, triangles, boxes, groups' spheres) and a
+  // pixel (whose surface there lies before its centre's depth), or where another sphere whose disk
+  // overlaps the silhouette's and reaches into the pixel may lie in front of the edge (its front
+  // nearer than the edge): the two may hide each other's parts there, or cut through each other, and
+  // the edge seen is then not the silhouette's (a part of the stratum holding colours its samples
+  // may all have missed would settle the pixel on a wrong mean). A sphere is seen, hides and cuts
+  // only within its disk: one whose disk misses the pixel changes nothing there. Other geometry (planes, triangles, boxes, groups' spheres) and a
   // t_min cutting into a sphere are not looked at: an edge of theirs in a part only costs the
   // stratum its gain (any exact split of the pixel keeps the mean consistent). The view lists a
   // cell's spheres by their fronts' depths: once every pixel has an edge or a cover nearer than the
@@ -442,12 +443,13 @@ class TileRenderer {
     m_view->forCellOf(x0, y0, deepest, [&](uint32_t i, float, std::array<int, 2> rows, std::array<int, 2> columns) {
       const Sphere<Real>& sphere = m_group.spheres().primitive(i);
       const Vec3d q = image.inFrame(Vec3d(sphere.center));
-      const double r = double(sphere.radius);
-      forPixels(rows, columns, [&](int k, int, int) {
+      const double r = double(sphere.radius), cx = image.sampleX(q.x), cy = image.sampleY(q.y);
+      const double ax = r / image.pixelWidth, ay = r / image.pixelHeight;
+      forPixels(rows, columns, [&](int k, int x, int y) {
         const Disk& c = chosen[k];
         if (c.sphere == i || !(q.z - r < c.q.z)) return;
         const double dx = q.x - c.q.x, dy = q.y - c.q.y, reach = r + c.radius;
-        if (dx * dx + dy * dy < reach * reach) chosen[k].q.z = inf;
+        if (dx * dx + dy * dy < reach * reach && coverOf(cx, cy, ax, ay, x, y) != Cover::Outside) chosen[k].q.z = inf;
       });
     });
     for (int row = 0, k = 0; row < h; ++row) {
