@@ -12,6 +12,7 @@ import pytest
 
 import durer
 from durer.render import SAMPLERS
+from durer.reports.scenes import edge_scene
 from helpers.coverage import (
     C, COVERAGE, CUT, SIZE, THETA, WHITE_ON_BLACK, disc_coverage, half_plane_scene, pixel_camera, pixel_centres,
     render_values, vertical_edge_coverage,
@@ -142,6 +143,23 @@ def test_adaptive_spends_its_samples_on_edges_and_weighs_a_silhouettes_parts_exa
     # (no part "unsampled" for want of a colour sample keeps them refining to spp).
     depth = durer.render(scene, pixel_camera(size, size), size, size, spp=spp, sampler="adaptive", passes=("depth",))
     assert depth.samples.max() < spp and depth.samples[cut].min() >= 16
+
+
+def test_a_silhouettes_part_seen_by_one_half_of_the_samples_keeps_the_pixel_refining():
+    # The edge scene's pixel (row 1, column 151): a sphere's sliver covers ~15 % of it, and of its
+    # first 16 samples one lies inside. The halves' difference cannot see that part's spread (the
+    # other half has no sample there): it once estimated 0 and settled the pixel 0.036 off. Such a
+    # part now keeps the pixel refining while its share times 1/2 over the root of its samples
+    # exceeds target_error: at 0.0143 the pixel is within target_error of a 4096-spp reference, and
+    # its estimate is no longer zero.
+    scene, camera = edge_scene(2000)
+    box, te = (148, 0, 8, 4), 0.0143
+    reference = durer.render(scene, camera, 160, 90, spp=4096, seed=7, passes=("color",), region=box).color
+    result = durer.render(scene, camera, 160, 90, spp=64, sampler="adaptive", target_error=te, passes=("color",),
+                          region=box)
+    error = np.sqrt(np.mean((result.color[1, 3, :3] - reference[1, 3, :3]) ** 2))
+    assert error < te and result.samples[1, 3] > 16
+    assert result.error[1, 3] > error / 3
 
 
 def plain_mean_counts(values: np.ndarray, samples: np.ndarray) -> np.ndarray:
