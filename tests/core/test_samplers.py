@@ -164,6 +164,38 @@ def test_a_silhouettes_part_seen_by_one_half_of_the_samples_keeps_the_pixel_refi
     assert result.error[1, 3] > error / 3
 
 
+def test_a_sphere_whose_sliver_no_sample_met_keeps_the_pixel_refining():
+    # 64 pairs of dim flat discs (red nearer, green just behind; no lights) on black, each pair a
+    # fraction of a pixel apart: the pixels along a gap hold both discs' edges, red's the stratum
+    # (the nearer centre), green's sliver in its outside part, which the first samples may all miss
+    # (and a pixel of 16 samples, the edges' minimum, once settled without it). The camera's view
+    # says green's silhouette crosses the pixel: while no sample has met it and half its share
+    # exceeds target_error, the pixel keeps refining -- every such pixel shows some green.
+    size, radius, te = 80, 2.0, 0.01
+    rng = np.random.default_rng(5)
+    red_centres, green_centres = [], []
+    for row in range(8):
+        for col in range(8):
+            cx = -size / 2 + 10 * col + 5 + rng.uniform(-0.3, 0.3)
+            cy = size / 2 - 10 * row - 5 + rng.uniform(-0.3, 0.3)
+            gap, angle = rng.uniform(0.05, 0.6), rng.uniform(0, np.pi)
+            dx, dy = np.array([np.cos(angle), np.sin(angle)]) * (radius + gap / 2)
+            red_centres.append((cx - dx, cy - dy))
+            green_centres.append((cx + dx, cy + dy))
+    scene = durer.Scene()
+    scene.background = WHITE_ON_BLACK
+    red, green = scene.add_material((0.3, 0, 0)), scene.add_material((0, 0.3, 0))
+    n = len(red_centres)
+    scene.add_spheres([[x, y, -50] for x, y in red_centres] + [[x, y, -50.1] for x, y in green_centres],
+                      [radius] * (2 * n), material=np.array([red] * n + [green] * n, np.int32))
+    result = durer.render(scene, pixel_camera(size, size), size, size, spp=64, sampler="adaptive", target_error=te)
+    red_share = sum(disc_coverage(x, y, radius, size, size) for x, y in red_centres)
+    green_share = sum(disc_coverage(x, y, radius, size, size) for x, y in green_centres)
+    both = (red_share > 0) & (red_share < 1) & (green_share > 2 * te) & (green_share < 1)
+    assert both.sum() >= 80
+    assert np.all(result.color[..., 1][both] > 0)
+
+
 def plain_mean_counts(values: np.ndarray, samples: np.ndarray) -> np.ndarray:
     """How many of a pixel's samples saw a flat channel of value 1, from the pixel's value and its
     sample count, and how far that is from a whole number (0 for every pixel whose value is the plain

@@ -79,6 +79,8 @@ def disc_coverage(cx: float, cy: float, radius: float, width: int, height: int, 
     u = (np.arange(steps) + 0.5) / steps - 0.5
     for j in range(height):
         for i in range(width):
+            if abs(xs[j, i] - cx) > radius + 0.5 or abs(ys[j, i] - cy) > radius + 0.5:
+                continue  # beyond the disc's bounding box: 0
             x = xs[j, i] + u
             half = np.sqrt(np.maximum(radius * radius - (x - cx) ** 2, 0.0))
             top = np.minimum(cy + half, ys[j, i] + 0.5)

@@ -35,13 +35,18 @@
 // estimate cannot see keeps the pixel marked while what it may put the mean off by exceeds
 // targetError (unresolvedShare): one no sample has reached yet, by its share (its colour may differ
 // by about 1), one whose samples all lie in one half, by its share times the spread of a colour.
+// There, too, a pixel watches up to two other spheres whose silhouettes cross it and that its first
+// samples did not meet (TileRenderer::watchSilhouettes: a sliver beside the stratum's edge, or an
+// edge where two spheres' disks meet): while no sample has met one, it keeps the pixel marked as an
+// unseen edge would (kUnseenShare of its share), less for each sample that has landed inside its
+// silhouette and met something else (unseenShare: evidence that it is hidden there).
 // What the render reports as a pixel's error (`result.error`, the estimated RMSE) is its last
 // round's estimate alone: the average leans toward the larger errors of fewer samples; a pixel of
 // two samples reports how far its mean lies from its neighbours' (residualError).
 // A time limit stops the refining rounds (never the first pass) when spent; each worker takes its
 // band's tiles worst first (the largest estimated error), so what the limit cuts matters least.
 // Every pixel's state is kept until the end (TileState and Summary: 199 bytes a pixel in double, 131
-// in float; in a colour render through an orthographic camera, StratumState: 92 and 56 more).
+// in float; in a colour render through an orthographic camera, StratumState: 120 and 84 more).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
 // threads; a pixel's result depends on the pixels within `rounds` of it, and its reported error on
 // those within one more, so a region is rendered with that margin around it (sampledRegion) and
@@ -73,6 +78,7 @@ class AdaptiveSampler {
   static constexpr double kNeighbourWeight = 0.25;  // of the neighbourhood's mean squared error (its RMS: half)
   static constexpr double kUnseenShare = 0.5;     // of the contrast an unseen edge's bound, expected
   static constexpr double kPartSpread = 0.5;      // the largest standard deviation of a colour in [0, 1]
+  static constexpr int kMetSamples = 8;           // first samples whose primitives the watch is checked against
 
   AdaptiveSampler(const Tiles& tiles, const RenderSettings& settings, const RenderTargets& targets)
       : m_tiles(tiles),
@@ -208,10 +214,14 @@ class AdaptiveSampler {
   }
 
  private:
-  // A tile's pixels' silhouette strata and the sums of their samples inside them (kept only where
-  // pixels may have one: m_strata; 92 bytes a pixel in double, 56 in float).
+  // A tile's pixels' silhouette strata, the sums of their samples inside them, and the spheres they
+  // watch (kept only where pixels may have one: m_strata; 120 bytes a pixel in double, 84 in float).
   struct StratumState {
     PixelStratum strata[kPacketSize];                     // a silhouette crossing the pixel (PixelStratum)
+    uint32_t sphere[kPacketSize];                         // its sphere (Tiles::kNoSphere: none)
+    uint32_t watched[Tiles::kWatched][kPacketSize];       // spheres crossing it no sample has met (watchSilhouettes)
+    float watchedShare[Tiles::kWatched][kPacketSize];     // the share of the pixel their silhouettes cover
+    float watchedMissed[Tiles::kWatched][kPacketSize];    // samples since inside their silhouettes, none meeting them
     Real inR[kPacketSize], inG[kPacketSize], inB[kPacketSize], inA[kPacketSize];  // sums of the samples in it
     Real inside[kPacketSize];                             // their count
     Real lastInR[kPacketSize], lastInG[kPacketSize], lastInB[kPacketSize], lastInside[kPacketSize];  // of the second half
@@ -267,6 +277,21 @@ class AdaptiveSampler {
                          bool* inside) {
     for (int j = 0; j < count; ++j) {
       inside[j] = t.stratum->strata[pixel ? pixel[j] : j].contains(double(sampleX[j]), double(sampleY[j]));
+    }
+  }
+
+  // For a tile with strata: counts the samples at (sampleX[j], sampleY[j]) in pixel pixel[j] of the
+  // tile that lie inside the silhouette of a sphere the pixel watches (each is counted before its
+  // ray is traced: one that meets the sphere ends the watch, noteGeometry).
+  void countWatched(TileState& t, const Real* sampleX, const Real* sampleY, const int* pixel, int count) const {
+    StratumState& u = *t.stratum;
+    for (int s = 0; s < Tiles::kWatched; ++s) {
+      for (int j = 0; j < count; ++j) {
+        const int k = pixel[j];
+        if (u.watched[s][k] != Tiles::kNoSphere && m_tiles.inSilhouette(u.watched[s][k], double(sampleX[j]), double(sampleY[j]))) {
+          u.watchedMissed[s][k] += 1;
+        }
+      }
     }
   }
 
@@ -356,6 +381,7 @@ class AdaptiveSampler {
     alignas(64) Real along[kPacketSize];
     alignas(64) float farthest[kPacketSize];  // the farthest hit of each pixel's samples (inf: a miss)
     alignas(64) bool inside[kPacketSize];
+    alignas(64) int32_t met[kMetSamples][kPacketSize];  // what each pixel's first samples met (watchSilhouettes)
     std::fill(farthest, farthest + count, -std::numeric_limits<float>::infinity());
     for (int row = 0, k = 0; row < t.h; ++row) {
       for (int col = 0; col < t.w; ++col, ++k) {
@@ -365,7 +391,10 @@ class AdaptiveSampler {
         if (StratumState* u = t.stratum) u->lastInR[k] = u->lastInG[k] = u->lastInB[k] = u->lastInside[k] = 0;
       }
     }
-    if (t.stratum) m_tiles.silhouetteStrata(t.x0, t.y0, t.w, t.h, t.stratum->strata);
+    if (StratumState* u = t.stratum) {
+      m_tiles.silhouetteStrata(t.x0, t.y0, t.w, t.h, u->strata, u->sphere);
+      for (auto& watched : u->watched) std::fill(watched, watched + count, Tiles::kNoSphere);  // set after the samples
+    }
     for (int sample = 0; sample < m_firstSamples; ++sample) {
       std::fill(s, s + count, static_cast<uint32_t>(sample));
       FirstPassSink sink{t, static_cast<uint32_t>(sample), sample >= firstOfLast, t.stratum ? inside : nullptr,
@@ -380,10 +409,31 @@ class AdaptiveSampler {
         for (int col = 0; col < t.w; ++col, ++k) noteGeometry(t, k, line[col], k, k + 1, s, prim, along);
       }
       for (int k = 0; k < count; ++k) farthest[k] = std::max(farthest[k], static_cast<float>(along[k]));
+      if (sample < kMetSamples) std::copy(prim, prim + count, met[sample]);
     }
     // A sphere smaller than the samples' spacing, or the sliver of one, may lie between them: where
     // the camera's view says a silhouette crosses a pixel, it is an edge (mark) whatever they saw.
     m_tiles.markSilhouettes(t.x0, t.y0, t.w, t.h, farthest, t.mixed);
+    if (StratumState* u = t.stratum) {
+      const int recorded = std::min(m_firstSamples, kMetSamples);
+      const auto wasMet = [&](int k, uint32_t sphere) {
+        for (int s = 0; s < recorded; ++s) {
+          if (met[s][k] == static_cast<int32_t>(sphere)) return true;
+        }
+        return false;
+      };
+      m_tiles.watchSilhouettes(t.x0, t.y0, t.w, t.h, farthest, u->sphere, wasMet, u->watched);
+      for (int s = 0; s < Tiles::kWatched; ++s) {
+        for (int k = 0; k < count; ++k) {
+          if (u->watched[s][k] == Tiles::kNoSphere) continue;
+          const float share = m_tiles.silhouetteStratum(u->watched[s][k], px[k], py[k]).share;
+          // One that could not matter (unseen, it would put the mean off by less than the target) is
+          // let go: its share never changes.
+          if (!(kUnseenShare * share > m_target)) u->watched[s][k] = Tiles::kNoSphere;
+          u->watchedShare[s][k] = share, u->watchedMissed[s][k] = 0;
+        }
+      }
+    }
     return true;
   }
 
@@ -403,7 +453,7 @@ class AdaptiveSampler {
     int n = 0;
     const auto flush = [&] {
       m_tiles.sobolPositions(px, py, order, points, s, n, sampleX, sampleY, box, lensU, lensV);
-      if (t.stratum) markInside(t, sampleX, sampleY, pixel, n, inside);
+      if (t.stratum) markInside(t, sampleX, sampleY, pixel, n, inside), countWatched(t, sampleX, sampleY, pixel, n);
       if (!m_tiles.trace(sampleX, sampleY, box, lensU, lensV, n, sink, prim, along, counters)) return false;
       for (int j = 0, end; j < n; j = end) {  // a pixel's samples are consecutive: one run each
         for (end = j + 1; end < n && pixel[end] == pixel[j];) ++end;
@@ -522,6 +572,13 @@ class AdaptiveSampler {
   // met other geometry beyond a depth discontinuity.
   void noteGeometry(TileState& t, int k, Summary& p, int j0, int j1, const uint32_t* s, const int32_t* prim,
                     const Real* along) {
+    if (StratumState* u = t.stratum) {  // a watched sphere met is seen
+      for (auto& watched : u->watched) {
+        for (int j = j0; j < j1 && watched[k] != Tiles::kNoSphere; ++j) {
+          if (prim[j] == static_cast<int32_t>(watched[k])) watched[k] = Tiles::kNoSphere;
+        }
+      }
+    }
     int32_t firstPrim = p.firstPrim;
     float firstT = p.firstT;
     bool mixed = t.mixed[k];
@@ -611,6 +668,22 @@ class AdaptiveSampler {
     return part(share, inside, lastInside) + part(1 - share, n - inside, last - lastInside);
   }
 
+  // What a sphere pixel k watches may put its mean off by, none of its samples having met it
+  // (watchSilhouettes): its colour there is unknown, as an unsampled part's, over the share of the
+  // pixel it may show in: its silhouette's share, over 1 + the samples that have landed inside the
+  // silhouette since and met something else (each a point where it is hidden; with none, a sliver
+  // the samples have not reached). The largest over the spheres it watches; 0 without any (or strata).
+  static double unseenShare(const TileState& t, int k) {
+    if (t.stratum == nullptr) return 0;
+    const StratumState& u = *t.stratum;
+    double largest = 0;
+    for (int s = 0; s < Tiles::kWatched; ++s) {
+      if (u.watched[s][k] == Tiles::kNoSphere) continue;
+      largest = std::max(largest, kUnseenShare * double(u.watchedShare[s][k]) / (1 + double(u.watchedMissed[s][k])));
+    }
+    return largest;
+  }
+
   static int slotOf(const TileState& t, int x, int y) { return (y - t.y0) * t.w + (x - t.x0); }
 
   // Decides add[k] for every pixel of tile `index` from the state the last round left. A pixel whose
@@ -649,7 +722,7 @@ class AdaptiveSampler {
           const double squaredError = std::max(own * own, kNeighbourWeight * neighbourhood / around);
           const double resolved = taken * m_target / kUnseenShare;  // the contrast `taken` samples resolve
           const double inf = std::numeric_limits<double>::infinity();
-          const double unresolved = unresolvedShare(t, k);
+          const double unresolved = std::max(unresolvedShare(t, k), unseenShare(t, k));
           if (squaredError <= m_target * m_target && squaredError < inf && (!edge || taken >= kEdgeSamples) &&
               squaredContrast <= resolved * resolved && squaredContrast < inf && unresolved <= m_target) {
             continue;

@@ -372,7 +372,7 @@ class TileRenderer {
 
   // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0): the silhouette of the
   // nearest of the camera's view's spheres whose silhouette's edge crosses the pixel, PixelStratum
-  // (for a render that stratifies()). Nearest by the centre's depth, which is the depth of a silhouette's
+  // (for a render that stratifies()), and spheres[k] that sphere (kNoSphere: none). Nearest by the centre's depth, which is the depth of a silhouette's
   // points (a large sphere's front may lie nearer than a small one's that hides its edge). A pixel
   // keeps none where the scene's own spheres may hide that edge: behind a sphere covering the whole
   // pixel (whose surface there lies before its centre's depth), or where another sphere whose disk
@@ -385,8 +385,9 @@ class TileRenderer {
   // stratum its gain (any exact split of the pixel keeps the mean consistent). The view lists a
   // cell's spheres by their fronts' depths: once every pixel has an edge or a cover nearer than the
   // next one's front, the rest can change nothing and are not read.
-  void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata) const {
+  void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres) const {
     std::fill(strata, strata + w * h, PixelStratum{});
+    std::fill(spheres, spheres + w * h, kNoSphere);
     const ParallelProjection image = m_camera.projection();
     const int cellX = x0 / kTileSize * kTileSize, cellY = y0 / kTileSize * kTileSize, count = w * h;
     const double inf = std::numeric_limits<double>::infinity();
@@ -415,18 +416,15 @@ class TileRenderer {
     double settled = inf;
     m_view->forCellWhile(x0, y0, [&](uint32_t i, float tLow, std::array<int, 2> rows, std::array<int, 2> columns) {
       if (double(tLow) >= settled) return false;
-      const Sphere<Real>& sphere = m_group.spheres().primitive(i);
-      const Vec3d q = image.inFrame(Vec3d(sphere.center));
-      const double r = double(sphere.radius), cx = image.sampleX(q.x), cy = image.sampleY(q.y);
-      const double ax = r / image.pixelWidth, ay = r / image.pixelHeight;
+      const ImageDisk d = imageDisk(image, i);
       bool changed = false;
       forPixels(rows, columns, [&](int k, int x, int y) {
-        if (!(q.z < std::min(hidden[k], chosen[k].q.z))) return;
-        const Cover cover = coverOf(cx, cy, ax, ay, x, y);
+        if (!(d.q.z < std::min(hidden[k], chosen[k].q.z))) return;
+        const Cover cover = d.cover(x, y);
         if (cover == Cover::Inside) {
-          hidden[k] = q.z, changed = true;
+          hidden[k] = d.q.z, changed = true;
         } else if (cover == Cover::Crosses) {
-          chosen[k] = {i, q, r}, changed = true;
+          chosen[k] = {i, d.q, d.radius}, changed = true;
         }
       });
       if (changed) {
@@ -441,15 +439,12 @@ class TileRenderer {
       if (chosen[k].q.z < inf) deepest = std::max(deepest, chosen[k].q.z);
     }
     m_view->forCellOf(x0, y0, deepest, [&](uint32_t i, float, std::array<int, 2> rows, std::array<int, 2> columns) {
-      const Sphere<Real>& sphere = m_group.spheres().primitive(i);
-      const Vec3d q = image.inFrame(Vec3d(sphere.center));
-      const double r = double(sphere.radius), cx = image.sampleX(q.x), cy = image.sampleY(q.y);
-      const double ax = r / image.pixelWidth, ay = r / image.pixelHeight;
+      const ImageDisk d = imageDisk(image, i);
       forPixels(rows, columns, [&](int k, int x, int y) {
         const Disk& c = chosen[k];
-        if (c.sphere == i || !(q.z - r < c.q.z)) return;
-        const double dx = q.x - c.q.x, dy = q.y - c.q.y, reach = r + c.radius;
-        if (dx * dx + dy * dy < reach * reach && coverOf(cx, cy, ax, ay, x, y) != Cover::Outside) chosen[k].q.z = inf;
+        if (c.sphere == i || !(d.q.z - d.radius < c.q.z)) return;
+        const double dx = d.q.x - c.q.x, dy = d.q.y - c.q.y, reach = d.radius + c.radius;
+        if (dx * dx + dy * dy < reach * reach && d.cover(x, y) != Cover::Outside) chosen[k].q.z = inf;
       });
     });
     for (int row = 0, k = 0; row < h; ++row) {
@@ -458,8 +453,60 @@ class TileRenderer {
         if (!(c.q.z < inf)) continue;
         strata[k] = PixelStratum::of(x0 + column, y0 + row, image.sampleX(c.q.x), image.sampleY(c.q.y),
                                      c.radius / image.pixelWidth, c.radius / image.pixelHeight);
+        if (strata[k].any()) spheres[k] = c.sphere;
       }
     }
+  }
+
+  // Sets watched[s][k] (s < kWatched; kNoSphere: none) for the pixels k (row by row) of the w x h
+  // tile at (x0, y0) to the first kWatched spheres of the camera's view, by their fronts' depths,
+  // whose silhouettes cross the pixel nearer than the farthest hit its samples met (farthest[k],
+  // inf: a miss), other than its stratum's (stratum[k]) and those that sphere hides there (hides),
+  // and that none of its samples met (met(k, sphere) false). Such a sphere may show in a part of the pixel no sample reached (a
+  // sliver, or one sphere's edge beside another's), or lie hidden there: adaptive sampling keeps
+  // the pixel refining while what it may cover unseen exceeds targetError (AdaptiveSampler::
+  // unseenShare). For a render that stratifies().
+  template <typename Met>
+  void watchSilhouettes(int x0, int y0, int w, int h, const float* farthest, const uint32_t* stratum, const Met& met,
+                        uint32_t (*watched)[kPacketSize]) const {
+    for (int s = 0; s < kWatched; ++s) std::fill(watched[s], watched[s] + w * h, kNoSphere);
+    const ParallelProjection image = m_camera.projection();
+    const float deepest = *std::max_element(farthest, farthest + w * h);
+    const int cellX = x0 / kTileSize * kTileSize, cellY = y0 / kTileSize * kTileSize;
+    m_view->forCellOf(x0, y0, deepest, [&](uint32_t i, float nearest, std::array<int, 2> rows, std::array<int, 2> columns) {
+      const ImageDisk d = imageDisk(image, i);
+      const int row0 = std::max(rows[0], y0 - cellY), row1 = std::min(rows[1], y0 + h - 1 - cellY);
+      const int column0 = std::max(columns[0], x0 - cellX), column1 = std::min(columns[1], x0 + w - 1 - cellX);
+      for (int row = row0; row <= row1; ++row) {
+        for (int column = column0; column <= column1; ++column) {
+          const int k = (cellY + row - y0) * w + (cellX + column - x0);
+          if (!(nearest < farthest[k]) || stratum[k] == i || watched[kWatched - 1][k] != kNoSphere) continue;
+          if (d.cover(cellX + column, cellY + row) != Cover::Crosses || met(k, i)) continue;
+          if (stratum[k] != kNoSphere && hides(imageDisk(image, stratum[k]), d, cellX + column, cellY + row)) continue;
+          for (int s = 0; s < kWatched; ++s) {
+            if (watched[s][k] == kNoSphere) {
+              watched[s][k] = i;
+              break;
+            }
+          }
+        }
+      }
+    });
+  }
+
+  // Sphere `sphere`'s silhouette as pixel (x, y)'s stratum (PixelStratum: none where its edge does
+  // not cross the pixel). For a render that stratifies().
+  PixelStratum silhouetteStratum(uint32_t sphere, int x, int y) const {
+    const ImageDisk d = imageDisk(m_camera.projection(), sphere);
+    return PixelStratum::of(x, y, d.cx, d.cy, d.ax, d.ay);
+  }
+
+  // Whether the image point (x, y) (pixels) lies inside sphere `sphere`'s silhouette. For a render
+  // that stratifies().
+  bool inSilhouette(uint32_t sphere, double x, double y) const {
+    const ImageDisk d = imageDisk(m_camera.projection(), sphere);
+    const double u = (x - d.cx) / d.ax, v = (y - d.cy) / d.ay;
+    return u * u + v * v < 1;
   }
 
   // Whether pixel (x, y)'s square crosses the edge of the ellipse inscribed in `box` (Cover of the
@@ -481,6 +528,36 @@ class TileRenderer {
     const double fu = std::max(u0 * u0, u1 * u1), fv = std::max(v0 * v0, v1 * v1);
     if (fu + fv <= 1) return Cover::Inside;
     return nu * nu + nv * nv < 1 ? Cover::Crosses : Cover::Outside;
+  }
+
+  static constexpr uint32_t kNoSphere = std::numeric_limits<uint32_t>::max();  // no sphere of the view
+  static constexpr int kWatched = 2;  // spheres a pixel watches for (watchSilhouettes)
+
+  // A sphere of the camera's view as an orthographic image shows it: its centre in the image's frame
+  // (q.z: the depth of its silhouette's points), its radius, and its disk in pixels (centre cx, cy,
+  // semi-axes ax, ay: an ellipse where pixels are not square).
+  struct ImageDisk {
+    Vec3d q;
+    double radius, cx, cy, ax, ay;
+    Cover cover(int x, int y) const { return coverOf(cx, cy, ax, ay, x, y); }
+  };
+  ImageDisk imageDisk(const ParallelProjection& image, uint32_t sphere) const {
+    const Sphere<Real>& s = m_group.spheres().primitive(sphere);
+    const Vec3d q = image.inFrame(Vec3d(s.center));
+    const double r = double(s.radius);
+    return {q, r, image.sampleX(q.x), image.sampleY(q.y), r / image.pixelWidth, r / image.pixelHeight};
+  }
+
+  // Whether sphere c lies in front of all of sphere w that pixel (x, y) may show: the part of the
+  // pixel's square within w's disk's bounding box lies inside c's disk, and c's surface there, at
+  // its deepest (at the box's corner farthest from c's centre), is nearer than w's front.
+  static bool hides(const ImageDisk& c, const ImageDisk& w, int x, int y) {
+    const double u0 = std::max(double(x), w.cx - w.ax), u1 = std::min(double(x + 1), w.cx + w.ax);
+    const double v0 = std::max(double(y), w.cy - w.ay), v1 = std::min(double(y + 1), w.cy + w.ay);
+    const double du = std::max(std::abs(u0 - c.cx), std::abs(u1 - c.cx)) / c.ax;
+    const double dv = std::max(std::abs(v0 - c.cy), std::abs(v1 - c.cy)) / c.ay;
+    const double reach = du * du + dv * dv;  // the farthest corner's squared distance over c's radius
+    return reach < 1 && c.q.z - c.radius * std::sqrt(1 - reach) < w.q.z - w.radius;
   }
 
   // Writes entries [k0, k0 + count) of `acc` (count <= kPacketSize) to the region's pixels
