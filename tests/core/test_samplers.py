@@ -164,6 +164,37 @@ def test_a_silhouettes_part_seen_by_one_half_of_the_samples_keeps_the_pixel_refi
     assert result.error[1, 3] > error / 3
 
 
+def red_and_green_discs(size: int, rng: np.random.Generator, place) -> tuple[list, list]:
+    """A red and a green disc's centres in each cell of an 8x8 grid of 10-pixel cells (of
+    pixel_camera's image): place(cx, cy) puts them around the cell's jittered centre."""
+    reds, greens = [], []
+    for row in range(8):
+        for col in range(8):
+            cx = -size / 2 + 10 * col + 5 + rng.uniform(-0.3, 0.3)
+            cy = size / 2 - 10 * row - 5 + rng.uniform(-0.3, 0.3)
+            red, green = place(cx, cy)
+            reds.append(red)
+            greens.append(green)
+    return reds, greens
+
+
+def pixels_missing_green(reds, greens, radii, depths, camera, size: int, te: float) -> tuple[np.ndarray, np.ndarray]:
+    """Dim flat red and green spheres (radii, centre z: red's then green's) on black, rendered
+    adaptively to 64 spp: the pixels both discs' edges cross where the green one covers more than
+    2 x te, and which of them show no green."""
+    scene = durer.Scene()
+    scene.background = WHITE_ON_BLACK
+    red, green = scene.add_material((0.3, 0, 0)), scene.add_material((0, 0.3, 0))
+    n = len(reds)
+    scene.add_spheres([[x, y, depths[0]] for x, y in reds] + [[x, y, depths[1]] for x, y in greens],
+                      [radii[0]] * n + [radii[1]] * n, material=np.array([red] * n + [green] * n, np.int32))
+    result = durer.render(scene, camera, size, size, spp=64, sampler="adaptive", target_error=te)
+    red_share = sum(disc_coverage(x, y, radii[0], size, size) for x, y in reds)
+    green_share = sum(disc_coverage(x, y, radii[1], size, size) for x, y in greens)
+    both = (red_share > 0) & (red_share < 1) & (green_share > 2 * te) & (green_share < 1)
+    return both, both & ~(result.color[..., 1] > 0)
+
+
 def test_a_sphere_whose_sliver_no_sample_met_keeps_the_pixel_refining():
     # 64 pairs of dim flat discs (red nearer, green just behind; no lights) on black, each pair a
     # fraction of a pixel apart: the pixels along a gap hold both discs' edges, red's the stratum
@@ -171,29 +202,37 @@ def test_a_sphere_whose_sliver_no_sample_met_keeps_the_pixel_refining():
     # (and a pixel of 16 samples, the edges' minimum, once settled without it). The camera's view
     # says green's silhouette crosses the pixel: while no sample has met it and half its share
     # exceeds target_error, the pixel keeps refining -- every such pixel shows some green.
-    size, radius, te = 80, 2.0, 0.01
-    rng = np.random.default_rng(5)
-    red_centres, green_centres = [], []
-    for row in range(8):
-        for col in range(8):
-            cx = -size / 2 + 10 * col + 5 + rng.uniform(-0.3, 0.3)
-            cy = size / 2 - 10 * row - 5 + rng.uniform(-0.3, 0.3)
-            gap, angle = rng.uniform(0.05, 0.6), rng.uniform(0, np.pi)
-            dx, dy = np.array([np.cos(angle), np.sin(angle)]) * (radius + gap / 2)
-            red_centres.append((cx - dx, cy - dy))
-            green_centres.append((cx + dx, cy + dy))
-    scene = durer.Scene()
-    scene.background = WHITE_ON_BLACK
-    red, green = scene.add_material((0.3, 0, 0)), scene.add_material((0, 0.3, 0))
-    n = len(red_centres)
-    scene.add_spheres([[x, y, -50] for x, y in red_centres] + [[x, y, -50.1] for x, y in green_centres],
-                      [radius] * (2 * n), material=np.array([red] * n + [green] * n, np.int32))
-    result = durer.render(scene, pixel_camera(size, size), size, size, spp=64, sampler="adaptive", target_error=te)
-    red_share = sum(disc_coverage(x, y, radius, size, size) for x, y in red_centres)
-    green_share = sum(disc_coverage(x, y, radius, size, size) for x, y in green_centres)
-    both = (red_share > 0) & (red_share < 1) & (green_share > 2 * te) & (green_share < 1)
-    assert both.sum() >= 80
-    assert np.all(result.color[..., 1][both] > 0)
+    size, radius, rng = 80, 2.0, np.random.default_rng(5)
+
+    def apart(cx: float, cy: float):
+        gap, angle = rng.uniform(0.05, 0.6), rng.uniform(0, np.pi)
+        dx, dy = np.array([np.cos(angle), np.sin(angle)]) * (radius + gap / 2)
+        return (cx - dx, cy - dy), (cx + dx, cy + dy)
+
+    reds, greens = red_and_green_discs(size, rng, apart)
+    both, missing = pixels_missing_green(reds, greens, (radius, radius), (-50, -50.1), pixel_camera(size, size), size,
+                                         0.01)
+    assert both.sum() >= 80 and not missing.any()
+
+
+def test_a_sphere_is_watched_behind_a_nearer_one_the_camera_rays_start_inside():
+    # Small dim green spheres inside big red ones' silhouettes near their edges, just behind the red
+    # ones' fronts; the camera's rays start (t_min) inside the red spheres, past their fronts: they
+    # meet the red spheres' backs, and the green spheres in front of those. A red sphere hides a
+    # green one only where the rays meet its front: here it does not, so the green slivers are
+    # watched, and every pixel where one covers more than 2 x target_error shows green.
+    size, big, small, rng = 80, 3.0, 0.3, np.random.default_rng(9)
+
+    def inside(cx: float, cy: float):
+        angle, inset = rng.uniform(0, 2 * np.pi), rng.uniform(0.02, 0.25)
+        d = big - inset - small
+        return (cx, cy), (cx + d * np.cos(angle), cy + d * np.sin(angle))
+
+    reds, greens = red_and_green_discs(size, rng, inside)
+    # Depths from the camera at z = 1: red centres 51 (fronts 48, backs 54), green fronts 51.2.
+    camera = durer.OrthographicCamera((0, 0, 1), (0, 0, -1), (0, 1, 0), float(size), t_min=51.1)
+    both, missing = pixels_missing_green(reds, greens, (big, small), (-50, -50.5), camera, size, 0.01)
+    assert both.sum() >= 60 and not missing.any()
 
 
 def plain_mean_counts(values: np.ndarray, samples: np.ndarray) -> np.ndarray:

@@ -78,7 +78,8 @@ class AdaptiveSampler {
   static constexpr double kNeighbourWeight = 0.25;  // of the neighbourhood's mean squared error (its RMS: half)
   static constexpr double kUnseenShare = 0.5;     // of the contrast an unseen edge's bound, expected
   static constexpr double kPartSpread = 0.5;      // the largest standard deviation of a colour in [0, 1]
-  static constexpr int kMetSamples = 8;           // first samples whose primitives the watch is checked against
+  static constexpr int kMetPrimitives = 4;        // a pixel's first samples' distinct primitives the watch is checked
+                                                  // against (beyond: a sphere met may be watched until met again)
 
   AdaptiveSampler(const Tiles& tiles, const RenderSettings& settings, const RenderTargets& targets)
       : m_tiles(tiles),
@@ -381,8 +382,10 @@ class AdaptiveSampler {
     alignas(64) Real along[kPacketSize];
     alignas(64) float farthest[kPacketSize];  // the farthest hit of each pixel's samples (inf: a miss)
     alignas(64) bool inside[kPacketSize];
-    alignas(64) int32_t met[kMetSamples][kPacketSize];  // what each pixel's first samples met (watchSilhouettes)
+    alignas(64) int32_t met[kMetPrimitives][kPacketSize];  // the primitives each pixel's samples met (watchSilhouettes)
+    alignas(64) int metCount[kPacketSize];                 // how many (at most kMetPrimitives are kept)
     std::fill(farthest, farthest + count, -std::numeric_limits<float>::infinity());
+    std::fill(metCount, metCount + count, 0);
     for (int row = 0, k = 0; row < t.h; ++row) {
       for (int col = 0; col < t.w; ++col, ++k) {
         px[k] = t.x0 + col, py[k] = t.y0 + row;
@@ -409,27 +412,31 @@ class AdaptiveSampler {
         for (int col = 0; col < t.w; ++col, ++k) noteGeometry(t, k, line[col], k, k + 1, s, prim, along);
       }
       for (int k = 0; k < count; ++k) farthest[k] = std::max(farthest[k], static_cast<float>(along[k]));
-      if (sample < kMetSamples) std::copy(prim, prim + count, met[sample]);
+      for (int k = 0; t.stratum && k < count; ++k) {
+        int i = 0;
+        while (i < metCount[k] && met[i][k] != prim[k]) ++i;
+        if (i == metCount[k] && i < kMetPrimitives) met[i][k] = prim[k], metCount[k] = i + 1;
+      }
     }
     // A sphere smaller than the samples' spacing, or the sliver of one, may lie between them: where
     // the camera's view says a silhouette crosses a pixel, it is an edge (mark) whatever they saw.
     m_tiles.markSilhouettes(t.x0, t.y0, t.w, t.h, farthest, t.mixed);
-    if (StratumState* u = t.stratum) {
-      const int recorded = std::min(m_firstSamples, kMetSamples);
+    if (StratumState* u = t.stratum; u && m_rounds > 0) {  // what to watch for, where a round may follow
       const auto wasMet = [&](int k, uint32_t sphere) {
-        for (int s = 0; s < recorded; ++s) {
-          if (met[s][k] == static_cast<int32_t>(sphere)) return true;
+        for (int i = 0; i < metCount[k]; ++i) {
+          if (met[i][k] == static_cast<int32_t>(sphere)) return true;
         }
         return false;
       };
-      m_tiles.watchSilhouettes(t.x0, t.y0, t.w, t.h, farthest, u->sphere, wasMet, u->watched);
+      // One that could not matter (unseen, it would put the mean off by less than the target) is not
+      // watched: its share never changes.
+      const double least = m_target / kUnseenShare;
+      m_tiles.watchSilhouettes(t.x0, t.y0, t.w, t.h, farthest, u->sphere, wasMet, least, u->watched);
       for (int s = 0; s < Tiles::kWatched; ++s) {
         for (int k = 0; k < count; ++k) {
           if (u->watched[s][k] == Tiles::kNoSphere) continue;
           const float share = m_tiles.silhouetteStratum(u->watched[s][k], px[k], py[k]).share;
-          // One that could not matter (unseen, it would put the mean off by less than the target) is
-          // let go: its share never changes.
-          if (!(kUnseenShare * share > m_target)) u->watched[s][k] = Tiles::kNoSphere;
+          if (!(share > least)) u->watched[s][k] = Tiles::kNoSphere;
           u->watchedShare[s][k] = share, u->watchedMissed[s][k] = 0;
         }
       }

@@ -117,6 +117,10 @@ class Camera {
   // the search's [tMin, tMax) along each ray holds them, and clip() keeps only them.
   bool clipsAtPlanes() const { return m_clipPlanes; }
 
+  // The search's range [tMin, tMax) along each camera ray (CameraSpec).
+  double tMin() const { return double(m_tMin); }
+  double tMax() const { return double(m_tMax); }
+
   // Ray k of a packet this camera generated, searched (tHit, prim): a miss if its hit lies beyond the
   // far plane; true if it lies before the near plane, which only rays off the axis can meet (the
   // search counts t from tMin along the ray), and `tMin` is then where the ray crosses that plane.

@@ -459,16 +459,18 @@ class TileRenderer {
   }
 
   // Sets watched[s][k] (s < kWatched; kNoSphere: none) for the pixels k (row by row) of the w x h
-  // tile at (x0, y0) to the first kWatched spheres of the camera's view, by their fronts' depths,
+  // tile at (x0, y0) to the first kWatched spheres of the camera's view, by the view's bounds on
+  // their fronts' depths (the nearest a sphere may be met anywhere in the cell: tLow),
   // whose silhouettes cross the pixel nearer than the farthest hit its samples met (farthest[k],
   // inf: a miss), other than its stratum's (stratum[k]) and those that sphere hides there (hides),
-  // and that none of its samples met (met(k, sphere) false). Such a sphere may show in a part of the pixel no sample reached (a
+  // that may cover more than `least` of it (their disk's bounding box does), and that none of its
+  // samples met (met(k, sphere) false). Such a sphere may show in a part of the pixel no sample reached (a
   // sliver, or one sphere's edge beside another's), or lie hidden there: adaptive sampling keeps
   // the pixel refining while what it may cover unseen exceeds targetError (AdaptiveSampler::
   // unseenShare). For a render that stratifies().
   template <typename Met>
   void watchSilhouettes(int x0, int y0, int w, int h, const float* farthest, const uint32_t* stratum, const Met& met,
-                        uint32_t (*watched)[kPacketSize]) const {
+                        double least, uint32_t (*watched)[kPacketSize]) const {
     for (int s = 0; s < kWatched; ++s) std::fill(watched[s], watched[s] + w * h, kNoSphere);
     const ParallelProjection image = m_camera.projection();
     const float deepest = *std::max_element(farthest, farthest + w * h);
@@ -481,7 +483,10 @@ class TileRenderer {
         for (int column = column0; column <= column1; ++column) {
           const int k = (cellY + row - y0) * w + (cellX + column - x0);
           if (!(nearest < farthest[k]) || stratum[k] == i || watched[kWatched - 1][k] != kNoSphere) continue;
-          if (d.cover(cellX + column, cellY + row) != Cover::Crosses || met(k, i)) continue;
+          const double x = cellX + column, y = cellY + row;
+          const double boxShare = std::max(0.0, std::min(x + 1, d.cx + d.ax) - std::max(x, d.cx - d.ax)) *
+                                  std::max(0.0, std::min(y + 1, d.cy + d.ay) - std::max(y, d.cy - d.ay));
+          if (!(boxShare > least) || d.cover(cellX + column, cellY + row) != Cover::Crosses || met(k, i)) continue;
           if (stratum[k] != kNoSphere && hides(imageDisk(image, stratum[k]), d, cellX + column, cellY + row)) continue;
           for (int s = 0; s < kWatched; ++s) {
             if (watched[s][k] == kNoSphere) {
@@ -501,8 +506,9 @@ class TileRenderer {
     return PixelStratum::of(x, y, d.cx, d.cy, d.ax, d.ay);
   }
 
-  // Whether the image point (x, y) (pixels) lies inside sphere `sphere`'s silhouette. For a render
-  // that stratifies().
+  // Whether the image point (x, y) (pixels) lies inside sphere `sphere`'s silhouette (in double, not
+  // as a PixelStratum rounds it to float: a count of samples, not a share). For a render that
+  // stratifies().
   bool inSilhouette(uint32_t sphere, double x, double y) const {
     const ImageDisk d = imageDisk(m_camera.projection(), sphere);
     const double u = (x - d.cx) / d.ax, v = (y - d.cy) / d.ay;
@@ -549,15 +555,19 @@ class TileRenderer {
   }
 
   // Whether sphere c lies in front of all of sphere w that pixel (x, y) may show: the part of the
-  // pixel's square within w's disk's bounding box lies inside c's disk, and c's surface there, at
-  // its deepest (at the box's corner farthest from c's centre), is nearer than w's front.
-  static bool hides(const ImageDisk& c, const ImageDisk& w, int x, int y) {
+  // pixel's square within w's disk's bounding box lies inside c's disk, and c's front surface there,
+  // at its deepest (at the box's corner farthest from c's centre), is nearer than w's front, and
+  // within the camera rays' search (a tMin beyond c's front would let them pass it, a tMax before
+  // that surface would end them short of it). Through an orthographic camera: depth is t.
+  bool hides(const ImageDisk& c, const ImageDisk& w, int x, int y) const {
     const double u0 = std::max(double(x), w.cx - w.ax), u1 = std::min(double(x + 1), w.cx + w.ax);
     const double v0 = std::max(double(y), w.cy - w.ay), v1 = std::min(double(y + 1), w.cy + w.ay);
     const double du = std::max(std::abs(u0 - c.cx), std::abs(u1 - c.cx)) / c.ax;
     const double dv = std::max(std::abs(v0 - c.cy), std::abs(v1 - c.cy)) / c.ay;
     const double reach = du * du + dv * dv;  // the farthest corner's squared distance over c's radius
-    return reach < 1 && c.q.z - c.radius * std::sqrt(1 - reach) < w.q.z - w.radius;
+    if (!(reach < 1)) return false;
+    const double deepest = c.q.z - c.radius * std::sqrt(1 - reach);
+    return m_camera.tMin() <= c.q.z - c.radius && deepest < m_camera.tMax() && deepest < w.q.z - w.radius;
   }
 
   // Writes entries [k0, k0 + count) of `acc` (count <= kPacketSize) to the region's pixels
