@@ -370,21 +370,23 @@ class TileRenderer {
   // disk of the image (its radius over the pixel's width and height).
   bool stratifies() const { return m_view != nullptr && !m_camera.projection().perspective && !m_camera.hasLens(); }
 
-  // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0): the silhouette of the
-  // nearest of the camera's view's spheres whose silhouette's edge crosses the pixel, PixelStratum
-  // (for a render that stratifies()), and spheres[k] that sphere (kNoSphere: none). Nearest by the centre's depth, which is the depth of a silhouette's
-  // points (a large sphere's front may lie nearer than a small one's that hides its edge). A pixel
-  // keeps none where the scene's own spheres may hide that edge: behind a sphere covering the whole
-  // pixel (whose surface there lies before its centre's depth), or where another sphere whose disk
-  // overlaps the silhouette's and reaches into the pixel may lie in front of the edge (its front
-  // nearer than the edge): the two may hide each other's parts there, or cut through each other, and
-  // the edge seen is then not the silhouette's (a part of the stratum holding colours its samples
-  // may all have missed would settle the pixel on a wrong mean). A sphere is seen, hides and cuts
-  // only within its disk: one whose disk misses the pixel changes nothing there. Other geometry (planes, triangles, boxes, groups' spheres) and a
-  // t_min cutting into a sphere are not looked at: an edge of theirs in a part only costs the
-  // stratum its gain (any exact split of the pixel keeps the mean consistent). The view lists a
-  // cell's spheres by their fronts' depths: once every pixel has an edge or a cover nearer than the
-  // next one's front, the rest can change nothing and are not read.
+  // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0): the silhouette of
+  // the nearest of the camera's view's spheres whose silhouette's edge crosses the pixel,
+  // PixelStratum (for a render that stratifies()), and spheres[k] that sphere (kNoSphere: none).
+  // Nearest by the centre's depth, which is the depth of a silhouette's points (a large sphere's
+  // front may lie nearer than a small one's that hides its edge). A pixel keeps none where the
+  // scene's own spheres may hide that edge: behind a sphere covering the whole pixel (whose
+  // surface there lies before its centre's depth), or where another sphere whose disk overlaps
+  // the silhouette's and reaches into the pixel may lie in front of the edge (its front nearer
+  // than the edge): the two may hide each other's parts there, or cut through each other, and the
+  // edge seen is then not the silhouette's (a part of the stratum holding colours its samples may
+  // all have missed would settle the pixel on a wrong mean). A sphere is seen, hides and cuts
+  // only within its disk: one whose disk misses the pixel changes nothing there. Other geometry
+  // (planes, triangles, boxes, groups' spheres) and a t_min cutting into a sphere are not looked
+  // at: an edge of theirs in a part only costs the stratum its gain (any exact split of the pixel
+  // keeps the mean consistent). The view lists a cell's spheres by their fronts' depths: once
+  // every pixel has an edge or a cover nearer than the next one's front, the rest can change
+  // nothing and are not read.
   void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres) const {
     std::fill(strata, strata + w * h, PixelStratum{});
     std::fill(spheres, spheres + w * h, kNoSphere);
@@ -460,14 +462,14 @@ class TileRenderer {
 
   // Sets watched[s][k] (s < kWatched; kNoSphere: none) for the pixels k (row by row) of the w x h
   // tile at (x0, y0) to the first kWatched spheres of the camera's view, by the view's bounds on
-  // their fronts' depths (the nearest a sphere may be met anywhere in the cell: tLow),
-  // whose silhouettes cross the pixel nearer than the farthest hit its samples met (farthest[k],
-  // inf: a miss), other than its stratum's (stratum[k]) and those that sphere hides there (hides),
-  // that may cover more than `least` of it (their disk's bounding box does), and that none of its
-  // samples met (met(k, sphere) false). Such a sphere may show in a part of the pixel no sample reached (a
-  // sliver, or one sphere's edge beside another's), or lie hidden there: adaptive sampling keeps
-  // the pixel refining while what it may cover unseen exceeds targetError (AdaptiveSampler::
-  // unseenShare). For a render that stratifies().
+  // their fronts' depths (the nearest a sphere may be met anywhere in the cell: tLow), whose
+  // silhouettes cross the pixel nearer than the farthest hit its samples met (farthest[k], inf: a
+  // miss), other than its stratum's (stratum[k]) and those that sphere hides there (hides), that
+  // may cover more than `least` of it (their disk's bounding box does), and that none of its
+  // samples met (met(k, sphere) false). Such a sphere may show in a part of the pixel no sample
+  // reached (a sliver, or one sphere's edge beside another's), or lie hidden there: adaptive
+  // sampling keeps the pixel refining while what it may cover unseen exceeds targetError
+  // (AdaptiveSampler::unseenShare). For a render that stratifies().
   template <typename Met>
   void watchSilhouettes(int x0, int y0, int w, int h, const float* farthest, const uint32_t* stratum, const Met& met,
                         double least, uint32_t (*watched)[kPacketSize]) const {
