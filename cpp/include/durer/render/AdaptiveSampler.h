@@ -431,15 +431,8 @@ class AdaptiveSampler {
       // One that could not matter (unseen, it would put the mean off by less than the target) is not
       // watched: its share never changes.
       const double least = m_target / kUnseenShare;
-      m_tiles.watchSilhouettes(t.x0, t.y0, t.w, t.h, farthest, u->sphere, wasMet, least, u->watched);
-      for (int s = 0; s < Tiles::kWatched; ++s) {
-        for (int k = 0; k < count; ++k) {
-          if (u->watched[s][k] == Tiles::kNoSphere) continue;
-          const float share = m_tiles.silhouetteStratum(u->watched[s][k], px[k], py[k]).share;
-          if (!(share > least)) u->watched[s][k] = Tiles::kNoSphere;
-          u->watchedShare[s][k] = share, u->watchedMissed[s][k] = 0;
-        }
-      }
+      m_tiles.watchSilhouettes(t.x0, t.y0, t.w, t.h, farthest, u->sphere, wasMet, least, u->watched, u->watchedShare);
+      for (auto& missed : u->watchedMissed) std::fill(missed, missed + count, 0.0f);
     }
     return true;
   }

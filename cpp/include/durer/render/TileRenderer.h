@@ -465,14 +465,14 @@ class TileRenderer {
   // their fronts' depths (the nearest a sphere may be met anywhere in the cell: tLow), whose
   // silhouettes cross the pixel nearer than the farthest hit its samples met (farthest[k], inf: a
   // miss), other than its stratum's (stratum[k]) and those that sphere hides there (hides), that
-  // may cover more than `least` of it (their disk's bounding box does), and that none of its
+  // cover more than `least` of it (shares[s][k] their share, PixelStratum's), and that none of its
   // samples met (met(k, sphere) false). Such a sphere may show in a part of the pixel no sample
   // reached (a sliver, or one sphere's edge beside another's), or lie hidden there: adaptive
   // sampling keeps the pixel refining while what it may cover unseen exceeds targetError
   // (AdaptiveSampler::unseenShare). For a render that stratifies().
   template <typename Met>
   void watchSilhouettes(int x0, int y0, int w, int h, const float* farthest, const uint32_t* stratum, const Met& met,
-                        double least, uint32_t (*watched)[kPacketSize]) const {
+                        double least, uint32_t (*watched)[kPacketSize], float (*shares)[kPacketSize]) const {
     for (int s = 0; s < kWatched; ++s) std::fill(watched[s], watched[s] + w * h, kNoSphere);
     const ParallelProjection image = m_camera.projection();
     const float deepest = *std::max_element(farthest, farthest + w * h);
@@ -490,22 +490,17 @@ class TileRenderer {
                                   std::max(0.0, std::min(y + 1, d.cy + d.ay) - std::max(y, d.cy - d.ay));
           if (!(boxShare > least) || d.cover(cellX + column, cellY + row) != Cover::Crosses || met(k, i)) continue;
           if (stratum[k] != kNoSphere && hides(imageDisk(image, stratum[k]), d, cellX + column, cellY + row)) continue;
+          const float share = PixelStratum::of(cellX + column, cellY + row, d.cx, d.cy, d.ax, d.ay).share;
+          if (!(share > least)) continue;
           for (int s = 0; s < kWatched; ++s) {
             if (watched[s][k] == kNoSphere) {
-              watched[s][k] = i;
+              watched[s][k] = i, shares[s][k] = share;
               break;
             }
           }
         }
       }
     });
-  }
-
-  // Sphere `sphere`'s silhouette as pixel (x, y)'s stratum (PixelStratum: none where its edge does
-  // not cross the pixel). For a render that stratifies().
-  PixelStratum silhouetteStratum(uint32_t sphere, int x, int y) const {
-    const ImageDisk d = imageDisk(m_camera.projection(), sphere);
-    return PixelStratum::of(x, y, d.cx, d.cy, d.ax, d.ay);
   }
 
   // Whether the image point (x, y) (pixels) lies inside sphere `sphere`'s silhouette (in double, not
