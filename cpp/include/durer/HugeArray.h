@@ -7,9 +7,16 @@
 // threshold rises to 32 MiB as mapped blocks are freed), so the next render writes pages already
 // there, and a huge page's 2 MiB, zeroed whole, would cost more (measured: +3-7 % at 160x90). The
 // advice is only advice: where it is refused, or off Linux, the array is a plain one.
+//
+// A freed large block is not handed back to the kernel at once (HugeBlocks): the kernel zeroes
+// every page it gives a process, and at 960x540 zeroing the adaptive state's 165 MB anew took a
+// third of a 4-sample render. The block's pages are given up lazily instead (MADV_FREE: the kernel
+// takes them when it needs memory, and until then a write finds them still there), and the next
+// large array of no more than its size takes it.
 #include <cstddef>
 #include <cstdlib>
 #include <memory>
+#include <mutex>
 #include <new>
 #include <type_traits>
 #if defined(__linux__)
@@ -17,6 +24,78 @@
 #endif
 
 namespace durer {
+
+// The large blocks HugeArrays have freed, kept for the next ones (the file's head): up to kKept
+// blocks and kKeptBytes in all, the oldest given back to the system first. Where the system cannot
+// give pages up lazily (no MADV_FREE) nothing is kept.
+class HugeBlocks {
+ public:
+  static constexpr int kKept = 8;
+  static constexpr size_t kKeptBytes = size_t(2) << 30;
+
+  // The smallest kept block of at least `bytes` (and that no other array holds), or null.
+  static void* take(size_t bytes) {
+    HugeBlocks& b = instance();
+    const std::lock_guard<std::mutex> lock(b.m_mutex);
+    int best = -1;
+    for (int i = 0; i < b.m_count; ++i) {
+      if (b.m_kept[i].bytes >= bytes && (best < 0 || b.m_kept[i].bytes < b.m_kept[best].bytes)) best = i;
+    }
+    if (best < 0) return nullptr;
+    void* memory = b.m_kept[best].memory;
+    b.m_total -= b.m_kept[best].bytes;
+    b.remove(best);
+    return memory;
+  }
+
+  // Keeps the block of `bytes` (from std::aligned_alloc) for a later take, or frees it.
+  static void give(void* memory, size_t bytes) {
+#if defined(__linux__) && defined(MADV_FREE)
+    if (bytes <= kKeptBytes && madvise(memory, bytes, MADV_FREE) == 0) {
+      HugeBlocks& b = instance();
+      const std::lock_guard<std::mutex> lock(b.m_mutex);
+      while (b.m_count == kKept || b.m_total + bytes > kKeptBytes) {
+        std::free(b.m_kept[0].memory);
+        b.m_total -= b.m_kept[0].bytes;
+        b.remove(0);
+      }
+      b.m_kept[b.m_count++] = {memory, bytes};
+      b.m_total += bytes;
+      return;
+    }
+#endif
+    std::free(memory);
+  }
+
+  // The bytes kept now (for tests).
+  static size_t keptBytes() {
+    HugeBlocks& b = instance();
+    const std::lock_guard<std::mutex> lock(b.m_mutex);
+    return b.m_total;
+  }
+
+ private:
+  struct Block {
+    void* memory;
+    size_t bytes;
+  };
+
+  // Never destroyed: arrays freed while the process exits still find it.
+  static HugeBlocks& instance() {
+    static HugeBlocks* blocks = new HugeBlocks;
+    return *blocks;
+  }
+
+  void remove(int i) {
+    for (int j = i + 1; j < m_count; ++j) m_kept[j - 1] = m_kept[j];
+    --m_count;
+  }
+
+  std::mutex m_mutex;
+  Block m_kept[kKept];  // oldest first
+  int m_count = 0;
+  size_t m_total = 0;
+};
 
 template <typename T>
 class HugeArray {
@@ -38,12 +117,15 @@ class HugeArray {
       return;
     }
     const size_t rounded = (bytes + kHugePage - 1) / kHugePage * kHugePage;  // aligned_alloc's rule
-    void* memory = std::aligned_alloc(kHugePage, rounded);
-    if (memory == nullptr) throw std::bad_alloc();
+    void* memory = HugeBlocks::take(rounded);
+    if (memory == nullptr) {
+      memory = std::aligned_alloc(kHugePage, rounded);
+      if (memory == nullptr) throw std::bad_alloc();
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
-    madvise(memory, rounded, MADV_HUGEPAGE);
+      madvise(memory, rounded, MADV_HUGEPAGE);
 #endif
-    m_huge.reset(static_cast<T*>(memory));
+    }
+    m_huge = std::unique_ptr<T, Give>(static_cast<T*>(memory), Give{rounded});
     m_data = m_huge.get();
   }
 
@@ -52,11 +134,12 @@ class HugeArray {
   const T* get() const { return m_data; }
 
  private:
-  struct Free {
-    void operator()(T* p) const { std::free(p); }
+  struct Give {
+    size_t bytes;
+    void operator()(T* p) const { HugeBlocks::give(p, bytes); }
   };
   std::unique_ptr<T[]> m_small;      // a plain array below kHugeFrom
-  std::unique_ptr<T, Free> m_huge;   // from it on
+  std::unique_ptr<T, Give> m_huge;   // from it on
   T* m_data = nullptr;               // the one of them there is
 };
 
