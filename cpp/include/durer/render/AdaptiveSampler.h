@@ -282,16 +282,18 @@ class AdaptiveSampler {
   }
 
   // For a tile with strata: counts the samples at (sampleX[j], sampleY[j]) in pixel pixel[j] of the
-  // tile that lie inside the silhouette of a sphere the pixel watches (each is counted before its
-  // ray is traced: one that meets the sphere ends the watch, noteGeometry).
+  // tile (a pixel's samples consecutive) that lie inside the silhouette of a sphere the pixel
+  // watches (each is counted before its ray is traced: one that meets the sphere ends the watch,
+  // noteGeometry).
   void countWatched(TileState& t, const Real* sampleX, const Real* sampleY, const int* pixel, int count) const {
     StratumState& u = *t.stratum;
-    for (int s = 0; s < Tiles::kWatched; ++s) {
-      for (int j = 0; j < count; ++j) {
-        const int k = pixel[j];
-        if (u.watched[s][k] != Tiles::kNoSphere && m_tiles.inSilhouette(u.watched[s][k], double(sampleX[j]), double(sampleY[j]))) {
-          u.watchedMissed[s][k] += 1;
-        }
+    for (int j = 0, end; j < count; j = end) {
+      const int k = pixel[j];
+      for (end = j + 1; end < count && pixel[end] == k;) ++end;
+      for (int s = 0; s < Tiles::kWatched; ++s) {
+        if (u.watched[s][k] == Tiles::kNoSphere) continue;
+        const typename Tiles::ImageDisk disk = m_tiles.silhouette(u.watched[s][k]);
+        for (int i = j; i < end; ++i) u.watchedMissed[s][k] += disk.contains(double(sampleX[i]), double(sampleY[i])) ? 1.0f : 0.0f;
       }
     }
   }
@@ -412,7 +414,7 @@ class AdaptiveSampler {
         for (int col = 0; col < t.w; ++col, ++k) noteGeometry(t, k, line[col], k, k + 1, s, prim, along);
       }
       for (int k = 0; k < count; ++k) farthest[k] = std::max(farthest[k], static_cast<float>(along[k]));
-      for (int k = 0; t.stratum && k < count; ++k) {
+      for (int k = 0; t.stratum && m_rounds > 0 && k < count; ++k) {  // for the watch (below)
         int i = 0;
         while (i < metCount[k] && met[i][k] != prim[k]) ++i;
         if (i == metCount[k] && i < kMetPrimitives) met[i][k] = prim[k], metCount[k] = i + 1;
@@ -703,16 +705,18 @@ class AdaptiveSampler {
         if (own <= m_target) {
           // Its decision stands unless a pixel around it took samples this round (in the first, all did).
           bool fresh = round == 0;
-          if (!fresh) forAround(self, [&](const Summary& u) { fresh = fresh || u.sampledIn == round; });
+          if (!fresh) forAround(self, [&](const Summary& u, int, int) { fresh = fresh || u.sampledIn == round; });
           if (!fresh) continue;
           double neighbourhood = 0;
           float largestDifference = 0;
           int around = 0;
-          bool edge = t.mixed[k];
-          forAround(self, [&](const Summary& u) {
+          const bool young = taken < kEdgeSamples;  // an edge keeps a pixel refining only below them
+          bool edge = young && t.mixed[k];
+          const int x = t.x0 + col, y = t.y0 + row;
+          forAround(self, [&](const Summary& u, int dx, int dy) {
             neighbourhood += static_cast<double>(u.averaged) * u.averaged;
             ++around;
-            edge = edge || differ(self, u);
+            edge = edge || (young && differ(self, x, y, u, x + dx, y + dy));
             largestDifference = std::max(largestDifference, colourDifference(self, u));
           });
           // The mean over the channels, divided once: a rounded division keeps the order of its operands.
@@ -723,7 +727,7 @@ class AdaptiveSampler {
           const double resolved = taken * m_target / kUnseenShare;  // the contrast `taken` samples resolve
           const double inf = std::numeric_limits<double>::infinity();
           const double unresolved = std::max(unresolvedShare(t, k), unseenShare(t, k));
-          if (squaredError <= m_target * m_target && squaredError < inf && (!edge || taken >= kEdgeSamples) &&
+          if (squaredError <= m_target * m_target && squaredError < inf && !edge &&
               squaredContrast <= resolved * resolved && squaredContrast < inf && unresolved <= m_target) {
             continue;
           }
@@ -735,13 +739,14 @@ class AdaptiveSampler {
     }
   }
 
-  // f(u) for the pixels u of the work region around `self` (itself included), row by row.
+  // f(u, dx, dy) for the pixels u of the work region around `self` (itself included), row by row,
+  // each dx, dy pixels from it.
   template <typename F>
   void forAround(const Summary& self, const F& f) const {
     for (int dy = -1; dy <= 1; ++dy) {
       for (int dx = -1; dx <= 1; ++dx) {
         const Summary& u = (&self)[dy * m_stride + dx];
-        if (u.present) f(u);
+        if (u.present) f(u, dx, dy);
       }
     }
   }
@@ -758,18 +763,17 @@ class AdaptiveSampler {
 
   // Whether two pixels see different geometry: their first samples met other primitives, one of
   // them nothing, or both at a depth discontinuity or a crease.
-  bool differ(const Summary& a, const Summary& b) const {
+  // (Pixels a at (ax, ay) and b at (bx, by).)
+  bool differ(const Summary& a, int ax, int ay, const Summary& b, int bx, int by) const {
     if (a.firstPrim == b.firstPrim) return false;
     if (depthJump(a.firstT, b.firstT)) return true;
-    const Vec3d na = firstNormal(a), nb = firstNormal(b);
+    const Vec3d na = firstNormal(ax, ay), nb = firstNormal(bx, by);
     const double la = glm::dot(na, na), lb = glm::dot(nb, nb);
     return la > 0 && lb > 0 && glm::dot(na, nb) < kCreaseCosine * std::sqrt(la * lb);  // no normal made: no crease test
   }
 
-  // The first sample's shading normal of the pixel whose summary p is, from its tile.
-  Vec3d firstNormal(const Summary& p) const {
-    const auto index = static_cast<size_t>(&p - m_summary.get());
-    const int x = static_cast<int>(index % m_stride) - 1 + m_work.x, y = static_cast<int>(index / m_stride) - 1 + m_work.y;
+  // The first sample's shading normal of pixel (x, y) of the work region, from its tile.
+  Vec3d firstNormal(int x, int y) const {
     const TileState& t = m_state[static_cast<size_t>(y / kTileSize - m_firstTileY) * m_tilesX + (x / kTileSize - m_firstTileX)];
     const int k = slotOf(t, x, y);
     return Vec3d(double(t.firstNx[k]), double(t.firstNy[k]), double(t.firstNz[k]));

@@ -503,15 +503,6 @@ class TileRenderer {
     });
   }
 
-  // Whether the image point (x, y) (pixels) lies inside sphere `sphere`'s silhouette (in double, not
-  // as a PixelStratum rounds it to float: a count of samples, not a share). For a render that
-  // stratifies().
-  bool inSilhouette(uint32_t sphere, double x, double y) const {
-    const ImageDisk d = imageDisk(m_camera.projection(), sphere);
-    const double u = (x - d.cx) / d.ax, v = (y - d.cy) / d.ay;
-    return u * u + v * v < 1;
-  }
-
   // Whether pixel (x, y)'s square crosses the edge of the ellipse inscribed in `box` (Cover of the
   // ellipse). Not for a box reaching infinity (a sphere reaching a perspective eye's plane).
   static bool crossesInscribedEllipse(const SampleBox& box, int x, int y) {
@@ -543,6 +534,12 @@ class TileRenderer {
     Vec3d q;
     double radius, cx, cy, ax, ay;
     Cover cover(int x, int y) const { return coverOf(cx, cy, ax, ay, x, y); }
+    // Whether the image point (x, y) (pixels) lies inside (in double, not as a PixelStratum rounds
+    // it to float: a count of samples, not a share).
+    bool contains(double x, double y) const {
+      const double u = (x - cx) / ax, v = (y - cy) / ay;
+      return u * u + v * v < 1;
+    }
   };
   ImageDisk imageDisk(const ParallelProjection& image, uint32_t sphere) const {
     const Sphere<Real>& s = m_group.spheres().primitive(sphere);
@@ -550,6 +547,9 @@ class TileRenderer {
     const double r = double(s.radius);
     return {q, r, image.sampleX(q.x), image.sampleY(q.y), r / image.pixelWidth, r / image.pixelHeight};
   }
+
+  // Sphere `sphere`'s silhouette in the image. For a render that stratifies().
+  ImageDisk silhouette(uint32_t sphere) const { return imageDisk(m_camera.projection(), sphere); }
 
   // Whether sphere c lies in front of all of sphere w that pixel (x, y) may show: the part of the
   // pixel's square within w's disk's bounding box lies inside c's disk, and c's front surface there,
