@@ -62,9 +62,10 @@ def test_same_seed_same_image_on_any_number_of_threads(sampler):
 
 
 def test_an_adaptive_render_is_the_same_in_memory_another_render_left():
-    # At 800x450 every array of adaptive sampling's per-pixel state is large enough to take a block
-    # a render before freed (HugeBlocks: its pages as that render left them, not zeroed): the render
-    # must set every value it reads. The other render writes other values over the same blocks.
+    # At 800x450 the two large arrays of adaptive sampling's per-pixel state (the tiles' and the
+    # strata's) take the blocks a render before freed (HugeBlocks: their pages as that render left
+    # them, not zeroed): the render must set every value it reads. The other render writes other
+    # values over the same blocks.
     scene, camera = edge_scene(3000)
     first = durer.render(scene, camera, 800, 450, spp=16, target_error=0.02, sampler="adaptive", threads=2)
     other_scene, other_camera = durer.showcase_scene()

@@ -27,59 +27,63 @@ namespace durer {
 
 // The large blocks HugeArrays have freed, kept for the next ones (the file's head): up to kKept
 // blocks and kKeptBytes in all, the oldest given back to the system first. Where the system cannot
-// give pages up lazily (no MADV_FREE) nothing is kept.
+// give pages up lazily (no MADV_FREE) nothing is kept. A block is taken only by an array at least
+// half its size: a small array kept for long (a scene's grid) would otherwise hold a render's
+// large one. The lock is only tried: where another thread holds it (or held it when a process
+// forked), the array is made and freed as without a cache.
 class HugeBlocks {
  public:
   static constexpr int kKept = 8;
   static constexpr size_t kKeptBytes = size_t(2) << 30;
 
-  // The smallest kept block of at least `bytes` (and that no other array holds), or null.
-  static void* take(size_t bytes) {
-    HugeBlocks& b = instance();
-    const std::lock_guard<std::mutex> lock(b.m_mutex);
-    int best = -1;
-    for (int i = 0; i < b.m_count; ++i) {
-      if (b.m_kept[i].bytes >= bytes && (best < 0 || b.m_kept[i].bytes < b.m_kept[best].bytes)) best = i;
-    }
-    if (best < 0) return nullptr;
-    void* memory = b.m_kept[best].memory;
-    b.m_total -= b.m_kept[best].bytes;
-    b.remove(best);
-    return memory;
-  }
-
-  // Keeps the block of `bytes` (from std::aligned_alloc) for a later take, or frees it.
-  static void give(void* memory, size_t bytes) {
-#if defined(__linux__) && defined(MADV_FREE)
-    if (bytes <= kKeptBytes && madvise(memory, bytes, MADV_FREE) == 0) {
-      HugeBlocks& b = instance();
-      const std::lock_guard<std::mutex> lock(b.m_mutex);
-      while (b.m_count == kKept || b.m_total + bytes > kKeptBytes) {
-        std::free(b.m_kept[0].memory);
-        b.m_total -= b.m_kept[0].bytes;
-        b.remove(0);
-      }
-      b.m_kept[b.m_count++] = {memory, bytes};
-      b.m_total += bytes;
-      return;
-    }
-#endif
-    std::free(memory);
-  }
-
-  // The bytes kept now (for tests).
-  static size_t keptBytes() {
-    HugeBlocks& b = instance();
-    const std::lock_guard<std::mutex> lock(b.m_mutex);
-    return b.m_total;
-  }
-
- private:
   struct Block {
-    void* memory;
+    void* memory;  // from std::aligned_alloc; null: none
     size_t bytes;
   };
 
+  // The smallest kept block of `bytes` to 2 x `bytes`, or none.
+  static Block take(size_t bytes) {
+    HugeBlocks& b = instance();
+    const std::unique_lock<std::mutex> lock(b.m_mutex, std::try_to_lock);
+    if (!lock.owns_lock()) return {nullptr, 0};
+    int best = -1;
+    for (int i = 0; i < b.m_count; ++i) {
+      const size_t size = b.m_kept[i].bytes;
+      if (size >= bytes && size / 2 <= bytes && (best < 0 || size < b.m_kept[best].bytes)) best = i;
+    }
+    if (best < 0) return {nullptr, 0};
+    const Block block = b.m_kept[best];
+    b.m_total -= block.bytes;
+    b.remove(best);
+    return block;
+  }
+
+  // Keeps `block` for a later take, or frees it.
+  static void give(Block block) {
+#if defined(__linux__) && defined(MADV_FREE)
+    Block evicted[kKept];
+    int count = 0;
+    if (block.bytes <= kKeptBytes && madvise(block.memory, block.bytes, MADV_FREE) == 0) {
+      HugeBlocks& b = instance();
+      std::unique_lock<std::mutex> lock(b.m_mutex, std::try_to_lock);
+      if (lock.owns_lock()) {
+        while (b.m_count == kKept || b.m_total + block.bytes > kKeptBytes) {
+          evicted[count++] = b.m_kept[0];
+          b.m_total -= b.m_kept[0].bytes;
+          b.remove(0);
+        }
+        b.m_kept[b.m_count++] = block;
+        b.m_total += block.bytes;
+        lock.unlock();
+        for (int i = 0; i < count; ++i) std::free(evicted[i].memory);  // not under the lock: it takes milliseconds
+        return;
+      }
+    }
+#endif
+    std::free(block.memory);
+  }
+
+ private:
   // Never destroyed: arrays freed while the process exits still find it.
   static HugeBlocks& instance() {
     static HugeBlocks* blocks = new HugeBlocks;
@@ -117,15 +121,15 @@ class HugeArray {
       return;
     }
     const size_t rounded = (bytes + kHugePage - 1) / kHugePage * kHugePage;  // aligned_alloc's rule
-    void* memory = HugeBlocks::take(rounded);
-    if (memory == nullptr) {
-      memory = std::aligned_alloc(kHugePage, rounded);
-      if (memory == nullptr) throw std::bad_alloc();
+    HugeBlocks::Block block = HugeBlocks::take(rounded);
+    if (block.memory == nullptr) {
+      block = {std::aligned_alloc(kHugePage, rounded), rounded};
+      if (block.memory == nullptr) throw std::bad_alloc();
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
-      madvise(memory, rounded, MADV_HUGEPAGE);
+      madvise(block.memory, rounded, MADV_HUGEPAGE);
 #endif
     }
-    m_huge = std::unique_ptr<T, Give>(static_cast<T*>(memory), Give{rounded});
+    m_huge = std::unique_ptr<T, Give>(static_cast<T*>(block.memory), Give{block.bytes});
     m_data = m_huge.get();
   }
 
@@ -135,8 +139,8 @@ class HugeArray {
 
  private:
   struct Give {
-    size_t bytes;
-    void operator()(T* p) const { HugeBlocks::give(p, bytes); }
+    size_t bytes;  // the block's (it may be larger than the array)
+    void operator()(T* p) const { HugeBlocks::give({p, bytes}); }
   };
   std::unique_ptr<T[]> m_small;      // a plain array below kHugeFrom
   std::unique_ptr<T, Give> m_huge;   // from it on
