@@ -339,30 +339,34 @@ class TileRenderer {
   void markSilhouettes(int x0, int y0, int w, int h, const float* farthest, bool* crossed) const {
     if (m_view == nullptr) return;
     const float deepest = *std::max_element(farthest, farthest + w * h);
-    const int cellX = x0 / kTileSize * kTileSize, cellY = y0 / kTileSize * kTileSize;
     const auto mark = [&](uint32_t i, float nearest, std::array<int, 2> rows, std::array<int, 2> columns) {
-      const int row0 = std::max(rows[0], y0 - cellY), row1 = std::min(rows[1], y0 + h - 1 - cellY);
-      const int column0 = std::max(columns[0], x0 - cellX), column1 = std::min(columns[1], x0 + w - 1 - cellX);
       const auto open = [&](int k) { return !crossed[k] && nearest < farthest[k]; };
       bool any = false;  // a pixel under it still unmarked, whose samples met something beyond it
-      for (int row = row0; row <= row1 && !any; ++row) {
-        for (int column = column0; column <= column1 && !any; ++column) {
-          any = open((cellY + row - y0) * w + (cellX + column - x0));
-        }
-      }
+      forSpan(x0, y0, w, h, rows, columns, [&](int k, int, int) { any = any || open(k); });
       if (!any) return;
       const Sphere<Real>& sphere = m_group.spheres().primitive(i);
       SampleBox box;
       double tLow;
       if (!m_camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow)) return;
-      for (int row = row0; row <= row1; ++row) {
-        for (int column = column0; column <= column1; ++column) {
-          const int k = (cellY + row - y0) * w + (cellX + column - x0);
-          if (open(k)) crossed[k] = crossesInscribedEllipse(box, cellX + column, cellY + row);
-        }
-      }
+      forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
+        if (open(k)) crossed[k] = crossesInscribedEllipse(box, x, y);
+      });
     };
     m_view->forCellOf(x0, y0, deepest, mark);
+  }
+
+  // f(k, x, y) for the pixels (x, y) of the w x h tile at (x0, y0) (k: the tile's, row by row) in a
+  // span of rows and columns of the tile's cell, as the camera's view gives a sphere's.
+  template <typename F>
+  static void forSpan(int x0, int y0, int w, int h, std::array<int, 2> rows, std::array<int, 2> columns, const F& f) {
+    const int cellX = x0 / kTileSize * kTileSize, cellY = y0 / kTileSize * kTileSize;
+    const int row0 = std::max(rows[0], y0 - cellY), row1 = std::min(rows[1], y0 + h - 1 - cellY);
+    const int column0 = std::max(columns[0], x0 - cellX), column1 = std::min(columns[1], x0 + w - 1 - cellX);
+    for (int row = row0; row <= row1; ++row) {
+      for (int column = column0; column <= column1; ++column) {
+        f((cellY + row - y0) * w + (cellX + column - x0), cellX + column, cellY + row);
+      }
+    }
   }
 
   // Whether pixels may have a silhouette stratum (silhouetteStrata): through an orthographic camera
@@ -391,7 +395,7 @@ class TileRenderer {
     std::fill(strata, strata + w * h, PixelStratum{});
     std::fill(spheres, spheres + w * h, kNoSphere);
     const ParallelProjection image = m_camera.projection();
-    const int cellX = x0 / kTileSize * kTileSize, cellY = y0 / kTileSize * kTileSize, count = w * h;
+    const int count = w * h;
     const double inf = std::numeric_limits<double>::infinity();
     struct Disk {
       uint32_t sphere;
@@ -402,16 +406,6 @@ class TileRenderer {
     double hidden[kPacketSize];  // the depth behind which a sphere covering the pixel hides everything
     std::fill(chosen, chosen + count, Disk{0, Vec3d(inf), 0});
     std::fill(hidden, hidden + count, inf);
-    // f(k, x, y) for the tile's pixels in a sphere's span of rows and columns of the cell.
-    const auto forPixels = [&](std::array<int, 2> rows, std::array<int, 2> columns, const auto& f) {
-      const int row0 = std::max(rows[0], y0 - cellY), row1 = std::min(rows[1], y0 + h - 1 - cellY);
-      const int column0 = std::max(columns[0], x0 - cellX), column1 = std::min(columns[1], x0 + w - 1 - cellX);
-      for (int row = row0; row <= row1; ++row) {
-        for (int column = column0; column <= column1; ++column) {
-          f((cellY + row - y0) * w + (cellX + column - x0), cellX + column, cellY + row);
-        }
-      }
-    };
     // A sphere can change a pixel's choice only if its centre lies before both the chosen edge and
     // the cover (a sphere's edge or cover lies no nearer than its front): the farthest of the pixels'
     // nearer of the two bounds the fronts still worth reading.
@@ -420,7 +414,7 @@ class TileRenderer {
       if (double(tLow) >= settled) return false;
       const ImageDisk d = imageDisk(image, i);
       bool changed = false;
-      forPixels(rows, columns, [&](int k, int x, int y) {
+      forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
         if (!(d.q.z < std::min(hidden[k], chosen[k].q.z))) return;
         const Cover cover = d.cover(x, y);
         if (cover == Cover::Inside) {
@@ -442,7 +436,7 @@ class TileRenderer {
     }
     m_view->forCellOf(x0, y0, deepest, [&](uint32_t i, float, std::array<int, 2> rows, std::array<int, 2> columns) {
       const ImageDisk d = imageDisk(image, i);
-      forPixels(rows, columns, [&](int k, int x, int y) {
+      forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
         const Disk& c = chosen[k];
         if (c.sphere == i || !(d.q.z - d.radius < c.q.z)) return;
         const double dx = d.q.x - c.q.x, dy = d.q.y - c.q.y, reach = d.radius + c.radius;
@@ -476,30 +470,23 @@ class TileRenderer {
     for (int s = 0; s < kWatched; ++s) std::fill(watched[s], watched[s] + w * h, kNoSphere);
     const ParallelProjection image = m_camera.projection();
     const float deepest = *std::max_element(farthest, farthest + w * h);
-    const int cellX = x0 / kTileSize * kTileSize, cellY = y0 / kTileSize * kTileSize;
     m_view->forCellOf(x0, y0, deepest, [&](uint32_t i, float nearest, std::array<int, 2> rows, std::array<int, 2> columns) {
       const ImageDisk d = imageDisk(image, i);
-      const int row0 = std::max(rows[0], y0 - cellY), row1 = std::min(rows[1], y0 + h - 1 - cellY);
-      const int column0 = std::max(columns[0], x0 - cellX), column1 = std::min(columns[1], x0 + w - 1 - cellX);
-      for (int row = row0; row <= row1; ++row) {
-        for (int column = column0; column <= column1; ++column) {
-          const int k = (cellY + row - y0) * w + (cellX + column - x0);
-          if (!(nearest < farthest[k]) || stratum[k] == i || watched[kWatched - 1][k] != kNoSphere) continue;
-          const double x = cellX + column, y = cellY + row;
-          const double boxShare = std::max(0.0, std::min(x + 1, d.cx + d.ax) - std::max(x, d.cx - d.ax)) *
-                                  std::max(0.0, std::min(y + 1, d.cy + d.ay) - std::max(y, d.cy - d.ay));
-          if (!(boxShare > least) || d.cover(cellX + column, cellY + row) != Cover::Crosses || met(k, i)) continue;
-          if (stratum[k] != kNoSphere && hides(imageDisk(image, stratum[k]), d, cellX + column, cellY + row)) continue;
-          const float share = PixelStratum::of(cellX + column, cellY + row, d.cx, d.cy, d.ax, d.ay).share;
-          if (!(share > least)) continue;
-          for (int s = 0; s < kWatched; ++s) {
-            if (watched[s][k] == kNoSphere) {
-              watched[s][k] = i, shares[s][k] = share;
-              break;
-            }
+      forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
+        if (!(nearest < farthest[k]) || stratum[k] == i || watched[kWatched - 1][k] != kNoSphere) return;
+        const double boxShare = std::max(0.0, std::min(x + 1.0, d.cx + d.ax) - std::max(double(x), d.cx - d.ax)) *
+                                std::max(0.0, std::min(y + 1.0, d.cy + d.ay) - std::max(double(y), d.cy - d.ay));
+        if (!(boxShare > least) || d.cover(x, y) != Cover::Crosses || met(k, i)) return;
+        if (stratum[k] != kNoSphere && hides(imageDisk(image, stratum[k]), d, x, y)) return;
+        const float share = PixelStratum::of(x, y, d.cx, d.cy, d.ax, d.ay).share;
+        if (!(share > least)) return;
+        for (int s = 0; s < kWatched; ++s) {
+          if (watched[s][k] == kNoSphere) {
+            watched[s][k] = i, shares[s][k] = share;
+            break;
           }
         }
-      }
+      });
     });
   }
 
