@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import durer
-from helpers.coverage import SIZE, half_plane_coverage, half_plane_scene, pixel_camera
+from helpers.coverage import SIZE, WHITE_ON_BLACK, disc_coverage, half_plane_coverage, half_plane_scene, pixel_camera, pixel_centres
 
 EDGES = [(0.6, 0.37), (0.2, 3.1), (1.1, -2.3)]  # (theta, c): three edges across the 48 x 48 image
 
@@ -88,19 +88,128 @@ def test_spheres_smaller_than_the_first_samples_spacing_are_found(camera):
 
 
 def test_a_pixel_whose_samples_agree_but_whose_neighbours_differ_is_refined():
-    # A pixel-sized gap between two flat discs of different colour on a plane: its own first samples
-    # all see the plane, but it takes as many samples as its contrast with its neighbours asks for.
+    # A gap of two pixels and a sliver between two flat boxes of different colour on black: the gap's
+    # own first samples all see the background, but each takes as many samples as its contrast with
+    # its neighbours asks for (boxes are not in the camera's view of the spheres, which could say the
+    # gap holds no edge).
     scene = durer.Scene()
     scene.background = (0.0, 0.0, 0.0, 1.0)
-    scene.add_spheres([[-4.6, 0.0, -50], [4.6, 0.0, -50]], [4.0, 4.0],
-                      material=[scene.add_material((1, 1, 1)), scene.add_material((0.2, 0.4, 0.9))])
+    scene.add_boxes([[-8.6, -5, -51], [1.05, -5, -51]], [[-1.05, 5, -49], [8.6, 5, -49]],
+                    material=[scene.add_material((1, 1, 1)), scene.add_material((0.2, 0.4, 0.9))])
     result = adaptive(scene, 16, 8, target_error=0.01)
-    contrast = np.sqrt(np.mean((result.color[:, 1:, :3] - result.color[:, :-1, :3]) ** 2, axis=-1))
-    beside = np.zeros(result.samples.shape, bool)
-    beside[:, 1:] |= contrast > 0.1
-    beside[:, :-1] |= contrast > 0.1
-    assert beside.sum() >= 8
-    assert np.all(result.samples[beside] >= 0.1 / 0.01)
+    gap = result.samples[:, 7:9]
+    assert np.all(result.color[:, 7:9, :3] == 0)  # they see only the background
+    assert np.all(gap >= 0.1 / 0.01)
+
+
+def test_a_pixel_the_view_proves_smooth_is_not_refined_for_its_neighbours():
+    # The same gap between two spheres' discs: the camera's view of the spheres shows that no disc
+    # reaches the gap's pixels (nor those off the discs elsewhere), so no edge lies in them and their
+    # own samples decide: they stop at min_spp, exactly the background, with an estimate of 0. The
+    # pixels the discs' edges cross are still refined.
+    scene = durer.Scene()
+    scene.background = (0.0, 0.0, 0.0, 1.0)
+    centres, radius = np.array([[-5.1, 0.0], [5.1, 0.0]]), 4.0
+    scene.add_spheres([[x, y, -50] for x, y in centres], [radius, radius],
+                      material=[scene.add_material((1, 1, 1)), scene.add_material((0.2, 0.4, 0.9))])
+    result = adaptive(scene, 16, 8, target_error=0.01, min_spp=4)
+    x, y = pixel_centres(16, 8)
+    # How far each pixel's square lies from each disc: off both by a margin, the view proves it smooth.
+    apart = [np.hypot(np.maximum(np.abs(x - cx) - 0.5, 0), np.maximum(np.abs(y - cy) - 0.5, 0)) - radius
+             for cx, cy in centres]
+    off = (apart[0] > 0.05) & (apart[1] > 0.05)
+    assert off[:, 7:9].all() and off.sum() >= 20
+    np.testing.assert_array_equal(result.samples[off], 4)
+    np.testing.assert_array_equal(result.color[off][:, :3], 0)
+    np.testing.assert_array_equal(result.error[off], 0)
+    crossed = ((apart[0] < 0) | (apart[1] < 0)) & ~off
+    share = disc_coverage(*centres[0], radius, 16, 8) + disc_coverage(*centres[1], radius, 16, 8)
+    edge = (share > 0.02) & (share < 0.98)
+    assert edge.sum() >= 20 and np.all(result.samples[edge] >= 16) and not (edge & ~crossed).any()
+
+
+def test_a_smooth_pixel_of_two_samples_reports_its_error_from_smooth_neighbours():
+    # With min_spp 2 the gap's pixels stop at 2 samples; such a pixel reports how far its mean lies
+    # from its neighbours' (a gradient cancelling between opposite ones), here only from the pairs
+    # that are smooth too: across an edge the difference is the edge's contrast, not its error.
+    scene = durer.Scene()
+    scene.background = (0.0, 0.0, 0.0, 1.0)
+    scene.add_spheres([[-5.1, 0.0, -50], [5.1, 0.0, -50]], [4.0, 4.0],
+                      material=[scene.add_material((1, 1, 1)), scene.add_material((0.2, 0.4, 0.9))])
+    result = adaptive(scene, 16, 8, target_error=0.01, min_spp=2)
+    np.testing.assert_array_equal(result.samples[:, 7:9], 2)
+    np.testing.assert_array_equal(result.error[:, 7:9], 0)
+
+
+def lit_plane_with_a_sphere(centre: tuple[float, float], radius: float) -> durer.Scene:
+    """A grey plane z = -60 seen from above (pixel_camera) with one red sphere above it at `centre`."""
+    scene = durer.Scene()
+    scene.background = (0.0, 0.0, 0.0, 1.0)
+    scene.add_plane((0, 0, 1), -60.0, material=scene.add_material((0.8, 0.8, 0.8)))
+    scene.add_spheres([[*centre, -50]], [radius], material=scene.add_material((0.9, 0.3, 0.2)))
+    return scene
+
+
+def assert_light_edge_refined(scene: durer.Scene, centre: tuple[float, float], radius: float,
+                              both_sides: bool) -> None:
+    """The pixels off the sphere's disc that a light's edge on the plane only clips (less than a
+    tenth of them lit, or with both_sides, dark too) take 16 samples or more, and no pixel is left
+    more than 0.05 from a 4096-spp reference."""
+    camera = pixel_camera(SIZE, SIZE)
+    result = adaptive(scene, camera=camera, spp=64, min_spp=4, target_error=0.01)
+    reference = durer.render(scene, camera, SIZE, SIZE, spp=4096, passes="color").color[..., :3]
+    x, y = pixel_centres(SIZE, SIZE)
+    apart = np.hypot(np.maximum(np.abs(x - centre[0]) - 0.5, 0), np.maximum(np.abs(y - centre[1]) - 0.5, 0)) - radius
+    plane = reference[..., 0][apart > 0.05]
+    lit, dark = plane.max(), plane.min()
+    assert lit > dark + 0.3
+    fraction = (reference[..., 0] - dark) / (lit - dark)
+    clipped = ((fraction > 0.003) & (fraction < 0.1)) | (both_sides & (fraction > 0.9) & (fraction < 0.997))
+    slivers = (apart > 0.05) & clipped
+    assert slivers.sum() >= 8
+    assert np.all(result.samples[slivers] >= 16)
+    assert np.abs(result.color[..., :3] - reference).max() <= 0.05
+
+
+def test_shadows_keep_their_edges_refined():
+    # A sphere's shadow on a lit plane, seen from above: its edge crosses pixels the sphere's disc
+    # does not reach, which the camera's view cannot prove smooth (shadows are not in it); they are
+    # refined as any edge is (their contrast with their neighbours).
+    scene = lit_plane_with_a_sphere((-8.0, 3.0), 5.0)
+    scene.add_directional_light((0.7, -0.3, -1.0), (1, 1, 1), shadows=True)
+    assert_light_edge_refined(scene, (-8.0, 3.0), 5.0, both_sides=True)
+
+
+def test_a_spot_lights_hard_edge_is_refined():
+    # A spot light without blend draws a hard circle on the plane, away from the one sphere: the
+    # camera's view cannot prove the pixels it crosses smooth. (The light falls off inside the cone,
+    # so only the dark side's slivers are told apart by their value.)
+    scene = lit_plane_with_a_sphere((-18.0, 18.0), 3.0)
+    scene.add_spot_light((2.0, -1.0, -20.0), (0, 0, -1), (1, 1, 1), half_angle_degrees=30.0, blend=0.0)
+    assert_light_edge_refined(scene, (-18.0, 18.0), 3.0, both_sides=False)
+
+
+@pytest.mark.parametrize(("theta", "c"), EDGES)
+def test_a_plane_cut_by_t_max_keeps_its_edge_refined(theta, c):
+    # A white plane on black, tilted so that the camera's t_max ends it along the line
+    # cos(theta) x + sin(theta) y = c (it is seen where cos(theta) x + sin(theta) y >= c): an edge no
+    # sphere's disc makes (a black sphere lies on the far side, so that the camera has a view of
+    # spheres), looked for in each pixel. Pixels the line only clips take 16 samples or more, and
+    # every pixel is within 0.05 of its exact covered fraction.
+    k = 0.2
+    scene = durer.Scene()
+    scene.background = WHITE_ON_BLACK
+    normal = np.array([-k * math.cos(theta), -k * math.sin(theta), 1.0])
+    scene.add_plane(normal / np.linalg.norm(normal), -50.0 / np.linalg.norm(normal), material=scene.add_material((1, 1, 1)))
+    scene.add_spheres([[-20 * math.cos(theta), -20 * math.sin(theta), -10]], [1.5], material=scene.add_material((0, 0, 0)))
+    # A camera ray from (x, y, 1) down -z meets it at t = 51 - k (cos(theta) x + sin(theta) y).
+    camera = durer.OrthographicCamera((0, 0, 1), (0, 0, -1), (0, 1, 0), float(SIZE), t_max=51.0 - k * c)
+    result = adaptive(scene, camera=camera, spp=64, min_spp=4, target_error=0.01)
+    exact = half_plane_coverage(theta, c, SIZE, SIZE)
+    slivers = ((exact > 1e-9) & (exact < 0.1)) | ((exact > 0.9) & (exact < 1 - 1e-9))
+    assert slivers.sum() >= 10
+    assert np.all(result.samples[slivers] >= 16)
+    assert np.abs(result.color[..., 0] - exact).max() <= 0.05
 
 
 def test_a_crease_between_equally_lit_planes_is_refined():

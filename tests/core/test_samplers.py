@@ -116,13 +116,14 @@ def test_adaptive_sample_counts(spp, min_spp):
 
 
 def test_adaptive_spends_its_samples_on_edges_and_weighs_a_silhouettes_parts_exactly():
-    # A flat-coloured disc (no lights) on black, seen orthographically. Every pixel the silhouette may
-    # cross takes at least half of spp, those whose first samples all missed the edge too (their
+    # A flat-coloured disc (no lights) on black, seen orthographically. Every pixel the silhouette
+    # crosses takes at least half of spp, those whose first samples all missed the edge too (their
     # neighbours differ from them by most of the disc's contrast with black, an RMS of 0.65, and a
     # pixel takes half that over target_error, 32 samples, before an edge it may not have seen is
-    # ruled out); pixels more than a pixel and a half away from it have identical samples and
-    # neighbours and stop after the first 4. Where the silhouette crosses a pixel its samples inside
-    # the disc and outside are weighed by their exact shares of the pixel (PixelStratum): once both
+    # ruled out); pixels the disc does not reach hold no edge, as the camera's view shows, and stop
+    # after the first 4 (all black), whatever their neighbours. Where the silhouette crosses a pixel
+    # its samples inside the disc and outside are weighed by their exact shares of the pixel
+    # (PixelStratum): once both
     # parts have a sample the pixel is exact -- the disc's colour times its share -- to float
     # rounding, where the plain mean of 64 stratified samples is off by up to a few percent of the
     # contrast. A part none of the samples reached keeps the pixel refining while its share exceeds
@@ -136,19 +137,20 @@ def test_adaptive_spends_its_samples_on_edges_and_weighs_a_silhouettes_parts_exa
     counts = result.samples
     x, y = pixel_centres(size, size)
     distance = np.abs(np.hypot(x - centre[0], y - centre[1]) - radius)
-    cut = distance <= math.sqrt(0.5)  # the silhouette may cross the pixel
-    far = distance > math.sqrt(0.5) + 1.5
-    assert cut.sum() >= 80 and far.sum() > 700
-    assert counts[cut].min() == spp // 2
-    np.testing.assert_array_equal(counts[far], 4)
-    np.testing.assert_array_equal(result.error[far], 0)  # identical samples: nothing to doubt
-    assert result.stats["samples"] < 0.3 * size * size * spp
     share = disc_coverage(*centre, radius, size, size)
+    cut = (share > 0) & (share < 1)  # the silhouette crosses the pixel
+    apart = np.hypot(np.maximum(np.abs(x - centre[0]) - 0.5, 0), np.maximum(np.abs(y - centre[1]) - 0.5, 0))
+    unreached = apart > radius + 0.05  # the disc does not reach the pixel's square
+    assert cut.sum() >= 70 and unreached.sum() > 700 and (distance[unreached] < 1).sum() >= 16
+    assert counts[cut].min() == spp // 2
+    np.testing.assert_array_equal(counts[unreached], 4)
+    np.testing.assert_array_equal(result.color[unreached][:, :3], 0)
+    np.testing.assert_array_equal(result.error[unreached], 0)  # identical samples: nothing to doubt
+    assert result.stats["samples"] < 0.3 * size * size * spp
     exact = share[..., None] * colour
     off = np.abs(result.color[..., :3] - exact).max(axis=-1)
-    crossed = cut & (share > 0) & (share < 1)
-    assert np.mean(off[crossed] < 2e-6) > 0.85
-    inexact = crossed & (off >= 2e-6)  # a part no sample reached: at most target_error of the pixel
+    assert np.mean(off[cut] < 2e-6) > 0.85
+    inexact = cut & (off >= 2e-6)  # a part no sample reached: at most target_error of the pixel
     assert np.minimum(share, 1 - share)[inexact].max() <= 0.01
     assert off.max() <= 0.01 * colour.max() + 2e-6
     plain = durer.render(scene, pixel_camera(size, size), size, size, spp=spp, sampler="stratified").color

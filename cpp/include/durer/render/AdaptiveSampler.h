@@ -28,6 +28,10 @@
 //     difference of its mean colour from a neighbour's: an edge inside it covering less than about
 //     1 / samples of its area may not have been seen yet, and would be off by at most about that
 //     times the contrast (about half that on average: kUnseenShare).
+// The last three rules look for edges the samples may have missed; a pixel the camera's view proves
+// smooth (TileRenderer::markSmooth: in a render whose every edge is a silhouette of the view's
+// spheres, no sphere's footprint reaches it) has none, and from two samples on its own judged error
+// alone decides it (beside a bright sphere, the contrast rule alone once took such a pixel to 32).
 // In a colour render, where an orthographic camera sees a sphere's silhouette cross a pixel
 // (TileRenderer::silhouetteStrata), the pixel's mean is its stratum's (PixelStratum): the mean of
 // its samples inside the silhouette and that of those outside, weighed by their exact shares of the
@@ -241,6 +245,7 @@ class AdaptiveSampler {
     int32_t taken[kPacketSize];                           // samples so far
     int32_t last[kPacketSize];                            // of which the last round's (the second half)
     int32_t add[kPacketSize];                             // samples the next round takes
+    bool smooth[kPacketSize];  // the camera's view proves it holds no edge (TileRenderer::markSmooth)
     bool mixed[kPacketSize];  // a later sample met geometry that differs, or a silhouette may hide in it unseen
     float firstNx[kPacketSize], firstNy[kPacketSize], firstNz[kPacketSize];  // the first sample's shading normal (0: none)
     float priority;                                       // the worst marked pixel's (time limit: first)
@@ -259,6 +264,7 @@ class AdaptiveSampler {
     int32_t firstPrim;              // the primitive the first sample met
     int16_t sampledIn;              // the last round the pixel took samples in
     bool present;                   // inside the work region
+    bool smooth;                    // holds no edge, as the camera's view proves (TileRenderer::markSmooth)
   };
 
   Summary& summaryAt(int x, int y) {
@@ -423,6 +429,11 @@ class AdaptiveSampler {
     // A sphere smaller than the samples' spacing, or the sliver of one, may lie between them: where
     // the camera's view says a silhouette crosses a pixel, it is an edge (mark) whatever they saw.
     m_tiles.markSilhouettes(t.x0, t.y0, t.w, t.h, farthest, t.mixed);
+    m_tiles.markSmooth(t.x0, t.y0, t.w, t.h, t.smooth);
+    for (int row = 0, k = 0; row < t.h; ++row) {
+      Summary* line = &summaryAt(t.x0, t.y0 + row);
+      for (int col = 0; col < t.w; ++col, ++k) line[col].smooth = t.smooth[k];
+    }
     if (StratumState* u = t.stratum; u && m_rounds > 0) {  // what to watch for, where a round may follow
       const auto wasMet = [&](int k, uint32_t sphere) {
         for (int i = 0; i < metCount[k]; ++i) {
@@ -564,7 +575,7 @@ class AdaptiveSampler {
       for (int col = 0; col < t.w; ++col) {
         Summary& p = line[col];
         p.error = p.averaged = p.firstT = p.meanR = p.meanG = p.meanB = 0;
-        p.firstPrim = kNoPrimitive, p.sampledIn = -1, p.present = true;
+        p.firstPrim = kNoPrimitive, p.sampledIn = -1, p.present = true, p.smooth = false;
       }
     }
   }
@@ -707,6 +718,9 @@ class AdaptiveSampler {
           bool fresh = round == 0;
           if (!fresh) forAround(self, [&](const Summary& u, int, int) { fresh = fresh || u.sampledIn == round; });
           if (!fresh) continue;
+          // A pixel the camera's view proves smooth has no edge to find: its own estimate decides
+          // (from two samples on: one has nothing to compare).
+          if (t.smooth[k] && taken >= 2) continue;
           double neighbourhood = 0;
           float largestDifference = 0;
           int around = 0;
@@ -840,13 +854,24 @@ class AdaptiveSampler {
   // points of a net cancel a gradient's part of that error (on the showcase's smooth pixels the
   // halves' estimate was 2.5x their measured RMS error). Instead: how far its mean lies from the mean
   // of its n neighbours across edges (the 4 present), whose expected square in a smooth region is
-  // its squared error times 1 + 1/n (as many samples' error each), and where a gradient cancels.
+  // its squared error times 1 + 1/n (as many samples' error each), and where a gradient cancels. A
+  // pixel its view proves smooth (TileRenderer::markSmooth), which takes two samples beside any edge,
+  // compares itself with the opposite pairs of its neighbours that are smooth too (no edge lies
+  // between them; a pair keeps a gradient cancelling), else reports its halves' estimate.
   float residualError(const Summary& self) const {
     double r = 0, g = 0, b = 0;
     int n = 0;
-    for (const Summary* u : {&self - 1, &self + 1, &self - m_stride, &self + m_stride}) {
-      if (!u->present) continue;
-      r += u->meanR, g += u->meanG, b += u->meanB, ++n;
+    if (self.smooth) {
+      for (const int step : {1, m_stride}) {
+        const Summary &u = (&self)[-step], &v = (&self)[step];
+        if (!(u.present && v.present && u.smooth && v.smooth)) continue;
+        r += u.meanR + v.meanR, g += u.meanG + v.meanG, b += u.meanB + v.meanB, n += 2;
+      }
+    } else {
+      for (const Summary* u : {&self - 1, &self + 1, &self - m_stride, &self + m_stride}) {
+        if (!u->present) continue;
+        r += u->meanR, g += u->meanG, b += u->meanB, ++n;
+      }
     }
     if (n == 0) return self.error;
     const double dr = self.meanR - r / n, dg = self.meanG - g / n, db = self.meanB - b / n;

@@ -75,7 +75,9 @@ class TileRenderer {
         m_firstTileX(m_region.x / kTileSize),
         m_firstTileY(m_region.y / kTileSize),
         m_tilesX((m_region.x + m_region.width + kTileSize - 1) / kTileSize - m_firstTileX),
-        m_view(viewOf(group.spheres(), spec, settings, m_camera)) {
+        m_view(viewOf(group.spheres(), spec, settings, m_camera)),
+        m_edgesAtSilhouettes(edgesAtSilhouettes(effects)) {
+    if (m_edgesAtSilhouettes && m_group.planes().size() == 1) planeDepthOverImage();
     if (effects.shadows) {
       std::vector<const SphereView<Real>*> views;
       const bool viewed = viewsLights(effects);
@@ -369,6 +371,32 @@ class TileRenderer {
     }
   }
 
+  // Marks smooth[k] (row by row) for the pixels of the w x h tile at (x0, y0) that the camera's view
+  // proves hold no edge: in a render whose every edge is a silhouette of the view's spheres
+  // (m_edgesAtSilhouettes), those no sphere's footprint reaches (its image, widened by the bounds on
+  // the rays' rounding: Camera::footprint), and that the scene's plane, if any, does not leave
+  // across them at the camera's tMin or tMax. Such a pixel sees one plane or the background, whose
+  // colours vary smoothly across it (adaptive sampling looks for no edge there: AdaptiveSampler).
+  // Elsewhere, or in other renders, false.
+  void markSmooth(int x0, int y0, int w, int h, bool* smooth) const {
+    std::fill(smooth, smooth + w * h, m_edgesAtSilhouettes);
+    if (!m_edgesAtSilhouettes) return;
+    m_view->forCellWhile(x0, y0, [&](uint32_t i, float, std::array<int, 2> rows, std::array<int, 2> columns) {
+      const Sphere<Real>& sphere = m_group.spheres().primitive(i);
+      SampleBox box;
+      double tLow;
+      const bool seen = m_camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow);
+      forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
+        smooth[k] = smooth[k] && !(seen && reachesInscribedEllipse(box, x, y));
+      });
+      return true;
+    });
+    if (!m_planeCut) return;
+    for (int row = 0, k = 0; row < h; ++row) {
+      for (int column = 0; column < w; ++column, ++k) smooth[k] = smooth[k] && !planeEndsIn(x0 + column, y0 + row);
+    }
+  }
+
   // Whether pixels may have a silhouette stratum (silhouetteStrata): through an orthographic camera
   // without a lens, with a view of the scene's own spheres. There a sphere's silhouette is exactly a
   // disk of the image (its radius over the pixel's width and height).
@@ -488,6 +516,16 @@ class TileRenderer {
         }
       });
     });
+  }
+
+  // Whether pixel (x, y)'s square meets the ellipse inscribed in `box` (inside it or across its edge).
+  // A box reaching infinity reaches everything.
+  static bool reachesInscribedEllipse(const SampleBox& box, int x, int y) {
+    const double cx = (box.x0 + box.x1) / 2, cy = (box.y0 + box.y1) / 2;
+    const double ax = (box.x1 - box.x0) / 2, ay = (box.y1 - box.y0) / 2;
+    if (!(std::isfinite(cx) && std::isfinite(cy) && std::isfinite(ax) && std::isfinite(ay))) return true;
+    if (!(ax > 0 && ay > 0)) return false;  // an empty box
+    return coverOf(cx, cy, ax, ay, x, y) != Cover::Outside;
   }
 
   // Whether pixel (x, y)'s square crosses the edge of the ellipse inscribed in `box` (Cover of the
@@ -1013,6 +1051,54 @@ class TileRenderer {
     return faces;
   }
 
+  // Whether every edge of this render's image is a silhouette of the camera's view's spheres
+  // (markSmooth): through a camera that stratifies(), the scene's geometry is its own spheres (all in
+  // the view) and at most one unbounded plane, and nothing in its shading changes abruptly — no
+  // shadows, mirrors, refraction or ambient occlusion (its rays' noise), no spot light's hard edge
+  // (blend 0). The plane's own edges, where it leaves [tMin, tMax), are looked for per pixel.
+  bool edgesAtSilhouettes(const EffectSet& effects) const {
+    if (!stratifies() || effects.shadows || effects.bounces() || effects.occlusion) return false;
+    const Group<Real>& g = m_group;
+    if (g.triangles().size() != 0 || g.boxes().size() != 0 || !g.instances().empty()) return false;
+    if (g.planes().size() > 1 || (g.planes().size() == 1 && g.planes().primitive(0).bounded)) return false;
+    for (const ShadingLight<Real>& light : m_shading.lights()) {
+      if (effects.lit && light.kind == ShadingLight<Real>::Kind::Spot && !(light.blend > 0)) return false;
+    }
+    return true;
+  }
+
+  // The depth at which camera rays meet the scene's one plane, as an affine function of the sample
+  // position (orthographic rays: parallel, from a plane), found from three rays; m_planeCut where
+  // the camera's [tMin, tMax) may end it inside the image.
+  void planeDepthOverImage() {
+    if (!std::isfinite(m_camera.tMin()) && !std::isfinite(m_camera.tMax())) return;
+    const Plane<Real>& plane = m_group.planes().primitive(0);
+    alignas(64) const Real x[3] = {0, 1, 0}, y[3] = {0, 0, 1};
+    RayPacket<Real> packet;
+    m_camera.generate(packet, x, y, 3);
+    double t[3];
+    for (int k = 0; k < 3; ++k) {
+      const Vec3d o(packet.ox[k], packet.oy[k], packet.oz[k]), d(packet.dx[k], packet.dy[k], packet.dz[k]);
+      t[k] = glm::dot(Vec3d(plane.normal), Vec3d(plane.point) - o) / glm::dot(Vec3d(plane.normal), d);
+    }
+    m_planeDepth = {t[0], t[1] - t[0], t[2] - t[0]};
+    m_planeCut = true;
+  }
+
+  // Whether the scene's plane leaves the camera's [tMin, tMax) inside pixel (x, y) (m_planeCut): its
+  // depths over the square, widened by 1/64 pixel and by a margin for the rays' rounding, straddle
+  // tMin or tMax. A plane the rays run along (infinite or NaN depths) is never seen: no edge.
+  bool planeEndsIn(int x, int y) const {
+    const auto& [t0, dx, dy] = m_planeDepth;
+    if (!(std::isfinite(t0) && std::isfinite(dx) && std::isfinite(dy))) return false;
+    const double middle = t0 + dx * (x + 0.5) + dy * (y + 0.5);
+    const double reach = (std::fabs(dx) + std::fabs(dy)) * (0.5 + 1.0 / 64);
+    const double slack = 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(middle) + reach + 1);
+    const double low = middle - reach - slack, high = middle + reach + slack;
+    const auto straddles = [&](double bound) { return std::isfinite(bound) && low <= bound && bound <= high; };
+    return straddles(m_camera.tMin()) || straddles(m_camera.tMax());
+  }
+
   void write(const Accumulator& acc, int x0, int y0, int w, int h) const {
     for (int row = 0; row < h; ++row) {
       writeRow(acc, row * w, w, static_cast<size_t>(y0 + row - m_region.y) * m_region.width + (x0 - m_region.x));
@@ -1038,6 +1124,9 @@ class TileRenderer {
   int m_firstTileX, m_firstTileY;
   int m_tilesX;
   std::shared_ptr<const SphereView<Real>> m_view;  // of the scene's own spheres; null: none made
+  bool m_edgesAtSilhouettes;                      // every edge a silhouette of the view's spheres (markSmooth)
+  bool m_planeCut = false;                        // and the scene's plane may end at tMin or tMax (planeEndsIn)
+  std::array<double, 3> m_planeDepth{};           // its depth t0 + dx x + dy y at sample position (x, y)
   std::vector<std::shared_ptr<const SphereView<Real>>> m_lightViews;  // from each light (Shading's order)
 };
 
