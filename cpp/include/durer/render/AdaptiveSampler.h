@@ -28,10 +28,12 @@
 //     difference of its mean colour from a neighbour's: an edge inside it covering less than about
 //     1 / samples of its area may not have been seen yet, and would be off by at most about that
 //     times the contrast (about half that on average: kUnseenShare).
-// The last three rules look for edges the samples may have missed; a pixel the camera's view proves
-// smooth (TileRenderer::markSmooth: in a render whose every edge is a silhouette of the view's
-// spheres, no sphere's footprint reaches it) has none, and from two samples on its own judged error
-// alone decides it (beside a bright sphere, the contrast rule alone once took such a pixel to 32).
+// A pixel the camera's view proves smooth (TileRenderer::markSmooth: in a render whose every edge
+// is a silhouette of the view's spheres, no sphere's footprint reaches it) holds none of those
+// silhouettes: the rules weigh only its smooth neighbours for it, so that a sphere's edge in the
+// next pixel does not keep it refining (beside a bright sphere, the contrast rule alone would take
+// such a pixel to 32 samples), while a smooth neighbour's errors, contrast or other geometry (a
+// plane's end, the noise of a light's samples, a light's sharp ramp) still do.
 // In a colour render, where an orthographic camera sees a sphere's silhouette cross a pixel
 // (TileRenderer::silhouetteStrata), the pixel's mean is its stratum's (PixelStratum): the mean of
 // its samples inside the silhouette and that of those outside, weighed by their exact shares of the
@@ -49,7 +51,7 @@
 // two samples reports how far its mean lies from its neighbours' (residualError).
 // A time limit stops the refining rounds (never the first pass) when spent; each worker takes its
 // band's tiles worst first (the largest estimated error), so what the limit cuts matters least.
-// Every pixel's state is kept until the end (TileState and Summary: 199 bytes a pixel in double, 131
+// Every pixel's state is kept until the end (TileState and Summary: 201 bytes a pixel in double, 133
 // in float; in a colour render through an orthographic camera, StratumState: 120 and 84 more).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
 // threads; a pixel's result depends on the pixels within `rounds` of it, and its reported error on
@@ -429,10 +431,12 @@ class AdaptiveSampler {
     // A sphere smaller than the samples' spacing, or the sliver of one, may lie between them: where
     // the camera's view says a silhouette crosses a pixel, it is an edge (mark) whatever they saw.
     m_tiles.markSilhouettes(t.x0, t.y0, t.w, t.h, farthest, t.mixed);
-    m_tiles.markSmooth(t.x0, t.y0, t.w, t.h, t.smooth);
-    for (int row = 0, k = 0; row < t.h; ++row) {
-      Summary* line = &summaryAt(t.x0, t.y0 + row);
-      for (int col = 0; col < t.w; ++col, ++k) line[col].smooth = t.smooth[k];
+    if (m_rounds > 0 || m_firstSamples == 2) {  // what reads it: mark, and a two-sample pixel's reported error
+      m_tiles.markSmooth(t.x0, t.y0, t.w, t.h, t.smooth);
+      for (int row = 0, k = 0; row < t.h; ++row) {
+        Summary* line = &summaryAt(t.x0, t.y0 + row);
+        for (int col = 0; col < t.w; ++col, ++k) line[col].smooth = t.smooth[k];
+      }
     }
     if (StratumState* u = t.stratum; u && m_rounds > 0) {  // what to watch for, where a round may follow
       const auto wasMet = [&](int k, uint32_t sphere) {
@@ -718,16 +722,17 @@ class AdaptiveSampler {
           bool fresh = round == 0;
           if (!fresh) forAround(self, [&](const Summary& u, int, int) { fresh = fresh || u.sampledIn == round; });
           if (!fresh) continue;
-          // A pixel the camera's view proves smooth has no edge to find: its own estimate decides
-          // (from two samples on: one has nothing to compare).
-          if (t.smooth[k] && taken >= 2) continue;
           double neighbourhood = 0;
           float largestDifference = 0;
           int around = 0;
           const bool young = taken < kEdgeSamples;  // an edge keeps a pixel refining only below them
           bool edge = young && t.mixed[k];
           const int x = t.x0 + col, y = t.y0 + row;
+          const bool smooth = t.smooth[k];
           forAround(self, [&](const Summary& u, int dx, int dy) {
+            // Between a pixel the camera's view proves smooth and one it does not lies a sphere's
+            // silhouette, outside the smooth one: nothing there for the smooth one to look for.
+            if (smooth && !u.smooth) return;
             neighbourhood += static_cast<double>(u.averaged) * u.averaged;
             ++around;
             edge = edge || (young && differ(self, x, y, u, x + dx, y + dy));

@@ -76,8 +76,9 @@ class TileRenderer {
         m_firstTileY(m_region.y / kTileSize),
         m_tilesX((m_region.x + m_region.width + kTileSize - 1) / kTileSize - m_firstTileX),
         m_view(viewOf(group.spheres(), spec, settings, m_camera)),
-        m_edgesAtSilhouettes(edgesAtSilhouettes(effects)) {
-    if (m_edgesAtSilhouettes && m_group.planes().size() == 1) planeDepthOverImage();
+        m_edgesAtSilhouettes(edgesAtSilhouettes(effects)),
+        m_planeCut(m_edgesAtSilhouettes && m_group.planes().size() == 1 &&
+                   (std::isfinite(m_camera.tMin()) || std::isfinite(m_camera.tMax()))) {
     if (effects.shadows) {
       std::vector<const SphereView<Real>*> views;
       const bool viewed = viewsLights(effects);
@@ -375,9 +376,9 @@ class TileRenderer {
   // proves hold no edge: in a render whose every edge is a silhouette of the view's spheres
   // (m_edgesAtSilhouettes), those no sphere's footprint reaches (its image, widened by the bounds on
   // the rays' rounding: Camera::footprint), and that the scene's plane, if any, does not leave
-  // across them at the camera's tMin or tMax. Such a pixel sees one plane or the background, whose
-  // colours vary smoothly across it (adaptive sampling looks for no edge there: AdaptiveSampler).
-  // Elsewhere, or in other renders, false.
+  // across them at the camera's tMin or tMax. Such a pixel sees one plane or the background, and no
+  // silhouette crosses between it and a smooth neighbour (adaptive sampling weighs only those
+  // neighbours for it: AdaptiveSampler::mark). Elsewhere, or in other renders, false.
   void markSmooth(int x0, int y0, int w, int h, bool* smooth) const {
     std::fill(smooth, smooth + w * h, m_edgesAtSilhouettes);
     if (!m_edgesAtSilhouettes) return;
@@ -391,10 +392,7 @@ class TileRenderer {
       });
       return true;
     });
-    if (!m_planeCut) return;
-    for (int row = 0, k = 0; row < h; ++row) {
-      for (int column = 0; column < w; ++column, ++k) smooth[k] = smooth[k] && !planeEndsIn(x0 + column, y0 + row);
-    }
+    if (m_planeCut) markPlaneEnds(x0, y0, w, h, smooth);
   }
 
   // Whether pixels may have a silhouette stratum (silhouetteStrata): through an orthographic camera
@@ -1054,10 +1052,12 @@ class TileRenderer {
   // Whether every edge of this render's image is a silhouette of the camera's view's spheres
   // (markSmooth): through a camera that stratifies(), the scene's geometry is its own spheres (all in
   // the view) and at most one unbounded plane, and nothing in its shading changes abruptly — no
-  // shadows, mirrors, refraction or ambient occlusion (its rays' noise), no spot light's hard edge
-  // (blend 0). The plane's own edges, where it leaves [tMin, tMax), are looked for per pixel.
+  // shadows, mirrors (nor an area light a mirror shows without bounces), refraction or ambient
+  // occlusion (its rays' noise), no spot light's hard edge (blend 0). The plane's own edges, where it
+  // leaves [tMin, tMax), are looked for per pixel; softer changes (a spot's ramp, a light near the
+  // plane) are left to the smooth neighbours' rules (AdaptiveSampler::mark).
   bool edgesAtSilhouettes(const EffectSet& effects) const {
-    if (!stratifies() || effects.shadows || effects.bounces() || effects.occlusion) return false;
+    if (!stratifies() || effects.shadows || effects.bounces() || effects.mirroredLights || effects.occlusion) return false;
     const Group<Real>& g = m_group;
     if (g.triangles().size() != 0 || g.boxes().size() != 0 || !g.instances().empty()) return false;
     if (g.planes().size() > 1 || (g.planes().size() == 1 && g.planes().primitive(0).bounded)) return false;
@@ -1067,36 +1067,45 @@ class TileRenderer {
     return true;
   }
 
-  // The depth at which camera rays meet the scene's one plane, as an affine function of the sample
-  // position (orthographic rays: parallel, from a plane), found from three rays; m_planeCut where
-  // the camera's [tMin, tMax) may end it inside the image.
-  void planeDepthOverImage() {
-    if (!std::isfinite(m_camera.tMin()) && !std::isfinite(m_camera.tMax())) return;
+  // Clears smooth[k] for the pixels of the w x h tile at (x0, y0) in which the scene's one plane may
+  // leave the camera's [tMin, tMax) (m_planeCut): where the depths at which the rays through the
+  // pixel's corners meet it, widened by 1/64 pixel and by the rounding of those rays and of the
+  // render's own, straddle tMin or tMax. Orthographic rays are parallel, from points of a plane:
+  // the depth is affine across a pixel. A plane the rays run along (infinite or NaN depths) is never
+  // seen there: no edge.
+  void markPlaneEnds(int x0, int y0, int w, int h, bool* smooth) const {
     const Plane<Real>& plane = m_group.planes().primitive(0);
-    alignas(64) const Real x[3] = {0, 1, 0}, y[3] = {0, 0, 1};
-    RayPacket<Real> packet;
-    m_camera.generate(packet, x, y, 3);
-    double t[3];
-    for (int k = 0; k < 3; ++k) {
-      const Vec3d o(packet.ox[k], packet.oy[k], packet.oz[k]), d(packet.dx[k], packet.dy[k], packet.dz[k]);
-      t[k] = glm::dot(Vec3d(plane.normal), Vec3d(plane.point) - o) / glm::dot(Vec3d(plane.normal), d);
+    const Vec3d normal(plane.normal), point(plane.point);
+    const int columns = w + 1, corners = columns * (h + 1);  // at most 81: two packets
+    double depth[(kTileSize + 1) * (kTileSize + 1)], slack[(kTileSize + 1) * (kTileSize + 1)];
+    for (int first = 0; first < corners; first += kPacketSize) {
+      const int count = std::min(kPacketSize, corners - first);
+      alignas(64) Real x[kPacketSize], y[kPacketSize];
+      for (int j = 0; j < count; ++j) x[j] = Real(x0 + (first + j) % columns), y[j] = Real(y0 + (first + j) / columns);
+      RayPacket<Real> packet;
+      m_camera.generate(packet, x, y, count);
+      for (int j = 0; j < count; ++j) {
+        const Vec3d o(packet.ox[j], packet.oy[j], packet.oz[j]), d(packet.dx[j], packet.dy[j], packet.dz[j]);
+        const double along = glm::dot(normal, d), t = glm::dot(normal, point - o) / along;
+        depth[first + j] = t;
+        // The plane test's rounding in Real, and that of origins between the corners.
+        slack[first + j] = 64 * std::numeric_limits<Real>::epsilon() *
+                           ((maxAbs(o) + maxAbs(point)) / std::fabs(along) + std::fabs(t));
+      }
     }
-    m_planeDepth = {t[0], t[1] - t[0], t[2] - t[0]};
-    m_planeCut = true;
-  }
-
-  // Whether the scene's plane leaves the camera's [tMin, tMax) inside pixel (x, y) (m_planeCut): its
-  // depths over the square, widened by 1/64 pixel and by a margin for the rays' rounding, straddle
-  // tMin or tMax. A plane the rays run along (infinite or NaN depths) is never seen: no edge.
-  bool planeEndsIn(int x, int y) const {
-    const auto& [t0, dx, dy] = m_planeDepth;
-    if (!(std::isfinite(t0) && std::isfinite(dx) && std::isfinite(dy))) return false;
-    const double middle = t0 + dx * (x + 0.5) + dy * (y + 0.5);
-    const double reach = (std::fabs(dx) + std::fabs(dy)) * (0.5 + 1.0 / 64);
-    const double slack = 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(middle) + reach + 1);
-    const double low = middle - reach - slack, high = middle + reach + slack;
-    const auto straddles = [&](double bound) { return std::isfinite(bound) && low <= bound && bound <= high; };
-    return straddles(m_camera.tMin()) || straddles(m_camera.tMax());
+    const double tMin = m_camera.tMin(), tMax = m_camera.tMax();
+    for (int row = 0, k = 0; row < h; ++row) {
+      for (int column = 0; column < w; ++column, ++k) {
+        const int c = row * columns + column;
+        const double d[4] = {depth[c], depth[c + 1], depth[c + columns], depth[c + columns + 1]};
+        const double e = std::max({slack[c], slack[c + 1], slack[c + columns], slack[c + columns + 1]});
+        if (!std::all_of(d, d + 4, [](double t) { return std::isfinite(t); })) continue;
+        const double low = *std::min_element(d, d + 4), high = *std::max_element(d, d + 4);
+        const double reach = (high - low) / 64 + e;
+        const auto straddles = [&](double bound) { return std::isfinite(bound) && low - reach <= bound && bound <= high + reach; };
+        if (straddles(tMin) || straddles(tMax)) smooth[k] = false;
+      }
+    }
   }
 
   void write(const Accumulator& acc, int x0, int y0, int w, int h) const {
@@ -1125,8 +1134,7 @@ class TileRenderer {
   int m_tilesX;
   std::shared_ptr<const SphereView<Real>> m_view;  // of the scene's own spheres; null: none made
   bool m_edgesAtSilhouettes;                      // every edge a silhouette of the view's spheres (markSmooth)
-  bool m_planeCut = false;                        // and the scene's plane may end at tMin or tMax (planeEndsIn)
-  std::array<double, 3> m_planeDepth{};           // its depth t0 + dx x + dy y at sample position (x, y)
+  bool m_planeCut;                                // and the scene's plane may end at tMin or tMax (markPlaneEnds)
   std::vector<std::shared_ptr<const SphereView<Real>>> m_lightViews;  // from each light (Shading's order)
 };
 
