@@ -14,7 +14,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import durer
-from helpers.coverage import SIZE, WHITE_ON_BLACK, disc_coverage, half_plane_coverage, half_plane_scene, pixel_camera, pixel_centres
+from helpers.coverage import (
+    SIZE, WHITE_ON_BLACK, disc_coverage, half_plane_coverage, half_plane_scene, pixel_camera, pixel_centres,
+)
 
 EDGES = [(0.6, 0.37), (0.2, 3.1), (1.1, -2.3)]  # (theta, c): three edges across the 48 x 48 image
 
@@ -204,6 +206,16 @@ def steep_spot_light() -> tuple[durer.Scene, dict]:
     return scene, {}
 
 
+def spot_ring_against_a_sphere() -> tuple[durer.Scene, dict]:
+    """A spot light straight above a sphere, its steep edge half a pixel outside the sphere's disc:
+    the plane lit in a thin ring that the pixels beside the disc share with the neighbours it
+    reaches (once missed by smooth pixels that weighed only their dark smooth neighbours: 0.41 off)."""
+    scene = lit_plane_with_a_sphere((0.31, -0.17), 6.0)
+    half_angle = math.degrees(math.atan(6.5 / 40))
+    scene.add_spot_light((0.31, -0.17, -20.0), (0, 0, -1), (2, 2, 2), half_angle_degrees=half_angle, blend=0.001)
+    return scene, {"min_spp": 2}
+
+
 def noisy_area_light() -> tuple[durer.Scene, dict]:
     """An area light of one sample a hit over the plane: noise in every pixel, no edge."""
     scene = lit_plane_with_a_sphere((-20.0, 20.0), 2.0)
@@ -211,12 +223,13 @@ def noisy_area_light() -> tuple[durer.Scene, dict]:
     return scene, {"min_spp": 2}
 
 
-@pytest.mark.parametrize("make", [mirrored_area_light, steep_spot_light, noisy_area_light])
+@pytest.mark.parametrize("make", [mirrored_area_light, steep_spot_light, spot_ring_against_a_sphere, noisy_area_light])
 def test_smooth_pixels_still_find_what_their_smooth_neighbours_show(make):
     # Pixels no sphere's disc reaches, in scenes whose edges the camera's view does not all hold or
-    # where a pixel's own samples are not enough: a light's mirror image, a spot's steep ramp, a
-    # light's noise. Weighing their smooth neighbours (errors, contrast), such pixels are refined
-    # where those show something: no pixel far from a 4096-spp reference, and the image's RMS error
+    # where a pixel's own samples are not enough: a light's mirror image, a spot's steep ramp (also
+    # against a silhouette), a light's noise. Weighing their smooth neighbours' contrast and every
+    # neighbour's errors, such pixels are refined where those show something: no pixel far from a
+    # 4096-spp reference, and the image's RMS error
     # within 2 x target_error (the reference's own noise included; settled on their own samples, the
     # noisy light's pixels were 0.038 off in RMS and 0.27 at worst).
     scene, options = make()
@@ -241,8 +254,9 @@ def test_a_plane_cut_by_t_max_keeps_its_edge_refined(theta, c):
     scene = durer.Scene()
     scene.background = WHITE_ON_BLACK
     normal = np.array([-k * math.cos(theta), -k * math.sin(theta), 1.0])
-    scene.add_plane(normal / np.linalg.norm(normal), -50.0 / np.linalg.norm(normal), material=scene.add_material((1, 1, 1)))
-    scene.add_spheres([[-20 * math.cos(theta), -20 * math.sin(theta), -10]], [1.5], material=scene.add_material((0, 0, 0)))
+    white, black = scene.add_material((1, 1, 1)), scene.add_material((0, 0, 0))
+    scene.add_plane(normal / np.linalg.norm(normal), -50.0 / np.linalg.norm(normal), material=white)
+    scene.add_spheres([[-20 * math.cos(theta), -20 * math.sin(theta), -10]], [1.5], material=black)
     # A camera ray from (x, y, 1) down -z meets it at t = 51 - k (cos(theta) x + sin(theta) y).
     camera = durer.OrthographicCamera((0, 0, 1), (0, 0, -1), (0, 1, 0), float(SIZE), t_max=51.0 - k * c)
     result = adaptive(scene, camera=camera, spp=64, min_spp=4, target_error=0.01)
@@ -263,7 +277,8 @@ def test_a_plane_cut_by_t_max_far_from_the_origin_keeps_its_edge_refined(centre,
     scene = durer.Scene()
     scene.background = (0.0, 0.0, 0.0, 1.0)
     scene.add_plane(normal, float(normal @ np.array([centre, 1000.0, 0.0])), material=scene.add_material((1, 1, 1)))
-    scene.add_spheres([[centre - 20 * pixel, 1000 + 20 * pixel, 5]], [2 * pixel], material=scene.add_material((0.9, 0.3, 0.2)))
+    red = scene.add_material((0.9, 0.3, 0.2))
+    scene.add_spheres([[centre - 20 * pixel, 1000 + 20 * pixel, 5]], [2 * pixel], material=red)
     camera = durer.OrthographicCamera((centre, 1000.0, 10.0), (0, 0, -1), (0, 1, 0), SIZE * pixel,
                                       t_max=10 + 0.75 * pixel * (40.3 - 24))
     result = adaptive(scene, camera=camera, spp=64, min_spp=4, target_error=0.01, precision=precision)

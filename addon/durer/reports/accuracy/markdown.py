@@ -194,7 +194,7 @@ def markdown(report: Report, plots: dict[str, str]) -> str:
         "of its samples does, and another sphere whose silhouette crosses the pixel and that no sample has met "
         "while half its share does (less for each sample that landed inside it and met something else); a pixel "
         "no sphere's disc reaches holds no edge in either scene (only the spheres make edges there: no shadows, one "
-        "unbounded plane), and is judged with its neighbours that no disc reaches either. "
+        "unbounded plane), and a sphere's edge or contrast in a neighbour does not keep it refining. "
         "The slopes are "
         "least-squares fits of log RMSE against log spp (adaptive: against the samples it took); plain Monte "
         "Carlo converges as spp^-0.5. The reference's own error puts a floor under the curves at the highest spp.",

@@ -30,10 +30,11 @@
 //     times the contrast (about half that on average: kUnseenShare).
 // A pixel the camera's view proves smooth (TileRenderer::markSmooth: in a render whose every edge
 // is a silhouette of the view's spheres, no sphere's footprint reaches it) holds none of those
-// silhouettes: the rules weigh only its smooth neighbours for it, so that a sphere's edge in the
-// next pixel does not keep it refining (beside a bright sphere, the contrast rule alone would take
-// such a pixel to 32 samples), while a smooth neighbour's errors, contrast or other geometry (a
-// plane's end, the noise of a light's samples, a light's sharp ramp) still do.
+// silhouettes: the edge and contrast rules weigh only its smooth neighbours for it, so that a
+// sphere's edge in the next pixel does not keep it refining (beside a bright sphere, the contrast
+// rule alone would take such a pixel to 32 samples), while a smooth neighbour's contrast or other
+// geometry (a plane's end, a light's sharp ramp) still does, and every neighbour's errors do (the
+// noise of a light's samples; a light's edge squeezed against the silhouette next door).
 // In a colour render, where an orthographic camera sees a sphere's silhouette cross a pixel
 // (TileRenderer::silhouetteStrata), the pixel's mean is its stratum's (PixelStratum): the mean of
 // its samples inside the silhouette and that of those outside, weighed by their exact shares of the
@@ -730,11 +731,13 @@ class AdaptiveSampler {
           const int x = t.x0 + col, y = t.y0 + row;
           const bool smooth = t.smooth[k];
           forAround(self, [&](const Summary& u, int dx, int dy) {
-            // Between a pixel the camera's view proves smooth and one it does not lies a sphere's
-            // silhouette, outside the smooth one: nothing there for the smooth one to look for.
-            if (smooth && !u.smooth) return;
             neighbourhood += static_cast<double>(u.averaged) * u.averaged;
             ++around;
+            // Between a pixel the camera's view proves smooth and one it does not lies a sphere's
+            // silhouette, outside the smooth one: the contrast and geometry across it are the
+            // sphere's. (Its errors still count above: a light's edge or peak squeezed between the
+            // silhouette and the smooth pixel shows only in the neighbour across it.)
+            if (smooth && !u.smooth) return;
             edge = edge || (young && differ(self, x, y, u, x + dx, y + dy));
             largestDifference = std::max(largestDifference, colourDifference(self, u));
           });
