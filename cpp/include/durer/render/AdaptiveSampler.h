@@ -248,7 +248,7 @@ class AdaptiveSampler {
     int32_t taken[kPacketSize];                           // samples so far
     int32_t last[kPacketSize];                            // of which the last round's (the second half)
     int32_t add[kPacketSize];                             // samples the next round takes
-    bool smooth[kPacketSize];  // the camera's view proves it holds no edge (TileRenderer::markSmooth)
+    bool smooth[kPacketSize];  // no sphere's footprint reaches it, where only spheres make edges (TileRenderer::markSmooth)
     bool mixed[kPacketSize];  // a later sample met geometry that differs, or a silhouette may hide in it unseen
     float firstNx[kPacketSize], firstNy[kPacketSize], firstNz[kPacketSize];  // the first sample's shading normal (0: none)
     float priority;                                       // the worst marked pixel's (time limit: first)
@@ -267,7 +267,7 @@ class AdaptiveSampler {
     int32_t firstPrim;              // the primitive the first sample met
     int16_t sampledIn;              // the last round the pixel took samples in
     bool present;                   // inside the work region
-    bool smooth;                    // holds no edge, as the camera's view proves (TileRenderer::markSmooth)
+    bool smooth;                    // TileState::smooth, for its neighbours' marking and residualError
   };
 
   Summary& summaryAt(int x, int y) {
@@ -863,9 +863,10 @@ class AdaptiveSampler {
   // halves' estimate was 2.5x their measured RMS error). Instead: how far its mean lies from the mean
   // of its n neighbours across edges (the 4 present), whose expected square in a smooth region is
   // its squared error times 1 + 1/n (as many samples' error each), and where a gradient cancels. A
-  // pixel its view proves smooth (TileRenderer::markSmooth), which takes two samples beside any edge,
-  // compares itself with the opposite pairs of its neighbours that are smooth too (no edge lies
-  // between them; a pair keeps a gradient cancelling), else reports its halves' estimate.
+  // pixel its view proves smooth (TileRenderer::markSmooth), which may settle at two samples beside
+  // a sphere's edge, compares itself with the opposite pairs of its neighbours that are smooth too
+  // (no silhouette lies between them; a pair keeps a gradient cancelling), else reports its halves'
+  // estimate.
   float residualError(const Summary& self) const {
     double r = 0, g = 0, b = 0;
     int n = 0;

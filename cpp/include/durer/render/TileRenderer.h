@@ -373,12 +373,12 @@ class TileRenderer {
   }
 
   // Marks smooth[k] (row by row) for the pixels of the w x h tile at (x0, y0) that the camera's view
-  // proves hold no edge: in a render whose every edge is a silhouette of the view's spheres
-  // (m_edgesAtSilhouettes), those no sphere's footprint reaches (its image, widened by the bounds on
-  // the rays' rounding: Camera::footprint), and that the scene's plane, if any, does not leave
-  // across them at the camera's tMin or tMax. Such a pixel sees one plane or the background, and the
-  // contrast with a neighbour a disc reaches is that sphere's (adaptive sampling does not look for
-  // an edge there: AdaptiveSampler::mark). Elsewhere, or in other renders, false.
+  // proves hold no edge of the scene's geometry: in a render whose every such edge is a silhouette
+  // of the view's spheres (m_edgesAtSilhouettes), those no sphere's footprint reaches (its image,
+  // widened by the bounds on the rays' rounding: Camera::footprint), and that the scene's plane, if
+  // any, does not leave across them at the camera's tMin or tMax. Such a pixel sees one plane or the
+  // background, and the contrast with a neighbour a disc reaches is that sphere's (adaptive sampling
+  // does not look for an edge there: AdaptiveSampler::mark). Elsewhere, or in other renders, false.
   void markSmooth(int x0, int y0, int w, int h, bool* smooth) const {
     std::fill(smooth, smooth + w * h, m_edgesAtSilhouettes);
     if (!m_edgesAtSilhouettes) return;
