@@ -52,7 +52,7 @@
 // two samples reports how far its mean lies from its neighbours' (residualError).
 // A time limit stops the refining rounds (never the first pass) when spent; each worker takes its
 // band's tiles worst first (the largest estimated error), so what the limit cuts matters least.
-// Every pixel's state is kept until the end (TileState and Summary: 201 bytes a pixel in double, 133
+// Every pixel's state is kept until the end (TileState and Summary: 200 bytes a pixel in double, 132
 // in float; in a colour render through an orthographic camera, StratumState: 120 and 84 more).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
 // threads; a pixel's result depends on the pixels within `rounds` of it, and its reported error on
@@ -248,7 +248,6 @@ class AdaptiveSampler {
     int32_t taken[kPacketSize];                           // samples so far
     int32_t last[kPacketSize];                            // of which the last round's (the second half)
     int32_t add[kPacketSize];                             // samples the next round takes
-    bool smooth[kPacketSize];  // no sphere's footprint reaches it, where only spheres make edges (TileRenderer::markSmooth)
     bool mixed[kPacketSize];  // a later sample met geometry that differs, or a silhouette may hide in it unseen
     float firstNx[kPacketSize], firstNy[kPacketSize], firstNz[kPacketSize];  // the first sample's shading normal (0: none)
     float priority;                                       // the worst marked pixel's (time limit: first)
@@ -267,7 +266,7 @@ class AdaptiveSampler {
     int32_t firstPrim;              // the primitive the first sample met
     int16_t sampledIn;              // the last round the pixel took samples in
     bool present;                   // inside the work region
-    bool smooth;                    // TileState::smooth, for its neighbours' marking and residualError
+    bool smooth;                    // no sphere's footprint reaches it, where only spheres make edges (TileRenderer::markSmooth)
   };
 
   Summary& summaryAt(int x, int y) {
@@ -433,10 +432,11 @@ class AdaptiveSampler {
     // the camera's view says a silhouette crosses a pixel, it is an edge (mark) whatever they saw.
     m_tiles.markSilhouettes(t.x0, t.y0, t.w, t.h, farthest, t.mixed);
     if (m_rounds > 0 || m_firstSamples == 2) {  // what reads it: mark, and a two-sample pixel's reported error
-      m_tiles.markSmooth(t.x0, t.y0, t.w, t.h, t.smooth);
+      alignas(64) bool smooth[kPacketSize];
+      m_tiles.markSmooth(t.x0, t.y0, t.w, t.h, smooth);
       for (int row = 0, k = 0; row < t.h; ++row) {
         Summary* line = &summaryAt(t.x0, t.y0 + row);
-        for (int col = 0; col < t.w; ++col, ++k) line[col].smooth = t.smooth[k];
+        for (int col = 0; col < t.w; ++col, ++k) line[col].smooth = smooth[k];
       }
     }
     if (StratumState* u = t.stratum; u && m_rounds > 0) {  // what to watch for, where a round may follow
@@ -729,7 +729,6 @@ class AdaptiveSampler {
           const bool young = taken < kEdgeSamples;  // an edge keeps a pixel refining only below them
           bool edge = young && t.mixed[k];
           const int x = t.x0 + col, y = t.y0 + row;
-          const bool smooth = t.smooth[k];
           forAround(self, [&](const Summary& u, int dx, int dy) {
             neighbourhood += static_cast<double>(u.averaged) * u.averaged;
             ++around;
@@ -737,7 +736,7 @@ class AdaptiveSampler {
             // silhouette, outside the smooth one: the contrast and geometry across it are the
             // sphere's. (Its errors still count above: a light's edge or peak squeezed between the
             // silhouette and the smooth pixel shows only in the neighbour across it.)
-            if (smooth && !u.smooth) return;
+            if (self.smooth && !u.smooth) return;
             edge = edge || (young && differ(self, x, y, u, x + dx, y + dy));
             largestDifference = std::max(largestDifference, colourDifference(self, u));
           });

@@ -352,7 +352,7 @@ class TileRenderer {
       double tLow;
       if (!m_camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow)) return;
       forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
-        if (open(k)) crossed[k] = crossesInscribedEllipse(box, x, y);
+        if (open(k)) crossed[k] = coverOfInscribed(box, x, y, Cover::Outside) == Cover::Crosses;
       });
     };
     m_view->forCellOf(x0, y0, deepest, mark);
@@ -388,7 +388,7 @@ class TileRenderer {
       double tLow;
       const bool seen = m_camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow);
       forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
-        smooth[k] = smooth[k] && !(seen && reachesInscribedEllipse(box, x, y));
+        smooth[k] = smooth[k] && !(seen && coverOfInscribed(box, x, y, Cover::Inside) != Cover::Outside);
       });
       return true;
     });
@@ -516,25 +516,6 @@ class TileRenderer {
     });
   }
 
-  // Whether pixel (x, y)'s square meets the ellipse inscribed in `box` (inside it or across its edge).
-  // A box reaching infinity reaches everything.
-  static bool reachesInscribedEllipse(const SampleBox& box, int x, int y) {
-    const double cx = (box.x0 + box.x1) / 2, cy = (box.y0 + box.y1) / 2;
-    const double ax = (box.x1 - box.x0) / 2, ay = (box.y1 - box.y0) / 2;
-    if (!(std::isfinite(cx) && std::isfinite(cy) && std::isfinite(ax) && std::isfinite(ay))) return true;
-    if (!(ax > 0 && ay > 0)) return false;  // an empty box
-    return coverOf(cx, cy, ax, ay, x, y) != Cover::Outside;
-  }
-
-  // Whether pixel (x, y)'s square crosses the edge of the ellipse inscribed in `box` (Cover of the
-  // ellipse). Not for a box reaching infinity (a sphere reaching a perspective eye's plane).
-  static bool crossesInscribedEllipse(const SampleBox& box, int x, int y) {
-    const double cx = (box.x0 + box.x1) / 2, cy = (box.y0 + box.y1) / 2;
-    const double ax = (box.x1 - box.x0) / 2, ay = (box.y1 - box.y0) / 2;
-    if (!(std::isfinite(cx) && std::isfinite(cy) && ax > 0 && ay > 0)) return false;
-    return coverOf(cx, cy, ax, ay, x, y) == Cover::Crosses;
-  }
-
   // How pixel (x, y)'s square lies against the axis-aligned ellipse of centre (cx, cy) and semi-axes
   // ax, ay: in the frame where the ellipse is the unit disk, its farthest corner inside (Inside), or
   // its nearest point inside and its farthest corner outside (Crosses), or neither (Outside).
@@ -545,6 +526,16 @@ class TileRenderer {
     const double fu = std::max(u0 * u0, u1 * u1), fv = std::max(v0 * v0, v1 * v1);
     if (fu + fv <= 1) return Cover::Inside;
     return nu * nu + nv * nv < 1 ? Cover::Crosses : Cover::Outside;
+  }
+
+  // How pixel (x, y)'s square lies against the ellipse inscribed in `box` (coverOf): `unbounded` for
+  // a box reaching infinity (a sphere reaching a perspective eye's plane), Outside for an empty one.
+  static Cover coverOfInscribed(const SampleBox& box, int x, int y, Cover unbounded) {
+    const double cx = (box.x0 + box.x1) / 2, cy = (box.y0 + box.y1) / 2;
+    const double ax = (box.x1 - box.x0) / 2, ay = (box.y1 - box.y0) / 2;
+    if (!(std::isfinite(cx) && std::isfinite(cy) && std::isfinite(ax) && std::isfinite(ay))) return unbounded;
+    if (!(ax > 0 && ay > 0)) return Cover::Outside;
+    return coverOf(cx, cy, ax, ay, x, y);
   }
 
   static constexpr uint32_t kNoSphere = std::numeric_limits<uint32_t>::max();  // no sphere of the view
