@@ -67,6 +67,7 @@
 #include <vector>
 
 #include "durer/HugeArray.h"
+#include "durer/render/TileMask.h"
 #include "durer/render/TileRenderer.h"
 
 namespace durer {
@@ -110,9 +111,11 @@ class AdaptiveSampler {
         m_stratum(m_strata ? m_tileCount : 0),
         m_summary(static_cast<size_t>(m_stride) * (m_work.height + 2)) {
     const int rows = m_work.height + 2;
-    for (int x = 0; x < m_stride; ++x) m_summary[x].present = m_summary[static_cast<size_t>(rows - 1) * m_stride + x].present = false;
+    // The ring's summaries are read as the others' (mark weighs them by `present`, without branches).
+    const Summary absent{0, 0, 0, 0, 0, 0, kNoPrimitive, false, false};
+    for (int x = 0; x < m_stride; ++x) m_summary[x] = m_summary[static_cast<size_t>(rows - 1) * m_stride + x] = absent;
     for (int y = 1; y < rows - 1; ++y) {
-      m_summary[static_cast<size_t>(y) * m_stride].present = m_summary[static_cast<size_t>(y) * m_stride + m_stride - 1].present = false;
+      m_summary[static_cast<size_t>(y) * m_stride] = m_summary[static_cast<size_t>(y) * m_stride + m_stride - 1] = absent;
     }
   }
 
@@ -250,6 +253,8 @@ class AdaptiveSampler {
     int32_t add[kPacketSize];                             // samples the next round takes
     bool mixed[kPacketSize];  // a later sample met geometry that differs, or a silhouette may hide in it unseen
     float firstNx[kPacketSize], firstNy[kPacketSize], firstNz[kPacketSize];  // the first sample's shading normal (0: none)
+    uint64_t sampledBits;                                 // the pixels sampledRound sampled (TileMask.h)
+    int sampledRound;                                     // the last round that sampled any
     float priority;                                       // the worst marked pixel's (time limit: first)
     double squares, worst;                                // its output pixels' error estimates: sum of squares, largest
   };
@@ -264,7 +269,6 @@ class AdaptiveSampler {
     float firstT;                   // how far along its ray the first sample met (inf: a miss)
     float meanR, meanG, meanB;      // the mean colour
     int32_t firstPrim;              // the primitive the first sample met
-    int16_t sampledIn;              // the last round the pixel took samples in
     bool present;                   // inside the work region
     bool smooth;                    // no sphere's footprint reaches it, where only spheres make edges (TileRenderer::markSmooth)
   };
@@ -542,16 +546,18 @@ class AdaptiveSampler {
     // the NaN of inf - inf (such a pixel is never settled before its last round, as an infinite error
     // is not). A loop of its own, out of the first loop above, which the compiler vectorises.
     for (int k = 0; k < count; ++k) error[k] = error[k] == error[k] ? error[k] : std::numeric_limits<float>::infinity();
+    uint64_t bits = 0;
     for (int row = 0, k = 0; row < t.h; ++row) {  // by rows: no division to find a pixel's summary
       Summary* line = &summaryAt(t.x0, t.y0 + row);
       for (int col = 0; col < t.w; ++col, ++k) {
         if (!sampled[k]) continue;  // its summary is as its samples left it
+        bits |= tileBit(t.x0 + col, t.y0 + row);
         Summary& p = line[col];
         p.averaged = before[k] < kHistorySamples ? error[k] : averagedError(error[k], p.averaged, before[k], t.taken[k]);
         p.error = error[k], p.meanR = meanR[k], p.meanG = meanG[k], p.meanB = meanB[k];
-        p.sampledIn = static_cast<int16_t>(round);
       }
     }
+    t.sampledBits = bits, t.sampledRound = round;
   }
 
   // Sets tile u's state and its pixels' summaries for the first pass.
@@ -575,12 +581,13 @@ class AdaptiveSampler {
     std::fill(t.firstNy, t.firstNy + count, 0.0f);
     std::fill(t.firstNz, t.firstNz + count, 0.0f);
     t.priority = 0;
+    t.sampledBits = 0, t.sampledRound = -1;
     for (int row = 0; row < t.h; ++row) {
       Summary* line = &summaryAt(t.x0, t.y0 + row);
       for (int col = 0; col < t.w; ++col) {
         Summary& p = line[col];
         p.error = p.averaged = p.firstT = p.meanR = p.meanG = p.meanB = 0;
-        p.firstPrim = kNoPrimitive, p.sampledIn = -1, p.present = true, p.smooth = false;
+        p.firstPrim = kNoPrimitive, p.present = true, p.smooth = false;
       }
     }
   }
@@ -704,42 +711,67 @@ class AdaptiveSampler {
 
   static int slotOf(const TileState& t, int x, int y) { return (y - t.y0) * t.w + (x - t.x0); }
 
+  // The pixels of tile `index` (as its mask's bits, TileMask.h) a pixel around which (itself
+  // included) round `round` sampled.
+  uint64_t freshBits(size_t index, int round) const {
+    const int tx = static_cast<int>(index % m_tilesX), ty = static_cast<int>(index / m_tilesX);
+    const int tilesY = static_cast<int>(m_tileCount / m_tilesX);
+    uint64_t sampled[3][3];
+    for (int y = ty - 1; y <= ty + 1; ++y) {
+      for (int x = tx - 1; x <= tx + 1; ++x) {
+        const bool inside = x >= 0 && y >= 0 && x < m_tilesX && y < tilesY;
+        const TileState* t = inside ? &m_state[static_cast<size_t>(y) * m_tilesX + x] : nullptr;
+        sampled[y - ty + 1][x - tx + 1] = t != nullptr && t->sampledRound == round ? t->sampledBits : 0;
+      }
+    }
+    return spreadByOne(sampled);
+  }
+
   // Decides add[k] for every pixel of tile `index` from the state the last round left. A pixel whose
   // neighbourhood the last round did not sample decides as before it: nothing to add.
   void mark(size_t index, int level, int round) {
     TileState& t = m_state[index];
     t.priority = 0;
+    const uint64_t fresh = round == 0 ? ~uint64_t(0) : freshBits(index, round);
     for (int row = 0; row < t.h; ++row) {  // by rows: no division to find a pixel's summary
       const Summary* line = &summaryAt(t.x0, t.y0 + row);
       for (int col = 0; col < t.w; ++col) {
         const int k = row * t.w + col;
         const int taken = t.taken[k];
-        if (taken >= level) continue;
+        // A pixel none around which (itself included) the round sampled decides as before it: its
+        // error was within the target (one that was not took samples) and nothing it reads changed.
+        if (taken >= level || (fresh & tileBit(t.x0 + col, t.y0 + row)) == 0) continue;
         const Summary& self = line[col];
         const double own = std::max(self.error, self.averaged);  // its judged error (the file's head)
         double error = own, contrast = 0;
         if (own <= m_target) {
-          // Its decision stands unless a pixel around it took samples this round (in the first, all did).
-          bool fresh = round == 0;
-          if (!fresh) forAround(self, [&](const Summary& u, int, int) { fresh = fresh || u.sampledIn == round; });
-          if (!fresh) continue;
           double neighbourhood = 0;
           float largestDifference = 0;
           int around = 0;
           const bool young = taken < kEdgeSamples;  // an edge keeps a pixel refining only below them
           bool edge = young && t.mixed[k];
-          const int x = t.x0 + col, y = t.y0 + row;
-          forAround(self, [&](const Summary& u, int dx, int dy) {
-            neighbourhood += static_cast<double>(u.averaged) * u.averaged;
-            ++around;
-            // Between a pixel the camera's view proves smooth and one it does not lies a sphere's
-            // silhouette, outside the smooth one: the contrast and geometry across it are the
-            // sphere's. (Its errors still count above: a light's edge or peak squeezed between the
-            // silhouette and the smooth pixel shows only in the neighbour across it.)
-            if (self.smooth && !u.smooth) return;
-            edge = edge || (young && differ(self, x, y, u, x + dx, y + dy));
-            largestDifference = std::max(largestDifference, colourDifference(self, u));
-          });
+          uint32_t others = 0;  // the neighbours weighed whose first samples met another primitive (bit 3 dy + dx + 4)
+          // The 3x3 neighbourhood without branches (which of them counts is as unpredictable as the
+          // image): an absent pixel adds 0 to the sum of squares, as one not counted would.
+          for (int dy = -1; dy <= 1; ++dy) {
+            for (int dx = -1; dx <= 1; ++dx) {
+              const Summary& u = (&self)[dy * m_stride + dx];
+              neighbourhood += u.present ? static_cast<double>(u.averaged) * u.averaged : 0.0;
+              around += u.present;
+              // Between a pixel the camera's view proves smooth and one it does not lies a sphere's
+              // silhouette, outside the smooth one: the contrast and geometry across it are the
+              // sphere's. (Its errors still count above: a light's edge or peak squeezed between the
+              // silhouette and the smooth pixel shows only in the neighbour across it.)
+              const bool weighed = u.present && !(self.smooth && !u.smooth);
+              const float difference = colourDifference(self, u);
+              largestDifference = weighed && largestDifference < difference ? difference : largestDifference;  // std::max
+              others |= static_cast<uint32_t>(weighed && u.firstPrim != self.firstPrim) << (3 * dy + dx + 4);
+            }
+          }
+          for (const int x = t.x0 + col, y = t.y0 + row; young && !edge && others != 0; others &= others - 1) {
+            const int i = __builtin_ctz(others), dx = i % 3 - 1, dy = i / 3 - 1;
+            edge = differ(self, x, y, (&self)[dy * m_stride + dx], x + dx, y + dy);
+          }
           // The mean over the channels, divided once: a rounded division keeps the order of its operands.
           const float squaredContrast = largestDifference / 3;
           // error <= target and taken >= contrast / target, compared as squares: the roots only for a
@@ -756,18 +788,6 @@ class AdaptiveSampler {
         }
         t.add[k] = level - taken;
         t.priority = std::max(t.priority, static_cast<float>(std::max(error, contrast / taken)));
-      }
-    }
-  }
-
-  // f(u, dx, dy) for the pixels u of the work region around `self` (itself included), row by row,
-  // each dx, dy pixels from it.
-  template <typename F>
-  void forAround(const Summary& self, const F& f) const {
-    for (int dy = -1; dy <= 1; ++dy) {
-      for (int dx = -1; dx <= 1; ++dx) {
-        const Summary& u = (&self)[dy * m_stride + dx];
-        if (u.present) f(u, dx, dy);
       }
     }
   }
