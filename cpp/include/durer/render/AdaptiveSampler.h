@@ -28,7 +28,7 @@
 //     difference of its mean colour from a neighbour's: an edge inside it covering less than about
 //     1 / samples of its area may not have been seen yet, and would be off by at most about that
 //     times the contrast (about half that on average: kUnseenShare).
-// A pixel the camera's view proves smooth (TileRenderer::markSmooth: in a render whose every edge
+// A pixel the camera's view proves smooth (TileRenderer::markSilhouettes: in a render whose every edge
 // is a silhouette of the view's spheres, no sphere's footprint reaches it) holds none of those
 // silhouettes: the edge and contrast rules weigh only its smooth neighbours for it, so that a
 // sphere's edge in the next pixel does not keep it refining (beside a bright sphere, the contrast
@@ -270,7 +270,7 @@ class AdaptiveSampler {
     float meanR, meanG, meanB;      // the mean colour
     int32_t firstPrim;              // the primitive the first sample met
     bool present;                   // inside the work region
-    bool smooth;                    // no sphere's footprint reaches it, where only spheres make edges (TileRenderer::markSmooth)
+    bool smooth;                    // no sphere's footprint reaches it, where only spheres make edges (TileRenderer::markSilhouettes)
   };
 
   Summary& summaryAt(int x, int y) {
@@ -434,10 +434,11 @@ class AdaptiveSampler {
     }
     // A sphere smaller than the samples' spacing, or the sliver of one, may lie between them: where
     // the camera's view says a silhouette crosses a pixel, it is an edge (mark) whatever they saw.
-    m_tiles.markSilhouettes(t.x0, t.y0, t.w, t.h, farthest, t.mixed);
-    if (m_rounds > 0 || m_firstSamples == 2) {  // what reads it: mark, and a two-sample pixel's reported error
-      alignas(64) bool smooth[kPacketSize];
-      m_tiles.markSmooth(t.x0, t.y0, t.w, t.h, smooth);
+    // Where the view proves a pixel smooth (read by mark and a two-sample pixel's reported error).
+    const bool smoothRead = m_rounds > 0 || m_firstSamples == 2;
+    alignas(64) bool smooth[kPacketSize];
+    m_tiles.markSilhouettes(t.x0, t.y0, t.w, t.h, farthest, t.mixed, smoothRead ? smooth : nullptr);
+    if (smoothRead) {
       for (int row = 0, k = 0; row < t.h; ++row) {
         Summary* line = &summaryAt(t.x0, t.y0 + row);
         for (int col = 0; col < t.w; ++col, ++k) line[col].smooth = smooth[k];
@@ -884,7 +885,7 @@ class AdaptiveSampler {
   // halves' estimate was 2.5x their measured RMS error). Instead: how far its mean lies from the mean
   // of its n neighbours across edges (the 4 present), whose expected square in a smooth region is
   // its squared error times 1 + 1/n (as many samples' error each), and where a gradient cancels. A
-  // pixel its view proves smooth (TileRenderer::markSmooth), which may settle at two samples beside
+  // pixel its view proves smooth (TileRenderer::markSilhouettes), which may settle at two samples beside
   // a sphere's edge, compares itself with the opposite pairs of its neighbours that are smooth too
   // (no silhouette lies between them; a pair keeps a gradient cancelling), else reports its halves'
   // estimate.

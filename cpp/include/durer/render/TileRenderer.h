@@ -339,23 +339,38 @@ class TileRenderer {
   // (Camera::footprint): the disk itself seen orthographically, close to the projected ellipse in
   // perspective; through a lens, widened by the sphere's blur (the rim where its blurred image may
   // begin). Without a view (none made) nothing is marked.
-  void markSilhouettes(int x0, int y0, int w, int h, const float* farthest, bool* crossed) const {
+  // With `smooth` (not null), also marks smooth[k] for the pixels the camera's view proves hold no
+  // edge of the scene's geometry: in a render whose every such edge is a silhouette of the view's
+  // spheres (m_edgesAtSilhouettes), those no sphere's footprint reaches (its image, widened by the
+  // bounds on the rays' rounding: Camera::footprint), and that the scene's plane, if any, does not
+  // leave across them at the camera's tMin or tMax. Such a pixel sees one plane or the background,
+  // and the contrast with a neighbour a disc reaches is that sphere's (adaptive sampling does not
+  // look for an edge there: AdaptiveSampler::mark). Elsewhere, or in other renders, false. One walk
+  // of the tile's cell makes both, each sphere's footprint once.
+  void markSilhouettes(int x0, int y0, int w, int h, const float* farthest, bool* crossed, bool* smooth) const {
+    if (smooth != nullptr) std::fill(smooth, smooth + w * h, m_edgesAtSilhouettes);
     if (m_view == nullptr) return;
+    const bool smoothing = smooth != nullptr && m_edgesAtSilhouettes;
     const float deepest = *std::max_element(farthest, farthest + w * h);
-    const auto mark = [&](uint32_t i, float nearest, std::array<int, 2> rows, std::array<int, 2> columns) {
+    m_view->forCellWhile(x0, y0, [&](uint32_t i, float nearest, std::array<int, 2> rows, std::array<int, 2> columns) {
+      // The view lists the cell's spheres nearest first: past the deepest hit none crosses unseen.
+      const bool crossing = nearest < deepest;
+      if (!crossing && !smoothing) return false;
       const auto open = [&](int k) { return !crossed[k] && nearest < farthest[k]; };
       bool any = false;  // a pixel under it still unmarked, whose samples met something beyond it
-      forSpan(x0, y0, w, h, rows, columns, [&](int k, int, int) { any = any || open(k); });
-      if (!any) return;
+      if (crossing) forSpan(x0, y0, w, h, rows, columns, [&](int k, int, int) { any = any || open(k); });
+      if (!any && !smoothing) return true;
       const Sphere<Real>& sphere = m_group.spheres().primitive(i);
       SampleBox box;
       double tLow;
-      if (!m_camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow)) return;
+      if (!m_camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow)) return true;
       forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
-        if (open(k)) crossed[k] = coverOfInscribed(box, x, y, Cover::Outside) == Cover::Crosses;
+        if (smoothing) smooth[k] = smooth[k] && coverOfInscribed(box, x, y, Cover::Inside) == Cover::Outside;
+        if (any && open(k)) crossed[k] = coverOfInscribed(box, x, y, Cover::Outside) == Cover::Crosses;
       });
-    };
-    m_view->forCellOf(x0, y0, deepest, mark);
+      return true;
+    });
+    if (smoothing && m_planeCut) markPlaneEnds(x0, y0, w, h, smooth);
   }
 
   // f(k, x, y) for the pixels (x, y) of the w x h tile at (x0, y0) (k: the tile's, row by row) in a
@@ -370,29 +385,6 @@ class TileRenderer {
         f((cellY + row - y0) * w + (cellX + column - x0), cellX + column, cellY + row);
       }
     }
-  }
-
-  // Marks smooth[k] (row by row) for the pixels of the w x h tile at (x0, y0) that the camera's view
-  // proves hold no edge of the scene's geometry: in a render whose every such edge is a silhouette
-  // of the view's spheres (m_edgesAtSilhouettes), those no sphere's footprint reaches (its image,
-  // widened by the bounds on the rays' rounding: Camera::footprint), and that the scene's plane, if
-  // any, does not leave across them at the camera's tMin or tMax. Such a pixel sees one plane or the
-  // background, and the contrast with a neighbour a disc reaches is that sphere's (adaptive sampling
-  // does not look for an edge there: AdaptiveSampler::mark). Elsewhere, or in other renders, false.
-  void markSmooth(int x0, int y0, int w, int h, bool* smooth) const {
-    std::fill(smooth, smooth + w * h, m_edgesAtSilhouettes);
-    if (!m_edgesAtSilhouettes) return;
-    m_view->forCellWhile(x0, y0, [&](uint32_t i, float, std::array<int, 2> rows, std::array<int, 2> columns) {
-      const Sphere<Real>& sphere = m_group.spheres().primitive(i);
-      SampleBox box;
-      double tLow;
-      const bool seen = m_camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow);
-      forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
-        smooth[k] = smooth[k] && !(seen && coverOfInscribed(box, x, y, Cover::Inside) != Cover::Outside);
-      });
-      return true;
-    });
-    if (m_planeCut) markPlaneEnds(x0, y0, w, h, smooth);
   }
 
   // Whether pixels may have a silhouette stratum (silhouetteStrata): through an orthographic camera
@@ -1041,7 +1033,7 @@ class TileRenderer {
   }
 
   // Whether every edge of this render's image is a silhouette of the camera's view's spheres
-  // (markSmooth): through a camera that stratifies(), the scene's geometry is its own spheres (all in
+  // (markSilhouettes): through a camera that stratifies(), the scene's geometry is its own spheres (all in
   // the view) and at most one unbounded plane, and nothing in its shading changes abruptly — no
   // shadows, mirrors (nor an area light a mirror shows without bounces), refraction or ambient
   // occlusion (its rays' noise), no spot light's hard edge (blend 0). The plane's own edges, where it
@@ -1124,7 +1116,7 @@ class TileRenderer {
   int m_firstTileX, m_firstTileY;
   int m_tilesX;
   std::shared_ptr<const SphereView<Real>> m_view;  // of the scene's own spheres; null: none made
-  bool m_edgesAtSilhouettes;                      // every edge a silhouette of the view's spheres (markSmooth)
+  bool m_edgesAtSilhouettes;                      // every edge a silhouette of the view's spheres (markSilhouettes)
   bool m_planeCut;                                // and the scene's plane may end at tMin or tMax (markPlaneEnds)
   std::vector<std::shared_ptr<const SphereView<Real>>> m_lightViews;  // from each light (Shading's order)
 };
