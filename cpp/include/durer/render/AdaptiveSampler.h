@@ -715,16 +715,12 @@ class AdaptiveSampler {
   // The pixels of tile `index` (as its mask's bits, TileMask.h) a pixel around which (itself
   // included) round `round` sampled.
   uint64_t freshBits(size_t index, int round) const {
-    const int tx = static_cast<int>(index % m_tilesX), ty = static_cast<int>(index / m_tilesX);
-    const int tilesY = static_cast<int>(m_tileCount / m_tilesX);
-    uint64_t sampled[3][3];
-    for (int y = ty - 1; y <= ty + 1; ++y) {
-      for (int x = tx - 1; x <= tx + 1; ++x) {
-        const bool inside = x >= 0 && y >= 0 && x < m_tilesX && y < tilesY;
-        const TileState* t = inside ? &m_state[static_cast<size_t>(y) * m_tilesX + x] : nullptr;
-        sampled[y - ty + 1][x - tx + 1] = t != nullptr && t->sampledRound == round ? t->sampledBits : 0;
-      }
-    }
+    uint64_t sampled[3][3] = {};  // tiles beyond the work region's sample nothing
+    const size_t tilesX = static_cast<size_t>(m_tilesX);
+    forTilesAround(index, [&](size_t u) {
+      const TileState& t = m_state[u];
+      if (t.sampledRound == round) sampled[u / tilesX + 1 - index / tilesX][u % tilesX + 1 - index % tilesX] = t.sampledBits;
+    });
     return spreadByOne(sampled);
   }
 
