@@ -260,12 +260,28 @@ def plain_mean_counts(values: np.ndarray, samples: np.ndarray) -> np.ndarray:
     return np.abs(counts - np.round(counts))
 
 
-def test_a_silhouette_weighs_its_parts_only_where_it_is_the_edge_seen():
+def union_share(discs: list[tuple[float, float, float]], x: np.ndarray, y: np.ndarray, grid: int = 400) -> np.ndarray:
+    """The share of each pixel (centres x, y; one unit a pixel) inside the union of the discs (cx, cy,
+    r), by a grid x grid midpoint rule (error ~1e-3 of a pixel where edges cross it)."""
+    g = (np.arange(grid) + 0.5) / grid - 0.5
+    u, v = np.meshgrid(g, g)
+    out = np.empty(x.shape)
+    for index in np.ndindex(x.shape):
+        px, py = x[index] + u, y[index] + v
+        inside = np.zeros(u.shape, bool)
+        for cx, cy, r in discs:
+            inside |= (px - cx) ** 2 + (py - cy) ** 2 < r * r
+        out[index] = inside.mean()
+    return out
+
+
+def test_silhouettes_that_cut_through_each_other_weigh_their_union_against_the_rest():
     # Two flat discs (red and green, no lights) on black that cut through each other: where both
-    # reach into a pixel, the edge seen there may be where they cut, not a silhouette, and the pixel
-    # keeps the plain mean of its samples (a whole number of samples saw red, and of green).
-    # Elsewhere on the silhouettes -- next to the overlap too, where only one disc reaches into the
-    # pixel -- the parts are weighed (some pixels' red is not a whole number of samples).
+    # reach into a pixel, the edge between them is where they cut, not a silhouette, but the edge
+    # between either and the black is their union's. The pixel weighs its samples in the union
+    # (red or green: red + green = 1 each) and outside it (black) by the union's exact share, so its
+    # red + green is that share, whatever share of its samples fell inside; red and green apart are
+    # the plain proportions within the union.
     size = 32
     discs = ((-3.1, 0.4, 6.2), (3.3, -0.2, 5.7))
     scene = durer.Scene()
@@ -280,15 +296,39 @@ def test_a_silhouette_weighs_its_parts_only_where_it_is_the_edge_seen():
         return np.hypot(np.maximum(np.abs(x - cx) - 0.5, 0), np.maximum(np.abs(y - cy) - 0.5, 0)) < r
 
     near = [reaches(*d) for d in discs]
-    both = near[0] & near[1]
-    assert both.sum() >= 10
+    union = result.color[..., 0].astype(np.float64) + result.color[..., 1]
+    crossed = (near[0] | near[1]) & (union > 1e-6) & (union < 1 - 1e-6)  # the union's edge crosses the pixel
+    both = crossed & near[0] & near[1]
+    assert both.sum() >= 2 and crossed.sum() >= 40  # both: beside the two points where the silhouettes cross
+    share = union_share(list(discs), x[crossed], y[crossed])
+    assert np.abs(union[crossed] - share).max() < 3e-3
     n = result.samples
-    for channel in (0, 1):
-        assert plain_mean_counts(result.color[..., channel], n)[both].max() < 1e-3
-    weighed = plain_mean_counts(result.color[..., 0], n) > 0.05
-    assert weighed[near[0] & ~both].any()
-    beside = near[0] & ~both & (np.hypot(x - discs[1][0], y - discs[1][1]) < discs[1][2] + 1.5)  # the overlap's ends
-    assert weighed[beside].any()
+    weighed = plain_mean_counts(union, n) > 0.05  # not a whole number of samples inside
+    assert weighed[both].any() and weighed[crossed & ~both].any()
+
+
+def test_a_silhouette_hidden_by_a_sphere_before_its_rim_keeps_the_plain_mean():
+    # A small sphere covering pixels on a large one's rim, its centre behind the large one's but its
+    # front before the rim (the two cut through each other there): the edge seen in those pixels is
+    # where they cut, not the large one's silhouette, so they keep the plain mean of their samples;
+    # the rim's other pixels are weighed.
+    size = 32
+    scene = durer.Scene()
+    scene.background = WHITE_ON_BLACK
+    red, green = scene.add_material((1, 0, 0)), scene.add_material((0, 1, 0))
+    big, small = (-6.0, 0.0, 10.0), (4.0, 0.0, 2.5)  # cx, cy, r; the small one's disc holds pixels on the rim
+    scene.add_spheres([[big[0], big[1], -50], [small[0], small[1], -51.5]], [big[2], small[2]],
+                      material=np.array([red, green], np.int32))
+    result = durer.render(scene, pixel_camera(size, size), size, size, spp=16, sampler="adaptive")
+    x, y = pixel_centres(size, size)
+    n = result.samples
+    red_count = plain_mean_counts(result.color[..., 0], n)
+    covered = np.hypot(np.abs(x - small[0]) + 0.5, np.abs(y - small[1]) + 0.5) < small[2]  # inside the small disc
+    rim = (np.hypot(x - big[0], y - big[1]) > big[2] - 0.7) & (np.hypot(x - big[0], y - big[1]) < big[2] + 0.7)
+    mixed = (result.color[..., 0] > 0) & (result.color[..., 0] < 1)
+    assert (covered & rim & mixed).sum() >= 2
+    assert red_count[covered & rim & mixed].max() < 1e-3
+    assert (red_count[rim & ~covered & mixed] > 0.05).any()
 
 
 def test_a_perspective_camera_keeps_the_plain_mean():

@@ -392,82 +392,102 @@ class TileRenderer {
   // disk of the image (its radius over the pixel's width and height).
   bool stratifies() const { return m_view != nullptr && !m_camera.projection().perspective && !m_camera.hasLens(); }
 
-  // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0): the silhouette of
-  // the nearest of the camera's view's spheres whose silhouette's edge crosses the pixel,
-  // PixelStratum (for a render that stratifies()), and spheres[k] that sphere (kNoSphere: none).
-  // Nearest by the centre's depth, which is the depth of a silhouette's points (a large sphere's
-  // front may lie nearer than a small one's that hides its edge). A pixel keeps none where the
-  // scene's own spheres may hide that edge: behind a sphere covering the whole pixel (whose
-  // surface there lies before its centre's depth), or where another sphere whose disk overlaps
-  // the silhouette's and reaches into the pixel may lie in front of the edge (its front nearer
-  // than the edge): the two may hide each other's parts there, or cut through each other, and the
-  // edge seen is then not the silhouette's (a part of the stratum holding colours its samples may
-  // all have missed would settle the pixel on a wrong mean). A sphere is seen, hides and cuts
-  // only within its disk: one whose disk misses the pixel changes nothing there. Other geometry
-  // (planes, triangles, boxes, groups' spheres) and a t_min cutting into a sphere are not looked
-  // at: an edge of theirs in a part only costs the stratum its gain (any exact split of the pixel
-  // keeps the mean consistent). The view lists a cell's spheres by their fronts' depths: once
-  // every pixel has an edge or a cover nearer than the next one's front, the rest can change
-  // nothing and are not read.
+  // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0): the union of the
+  // silhouettes of the camera's view's spheres whose edges cross the pixel (the first
+  // PixelStratum::kMostDisks in the view's order, by their fronts' depths), PixelStratum (for a
+  // render that stratifies()), and spheres[k] its sphere where the union is one sphere's silhouette
+  // (kNoSphere otherwise). Where spheres overlap or cut through each other, their union's edge is
+  // still the edge between some sphere and what lies behind them all: only the edges among them lie
+  // inside it, and a sphere's part of the union that no sample has reached (a small sphere poking
+  // out of a large one's front, inside its silhouette) is not the union's unsampled part: each
+  // sphere of several is watched as any other (watchSilhouettes) until a sample meets it. A
+  // pixel's union leaves out the spheres behind a sphere covering the whole pixel (whose surface
+  // there lies before its centre's depth): their edges are hidden there, and a pixel with no sphere
+  // in front of its cover keeps none. A pixel keeps none either where a sphere outside its union
+  // may hide a member's edge: one whose disk overlaps the member's and reaches into the pixel, its
+  // front nearer than the edge (a small sphere before a large one's rim): the edge seen is then not
+  // the union's, and a part of the stratum holding colours its samples may all have missed would
+  // settle the pixel on a wrong mean. Other geometry (planes, triangles, boxes, groups' spheres) and
+  // a t_min cutting into a sphere are not looked at: an edge of theirs in a part only costs the
+  // stratum its gain (any exact split of the pixel keeps the mean consistent). The view lists a
+  // cell's spheres by their fronts' depths: once every pixel has its cover, or its full union and
+  // a cover or union members nearer than the next one's front, the rest can change nothing and are
+  // not read.
   void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres) const {
+    constexpr int kMost = PixelStratum::kMostDisks;
     std::fill(strata, strata + w * h, PixelStratum{});
     std::fill(spheres, spheres + w * h, kNoSphere);
     const ParallelProjection image = m_camera.projection();
     const int count = w * h;
     const double inf = std::numeric_limits<double>::infinity();
-    struct Disk {
-      uint32_t sphere;
-      Vec3d q;  // its centre in the frame (q.z: the depth of its silhouette)
-      double radius;
-    };
-    Disk chosen[kPacketSize];
+    ImageDisk member[kMost][kPacketSize];  // the silhouettes whose edges cross the pixel, in the view's order
+    uint32_t memberSphere[kMost][kPacketSize];
+    int members[kPacketSize];
     double hidden[kPacketSize];  // the depth behind which a sphere covering the pixel hides everything
-    std::fill(chosen, chosen + count, Disk{0, Vec3d(inf), 0});
+    double deepest[kPacketSize];  // the deepest member's centre
+    std::fill(members, members + count, 0);
     std::fill(hidden, hidden + count, inf);
-    // A sphere can change a pixel's choice only if its centre lies before both the chosen edge and
-    // the cover (a sphere's edge or cover lies no nearer than its front): the farthest of the pixels'
-    // nearer of the two bounds the fronts still worth reading.
+    std::fill(deepest, deepest + count, -inf);
+    // A sphere can change a pixel's union or cover only if its centre lies before the cover, and, once
+    // the union is full, before its deepest member (which a cover nearer than that would drop): the
+    // farthest of the pixels' bounds bounds the fronts still worth reading.
+    const auto bound = [&](int k) { return members[k] < kMost ? hidden[k] : std::min(hidden[k], deepest[k]); };
     double settled = inf;
     m_view->forCellWhile(x0, y0, [&](uint32_t i, float tLow, std::array<int, 2> rows, std::array<int, 2> columns) {
       if (double(tLow) >= settled) return false;
       const ImageDisk d = imageDisk(image, i);
       bool changed = false;
       forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
-        if (!(d.q.z < std::min(hidden[k], chosen[k].q.z))) return;
+        if (!(d.q.z < hidden[k])) return;
         const Cover cover = d.cover(x, y);
         if (cover == Cover::Inside) {
           hidden[k] = d.q.z, changed = true;
-        } else if (cover == Cover::Crosses) {
-          chosen[k] = {i, d.q, d.radius}, changed = true;
+        } else if (cover == Cover::Crosses && members[k] < kMost) {
+          member[members[k]][k] = d, memberSphere[members[k]++][k] = i, deepest[k] = std::max(deepest[k], d.q.z);
+          changed = true;
         }
       });
       if (changed) {
         settled = -inf;
-        for (int k = 0; k < count; ++k) settled = std::max(settled, std::min(hidden[k], chosen[k].q.z));
+        for (int k = 0; k < count; ++k) settled = std::max(settled, bound(k));
       }
       return true;
     });
-    double deepest = -inf;  // the farthest edge still chosen
+    double farthest = -inf;  // the deepest member kept
     for (int k = 0; k < count; ++k) {
-      if (!(chosen[k].q.z < hidden[k])) chosen[k].q.z = inf;  // none, or hidden
-      if (chosen[k].q.z < inf) deepest = std::max(deepest, chosen[k].q.z);
+      int n = 0;
+      deepest[k] = -inf;
+      for (int m = 0; m < members[k]; ++m) {
+        if (!(member[m][k].q.z < hidden[k])) continue;  // behind a cover found after it
+        member[n][k] = member[m][k], memberSphere[n][k] = memberSphere[m][k], ++n;
+        deepest[k] = std::max(deepest[k], member[m][k].q.z);
+      }
+      members[k] = n;
+      if (n > 0) farthest = std::max(farthest, deepest[k]);
     }
-    m_view->forCellOf(x0, y0, deepest, [&](uint32_t i, float, std::array<int, 2> rows, std::array<int, 2> columns) {
+    // Another sphere whose disk overlaps a member's and reaches into the pixel, its front nearer than
+    // the member's edge, may hide that edge there (a small sphere before a large one's rim): the edge
+    // seen is then not the union's.
+    m_view->forCellOf(x0, y0, farthest, [&](uint32_t i, float, std::array<int, 2> rows, std::array<int, 2> columns) {
       const ImageDisk d = imageDisk(image, i);
       forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
-        const Disk& c = chosen[k];
-        if (c.sphere == i || !(d.q.z - d.radius < c.q.z)) return;
-        const double dx = d.q.x - c.q.x, dy = d.q.y - c.q.y, reach = d.radius + c.radius;
-        if (dx * dx + dy * dy < reach * reach && d.cover(x, y) != Cover::Outside) chosen[k].q.z = inf;
+        if (!(d.q.z - d.radius < deepest[k])) return;
+        bool hides = false, own = false;
+        for (int m = 0; m < members[k]; ++m) {
+          const ImageDisk& c = member[m][k];
+          const double dx = d.q.x - c.q.x, dy = d.q.y - c.q.y, reach = d.radius + c.radius;
+          own = own || memberSphere[m][k] == i;
+          hides = hides || (d.q.z - d.radius < c.q.z && dx * dx + dy * dy < reach * reach);
+        }
+        if (hides && !own && d.cover(x, y) != Cover::Outside) members[k] = 0;
       });
     });
     for (int row = 0, k = 0; row < h; ++row) {
       for (int column = 0; column < w; ++column, ++k) {
-        const Disk& c = chosen[k];
-        if (!(c.q.z < inf)) continue;
-        strata[k] = PixelStratum::of(x0 + column, y0 + row, image.sampleX(c.q.x), image.sampleY(c.q.y),
-                                     c.radius / image.pixelWidth, c.radius / image.pixelHeight);
-        if (strata[k].any()) spheres[k] = c.sphere;
+        PixelStratum::Ellipse ellipses[kMost];
+        for (int m = 0; m < members[k]; ++m) ellipses[m] = {member[m][k].cx, member[m][k].cy, member[m][k].ax, member[m][k].ay};
+        strata[k] = PixelStratum::of(x0 + column, y0 + row, ellipses, members[k]);
+        if (strata[k].any() && members[k] == 1) spheres[k] = memberSphere[0][k];
       }
     }
   }
