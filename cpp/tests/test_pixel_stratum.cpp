@@ -190,6 +190,20 @@ TEST_CASE("the union of circles within a rectangle: exact cases and numerical in
     const double exact = circlesRectangleUnionArea(cu.data(), cv.data(), r.data(), static_cast<int>(cu.size()), 1, 1);
     CHECK(std::abs(exact - unionIntegrated(cu, cv, r, 1, 1)) < 1e-6);
   }
+  // Exact tangencies (a review's cases): a circle touching sides, one inside another touching it
+  // (also one ulp apart), one touching the bottom and crossing the top, three meeting at a point.
+  const double below = std::nextafter(0.2, 0.0);
+  for (const auto& [cu, cv, r, w, h] :
+       {std::tuple<std::vector<double>, std::vector<double>, std::vector<double>, double, double>{{0.5}, {0.5}, {0.5}, 1, 1},
+        {{0.75}, {0.5}, {0.25}, 1, 1},
+        {{0.375, 0.5}, {0.5, 0.5}, {0.375, 0.25}, 1, 1},
+        {{0.4, 0.5}, {0.5, 0.5}, {0.3, 0.2}, 1, 1},
+        {{0.4, 0.5}, {0.5, 0.5}, {0.3, below}, 1, 1},
+        {{0.5}, {0.3}, {0.3}, 1, 0.5},
+        {{0.25, 0.75, 0.5}, {0.5, 0.5, 0.5 + 0.25 * std::sqrt(3.0)}, {0.25, 0.25, 0.25}, 1, 1}}) {
+    const double exact = circlesRectangleUnionArea(cu.data(), cv.data(), r.data(), static_cast<int>(cu.size()), w, h);
+    CHECK_MESSAGE(std::abs(exact - unionIntegrated(cu, cv, r, w, h)) < 1e-6, cu[0], " ", cv[0], " ", r[0], " ", w, " ", h);
+  }
 }
 
 TEST_CASE("a pixel's stratum of several silhouettes: the share of their union, and membership in any") {

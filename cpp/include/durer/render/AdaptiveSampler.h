@@ -52,12 +52,13 @@
 // What the render reports as a pixel's error (`result.error`, the estimated RMSE) is its last
 // round's estimate alone: the average leans toward the larger errors of fewer samples; a pixel of
 // two samples reports how far its mean lies from its neighbours' (residualError), one whose samples
-// all met one surface and that no silhouette crosses its estimate over kNetHalves (smoothlyShaded:
-// there the halves over-state the error of their mean).
+// all met one surface, that no silhouette crosses and between which and its neighbours no edge
+// shows its estimate over kNetHalves (smoothlyShaded: there the halves over-state the error of
+// their mean).
 // A time limit stops the refining rounds (never the first pass) when spent; each worker takes its
 // band's tiles worst first (the largest estimated error), so what the limit cuts matters least.
 // Every pixel's state is kept until the end (TileState and Summary: 201 bytes a pixel in double, 133
-// in float; in a colour render through an orthographic camera, StratumState: 156 and 120 more).
+// in float; in a colour render through an orthographic camera, StratumState: 160 and 124 more).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
 // threads; a pixel's result depends on the pixels within `rounds` of it, and its reported error on
 // those within one more, so a region is rendered with that margin around it (sampledRegion) and
@@ -231,7 +232,7 @@ class AdaptiveSampler {
 
  private:
   // A tile's pixels' silhouette strata, the sums of their samples inside them, and the spheres they
-  // watch (kept only where pixels may have one: m_strata; 156 bytes a pixel in double, 120 in float).
+  // watch (kept only where pixels may have one: m_strata; 160 bytes a pixel in double, 124 in float).
   struct StratumState {
     PixelStratum strata[kPacketSize];                     // the silhouettes crossing the pixel (PixelStratum)
     uint32_t sphere[kPacketSize];                         // its sphere, if one (Tiles::kNoSphere: none, or several)
@@ -874,7 +875,7 @@ class AdaptiveSampler {
       m_tiles.writeRow(t.sums, k0, x1 - x0, first);
       for (int i = 0; i < x1 - x0; ++i) {
         const Summary& p = summaryAt(x0 + i, y);
-        const double e = t.taken[k0 + i] == 2 ? residualError(p) : smoothlyShaded(t, k0 + i) ? p.error / kNetHalves : p.error;
+        const double e = t.taken[k0 + i] == 2 ? residualError(p) : smoothlyShaded(t, k0 + i, p) ? p.error / kNetHalves : p.error;
         squares += e * e, worst = std::max(worst, e);
         if (m_targets.error) m_targets.error[first + i] = static_cast<float>(e);
       }
@@ -913,20 +914,25 @@ class AdaptiveSampler {
   }
 
   // Whether pixel k's halves' estimate is read as a smooth colour's, which it over-states: its
-  // samples all met one primitive (or all nothing), no geometry or silhouette marked it (mixed), and
-  // its halves are the equal blocks of Sobol points before and after the middle, each a scrambled
-  // net and the two together a net of twice the points. Where the colour varies smoothly, each half's
-  // error is about 2^1.5 times the whole's (a net's error falls as n^-1.5 there) and the two halves'
-  // are opposite, so their difference, scaled as independent samples' are (estimatedError), reads
-  // about 2^1.5 times the whole's error (measured: 3.1x on the showcase's sphere interiors at four
-  // samples, 2.4x at eight). Marking keeps the estimate as it is (it errs toward more samples); the
-  // error reported for such a pixel is divided by kNetHalves. A shadow's or a light's edge on one
-  // primitive is not seen here: its pixel reports about 0.6 of its error (an edge's halves
-  // over-state it by about 2^0.75).
-  bool smoothlyShaded(const TileState& t, int k) const {
+  // samples all met one primitive (or all nothing), no geometry or silhouette marked it (mixed), its
+  // mean lies from its neighbours' (residualError) within kNetHalves times that estimate (a smooth
+  // colour's curvature and noise stay within it, a specular highlight's too; an edge's jump between
+  // them, a shadow's or a reflection's, reads many times more), and its halves are the
+  // equal blocks of Sobol points before and after the middle, each a scrambled net and the two
+  // together a net of twice the points. Where the colour varies smoothly, each half's error is about
+  // 2^1.5 times the whole's (a net's error falls as n^-1.5 there) and the two halves' are opposite,
+  // so their difference, scaled as independent samples' are (estimatedError), reads about 2^1.5
+  // times the whole's error (measured: 3.1x on the showcase's sphere interiors at four samples, 2.4x
+  // at eight). Marking keeps the estimate as it is (it errs toward more samples); the error reported
+  // for such a pixel is divided by kNetHalves. A shadow's, a reflection's or a light's edge on one
+  // primitive, whose halves over-state the error by about 2^0.75 only, shows as the neighbours'
+  // disagreement (a review measured such pixels reporting 0.4 of their error without that test;
+  // with it, random scenes with shadows and mirrors report 0.73-1.38 of their measured RMSE, as
+  // before this division, and a lit sphere's interior 1.0-1.3 where it read 2.2-3.2).
+  bool smoothlyShaded(const TileState& t, int k, const Summary& p) const {
     const int taken = t.taken[k];
     return t.uniform[k] && !t.mixed[k] && !(t.stratum && t.stratum->strata[k].any()) && taken >= 4 &&
-           (taken & (taken - 1)) == 0 && 2 * t.last[k] == taken;
+           (taken & (taken - 1)) == 0 && 2 * t.last[k] == taken && residualError(p) <= kNetHalves * p.error;
   }
 
   // The image's estimated RMS error and worst pixel, from the tiles' (in tile order: the same sums

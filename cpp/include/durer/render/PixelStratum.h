@@ -59,9 +59,10 @@ inline double unitDiskRectangleArea(double u0, double u1, double v0, double v1) 
 // around the region's boundary, which is made of the arcs of each circle inside the rectangle and
 // outside every other circle, and the parts of the rectangle's sides inside some circle. Each
 // circle's arcs run between the points where the others and the sides cross it (found and ordered
-// around it without trigonometry: one arctangent an arc that counts); an arc's midpoint says
-// whether it bounds the region. A circle equal to an earlier one adds nothing (its arcs would count
-// twice).
+// around it without trigonometry: one arctangent an arc that counts), tangent points included (an
+// arc's midpoint then lies off the point of contact); an arc's midpoint says whether it bounds the
+// region, a circle nothing crosses or touches is inside the rectangle and outside the others by its
+// extent. A circle equal to an earlier one adds nothing (its arcs would count twice).
 inline double circlesRectangleUnionArea(const double* cu, const double* cv, const double* r, int count, double w, double h) {
   constexpr int kMost = 8;  // circles at most
   count = std::min(count, kMost);
@@ -89,7 +90,7 @@ inline double circlesRectangleUnionArea(const double* cu, const double* cv, cons
     for (int j = 0; j < count; ++j) {  // where circle j crosses circle i
       if (j == i || duplicate[j]) continue;
       const double du = cu[j] - cu[i], dv = cv[j] - cv[i], d = std::sqrt(du * du + dv * dv);
-      if (!(d < ri + r[j] && d > std::abs(ri - r[j]))) continue;
+      if (!(d <= ri + r[j] && d >= std::abs(ri - r[j]) && d > 0)) continue;  // tangents too: an arc ends there
       const double along = (ri * ri - r[j] * r[j] + d * d) / (2 * d), half = std::sqrt(std::max(0.0, ri * ri - along * along));
       const double eu = du / d, ev = dv / d;
       add(along * eu - half * ev, along * ev + half * eu);
@@ -97,17 +98,17 @@ inline double circlesRectangleUnionArea(const double* cu, const double* cv, cons
     }
     // Where it crosses the sides (between two such points an arc lies all inside the rectangle or
     // all outside it).
-    for (const double line : {0.0, w}) {  // u = 0 and u = w
+    for (const double line : {0.0, w}) {  // u = 0 and u = w (touching too)
       const double s = line - cu[i];
-      if (std::abs(s) >= ri) continue;
+      if (std::abs(s) > ri) continue;
       const double t = std::sqrt((ri - s) * (ri + s));
       for (const double y : {t, -t}) {
         if (cv[i] + y >= 0 && cv[i] + y <= h) add(s, y);
       }
     }
-    for (const double line : {0.0, h}) {  // v = 0 and v = h
+    for (const double line : {0.0, h}) {  // v = 0 and v = h (touching too)
       const double s = line - cv[i];
-      if (std::abs(s) >= ri) continue;
+      if (std::abs(s) > ri) continue;
       const double t = std::sqrt((ri - s) * (ri + s));
       for (const double x : {t, -t}) {
         if (cu[i] + x >= 0 && cu[i] + x <= w) add(x, s);
@@ -123,8 +124,13 @@ inline double circlesRectangleUnionArea(const double* cu, const double* cv, cons
       }
       return true;
     };
-    if (n == 0) {  // no crossing: the whole circle, or none of it
-      if (bounds(cu[i] + ri, cv[i])) twice += 2 * kPi * ri * ri;
+    if (n == 0) {  // nothing crosses or touches it: the whole circle, or none of it, by its extent
+      bool counts = cu[i] - ri >= 0 && cu[i] + ri <= w && cv[i] - ri >= 0 && cv[i] + ri <= h;
+      for (int j = 0; j < count && counts; ++j) {  // and within no other
+        const double du = cu[j] - cu[i], dv = cv[j] - cv[i];
+        counts = j == i || duplicate[j] || std::sqrt(du * du + dv * dv) + ri > r[j];
+      }
+      if (counts) twice += 2 * kPi * ri * ri;
       continue;
     }
     for (int k = 0; k < n; ++k) {
@@ -174,7 +180,8 @@ inline double circlesRectangleUnionArea(const double* cu, const double* cv, cons
 // image coordinates (pixels), and the share of the pixel's unit square inside their union. The
 // union, not each sphere's own region: where spheres overlap, which of them shows (in front, or
 // cutting through each other) is not the question the stratum answers, only where some sphere's
-// colour is against where the background's is; the union's area is exact wherever they overlap.
+// colour is against where the background's is; the union's area is exact (to rounding) however
+// they overlap.
 // share 0 (as PixelStratum{} makes it): the pixel has none (its samples' plain mean stands).
 // Trivial, for adaptive sampling's tile states (HugeArray).
 struct PixelStratum {
@@ -182,6 +189,7 @@ struct PixelStratum {
   float cx[kMostDisks], cy[kMostDisks];                // the ellipses' centres
   float inverseAx[kMostDisks], inverseAy[kMostDisks];  // their semi-axes' inverses
   float share;   // of pixel (x, y)'s square [x, x + 1] x [y, y + 1] inside the union, in (0, 1)
+  float aspect;  // of several: each one's semi-axes' ratio ay / ax, as its membership and the share take it
   int32_t disks;  // how many ellipses
 
   // The longest semi-axis (pixels) a stratum is made for. The share is found in the unit disk's
@@ -222,9 +230,10 @@ struct PixelStratum {
       share = unitDiskRectangleArea((x - double(p.cx[0])) * iu, (x + 1 - double(p.cx[0])) * iu,
                                     (y - double(p.cy[0])) * iv, (y + 1 - double(p.cy[0])) * iv) / (iu * iv);
     } else {
-      // Pixel units across, the first ellipse's aspect down (v = (y - y0) iv / iu): circles of
-      // radius 1 / inverseAx.
-      const double aspect = iv / iu;
+      // Pixel units across, the first ellipse's aspect down (v = (y - y0) iv / iu), which every
+      // member takes (contains): circles of radius 1 / inverseAx.
+      p.aspect = static_cast<float>(iv / iu);
+      const double aspect = p.aspect;
       double cu[kMostDisks], cv[kMostDisks], radius[kMostDisks];
       for (int i = 0; i < p.disks; ++i) {
         cu[i] = double(p.cx[i]) - x, cv[i] = (double(p.cy[i]) - y) * aspect, radius[i] = 1 / double(p.inverseAx[i]);
@@ -243,11 +252,17 @@ struct PixelStratum {
 
   bool any() const { return share > 0; }
 
-  // Whether a sample at (x, y) lies inside the union (false for a pixel without a stratum).
+  // Whether a sample at (x, y) lies inside the union (false for a pixel without a stratum): one
+  // ellipse by its own axes, several as circles in the frame of the first's aspect (as the share is
+  // found; their own axes' ratios differ from it by float's rounding).
   bool contains(double x, double y) const {
+    if (disks == 1) {
+      const double u = (x - double(cx[0])) * double(inverseAx[0]), v = (y - double(cy[0])) * double(inverseAy[0]);
+      return any() && u * u + v * v < 1;
+    }
     bool in = false;
     for (int i = 0; i < disks; ++i) {
-      const double u = (x - double(cx[i])) * double(inverseAx[i]), v = (y - double(cy[i])) * double(inverseAy[i]);
+      const double u = (x - double(cx[i])) * double(inverseAx[i]), v = (y - double(cy[i])) * double(aspect) * double(inverseAx[i]);
       in = in || u * u + v * v < 1;
     }
     return any() && in;

@@ -393,14 +393,16 @@ class TileRenderer {
   bool stratifies() const { return m_view != nullptr && !m_camera.projection().perspective && !m_camera.hasLens(); }
 
   // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0): the union of the
-  // silhouettes of the camera's view's spheres whose edges cross the pixel (the first
-  // PixelStratum::kMostDisks in the view's order, by their fronts' depths), PixelStratum (for a
+  // silhouettes of the camera's view's spheres whose edges cross the pixel, where at most
+  // PixelStratum::kMostDisks do (more, as in a dense cloud, where a union seldom leaves the pixel
+  // a part outside: none), PixelStratum (for a
   // render that stratifies()), and spheres[k] its sphere where the union is one sphere's silhouette
   // (kNoSphere otherwise). Where spheres overlap or cut through each other, their union's edge is
   // still the edge between some sphere and what lies behind them all: only the edges among them lie
   // inside it, and a sphere's part of the union that no sample has reached (a small sphere poking
-  // out of a large one's front, inside its silhouette) is not the union's unsampled part: each
-  // sphere of several is watched as any other (watchSilhouettes) until a sample meets it. A
+  // out of a large one's front, inside its silhouette) is not the union's unsampled part: a sphere
+  // of several is watched as any other (watchSilhouettes: the first kWatched in the view's order that
+  // no first sample met) until a sample meets it. A
   // pixel's union leaves out the spheres behind a sphere covering the whole pixel (whose surface
   // there lies before its centre's depth): their edges are hidden there, and a pixel with no sphere
   // in front of its cover keeps none. A pixel keeps none either where a sphere outside its union
@@ -410,9 +412,8 @@ class TileRenderer {
   // settle the pixel on a wrong mean. Other geometry (planes, triangles, boxes, groups' spheres) and
   // a t_min cutting into a sphere are not looked at: an edge of theirs in a part only costs the
   // stratum its gain (any exact split of the pixel keeps the mean consistent). The view lists a
-  // cell's spheres by their fronts' depths: once every pixel has its cover, or its full union and
-  // a cover or union members nearer than the next one's front, the rest can change nothing and are
-  // not read.
+  // cell's spheres by their fronts' depths: once every pixel has a cover nearer than the next one's
+  // front, or too many spheres crossing it, the rest can change nothing and are not read.
   void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres) const {
     constexpr int kMost = PixelStratum::kMostDisks;
     std::fill(strata, strata + w * h, PixelStratum{});
@@ -428,10 +429,10 @@ class TileRenderer {
     std::fill(members, members + count, 0);
     std::fill(hidden, hidden + count, inf);
     std::fill(deepest, deepest + count, -inf);
-    // A sphere can change a pixel's union or cover only if its centre lies before the cover, and, once
-    // the union is full, before its deepest member (which a cover nearer than that would drop): the
+    // A sphere can change a pixel's union or cover only if its centre lies before the cover; a pixel
+    // more spheres cross than a union holds (members[k] > kMost) keeps none, whatever follows: the
     // farthest of the pixels' bounds bounds the fronts still worth reading.
-    const auto bound = [&](int k) { return members[k] < kMost ? hidden[k] : std::min(hidden[k], deepest[k]); };
+    const auto bound = [&](int k) { return members[k] <= kMost ? hidden[k] : -inf; };
     double settled = inf;
     m_view->forCellWhile(x0, y0, [&](uint32_t i, float tLow, std::array<int, 2> rows, std::array<int, 2> columns) {
       if (double(tLow) >= settled) return false;
@@ -442,9 +443,10 @@ class TileRenderer {
         const Cover cover = d.cover(x, y);
         if (cover == Cover::Inside) {
           hidden[k] = d.q.z, changed = true;
-        } else if (cover == Cover::Crosses && members[k] < kMost) {
-          member[members[k]][k] = d, memberSphere[members[k]++][k] = i, deepest[k] = std::max(deepest[k], d.q.z);
-          changed = true;
+        } else if (cover == Cover::Crosses && members[k] <= kMost) {
+          if (members[k] < kMost) member[members[k]][k] = d, memberSphere[members[k]][k] = i;
+          ++members[k];
+          changed = changed || members[k] > kMost;  // the bound moves only with a cover or too many
         }
       });
       if (changed) {
@@ -456,7 +458,7 @@ class TileRenderer {
     double farthest = -inf;  // the deepest member kept
     for (int k = 0; k < count; ++k) {
       int n = 0;
-      deepest[k] = -inf;
+      if (members[k] > kMost) members[k] = 0;  // too many
       for (int m = 0; m < members[k]; ++m) {
         if (!(member[m][k].q.z < hidden[k])) continue;  // behind a cover found after it
         member[n][k] = member[m][k], memberSphere[n][k] = memberSphere[m][k], ++n;
