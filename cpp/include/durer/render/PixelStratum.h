@@ -64,7 +64,7 @@ inline double unitDiskRectangleArea(double u0, double u1, double v0, double v1) 
 // region, a circle nothing crosses or touches is inside the rectangle and outside the others by its
 // extent. A circle equal to an earlier one adds nothing (its arcs would count twice).
 inline double circlesRectangleUnionArea(const double* cu, const double* cv, const double* r, int count, double w, double h) {
-  constexpr int kMost = 8;  // circles at most
+  constexpr int kMost = 8;  // circles read at most (the first)
   count = std::min(count, kMost);
   bool duplicate[kMost] = {};
   for (int i = 0; i < count; ++i) {

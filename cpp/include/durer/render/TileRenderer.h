@@ -392,20 +392,19 @@ class TileRenderer {
   // disk of the image (its radius over the pixel's width and height).
   bool stratifies() const { return m_view != nullptr && !m_camera.projection().perspective && !m_camera.hasLens(); }
 
-  // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0): the union of the
-  // silhouettes of the camera's view's spheres whose edges cross the pixel, where at most
-  // PixelStratum::kMostDisks do (more, as in a dense cloud, where a union seldom leaves the pixel
-  // a part outside: none), PixelStratum (for a
-  // render that stratifies()), and spheres[k] its sphere where the union is one sphere's silhouette
-  // (kNoSphere otherwise). Where spheres overlap or cut through each other, their union's edge is
-  // still the edge between some sphere and what lies behind them all: only the edges among them lie
-  // inside it, and a sphere's part of the union that no sample has reached (a small sphere poking
-  // out of a large one's front, inside its silhouette) is not the union's unsampled part: a sphere
-  // of several is watched as any other (watchSilhouettes: the first kWatched in the view's order that
-  // no first sample met) until a sample meets it. A
-  // pixel's union leaves out the spheres behind a sphere covering the whole pixel (whose surface
-  // there lies before its centre's depth): their edges are hidden there, and a pixel with no sphere
-  // in front of its cover keeps none. A pixel keeps none either where a sphere outside its union
+  // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0), for a render that
+  // stratifies(): the union of the silhouettes of the camera's view's spheres whose edges cross the
+  // pixel, where at most PixelStratum::kMostDisks do (more, as in a dense cloud, where a union seldom
+  // leaves the pixel a part outside: none), and spheres[k] its sphere where the union is one
+  // sphere's silhouette (kNoSphere otherwise). Where spheres overlap or cut through each other, their
+  // union's edge is still the edge between some sphere and what lies behind them all: only the edges
+  // among them lie inside it, and a sphere's part of the union that no sample has reached (a small
+  // sphere poking out of a large one's front, inside its silhouette) is not the union's unsampled
+  // part: a sphere of several is watched as any other (watchSilhouettes: the first kWatched in the
+  // view's order that no first sample met) until a sample meets it. A pixel's union leaves out the
+  // spheres behind a sphere covering the whole pixel (whose surface there lies before its centre's
+  // depth): their edges are hidden there, and a pixel with no sphere in front of its cover keeps
+  // none. A pixel keeps none either where a sphere outside its union
   // may hide a member's edge: one whose disk overlaps the member's and reaches into the pixel, its
   // front nearer than the edge (a small sphere before a large one's rim): the edge seen is then not
   // the union's, and a part of the stratum holding colours its samples may all have missed would
