@@ -14,8 +14,8 @@ import durer
 from durer.render import SAMPLERS
 from durer.reports.scenes import edge_scene
 from helpers.coverage import (
-    C, COVERAGE, CUT, SIZE, THETA, WHITE_ON_BLACK, disc_coverage, half_plane_scene, pixel_camera, pixel_centres,
-    render_values, vertical_edge_coverage,
+    C, COVERAGE, CUT, SIZE, THETA, WHITE_ON_BLACK, disc_coverage, discs_coverage, half_plane_scene, pixel_camera,
+    pixel_centres, render_values, vertical_edge_coverage,
 )
 
 FIXED = tuple(s for s in SAMPLERS if s != "adaptive")  # a fixed number of samples per pixel
@@ -260,21 +260,6 @@ def plain_mean_counts(values: np.ndarray, samples: np.ndarray) -> np.ndarray:
     return np.abs(counts - np.round(counts))
 
 
-def union_share(discs: list[tuple[float, float, float]], x: np.ndarray, y: np.ndarray, grid: int = 400) -> np.ndarray:
-    """The share of each pixel (centres x, y; one unit a pixel) inside the union of the discs (cx, cy,
-    r), by a grid x grid midpoint rule (error ~1e-3 of a pixel where edges cross it)."""
-    g = (np.arange(grid) + 0.5) / grid - 0.5
-    u, v = np.meshgrid(g, g)
-    out = np.empty(x.shape)
-    for index in np.ndindex(x.shape):
-        px, py = x[index] + u, y[index] + v
-        inside = np.zeros(u.shape, bool)
-        for cx, cy, r in discs:
-            inside |= (px - cx) ** 2 + (py - cy) ** 2 < r * r
-        out[index] = inside.mean()
-    return out
-
-
 def test_silhouettes_that_cut_through_each_other_weigh_their_union_against_the_rest():
     # Two flat discs (red and green, no lights) on black that cut through each other: where both
     # reach into a pixel, the edge between them is where they cut, not a silhouette, but the edge
@@ -300,8 +285,8 @@ def test_silhouettes_that_cut_through_each_other_weigh_their_union_against_the_r
     crossed = (near[0] | near[1]) & (union > 1e-6) & (union < 1 - 1e-6)  # the union's edge crosses the pixel
     both = crossed & near[0] & near[1]
     assert both.sum() >= 2 and crossed.sum() >= 40  # both: beside the two points where the silhouettes cross
-    share = union_share(list(discs), x[crossed], y[crossed])
-    assert np.abs(union[crossed] - share).max() < 3e-3
+    share = discs_coverage(list(discs), size, size)
+    assert np.abs(union - share)[crossed].max() < 3e-3
     n = result.samples
     weighed = plain_mean_counts(union, n) > 0.05  # not a whole number of samples inside
     assert weighed[both].any() and weighed[crossed & ~both].any()

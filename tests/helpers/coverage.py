@@ -70,20 +70,36 @@ COVERAGE[COVERAGE < 1e-9], COVERAGE[COVERAGE > 1 - 1e-9] = 0.0, 1.0  # uncut pix
 CUT = (COVERAGE > 0) & (COVERAGE < 1)
 
 
-def disc_coverage(cx: float, cy: float, radius: float, width: int, height: int, steps: int = 40000) -> np.ndarray:
-    """The fraction of every pixel (of pixel_camera's image) the disc of centre (cx, cy) and `radius`
-    covers, by the midpoint rule across the pixel of the chord's part within it (error ~1e-7: the
-    chord's square-root ends)."""
+def discs_coverage(discs: list[tuple[float, float, float]], width: int, height: int, steps: int = 40000) -> np.ndarray:
+    """The fraction of every pixel (of pixel_camera's image) the union of the discs (centre x, y and
+    radius each) covers, by the midpoint rule across the pixel of the union of the chords' parts
+    within it (error ~1e-7: the chords' square-root ends)."""
     xs, ys = pixel_centres(width, height)
     share = np.zeros((height, width))
     u = (np.arange(steps) + 0.5) / steps - 0.5
     for j in range(height):
         for i in range(width):
-            if abs(xs[j, i] - cx) > radius + 0.5 or abs(ys[j, i] - cy) > radius + 0.5:
-                continue  # beyond the disc's bounding box: 0
+            near = [(cx, cy, r) for cx, cy, r in discs
+                    if abs(xs[j, i] - cx) <= r + 0.5 and abs(ys[j, i] - cy) <= r + 0.5]
+            if not near:
+                continue  # beyond every disc's bounding box: 0
             x = xs[j, i] + u
-            half = np.sqrt(np.maximum(radius * radius - (x - cx) ** 2, 0.0))
-            top = np.minimum(cy + half, ys[j, i] + 0.5)
-            bottom = np.maximum(cy - half, ys[j, i] - 0.5)
-            share[j, i] = np.mean(np.maximum(top - bottom, 0.0) * (half > 0))
+            spans = []  # each disc's chord within the pixel: (bottom, top); an empty one has top <= bottom
+            for cx, cy, radius in near:
+                half = np.sqrt(np.maximum(radius * radius - (x - cx) ** 2, 0.0))
+                spans.append((np.maximum(cy - half, ys[j, i] - 0.5), np.minimum(cy + half, ys[j, i] + 0.5)))
+            bottoms, tops = np.array([b for b, _ in spans]), np.array([t for _, t in spans])
+            order = np.argsort(bottoms, axis=0, kind="stable")
+            bottoms, tops = np.take_along_axis(bottoms, order, 0), np.take_along_axis(tops, order, 0)
+            covered, reached = np.zeros(steps), np.full(steps, ys[j, i] - 0.5)
+            for bottom, top in zip(bottoms, tops):  # by their bottoms: each adds what lies above the ones before
+                covered += np.maximum(top - np.maximum(bottom, reached), 0.0)
+                reached = np.maximum(reached, top)
+            share[j, i] = np.mean(covered)
     return share
+
+
+def disc_coverage(cx: float, cy: float, radius: float, width: int, height: int, steps: int = 40000) -> np.ndarray:
+    """The fraction of every pixel (of pixel_camera's image) the disc of centre (cx, cy) and `radius`
+    covers (discs_coverage of the one disc)."""
+    return discs_coverage([(cx, cy, radius)], width, height, steps)

@@ -96,24 +96,21 @@ inline double circlesRectangleUnionArea(const double* cu, const double* cv, cons
       add(along * eu - half * ev, along * ev + half * eu);
       add(along * eu + half * ev, along * ev - half * eu);
     }
-    // Where it crosses the sides (between two such points an arc lies all inside the rectangle or
-    // all outside it).
-    for (const double line : {0.0, w}) {  // u = 0 and u = w (touching too)
-      const double s = line - cu[i];
-      if (std::abs(s) > ri) continue;
-      const double t = std::sqrt((ri - s) * (ri + s));
-      for (const double y : {t, -t}) {
-        if (cv[i] + y >= 0 && cv[i] + y <= h) add(s, y);
+    // Where it crosses or touches the sides (between two such points an arc lies all inside the
+    // rectangle or all outside it): those at 0 and `extent` across (u = 0 and w when `vertical`,
+    // else v = 0 and h), within [0, length] along them.
+    const auto sides = [&](bool vertical, double extent, double length) {
+      const double across = vertical ? cu[i] : cv[i], along = vertical ? cv[i] : cu[i];
+      for (const double line : {0.0, extent}) {
+        const double s = line - across;
+        if (std::abs(s) > ri) continue;
+        const double t = std::sqrt((ri - s) * (ri + s));
+        for (const double a : {t, -t}) {
+          if (along + a >= 0 && along + a <= length) vertical ? add(s, a) : add(a, s);
+        }
       }
-    }
-    for (const double line : {0.0, h}) {  // v = 0 and v = h (touching too)
-      const double s = line - cv[i];
-      if (std::abs(s) > ri) continue;
-      const double t = std::sqrt((ri - s) * (ri + s));
-      for (const double x : {t, -t}) {
-        if (cu[i] + x >= 0 && cu[i] + x <= w) add(x, s);
-      }
-    }
+    };
+    sides(true, w, h), sides(false, h, w);
     for (int k = 1; k < n; ++k) {  // insertion sort by the key: at most 2 (kMost - 1) + 8 points
       for (int m = k; m > 0 && points[m].key < points[m - 1].key; --m) std::swap(points[m], points[m - 1]);
     }
