@@ -31,9 +31,10 @@ class RenderResult:
     """Float32 arrays, top row first (numpy convention); a pass not requested is None.
 
     color  (H, W, 4): linear RGBA; the box-filtered mean of the pixel's samples (with
-                      sampler="adaptive" through an orthographic camera, where spheres'
+                      sampler="adaptive" through a camera without a lens, where spheres'
                       silhouettes cross the pixel: the means of its samples inside and outside
-                      their union weighed by their exact shares of the pixel).
+                      them weighed by their exact shares of the pixel; orthographic: the union
+                      of up to three discs, perspective: one sphere's ellipse).
     depth  (H, W):    the pixel's nearest sample hit: with depth="ray" its t along the unit camera
                       ray (the distance from the ray origin), with depth="planar" its distance
                       along the camera's view axis (Blender's Depth); +inf where every sample missed.

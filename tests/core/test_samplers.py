@@ -316,17 +316,57 @@ def test_a_silhouette_hidden_by_a_sphere_before_its_rim_keeps_the_plain_mean():
     assert (red_count[rim & ~covered & mixed] > 0.05).any()
 
 
-def test_a_perspective_camera_keeps_the_plain_mean():
-    # Only an orthographic camera's silhouettes are discs of its image: through a perspective one every
-    # pixel's value is the plain mean of its samples.
+def perspective_coverage(camera: durer.PerspectiveCamera, size: int, centre, radius: float, fine: int = 64) -> np.ndarray:
+    """The share of each pixel of a size x size image whose camera rays meet the sphere, from the
+    camera's own rays through a fine x fine grid of points in each pixel (error ~1e-3 at the edges)."""
+    origins, directions = camera.rays(size * fine, size * fine)
+    to_centre = np.asarray(centre, float) - origins.reshape(-1, 3)
+    along = (directions.reshape(-1, 3) * to_centre).sum(1)
+    hit = (along > 0) & (along * along - (to_centre * to_centre).sum(1) + radius * radius > 0)
+    return hit.reshape(size, fine, size, fine).mean(axis=(1, 3))
+
+
+def test_a_perspective_silhouette_weighs_a_pixels_samples_by_its_ellipses_exact_share():
+    # A flat white sphere on black seen off the axis of a wide perspective camera: its silhouette is a
+    # rotated ellipse of the image. A pixel its edge crosses weighs its samples inside and outside
+    # the ellipse by its exact share, so its value is the share the sphere covers, whatever share of
+    # its samples fell inside; one whose samples all fell on one side keeps their plain mean.
+    size, centre, radius = 32, (3.2, 1.9, -8.0), 1.6
     scene = durer.Scene()
     scene.background = WHITE_ON_BLACK
-    scene.add_spheres([[0.3, -0.2, -10]], [2.0], material=scene.add_material((1, 1, 1)))
-    camera = durer.PerspectiveCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), fov_degrees=30)
-    result = durer.render(scene, camera, 32, 32, spp=16, sampler="adaptive")
-    edge = (result.color[..., 0] > 0) & (result.color[..., 0] < 1)
-    assert edge.sum() >= 30
-    assert plain_mean_counts(result.color[..., 0], result.samples).max() < 1e-3
+    scene.add_spheres([centre], [radius], material=scene.add_material((1, 1, 1)))
+    camera = durer.PerspectiveCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), fov_degrees=75)
+    result = durer.render(scene, camera, size, size, spp=16, min_spp=16, sampler="adaptive")
+    value, coverage = result.color[..., 0].astype(np.float64), perspective_coverage(camera, size, centre, radius)
+    edge = (coverage > 0.01) & (coverage < 0.99)
+    weighed = edge & (plain_mean_counts(value, result.samples) > 0.05)
+    assert edge.sum() >= 30 and weighed.sum() >= 20
+    assert np.abs(value - coverage)[weighed].max() < 3e-3
+
+
+def test_a_perspective_silhouette_hidden_by_a_sphere_before_its_rim_keeps_the_plain_mean():
+    # As through an orthographic camera (above), seen from far away through a narrow perspective
+    # one: the pixels where the small sphere lies before the large one's rim keep the plain mean,
+    # the rim's others are weighed.
+    size = 32
+    scene = durer.Scene()
+    scene.background = WHITE_ON_BLACK
+    red, green = scene.add_material((1, 0, 0)), scene.add_material((0, 1, 0))
+    big, small = (-6.0, 0.0, 10.0), (4.0, 0.0, 2.5)
+    scene.add_spheres([[big[0], big[1], -50], [small[0], small[1], -51.5]], [big[2], small[2]],
+                      material=np.array([red, green], np.int32))
+    # From z = 950, 1000 units away: 32 units across at that distance, the image nearly orthographic.
+    camera = durer.PerspectiveCamera(center=(0, 0, 950), direction=(0, 0, -1), up=(0, 1, 0),
+                                     fov_degrees=2 * math.degrees(math.atan(16 / 1000)))
+    result = durer.render(scene, camera, size, size, spp=16, sampler="adaptive")
+    x, y = pixel_centres(size, size)
+    red_count = plain_mean_counts(result.color[..., 0], result.samples)
+    covered = np.hypot(np.abs(x - small[0]) + 0.5, np.abs(y - small[1]) + 0.5) < small[2] - 0.1
+    rim = (np.hypot(x - big[0], y - big[1]) > big[2] - 0.7) & (np.hypot(x - big[0], y - big[1]) < big[2] + 0.7)
+    mixed = (result.color[..., 0] > 0) & (result.color[..., 0] < 1)
+    assert (covered & rim & mixed).sum() >= 2
+    assert red_count[covered & rim & mixed].max() < 1e-3
+    assert (red_count[rim & ~covered & mixed] > 0.05).any()
 
 
 def test_a_smaller_target_error_never_takes_fewer_samples():

@@ -35,20 +35,21 @@
 // rule alone would take such a pixel to 32 samples), while a smooth neighbour's contrast or other
 // geometry (a plane's end, a light's sharp ramp) still does, and every neighbour's errors do (the
 // noise of a light's samples; a light's edge squeezed against the silhouette next door).
-// In a colour render, where an orthographic camera sees spheres' silhouettes cross a pixel
+// In a colour render, where a camera without a lens sees spheres' silhouettes cross a pixel
 // (TileRenderer::silhouetteStrata), the pixel's mean is its stratum's (PixelStratum): the mean of
-// its samples inside the silhouettes' union (up to three) and that of those outside, weighed by
-// their exact shares of the pixel; its error estimate the difference of its halves' means made the
-// same way. A part that
-// estimate cannot see keeps the pixel marked while what it may put the mean off by exceeds
-// targetError (unresolvedShare): one no sample has reached yet, by its share (its colour may differ
-// by about 1), one whose samples all lie in one half, by its share times the spread of a colour.
-// There, too, a pixel watches up to two spheres whose silhouettes cross it and that its first
-// samples did not meet, but the sphere of a one-sphere stratum (TileRenderer::watchSilhouettes: a
-// sliver beside the stratum's edge, an edge where two spheres' disks meet, or a member of the union
-// none of whose part of it was reached): while no sample has met one, it keeps the pixel marked as an
-// unseen edge would (kUnseenShare of its share), less for each sample that has landed inside its
-// silhouette and met something else (unseenShare: evidence that it is hidden there).
+// its samples inside the silhouettes' union (orthographic: up to three disks; perspective: one
+// sphere's ellipse) and that of those outside, weighed by their exact shares of the pixel; its error
+// estimate the difference of its halves' means made the same way. A part that estimate cannot see
+// keeps the pixel marked while what it may put the mean off by exceeds targetError
+// (unresolvedShare): one no sample has reached yet, by its share (its colour may differ by about
+// 1), one whose samples all lie in one half, by its share times the spread of a colour.
+// Through an orthographic camera, a pixel also watches up to two spheres whose silhouettes cross it
+// and that its first samples did not meet, but the sphere of a one-sphere stratum
+// (TileRenderer::watchSilhouettes: a sliver beside the stratum's edge, an edge where two spheres'
+// disks meet, or a member of the union none of whose part of it was reached): while no sample has
+// met one, it keeps the pixel marked as an unseen edge would (kUnseenShare of its share), less for
+// each sample that has landed inside its silhouette and met something else (unseenShare: evidence
+// that it is hidden there).
 // What the render reports as a pixel's error (`result.error`, the estimated RMSE) is its last
 // round's estimate alone: the average leans toward the larger errors of fewer samples; a pixel of
 // two samples reports how far its mean lies from its neighbours' (residualError), one whose samples
@@ -58,7 +59,7 @@
 // A time limit stops the refining rounds (never the first pass) when spent; each worker takes its
 // band's tiles worst first (the largest estimated error), so what the limit cuts matters least.
 // Every pixel's state is kept until the end (TileState and Summary: 201 bytes a pixel in double, 133
-// in float; in a colour render through an orthographic camera, StratumState: 160 and 124 more).
+// in float; in a colour render through a camera without a lens, StratumState: 164 and 128 more).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
 // threads; a pixel's result depends on the pixels within `rounds` of it, and its reported error on
 // those within one more, so a region is rendered with that margin around it (sampledRegion) and
@@ -232,7 +233,7 @@ class AdaptiveSampler {
 
  private:
   // A tile's pixels' silhouette strata, the sums of their samples inside them, and the spheres they
-  // watch (kept only where pixels may have one: m_strata; 160 bytes a pixel in double, 124 in float).
+  // watch (kept only where pixels may have one: m_strata; 164 bytes a pixel in double, 128 in float).
   struct StratumState {
     PixelStratum strata[kPacketSize];                     // the silhouettes crossing the pixel (PixelStratum)
     uint32_t sphere[kPacketSize];                         // its sphere, if one (Tiles::kNoSphere: none, or several)
@@ -451,7 +452,7 @@ class AdaptiveSampler {
         for (int col = 0; col < t.w; ++col, ++k) line[col].smooth = smooth[k];
       }
     }
-    if (StratumState* u = t.stratum; u && m_rounds > 0) {  // what to watch for, where a round may follow
+    if (StratumState* u = t.stratum; u && m_rounds > 0 && m_tiles.seesDisks()) {  // what to watch for, where a round may follow
       const auto wasMet = [&](int k, uint32_t sphere) {
         for (int i = 0; i < metCount[k]; ++i) {
           if (met[i][k] == static_cast<int32_t>(sphere)) return true;

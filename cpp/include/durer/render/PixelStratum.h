@@ -8,9 +8,10 @@
 //
 // A silhouette is a sphere's image through an orthographic camera: a disk (an axis-aligned ellipse
 // where pixels are not square; TileRenderer::silhouetteStrata); where several cross a pixel, the
-// inside part is their union. Any region whose area is known exactly keeps the estimate consistent;
-// the nearer it follows the colours' edges, the more it removes. Used by adaptive sampling
-// (AdaptiveSampler).
+// inside part is their union. Through a perspective camera it is a rotated ellipse, and a pixel
+// has a stratum only where one sphere's crosses it (TileRenderer::perspectiveStrata). Any region
+// whose area is known exactly keeps the estimate consistent; the nearer it follows the colours'
+// edges, the more it removes. Used by adaptive sampling (AdaptiveSampler).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -21,37 +22,100 @@
 
 namespace durer {
 
-// The area of the unit disk within [u0, u1] x [v0, v1]: the integral over x of the chord's part
-// within [v0, v1], piecewise in closed form between the x where the circle crosses v = v0 or v1
-// (there the integrand changes form, and nowhere else: its pieces keep their sign in between).
+// Twice the area between an arc of angle `angle` of a circle of squared radius rr and its chord,
+// rr (angle - sin angle), given rr sin angle (`cross`). Where the arc is short the difference
+// cancels, so there it is the series, whose error stays relative: the arcs of a wide circle through
+// a pixel are that short, and their segments are what the chords' polygon leaves out.
+inline double twiceSegment(double angle, double rr, double cross) {
+  if (!(std::abs(angle) < 0.5)) return rr * angle - cross;
+  const double a2 = angle * angle;  // terms to angle^11 / 11!: the next is 1e-15 of the sum at 0.5
+  return rr * angle * a2 / 6 * (1 - a2 / 20 * (1 - a2 / 42 * (1 - a2 / 72 * (1 - a2 / 110 * (1 - a2 / 156)))));
+}
+
+// The area of the unit disk within [u0, u1] x [v0, v1], by Green's theorem: the polygon of the
+// points where the region's boundary switches between the rectangle's sides and the circle (the
+// sides' parts inside the disk, walked counter-clockwise), plus the circular segment of each arc
+// between them. The polygon is taken about a corner, so its terms are the rectangle's size and a
+// tiny pixel of a wide ellipse keeps its relative accuracy; one arctangent an arc, and an arc only
+// where a side leaves the disk before the next one enters it.
 inline double unitDiskRectangleArea(double u0, double u1, double v0, double v1) {
-  u0 = std::max(u0, -1.0), u1 = std::min(u1, 1.0);
-  if (!(u0 < u1) || !(v0 < v1) || v0 >= 1 || v1 <= -1) return 0;
-  double xs[6] = {u0, u1};
-  int n = 2;
-  for (const double v : {v0, v1}) {
-    if (std::abs(v) >= 1) continue;
-    const double x = std::sqrt(1 - v * v);
-    if (-x > u0 && -x < u1) xs[n++] = -x;
-    if (x > u0 && x < u1) xs[n++] = x;
-  }
-  for (int i = 1; i < n; ++i) {  // insertion sort of at most six
-    for (int j = i; j > 0 && xs[j] < xs[j - 1]; --j) std::swap(xs[j], xs[j - 1]);
-  }
-  // The integral of sqrt(1 - x^2) from 0 to x.
-  const auto arc = [](double x) { return (x * std::sqrt(std::max(0.0, 1 - x * x)) + std::asin(x)) / 2; };
-  double area = 0;
-  for (int i = 0; i + 1 < n; ++i) {
-    const double a = xs[i], b = xs[i + 1];
-    if (!(a < b)) continue;
-    const double m = (a + b) / 2, s = std::sqrt(1 - m * m), chord = arc(b) - arc(a);
-    const bool topArc = s < v1, bottomArc = -s > v0;  // the chord's ends, where they lie inside [v0, v1]
-    const double top = topArc ? s : v1, bottom = bottomArc ? -s : v0;
-    if (top <= bottom) continue;
-    area += (topArc ? chord : v1 * (b - a)) - (bottomArc ? -chord : v0 * (b - a));
+  u0 = std::max(u0, -1.0), u1 = std::min(u1, 1.0), v0 = std::max(v0, -1.0), v1 = std::min(v1, 1.0);
+  if (!(u0 < u1 && v0 < v1)) return 0;
+  struct Point {
+    double u, v;
+  };
+  Point path[8];
+  int n = 0;
+  bool centreInside = false;  // on the inner side of the last side that reaches into the disk
+  // The chord of the line at `c` across (|c| < 1) within [lo, hi] along it, as [a, b].
+  const auto chord = [](double c, double lo, double hi, double& a, double& b) {
+    if (!(std::abs(c) < 1)) return false;
+    const double t = std::sqrt((1 - c) * (1 + c));
+    a = std::max(lo, -t), b = std::min(hi, t);
+    return a < b;
+  };
+  double a, b;
+  if (chord(v0, u0, u1, a, b)) path[n++] = {a, v0}, path[n++] = {b, v0}, centreInside = v0 < 0;  // bottom, rightward
+  if (chord(u1, v0, v1, a, b)) path[n++] = {u1, a}, path[n++] = {u1, b}, centreInside = u1 > 0;  // right, upward
+  if (chord(v1, u0, u1, a, b)) path[n++] = {b, v1}, path[n++] = {a, v1}, centreInside = v1 > 0;  // top, leftward
+  if (chord(u0, v0, v1, a, b)) path[n++] = {u0, b}, path[n++] = {u0, a}, centreInside = u0 < 0;  // left, downward
+  if (n == 0) return u0 == -1 && u1 == 1 && v0 == -1 && v1 == 1 ? kPi : 0;  // the disk inside, or apart
+  double twice = 0;
+  for (int k = 0; k < n; ++k) {
+    const Point p = path[k], q = path[k + 1 < n ? k + 1 : 0];
+    twice += (p.u - u0) * (q.v - v0) - (p.v - v0) * (q.u - u0);
+    if (k % 2 == 0 || (p.u == q.u && p.v == q.v)) continue;  // along a side, or through a corner inside the disk
+    // The arc from where one side leaves the disk to where the next enters it: more than half a turn
+    // only if one side cuts the disk and the centre is on the rectangle's side of it; with several,
+    // at most three quarters (so a slightly negative angle is rounding of none).
+    const double cross = p.u * q.v - p.v * q.u;
+    double angle = std::atan2(cross, p.u * q.u + p.v * q.v);
+    if (angle < (n == 2 && centreInside ? kPi / 2 : -kPi / 4)) angle += 2 * kPi;
+    twice += twiceSegment(angle, 1, cross);
   }
   // Rounding keeps it within what the rectangle and the disk hold.
-  return std::clamp(area, 0.0, std::min((u1 - u0) * (std::min(v1, 1.0) - std::max(v0, -1.0)), kPi));
+  return std::clamp(twice / 2, 0.0, std::min((u1 - u0) * (v1 - v0), kPi));
+}
+
+// The area of the unit disk within the convex polygon of `count` vertices (u[i], v[i]), in either
+// order: the sum over its edges of the signed area the disk shares with the triangle of the origin
+// and the edge, which together cover the region once — the triangle's over the part of the edge
+// inside the disk, the sector's (one arctangent) over each part outside it. An edge's ends on the
+// circle come from the quadratic's roots in the form that does not cancel. Where no edge enters the
+// disk, the polygon holds all of it or none (its sectors sum to about 2 pi or 0 by rounding): pi or
+// 0 exactly.
+inline double unitDiskPolygonArea(const double* u, const double* v, int count) {
+  const auto sector = [](double ax, double ay, double bx, double by) {
+    return std::atan2(ax * by - ay * bx, ax * bx + ay * by) / 2;
+  };
+  double twice = 0, area = 0;  // the polygon's own area (twice, signed), the disk's share of it
+  bool entered = false;        // whether an edge runs inside the disk
+  for (int i = 0; i < count; ++i) {
+    const int j = i + 1 < count ? i + 1 : 0;
+    const double ax = u[i], ay = v[i], bx = u[j], by = v[j];
+    twice += ax * by - ay * bx;
+    const double dx = bx - ax, dy = by - ay, a = dx * dx + dy * dy;
+    if (!(a > 0)) continue;
+    // Points a + t d on the circle: a t^2 + 2 b t + c = 0.
+    const double b = ax * dx + ay * dy, c = ax * ax + ay * ay - 1, discriminant = b * b - a * c;
+    if (!(discriminant > 0)) {
+      area += sector(ax, ay, bx, by);
+      continue;
+    }
+    const double q = -(b + std::copysign(std::sqrt(discriminant), b));
+    const double r0 = q / a, r1 = q != 0 ? c / q : -r0;
+    const double t0 = std::clamp(std::min(r0, r1), 0.0, 1.0), t1 = std::clamp(std::max(r0, r1), 0.0, 1.0);
+    if (!(t0 < t1)) {
+      area += sector(ax, ay, bx, by);
+      continue;
+    }
+    entered = true;
+    const double px = ax + t0 * dx, py = ay + t0 * dy, qx = ax + t1 * dx, qy = ay + t1 * dy;
+    area += (t0 > 0 ? sector(ax, ay, px, py) : 0.0) + (px * qy - py * qx) / 2 + (t1 < 1 ? sector(qx, qy, bx, by) : 0.0);
+  }
+  if (!entered) return std::abs(area) > kPi / 2 ? kPi : 0.0;
+  // Rounding keeps it within what the polygon and the disk hold.
+  return std::clamp(std::abs(area), 0.0, std::min(std::abs(twice) / 2, kPi));
 }
 
 // The area of the union of `count` circles (centres (cu[i], cv[i]), radii r[i] > 0) within the
@@ -62,7 +126,9 @@ inline double unitDiskRectangleArea(double u0, double u1, double v0, double v1) 
 // around it without trigonometry: one arctangent an arc that counts), tangent points included (an
 // arc's midpoint then lies off the point of contact); an arc's midpoint says whether it bounds the
 // region, a circle nothing crosses or touches is inside the rectangle and outside the others by its
-// extent. A circle equal to an earlier one adds nothing (its arcs would count twice).
+// extent. A circle equal to an earlier one adds nothing (its arcs would count twice). An arc adds
+// its chord's term and its circular segment's, so a wide circle's short arcs add terms the
+// rectangle's size (not the radius's, which would cancel).
 inline double circlesRectangleUnionArea(const double* cu, const double* cv, const double* r, int count, double w, double h) {
   constexpr int kMost = 8;  // circles read at most (the first)
   count = std::min(count, kMost);
@@ -70,81 +136,141 @@ inline double circlesRectangleUnionArea(const double* cu, const double* cv, cons
   for (int i = 0; i < count; ++i) {
     for (int j = 0; j < i && !duplicate[i]; ++j) duplicate[i] = cu[i] == cu[j] && cv[i] == cv[j] && r[i] == r[j];
   }
-  const auto inCircle = [&](int i, double u, double v) {
-    const double du = u - cu[i], dv = v - cv[i];
-    return !duplicate[i] && du * du + dv * dv < r[i] * r[i];
-  };
-  // A point on circle i as its offset (x, y) from the centre, and a key that grows with its angle
-  // from +u counter-clockwise: 1 - cos in the upper half, 3 + cos in the lower, so that half a turn
-  // adds exactly 2.
+  // A point on a circle as its offset (x, y) from the centre, where it is (u, v), and a key that
+  // grows with its angle from +u counter-clockwise: 1 - cos in the upper half, 3 + cos in the
+  // lower, so that half a turn adds exactly 2.
   struct Point {
-    double key, x, y;
+    double key, x, y, u, v;
   };
+  Point points[kMost][2 * (kMost - 1) + 8];
+  int n[kMost] = {};
+  double inverse[kMost];
+  for (int i = 0; i < count; ++i) inverse[i] = 1 / r[i];
+  // Written always, kept if `keep` (which way the tests go is as unpredictable as the geometry).
+  const auto add = [&](int i, double x, double y, double u, double v, bool keep = true) {
+    points[i][n[i]] = {y >= 0 ? 1 - x * inverse[i] : 3 + x * inverse[i], x, y, u, v};
+    n[i] += keep;
+  };
+  // Which directions from circle i's centre (offsets) lie inside circle j: none, all, or those
+  // counter-clockwise from (ax, ay) to (bx, by), the points where they cross (the side facing j). By
+  // the crossings' directions rather than by distance, so that both circles agree where they nearly
+  // touch or nearly coincide (where a distance says nothing, and one arc counted without the other
+  // would leave the boundary open).
+  enum Inside { kNone, kAll, kBetween };
+  struct Facing {
+    Inside inside;
+    bool wide;       // more than half a turn (the crossings' chord is beyond the centre, away from j)
+    double ex, ey;   // towards j
+    double ax, ay, bx, by;
+  };
+  Facing facing[kMost][kMost];  // the rest of a pair's only where it is kBetween
+  const auto insideCircle = [&](int i, int j, double x, double y) {
+    const Facing& f = facing[i][j];
+    if (f.inside != kBetween) return f.inside == kAll;
+    // Within the turn from a to b, on j's side (open), or not within the turn back from b to a on
+    // the other side (closed): so where a and b meet at a tangent point, none or all but it.
+    const double fromA = f.ax * y - f.ay * x, toB = x * f.by - y * f.bx, towards = x * f.ex + y * f.ey;
+    return f.wide ? fromA >= 0 || toB >= 0 || towards >= 0 : fromA > 0 && toB > 0 && towards > 0;
+  };
+  // Where two circles cross, found once for both (the same point ends both arcs), from the smaller
+  // one's centre (its distance along the line of centres cancels least there). A crossing outside
+  // the rectangle only splits arcs that are outside it too.
+  const auto crossings = [&](int i, int j) {
+    const double du = cu[j] - cu[i], dv = cv[j] - cv[i], d = std::sqrt(du * du + dv * dv);
+    if (!(d <= r[i] + r[j] && d >= std::abs(r[i] - r[j]) && d > 0)) {  // tangents cross: an arc ends there
+      const bool iInJ = d < r[j] - r[i] || (d == 0 && r[i] < r[j]), jInI = d < r[i] - r[j] || (d == 0 && r[j] < r[i]);
+      facing[i][j].inside = iInJ ? kAll : kNone, facing[j][i].inside = jInI ? kAll : kNone;
+      return;
+    }
+    const bool iSmall = r[i] <= r[j];
+    const double rs = iSmall ? r[i] : r[j], rb = iSmall ? r[j] : r[i];
+    const double along = (d < rs ? (rs - rb) * (rs + rb) + d * d : rs * rs + (d - rb) * (d + rb)) / (2 * d);
+    const double half = std::sqrt(std::max(0.0, (rs - along) * (rs + along)));
+    const double eu = (iSmall ? du : -du) / d, ev = (iSmall ? dv : -dv) / d;  // from the smaller towards the other
+    const int s = iSmall ? i : j, b = iSmall ? j : i;
+    const double ax = along * eu + half * ev, ay = along * ev - half * eu;  // from s's centre, clockwise of e
+    const double bx = along * eu - half * ev, by = along * ev + half * eu;
+    const double ou = cu[b] - cu[s], ov = cv[b] - cv[s];  // b's centre from s's
+    facing[s][b] = {kBetween, along < 0, eu, ev, ax, ay, bx, by};
+    facing[b][s] = {kBetween, d - along < 0, -eu, -ev, bx - ou, by - ov, ax - ou, ay - ov};
+    for (const auto& [x, y] : {std::pair{ax, ay}, std::pair{bx, by}}) {
+      const double u = cu[s] + x, v = cv[s] + y;
+      if (u < 0 || u > w || v < 0 || v > h) continue;
+      add(s, x, y, u, v), add(b, x - ou, y - ov, u, v);
+    }
+  };
+  // Where circle i crosses or touches the sides (between two such points an arc lies all inside the
+  // rectangle or all outside it): those at 0 and `extent` across (u = 0 and w when `vertical`, else
+  // v = 0 and h), within [0, length] along them to rounding (a point just beyond a corner only
+  // splits an arc outside; one missed where the circle passes through the corner would leave an arc
+  // that is partly inside).
+  const auto sides = [&](int i, bool vertical, double extent, double length) {
+    const double across = vertical ? cu[i] : cv[i], along = vertical ? cv[i] : cu[i];
+    const double slack = 8 * std::numeric_limits<double>::epsilon() * (std::abs(along) + r[i]);
+    for (const double line : {0.0, extent}) {
+      const double s = line - across, t = std::sqrt(std::max(0.0, (r[i] - s) * (r[i] + s)));
+      const bool meets = std::abs(s) <= r[i];
+      for (const double a : {t, -t}) {
+        const bool keep = meets & (along + a >= -slack) & (along + a <= length + slack);
+        vertical ? add(i, s, a, line, along + a, keep) : add(i, a, s, along + a, line, keep);
+      }
+    }
+  };
+  for (int i = 0; i < count; ++i) {
+    for (int j = i + 1; j < count; ++j) {
+      if (duplicate[i] || duplicate[j]) {
+        facing[i][j].inside = facing[j][i].inside = kNone;
+      } else {
+        crossings(i, j);
+      }
+    }
+    if (duplicate[i]) continue;
+    sides(i, true, w, h), sides(i, false, h, w);
+  }
   double twice = 0;  // twice the area
   for (int i = 0; i < count; ++i) {
     if (duplicate[i]) continue;
     const double ri = r[i];
-    Point points[2 * kMost + 8];
-    int n = 0;
-    const auto add = [&](double x, double y) { points[n++] = {y >= 0 ? 1 - x / ri : 3 + x / ri, x, y}; };
-    for (int j = 0; j < count; ++j) {  // where circle j crosses circle i
-      if (j == i || duplicate[j]) continue;
-      const double du = cu[j] - cu[i], dv = cv[j] - cv[i], d = std::sqrt(du * du + dv * dv);
-      if (!(d <= ri + r[j] && d >= std::abs(ri - r[j]) && d > 0)) continue;  // tangents too: an arc ends there
-      const double along = (ri * ri - r[j] * r[j] + d * d) / (2 * d), half = std::sqrt(std::max(0.0, ri * ri - along * along));
-      const double eu = du / d, ev = dv / d;
-      add(along * eu - half * ev, along * ev + half * eu);
-      add(along * eu + half * ev, along * ev - half * eu);
+    Point* const p = points[i];
+    const int m = n[i];
+    for (int k = 1; k < m; ++k) {  // insertion sort by the key: at most 2 (kMost - 1) + 8 points
+      for (int l = k; l > 0 && p[l].key < p[l - 1].key; --l) std::swap(p[l], p[l - 1]);
     }
-    // Where it crosses or touches the sides (between two such points an arc lies all inside the
-    // rectangle or all outside it): those at 0 and `extent` across (u = 0 and w when `vertical`,
-    // else v = 0 and h), within [0, length] along them.
-    const auto sides = [&](bool vertical, double extent, double length) {
-      const double across = vertical ? cu[i] : cv[i], along = vertical ? cv[i] : cu[i];
-      for (const double line : {0.0, extent}) {
-        const double s = line - across;
-        if (std::abs(s) > ri) continue;
-        const double t = std::sqrt((ri - s) * (ri + s));
-        for (const double a : {t, -t}) {
-          if (along + a >= 0 && along + a <= length) vertical ? add(s, a) : add(a, s);
-        }
-      }
-    };
-    sides(true, w, h), sides(false, h, w);
-    for (int k = 1; k < n; ++k) {  // insertion sort by the key: at most 2 (kMost - 1) + 8 points
-      for (int m = k; m > 0 && points[m].key < points[m - 1].key; --m) std::swap(points[m], points[m - 1]);
-    }
-    const auto bounds = [&](double u, double v) {
-      if (!(u > 0 && u < w && v > 0 && v < h)) return false;
+    // Whether its point in the direction (x, y) is inside the rectangle and outside the others. The
+    // point's offset times the direction's length (no division on the way to the branch) against the
+    // sides' offsets as `sides` and `coveredLength` take them: where the circle barely reaches past a
+    // side, its arc there is outside exactly when the side has the chord instead.
+    const auto bounds = [&](double x, double y) {
+      const double length = std::sqrt(x * x + y * y), ru = ri * x, rv = ri * y;
+      if (!(ru > -cu[i] * length && ru < (w - cu[i]) * length && rv > -cv[i] * length && rv < (h - cv[i]) * length)) return false;
       for (int j = 0; j < count; ++j) {
-        if (j != i && inCircle(j, u, v)) return false;
+        if (j != i && insideCircle(i, j, x, y)) return false;
       }
       return true;
     };
-    if (n == 0) {  // nothing crosses or touches it: the whole circle, or none of it, by its extent
+    if (m == 0) {  // nothing crosses or touches it: the whole circle, or none of it, by its extent
       bool counts = cu[i] - ri >= 0 && cu[i] + ri <= w && cv[i] - ri >= 0 && cv[i] + ri <= h;
-      for (int j = 0; j < count && counts; ++j) {  // and within no other
-        const double du = cu[j] - cu[i], dv = cv[j] - cv[i];
-        counts = j == i || duplicate[j] || std::sqrt(du * du + dv * dv) + ri > r[j];
-      }
+      for (int j = 0; j < count && counts; ++j) counts = j == i || facing[i][j].inside != kAll;  // and within no other
       if (counts) twice += 2 * kPi * ri * ri;
       continue;
     }
-    for (int k = 0; k < n; ++k) {
-      const Point& a = points[k];
-      const Point& b = points[k + 1 < n ? k + 1 : 0];
-      const double span = k + 1 < n ? b.key - a.key : b.key + 4 - a.key;  // 2: half a turn
+    for (int k = 0; k < m; ++k) {
+      const Point& a = p[k];
+      const Point& b = p[k + 1 < m ? k + 1 : 0];
+      const double span = k + 1 < m ? b.key - a.key : b.key + 4 - a.key;  // 2: half a turn
       if (!(span > 0)) continue;
       // The arc's midpoint, from well-conditioned directions: the sum's (turned back beyond half a
       // turn) away from half a turn, else the chord's turned clockwise by a quarter.
       const double sx = a.x + b.x, sy = a.y + b.y;
       double mx = span > 2 ? -sx : sx, my = span > 2 ? -sy : sy;
       if (sx * sx + sy * sy < ri * ri) mx = b.y - a.y, my = a.x - b.x;
-      const double scale = ri / std::sqrt(mx * mx + my * my);
-      if (!(scale < std::numeric_limits<double>::infinity()) || !bounds(cu[i] + mx * scale, cv[i] + my * scale)) continue;
-      double angle = std::atan2(a.x * b.y - a.y * b.x, a.x * b.x + a.y * b.y);  // in (-pi, pi]
-      if (angle < 0 || (span > 2 && angle < kPi)) angle += 2 * kPi;
-      twice += ri * ri * angle + cu[i] * (b.y - a.y) - cv[i] * (b.x - a.x);
+      if (!bounds(mx, my)) continue;
+      // The keys say which half of a turn the arc spans; the arctangent near 0 or half a turn
+      // may fall on the other side of it by rounding (where the ends nearly meet).
+      const double cross = a.x * b.y - a.y * b.x;
+      double angle = std::atan2(cross, a.x * b.x + a.y * b.y);  // in (-pi, pi]
+      if (angle < (span > 2 ? kPi / 2 : -kPi / 2)) angle += 2 * kPi;
+      twice += a.u * b.v - a.v * b.u + twiceSegment(angle, ri * ri, cross);
     }
   }
   // The sides along the axes (v = 0, u = 0) add nothing to u dv - v du; the right side (u = w,
@@ -188,12 +314,13 @@ struct PixelStratum {
   float share;   // of pixel (x, y)'s square [x, x + 1] x [y, y + 1] inside the union, in (0, 1)
   float aspect;  // of several: each one's semi-axes' ratio ay / ax, as its membership and the share take it
   int32_t disks;  // how many ellipses
+  float shear;   // of one: a rotated ellipse's (sheared): u = (x - cx) inverseAx + (y - cy) shear; 0 else
 
   // The longest semi-axis (pixels) a stratum is made for. The share is found in the unit disk's
-  // frame, where a pixel is 1/a^2 of the disk and the arcs' rounding (~1e-16 of the disk) becomes
-  // ~1e-16 a^2 of the pixel, more near a vertical edge (asin's slope): at most 6e-8 at a = 1e3 and
-  // 5e-6 at 1e4, measured against the same formula in 128-bit floats; 0.02 at 1e6. A sphere wider
-  // than this over its pixels (a planet seen as a ground) keeps the plain mean.
+  // frame, where a pixel is 1/a^2 of the disk; the rounding of where the circle crosses the pixel's
+  // sides (~1e-16 of the disk, over a side 1/a long) becomes ~1e-16 a of the pixel: at most 3e-13 at
+  // a = 4096 and 8e-11 up to 1e6, measured against 50-digit integration. A sphere wider than this
+  // over its pixels (a planet seen as a ground) keeps the plain mean.
   static constexpr double kMostAxis = 4096;
 
   // An ellipse of centre (cx, cy) and semi-axes ax, ay (pixels).
@@ -247,14 +374,41 @@ struct PixelStratum {
     return of(x, y, &e, 1);
   }
 
+  // The stratum of pixel (x, y) by a rotated ellipse of centre (cx, cy): the points where
+  // (l11 du + l12 dv)^2 + (l22 dv)^2 < 1, du = x - cx and dv = y - cy (its quadratic form's Cholesky
+  // factor: a sphere's silhouette through a perspective camera, TileRenderer::perspectiveStrata), if
+  // its edge crosses the pixel and it reaches no farther than kMostAxis from its centre; otherwise
+  // none. The share is the unit disk's within the pixel's square mapped to its frame (a
+  // parallelogram), for the factor as rounded to float.
+  static PixelStratum sheared(int x, int y, double cx, double cy, double l11, double l12, double l22) {
+    PixelStratum p{};
+    p.disks = 1;
+    p.cx[0] = static_cast<float>(cx), p.cy[0] = static_cast<float>(cy);
+    p.inverseAx[0] = static_cast<float>(l11), p.inverseAy[0] = static_cast<float>(l22), p.shear = static_cast<float>(l12);
+    const double iu = p.inverseAx[0], iv = p.inverseAy[0], shear = p.shear;
+    // Its reach from the centre: |dv| < 1 / l22 and |du| < (1 + |l12| / l22) / l11.
+    const double reachV = 1 / iv, reachU = (1 + std::abs(shear) * reachV) / iu;
+    if (!(iu > 0 && iv > 0 && reachU <= kMostAxis && reachV <= kMostAxis && std::isfinite(shear) &&
+          std::isfinite(p.cx[0]) && std::isfinite(p.cy[0]))) {
+      return {};
+    }
+    const double du0 = x - double(p.cx[0]), dv0 = y - double(p.cy[0]);
+    const double du[4] = {du0, du0 + 1, du0 + 1, du0}, dv[4] = {dv0, dv0, dv0 + 1, dv0 + 1};
+    double u[4], v[4];
+    for (int i = 0; i < 4; ++i) u[i] = du[i] * iu + dv[i] * shear, v[i] = dv[i] * iv;
+    p.share = static_cast<float>(unitDiskPolygonArea(u, v, 4) / (iu * iv));
+    return p.share > 0 && p.share < 1 ? p : PixelStratum{};  // as rounded
+  }
+
   bool any() const { return share > 0; }
 
   // Whether a sample at (x, y) lies inside the union (false for a pixel without a stratum): one
-  // ellipse by its own axes, several as circles in the frame of the first's aspect (as the share is
+  // ellipse by its own axes and shear, several as circles in the frame of the first's aspect (as the share is
   // found; their own axes' ratios differ from it by float's rounding).
   bool contains(double x, double y) const {
     if (disks == 1) {
-      const double u = (x - double(cx[0])) * double(inverseAx[0]), v = (y - double(cy[0])) * double(inverseAy[0]);
+      const double dv = y - double(cy[0]);
+      const double u = (x - double(cx[0])) * double(inverseAx[0]) + dv * double(shear), v = dv * double(inverseAy[0]);
       return any() && u * u + v * v < 1;
     }
     bool in = false;

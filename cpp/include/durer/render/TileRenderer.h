@@ -387,13 +387,24 @@ class TileRenderer {
     }
   }
 
-  // Whether pixels may have a silhouette stratum (silhouetteStrata): through an orthographic camera
-  // without a lens, with a view of the scene's own spheres. There a sphere's silhouette is exactly a
-  // disk of the image (its radius over the pixel's width and height).
-  bool stratifies() const { return m_view != nullptr && !m_camera.projection().perspective && !m_camera.hasLens(); }
+  // Whether pixels may have a silhouette stratum (silhouetteStrata): through a camera without a lens,
+  // with a view of the scene's own spheres, whose silhouettes are then exact ellipses of the image.
+  bool stratifies() const { return m_view != nullptr && !m_camera.hasLens(); }
+  // Whether those silhouettes are disks (an orthographic camera's: its radius over the pixel's width
+  // and height), which a stratum may unite and adaptive sampling watches (watchSilhouettes).
+  bool seesDisks() const { return stratifies() && !m_camera.projection().perspective; }
+
+  // The farthest of `count` pixels' bounds in a strata walk (the depth before which a sphere may
+  // still change pixel k, -inf once none can): infinite while any is (`open` of them are).
+  template <typename Bound>
+  static double farthestBound(int open, int count, const Bound& bound) {
+    double farthest = open > 0 ? std::numeric_limits<double>::infinity() : -std::numeric_limits<double>::infinity();
+    for (int k = 0; open == 0 && k < count; ++k) farthest = std::max(farthest, bound(k));
+    return farthest;
+  }
 
   // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0), for a render that
-  // stratifies(): the union of the silhouettes of the camera's view's spheres whose edges cross the
+  // stratifies(); through a perspective camera, perspectiveStrata's. Through an orthographic one: the union of the silhouettes of the camera's view's spheres whose edges cross the
   // pixel, where at most PixelStratum::kMostDisks do (more, as in a dense cloud, where a union seldom
   // leaves the pixel a part outside: none), and spheres[k] its sphere where the union is one
   // sphere's silhouette (kNoSphere otherwise). Where spheres overlap or cut through each other, their
@@ -417,6 +428,7 @@ class TileRenderer {
     constexpr int kMost = PixelStratum::kMostDisks;
     std::fill(strata, strata + w * h, PixelStratum{});
     std::fill(spheres, spheres + w * h, kNoSphere);
+    if (!seesDisks()) return perspectiveStrata(x0, y0, w, h, strata, spheres);
     const ParallelProjection image = m_camera.projection();
     const int count = w * h;
     const double inf = std::numeric_limits<double>::infinity();
@@ -433,6 +445,7 @@ class TileRenderer {
     // farthest of the pixels' bounds bounds the fronts still worth reading.
     const auto bound = [&](int k) { return members[k] <= kMost ? hidden[k] : -inf; };
     double settled = inf;
+    int open = count;  // pixels whose bound is still infinite: while any is, so is the farthest
     m_view->forCellWhile(x0, y0, [&](uint32_t i, float tLow, std::array<int, 2> rows, std::array<int, 2> columns) {
       if (double(tLow) >= settled) return false;
       const ImageDisk d = imageDisk(image, i);
@@ -440,6 +453,7 @@ class TileRenderer {
       forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
         if (!(d.q.z < hidden[k])) return;
         const Cover cover = d.cover(x, y);
+        const bool wasOpen = bound(k) == inf;
         if (cover == Cover::Inside) {
           hidden[k] = d.q.z, changed = true;
         } else if (cover == Cover::Crosses && members[k] <= kMost) {
@@ -447,11 +461,9 @@ class TileRenderer {
           ++members[k];
           changed = changed || members[k] > kMost;  // the bound moves only with a cover or too many
         }
+        open -= wasOpen && !(bound(k) == inf);
       });
-      if (changed) {
-        settled = -inf;
-        for (int k = 0; k < count; ++k) settled = std::max(settled, bound(k));
-      }
+      if (changed) settled = farthestBound(open, count, bound);
       return true;
     });
     double farthest = -inf;  // the deepest member kept
@@ -493,6 +505,75 @@ class TileRenderer {
     }
   }
 
+  // silhouetteStrata through a perspective camera (strata and spheres already cleared): a pixel's
+  // stratum is the one sphere's silhouette whose edge crosses it in front of its cover, where only
+  // one does and no other sphere reaching into the pixel has its front nearer than that edge (which
+  // it might hide; no overlap test: the ellipses' is not worth its cost here). Depths are distances
+  // from the eye along the rays: a sphere's silhouette lies at sqrt(|q|^2 - r^2) from it (q its
+  // centre from the eye), where the rays meet it the latest of those through its image (the rest of
+  // a covering sphere's image lies before it). A sphere reaching the eye's plane, whose image is
+  // unbounded, leaves the pixels it may reach none.
+  void perspectiveStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres) const {
+    const ParallelProjection image = m_camera.projection();
+    const int count = w * h;
+    const double inf = std::numeric_limits<double>::infinity();
+    ImageEllipse member[kPacketSize];
+    uint32_t memberSphere[kPacketSize];
+    int members[kPacketSize];
+    double hidden[kPacketSize];  // the edge depth of the nearest sphere covering the pixel
+    std::fill(members, members + count, 0);
+    std::fill(hidden, hidden + count, inf);
+    // A sphere can change a pixel only with its edge before the pixel's cover; one more than one
+    // sphere crosses keeps none, whatever follows.
+    const auto bound = [&](int k) { return members[k] <= 1 ? hidden[k] : -inf; };
+    double settled = inf;
+    int open = count;  // pixels whose bound is still infinite: while any is, so is the farthest
+    m_view->forCellWhile(x0, y0, [&](uint32_t i, float tLow, std::array<int, 2> rows, std::array<int, 2> columns) {
+      if (double(tLow) >= settled) return false;
+      const ImageEllipse e = imageEllipse(image, i);
+      bool changed = false;
+      forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
+        if (members[k] > 1 || !(e.tFront < hidden[k])) return;
+        const bool wasOpen = hidden[k] == inf;
+        if (!e.bounded) {  // its edge may cross the pixel anywhere
+          members[k] = 2, changed = true;
+        } else if (e.tEdge < hidden[k]) {
+          const Cover cover = e.cover(x, y);
+          if (cover == Cover::Inside) {
+            hidden[k] = e.tEdge, changed = true;
+          } else if (cover == Cover::Crosses) {
+            if (members[k] == 0) member[k] = e, memberSphere[k] = i;
+            ++members[k];
+            changed = changed || members[k] > 1;  // the bound moves only with a cover or a second
+          }
+        }
+        open -= wasOpen && !(bound(k) == inf);
+      });
+      if (changed) settled = farthestBound(open, count, bound);
+      return true;
+    });
+    double farthest = -inf;  // the deepest edge kept
+    for (int k = 0; k < count; ++k) {
+      if (members[k] != 1 || !(member[k].tEdge < hidden[k])) members[k] = 0;  // more, or a cover found after it
+      if (members[k] == 1) farthest = std::max(farthest, member[k].tEdge);
+    }
+    m_view->forCellOf(x0, y0, farthest, [&](uint32_t i, float, std::array<int, 2> rows, std::array<int, 2> columns) {
+      const ImageEllipse d = imageEllipse(image, i);
+      forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
+        if (members[k] != 1 || memberSphere[k] == i || !(d.tFront < member[k].tEdge)) return;
+        if (!d.bounded || d.cover(x, y) != Cover::Outside) members[k] = 0;
+      });
+    });
+    for (int row = 0, k = 0; row < h; ++row) {
+      for (int column = 0; column < w; ++column, ++k) {
+        if (members[k] != 1) continue;
+        const ImageEllipse& e = member[k];
+        strata[k] = PixelStratum::sheared(x0 + column, y0 + row, e.cx, e.cy, e.l11, e.l12, e.l22);
+        if (strata[k].any()) spheres[k] = memberSphere[k];
+      }
+    }
+  }
+
   // Sets watched[s][k] (s < kWatched; kNoSphere: none) for the pixels k (row by row) of the w x h
   // tile at (x0, y0) to the first kWatched spheres of the camera's view, by the view's bounds on
   // their fronts' depths (the nearest a sphere may be met anywhere in the cell: tLow), whose
@@ -502,7 +583,7 @@ class TileRenderer {
   // samples met (met(k, sphere) false). Such a sphere may show in a part of the pixel no sample
   // reached (a sliver, or one sphere's edge beside another's), or lie hidden there: adaptive
   // sampling keeps the pixel refining while what it may cover unseen exceeds targetError
-  // (AdaptiveSampler::unseenShare). For a render that stratifies().
+  // (AdaptiveSampler::unseenShare). For a render that seesDisks().
   template <typename Met>
   void watchSilhouettes(int x0, int y0, int w, int h, const float* farthest, const uint32_t* stratum, const Met& met,
                         double least, uint32_t (*watched)[kPacketSize], float (*shares)[kPacketSize]) const {
@@ -575,8 +656,55 @@ class TileRenderer {
     return {q, r, image.sampleX(q.x), image.sampleY(q.y), r / image.pixelWidth, r / image.pixelHeight};
   }
 
-  // Sphere `sphere`'s silhouette in the image. For a render that stratifies().
+  // Sphere `sphere`'s silhouette in the image. For a render that seesDisks().
   ImageDisk silhouette(uint32_t sphere) const { return imageDisk(m_camera.projection(), sphere); }
+
+  // A sphere of the camera's view as a perspective image shows it: the ellipse of the sample
+  // positions whose rays' lines pass through it, a du^2 + 2 b du dv + c dv^2 < 1 about its centre
+  // (cx, cy), and that form's Cholesky factor, (l11 du + l12 dv)^2 + (l22 dv)^2 (PixelStratum::sheared);
+  // the distances from the eye to its nearest point and to its silhouette (along the rays that graze
+  // it). `bounded` false where the sphere reaches the eye's plane: its image is then no ellipse (the
+  // rest unset).
+  struct ImageEllipse {
+    double cx, cy, a, b, c, l11, l12, l22, tFront, tEdge;
+    bool bounded;
+
+    double form(double du, double dv) const { return a * du * du + 2 * b * du * dv + c * dv * dv; }
+    // How pixel (x, y)'s square lies against it: Inside if its farthest corner is within, Crosses if
+    // its nearest point is (the centre in the square, or a side's least value of the form, where
+    // the form along it is least, below 1), else Outside.
+    Cover cover(int x, int y) const {
+      const double du0 = x - cx, du1 = du0 + 1, dv0 = y - cy, dv1 = dv0 + 1;
+      if (std::max(std::max(form(du0, dv0), form(du1, dv0)), std::max(form(du0, dv1), form(du1, dv1))) <= 1) {
+        return Cover::Inside;
+      }
+      if (du0 <= 0 && du1 >= 0 && dv0 <= 0 && dv1 >= 0) return Cover::Crosses;
+      double nearest = std::numeric_limits<double>::infinity();
+      for (const double du : {du0, du1}) nearest = std::min(nearest, form(du, std::clamp(-b * du / c, dv0, dv1)));
+      for (const double dv : {dv0, dv1}) nearest = std::min(nearest, form(std::clamp(-b * dv / a, du0, du1), dv));
+      return nearest < 1 ? Cover::Crosses : Cover::Outside;
+    }
+  };
+  ImageEllipse imageEllipse(const ParallelProjection& image, uint32_t sphere) const {
+    const Sphere<Real>& s = m_group.spheres().primitive(sphere);
+    const Vec3d q = image.inFrame(Vec3d(s.center));
+    const double r = double(s.radius), distance = glm::length(q);
+    ImageEllipse e{};
+    e.tFront = distance - r;
+    const double front = (q.z - r) * (q.z + r), k2 = (distance - r) * (distance + r);  // qz^2 - r^2, k^2
+    if (!(q.z > r && front > 0 && k2 > 0 && r > 0)) return e;
+    const double scale = front / (r * r * k2);
+    const double a = (q.y * q.y + front) * scale * image.pixelWidth * image.pixelWidth;  // k^2 - qx^2 = qy^2 + qz^2 - r^2
+    const double c = (q.x * q.x + front) * scale * image.pixelHeight * image.pixelHeight;
+    const double b = q.x * q.y * scale * image.pixelWidth * image.pixelHeight;  // -(-qx qy) for dY = -pixelHeight dv
+    e.a = a, e.b = b, e.c = c;
+    e.l11 = std::sqrt(a), e.l12 = b / e.l11, e.l22 = std::sqrt(c - e.l12 * e.l12);
+    e.cx = image.sampleX(q.z * q.x / front), e.cy = image.sampleY(q.z * q.y / front);
+    e.tEdge = std::sqrt(k2);
+    e.bounded = std::isfinite(e.l11) && std::isfinite(e.l12) && std::isfinite(e.l22) && e.l11 > 0 && e.l22 > 0 &&
+                std::isfinite(e.cx) && std::isfinite(e.cy);
+    return e;
+  }
 
   // Whether sphere c lies in front of all of sphere w that pixel (x, y) may show: the part of the
   // pixel's square within w's disk's bounding box lies inside c's disk, and c's front surface there,
@@ -1054,14 +1182,14 @@ class TileRenderer {
   }
 
   // Whether every edge of this render's image is a silhouette of the camera's view's spheres
-  // (markSilhouettes): through a camera that stratifies(), the scene's geometry is its own spheres (all in
+  // (markSilhouettes): through a camera that seesDisks(), the scene's geometry is its own spheres (all in
   // the view) and at most one unbounded plane, and nothing in its shading changes abruptly — no
   // shadows, mirrors (nor an area light a mirror shows without bounces), refraction or ambient
   // occlusion (its rays' noise), no spot light's hard edge (blend 0). The plane's own edges, where it
   // leaves [tMin, tMax), are looked for per pixel; softer changes (a spot's ramp, a light near the
   // plane) are left to the smooth neighbours' rules (AdaptiveSampler::mark).
   bool edgesAtSilhouettes(const EffectSet& effects) const {
-    if (!stratifies() || effects.shadows || effects.bounces() || effects.mirroredLights || effects.occlusion) return false;
+    if (!seesDisks() || effects.shadows || effects.bounces() || effects.mirroredLights || effects.occlusion) return false;
     const Group<Real>& g = m_group;
     if (g.triangles().size() != 0 || g.boxes().size() != 0 || !g.instances().empty()) return false;
     if (g.planes().size() > 1 || (g.planes().size() == 1 && g.planes().primitive(0).bounded)) return false;
