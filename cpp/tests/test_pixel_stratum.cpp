@@ -212,6 +212,36 @@ TEST_CASE("the union of circles within a rectangle: exact cases and numerical in
   }
 }
 
+TEST_CASE("areas where arcs' ends nearly meet: two circles crossing on a side or at a corner, nearly one circle, a side tangent") {
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> unit(0, 1), radius(0.2, 1.5), turn(0.1, kPi - 0.1);
+  for (int trial = 0; trial < 600; ++trial) {
+    std::vector<double> cu(2), cv(2), r{radius(rng), radius(rng)};
+    const int kind = trial % 3;
+    if (kind == 0) {  // meeting on the bottom side, from above or below it
+      const double t = unit(rng);
+      for (int i = 0; i < 2; ++i) {
+        const double phi = turn(rng);
+        cu[i] = t - r[i] * std::cos(phi), cv[i] = r[i] * std::sin(phi) * (unit(rng) < 0.5 ? 1 : -1);
+      }
+    } else if (kind == 1) {  // meeting at the corner (0, 0)
+      for (int i = 0; i < 2; ++i) {
+        const double phi = 2 * kPi * unit(rng);
+        cu[i] = r[i] * std::cos(phi), cv[i] = r[i] * std::sin(phi);
+      }
+    } else {  // nearly the same circle: moved by 1e-16 to 1e-9
+      const double e = std::exp(std::log(1e-16) + unit(rng) * std::log(1e7)), phi = 2 * kPi * unit(rng);
+      cu[0] = unit(rng), cv[0] = unit(rng);
+      cu[1] = cu[0] + e * std::cos(phi), cv[1] = cv[0] + e * std::sin(phi), r[1] = r[0] * (1 + e * (2 * unit(rng) - 1));
+    }
+    const double exact = circlesRectangleUnionArea(cu.data(), cv.data(), r.data(), 2, 1, 1);
+    CHECK_MESSAGE(std::abs(exact - unionIntegrated(cu, cv, r, 1, 1)) < 1e-6, "trial ", trial);
+  }
+  // The top side tangent to the disk at the top, the circle leaving through both vertical sides.
+  CHECK(std::abs(unitDiskRectangleArea(-0.5, 0.5, 0.2, 1) - integrated(-0.5, 0.5, 0.2, 1)) < 1e-8);
+  CHECK(std::abs(unitDiskRectangleArea(-0.5, 0.5, -1, -0.2) - integrated(-0.5, 0.5, -1, -0.2)) < 1e-8);
+}
+
 TEST_CASE("a pixel's stratum of several silhouettes: the share of their union, and membership in any") {
   std::mt19937_64 rng(29);
   std::uniform_real_distribution<double> offset(-1.0, 2.0), axis(0.2, 1.5);
