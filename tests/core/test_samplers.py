@@ -344,6 +344,28 @@ def test_a_perspective_silhouette_weighs_a_pixels_samples_by_its_ellipses_exact_
     assert np.abs(value - coverage)[weighed].max() < 3e-3
 
 
+@pytest.mark.parametrize("clip_planes", [False, True])
+def test_a_perspective_silhouette_the_cameras_near_bound_cuts_keeps_the_plain_mean(clip_planes: bool):
+    # A flat sphere whose front lies before the camera's t_min (or near plane): rays through its
+    # image may pass its front and meet its inside or what lies behind it, so the edge seen is not
+    # its silhouette and its pixels keep the plain mean; with the bound before the sphere they are
+    # weighed.
+    size, centre, radius = 32, (0.6, -0.4, -10.0), 2.0
+    scene = durer.Scene()
+    scene.background = WHITE_ON_BLACK
+    scene.add_spheres([centre], [radius], material=scene.add_material((1, 1, 1)))
+    weighed = []
+    for t_min in (7.5, 8.5):  # the front at about 8.0 from the eye (along the axis: 8)
+        camera = durer.PerspectiveCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), fov_degrees=30,
+                                         t_min=t_min, clip_planes=clip_planes)
+        result = durer.render(scene, camera, size, size, spp=16, sampler="adaptive")
+        value = result.color[..., 0]
+        edge = (value > 0) & (value < 1)
+        assert edge.sum() >= 30
+        weighed.append((plain_mean_counts(value, result.samples) > 0.05)[edge].sum())
+    assert weighed[0] >= 15 and weighed[1] == 0
+
+
 def test_a_perspective_silhouette_hidden_by_a_sphere_before_its_rim_keeps_the_plain_mean():
     # As through an orthographic camera (above), seen from far away through a narrow perspective
     # one: the pixels where the small sphere lies before the large one's rim keep the plain mean,

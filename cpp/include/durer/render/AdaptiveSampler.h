@@ -413,19 +413,27 @@ class AdaptiveSampler {
         px[k] = t.x0 + col, py[k] = t.y0 + row;
         m_tiles.sobolSeeds(px[k], py[k], order[k], points[k]);
         t.lastR[k] = t.lastG[k] = t.lastB[k] = 0;
-        if (StratumState* u = t.stratum) u->lastInR[k] = u->lastInG[k] = u->lastInB[k] = u->lastInside[k] = 0;
       }
     }
+    // Whether a pixel of the tile has a stratum: only then are the sums inside read (where none has,
+    // the samples add nothing to them). Whether it watches spheres: where a round may follow, through
+    // an orthographic camera (watchSilhouettes).
+    bool strata = false;
+    const bool watch = t.stratum != nullptr && m_rounds > 0 && m_tiles.seesDisks();
     if (StratumState* u = t.stratum) {
       m_tiles.silhouetteStrata(t.x0, t.y0, t.w, t.h, u->strata, u->sphere);
       for (auto& watched : u->watched) std::fill(watched, watched + count, Tiles::kNoSphere);  // set after the samples
+      strata = std::any_of(u->strata, u->strata + count, [](const PixelStratum& p) { return p.any(); });
+      for (Real* sums : {u->inR, u->inG, u->inB, u->inA, u->inside, u->lastInR, u->lastInG, u->lastInB, u->lastInside}) {
+        if (strata) std::fill(sums, sums + count, Real(0));
+      }
     }
     for (int sample = 0; sample < m_firstSamples; ++sample) {
       std::fill(s, s + count, static_cast<uint32_t>(sample));
-      FirstPassSink sink{t, static_cast<uint32_t>(sample), sample >= firstOfLast, t.stratum ? inside : nullptr,
+      FirstPassSink sink{t, static_cast<uint32_t>(sample), sample >= firstOfLast, strata ? inside : nullptr,
                          m_tiles.needsNormals()};
       m_tiles.sobolPositions(px, py, order, points, s, count, sampleX, sampleY, box, lensU, lensV);
-      if (t.stratum) markInside(t, sampleX, sampleY, nullptr, count, inside);
+      if (strata) markInside(t, sampleX, sampleY, nullptr, count, inside);
       if (!m_tiles.trace(sampleX, sampleY, box, lensU, lensV, count, sink, prim, along, counters, t.x0, t.y0, t.w)) {
         return false;
       }
@@ -434,7 +442,7 @@ class AdaptiveSampler {
         for (int col = 0; col < t.w; ++col, ++k) noteGeometry(t, k, line[col], k, k + 1, s, prim, along);
       }
       for (int k = 0; k < count; ++k) farthest[k] = std::max(farthest[k], static_cast<float>(along[k]));
-      for (int k = 0; t.stratum && m_rounds > 0 && k < count; ++k) {  // for the watch (below)
+      for (int k = 0; watch && k < count; ++k) {  // for the watch (below)
         int i = 0;
         while (i < metCount[k] && met[i][k] != prim[k]) ++i;
         if (i == metCount[k] && i < kMetPrimitives) met[i][k] = prim[k], metCount[k] = i + 1;
@@ -452,7 +460,7 @@ class AdaptiveSampler {
         for (int col = 0; col < t.w; ++col, ++k) line[col].smooth = smooth[k];
       }
     }
-    if (StratumState* u = t.stratum; u && m_rounds > 0 && m_tiles.seesDisks()) {  // what to watch for, where a round may follow
+    if (StratumState* u = t.stratum; u && watch) {  // what to watch for
       const auto wasMet = [&](int k, uint32_t sphere) {
         for (int i = 0; i < metCount[k]; ++i) {
           if (met[i][k] == static_cast<int32_t>(sphere)) return true;
@@ -465,6 +473,14 @@ class AdaptiveSampler {
       m_tiles.watchSilhouettes(t.x0, t.y0, t.w, t.h, farthest, u->sphere, wasMet, least, u->watched, u->watchedShare);
       for (auto& missed : u->watchedMissed) std::fill(missed, missed + count, 0.0f);
     }
+    // A tile without a stratum or a sphere watched (most tiles of an image of large spheres) keeps
+    // none of their bookkeeping for its later samples: what it would sum is never read.
+    const auto watching = [&](const StratumState& u) {
+      return std::any_of(std::begin(u.watched), std::end(u.watched), [&](const uint32_t(&watched)[kPacketSize]) {
+        return std::any_of(watched, watched + count, [](uint32_t sphere) { return sphere != Tiles::kNoSphere; });
+      });
+    };
+    if (t.stratum != nullptr && !strata && !watching(*t.stratum)) t.stratum = nullptr;
     return true;
   }
 
@@ -578,10 +594,7 @@ class AdaptiveSampler {
     t.h = std::min((ty + 1) * kTileSize, m_work.y + m_work.height) - t.y0;
     const int count = t.w * t.h;
     t.sums.clear(count, true, m_tiles.needsNormals(), true);  // colours too: the error estimates read them
-    t.stratum = m_strata ? &m_stratum[u] : nullptr;
-    if (StratumState* s = t.stratum) {
-      for (Real* sums : {s->inR, s->inG, s->inB, s->inA, s->inside}) std::fill(sums, sums + count, Real(0));
-    }
+    t.stratum = m_strata ? &m_stratum[u] : nullptr;  // its sums are cleared where a pixel has a stratum (firstPass)
     std::fill(t.taken, t.taken + count, 0);
     std::fill(t.last, t.last + count, 0);
     std::fill(t.add, t.add + count, m_firstSamples);

@@ -404,8 +404,8 @@ class TileRenderer {
   }
 
   // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0), for a render that
-  // stratifies(); through a perspective camera, perspectiveStrata's. Through an orthographic one: the union of the silhouettes of the camera's view's spheres whose edges cross the
-  // pixel, where at most PixelStratum::kMostDisks do (more, as in a dense cloud, where a union seldom
+  // stratifies(); through a perspective camera, perspectiveStrata's. Through an orthographic one:
+  // the union of the silhouettes of the camera's view's spheres whose edges cross the pixel, where at most PixelStratum::kMostDisks do (more, as in a dense cloud, where a union seldom
   // leaves the pixel a part outside: none), and spheres[k] its sphere where the union is one
   // sphere's silhouette (kNoSphere otherwise). Where spheres overlap or cut through each other, their
   // union's edge is still the edge between some sphere and what lies behind them all: only the edges
@@ -511,8 +511,10 @@ class TileRenderer {
   // it might hide; no overlap test: the ellipses' is not worth its cost here). Depths are distances
   // from the eye along the rays: a sphere's silhouette lies at sqrt(|q|^2 - r^2) from it (q its
   // centre from the eye), where the rays meet it the latest of those through its image (the rest of
-  // a covering sphere's image lies before it). A sphere reaching the eye's plane, whose image is
-  // unbounded, leaves the pixels it may reach none.
+  // a covering sphere's image lies before it). A sphere reaching the eye's plane (its image
+  // unbounded) or cut by the camera's near bound (ImageEllipse::exact) leaves the pixels it may reach
+  // none; the far bound, like other geometry, is not looked at (a stratum whose edge is not the one
+  // seen costs only its gain: any exact split keeps the mean consistent).
   void perspectiveStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres) const {
     const ParallelProjection image = m_camera.projection();
     const int count = w * h;
@@ -535,7 +537,7 @@ class TileRenderer {
       forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
         if (members[k] > 1 || !(e.tFront < hidden[k])) return;
         const bool wasOpen = hidden[k] == inf;
-        if (!e.bounded) {  // its edge may cross the pixel anywhere
+        if (!e.exact) {  // an edge it shows may cross the pixel anywhere
           members[k] = 2, changed = true;
         } else if (e.tEdge < hidden[k]) {
           const Cover cover = e.cover(x, y);
@@ -561,7 +563,7 @@ class TileRenderer {
       const ImageEllipse d = imageEllipse(image, i);
       forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
         if (members[k] != 1 || memberSphere[k] == i || !(d.tFront < member[k].tEdge)) return;
-        if (!d.bounded || d.cover(x, y) != Cover::Outside) members[k] = 0;
+        if (!d.exact || d.cover(x, y) != Cover::Outside) members[k] = 0;
       });
     });
     for (int row = 0, k = 0; row < h; ++row) {
@@ -663,11 +665,12 @@ class TileRenderer {
   // positions whose rays' lines pass through it, a du^2 + 2 b du dv + c dv^2 < 1 about its centre
   // (cx, cy), and that form's Cholesky factor, (l11 du + l12 dv)^2 + (l22 dv)^2 (PixelStratum::sheared);
   // the distances from the eye to its nearest point and to its silhouette (along the rays that graze
-  // it). `bounded` false where the sphere reaches the eye's plane: its image is then no ellipse (the
-  // rest unset).
+  // it). `exact` false where the sphere reaches the eye's plane (its image is then no ellipse; the
+  // rest unset) or the camera's near bound cuts into it (t_min, or the near plane: rays through its
+  // image may meet its inside or what lies behind it, so its edge there is not its silhouette).
   struct ImageEllipse {
     double cx, cy, a, b, c, l11, l12, l22, tFront, tEdge;
-    bool bounded;
+    bool exact;
 
     double form(double du, double dv) const { return a * du * du + 2 * b * du * dv + c * dv * dv; }
     // How pixel (x, y)'s square lies against it: Inside if its farthest corner is within, Crosses if
@@ -701,8 +704,9 @@ class TileRenderer {
     e.l11 = std::sqrt(a), e.l12 = b / e.l11, e.l22 = std::sqrt(c - e.l12 * e.l12);
     e.cx = image.sampleX(q.z * q.x / front), e.cy = image.sampleY(q.z * q.y / front);
     e.tEdge = std::sqrt(k2);
-    e.bounded = std::isfinite(e.l11) && std::isfinite(e.l12) && std::isfinite(e.l22) && e.l11 > 0 && e.l22 > 0 &&
-                std::isfinite(e.cx) && std::isfinite(e.cy);
+    const double nearest = m_camera.clipsAtPlanes() ? q.z - r : e.tFront;  // as the near bound measures it
+    e.exact = std::isfinite(e.l11) && std::isfinite(e.l12) && std::isfinite(e.l22) && e.l11 > 0 && e.l22 > 0 &&
+              std::isfinite(e.cx) && std::isfinite(e.cy) && nearest >= m_camera.tMin();
     return e;
   }
 
