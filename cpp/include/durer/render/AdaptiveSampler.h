@@ -424,8 +424,10 @@ class AdaptiveSampler {
       m_tiles.silhouetteStrata(t.x0, t.y0, t.w, t.h, u->strata, u->sphere);
       for (auto& watched : u->watched) std::fill(watched, watched + count, Tiles::kNoSphere);  // set after the samples
       strata = std::any_of(u->strata, u->strata + count, [](const PixelStratum& p) { return p.any(); });
-      for (Real* sums : {u->inR, u->inG, u->inB, u->inA, u->inside, u->lastInR, u->lastInG, u->lastInB, u->lastInside}) {
-        if (strata) std::fill(sums, sums + count, Real(0));
+      if (strata) {
+        for (Real* sums : {u->inR, u->inG, u->inB, u->inA, u->inside, u->lastInR, u->lastInG, u->lastInB, u->lastInside}) {
+          std::fill(sums, sums + count, Real(0));
+        }
       }
     }
     for (int sample = 0; sample < m_firstSamples; ++sample) {

@@ -405,8 +405,9 @@ class TileRenderer {
 
   // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0), for a render that
   // stratifies(); through a perspective camera, perspectiveStrata's. Through an orthographic one:
-  // the union of the silhouettes of the camera's view's spheres whose edges cross the pixel, where at most PixelStratum::kMostDisks do (more, as in a dense cloud, where a union seldom
-  // leaves the pixel a part outside: none), and spheres[k] its sphere where the union is one
+  // the union of the silhouettes of the camera's view's spheres whose edges cross the pixel, where
+  // at most PixelStratum::kMostDisks do (more, as in a dense cloud, where a union seldom leaves the
+  // pixel a part outside: none), and spheres[k] its sphere where the union is one
   // sphere's silhouette (kNoSphere otherwise). Where spheres overlap or cut through each other, their
   // union's edge is still the edge between some sphere and what lies behind them all: only the edges
   // among them lie inside it, and a sphere's part of the union that no sample has reached (a small
@@ -688,6 +689,11 @@ class TileRenderer {
       return nearest < 1 ? Cover::Crosses : Cover::Outside;
     }
   };
+  // Sphere `sphere`'s ellipse. The sphere (centre q from the eye in the camera's frame, radius r) is
+  // met by the image-plane directions (X, Y, 1) where (X qx + Y qy + qz)^2 >= (X^2 + Y^2 + 1) k^2,
+  // k^2 = |q|^2 - r^2: for qz > r the ellipse about (qx, qy) qz / (qz^2 - r^2) whose form is
+  // ((k^2 - qx^2) dX^2 - 2 qx qy dX dY + (k^2 - qy^2) dY^2) (qz^2 - r^2) / (r^2 k^2) < 1, here turned
+  // into pixels (dX = pixelWidth du, dY = -pixelHeight dv) and factored.
   ImageEllipse imageEllipse(const ParallelProjection& image, uint32_t sphere) const {
     const Sphere<Real>& s = m_group.spheres().primitive(sphere);
     const Vec3d q = image.inFrame(Vec3d(s.center));
