@@ -394,13 +394,33 @@ class TileRenderer {
   // and height), which a stratum may unite and adaptive sampling watches (watchSilhouettes).
   bool seesDisks() const { return stratifies() && !m_camera.projection().perspective; }
 
-  // The farthest of `count` pixels' bounds in a strata walk (the depth before which a sphere may
-  // still change pixel k, -inf once none can): infinite while any is (`open` of them are).
-  template <typename Bound>
-  static double farthestBound(int open, int count, const Bound& bound) {
-    double farthest = open > 0 ? std::numeric_limits<double>::infinity() : -std::numeric_limits<double>::infinity();
-    for (int k = 0; open == 0 && k < count; ++k) farthest = std::max(farthest, bound(k));
-    return farthest;
+  // A strata walk of the tile's cell (w x h pixels at (x0, y0)): the view's spheres nearest first,
+  // each made once (make(i)) and handed with each of its span's pixels to update(sphere, i, k, x, y),
+  // which returns whether pixel k's bound may have fallen (bound(k): the depth before which a sphere
+  // may still change the pixel, -inf once none can). The walk ends at the first sphere whose front
+  // lies beyond every pixel's bound; while any bound is infinite (`open` of them), so is the
+  // farthest, and it is not looked for.
+  template <typename Make, typename Bound, typename Update>
+  void walkStrata(int x0, int y0, int w, int h, const Make& make, const Bound& bound, const Update& update) const {
+    const double inf = std::numeric_limits<double>::infinity();
+    const int count = w * h;
+    double settled = inf;
+    int open = count;
+    m_view->forCellWhile(x0, y0, [&](uint32_t i, float tLow, std::array<int, 2> rows, std::array<int, 2> columns) {
+      if (double(tLow) >= settled) return false;
+      const auto sphere = make(i);
+      bool changed = false;
+      forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
+        const bool wasOpen = bound(k) == inf;
+        changed = update(sphere, i, k, x, y) || changed;
+        open -= wasOpen && !(bound(k) == inf);
+      });
+      if (changed) {
+        settled = open > 0 ? inf : -inf;
+        for (int k = 0; open == 0 && k < count; ++k) settled = std::max(settled, bound(k));
+      }
+      return true;
+    });
   }
 
   // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0), for a render that
@@ -445,28 +465,19 @@ class TileRenderer {
     // more spheres cross than a union holds (members[k] > kMost) keeps none, whatever follows: the
     // farthest of the pixels' bounds bounds the fronts still worth reading.
     const auto bound = [&](int k) { return members[k] <= kMost ? hidden[k] : -inf; };
-    double settled = inf;
-    int open = count;  // pixels whose bound is still infinite: while any is, so is the farthest
-    m_view->forCellWhile(x0, y0, [&](uint32_t i, float tLow, std::array<int, 2> rows, std::array<int, 2> columns) {
-      if (double(tLow) >= settled) return false;
-      const ImageDisk d = imageDisk(image, i);
-      bool changed = false;
-      forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
-        if (!(d.q.z < hidden[k])) return;
-        const Cover cover = d.cover(x, y);
-        const bool wasOpen = bound(k) == inf;
-        if (cover == Cover::Inside) {
-          hidden[k] = d.q.z, changed = true;
-        } else if (cover == Cover::Crosses && members[k] <= kMost) {
-          if (members[k] < kMost) member[members[k]][k] = d, memberSphere[members[k]][k] = i;
-          ++members[k];
-          changed = changed || members[k] > kMost;  // the bound moves only with a cover or too many
-        }
-        open -= wasOpen && !(bound(k) == inf);
-      });
-      if (changed) settled = farthestBound(open, count, bound);
-      return true;
-    });
+    walkStrata(x0, y0, w, h, [&](uint32_t i) { return imageDisk(image, i); }, bound,
+               [&](const ImageDisk& d, uint32_t i, int k, int x, int y) {
+                 if (!(d.q.z < hidden[k])) return false;
+                 const Cover cover = d.cover(x, y);
+                 if (cover == Cover::Inside) {
+                   hidden[k] = d.q.z;
+                   return true;
+                 }
+                 if (cover != Cover::Crosses || members[k] > kMost) return false;
+                 if (members[k] < kMost) member[members[k]][k] = d, memberSphere[members[k]][k] = i;
+                 ++members[k];
+                 return members[k] > kMost;  // the bound moves only with a cover or too many
+               });
     double farthest = -inf;  // the deepest member kept
     for (int k = 0; k < count; ++k) {
       int n = 0;
@@ -529,32 +540,24 @@ class TileRenderer {
     // A sphere can change a pixel only with its edge before the pixel's cover; one more than one
     // sphere crosses keeps none, whatever follows.
     const auto bound = [&](int k) { return members[k] <= 1 ? hidden[k] : -inf; };
-    double settled = inf;
-    int open = count;  // pixels whose bound is still infinite: while any is, so is the farthest
-    m_view->forCellWhile(x0, y0, [&](uint32_t i, float tLow, std::array<int, 2> rows, std::array<int, 2> columns) {
-      if (double(tLow) >= settled) return false;
-      const ImageEllipse e = imageEllipse(image, i);
-      bool changed = false;
-      forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
-        if (members[k] > 1 || !(e.tFront < hidden[k])) return;
-        const bool wasOpen = hidden[k] == inf;
-        if (!e.exact) {  // an edge it shows may cross the pixel anywhere
-          members[k] = 2, changed = true;
-        } else if (e.tEdge < hidden[k]) {
-          const Cover cover = e.cover(x, y);
-          if (cover == Cover::Inside) {
-            hidden[k] = e.tEdge, changed = true;
-          } else if (cover == Cover::Crosses) {
-            if (members[k] == 0) member[k] = e, memberSphere[k] = i;
-            ++members[k];
-            changed = changed || members[k] > 1;  // the bound moves only with a cover or a second
-          }
-        }
-        open -= wasOpen && !(bound(k) == inf);
-      });
-      if (changed) settled = farthestBound(open, count, bound);
-      return true;
-    });
+    walkStrata(x0, y0, w, h, [&](uint32_t i) { return imageEllipse(image, i); }, bound,
+               [&](const ImageEllipse& e, uint32_t i, int k, int x, int y) {
+                 if (members[k] > 1 || !(e.tFront < hidden[k])) return false;
+                 if (!e.exact) {  // an edge it shows may cross the pixel anywhere
+                   members[k] = 2;
+                   return true;
+                 }
+                 if (!(e.tEdge < hidden[k])) return false;
+                 const Cover cover = e.cover(x, y);
+                 if (cover == Cover::Inside) {
+                   hidden[k] = e.tEdge;
+                   return true;
+                 }
+                 if (cover != Cover::Crosses) return false;
+                 if (members[k] == 0) member[k] = e, memberSphere[k] = i;
+                 ++members[k];
+                 return members[k] > 1;  // the bound moves only with a cover or a second
+               });
     double farthest = -inf;  // the deepest edge kept
     for (int k = 0; k < count; ++k) {
       if (members[k] != 1 || !(member[k].tEdge < hidden[k])) members[k] = 0;  // more, or a cover found after it
