@@ -276,3 +276,57 @@ TEST_CASE_TEMPLATE("the top-level hierarchy over instances finds the nearest ins
     }
   }
 }
+
+TEST_CASE_TEMPLATE("a packet that met one sphere or plane gets ray by ray's hit records, bit for bit", Real, float,
+                   double) {
+  // Group::makeUniformHits makes a packet's records in a loop over its one primitive: each must
+  // equal the record Group::hit makes for the ray alone, field by field.
+  Group<double> scene;
+  scene.spheres().add(Sphere<double>{Vec3d(0.3, -0.2, 0.1), 3.0}, 2, 7);
+  scene.planes().add(Plane<double>{glm::normalize(Vec3d(0.1, 0.2, 1)), Vec3d(0, 0, -5), false, Vec3d(0), Vec3d(0)}, 3, 8);
+  Group<Real> group(scene);
+  group.prepare(1);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> unit(-1, 1), spacing(1e-6, 0.05);
+  const auto same = [](const auto& a, const auto& b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  for (int trial = 0; trial < 200; ++trial) {
+    const bool onPlane = trial % 2 == 1;  // the plane's rays pass beside the sphere
+    const double step = spacing(rng);
+    const Vec3d start(unit(rng) + (onPlane ? 9 : -0.5), unit(rng) - 0.5, 15);
+    RayPacket<Real> p;
+    p.count = 1 + trial % 64;
+    p.tMin = Real(0), p.tMax = std::numeric_limits<Real>::infinity();
+    for (int k = 0; k < p.count; ++k) {
+      const Vec3d d(unit(rng) * 0.01, unit(rng) * 0.01, -1);
+      p.ox[k] = Real(start.x + step * (k % 8)), p.oy[k] = Real(start.y + step * (k / 8)), p.oz[k] = Real(start.z);
+      p.dx[k] = Real(d.x), p.dy[k] = Real(d.y), p.dz[k] = Real(d.z);
+    }
+    p.coherent = true;
+    p.resetHits();
+    group.template intersect<SphereMethod::Robust>(p, nullptr);
+    const int32_t expected = onPlane ? 1 : 0;  // the packed primitive: spheres first
+    REQUIRE(std::all_of(p.prim, p.prim + p.count, [&](int32_t prim) { return prim == expected; }));
+    HitRecords<Real, kPacketSize> records;
+    REQUIRE(group.makeUniformHits(p, [&](int k, const auto& f) { records.make(k, f); }));
+    for (int k = 0; k < p.count; ++k) {
+      CAPTURE(trial);
+      CAPTURE(k);
+      const Hit<Real> alone = group.hit(p, k), &made = records[k];
+      CHECK(same(made.t, alone.t));
+      CHECK(same(made.normal, alone.normal));
+      CHECK(same(made.geometricNormal, alone.geometricNormal));
+      CHECK(same(made.point, alone.point));
+      CHECK(same(made.pointError, alone.pointError));
+      CHECK(made.objectId == alone.objectId);
+      CHECK(made.materialId == alone.materialId);
+      CHECK(made.colored == alone.colored);
+    }
+    // One ray sent elsewhere (missing both): the packet is no longer uniform, and nothing is made.
+    if (p.count > 1) {
+      p.prim[p.count - 1] = kNoPrimitive;
+      CHECK_FALSE(group.makeUniformHits(p, [&](int, const auto&) { FAIL("a record was made"); }));
+    }
+    std::fill(p.prim, p.prim + p.count, kNoPrimitive);  // every ray a miss: no primitive's records
+    CHECK_FALSE(group.makeUniformHits(p, [&](int, const auto&) { FAIL("a record was made"); }));
+  }
+}

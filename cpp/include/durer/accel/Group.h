@@ -221,6 +221,25 @@ class Group {
     }
   }
 
+  // Where every ray of the packet met one of the group's own spheres or planes (most of a primary
+  // render's packets), each ray's hit record, as hit(packet, k) makes it, made in place by make(k, f)
+  // from the record f() returns, in loops over that one primitive that vectorise (SphereSet::hitsOn);
+  // false, and nothing made, otherwise.
+  template <typename Make>
+  bool makeUniformHits(const RayPacket<Real>& packet, const Make& make) const {
+    const int32_t first = packet.prim[0];
+    int others = 0;  // an integer count, not a bool: the reduction then vectorises
+    for (int k = 1; k < packet.count; ++k) others += packet.prim[k] != first ? 1 : 0;
+    const auto index = static_cast<size_t>(first);
+    if (others != 0 || first == kNoPrimitive || index >= m_spheres.size() + m_planes.size()) return false;
+    if (index < m_spheres.size()) {
+      m_spheres.hitsOn(packet, index, make);
+    } else {
+      m_planes.hitsOn(packet, index - m_spheres.size(), make);
+    }
+    return true;
+  }
+
   // The full hit record of ray k, once its search is over (a miss gives the default record).
   Hit<Real> hit(const RayPacket<Real>& packet, int k) const {
     const int32_t prim = packet.prim[k];

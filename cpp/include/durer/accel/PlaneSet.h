@@ -60,20 +60,43 @@ class PlaneSet : public PrimitiveSet<Plane<Real>, Real> {
     });
   }
 
-  Hit<Real> hit(const RayPacket<Real>& packet, int k, size_t index) const {
-    const Plane<Real>& pl = this->m_primitives[index];
+  // Where ray k meets plane `pl` (at packet.tHit[k]); pointError: that point's error bound.
+  DURER_INLINE static Vec3<Real> pointOn(const Plane<Real>& pl, const RayPacket<Real>& packet, int k) {
     const Real t = packet.tHit[k];
     const Vec3<Real> p(packet.ox[k] + t * packet.dx[k], packet.oy[k] + t * packet.dy[k],
                        packet.oz[k] + t * packet.dz[k]);
-    Hit<Real> h;
-    h.t = t;
-    h.normal = h.geometricNormal = pl.normal;
     // One projection step back onto the plane, measured from its point: the error is then a few
     // roundings of the coordinates' magnitude, whatever t's error was.
-    h.point = p - glm::dot(pl.normal, p - pl.point) * pl.normal;
-    h.pointError = errorGamma<Real>(8) * (absolute(h.point) + absolute(pl.point));
+    return p - glm::dot(pl.normal, p - pl.point) * pl.normal;
+  }
+  DURER_INLINE static Vec3<Real> pointError(const Plane<Real>& pl, const Vec3<Real>& point) {
+    return errorGamma<Real>(8) * (absolute(point) + absolute(pl.point));
+  }
+
+  // Full record of ray k's hit on plane `index` (from values in registers, as SphereSet::hit's).
+  Hit<Real> hit(const RayPacket<Real>& packet, int k, size_t index) const {
+    const Plane<Real>& pl = this->m_primitives[index];
+    const Vec3<Real> point = pointOn(pl, packet, k);
+    Hit<Real> h;
+    h.t = packet.tHit[k];
+    h.normal = pl.normal, h.geometricNormal = pl.normal;
+    h.point = point;
+    h.pointError = pointError(pl, point);
     this->recordIds(h, index);
     return h;
+  }
+
+  // hit(packet, k, index) for every ray k of the packet, all of which met plane `index`, as
+  // SphereSet::hitsOn makes a sphere's.
+  template <typename Make>
+  void hitsOn(const RayPacket<Real>& packet, size_t index, const Make& make) const {
+    const Plane<Real> pl = this->m_primitives[index];
+    alignas(64) Real v[9][kPacketSize];
+    for (int k = 0; k < packet.count; ++k) {
+      const Vec3<Real> point = pointOn(pl, packet, k), error = pointError(pl, point);
+      for (int i = 0; i < 3; ++i) v[i][k] = pl.normal[i], v[3 + i][k] = point[i], v[6 + i][k] = error[i];
+    }
+    this->recordsFrom(packet, index, v, make);
   }
 
  private:

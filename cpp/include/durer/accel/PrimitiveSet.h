@@ -229,6 +229,27 @@ class PrimitiveSet {
   // Whether a hierarchy was built (buildBvh), not just the primitives arranged.
   bool hasBvh() const { return !m_bvh.empty(); }
 
+  // The records of every ray k of a packet, all of which met primitive `index`, from the unit
+  // normals (both the shaded and the geometric one), points and points' error bounds a loop over
+  // the packet made (`v`: their x, y, z components in turn), each made in place by make(k, f) from
+  // the record f() returns (SphereSet::hitsOn).
+  template <typename Make>
+  DURER_INLINE void recordsFrom(const RayPacket<Real>& packet, size_t index, const Real (&v)[9][kPacketSize],
+                                const Make& make) const {
+    for (int k = 0; k < packet.count; ++k) {
+      make(k, [&] {
+        const Vec3<Real> normal(v[0][k], v[1][k], v[2][k]);
+        Hit<Real> hit;
+        hit.t = packet.tHit[k];
+        hit.normal = normal, hit.geometricNormal = normal;
+        hit.point = Vec3<Real>(v[3][k], v[4][k], v[5][k]);
+        hit.pointError = Vec3<Real>(v[6][k], v[7][k], v[8][k]);
+        recordIds(hit, index);
+        return hit;
+      });
+    }
+  }
+
   // The hit record's epilog: the ids of primitive `index`, and its colour if it has one colour
   // (a primitive with one per corner interpolates them itself).
   void recordIds(Hit<Real>& hit, size_t index) const {

@@ -572,27 +572,55 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     return roots.near < from;
   }
 
-  Vec3<Real> normal(const RayPacket<Real>& packet, int k, size_t index) const {
+  DURER_INLINE Vec3<Real> normal(const RayPacket<Real>& packet, int k, size_t index) const {
+    return normalOn(this->m_primitives[index], packet, k);
+  }
+  DURER_INLINE static Vec3<Real> normalOn(const Sphere<Real>& sphere, const RayPacket<Real>& packet, int k) {
     const Real t = packet.tHit[k];
     const Vec3<Real> p(packet.ox[k] + t * packet.dx[k], packet.oy[k] + t * packet.dy[k],
                        packet.oz[k] + t * packet.dz[k]);
     // A sphere smaller than the spacing of numbers at its hit point can be met exactly at its centre
     // (p - c = 0): the normal then faces the ray.
-    return glm::normalize(wellScaled(p - this->m_primitives[index].center,
-                                     -Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k])));
+    return glm::normalize(wellScaled(p - sphere.center, -Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k])));
   }
 
-  // Full record of ray k's hit on sphere `index` at packet.tHit[k].
+  // Reprojection onto the sphere (pbrt-v4) of the hit whose unit normal is n: the point's error no
+  // longer depends on t's error. Its error bound is pointError's.
+  DURER_INLINE static Vec3<Real> pointOn(const Sphere<Real>& sphere, const Vec3<Real>& n) {
+    return sphere.center + sphere.radius * n;
+  }
+  DURER_INLINE static Vec3<Real> pointError(const Sphere<Real>& sphere, const Vec3<Real>& point) {
+    return errorGamma<Real>(6) * (absolute(point - sphere.center) + absolute(sphere.center));
+  }
+
+  // Full record of ray k's hit on sphere `index` at packet.tHit[k]. (Its fields are set from values
+  // in registers, never read back from the record: a vector read from a record just written, in
+  // other pieces than it was stored in, waits for the stores to drain, about 5 % of a lit render.)
   Hit<Real> hit(const RayPacket<Real>& packet, int k, size_t index) const {
-    const Vec3<Real> c = this->m_primitives[index].center;
+    const Sphere<Real>& sphere = this->m_primitives[index];
+    const Vec3<Real> n = normalOn(sphere, packet, k), point = pointOn(sphere, n);
     Hit<Real> h;
     h.t = packet.tHit[k];
-    h.normal = h.geometricNormal = normal(packet, k, index);
-    // Reprojection onto the sphere (pbrt-v4): the point's error no longer depends on t's error.
-    h.point = c + this->m_primitives[index].radius * h.normal;
-    h.pointError = errorGamma<Real>(6) * (absolute(h.point - c) + absolute(c));
+    h.normal = n, h.geometricNormal = n;
+    h.point = point;
+    h.pointError = pointError(sphere, point);
     this->recordIds(h, index);
     return h;
+  }
+
+  // hit(packet, k, index) for every ray k of the packet, all of which met sphere `index`, each made
+  // in place by make(k, f) from the record f() returns: the same records, their vectors made in a
+  // loop over the one sphere's fields that vectorises (a primary render's packets mostly meet one
+  // primitive; cpp/tests/test_traversal.cpp checks them against hit's).
+  template <typename Make>
+  void hitsOn(const RayPacket<Real>& packet, size_t index, const Make& make) const {
+    const Sphere<Real> sphere = this->m_primitives[index];
+    alignas(64) Real v[9][kPacketSize];
+    for (int k = 0; k < packet.count; ++k) {
+      const Vec3<Real> n = normalOn(sphere, packet, k), point = pointOn(sphere, n), error = pointError(sphere, point);
+      for (int i = 0; i < 3; ++i) v[i][k] = n[i], v[3 + i][k] = point[i], v[6 + i][k] = error[i];
+    }
+    this->recordsFrom(packet, index, v, make);
   }
 
  private:

@@ -607,7 +607,10 @@ class PacketShader {
     counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
     if (m_cancel.load(std::memory_order_relaxed)) return;
     HitRecords<Real, kPacketSize> hits;
-    m_group.forEachHitRecord(packet, count, [&](int j) { hits.make(j, [&] { return m_group.hit(packet, j); }); });
+    const auto make = [&](int j, const auto& f) { hits.make(j, f); };
+    if (!m_group.makeUniformHits(packet, make)) {
+      m_group.forEachHitRecord(packet, count, [&](int j) { make(j, [&] { return m_group.hit(packet, j); }); });
+    }
     alignas(64) Vec3<Real> seen[kPacketSize];
     shade(packet, hits.data(), weights, depth, seen, counters);
     for (int j = 0; j < count; ++j) rgb[children[j].parent] += children[j].factor * seen[j];

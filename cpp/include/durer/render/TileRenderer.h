@@ -888,8 +888,11 @@ class TileRenderer {
       return;
     }
     HitRecords<Real, kPacketSize> hits;
+    const auto make = [&](int k, const auto& f) { hits.make(k, f); };
+    if (!m_group.makeUniformHits(packet, make)) {
+      for (int k = 0; k < packet.count; ++k) make(k, [&] { return m_group.hit(packet, k); });
+    }
     for (int k = 0; k < packet.count; ++k) {
-      hits.make(k, [&] { return m_group.hit(packet, k); });
       if (!hits[k].isHit()) continue;
       if (m_targets.depth) acc.addDepth(k, m_planarDepth ? hits[k].t * planarScale(packet, k) : hits[k].t);
       if (!acc.wantsNormal(k)) continue;
