@@ -221,8 +221,9 @@ class Group {
     }
   }
 
-  // Where every ray of the packet met one of the group's own spheres or planes (most of a primary
-  // render's packets), each ray's hit record, as hit(packet, k) makes it, made in place by make(k, f)
+  // Where every ray of the packet met one of the group's own spheres or planes (most camera packets
+  // where the objects span many pixels, few of a point cloud's; mirror and refracted packets too,
+  // where they agree), each ray's hit record, as hit(packet, k) makes it, made in place by make(k, f)
   // from the record f() returns, in loops over that one primitive that vectorise (SphereSet::hitsOn);
   // false, and nothing made, otherwise.
   template <typename Make>
