@@ -1,5 +1,8 @@
-// The lecture's sphere methods (algebraic, geometric) for both precisions, compiled once for the
-// baseline instruction set: they are there to compare accuracy, not to be fast.
+#pragma once
+// The lecture's sphere methods (algebraic, geometric) for a precision, compiled once for the
+// baseline instruction set: they are there to compare accuracy, not to be fast. Instantiated by
+// src/kernels/LectureFloat.cpp and LectureDouble.cpp, one translation unit a precision, which a
+// build compiles side by side (together, the longest compilation of a clean build).
 #include "durer/render/CastKernel.h"
 #include "durer/render/RenderKernel.h"
 
@@ -16,10 +19,5 @@ CastStats castLecture(const CastJob<Real>& job, SphereMethod method) {
   return method == SphereMethod::Algebraic ? castWith<Real, SphereMethod::Algebraic>(job)
                                            : castWith<Real, SphereMethod::Geometric>(job);
 }
-
-template RenderStats renderLecture<float>(const RenderJob&, SphereMethod);
-template RenderStats renderLecture<double>(const RenderJob&, SphereMethod);
-template CastStats castLecture<float>(const CastJob<float>&, SphereMethod);
-template CastStats castLecture<double>(const CastJob<double>&, SphereMethod);
 
 }  // namespace durer

@@ -1,0 +1,11 @@
+// The robust kernels in single precision, compiled once per instruction set (DURER_ISA). The render
+// and the cast share one translation unit: the traversal and the hit records they both instantiate
+// are then compiled once, not twice (a fifth of a clean build's kernel time).
+#include "durer/render/CastKernel.h"
+#include "durer/render/RenderKernel.h"
+
+namespace durer {
+DURER_DECLARE_KERNEL_SET(DURER_ISA)
+RenderStats DURER_ISA::renderFloat(const RenderJob& job) { return renderWith<float, SphereMethod::Robust>(job); }
+CastStats DURER_ISA::castFloat(const CastJob<float>& job) { return castWith<float, SphereMethod::Robust>(job); }
+}  // namespace durer
