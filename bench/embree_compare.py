@@ -194,7 +194,7 @@ def cache_value(cache: Path, name: str) -> str | None:
 
 def build_executable(embree_dir: Path, native: bool) -> Path:
     """Configures and builds durer_embree_bench; returns its path. A clean build compiles Dürer's
-    core again (about 70 seconds on 2 cores); ccache makes a rebuild take seconds."""
+    core again (two to three minutes on 2 cores); ccache makes a rebuild take seconds."""
     build = build_dir(native)
     cache, compiler = build / "CMakeCache.txt", package_compiler()
     if compiler and cache.exists() and cache_value(cache, "CMAKE_CXX_COMPILER") != compiler:
@@ -456,7 +456,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(INSTALL_HINT, file=sys.stderr)
         return 2
     native = native_flags()
-    print(f"building {EXECUTABLE} in {build_dir(native)} (a clean build takes about a minute)...", file=sys.stderr)
+    print(f"building {EXECUTABLE} in {build_dir(native)} (a clean build takes two to three minutes)...", file=sys.stderr)
     executable = build_executable(embree_dir, native)
     size = QUICK_SIZE if args.quick else FULL_SIZE
     runs = args.runs or (QUICK_RUNS if args.quick else DEFAULT_RUNS)

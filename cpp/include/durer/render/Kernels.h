@@ -48,7 +48,7 @@ template <typename Real>
 CastStats castLecture(const CastJob<Real>& job, SphereMethod method);
 
 // Each kernel set's entry points, in a namespace of its own (DURER_ISA when a set is compiled); the
-// only symbols of a set that stay global in the library (CMakeLists.txt).
+// only symbols that stay global in the set's object (CMakeLists.txt).
 #define DURER_DECLARE_KERNEL_SET(ns)                              \
   namespace ns {                                                  \
   RenderStats renderFloat(const RenderJob& job);                  \

@@ -1,7 +1,7 @@
 #pragma once
 // A render's kernel for one precision and sphere method: the tiles of TileRenderer.h, or the rounds
 // of AdaptiveSampler.h, on the render's threads. Instantiated by the kernel translation units
-// (src/kernels), each compiled once per instruction set.
+// (src/kernels: the robust kernels once per instruction set, the lecture's once).
 #include <algorithm>
 #include <memory>
 #include <optional>
