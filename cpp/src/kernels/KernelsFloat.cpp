@@ -1,6 +1,6 @@
 // The robust kernels in single precision, compiled once per instruction set (DURER_ISA). The render
 // and the cast share one translation unit: the traversal and the hit records they both instantiate
-// are then compiled once, not twice (a fifth of a clean build's kernel time).
+// are then compiled once, not twice (x86-64-v3, double: 18.9 s of CPU together, 26.5 s apart).
 #include "durer/render/CastKernel.h"
 #include "durer/render/RenderKernel.h"
 
