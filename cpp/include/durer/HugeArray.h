@@ -29,12 +29,12 @@
 namespace durer {
 
 // The blocks HugeArrays have freed, kept for the next ones (the file's head): up to kKept blocks
-// and kKeptBytes in all, the oldest given back to the system first. Where the system cannot give
-// pages up lazily (no MADV_FREE) nothing is kept. A block is taken only by an array at least half
-// its size (a small array kept for long, a scene's grid, would otherwise hold a render's large
-// one) and of its kind: one advised to huge pages, and aligned to them, only by such an array. The
-// lock is only tried: where another thread holds it (or held it when a process forked), the array
-// is made and freed as without a cache.
+// and kKeptBytes in all, the oldest small-page ones given back to the system first (give). Where
+// the system cannot give pages up lazily (no MADV_FREE) nothing is kept. A block is taken only by
+// an array at least half its size (a small array kept for long, a scene's grid, would otherwise
+// hold a render's large one) and of its kind: one advised to huge pages, and aligned to them, only
+// by such an array. The lock is only tried: where another thread holds it (or held it when a
+// process forked), the array is made and freed as without a cache.
 class HugeBlocks {
  public:
   static constexpr int kKept = 8;
