@@ -1,7 +1,6 @@
-// HugeArray: a plain array below kKeptFrom; from it on one aligned to a page, and from kHugeFrom
-// on to the 2 MiB pages that Linux's transparent huge pages need (the madvise itself is advice
-// that the kernel may refuse), whose block, freed, the next such array of its kind takes
-// (HugeBlocks).
+// HugeArray: a plain array below kHugeFrom, and from it on one aligned to the 2 MiB pages that
+// Linux's transparent huge pages need (the madvise itself is advice that the kernel may refuse),
+// whose block, freed, the next such array takes (HugeBlocks).
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -11,10 +10,6 @@
 #include <vector>
 
 #include "durer/HugeArray.h"
-
-#if defined(__linux__) && defined(__x86_64__)
-#include <sys/resource.h>
-#endif
 
 namespace {
 
@@ -92,11 +87,9 @@ TEST_CASE("HugeBlocks keeps at most kKept blocks and kKeptBytes, the oldest free
     made.push_back(std::aligned_alloc(page, page));
     REQUIRE(made.back() != nullptr);
   }
-  for (void* p : made) Blocks::give({p, page, true});
+  for (void* p : made) Blocks::give({p, page});
   std::vector<void*> taken;
-  for (Blocks::Block b = Blocks::take(page, true); b.memory != nullptr; b = Blocks::take(page, true)) {
-    taken.push_back(b.memory);
-  }
+  for (Blocks::Block b = Blocks::take(page); b.memory != nullptr; b = Blocks::take(page)) taken.push_back(b.memory);
   CHECK(taken.size() == size_t(Blocks::kKept));
   for (void* p : taken) CHECK(std::find(made.begin() + 2, made.end(), p) != made.end());  // the two oldest went
   for (void* p : taken) std::free(p);
@@ -107,78 +100,17 @@ TEST_CASE("HugeBlocks keeps at most kKept blocks and kKeptBytes, the oldest free
   for (int i = 0; i < 3; ++i) {
     large.push_back(std::aligned_alloc(page, halfLimit));
     REQUIRE(large.back() != nullptr);
-    Blocks::give({large.back(), halfLimit, true});
+    Blocks::give({large.back(), halfLimit});
   }
-  const Blocks::Block a = Blocks::take(halfLimit, true), b = Blocks::take(halfLimit, true);
-  CHECK(Blocks::take(halfLimit, true).memory == nullptr);
+  const Blocks::Block a = Blocks::take(halfLimit), b = Blocks::take(halfLimit);
+  CHECK(Blocks::take(halfLimit).memory == nullptr);
   CHECK(((a.memory == large[1] && b.memory == large[2]) || (a.memory == large[2] && b.memory == large[1])));
   std::free(a.memory);
   std::free(b.memory);
 
   void* huge = std::aligned_alloc(page, Blocks::kKeptBytes + page);
   REQUIRE(huge != nullptr);
-  Blocks::give({huge, Blocks::kKeptBytes + page, true});  // larger than all that may be kept: freed
-  CHECK(Blocks::take(Blocks::kKeptBytes + page, true).memory == nullptr);
-}
-
-TEST_CASE("a middling HugeArray's block is kept for the next one of its size, never for a huge-page one") {
-  using Array = durer::HugeArray<uint64_t>;
-  const size_t n = (size_t(3) << 20) / sizeof(uint64_t) + 5;  // 3 MiB: above kKeptFrom, below kHugeFrom
-  static_assert((size_t(3) << 20) > Array::kKeptFrom && (size_t(3) << 20) < Array::kHugeFrom);
-  const void* first = nullptr;
-  {
-    Array a(n);
-    fillAndCheck(a, n);
-    CHECK(reinterpret_cast<uintptr_t>(a.get()) % Array::kPage == 0);
-    first = a.get();
-  }
-  {
-    Array huge(n / 2, Array::kPage);  // 2 MiB rounded, a size the kept block would serve; but it asks for huge pages
-    CHECK(huge.get() != first);
-    CHECK(reinterpret_cast<uintptr_t>(huge.get()) % Array::kHugePage == 0);
-  }
-  Array b(n - 2);  // a render's next state: the block its last one freed, its pages still there
-  CHECK(b.get() == first);
-#if defined(__linux__) && defined(__x86_64__)
-  // Written again, its pages fault in no more (the kernel takes lazily freed pages back only when
-  // short of memory; x86 marks a written page dirty without a fault, where some ARM cores fault
-  // once a page), where an array mapped anew faults in its 769 pages (766 measured).
-  rusage before{};
-  getrusage(RUSAGE_SELF, &before);
-  fillAndCheck(b, n - 2);
-  rusage after{};
-  getrusage(RUSAGE_SELF, &after);
-  CHECK(after.ru_minflt - before.ru_minflt < 100);
-#endif
-}
-
-TEST_CASE("HugeBlocks makes room by small-page blocks first; a small-page block never pushes out a huge-page one") {
-  using Blocks = durer::HugeBlocks;
-  const size_t page = durer::HugeArray<char>::kHugePage, small = size_t(64) << 10;
-  std::vector<void*> huge;
-  for (int i = 0; i < Blocks::kKept; ++i) {  // the cache full of huge-page blocks (older ones pushed out)
-    huge.push_back(std::aligned_alloc(page, page));
-    REQUIRE(huge.back() != nullptr);
-    Blocks::give({huge.back(), page, true});
-  }
-  void* first = std::aligned_alloc(4096, small);
-  REQUIRE(first != nullptr);
-  Blocks::give({first, small, false});  // no room, and no small-page block to make it: freed
-  CHECK(Blocks::take(small, false).memory == nullptr);
-
-  const Blocks::Block one = Blocks::take(page, true);  // room for one
-  REQUIRE(one.memory != nullptr);
-  void* second = std::aligned_alloc(4096, small);
-  REQUIRE(second != nullptr);
-  Blocks::give({second, small, false});  // kept: the cache full again
-  Blocks::give(one);                     // pushes out the small-page block, not the oldest huge-page one
-  CHECK(Blocks::take(small, false).memory == nullptr);
-  std::vector<void*> taken;
-  for (Blocks::Block b = Blocks::take(page, true); b.memory != nullptr; b = Blocks::take(page, true)) {
-    taken.push_back(b.memory);
-  }
-  CHECK(taken.size() == size_t(Blocks::kKept));
-  for (void* p : taken) CHECK(std::find(huge.begin(), huge.end(), p) != huge.end());
-  for (void* p : taken) std::free(p);
+  Blocks::give({huge, Blocks::kKeptBytes + page});  // larger than all that may be kept: freed
+  CHECK(Blocks::take(Blocks::kKeptBytes + page).memory == nullptr);
 }
 #endif

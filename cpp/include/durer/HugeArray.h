@@ -3,19 +3,16 @@
 // pages, where the system leaves them to madvise: the default on Debian) once it is large: a large
 // array new each render costs a page fault every 4 KiB as it is first written. Adaptive sampling's
 // per-pixel state (about 200 bytes a pixel) took 100,000 of them a 1920x1080 render, more time than
-// its first pass's rays. Below kHugeFrom a huge page's 2 MiB, zeroed whole, would cost more than
-// the faults it saves (measured: +3-7 % at 160x90). The advice is only advice: where it is refused,
-// or off Linux, the array is a plain one.
+// its first pass's rays. Below kHugeFrom glibc hands a freed block out again from its heap (its mmap
+// threshold rises to 32 MiB as mapped blocks are freed), so the next render writes pages already
+// there, and a huge page's 2 MiB, zeroed whole, would cost more (measured: +3-7 % at 160x90). The
+// advice is only advice: where it is refused, or off Linux, the array is a plain one.
 //
-// A freed block from kKeptFrom on is not handed back to the kernel at once (HugeBlocks): the kernel
-// zeroes every page it gives a process, and zeroing the adaptive state's pages anew each render
-// cost a 1080p first pass (4 samples a pixel) about 15 %, and a 160x90 render of 2,000 small spheres
-// at 64 samples about 8 % (1,300 faults, where glibc, whose mmap threshold moves with the blocks
-// freed before, mapped the state's arrays afresh). The block's pages are given up lazily instead
+// A freed large block is not handed back to the kernel at once (HugeBlocks): the kernel zeroes
+// every page it gives a process, and zeroing the adaptive state's pages anew each render cost a
+// 1080p first pass (4 samples a pixel) about 15 %. The block's pages are given up lazily instead
 // (MADV_FREE: the kernel takes them when it needs memory, and until then a write finds them still
-// there), and the next array of its kind (huge pages or not) of half its size to its size takes
-// it. Below kKeptFrom glibc's heap serves and keeps them.
-#include <algorithm>
+// there), and the next large array of half its size to its size takes it.
 #include <cstddef>
 #include <cstdlib>
 #include <memory>
@@ -28,13 +25,12 @@
 
 namespace durer {
 
-// The blocks HugeArrays have freed, kept for the next ones (the file's head): up to kKept blocks
-// and kKeptBytes in all, the oldest small-page ones given back to the system first (give). Where
-// the system cannot give pages up lazily (no MADV_FREE) nothing is kept. A block is taken only by
-// an array at least half its size (a small array kept for long, a scene's grid, would otherwise
-// hold a render's large one) and of its kind: one advised to huge pages, and aligned to them, only
-// by such an array. The lock is only tried: where another thread holds it (or held it when a
-// process forked), the array is made and freed as without a cache.
+// The large blocks HugeArrays have freed, kept for the next ones (the file's head): up to kKept
+// blocks and kKeptBytes in all, the oldest given back to the system first. Where the system cannot
+// give pages up lazily (no MADV_FREE) nothing is kept. A block is taken only by an array at least
+// half its size: a small array kept for long (a scene's grid) would otherwise hold a render's
+// large one. The lock is only tried: where another thread holds it (or held it when a process
+// forked), the array is made and freed as without a cache.
 class HugeBlocks {
  public:
   static constexpr int kKept = 8;
@@ -43,52 +39,41 @@ class HugeBlocks {
   struct Block {
     void* memory;  // from std::aligned_alloc; null: none
     size_t bytes;
-    bool huge;     // aligned to huge pages and advised to them
   };
 
-  // The smallest kept block of `bytes` to 2 x `bytes` and of the kind `huge`, or none.
-  static Block take(size_t bytes, bool huge) {
+  // The smallest kept block of `bytes` to 2 x `bytes`, or none.
+  static Block take(size_t bytes) {
     HugeBlocks& b = instance();
     const std::unique_lock<std::mutex> lock(b.m_mutex, std::try_to_lock);
-    if (!lock.owns_lock()) return {nullptr, 0, huge};
+    if (!lock.owns_lock()) return {nullptr, 0};
     int best = -1;
     for (int i = 0; i < b.m_count; ++i) {
       const size_t size = b.m_kept[i].bytes;
-      const bool fits = b.m_kept[i].huge == huge && size >= bytes && size / 2 <= bytes;
-      if (fits && (best < 0 || size < b.m_kept[best].bytes)) best = i;
+      if (size >= bytes && size / 2 <= bytes && (best < 0 || size < b.m_kept[best].bytes)) best = i;
     }
-    if (best < 0) return {nullptr, 0, huge};
+    if (best < 0) return {nullptr, 0};
     const Block block = b.m_kept[best];
     b.m_total -= block.bytes;
     b.remove(best);
     return block;
   }
 
-  // Keeps `block` for a later take, or frees it. Where room must be made, small-page blocks go
-  // first, the oldest of them, and a small-page block never pushes out a huge-page one (a 1080p
-  // render's state, whose pages cost the most to fault in again): it is freed instead.
+  // Keeps `block` for a later take, or frees it.
   static void give(Block block) {
 #if defined(__linux__) && defined(MADV_FREE)
-    Block evicted[kKept + 1];
+    Block evicted[kKept];
     int count = 0;
     if (block.bytes <= kKeptBytes && madvise(block.memory, block.bytes, MADV_FREE) == 0) {
       HugeBlocks& b = instance();
       std::unique_lock<std::mutex> lock(b.m_mutex, std::try_to_lock);
       if (lock.owns_lock()) {
-        bool keep = true;
-        while (keep && (b.m_count == kKept || b.m_total + block.bytes > kKeptBytes)) {
-          int victim = 0;
-          while (victim < b.m_count && b.m_kept[victim].huge) ++victim;
-          if (victim == b.m_count) victim = block.huge ? 0 : -1;
-          if (victim < 0) {
-            evicted[count++] = block, keep = false;
-          } else {
-            evicted[count++] = b.m_kept[victim];
-            b.m_total -= b.m_kept[victim].bytes;
-            b.remove(victim);
-          }
+        while (b.m_count == kKept || b.m_total + block.bytes > kKeptBytes) {
+          evicted[count++] = b.m_kept[0];
+          b.m_total -= b.m_kept[0].bytes;
+          b.remove(0);
         }
-        if (keep) b.m_kept[b.m_count++] = block, b.m_total += block.bytes;
+        b.m_kept[b.m_count++] = block;
+        b.m_total += block.bytes;
         lock.unlock();
         for (int i = 0; i < count; ++i) std::free(evicted[i].memory);  // not under the lock: it takes milliseconds
         return;
@@ -124,33 +109,28 @@ class HugeArray {
  public:
   static constexpr size_t kHugePage = size_t(2) << 20;
   static constexpr size_t kHugeFrom = size_t(32) << 20;
-  static constexpr size_t kPage = 4096;
-  static constexpr size_t kKeptFrom = size_t(256) << 10;
-  static_assert(alignof(T) <= kPage, "a kept block is aligned to a page");
 
   HugeArray() = default;
   // hugeFrom: the size from which to ask for huge pages (kHugeFrom for arrays made anew each render;
-  // an array kept across renders pays for them from less: a sphere grid's from 4 MiB).
+  // an array kept across renders pays for them from a few pages' worth).
   explicit HugeArray(size_t n, size_t hugeFrom = kHugeFrom) {
     const size_t bytes = n * sizeof(T);
-    if (bytes < std::min(kKeptFrom, hugeFrom)) {
+    if (bytes < hugeFrom) {
       m_small.reset(new T[n]);
       m_data = m_small.get();
       return;
     }
-    const bool huge = bytes >= hugeFrom;
-    const size_t page = huge ? kHugePage : kPage;
-    const size_t rounded = (bytes + page - 1) / page * page;  // aligned_alloc's rule
-    HugeBlocks::Block block = HugeBlocks::take(rounded, huge);
+    const size_t rounded = (bytes + kHugePage - 1) / kHugePage * kHugePage;  // aligned_alloc's rule
+    HugeBlocks::Block block = HugeBlocks::take(rounded);
     if (block.memory == nullptr) {
-      block = {std::aligned_alloc(page, rounded), rounded, huge};
+      block = {std::aligned_alloc(kHugePage, rounded), rounded};
       if (block.memory == nullptr) throw std::bad_alloc();
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
-      if (huge) madvise(block.memory, rounded, MADV_HUGEPAGE);
+      madvise(block.memory, rounded, MADV_HUGEPAGE);
 #endif
     }
-    m_kept = std::unique_ptr<T, Give>(static_cast<T*>(block.memory), Give{block.bytes, huge});
-    m_data = m_kept.get();
+    m_huge = std::unique_ptr<T, Give>(static_cast<T*>(block.memory), Give{block.bytes});
+    m_data = m_huge.get();
   }
 
   T& operator[](size_t i) { return m_data[i]; }
@@ -160,11 +140,10 @@ class HugeArray {
  private:
   struct Give {
     size_t bytes;  // the block's (it may be larger than the array)
-    bool huge;
-    void operator()(T* p) const { HugeBlocks::give({p, bytes, huge}); }
+    void operator()(T* p) const { HugeBlocks::give({p, bytes}); }
   };
-  std::unique_ptr<T[]> m_small;      // a plain array below kKeptFrom
-  std::unique_ptr<T, Give> m_kept;   // from it on, a block HugeBlocks keeps when freed
+  std::unique_ptr<T[]> m_small;      // a plain array below kHugeFrom
+  std::unique_ptr<T, Give> m_huge;   // from it on
   T* m_data = nullptr;               // the one of them there is
 };
 
