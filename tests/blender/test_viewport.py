@@ -231,13 +231,21 @@ def test_stop_cancels_a_pass_within_a_tenth_of_a_second():
     scene.add_spheres(rng.uniform(-2, 2, (3000, 3)), rng.uniform(0.05, 0.2, 3000), material=glass)
     scene.add_directional_light((-1, -1, -1), (1, 1, 1), shadows=True)
     image = viewport.ProgressiveImage()
-    image.restart(scene, CAMERA, 1600, 1200, passes=1000, max_bounces=8)
-    time.sleep(0.3)
-    assert image.running  # one pass of this takes longer than the wait
-    started = time.perf_counter()
-    image.stop()
-    assert time.perf_counter() - started < 0.1  # measured 1-14 ms
-    assert not image.running
+    # Up to three tries: on a shared 2-vCPU machine a stalled vCPU once held a stop for 161 ms, by
+    # scheduling alone; a stop that waited for the pass under way (longer than the 0.3 s waited)
+    # would miss every time.
+    stops = []
+    for _ in range(3):
+        image.restart(scene, CAMERA, 1600, 1200, passes=1000, max_bounces=8)
+        time.sleep(0.3)
+        assert image.running  # one pass of this takes longer than the wait
+        started = time.perf_counter()
+        image.stop()
+        stops.append(time.perf_counter() - started)
+        assert not image.running
+        if stops[-1] < 0.1:  # measured 1-14 ms
+            break
+    assert min(stops) < 0.1, stops
 
 
 def test_a_failing_pass_is_reported_not_raised():
