@@ -4,10 +4,12 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <random>
+#include <vector>
 
 #include "durer/accel/SphereView.h"
 
@@ -24,6 +26,16 @@ bool holds(double x, double y, double r, double px, double py, double c = 0) {
 }
 bool coreHolds(double x, double y, double r, double c, double px, double py) {
   return around(x, y, r, c).coreHolds(px * Disk::kUnits, py * Disk::kUnits);
+}
+
+// A camera's view of one sphere seen on pixels [2, 6] x [2, 6] of a 16 x 16 image, from t = 1 on.
+std::unique_ptr<durer::SphereView<double>> oneSphereView() {
+  const auto footprint = [](size_t, durer::SampleBox& box, double& tLow, durer::SampleDisk*) {
+    box = {2, 6, 2, 6};
+    tLow = 1;
+    return true;
+  };
+  return durer::SphereView<double>::make(1, footprint, 0, 0, 16, 16, 1);
 }
 
 }  // namespace
@@ -96,14 +108,7 @@ TEST_CASE("a disk rounded once and placed in each cell is the disk made in that 
 }
 
 TEST_CASE("a camera view searches a packet by the box of its samples, and declines one without a box") {
-  using View = durer::SphereView<double>;
-  // One sphere seen on pixels [2, 6] x [2, 6] of a 16 x 16 image, from t = 1 on.
-  const auto footprint = [](size_t, durer::SampleBox& box, double& tLow, durer::SampleDisk*) {
-    box = {2, 6, 2, 6};
-    tLow = 1;
-    return true;
-  };
-  const std::unique_ptr<View> view = View::make(1, footprint, 0, 0, 16, 16, 1);
+  const std::unique_ptr<durer::SphereView<double>> view = oneSphereView();
   durer::RayPacket<double> packet;
   packet.count = durer::kPacketSize;
   packet.tMax = std::numeric_limits<double>::infinity();
@@ -116,4 +121,34 @@ TEST_CASE("a camera view searches a packet by the box of its samples, and declin
   std::copy(box, box + 4, packet.sampleBox);
   CHECK(view->search(packet, test) > 0);
   CHECK(met == 1);
+}
+
+TEST_CASE("a camera view tests a sphere against the rays of the pixels its span covers, where their positions are known") {
+  const std::unique_ptr<durer::SphereView<double>> view = oneSphereView();
+  // An adaptive round's packet: runs of samples in pixels (0, 0), (3, 3), (4, 5), (7, 7), (5, 3).
+  const int pixels[][3] = {{0, 0, 4}, {3, 3, 4}, {4, 5, 3}, {7, 7, 2}, {5, 3, 1}};  // x, y, samples
+  double x[durer::kPacketSize], y[durer::kPacketSize];
+  durer::RayPacket<double> packet;
+  for (const auto& p : pixels) {
+    for (int s = 0; s < p[2]; ++s, ++packet.count) x[packet.count] = p[0] + 0.1 + 0.2 * s, y[packet.count] = p[1] + 0.9;
+  }
+  packet.tMax = std::numeric_limits<double>::infinity();
+  packet.resetHits();
+  const double box[4] = {0.1, 7.7, 0.9, 7.9};
+  std::copy(box, box + 4, packet.sampleBox);
+  std::vector<std::array<int, 2>> ranges;
+  const auto test = [&](uint32_t, int begin, int end, bool) { ranges.push_back({begin, end}); };
+  // Without the positions: every ray.
+  CHECK(view->search(packet, test) == 14);
+  CHECK(ranges == std::vector<std::array<int, 2>>{{0, 14}});
+  // With them: the runs of (3, 3) and (4, 5) together, then (5, 3)'s.
+  packet.sampleX = x, packet.sampleY = y;
+  ranges.clear();
+  CHECK(view->search(packet, test) == 8);
+  CHECK(ranges == std::vector<std::array<int, 2>>{{4, 11}, {13, 14}});
+  // Samples over two cells: every ray again (the view searches each cell's spheres for all of them).
+  x[13] = 8.5, packet.sampleBox[1] = 8.5;
+  ranges.clear();
+  CHECK(view->search(packet, test) == 14);
+  CHECK(ranges == std::vector<std::array<int, 2>>{{0, 14}});
 }

@@ -166,9 +166,10 @@ class SphereView {
   // Calls test(sphere, kBegin, kEnd, all) for the spheres of the packet's cell that some ray may meet
   // before its hit so far, nearest first, with the rays [kBegin, kEnd) that may meet it (test lowers
   // their tHit): those of the pixel rows the sphere covers when the packet is laid out by pixel
-  // (tileWidth; `all` false: each of them under the sphere's rows), else all of them (`all` true:
-  // any, none or some may meet it), skipping spheres off the pixel rows and columns the packet's
-  // samples lie in.
+  // (tileWidth; `all` false: each of them under the sphere's rows); where the rays' positions are
+  // known instead (sampleX), each stretch of consecutive rays whose pixels it covers (`all` false);
+  // else all of them (`all` true: any, none or some may meet it), skipping spheres off the pixel
+  // rows and columns the packet's samples lie in.
   // Returns the ray-sphere tests made; -1 if the packet's samples fall outside the cells (then the
   // caller searches otherwise).
   template <typename Test>
@@ -177,7 +178,24 @@ class SphereView {
     const Real cx0 = std::floor(box[0] / kCell) - m_cellX, cx1 = std::floor(box[1] / kCell) - m_cellX;
     const Real cy0 = std::floor(box[2] / kCell) - m_cellY, cy1 = std::floor(box[3] / kCell) - m_cellY;
     if (!(cx0 >= 0 && cy0 >= 0 && cx1 < m_cellsX && cy1 < m_cellsY)) return -1;
-    const bool byRow = packet.tileWidth > 0 && cx0 == cx1 && cy0 == cy1;
+    const bool oneCell = cx0 == cx1 && cy0 == cy1;
+    const bool byRow = packet.tileWidth > 0 && oneCell;
+    // Otherwise, in one cell with the rays' positions known (an adaptive round's packet: a few
+    // pixels' samples, each pixel's consecutive), the runs of rays in one pixel: a sphere is tested
+    // against the runs of the pixels its span covers, not against every ray of the packet.
+    int runs = 0;
+    alignas(64) int runBegin[kPacketSize + 1];
+    alignas(64) uint8_t runRow[kPacketSize], runColumn[kPacketSize];
+    if (!byRow && oneCell && packet.sampleX != nullptr) {
+      const int cellRow = (m_cellY + int(cy0)) * kCell, cellColumn = (m_cellX + int(cx0)) * kCell;
+      for (int k = 0, last = -1; k < packet.count; ++k) {
+        const int row = int(std::floor(packet.sampleY[k])) - cellRow, column = int(std::floor(packet.sampleX[k])) - cellColumn;
+        if (row * kCell + column == last) continue;
+        last = row * kCell + column;
+        runBegin[runs] = k, runRow[runs] = uint8_t(row), runColumn[runs] = uint8_t(column), ++runs;
+      }
+      runBegin[runs] = packet.count;
+    }
     int64_t tested = 0;
     for (int cy = int(cy0); cy <= int(cy1); ++cy) {
       for (int cx = int(cx0); cx <= int(cx1); ++cx) {
@@ -200,6 +218,16 @@ class SphereView {
             if (first > last) continue;
             test(entry.sphere, first * packet.tileWidth, (last + 1) * packet.tileWidth, false);
             tested += (last - first + 1) * packet.tileWidth;
+          } else if (runs > 0) {
+            const uint16_t span = m_spans[e];
+            if (!spanMeets(span, firstRow, lastRow, firstColumn, lastColumn)) continue;
+            for (int r = 0, begin = -1; r <= runs; ++r) {  // each stretch of consecutive runs it covers
+              const bool covered = r < runs && spanMeets(span, runRow[r], runRow[r], runColumn[r], runColumn[r]);
+              if (covered && begin < 0) begin = runBegin[r];
+              if (covered || begin < 0) continue;
+              test(entry.sphere, begin, runBegin[r], false);
+              tested += runBegin[r] - begin, begin = -1;
+            }
           } else {
             if (!spanMeets(m_spans[e], firstRow, lastRow, firstColumn, lastColumn)) continue;
             test(entry.sphere, 0, packet.count, true);

@@ -230,6 +230,7 @@ inline void Camera<Real>::generate(RayPacket<Real>& packet, const Real* sampleX,
   packet.coherent = !lens;
   packet.view = nullptr;
   packet.tileWidth = 0;
+  packet.sampleX = sampleX, packet.sampleY = sampleY;
   // Plain component arithmetic so that the loop vectorises.
   const Vec3<Real> c = m_center, f = m_forward, h = m_horizontal, u = m_up;
   if (lens) {
