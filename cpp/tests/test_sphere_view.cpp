@@ -152,3 +152,57 @@ TEST_CASE("a camera view tests a sphere against the rays of the pixels its span 
   CHECK(view->search(packet, test) == 14);
   CHECK(ranges == std::vector<std::array<int, 2>>{{0, 14}});
 }
+
+TEST_CASE("a packet split into its pixels' runs tests each sphere against exactly the rays of the pixels it covers") {
+  // Random views of 40 spheres over a 16 x 16 image (their boxes reaching past it too) and random
+  // packets of runs of one pixel's samples in one cell, pixels repeating: every ray whose position
+  // lies in a sphere's box is tested against it, and only rays of the pixels the box reaches are.
+  std::mt19937 rng(20261201);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (int trial = 0; trial < 200; ++trial) {
+    std::vector<durer::SampleBox> boxes(40);
+    for (durer::SampleBox& b : boxes) {
+      const double x = -3 + 21 * unit(rng), y = -3 + 21 * unit(rng);
+      b = {x, x + 6 * unit(rng), y, y + 6 * unit(rng)};
+    }
+    const auto footprint = [&](size_t i, durer::SampleBox& box, double& tLow, durer::SampleDisk*) {
+      box = boxes[i], tLow = 1 + unit(rng);
+      return true;
+    };
+    const auto view = durer::SphereView<double>::make(boxes.size(), footprint, 0, 0, 16, 16, 1);
+    REQUIRE(view != nullptr);
+    const int cellX = 8 * int(2 * unit(rng)), cellY = 8 * int(2 * unit(rng));
+    double x[durer::kPacketSize], y[durer::kPacketSize];
+    durer::RayPacket<double> packet;
+    while (packet.count < durer::kPacketSize && (packet.count == 0 || unit(rng) < 0.9)) {
+      const int px = cellX + int(8 * unit(rng)), py = cellY + int(8 * unit(rng));
+      for (int s = 1 + int(8 * unit(rng)); s > 0 && packet.count < durer::kPacketSize; --s, ++packet.count) {
+        x[packet.count] = px + unit(rng), y[packet.count] = py + unit(rng);
+      }
+    }
+    packet.tMax = std::numeric_limits<double>::infinity();
+    packet.resetHits();
+    packet.sampleBox[0] = *std::min_element(x, x + packet.count), packet.sampleBox[1] = *std::max_element(x, x + packet.count);
+    packet.sampleBox[2] = *std::min_element(y, y + packet.count), packet.sampleBox[3] = *std::max_element(y, y + packet.count);
+    packet.sampleX = x, packet.sampleY = y;
+    std::vector<std::vector<bool>> tested(boxes.size(), std::vector<bool>(packet.count, false));
+    int64_t pairs = 0;
+    const auto test = [&](uint32_t i, int begin, int end, bool) {
+      for (int k = begin; k < end; ++k) {
+        CHECK_FALSE(tested[i][k]);
+        tested[i][k] = true, ++pairs;
+      }
+    };
+    CHECK(view->search(packet, test) == pairs);
+    for (size_t i = 0; i < boxes.size(); ++i) {
+      const durer::SampleBox& b = boxes[i];
+      for (int k = 0; k < packet.count; ++k) {
+        const bool inBox = x[k] >= b.x0 && x[k] <= b.x1 && y[k] >= b.y0 && y[k] <= b.y1;
+        const bool inPixels = std::floor(x[k]) >= std::floor(b.x0) && std::floor(x[k]) <= std::floor(b.x1) &&
+                              std::floor(y[k]) >= std::floor(b.y0) && std::floor(y[k]) <= std::floor(b.y1);
+        if (inBox) CHECK(tested[i][k]);
+        if (tested[i][k]) CHECK(inPixels);
+      }
+    }
+  }
+}
