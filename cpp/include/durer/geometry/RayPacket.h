@@ -40,9 +40,10 @@ struct RayPacket {
   // Camera rays one per pixel of the pixels [tileX, tileX + tileWidth) x [tileY, ...), row by row
   // (ray k at pixel (k % tileWidth, k / tileWidth) of them); tileWidth 0: in no such order.
   int tileX = 0, tileY = 0, tileWidth = 0;
-  // Camera rays' sample positions in the image (ray k's at (sampleX[k], sampleY[k]), the arrays
-  // Camera::generate made them from, read during the search that follows), or null: in no order
-  // (tileWidth), the view tests each sphere only against the rays of the pixels it covers.
+  // Camera rays' sample positions in the image, ray k's at (sampleX[k], sampleY[k]): the arrays
+  // Camera::generate made the rays from, read during the search that follows; null for other rays.
+  // Where the rays are in no pixel order (tileWidth 0), the camera's view tests each sphere against
+  // the rays of the pixels it covers by them (SphereView::search).
   const Real* sampleX = nullptr;
   const Real* sampleY = nullptr;
   alignas(64) Real ox[kPacketSize];    // origin, in the frame of the group searched
