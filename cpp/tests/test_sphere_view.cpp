@@ -193,7 +193,8 @@ TEST_CASE("a packet split into its pixels' runs tests each sphere against exactl
         tested[i][k] = true, ++pairs;
       }
     };
-    CHECK(view->search(packet, test) == pairs);
+    const int64_t reported = view->search(packet, test);  // before `pairs` is read
+    CHECK(reported == pairs);
     for (size_t i = 0; i < boxes.size(); ++i) {
       const durer::SampleBox& b = boxes[i];
       for (int k = 0; k < packet.count; ++k) {
