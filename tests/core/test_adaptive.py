@@ -206,6 +206,47 @@ def test_shadows_keep_their_edges_refined():
     assert_light_edge_refined(scene, (-8.0, 3.0), 5.0, both_sides=True)
 
 
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("perspective", [False, True])
+def test_a_suns_shadow_edges_on_the_ground_are_found_by_its_view(seed, perspective):
+    # Twenty-four spheres (enough for a sun's view of them) float at random over a lit plane, their
+    # shadows beside them. With a target no error or contrast meets, only geometry's and shadows'
+    # edges keep a pixel refining: every ground pixel a shadow's edge crosses (found at 8 x 8
+    # sub-pixel centres) must take 16 samples, also where its first four all landed on one side
+    # (before the view was asked, 100-144 of them stayed at 4), while the ground two pixels or more
+    # from every shadow and sphere keeps 4 (but for a few the spheres' own rules refine).
+    rng = np.random.default_rng(seed)
+    scene = durer.Scene()
+    scene.background = (0.0, 0.0, 0.0, 1.0)
+    scene.add_plane((0, 0, 1), -60.0, material=scene.add_material((0.8, 0.8, 0.8)))
+    centres = np.c_[rng.uniform(-20, 20, (24, 2)), rng.uniform(-58, -45, 24)]
+    scene.add_spheres(centres, rng.uniform(0.5, 2.0, 24), material=scene.add_material((0.9, 0.3, 0.2)))
+    scene.add_directional_light((*rng.uniform(-0.6, 0.6, 2), -1.0), (1, 1, 1), shadows=True)
+
+    def camera():
+        if perspective:
+            return durer.PerspectiveCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), fov_degrees=2 * math.degrees(math.atan(24 / 60)))
+        return durer.OrthographicCamera((0, 0, 1), (0, 0, -1), (0, 1, 0), float(SIZE))
+
+    precision = ("double", "float")[seed % 2]
+    result = adaptive(scene, camera=camera(), spp=64, min_spp=4, target_error=1.0, precision=precision)
+    fine = durer.render(scene, camera(), 8 * SIZE, 8 * SIZE, sampler="center", passes="color").color
+    sphere = fine[..., 1] < 0.8 * fine[..., 0]  # red against the grey ground
+    lit = ~sphere & (fine[..., 0] > 0.1)
+    dark = ~sphere & ~lit
+    blocks = lambda mask: mask.reshape(SIZE, 8, SIZE, 8).any(axis=(1, 3))  # noqa: E731
+    shadow_edge = blocks(lit) & blocks(dark) & ~blocks(sphere)
+    assert shadow_edge.sum() >= 40
+    assert np.all(result.samples[shadow_edge] >= 16)
+    edges = blocks(dark | sphere)
+    near = edges.copy()
+    for axis in (0, 1):
+        for step in (-2, -1, 1, 2):
+            near |= np.roll(edges, step, axis=axis)
+    assert (~near).sum() >= 1000
+    assert np.mean(result.samples[~near] > 4) <= 0.01
+
+
 def test_a_spot_lights_hard_edge_is_refined():
     # A spot light without blend draws a hard circle on the plane, away from the one sphere: the
     # camera's view cannot prove the pixels it crosses smooth. (The light falls off inside the cone,

@@ -304,6 +304,47 @@ class SphereView {
     return m_nextFace ? tested + m_nextFace->occluders(packet, test) : tested;
   }
 
+  // On a sun's view: whether the edge of a sphere's shadow may cross the part of a surface that
+  // world points [0, count) bound (a pixel's part of a plane: the view's image is affine on it, so
+  // their box on the image holds the part's): whether a sphere that may lie nearer the light than
+  // the farthest of them has a disk meeting that box (grown by the rays' drift, as occluders()
+  // grows them) whose core does not hold all of it. False where the points lie beyond the cells
+  // (no sphere there); true for a disk that holds every point. Conservative: a true may be a box
+  // wholly lit or wholly in another sphere's shadow.
+  bool shadowEdgeMayCross(const Vec3d* points, int count) const {
+    double x0 = std::numeric_limits<double>::infinity(), x1 = -x0, y0 = x0, y1 = -x0, farthest = -x0;
+    for (int i = 0; i < count; ++i) {
+      double x, y, depth;
+      if (!m_light.locate(points[i], x, y, depth)) return true;
+      x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+      farthest = std::max(farthest, depth);
+    }
+    if (!(x1 - x0 < m_cellsX * kCell && y1 - y0 < m_cellsY * kCell && std::isfinite(farthest))) return true;
+    const double slack = 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(farthest) + m_lightReach);
+    const double grow = m_driftUnits * (std::fabs(farthest) + m_lightExtent) + 1;  // and a unit of the box's rounding
+    const int cx0 = std::max(int(std::floor(x0 / kCell)) - m_cellX, 0), cx1 = std::min(int(std::floor(x1 / kCell)) - m_cellX, m_cellsX - 1);
+    const int cy0 = std::max(int(std::floor(y0 / kCell)) - m_cellY, 0), cy1 = std::min(int(std::floor(y1 / kCell)) - m_cellY, m_cellsY - 1);
+    for (int cy = cy0; cy <= cy1; ++cy) {
+      for (int cx = cx0; cx <= cx1; ++cx) {
+        const size_t cell = size_t(cy) * size_t(m_cellsX) + size_t(cx);
+        // The box in the cell's units (Disk).
+        const double ux0 = (x0 - (m_cellX + cx) * kCell) * Disk::kUnits, ux1 = (x1 - (m_cellX + cx) * kCell) * Disk::kUnits;
+        const double uy0 = (y0 - (m_cellY + cy) * kCell) * Disk::kUnits, uy1 = (y1 - (m_cellY + cy) * kCell) * Disk::kUnits;
+        const uint32_t end = upperBound(m_first[cell], m_first[cell + 1], farthest + slack);
+        for (uint32_t e = m_first[cell]; e != end; ++e) {
+          const Disk& d = m_disks[e];
+          if (d.radius == Disk::kEverywhere) return true;
+          const double near = std::hypot(std::clamp(double(d.x), ux0, ux1) - d.x, std::clamp(double(d.y), uy0, uy1) - d.y);
+          if (!(near < double(d.radius) + grow)) continue;
+          const double far = std::hypot(std::max(std::fabs(ux0 - d.x), std::fabs(ux1 - d.x)),
+                                        std::max(std::fabs(uy0 - d.y), std::fabs(uy1 - d.y)));
+          if (!(far < double(d.core) - grow)) return true;
+        }
+      }
+    }
+    return false;
+  }
+
   // Calls f(sphere, tLow, rows, columns) for the spheres of the cell holding image pixel (x, y) (a
   // camera's view) that no ray of the cell meets before `before`, nearest first: the t no ray of
   // the cell meets it before, and the pixel rows and columns of the cell (each a first and last, 0

@@ -23,7 +23,9 @@
 //     geometry: hit against miss, or other primitives at a depth discontinuity or a crease; or the
 //     camera's view of the scene's spheres shows a silhouette crossing it nearer than the farthest
 //     its first samples met (TileRenderer::markSilhouettes): a sphere smaller than the samples'
-//     spacing, or the sliver of one, that they and the neighbours' may all have missed;
+//     spacing, or the sliver of one, that they and the neighbours' may all have missed; or its
+//     samples all met one plane on whose part of it a sun's view of the spheres shows that a
+//     shadow's edge may fall (TileRenderer::markShadowEdges): a shadow's sliver likewise;
 //   - it has fewer than kUnseenShare * contrast / targetError samples, where contrast is the RMS
 //     difference of its mean colour from a neighbour's: an edge inside it covering less than about
 //     1 / samples of its area may not have been seen yet, and would be off by at most about that
@@ -456,6 +458,14 @@ class AdaptiveSampler {
     const bool smoothRead = m_rounds > 0 || m_firstSamples == 2;
     alignas(64) bool smooth[kPacketSize];
     m_tiles.markSilhouettes(t.x0, t.y0, t.w, t.h, farthest, t.mixed, smoothRead ? smooth : nullptr);
+    if (m_rounds > 0 && m_tiles.findsShadowEdges()) {  // shadows' edges on planes, as geometry's
+      alignas(64) int32_t firstPrim[kPacketSize];
+      for (int row = 0, k = 0; row < t.h; ++row) {
+        const Summary* line = &summaryAt(t.x0, t.y0 + row);
+        for (int col = 0; col < t.w; ++col, ++k) firstPrim[k] = line[col].firstPrim;
+      }
+      m_tiles.markShadowEdges(t.x0, t.y0, t.w, t.h, firstPrim, t.uniform, t.mixed);
+    }
     if (smoothRead) {
       for (int row = 0, k = 0; row < t.h; ++row) {
         Summary* line = &summaryAt(t.x0, t.y0 + row);

@@ -373,6 +373,51 @@ class TileRenderer {
     if (smoothing && m_planeCut) markPlaneEnds(x0, y0, w, h, smooth);
   }
 
+  // Whether a sun's view may show a shadow's edge on a plane a pixel sees (markShadowEdges).
+  bool findsShadowEdges() const {
+    for (size_t l = 0; l < m_lightViews.size(); ++l) {
+      if (m_lightViews[l] && m_shading.lights()[l].kind == ShadingLight<Real>::Kind::Directional) return true;
+    }
+    return false;
+  }
+
+  // Marks crossed[k] for the pixels of the w x h tile at (x0, y0) (row by row) whose samples all
+  // met one of the scene's own planes, prim[k] (uniform[k]), where a sun's view of the spheres
+  // shows that the edge of a sphere's shadow may cross the pixel's part of that plane (the rays
+  // through its corners meet the plane there; SphereView::shadowEdgeMayCross). A shadow is seen
+  // only by the samples that land in it: a sliver of one that a pixel's first samples all missed
+  // would otherwise be found only from the neighbours. Other receivers (spheres, triangles) and
+  // point lights' shadows are not looked at.
+  void markShadowEdges(int x0, int y0, int w, int h, const int32_t* prim, const bool* uniform, bool* crossed) const {
+    const int32_t firstPlane = static_cast<int32_t>(m_group.spheres().size());
+    const int32_t planeEnd = firstPlane + static_cast<int32_t>(m_group.planes().size());
+    const auto onPlane = [&](int k) { return uniform[k] && !crossed[k] && prim[k] >= firstPlane && prim[k] < planeEnd; };
+    bool any = false;
+    for (int k = 0; k < w * h; ++k) any = any || onPlane(k);
+    if (!any) return;
+    const int columns = w + 1;
+    Vec3d origin[kCorners], direction[kCorners];
+    cornerRays(x0, y0, w, h, origin, direction);
+    for (int row = 0, k = 0; row < h; ++row) {
+      for (int column = 0; column < w; ++column, ++k) {
+        if (!onPlane(k)) continue;
+        const Plane<Real>& plane = m_group.planes().primitive(static_cast<size_t>(prim[k] - firstPlane));
+        const Vec3d normal(plane.normal), point(plane.point);
+        const int c = row * columns + column;
+        Vec3d points[4];
+        const int at[4] = {c, c + 1, c + columns, c + columns + 1};
+        for (int i = 0; i < 4; ++i) {
+          const double t = glm::dot(normal, point - origin[at[i]]) / glm::dot(normal, direction[at[i]]);
+          points[i] = origin[at[i]] + t * direction[at[i]];
+        }
+        for (size_t l = 0; l < m_lightViews.size() && !crossed[k]; ++l) {
+          const bool sun = m_shading.lights()[l].kind == ShadingLight<Real>::Kind::Directional;
+          if (m_lightViews[l] && sun) crossed[k] = m_lightViews[l]->shadowEdgeMayCross(points, 4);
+        }
+      }
+    }
+  }
+
   // f(k, x, y) for the pixels (x, y) of the w x h tile at (x0, y0) (k: the tile's, row by row) in a
   // span of rows and columns of the tile's cell, as the camera's view gives a sphere's.
   template <typename F>
@@ -1215,6 +1260,25 @@ class TileRenderer {
     return true;
   }
 
+  static constexpr int kCorners = (kTileSize + 1) * (kTileSize + 1);  // a tile's pixels' corners
+
+  // The camera rays through the corners of the w x h tile at (x0, y0)'s pixels, (w + 1) a row, row
+  // by row, in double (as the camera makes them in Real).
+  void cornerRays(int x0, int y0, int w, int h, Vec3d* origin, Vec3d* direction) const {
+    const int columns = w + 1, corners = columns * (h + 1);  // at most 81: two packets
+    for (int first = 0; first < corners; first += kPacketSize) {
+      const int count = std::min(kPacketSize, corners - first);
+      alignas(64) Real x[kPacketSize], y[kPacketSize];
+      for (int j = 0; j < count; ++j) x[j] = Real(x0 + (first + j) % columns), y[j] = Real(y0 + (first + j) / columns);
+      RayPacket<Real> packet;
+      m_camera.generate(packet, x, y, count);
+      for (int j = 0; j < count; ++j) {
+        origin[first + j] = Vec3d(packet.ox[j], packet.oy[j], packet.oz[j]);
+        direction[first + j] = Vec3d(packet.dx[j], packet.dy[j], packet.dz[j]);
+      }
+    }
+  }
+
   // Clears smooth[k] for the pixels of the w x h tile at (x0, y0) in which the scene's one plane may
   // leave the camera's [tMin, tMax) (m_planeCut): where the depths at which the rays through the
   // pixel's corners meet it, widened by 1/64 pixel and by the rounding of those rays and of the
@@ -1224,22 +1288,16 @@ class TileRenderer {
   void markPlaneEnds(int x0, int y0, int w, int h, bool* smooth) const {
     const Plane<Real>& plane = m_group.planes().primitive(0);
     const Vec3d normal(plane.normal), point(plane.point);
-    const int columns = w + 1, corners = columns * (h + 1);  // at most 81: two packets
-    double depth[(kTileSize + 1) * (kTileSize + 1)], slack[(kTileSize + 1) * (kTileSize + 1)];
-    for (int first = 0; first < corners; first += kPacketSize) {
-      const int count = std::min(kPacketSize, corners - first);
-      alignas(64) Real x[kPacketSize], y[kPacketSize];
-      for (int j = 0; j < count; ++j) x[j] = Real(x0 + (first + j) % columns), y[j] = Real(y0 + (first + j) / columns);
-      RayPacket<Real> packet;
-      m_camera.generate(packet, x, y, count);
-      for (int j = 0; j < count; ++j) {
-        const Vec3d o(packet.ox[j], packet.oy[j], packet.oz[j]), d(packet.dx[j], packet.dy[j], packet.dz[j]);
-        const double along = glm::dot(normal, d), t = glm::dot(normal, point - o) / along;
-        depth[first + j] = t;
-        // The plane test's rounding in Real, and that of origins between the corners.
-        slack[first + j] = 64 * std::numeric_limits<Real>::epsilon() *
-                           ((maxAbs(o) + maxAbs(point)) / std::fabs(along) + std::fabs(t));
-      }
+    const int columns = w + 1, corners = columns * (h + 1);
+    Vec3d origin[kCorners], direction[kCorners];
+    cornerRays(x0, y0, w, h, origin, direction);
+    double depth[kCorners], slack[kCorners];
+    for (int j = 0; j < corners; ++j) {
+      const Vec3d &o = origin[j], &d = direction[j];
+      const double along = glm::dot(normal, d), t = glm::dot(normal, point - o) / along;
+      depth[j] = t;
+      // The plane test's rounding in Real, and that of origins between the corners.
+      slack[j] = 64 * std::numeric_limits<Real>::epsilon() * ((maxAbs(o) + maxAbs(point)) / std::fabs(along) + std::fabs(t));
     }
     const double tMin = m_camera.tMin(), tMax = m_camera.tMax();
     for (int row = 0, k = 0; row < h; ++row) {
