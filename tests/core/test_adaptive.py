@@ -208,10 +208,12 @@ def test_shadows_keep_their_edges_refined():
 
 @pytest.mark.parametrize("seed", range(4))
 @pytest.mark.parametrize("perspective", [False, True])
-def test_a_suns_shadow_edges_on_the_ground_are_found_by_its_view(seed, perspective):
-    # Twenty-four spheres (enough for a sun's view of them) float at random over a lit plane, their
-    # shadows beside them. With a target no error or contrast meets, only geometry's and shadows'
-    # edges keep a pixel refining: every ground pixel a shadow's edge crosses (found at 8 x 8
+@pytest.mark.parametrize("light", ["sun", "point"])
+def test_shadow_edges_on_the_ground_are_found_by_the_lights_view(seed, perspective, light):
+    # Twenty-four spheres (enough for a light's view of them) float at random over a lit plane,
+    # their shadows beside them (a sun's, or a point light's above the scene). With a target no
+    # error or contrast meets, only geometry's and shadows' edges keep a pixel refining: every
+    # ground pixel a shadow's edge crosses (found at 8 x 8
     # sub-pixel centres) must take 16 samples, also where its first four all landed on one side
     # (before the view was asked, 100-144 of them stayed at 4), while the ground two pixels or more
     # from every shadow and sphere keeps 4 (but for a few the spheres' own rules refine).
@@ -221,7 +223,10 @@ def test_a_suns_shadow_edges_on_the_ground_are_found_by_its_view(seed, perspecti
     scene.add_plane((0, 0, 1), -60.0, material=scene.add_material((0.8, 0.8, 0.8)))
     centres = np.c_[rng.uniform(-20, 20, (24, 2)), rng.uniform(-58, -45, 24)]
     scene.add_spheres(centres, rng.uniform(0.5, 2.0, 24), material=scene.add_material((0.9, 0.3, 0.2)))
-    scene.add_directional_light((*rng.uniform(-0.6, 0.6, 2), -1.0), (1, 1, 1), shadows=True)
+    if light == "sun":
+        scene.add_directional_light((*rng.uniform(-0.6, 0.6, 2), -1.0), (1, 1, 1), shadows=True)
+    else:
+        scene.add_point_light((*rng.uniform(-15, 15, 2), -20.0), (1, 1, 1), shadows=True, soft_shadows=False)
 
     def camera():
         if perspective:

@@ -304,24 +304,27 @@ class SphereView {
     return m_nextFace ? tested + m_nextFace->occluders(packet, test) : tested;
   }
 
-  // On a sun's view: whether the edge of a sphere's shadow may cross the part of a surface that
-  // world points [0, count) bound (a pixel's part of a plane: the view's image is affine on it, so
+  // On a light's view: whether the edge of a sphere's shadow may cross the part of a plane that
+  // world points [0, count) bound (a pixel's part of it: an image maps a plane's lines to lines, so
   // their box on the image holds the part's): whether a sphere that may lie nearer the light than
   // the farthest of them has a disk meeting that box (grown by the rays' drift, as occluders()
-  // grows them) whose core does not hold all of it. False where the points lie beyond the cells
-  // (no sphere there); true for a disk that holds every point. Conservative: a true may be a box
-  // wholly lit or wholly in another sphere's shadow.
+  // grows them) whose core does not hold all of it. On a point light's view, in the face that holds
+  // every point (true where none does: a part across faces). False where the points lie beyond the
+  // cells (no sphere there); true for a disk that holds every point. Conservative: a true may be a
+  // part wholly lit or wholly in another sphere's shadow.
   bool shadowEdgeMayCross(const Vec3d* points, int count) const {
     double x0 = std::numeric_limits<double>::infinity(), x1 = -x0, y0 = x0, y1 = -x0, farthest = -x0;
     for (int i = 0; i < count; ++i) {
       double x, y, depth;
-      if (!m_light.locate(points[i], x, y, depth)) return true;
+      if (!m_light.locate(points[i], x, y, depth)) return !m_nextFace || m_nextFace->shadowEdgeMayCross(points, count);
       x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
       farthest = std::max(farthest, depth);
     }
     if (!(x1 - x0 < m_cellsX * kCell && y1 - y0 < m_cellsY * kCell && std::isfinite(farthest))) return true;
     const double slack = 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(farthest) + m_lightReach);
-    const double grow = m_driftUnits * (std::fabs(farthest) + m_lightExtent) + 1;  // and a unit of the box's rounding
+    // The shadow rays' drift (occluders: drifts; at a sphere, driftAt), by which each disk is grown,
+    // and a unit more for the box's rounding.
+    const double drift = m_driftUnits * (m_light.perspective ? farthest : std::fabs(farthest) + m_lightExtent);
     const int cx0 = std::max(int(std::floor(x0 / kCell)) - m_cellX, 0), cx1 = std::min(int(std::floor(x1 / kCell)) - m_cellX, m_cellsX - 1);
     const int cy0 = std::max(int(std::floor(y0 / kCell)) - m_cellY, 0), cy1 = std::min(int(std::floor(y1 / kCell)) - m_cellY, m_cellsY - 1);
     for (int cy = cy0; cy <= cy1; ++cy) {
@@ -333,7 +336,8 @@ class SphereView {
         const uint32_t end = upperBound(m_first[cell], m_first[cell + 1], farthest + slack);
         for (uint32_t e = m_first[cell]; e != end; ++e) {
           const Disk& d = m_disks[e];
-          if (d.radius == Disk::kEverywhere) return true;
+          const double grow = driftAt(e, drift) + 1;
+          if (d.radius == Disk::kEverywhere || !std::isfinite(grow)) return true;
           const double near = std::hypot(std::clamp(double(d.x), ux0, ux1) - d.x, std::clamp(double(d.y), uy0, uy1) - d.y);
           if (!(near < double(d.radius) + grow)) continue;
           const double far = std::hypot(std::max(std::fabs(ux0 - d.x), std::fabs(ux1 - d.x)),

@@ -24,7 +24,7 @@
 //     camera's view of the scene's spheres shows a silhouette crossing it nearer than the farthest
 //     its first samples met (TileRenderer::markSilhouettes): a sphere smaller than the samples'
 //     spacing, or the sliver of one, that they and the neighbours' may all have missed; or its
-//     samples all met one plane on whose part of it a sun's view of the spheres shows that a
+//     samples all met one plane on whose part of it a light's view of the spheres shows that a
 //     shadow's edge may fall (TileRenderer::markShadowEdges): a shadow's sliver likewise;
 //   - it has fewer than kUnseenShare * contrast / targetError samples, where contrast is the RMS
 //     difference of its mean colour from a neighbour's: an edge inside it covering less than about

@@ -373,21 +373,19 @@ class TileRenderer {
     if (smoothing && m_planeCut) markPlaneEnds(x0, y0, w, h, smooth);
   }
 
-  // Whether a sun's view may show a shadow's edge on a plane a pixel sees (markShadowEdges).
+  // Whether a light's view may show a shadow's edge on a plane a pixel sees (markShadowEdges).
   bool findsShadowEdges() const {
-    for (size_t l = 0; l < m_lightViews.size(); ++l) {
-      if (m_lightViews[l] && m_shading.lights()[l].kind == ShadingLight<Real>::Kind::Directional) return true;
-    }
-    return false;
+    return std::any_of(m_lightViews.begin(), m_lightViews.end(), [](const auto& view) { return view != nullptr; });
   }
 
   // Marks crossed[k] for the pixels of the w x h tile at (x0, y0) (row by row) whose samples all
-  // met one of the scene's own planes, prim[k] (uniform[k]), where a sun's view of the spheres
-  // shows that the edge of a sphere's shadow may cross the pixel's part of that plane (the rays
-  // through its corners meet the plane there; SphereView::shadowEdgeMayCross). A shadow is seen
-  // only by the samples that land in it: a sliver of one that a pixel's first samples all missed
-  // would otherwise be found only from the neighbours. Other receivers (spheres, triangles) and
-  // point lights' shadows are not looked at.
+  // met one of the scene's own planes, prim[k] (uniform[k]), where a light's view of the spheres
+  // (a sun's, a point or spot light's: the one its shadow rays search) shows that the edge of a
+  // sphere's shadow may cross the pixel's part of that plane (the rays through its corners meet the
+  // plane there; SphereView::shadowEdgeMayCross). A shadow is seen only by the samples that land
+  // in it: a sliver of one that a pixel's first samples all missed would otherwise be found only
+  // from the neighbours. Other receivers (spheres, triangles) and the shadows of lights without a
+  // view (area lights, soft shadows, too few spheres) are not looked at.
   void markShadowEdges(int x0, int y0, int w, int h, const int32_t* prim, const bool* uniform, bool* crossed) const {
     const int32_t firstPlane = static_cast<int32_t>(m_group.spheres().size());
     const int32_t planeEnd = firstPlane + static_cast<int32_t>(m_group.planes().size());
@@ -411,8 +409,7 @@ class TileRenderer {
           points[i] = origin[at[i]] + t * direction[at[i]];
         }
         for (size_t l = 0; l < m_lightViews.size() && !crossed[k]; ++l) {
-          const bool sun = m_shading.lights()[l].kind == ShadingLight<Real>::Kind::Directional;
-          if (m_lightViews[l] && sun) crossed[k] = m_lightViews[l]->shadowEdgeMayCross(points, 4);
+          if (m_lightViews[l]) crossed[k] = m_lightViews[l]->shadowEdgeMayCross(points, 4);
         }
       }
     }
