@@ -213,10 +213,10 @@ def test_shadow_edges_on_the_ground_are_found_by_the_lights_view(seed, perspecti
     # Twenty-four spheres (enough for a light's view of them) float at random over a lit plane,
     # their shadows beside them (a sun's, or a point light's above the scene). With a target no
     # error or contrast meets, only geometry's and shadows' edges keep a pixel refining: every
-    # ground pixel a shadow's edge crosses (found at 8 x 8
-    # sub-pixel centres) must take 16 samples, also where its first four all landed on one side
-    # (before the view was asked, 100-144 of them stayed at 4), while the ground two pixels or more
-    # from every shadow and sphere keeps 4 (but for a few the spheres' own rules refine).
+    # ground pixel a shadow's edge crosses (found at 8 x 8 sub-pixel centres) must take 16
+    # samples, also where its first four all landed on one side (before the views were asked,
+    # 100-144 of them stayed at 4 with a sun), while the ground two pixels or more from every
+    # shadow and sphere keeps 4 (but for a few the spheres' own rules refine).
     rng = np.random.default_rng(seed)
     scene = durer.Scene()
     scene.background = (0.0, 0.0, 0.0, 1.0)
@@ -229,8 +229,8 @@ def test_shadow_edges_on_the_ground_are_found_by_the_lights_view(seed, perspecti
         scene.add_point_light((*rng.uniform(-15, 15, 2), -20.0), (1, 1, 1), shadows=True, soft_shadows=False)
 
     def camera():
-        if perspective:
-            return durer.PerspectiveCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), fov_degrees=2 * math.degrees(math.atan(24 / 60)))
+        if perspective:  # the plane's 48 x 48 square in view, as the orthographic camera's
+            return durer.PerspectiveCamera((0, 0, 0), (0, 0, -1), (0, 1, 0), 2 * math.degrees(math.atan(24 / 60)))
         return durer.OrthographicCamera((0, 0, 1), (0, 0, -1), (0, 1, 0), float(SIZE))
 
     precision = ("double", "float")[seed % 2]
