@@ -266,12 +266,12 @@ class SphereView {
       const uint32_t cell = uint32_t(size_t(cy) * size_t(m_cellsX) + size_t(cx));
       __builtin_prefetch(&m_first[cell]);
       // Spheres whose nearest depth lies beyond the origin's (widened by its rounding) cannot block it.
-      const double slack = 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(depth) + m_lightReach);
+      const double slack = depthSlack(depth);
       rays[n] = k, cells[n] = cell, reaches[n] = depth + slack, nears[n] = depth - slack, depths[n] = depth;
       // The ray travels along the view's axis, or toward its eye: it stays at its place on the
       // image (but for its drift), and meets only spheres whose disk holds it, in the cell's units.
       xs[n] = (x - (m_cellX + cx) * kCell) * Disk::kUnits, ys[n] = (y - (m_cellY + cy) * kCell) * Disk::kUnits;
-      drifts[n] = m_driftUnits * (m_light.perspective ? depth : std::fabs(depth) + m_lightExtent);  // driftAt's
+      drifts[n] = driftOf(depth);
       ++n;
     }
     for (int j = 0; j < n; ++j) {  // the entries the searches read first, and the nearest disks
@@ -321,10 +321,8 @@ class SphereView {
       farthest = std::max(farthest, depth);
     }
     if (!(x1 - x0 < m_cellsX * kCell && y1 - y0 < m_cellsY * kCell && std::isfinite(farthest))) return true;
-    const double slack = 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(farthest) + m_lightReach);
-    // The shadow rays' drift (occluders: drifts; at a sphere, driftAt), by which each disk is grown,
-    // and a unit more for the box's rounding.
-    const double drift = m_driftUnits * (m_light.perspective ? farthest : std::fabs(farthest) + m_lightExtent);
+    const double slack = depthSlack(farthest);
+    const double drift = driftOf(farthest);  // each disk grown by it at its sphere, and a unit for the box's rounding
     const int cx0 = std::max(int(std::floor(x0 / kCell)) - m_cellX, 0), cx1 = std::min(int(std::floor(x1 / kCell)) - m_cellX, m_cellsX - 1);
     const int cy0 = std::max(int(std::floor(y0 / kCell)) - m_cellY, 0), cy1 = std::min(int(std::floor(y1 / kCell)) - m_cellY, m_cellsY - 1);
     for (int cy = cy0; cy <= cy1; ++cy) {
@@ -420,6 +418,18 @@ class SphereView {
     if (!(reach < 1 && m_entries[e].tLow > 0)) return 0;
     const double farSide = low * (1 + reach) / (1 - reach);
     return farSide < near ? (near - farSide) / depth : 0;
+  }
+
+  // How far the depth of a point at `depth` on a light's view may be off by the rounding of a shadow
+  // ray's origin there (occluders: a sphere whose nearest depth lies beyond it cannot block it).
+  DURER_INLINE double depthSlack(double depth) const {
+    return 64 * std::numeric_limits<Real>::epsilon() * (std::fabs(depth) + m_lightReach);
+  }
+
+  // A shadow ray's drift from an origin at `depth`, in Disk units, before driftAt scales it to a
+  // sphere.
+  DURER_INLINE double driftOf(double depth) const {
+    return m_driftUnits * (m_light.perspective ? depth : std::fabs(depth) + m_lightExtent);
   }
 
   // A ray's drift (occluders: drifts) at entry e's sphere, in Disk units (NaN or inf where the
