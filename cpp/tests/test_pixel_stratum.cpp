@@ -1,8 +1,10 @@
 // Unit tests of a pixel's silhouette stratum: the exact area of the unit disk within a rectangle,
-// a pixel's share of an ellipse, and of the union of several, against numerical integration (doctest).
+// a pixel's share of an ellipse, and of the union of several, and a sphere's front over a disk's part of a
+// pixel (its control variate's moments), against numerical integration (doctest).
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <random>
 #include <tuple>
@@ -354,4 +356,88 @@ TEST_CASE("a rotated ellipse's stratum: its share is the fraction of the pixel i
   CHECK_FALSE(PixelStratum::sheared(0, 0, 0.5, 0.5, 0.2, 0.1, 0.2).any());
   CHECK_FALSE(PixelStratum::sheared(0, 0, 5, 5, 1, 0.5, 1).any());
   CHECK_FALSE(PixelStratum::sheared(0, 0, 0.5, 0.5 + 1e5, 1e-5, 0, 1e-5).any());
+}
+
+namespace {
+
+// A sphere's front over the unit disk's part of [u0, u1] x [v0, v1]: the integrals of 1, u, v and
+// w = sqrt(1 - u^2 - v^2), by the midpoint rule over u of the chord's part within [v0, v1] (each
+// closed form along v).
+std::array<double, 4> momentsIntegrated(double u0, double u1, double v0, double v1) {
+  const int steps = 200000;
+  const double a = std::max(u0, -1.0), b = std::min(u1, 1.0);
+  std::array<double, 4> sum{};
+  if (a >= b) return sum;
+  const double h = (b - a) / steps;
+  for (int i = 0; i < steps; ++i) {
+    const double u = a + (i + 0.5) * h, s = std::sqrt(1 - u * u), lo = std::max(v0, -s), hi = std::min(v1, s);
+    if (!(lo < hi)) continue;
+    // The integral of sqrt(s^2 - v^2) dv: (v sqrt(s^2 - v^2) + s^2 asin(v / s)) / 2.
+    const auto w = [&](double v) { return (v * std::sqrt(std::max(0.0, s * s - v * v)) + s * s * std::asin(std::clamp(v / s, -1.0, 1.0))) / 2; };
+    sum[0] += hi - lo, sum[1] += u * (hi - lo), sum[2] += (hi * hi - lo * lo) / 2, sum[3] += w(hi) - w(lo);
+  }
+  for (double& x : sum) x *= h;
+  return sum;
+}
+
+}  // namespace
+
+TEST_CASE("a sphere's front over the unit disk's part of a rectangle: its area, its normal's integrals, and where a light is dark") {
+  // The whole disk: area pi, the normal's u and v integrate to 0, w to the hemisphere's volume 2 pi / 3.
+  const UnitDiskPart whole(-2, 2, -2, 2);
+  CHECK(whole.area == doctest::Approx(kPi).epsilon(1e-14));
+  CHECK(std::abs(whole.u) < 1e-14);
+  CHECK(std::abs(whole.v) < 1e-14);
+  CHECK(whole.w == doctest::Approx(2 * kPi / 3).epsilon(1e-14));
+  // The right half: u's integral is 2/3 (the half disk's first moment), v's 0.
+  const UnitDiskPart right(0, 2, -2, 2);
+  CHECK(right.area == doctest::Approx(kPi / 2).epsilon(1e-14));
+  CHECK(right.u == doctest::Approx(2.0 / 3).epsilon(1e-14));
+  CHECK(std::abs(right.v) < 1e-14);
+  CHECK(right.w == doctest::Approx(kPi / 3).epsilon(3e-6));
+  const UnitDiskPart apart(1.2, 2, 0, 1);
+  CHECK(apart.area == 0);
+  CHECK(apart.w == 0);
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> unit(0, 1);
+  std::normal_distribution<double> normal;
+  int tested = 0, dark = 0, lit = 0;
+  for (int trial = 0; trial < 150; ++trial) {
+    // A pixel's square in the frame of a disk of radius 0.3 to 5 pixels, where the disk reaches it.
+    const double r = 0.3 + 4.7 * unit(rng), cx = -r - 1 + (2 * r + 1) * unit(rng), cy = -r - 1 + (2 * r + 1) * unit(rng);
+    const double u0 = -cx / r, u1 = (1 - cx) / r, v0 = -cy / r, v1 = (1 - cy) / r;
+    const UnitDiskPart part(u0, u1, v0, v1);
+    if (!(part.area > 0)) continue;
+    ++tested;
+    const std::array<double, 4> expected = momentsIntegrated(u0, u1, v0, v1);
+    // In the pixel's units (times r^2): the area's and the first moments' error is the midpoint
+    // rule's; w's the fans' quadrature's (4 points: within 3e-5 of the pixel).
+    CHECK_MESSAGE(std::abs(part.area - expected[0]) * r * r < 1e-8, trial);
+    CHECK_MESSAGE(std::abs(part.u - expected[1]) * r * r < 1e-8, trial);
+    CHECK_MESSAGE(std::abs(part.v - expected[2]) * r * r < 1e-8, trial);
+    CHECK_MESSAGE(std::abs(part.w - expected[3]) * r * r < 3e-5, trial);
+    CHECK(part.area == doctest::Approx(unitDiskRectangleArea(u0, u1, v0, v1)).epsilon(1e-12));
+    // A light in a random direction: dark() says whether its cosine is positive nowhere on the part,
+    // against a 200 x 200 grid of the part's points (a part that only grazes the terminator may
+    // read either way: within 1e-3 of 0).
+    double l[3] = {normal(rng), normal(rng), normal(rng)};
+    const double length = std::sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
+    for (double& x : l) x /= length;
+    double brightest = -2;
+    for (int i = 0; i < 200; ++i) {
+      for (int j = 0; j < 200; ++j) {
+        const double u = std::max(u0, -1.0) + (std::min(u1, 1.0) - std::max(u0, -1.0)) * (i + 0.5) / 200;
+        const double v = std::max(v0, -1.0) + (std::min(v1, 1.0) - std::max(v0, -1.0)) * (j + 0.5) / 200;
+        if (u * u + v * v >= 1) continue;
+        brightest = std::max(brightest, l[0] * u + l[1] * v + l[2] * std::sqrt(1 - u * u - v * v));
+      }
+    }
+    const bool isDark = part.dark(l[0], l[1], l[2]);
+    dark += isDark, lit += !isDark;
+    if (isDark) CHECK_MESSAGE(brightest <= 1e-3, trial);
+    if (!isDark) CHECK_MESSAGE(brightest > -1e-3, trial);
+  }
+  CHECK(tested > 80);
+  CHECK(dark > 10);
+  CHECK(lit > 10);
 }

@@ -45,6 +45,11 @@
 // keeps the pixel marked while what it may put the mean off by exceeds targetError
 // (unresolvedShare): one no sample has reached yet, by its share (its colour may differ by about
 // 1), one whose samples all lie in one half, by its share times the spread of a colour.
+// Where one sphere's disk makes the stratum and directional lights shine (an orthographic camera),
+// each sample inside it is taken less its control variate (TileRenderer::sphereControls: the
+// sphere's diffuse term from those lights, linear in its normal, less its exact mean over the part):
+// the part's mean, and its halves', then vary only with what the control leaves out (shadows,
+// highlights, the terminator), and a sphere lit all over its part is exact from one sample there.
 // Through an orthographic camera, a pixel also watches up to two spheres whose silhouettes cross it
 // and that its first samples did not meet, but the sphere of a one-sphere stratum
 // (TileRenderer::watchSilhouettes: a sliver beside the stratum's edge, an edge where two spheres'
@@ -61,7 +66,7 @@
 // A time limit stops the refining rounds (never the first pass) when spent; each worker takes its
 // band's tiles worst first (the largest estimated error), so what the limit cuts matters least.
 // Every pixel's state is kept until the end (TileState and Summary: 201 bytes a pixel in double, 133
-// in float; in a colour render through a camera without a lens, StratumState: 164 and 128 more).
+// in float; in a colour render through a camera without a lens, StratumState: 212 and 176 more).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
 // threads; a pixel's result depends on the pixels within `rounds` of it, and its reported error on
 // those within one more, so a region is rendered with that margin around it (sampledRegion) and
@@ -235,7 +240,8 @@ class AdaptiveSampler {
 
  private:
   // A tile's pixels' silhouette strata, the sums of their samples inside them, and the spheres they
-  // watch (kept only where pixels may have one: m_strata; 164 bytes a pixel in double, 128 in float).
+  // watch, and their control variates (kept only where pixels may have one: m_strata; 212 bytes a pixel in
+  // double, 176 in float).
   struct StratumState {
     PixelStratum strata[kPacketSize];                     // the silhouettes crossing the pixel (PixelStratum)
     uint32_t sphere[kPacketSize];                         // its sphere, if one (Tiles::kNoSphere: none, or several)
@@ -245,6 +251,8 @@ class AdaptiveSampler {
     Real inR[kPacketSize], inG[kPacketSize], inB[kPacketSize], inA[kPacketSize];  // sums of the samples in it
     Real inside[kPacketSize];                             // their count
     Real lastInR[kPacketSize], lastInG[kPacketSize], lastInB[kPacketSize], lastInside[kPacketSize];  // of the second half
+    typename Tiles::StratumControl control[kPacketSize];  // its samples' inside control variate (sphereControls)
+    bool controlled;                                      // whether a pixel of the tile has a control
 
     // Pixel k's mean of one channel by its stratum (PixelStratum::mean), from the channel's sum over
     // all the pixel's `count` samples and over those inside (`in`).
@@ -295,12 +303,21 @@ class AdaptiveSampler {
   }
 
   // For a tile with strata: marks inside[j] whether sample j, at (sampleX[j], sampleY[j]) in pixel
-  // k = pixel[j] of the tile (pixel == nullptr: k = j), lies in the pixel's stratum.
-  static void markInside(const TileState& t, const Real* sampleX, const Real* sampleY, const int* pixel, int count,
-                         bool* inside) {
+  // k = pixel[j] of the tile (pixel == nullptr: k = j), lies in the pixel's stratum. Where the tile's
+  // strata have a control (TileRenderer::sphereControls), sets correction[j] to what sample j's
+  // colour is taken less (its control less the control's mean over the part: 0 outside, or without
+  // one) and returns correction; else null.
+  const Vec3<Real>* markInside(const TileState& t, const Real* sampleX, const Real* sampleY, const int* pixel, int count,
+                               bool* inside, Vec3<Real>* correction) const {
+    const StratumState& u = *t.stratum;
+    for (int j = 0; j < count; ++j) inside[j] = u.strata[pixel ? pixel[j] : j].contains(double(sampleX[j]), double(sampleY[j]));
+    if (!u.controlled) return nullptr;
     for (int j = 0; j < count; ++j) {
-      inside[j] = t.stratum->strata[pixel ? pixel[j] : j].contains(double(sampleX[j]), double(sampleY[j]));
+      const int k = pixel ? pixel[j] : j;
+      correction[j] = inside[j] && u.control[k].any() ? m_tiles.control(u.strata[k], u.control[k], double(sampleX[j]), double(sampleY[j]))
+                                                      : Vec3<Real>(0);
     }
+    return correction;
   }
 
   // For a tile with strata: counts the samples at (sampleX[j], sampleY[j]) in pixel pixel[j] of the
@@ -320,6 +337,13 @@ class AdaptiveSampler {
     }
   }
 
+  // A packet's colours less their corrections (markInside), in `corrected`; without, as given.
+  static const Vec3<Real>* correct(const Vec3<Real>* rgb, const Vec3<Real>* correction, int count, Vec3<Real>* corrected) {
+    if (!correction) return rgb;
+    for (int j = 0; j < count; ++j) corrected[j] = rgb[j] - correction[j];
+    return corrected;
+  }
+
   // Where a refining round's packet goes (TileRenderer::trace): sample j to pixel pixel[j] of the
   // tile, in order, its colour also to the pixel's last-round sums (all of a refining round's
   // samples are). The pixel's sums are then those of adding its samples one at a time, whatever the
@@ -329,16 +353,20 @@ class AdaptiveSampler {
     TileState& t;
     const int* pixel;
     const bool* inside;  // whether sample j lies in its pixel's stratum (null: the tile has none)
+    const Vec3<Real>* correction;  // what sample j's colour is taken less (markInside; null: none)
     bool normalPass;  // the normal or id passes: the pixels' normals' and nearest hit's sums are kept
     void addColor(int j, Real r, Real g, Real b, Real a) {
       const int k = pixel[j];
+      if (correction) r -= correction[j].r, g -= correction[j].g, b -= correction[j].b;
       t.sums.addColor(k, r, g, b, a);
       t.lastR[k] += r, t.lastG[k] += g, t.lastB[k] += b;
       if (inside && inside[j]) addInside(t, k, r, g, b, a, true);
     }
     // The shaded path's colours: each run of one pixel's samples summed in registers (the same
     // sums, in the same order, as addColor one at a time, without a store and reload per sample).
-    void addColors(const Vec3<Real>* rgb, const Real* alpha, int count) {
+    void addColors(const Vec3<Real>* given, const Real* alpha, int count) {
+      alignas(64) Vec3<Real> corrected[kPacketSize];
+      const Vec3<Real>* rgb = correct(given, correction, count, corrected);
       for (int j = 0, end; j < count; j = end) {
         const int k = pixel[j];
         Real r = t.sums.r[k], g = t.sums.g[k], b = t.sums.b[k], a = t.sums.a[k];
@@ -369,13 +397,17 @@ class AdaptiveSampler {
     uint32_t sample;
     bool last;
     const bool* inside;  // whether pixel k's sample lies in its stratum (null: the tile has none)
+    const Vec3<Real>* correction;  // what pixel k's sample's colour is taken less (markInside; null: none)
     bool normalPass;  // the normal or id passes: the pixels' normals' and nearest hit's sums are kept
     void addColor(int k, Real r, Real g, Real b, Real a) {
+      if (correction) r -= correction[k].r, g -= correction[k].g, b -= correction[k].b;
       t.sums.addColor(k, r, g, b, a);
       if (last) t.lastR[k] += r, t.lastG[k] += g, t.lastB[k] += b;
       if (inside && inside[k]) addInside(t, k, r, g, b, a, last);
     }
-    void addColors(const Vec3<Real>* rgb, const Real* alpha, int count) {
+    void addColors(const Vec3<Real>* given, const Real* alpha, int count) {
+      alignas(64) Vec3<Real> corrected[kPacketSize];
+      const Vec3<Real>* rgb = correct(given, correction, count, corrected);
       for (int k = 0; k < count; ++k) t.sums.addColor(k, rgb[k].r, rgb[k].g, rgb[k].b, alpha[k]);
       for (int k = 0; inside && k < count; ++k) {
         if (inside[k]) addInside(t, k, rgb[k].r, rgb[k].g, rgb[k].b, alpha[k], last);
@@ -406,6 +438,7 @@ class AdaptiveSampler {
     alignas(64) Real along[kPacketSize];
     alignas(64) float farthest[kPacketSize];  // the farthest hit of each pixel's samples (inf: a miss)
     alignas(64) bool inside[kPacketSize];
+    alignas(64) Vec3<Real> correction[kPacketSize];
     alignas(64) int32_t met[kMetPrimitives][kPacketSize];  // the primitives each pixel's samples met (watchSilhouettes)
     alignas(64) int metCount[kPacketSize];                 // how many (at most kMetPrimitives are kept)
     std::fill(farthest, farthest + count, -std::numeric_limits<float>::infinity());
@@ -426,18 +459,23 @@ class AdaptiveSampler {
       m_tiles.silhouetteStrata(t.x0, t.y0, t.w, t.h, u->strata, u->sphere);
       for (auto& watched : u->watched) std::fill(watched, watched + count, Tiles::kNoSphere);  // set after the samples
       strata = std::any_of(u->strata, u->strata + count, [](const PixelStratum& p) { return p.any(); });
+      u->controlled = false;
       if (strata) {
         for (Real* sums : {u->inR, u->inG, u->inB, u->inA, u->inside, u->lastInR, u->lastInG, u->lastInB, u->lastInside}) {
           std::fill(sums, sums + count, Real(0));
+        }
+        if (m_tiles.controlsStrata()) {
+          m_tiles.sphereControls(t.x0, t.y0, t.w, t.h, u->strata, u->sphere, u->control);
+          u->controlled = std::any_of(u->control, u->control + count, [](const auto& c) { return c.any(); });
         }
       }
     }
     for (int sample = 0; sample < m_firstSamples; ++sample) {
       std::fill(s, s + count, static_cast<uint32_t>(sample));
-      FirstPassSink sink{t, static_cast<uint32_t>(sample), sample >= firstOfLast, strata ? inside : nullptr,
-                         m_tiles.needsNormals()};
       m_tiles.sobolPositions(px, py, order, points, s, count, sampleX, sampleY, box, lensU, lensV);
-      if (strata) markInside(t, sampleX, sampleY, nullptr, count, inside);
+      const Vec3<Real>* corrections = strata ? markInside(t, sampleX, sampleY, nullptr, count, inside, correction) : nullptr;
+      FirstPassSink sink{t, static_cast<uint32_t>(sample), sample >= firstOfLast, strata ? inside : nullptr, corrections,
+                         m_tiles.needsNormals()};
       if (!m_tiles.trace(sampleX, sampleY, box, lensU, lensV, count, sink, prim, along, counters, t.x0, t.y0, t.w)) {
         return false;
       }
@@ -508,11 +546,15 @@ class AdaptiveSampler {
     alignas(64) int32_t prim[kPacketSize];
     alignas(64) Real along[kPacketSize];
     alignas(64) bool inside[kPacketSize];
-    PixelSink sink{t, pixel, t.stratum ? inside : nullptr, m_tiles.needsNormals()};
+    alignas(64) Vec3<Real> correction[kPacketSize];
+    PixelSink sink{t, pixel, t.stratum ? inside : nullptr, nullptr, m_tiles.needsNormals()};
     int n = 0;
     const auto flush = [&] {
       m_tiles.sobolPositions(px, py, order, points, s, n, sampleX, sampleY, box, lensU, lensV);
-      if (t.stratum) markInside(t, sampleX, sampleY, pixel, n, inside), countWatched(t, sampleX, sampleY, pixel, n);
+      if (t.stratum) {
+        sink.correction = markInside(t, sampleX, sampleY, pixel, n, inside, correction);
+        countWatched(t, sampleX, sampleY, pixel, n);
+      }
       if (!m_tiles.trace(sampleX, sampleY, box, lensU, lensV, n, sink, prim, along, counters)) return false;
       for (int j = 0, end; j < n; j = end) {  // a pixel's samples are consecutive: one run each
         for (end = j + 1; end < n && pixel[end] == pixel[j];) ++end;

@@ -92,6 +92,15 @@ class TileRenderer {
       }
       m_shader.useLightViews(std::move(views));
     }
+    if (seesDisks() && targets.color != nullptr && effects.lit) {  // the strata's control (sphereControls)
+      const ParallelProjection image = m_camera.projection();
+      for (const ShadingLight<Real>& light : m_shading.lights()) {
+        if (light.kind != ShadingLight<Real>::Kind::Directional) continue;
+        const Vec3d toLight(light.vector);
+        m_suns.push_back({glm::dot(image.horizontal, toLight), -glm::dot(image.up, toLight),
+                          -glm::dot(image.forward, toLight), light.color});
+      }
+    }
   }
 
   // Whether camera rays search the scene's own spheres through the camera's view, and the shadow
@@ -557,6 +566,64 @@ class TileRenderer {
         if (strata[k].any() && members[k] == 1) spheres[k] = memberSphere[0][k];
       }
     }
+  }
+
+  // Whether a one-sphere stratum's samples inside it take a control variate (sphereControls): a lit
+  // colour render through an orthographic camera without a lens, with a directional light.
+  bool controlsStrata() const { return !m_suns.empty(); }
+
+  // A one-sphere stratum's control variate (sphereControls): at a sample inside the sphere's disk,
+  // where its front's unit normal is (u, v, w) in the disk's frame (x right, y down, toward the
+  // camera), u alongU + v alongV + w alongW - mean (linear RGB); none where all are 0.
+  struct StratumControl {
+    Vec3<float> alongU, alongV, alongW, mean;
+    bool any() const { return alongU != Vec3<float>(0) || alongV != Vec3<float>(0) || alongW != Vec3<float>(0); }
+  };
+
+  // The control variates of the strata that one sphere's disk makes (spheres[k], silhouetteStrata)
+  // in the w x h tile at (x0, y0), pixels k row by row: the sphere's diffuse shading by each
+  // directional light whose terminator leaves the stratum's inside part not all dark, as if its
+  // cosine there went on linearly past the terminator (kd times the light's colour times N · L, no
+  // shadows), less its mean over the part: exact geometry (UnitDiskPart's integrals of the normal,
+  // over the part's area). A function of a sample's position alone, whose mean over the part is 0:
+  // the part's mean of the samples' colours less their controls estimates the colours' mean without
+  // bias whatever the shading, and where the shading is that (a diffuse sphere lit by suns, no
+  // shadows, the part all lit) every sample's colour less its control is that mean. Left: the
+  // ambient term and emission (the same all over the part), the parts past the terminator, and
+  // shadows, highlights, other lights, samples that met something else, which the samples estimate.
+  void sphereControls(int x0, int y0, int w, int h, const PixelStratum* strata, const uint32_t* spheres,
+                      StratumControl* controls) const {
+    const auto& set = m_group.spheres();
+    for (int row = 0, k = 0; row < h; ++row) {
+      for (int column = 0; column < w; ++column, ++k) {
+        StratumControl& control = controls[k];
+        control = {};
+        const PixelStratum& p = strata[k];
+        if (spheres[k] == kNoSphere || p.disks != 1 || p.shear != 0) continue;
+        const double iu = p.inverseAx[0], iv = p.inverseAy[0];
+        const double u0 = (x0 + column - double(p.cx[0])) * iu, v0 = (y0 + row - double(p.cy[0])) * iv;
+        const UnitDiskPart part(u0, u0 + iu, v0, v0 + iv);
+        if (!(part.area > 0)) continue;
+        const size_t i = spheres[k];
+        const Vec3d kd(set.colored() ? set.colors()[i][0] : m_shading.material(set.materials()[i]).diffuse);
+        Vec3d alongU(0), alongV(0), alongW(0);
+        for (const Sun& sun : m_suns) {
+          if (part.dark(sun.a, sun.b, sun.c)) continue;
+          const Vec3d color = kd * Vec3d(sun.color);
+          alongU += sun.a * color, alongV += sun.b * color, alongW += sun.c * color;
+        }
+        control.alongU = Vec3<float>(alongU), control.alongV = Vec3<float>(alongV), control.alongW = Vec3<float>(alongW);
+        control.mean = Vec3<float>((Vec3d(control.alongU) * part.u + Vec3d(control.alongV) * part.v +
+                                    Vec3d(control.alongW) * part.w) / part.area);
+      }
+    }
+  }
+
+  // The control (sphereControls) of a sample at (x, y) inside stratum p.
+  Vec3<Real> control(const PixelStratum& p, const StratumControl& c, double x, double y) const {
+    const double u = (x - double(p.cx[0])) * double(p.inverseAx[0]), v = (y - double(p.cy[0])) * double(p.inverseAy[0]);
+    const double w = std::sqrt(std::max(0.0, 1 - u * u - v * v));
+    return toReal<Real>(Vec3d(c.alongU) * u + Vec3d(c.alongV) * v + Vec3d(c.alongW) * w - Vec3d(c.mean));
   }
 
   // silhouetteStrata through a perspective camera (strata and spheres already cleared): a pixel's
@@ -1339,6 +1406,13 @@ class TileRenderer {
   bool m_edgesAtSilhouettes;                      // every edge a silhouette of the view's spheres (markSilhouettes)
   bool m_planeCut;                                // and the scene's plane may end at tMin or tMax (markPlaneEnds)
   std::vector<std::shared_ptr<const SphereView<Real>>> m_lightViews;  // from each light (Shading's order)
+  // A directional light as the strata's control reads it (controlsStrata): the unit direction toward
+  // it in the image's frame (x right, y down, and toward the camera, as a sample's disk frame), its colour.
+  struct Sun {
+    double a, b, c;
+    Vec3<Real> color;
+  };
+  std::vector<Sun> m_suns;
 };
 
 }  // namespace tiles
