@@ -380,9 +380,40 @@ std::array<double, 4> momentsIntegrated(double u0, double u1, double v0, double 
   return sum;
 }
 
+// The integral of max(0, a u + b v + c w) over the unit disk's part of [u0, u1] x [v0, v1]: the
+// midpoint rule over v of each chord's part, exact along u (split where the cosine changes sign).
+double clampedIntegrated(double u0, double u1, double v0, double v1, double a, double b, double c) {
+  const int steps = 40000;
+  const double lo = std::max(v0, -1.0), hi = std::min(v1, 1.0);
+  if (lo >= hi) return 0;
+  const double h = (hi - lo) / steps;
+  double sum = 0;
+  for (int i = 0; i < steps; ++i) {
+    const double v = lo + (i + 0.5) * h, s2 = 1 - v * v, s = std::sqrt(s2);
+    const double from = std::max(u0, -s), to = std::min(u1, s);
+    if (!(from < to)) continue;
+    const auto cosine = [&](double u) { return a * u + b * v + c * std::sqrt(std::max(0.0, s2 - u * u)); };
+    const auto antiderivative = [&](double u) {
+      return a * u * u / 2 + b * v * u + c / 2 * (u * std::sqrt(std::max(0.0, s2 - u * u)) + s2 * std::asin(std::clamp(u / s, -1.0, 1.0)));
+    };
+    std::vector<double> ends{from, to};
+    const double qa = a * a + c * c, qb = 2 * a * b * v, qc = b * b * v * v - c * c * s2, d = qb * qb - 4 * qa * qc;
+    if (d > 0 && qa > 0) {
+      for (const double root : {(-qb + std::sqrt(d)) / (2 * qa), (-qb - std::sqrt(d)) / (2 * qa)}) {
+        if (root > from && root < to) ends.push_back(root);
+      }
+    }
+    std::sort(ends.begin(), ends.end());
+    for (size_t k = 0; k + 1 < ends.size(); ++k) {
+      if (cosine((ends[k] + ends[k + 1]) / 2) > 0) sum += antiderivative(ends[k + 1]) - antiderivative(ends[k]);
+    }
+  }
+  return sum * h;
+}
+
 }  // namespace
 
-TEST_CASE("a sphere's front over the unit disk's part of a rectangle: its area, its normal's integrals, and where a light is dark") {
+TEST_CASE("a sphere's front over the unit disk's part of a rectangle: its area, its normal's integrals, and where a light lights it all") {
   // The whole disk: area pi, the normal's u and v integrate to 0, w to the hemisphere's volume 2 pi / 3.
   const UnitDiskPart whole(-2, 2, -2, 2);
   CHECK(whole.area == doctest::Approx(kPi).epsilon(1e-14));
@@ -395,13 +426,16 @@ TEST_CASE("a sphere's front over the unit disk's part of a rectangle: its area, 
   CHECK(right.u == doctest::Approx(2.0 / 3).epsilon(1e-14));
   CHECK(std::abs(right.v) < 1e-14);
   CHECK(right.w == doctest::Approx(kPi / 3).epsilon(3e-6));
+  CHECK(right.lit(0, 0, 1));  // a light toward the viewer lights the whole front, to its rim
+  CHECK_FALSE(right.lit(-1, 0, 0));
+  CHECK_FALSE(right.lit(0, 1, 0));  // its terminator along u = 0 splits the half
   const UnitDiskPart apart(1.2, 2, 0, 1);
   CHECK(apart.area == 0);
   CHECK(apart.w == 0);
   std::mt19937_64 rng(31);
   std::uniform_real_distribution<double> unit(0, 1);
   std::normal_distribution<double> normal;
-  int tested = 0, dark = 0, lit = 0;
+  int tested = 0, lit = 0, unlit = 0;
   for (int trial = 0; trial < 150; ++trial) {
     // A pixel's square in the frame of a disk of radius 0.3 to 5 pixels, where the disk reaches it.
     const double r = 0.3 + 4.7 * unit(rng), cx = -r - 1 + (2 * r + 1) * unit(rng), cy = -r - 1 + (2 * r + 1) * unit(rng);
@@ -417,27 +451,32 @@ TEST_CASE("a sphere's front over the unit disk's part of a rectangle: its area, 
     CHECK_MESSAGE(std::abs(part.v - expected[2]) * r * r < 1e-8, trial);
     CHECK_MESSAGE(std::abs(part.w - expected[3]) * r * r < 3e-5, trial);
     CHECK(part.area == doctest::Approx(unitDiskRectangleArea(u0, u1, v0, v1)).epsilon(1e-12));
-    // A light in a random direction: dark() says whether its cosine is positive nowhere on the part,
+    // A light in a random direction: lit() says whether its cosine is nowhere negative on the part,
     // against a 200 x 200 grid of the part's points (a part that only grazes the terminator may
     // read either way: within 1e-3 of 0).
     double l[3] = {normal(rng), normal(rng), normal(rng)};
     const double length = std::sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
     for (double& x : l) x /= length;
-    double brightest = -2;
+    double darkest = 2;
     for (int i = 0; i < 200; ++i) {
       for (int j = 0; j < 200; ++j) {
         const double u = std::max(u0, -1.0) + (std::min(u1, 1.0) - std::max(u0, -1.0)) * (i + 0.5) / 200;
         const double v = std::max(v0, -1.0) + (std::min(v1, 1.0) - std::max(v0, -1.0)) * (j + 0.5) / 200;
         if (u * u + v * v >= 1) continue;
-        brightest = std::max(brightest, l[0] * u + l[1] * v + l[2] * std::sqrt(1 - u * u - v * v));
+        darkest = std::min(darkest, l[0] * u + l[1] * v + l[2] * std::sqrt(1 - u * u - v * v));
       }
     }
-    const bool isDark = part.dark(l[0], l[1], l[2]);
-    dark += isDark, lit += !isDark;
-    if (isDark) CHECK_MESSAGE(brightest <= 1e-3, trial);
-    if (!isDark) CHECK_MESSAGE(brightest > -1e-3, trial);
+    // Its clamped cosine's integral (where the terminator crosses the part: the quadrature's), in
+    // the pixel's units.
+    CHECK_MESSAGE(std::abs(part.clampedIntegral(l[0], l[1], l[2]) - clampedIntegrated(u0, u1, v0, v1, l[0], l[1], l[2])) * r * r < 1e-5, trial);
+    const bool isLit = part.lit(l[0], l[1], l[2]);
+    // Lit all over: the clamped cosine is the cosine, whose integral is the moments'.
+    if (isLit) CHECK(std::abs(part.clampedIntegral(l[0], l[1], l[2]) - (l[0] * part.u + l[1] * part.v + l[2] * part.w)) * r * r < 3e-5);
+    lit += isLit, unlit += !isLit;
+    if (isLit) CHECK_MESSAGE(darkest >= -1e-3, trial);
+    if (!isLit) CHECK_MESSAGE(darkest < 1e-3, trial);
   }
   CHECK(tested > 80);
-  CHECK(dark > 10);
   CHECK(lit > 10);
+  CHECK(unlit > 10);
 }

@@ -215,45 +215,58 @@ def _front_moments(u0: float, u1: float, v0: float, v1: float, steps: int = 2000
 
 @pytest.mark.parametrize("precision", ["double", "float"])
 @pytest.mark.parametrize("to_light", [(0.0, 0.0, 1.0), (0.4, -0.3, 0.866), (-0.7, 0.5, 0.3)])
-def test_a_lit_spheres_edge_pixels_are_exact_from_their_first_samples(to_light, precision):
-    # One diffuse sphere over the background, lit by a sun, seen orthographically: where its
-    # silhouette crosses a pixel, the pixel's samples inside it are taken less their control (the
-    # sun's diffuse term, linear in the sphere's normal: TileRenderer::sphereControls), whose mean
-    # over the sphere's part of the pixel is exact geometry. Where the sun lights all of that part,
-    # a sample's colour less its control is the same everywhere in it, so the part's mean, and the
-    # pixel's, are exact from a few samples that reach both parts: the exact covered share times the
-    # exact mean of ambient + sun x cosine, and the background over the rest. Without the control the
-    # inside part's mean of 16 samples is off by up to about 1e-2 here.
-    size, cx, cy, radius = 24, 0.137, -0.071, 7.3
-    kd, ambient, sun, background = np.array([0.8, 0.5, 0.3]), np.array([0.1, 0.12, 0.08]), np.array([0.9, 0.85, 0.7]), np.array([0.2, 0.3, 0.4])
+def test_lit_spheres_edge_pixels_are_exact_from_their_first_samples(to_light, precision):
+    # Two diffuse spheres over the background, 0.4 pixel apart, lit by a sun, seen orthographically:
+    # where their silhouettes cross a pixel, the pixel's samples inside them are taken less their
+    # control (each sphere's diffuse term from the sun, linear in its normal:
+    # TileRenderer::stratumControl), whose mean over the spheres' parts of the pixel is exact
+    # geometry. Where the sun lights all of those parts, a sample's colour less its control is the
+    # same everywhere in its sphere's part, so the pixel is exact from a few samples that reach each
+    # part: each sphere's exact share times the exact mean of ambient + sun x cosine over it, and the
+    # background over the rest. Without the control a part's mean of 16 samples is off by up to
+    # about 1e-2 here.
+    size = 24
+    spheres = [((0.137, -0.071), 7.3, np.array([0.8, 0.5, 0.3])), ((0.137 + 7.3 + 0.4 + 3.1, 0.2), 3.1, np.array([0.3, 0.6, 0.9]))]
+    ambient, sun, background = np.array([0.1, 0.12, 0.08]), np.array([0.9, 0.85, 0.7]), np.array([0.2, 0.3, 0.4])
     light = np.array(to_light) / np.linalg.norm(to_light)
     scene = durer.Scene()
     scene.background = (*background, 1.0)
     scene.ambient = tuple(ambient)
-    scene.add_spheres([(cx, cy, -10.0)], [radius], material=scene.add_material(diffuse=tuple(kd)))
+    for (cx, cy), radius, kd in spheres:
+        scene.add_spheres([(cx, cy, -10.0)], [radius], material=scene.add_material(diffuse=tuple(kd)))
     scene.add_directional_light(tuple(-light), tuple(sun))
     r = adaptive(scene, size, size, spp=16, min_spp=16, seed=3, precision=precision)
-    checked = 0
+    checked = both = 0
     for j in range(size):
         for i in range(size):
             x0, y1 = i - size / 2, size / 2 - j  # the pixel spans [x0, x0 + 1] x [y1 - 1, y1]
-            u0, u1, v0, v1 = (x0 - cx) / radius, (x0 + 1 - cx) / radius, (y1 - 1 - cy) / radius, (y1 - cy) / radius
-            area, mu, mv, mw = _front_moments(u0, u1, v0, v1)
-            share = area * radius * radius
-            if not 0.15 < share < 0.85:
+            exact, covered, lit, parts = background.copy(), 0.0, True, 0
+            for (cx, cy), radius, kd in spheres:
+                u0, u1, v0, v1 = (x0 - cx) / radius, (x0 + 1 - cx) / radius, (y1 - 1 - cy) / radius, (y1 - cy) / radius
+                area, mu, mv, mw = _front_moments(u0, u1, v0, v1)
+                if area == 0:
+                    continue
+                share = area * radius * radius
+                # Lit all over the part, to its rim (a sun toward the camera lights the whole front),
+                # or the terminator may reach it: that sun is then left out of its control.
+                gu, gv = np.meshgrid(np.linspace(u0, u1, 60), np.linspace(v0, v1, 60))
+                inside = gu * gu + gv * gv < 1
+                w = np.sqrt(np.maximum(0.0, 1 - gu * gu - gv * gv))
+                angle = np.linspace(0, 2 * np.pi, 4000)
+                ru, rv = np.cos(angle), np.sin(angle)
+                rim = (ru >= u0) & (ru <= u1) & (rv >= v0) & (rv <= v1)
+                lit &= bool(np.all((light[0] * gu + light[1] * gv + light[2] * w)[inside] > (0.02 if light[2] < 1 else -1e-12)))
+                lit &= bool(np.all((light[0] * ru + light[1] * rv)[rim] > (0.02 if light[2] < 1 else -1e-12)))
+                cosine = (light[0] * mu + light[1] * mv + light[2] * mw) / area
+                exact += share * (ambient * kd + kd * sun * cosine - background)
+                covered, parts = covered + share, parts + 1
+            if not (lit and 0.15 < covered < 0.85):
                 continue
-            gu, gv = np.meshgrid(np.linspace(u0, u1, 60), np.linspace(v0, v1, 60))
-            inside = gu * gu + gv * gv < 1
-            w = np.sqrt(np.maximum(0.0, 1 - gu * gu - gv * gv))
-            # Lit all over the part (a sun toward the camera lights the whole front, to its rim), or
-            # the terminator may reach it: its mean is then estimated, not exact.
-            if not np.all((light[0] * gu + light[1] * gv + light[2] * w)[inside] > (0.02 if light[2] < 1 else -1e-12)):
-                continue
-            cosine = (light[0] * mu + light[1] * mv + light[2] * mw) / area
-            exact = share * (ambient * kd + kd * sun * cosine) + (1 - share) * background
             assert np.abs(r.color[j, i, :3] - exact).max() < (1e-4 if precision == "double" else 3e-4), (i, j)
-            checked += 1
-    assert checked >= 12
+            checked, both = checked + 1, both + (parts == 2)
+    # A sun off the camera's axis leaves one of the two facing rims dark: pixels of both parts all lit
+    # only under a sun toward the camera.
+    assert checked >= 10 and both >= (3 if light[2] == 1 else 0), (checked, both)
 
 
 def test_shadows_keep_their_edges_refined():

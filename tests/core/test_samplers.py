@@ -170,7 +170,10 @@ def test_a_silhouettes_part_seen_by_one_half_of_the_samples_keeps_the_pixel_refi
     # exceeds target_error: at 0.0143 the pixel is within target_error of a 4096-spp reference, and
     # its estimate is no longer zero. (Seed 0, the default: other seeds' samples fall otherwise in the
     # pixel, and with seed 1 it still stops at 16 samples 0.012 off with an estimate of 0 -- a case
-    # this rule does not reach, noted in docs/benchmarks.md.)
+    # this rule does not reach, noted in docs/benchmarks.md.) The sliver's samples are now taken less
+    # their control variate (the sphere's shading by the sun, exact over its part of the pixel), so
+    # that part's mean is exact and the estimate near 0 is right: the pixel is within the reference's
+    # own noise (about 1e-4 at 4096 spp) where it was 0.002 off.
     scene, camera = edge_scene(2000)
     box, te = (148, 0, 8, 4), 0.0143
     reference = durer.render(scene, camera, 160, 90, spp=4096, seed=7, passes=("color",), region=box).color
@@ -178,7 +181,7 @@ def test_a_silhouettes_part_seen_by_one_half_of_the_samples_keeps_the_pixel_refi
                           region=box)
     error = np.sqrt(np.mean((result.color[1, 3, :3] - reference[1, 3, :3]) ** 2))
     assert error < te and result.samples[1, 3] > 16
-    assert result.error[1, 3] > error / 3
+    assert result.error[1, 3] > error / 3 or error < 2e-4
 
 
 def red_and_green_discs(size: int, rng: np.random.Generator, place) -> tuple[list, list]:

@@ -45,11 +45,12 @@
 // keeps the pixel marked while what it may put the mean off by exceeds targetError
 // (unresolvedShare): one no sample has reached yet, by its share (its colour may differ by about
 // 1), one whose samples all lie in one half, by its share times the spread of a colour.
-// Where one sphere's disk makes the stratum and directional lights shine (an orthographic camera),
-// each sample inside it is taken less its control variate (TileRenderer::sphereControls: the
-// sphere's diffuse term from those lights, linear in its normal, less its exact mean over the part):
-// the part's mean, and its halves', then vary only with what the control leaves out (shadows,
-// highlights, the terminator), and a sphere lit all over its part is exact from one sample there.
+// Where the stratum's disks do not overlap and directional lights shine (an orthographic camera),
+// each sample inside it is taken less its control variate (TileRenderer::stratumControl: its
+// sphere's diffuse shading by the ambient light and those lights, no shadows, less that shading's
+// exact mean over the part): the part's mean, and its halves', then vary only with what the control
+// leaves out (shadows, highlights, emission, other lights), and diffuse spheres lit by suns without
+// shadows are exact from one sample in each sphere's part.
 // Through an orthographic camera, a pixel also watches up to two spheres whose silhouettes cross it
 // and that its first samples did not meet, but the sphere of a one-sphere stratum
 // (TileRenderer::watchSilhouettes: a sliver beside the stratum's edge, an edge where two spheres'
@@ -66,7 +67,7 @@
 // A time limit stops the refining rounds (never the first pass) when spent; each worker takes its
 // band's tiles worst first (the largest estimated error), so what the limit cuts matters least.
 // Every pixel's state is kept until the end (TileState and Summary: 201 bytes a pixel in double, 133
-// in float; in a colour render through a camera without a lens, StratumState: 212 and 176 more).
+// in float; in a colour render through a camera without a lens, StratumState: 216 and 180 more).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
 // threads; a pixel's result depends on the pixels within `rounds` of it, and its reported error on
 // those within one more, so a region is rendered with that margin around it (sampledRegion) and
@@ -240,8 +241,8 @@ class AdaptiveSampler {
 
  private:
   // A tile's pixels' silhouette strata, the sums of their samples inside them, and the spheres they
-  // watch, and their control variates (kept only where pixels may have one: m_strata; 212 bytes a pixel in
-  // double, 176 in float).
+  // watch, and their control variates (kept only where pixels may have one: m_strata; 216 bytes a pixel in
+  // double, 180 in float).
   struct StratumState {
     PixelStratum strata[kPacketSize];                     // the silhouettes crossing the pixel (PixelStratum)
     uint32_t sphere[kPacketSize];                         // its sphere, if one (Tiles::kNoSphere: none, or several)
@@ -251,7 +252,7 @@ class AdaptiveSampler {
     Real inR[kPacketSize], inG[kPacketSize], inB[kPacketSize], inA[kPacketSize];  // sums of the samples in it
     Real inside[kPacketSize];                             // their count
     Real lastInR[kPacketSize], lastInG[kPacketSize], lastInB[kPacketSize], lastInside[kPacketSize];  // of the second half
-    typename Tiles::StratumControl control[kPacketSize];  // its samples' inside control variate (sphereControls)
+    typename Tiles::StratumControl control[kPacketSize];  // its samples' inside control variate (stratumControl)
     bool controlled;                                      // whether a pixel of the tile has a control
 
     // Pixel k's mean of one channel by its stratum (PixelStratum::mean), from the channel's sum over
@@ -304,9 +305,9 @@ class AdaptiveSampler {
 
   // For a tile with strata: marks inside[j] whether sample j, at (sampleX[j], sampleY[j]) in pixel
   // k = pixel[j] of the tile (pixel == nullptr: k = j), lies in the pixel's stratum. Where the tile's
-  // strata have a control (TileRenderer::sphereControls), sets correction[j] to what sample j's
-  // colour is taken less (its control less the control's mean over the part: 0 outside, or without
-  // one) and returns correction; else null.
+  // strata have a control (TileRenderer::stratumControl), sets correction[j] to what sample j's
+  // colour is taken less (its control, TileRenderer::control: 0 outside, or without one) and
+  // returns correction; else null.
   const Vec3<Real>* markInside(const TileState& t, const Real* sampleX, const Real* sampleY, const int* pixel, int count,
                                bool* inside, Vec3<Real>* correction) const {
     const StratumState& u = *t.stratum;
@@ -456,7 +457,7 @@ class AdaptiveSampler {
     bool strata = false;
     const bool watch = t.stratum != nullptr && m_rounds > 0 && m_tiles.seesDisks();
     if (StratumState* u = t.stratum) {
-      m_tiles.silhouetteStrata(t.x0, t.y0, t.w, t.h, u->strata, u->sphere);
+      m_tiles.silhouetteStrata(t.x0, t.y0, t.w, t.h, u->strata, u->sphere, m_tiles.controlsStrata() ? u->control : nullptr);
       for (auto& watched : u->watched) std::fill(watched, watched + count, Tiles::kNoSphere);  // set after the samples
       strata = std::any_of(u->strata, u->strata + count, [](const PixelStratum& p) { return p.any(); });
       u->controlled = false;
@@ -464,10 +465,8 @@ class AdaptiveSampler {
         for (Real* sums : {u->inR, u->inG, u->inB, u->inA, u->inside, u->lastInR, u->lastInG, u->lastInB, u->lastInside}) {
           std::fill(sums, sums + count, Real(0));
         }
-        if (m_tiles.controlsStrata()) {
-          m_tiles.sphereControls(t.x0, t.y0, t.w, t.h, u->strata, u->sphere, u->control);
-          u->controlled = std::any_of(u->control, u->control + count, [](const auto& c) { return c.any(); });
-        }
+        u->controlled = m_tiles.controlsStrata() &&
+                        std::any_of(u->control, u->control + count, [](const auto& c) { return c.any(); });
       }
     }
     for (int sample = 0; sample < m_firstSamples; ++sample) {

@@ -92,7 +92,7 @@ class TileRenderer {
       }
       m_shader.useLightViews(std::move(views));
     }
-    if (seesDisks() && targets.color != nullptr && effects.lit) {  // the strata's control (sphereControls)
+    if (seesDisks() && targets.color != nullptr && effects.lit) {  // the strata's control (stratumControl)
       const ParallelProjection image = m_camera.projection();
       for (const ShadingLight<Real>& light : m_shading.lights()) {
         if (light.kind != ShadingLight<Real>::Kind::Directional) continue;
@@ -474,6 +474,19 @@ class TileRenderer {
     });
   }
 
+  // A stratum's control variate (stratumControl): at a sample inside the disk of member i, where
+  // the sphere's front has unit normal (u, v, w) in the disk's frame (x right, y down, toward the
+  // camera), kd[i] times the ambient light plus the sum over the directional lights l of its bit
+  // lights[i] of the light's colour times its cosine there, max(0, (a_l, b_l, c_l) · (u, v, w)),
+  // less `mean` (linear RGB); none where every kd is 0.
+  struct StratumControl {
+    Vec3<float> kd[PixelStratum::kMostDisks];
+    uint8_t lights[PixelStratum::kMostDisks];
+    Vec3<float> mean;
+    bool any() const { return kd[0] != Vec3<float>(0) || kd[1] != Vec3<float>(0) || kd[2] != Vec3<float>(0); }
+  };
+  static constexpr int kMostControlLights = 8;  // the directional lights a control reads (the first)
+
   // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0), for a render that
   // stratifies(); through a perspective camera, perspectiveStrata's. Through an orthographic one:
   // the union of the silhouettes of the camera's view's spheres whose edges cross the pixel, where
@@ -496,10 +509,14 @@ class TileRenderer {
   // stratum its gain (any exact split of the pixel keeps the mean consistent). The view lists a
   // cell's spheres by their fronts' depths: once every pixel has a cover nearer than the next one's
   // front, or too many spheres crossing it, the rest can change nothing and are not read.
-  void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres) const {
+  // With `controls` (a render that controlsStrata()): each stratum's control variate too
+  // (stratumControl).
+  void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres,
+                        StratumControl* controls = nullptr) const {
     constexpr int kMost = PixelStratum::kMostDisks;
     std::fill(strata, strata + w * h, PixelStratum{});
     std::fill(spheres, spheres + w * h, kNoSphere);
+    if (controls) std::fill(controls, controls + w * h, StratumControl{});
     if (!seesDisks()) return perspectiveStrata(x0, y0, w, h, strata, spheres);
     const ParallelProjection image = m_camera.projection();
     const int count = w * h;
@@ -564,66 +581,85 @@ class TileRenderer {
         for (int m = 0; m < members[k]; ++m) ellipses[m] = {member[m][k].cx, member[m][k].cy, member[m][k].ax, member[m][k].ay};
         strata[k] = PixelStratum::of(x0 + column, y0 + row, ellipses, members[k]);
         if (strata[k].any() && members[k] == 1) spheres[k] = memberSphere[0][k];
+        if (strata[k].any() && controls) {
+          uint32_t own[kMost];
+          for (int m = 0; m < strata[k].disks; ++m) own[m] = memberSphere[m][k];
+          controls[k] = stratumControl(x0 + column, y0 + row, strata[k], own);
+        }
       }
     }
   }
 
-  // Whether a one-sphere stratum's samples inside it take a control variate (sphereControls): a lit
+  // Whether a stratum's samples inside it take a control variate (stratumControl): a lit
   // colour render through an orthographic camera without a lens, with a directional light.
   bool controlsStrata() const { return !m_suns.empty(); }
 
-  // A one-sphere stratum's control variate (sphereControls): at a sample inside the sphere's disk,
-  // where its front's unit normal is (u, v, w) in the disk's frame (x right, y down, toward the
-  // camera), u alongU + v alongV + w alongW - mean (linear RGB); none where all are 0.
-  struct StratumControl {
-    Vec3<float> alongU, alongV, alongW, mean;
-    bool any() const { return alongU != Vec3<float>(0) || alongV != Vec3<float>(0) || alongW != Vec3<float>(0); }
-  };
-
-  // The control variates of the strata that one sphere's disk makes (spheres[k], silhouetteStrata)
-  // in the w x h tile at (x0, y0), pixels k row by row: the sphere's diffuse shading by each
-  // directional light whose terminator leaves the stratum's inside part not all dark, as if its
-  // cosine there went on linearly past the terminator (kd times the light's colour times N · L, no
-  // shadows), less its mean over the part: exact geometry (UnitDiskPart's integrals of the normal,
-  // over the part's area). A function of a sample's position alone, whose mean over the part is 0:
-  // the part's mean of the samples' colours less their controls estimates the colours' mean without
-  // bias whatever the shading, and where the shading is that (a diffuse sphere lit by suns, no
-  // shadows, the part all lit) every sample's colour less its control is that mean. Left: the
-  // ambient term and emission (the same all over the part), the parts past the terminator, and
-  // shadows, highlights, other lights, samples that met something else, which the samples estimate.
-  void sphereControls(int x0, int y0, int w, int h, const PixelStratum* strata, const uint32_t* spheres,
-                      StratumControl* controls) const {
-    const auto& set = m_group.spheres();
-    for (int row = 0, k = 0; row < h; ++row) {
-      for (int column = 0; column < w; ++column, ++k) {
-        StratumControl& control = controls[k];
-        control = {};
-        const PixelStratum& p = strata[k];
-        if (spheres[k] == kNoSphere || p.disks != 1 || p.shear != 0) continue;
-        const double iu = p.inverseAx[0], iv = p.inverseAy[0];
-        const double u0 = (x0 + column - double(p.cx[0])) * iu, v0 = (y0 + row - double(p.cy[0])) * iv;
-        const UnitDiskPart part(u0, u0 + iu, v0, v0 + iv);
-        if (!(part.area > 0)) continue;
-        const size_t i = spheres[k];
-        const Vec3d kd(set.colored() ? set.colors()[i][0] : m_shading.material(set.materials()[i]).diffuse);
-        Vec3d alongU(0), alongV(0), alongW(0);
-        for (const Sun& sun : m_suns) {
-          if (part.dark(sun.a, sun.b, sun.c)) continue;
-          const Vec3d color = kd * Vec3d(sun.color);
-          alongU += sun.a * color, alongV += sun.b * color, alongW += sun.c * color;
-        }
-        control.alongU = Vec3<float>(alongU), control.alongV = Vec3<float>(alongV), control.alongW = Vec3<float>(alongW);
-        control.mean = Vec3<float>((Vec3d(control.alongU) * part.u + Vec3d(control.alongV) * part.v +
-                                    Vec3d(control.alongW) * part.w) / part.area);
+  // The control variate of pixel (x, y)'s stratum p, whose members are the disks of spheres[i]
+  // (silhouetteStrata), where no two of them overlap (where they do, which sphere shows is a
+  // question of depth the control does not ask): each member's diffuse shading by the ambient light
+  // and by the directional lights that reach its part of the pixel (kd times the ambient light plus
+  // each light's colour times max(0, N · L), no shadows), less its mean over the stratum's inside:
+  // exact geometry (UnitDiskPart's area and integrals of the normal over each disk's part of the
+  // pixel, in the pixel's units; where a light's terminator crosses the part, the integral of its
+  // clamped cosine). A function of a sample's position alone whose mean over the inside is 0: the
+  // inside's mean of the samples' colours less their controls estimates the colours' mean without
+  // bias whatever the shading, and where the shading is that (diffuse spheres lit by suns, no
+  // shadows) every sample's colour less its control is that mean, whichever member's part it fell
+  // in. Left: emission, shadows, highlights, other lights, ambient occlusion, samples that met
+  // something else, which the samples estimate.
+  StratumControl stratumControl(int x, int y, const PixelStratum& p, const uint32_t* spheres) const {
+    StratumControl control{};
+    if (p.shear != 0) return control;
+    for (int i = 0; i < p.disks; ++i) {
+      for (int j = 0; j < i; ++j) {  // in the frame of the pixels' aspect, where they are circles
+        const double du = double(p.cx[i]) - double(p.cx[j]), dv = (double(p.cy[i]) - double(p.cy[j])) * double(p.aspect);
+        const double reach = 1 / double(p.inverseAx[i]) + 1 / double(p.inverseAx[j]);
+        if (!(du * du + dv * dv >= reach * reach)) return {};
       }
     }
+    const auto& set = m_group.spheres();
+    Vec3d sum(0);
+    double area = 0;  // the inside's, in pixels
+    for (int i = 0; i < p.disks; ++i) {
+      const double iu = p.inverseAx[i], iv = p.disks == 1 ? double(p.inverseAy[0]) : iu * double(p.aspect);
+      const double u0 = (x - double(p.cx[i])) * iu, v0 = (y - double(p.cy[i])) * iv;
+      const UnitDiskPart part(u0, u0 + iu, v0, v0 + iv);
+      if (!(part.area > 0)) continue;
+      const size_t sphere = spheres[i];
+      control.kd[i] = Vec3<float>(set.colored() ? set.colors()[sphere][0] : m_shading.material(set.materials()[sphere]).diffuse);
+      // The part's integral of the ambient light and the lights' colours times their cosines, in its frame.
+      Vec3d along = Vec3d(m_shading.ambient()) * part.area;
+      for (int l = 0; l < int(m_suns.size()) && l < kMostControlLights; ++l) {
+        const Sun& sun = m_suns[size_t(l)];
+        const bool lit = part.lit(sun.a, sun.b, sun.c);
+        if (!lit && part.lit(-sun.a, -sun.b, -sun.c)) continue;  // dark all over
+        control.lights[i] |= uint8_t(1u << l);
+        const double cosines = lit ? sun.a * part.u + sun.b * part.v + sun.c * part.w : part.clampedIntegral(sun.a, sun.b, sun.c);
+        along += cosines * Vec3d(sun.color);
+      }
+      sum += Vec3d(control.kd[i]) * along / (iu * iv), area += part.area / (iu * iv);
+    }
+    if (!(area > 0)) return {};
+    control.mean = Vec3<float>(sum / area);
+    return control;
   }
 
-  // The control (sphereControls) of a sample at (x, y) inside stratum p.
+  // The control (stratumControl) of a sample at (x, y) inside stratum p: its member's (the first
+  // whose disk holds it, as p.contains finds them).
   Vec3<Real> control(const PixelStratum& p, const StratumControl& c, double x, double y) const {
-    const double u = (x - double(p.cx[0])) * double(p.inverseAx[0]), v = (y - double(p.cy[0])) * double(p.inverseAy[0]);
-    const double w = std::sqrt(std::max(0.0, 1 - u * u - v * v));
-    return toReal<Real>(Vec3d(c.alongU) * u + Vec3d(c.alongV) * v + Vec3d(c.alongW) * w - Vec3d(c.mean));
+    for (int i = 0; i < p.disks; ++i) {
+      double u, v;
+      p.frame(i, x, y, u, v);
+      if (!(u * u + v * v < 1)) continue;
+      const double w = std::sqrt(1 - u * u - v * v);
+      Vec3d sum(m_shading.ambient());
+      for (int l = 0; l < int(m_suns.size()) && l < kMostControlLights; ++l) {
+        const Sun& sun = m_suns[size_t(l)];
+        if (c.lights[i] & (1u << l)) sum += std::max(0.0, sun.a * u + sun.b * v + sun.c * w) * Vec3d(sun.color);
+      }
+      return toReal<Real>(Vec3d(c.kd[i]) * sum - Vec3d(c.mean));
+    }
+    return Vec3<Real>(0);
   }
 
   // silhouetteStrata through a perspective camera (strata and spheres already cleared): a pixel's
