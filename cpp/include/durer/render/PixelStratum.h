@@ -108,38 +108,10 @@ struct DiskRectanglePieces {
   Piece piece[20];
   int count = 0;
 
-  DiskRectanglePieces(double u0, double u1, double v0, double v1) {
-    const DiskRectanglePath path(u0, u1, v0, v1);
-    const int n = path.count;
-    if (n == 0) {
-      if (!(u0 == -1 && u1 == 1 && v0 == -1 && v1 == 1)) return;  // apart
-      const Point e{1, 0}, north{0, 1}, w{-1, 0}, south{0, -1};
-      piece[0] = {e, north, true}, piece[1] = {north, w, true}, piece[2] = {w, south, true}, piece[3] = {south, e, true};
-      count = 4;
-      return;
-    }
-    for (int k = 0; k < n; ++k) {
-      const Point p = path.point[k], q = path.point[k + 1 < n ? k + 1 : 0];
-      if (k % 2 == 0) {
-        piece[count++] = {p, q, false};
-      } else if (!(p.u == q.u && p.v == q.v)) {
-        addArc(p, q, 0);
-      }
-    }
-  }
+  DiskRectanglePieces(double u0, double u1, double v0, double v1);
 
  private:
-  void addArc(Point p, Point q, int depth) {
-    const bool quarter = p.u * q.v - p.v * q.u > 0 && p.u * q.u + p.v * q.v >= 0;
-    if (quarter || depth == 2) {
-      piece[count++] = {p, q, true};
-      return;
-    }
-    double mu = q.v - p.v, mv = p.u - q.u;
-    const double l = std::sqrt(mu * mu + mv * mv);
-    const Point m{mu / l, mv / l};
-    addArc(p, m, depth + 1), addArc(m, q, depth + 1);
-  }
+  void addArc(Point p, Point q, int depth);
 };
 
 // The unit disk's part of [u0, u1] x [v0, v1] as a sphere's front seen orthographically (u, v
@@ -151,39 +123,13 @@ struct DiskRectanglePieces {
 // angle, a straight piece's the integral along it of the volume over its fan's rays ((1 - (1 -
 // r^2)^1.5) / 3 over r^2, in a form that does not cancel near the centre) by 4-point Gauss-Legendre
 // (within 3e-5 of 20-digit integration in the pixel's units over random disks of 0.3-5 pixels'
-// radius: tests/test_pixel_stratum.cpp).
+// radius: tests/test_pixel_stratum.cpp). Out of line (src/PixelStratum.cpp): adaptive sampling
+// makes one a stratum pixel, not a sample.
 struct UnitDiskPart {
   double area = 0, u = 0, v = 0, w = 0;  // the integrals of 1, u, v and w
   DiskRectanglePieces pieces;
 
-  UnitDiskPart(double u0, double u1, double v0, double v1)
-      : pieces(std::max(u0, -1.0), std::min(u1, 1.0), std::max(v0, -1.0), std::min(v1, 1.0)) {
-    static constexpr double kNode[4] = {0.069431844202973712, 0.33000947820757187, 0.66999052179242813,
-                                        0.93056815579702629};
-    static constexpr double kWeight[4] = {0.17392742256872693, 0.32607257743127307, 0.32607257743127307,
-                                          0.17392742256872693};
-    for (int i = 0; i < pieces.count; ++i) {
-      const auto& [p, q, arc] = pieces.piece[i];
-      const double cross = p.u * q.v - p.v * q.u;
-      if (arc) {  // u = cos, v = sin: the integrals of cos^3 / 2 and sin^3 / 2 over its angle
-        u += (q.v - q.v * q.v * q.v / 3 - (p.v - p.v * p.v * p.v / 3)) / 2;
-        v += (-q.u + q.u * q.u * q.u / 3 - (-p.u + p.u * p.u * p.u / 3)) / 2;
-        const double angle = std::atan2(cross, p.u * q.u + p.v * q.v);
-        area += angle / 2, w += angle / 3;
-        continue;
-      }
-      const double du = q.u - p.u, dv = q.v - p.v;
-      area += cross / 2;
-      u += dv / 6 * (p.u * p.u + p.u * q.u + q.u * q.u);
-      v -= du / 6 * (p.v * p.v + p.v * q.v + q.v * q.v);
-      double sum = 0;
-      for (int j = 0; j < 4; ++j) {
-        const double bu = p.u + kNode[j] * du, bv = p.v + kNode[j] * dv, rest = std::max(0.0, 1 - bu * bu - bv * bv);
-        sum += kWeight[j] * (1 + rest + rest * rest) / (1 + rest * std::sqrt(rest));  // (1 - rest^1.5) / r^2
-      }
-      w += cross * sum / 3;
-    }
-  }
+  UnitDiskPart(double u0, double u1, double v0, double v1);
 
   // The integral over the part of max(0, a u + b v + c w), for a part the light's terminator crosses
   // (for one it lights all over, a u + b v + c w's is the moments'): along each fan's ray exactly
@@ -192,70 +138,13 @@ struct UnitDiskPart {
   // crosses the piece or the cosine's rim term changes sign (where the integrand's form changes).
   // Within 2e-6 of 15-digit integration in the pixel's units over random disks of 0.3-5 pixels'
   // radius and random light directions.
-  double clampedIntegral(double a, double b, double c) const {
-    static constexpr double kNode[6] = {0.033765242898423975, 0.16939530676686776, 0.38069040695840156,
-                                        0.61930959304159844, 0.83060469323313224, 0.96623475710157603};
-    static constexpr double kWeight[6] = {0.085662246189585178, 0.18038078652406930, 0.23395696728634552,
-                                          0.23395696728634552, 0.18038078652406930, 0.085662246189585178};
-    // Of max(0, slope t + c sqrt(1 - t^2)) t dt over [0, r]: its antiderivative (slope t^3 - c (1 -
-    // t^2)^1.5) / 3, cut where the cosine turns negative.
-    const auto fanRay = [c](double slope, double r) {
-      const auto antiderivative = [&](double t, double w) { return (slope * t * t * t - c * w * w * w) / 3; };
-      const double w = std::sqrt(std::max(0.0, (1 - r) * (1 + r)));
-      const double h = std::sqrt(slope * slope + c * c);
-      if (c > 0) {
-        const double start = -c / 3;  // at t = 0
-        if (slope >= 0 || r * h <= c) return antiderivative(r, w) - start;
-        return antiderivative(c / h, -slope / h) - start;  // the terminator at t = c / h, w = |slope| / h
-      }
-      if (c < 0) {
-        if (slope <= 0 || r * h <= -c) return 0.0;
-        return antiderivative(r, w) - antiderivative(-c / h, slope / h);
-      }
-      return slope > 0 ? slope * r * r * r / 3 : 0.0;
-    };
-    double total = 0;
-    for (int i = 0; i < pieces.count; ++i) {
-      const auto& [p, q, arc] = pieces.piece[i];
-      const double cross = p.u * q.v - p.v * q.u;
-      if (cross == 0) continue;
-      const double du = q.u - p.u, dv = q.v - p.v, p0 = a * p.u + b * p.v, p1 = a * du + b * dv;
-      double cut[5] = {0, 1, 1, 1, 1};
-      int cuts = 1;
-      if (p1 != 0 && -p0 / p1 > 0 && -p0 / p1 < 1) cut[cuts++] = -p0 / p1;
-      if (!arc) cuts += terminatorCrossings(p, q, a, b, c, cut + cuts);
-      std::sort(cut, cut + cuts);
-      cut[cuts] = 1;
-      double sum = 0;
-      for (int k = 0; k < cuts; ++k) {
-        const double s0 = cut[k], length = cut[k + 1] - s0;
-        for (int j = 0; j < 6; ++j) {
-          const double s = s0 + length * kNode[j];
-          const double bu = p.u + s * du, bv = p.v + s * dv, r2 = bu * bu + bv * bv, r = std::sqrt(r2);
-          sum += kWeight[j] * length * fanRay((a * bu + b * bv) / r, arc ? 1.0 : std::min(r, 1.0)) / r2;
-        }
-      }
-      total += cross * sum;
-    }
-    return std::max(total, 0.0);
-  }
+  double clampedIntegral(double a, double b, double c) const;
 
   // Where the terminator of the light (a, b, c) crosses the straight piece from p to q: the roots s
   // in (0, 1) of (p0 + p1 s)^2 = c^2 (1 - |p + s d|^2) where p0 + p1 s, the cosine less c w, and c
   // are of opposite signs (at most 2, in `cut`); returns how many.
   static int terminatorCrossings(DiskRectanglePath::Point p, DiskRectanglePath::Point q, double a, double b, double c,
-                                 double* cut) {
-    const double du = q.u - p.u, dv = q.v - p.v, p0 = a * p.u + b * p.v, p1 = a * du + b * dv;
-    const double e0 = p.u * p.u + p.v * p.v, e1 = 2 * (p.u * du + p.v * dv), e2 = du * du + dv * dv;
-    const double qa = p1 * p1 + c * c * e2, qb = 2 * p0 * p1 + c * c * e1, qc = p0 * p0 - c * c * (1 - e0);
-    const double discriminant = qb * qb - 4 * qa * qc;
-    int n = 0;
-    if (!(discriminant > 0 && qa > 0)) return n;
-    for (const double root : {(-qb + std::sqrt(discriminant)) / (2 * qa), (-qb - std::sqrt(discriminant)) / (2 * qa)}) {
-      if (root > 0 && root < 1 && (p0 + p1 * root) * c < 0) cut[n++] = root;
-    }
-    return n;
-  }
+                                 double* cut);
 
   // Whether a u + b v + c w >= 0 all over the part (a light's cosine: the part is lit all over, to a
   // terminator along its rim at most): the light's terminator (where it is 0) crosses none of its
@@ -263,20 +152,7 @@ struct UnitDiskPart {
   // meets the circle: its ends' signs differ; a straight piece: a root in it of (p0 + p1 s)^2 = c^2
   // (1 - |p + s d|^2) where p0 + p1 s, the cosine less c w, and c are of opposite signs), so the part
   // lies on one side of it, and at no piece's start is it negative.
-  bool lit(double a, double b, double c) const {
-    for (int i = 0; i < pieces.count; ++i) {
-      const auto& [p, q, arc] = pieces.piece[i];
-      const double p0 = a * p.u + b * p.v;
-      if (!(p0 + c * std::sqrt(std::max(0.0, 1 - p.u * p.u - p.v * p.v)) >= 0)) return false;
-      if (arc) {
-        if (!(a * q.u + b * q.v >= 0)) return false;  // on the rim the cosine is p0's: not negative at either end
-        continue;
-      }
-      double cut[2];
-      if (terminatorCrossings(p, q, a, b, c, cut) > 0) return false;
-    }
-    return pieces.count > 0;
-  }
+  bool lit(double a, double b, double c) const;
 };
 
 // The area of the unit disk within the convex polygon of `count` vertices (u[i], v[i]), in either
