@@ -116,15 +116,16 @@ struct DiskRectanglePieces {
 
 // The unit disk's part of [u0, u1] x [v0, v1] as a sphere's front seen orthographically (u, v
 // across the image in radii, w = sqrt(1 - u^2 - v^2) toward the viewer, the unit normal (u, v, w)):
-// the integrals over it of 1, u, v and w, and whether a light's cosine a u + b v + c w is positive
-// all over it. The part is the fans from the centre to the pieces of its boundary
-// (DiskRectanglePieces), signed by their turn: u and v by Green's theorem (exact: polynomials of
-// the pieces' ends); its area, a straight piece's fan's triangle and an arc's sector; w, the hemisphere's volume over the part, by the fans: an arc's a third of its
-// angle, a straight piece's the integral along it of the volume over its fan's rays ((1 - (1 -
-// r^2)^1.5) / 3 over r^2, in a form that does not cancel near the centre) by 4-point Gauss-Legendre
-// (within 3e-5 of 20-digit integration in the pixel's units over random disks of 0.3-5 pixels'
-// radius: tests/test_pixel_stratum.cpp). Out of line (src/PixelStratum.cpp): adaptive sampling
-// makes one a stratum pixel, not a sample.
+// the integrals over it of 1, u, v and w, whether a light's cosine a u + b v + c w is nowhere
+// negative on it, and the integral of the cosine clamped at 0 (TileRenderer::stratumControl's
+// geometry). The part is the fans from the centre to the pieces of its boundary
+// (DiskRectanglePieces), signed by their turn: its area, a straight piece's triangle and an arc's
+// sector; u and v by Green's theorem (exact: polynomials of the pieces' ends); w, the hemisphere's
+// volume over the part, an arc's fan's a third of its angle and a straight piece's the integral
+// along it of the volume over its fan's rays ((1 - (1 - r^2)^1.5) / 3 over r^2, in a form that does
+// not cancel near the centre) by 4-point Gauss-Legendre: within 3e-5 of the pixel against
+// numerical integration over random disks of 0.3-5 pixels' radius (cpp/tests/test_pixel_stratum.cpp).
+// Out of line (src/PixelStratum.cpp): adaptive sampling makes one a stratum pixel, not a sample.
 struct UnitDiskPart {
   double area = 0, u = 0, v = 0, w = 0;  // the integrals of 1, u, v and w
   DiskRectanglePieces pieces;
