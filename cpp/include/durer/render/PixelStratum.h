@@ -36,7 +36,7 @@ inline double twiceSegment(double angle, double rr, double cross) {
 // empty), walked counter-clockwise: the points where it switches between the rectangle's sides and
 // the circle, in pairs along a side (path[2i] to path[2i + 1]), the circle's arc from each pair's
 // end to the next pair's start (none where the two points are one: a corner inside the disk).
-// Returns how many points (0: no side reaches into the disk, which then lies wholly inside or
+// `count`: how many points (0: no side reaches into the disk, which then lies wholly inside or
 // apart); `centreInside`: whether the centre lies on the inner side of the last side that reaches
 // into it.
 struct DiskRectanglePath {

@@ -509,10 +509,10 @@ class TileRenderer {
   // stratum its gain (any exact split of the pixel keeps the mean consistent). The view lists a
   // cell's spheres by their fronts' depths: once every pixel has a cover nearer than the next one's
   // front, or too many spheres crossing it, the rest can change nothing and are not read.
-  // With `controls` (a render that controlsStrata()): each stratum's control variate too
+  // With `controls` (null unless the render controlsStrata()): each stratum's control variate too
   // (stratumControl).
   void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres,
-                        StratumControl* controls = nullptr) const {
+                        StratumControl* controls) const {
     constexpr int kMost = PixelStratum::kMostDisks;
     std::fill(strata, strata + w * h, PixelStratum{});
     std::fill(spheres, spheres + w * h, kNoSphere);
