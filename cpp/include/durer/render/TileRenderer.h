@@ -621,9 +621,10 @@ class TileRenderer {
     Vec3d sum(0);
     double area = 0;  // the inside's, in pixels
     for (int i = 0; i < p.disks; ++i) {
-      const double iu = p.inverseAx[i], iv = p.disks == 1 ? double(p.inverseAy[0]) : iu * double(p.aspect);
-      const double u0 = (x - double(p.cx[i])) * iu, v0 = (y - double(p.cy[i])) * iv;
-      const UnitDiskPart part(u0, u0 + iu, v0, v0 + iv);
+      double u0, v0, u1, v1;  // the pixel's corners in the member's frame (unsheared: a rectangle)
+      p.frame(i, x, y, u0, v0), p.frame(i, x + 1, y + 1, u1, v1);
+      const double scale = (u1 - u0) * (v1 - v0);  // a pixel's area in the frame
+      const UnitDiskPart part(u0, u1, v0, v1);
       if (!(part.area > 0)) continue;
       const size_t sphere = spheres[i];
       control.kd[i] = Vec3<float>(set.colored() ? set.colors()[sphere][0] : m_shading.material(set.materials()[sphere]).diffuse);
@@ -637,7 +638,7 @@ class TileRenderer {
         const double cosines = lit ? sun.a * part.u + sun.b * part.v + sun.c * part.w : part.clampedIntegral(sun.a, sun.b, sun.c);
         along += cosines * Vec3d(sun.color);
       }
-      sum += Vec3d(control.kd[i]) * along / (iu * iv), area += part.area / (iu * iv);
+      sum += Vec3d(control.kd[i]) * along / scale, area += part.area / scale;
     }
     if (!(area > 0)) return {};
     control.mean = Vec3<float>(sum / area);
