@@ -474,18 +474,23 @@ class TileRenderer {
     });
   }
 
-  // A stratum's control variate (stratumControl): at a sample inside the disk of member i, where
-  // the sphere's front has unit normal (u, v, w) in the disk's frame (x right, y down, toward the
-  // camera), kd[i] times the ambient light plus the sum over the directional lights l of its bit
-  // lights[i] of the light's colour times its cosine there, max(0, (a_l, b_l, c_l) · (u, v, w)),
-  // less `mean` (linear RGB); none where every kd is 0.
+  // A stratum's control variate (stratumControl): at a sample, the sum over the members whose disks
+  // hold it of the member's shading there, less hidden[i] for each but the nearest of them (rank[i]:
+  // the members' order by their centres' depths, 0 the nearest), less `mean` (linear RGB). A member's
+  // shading, where the sphere's front has unit normal (u, v, w) in the disk's frame (x right, y down,
+  // toward the camera): kd[i] times the ambient light plus the sum over the directional lights l of
+  // its bit lights[i] of the light's colour times its cosine there, max(0, (a_l, b_l, c_l) · (u, v, w)).
+  // None where every kd is 0.
   struct StratumControl {
     Vec3<float> kd[PixelStratum::kMostDisks];
+    Vec3<float> hidden[PixelStratum::kMostDisks];
     uint8_t lights[PixelStratum::kMostDisks];
+    uint8_t rank[PixelStratum::kMostDisks];
     Vec3<float> mean;
     bool any() const { return kd[0] != Vec3<float>(0) || kd[1] != Vec3<float>(0) || kd[2] != Vec3<float>(0); }
   };
   static constexpr int kMostControlLights = 8;  // the directional lights a control reads (the first)
+  struct ImageDisk;  // a sphere's silhouette through an orthographic camera
 
   // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0), for a render that
   // stratifies(); through a perspective camera, perspectiveStrata's. Through an orthographic one:
@@ -583,8 +588,9 @@ class TileRenderer {
         if (strata[k].any() && members[k] == 1) spheres[k] = memberSphere[0][k];
         if (strata[k].any() && controls) {
           uint32_t own[kMost];
-          for (int m = 0; m < strata[k].disks; ++m) own[m] = memberSphere[m][k];
-          controls[k] = stratumControl(x0 + column, y0 + row, strata[k], own);
+          ImageDisk disks[kMost];
+          for (int m = 0; m < strata[k].disks; ++m) own[m] = memberSphere[m][k], disks[m] = member[m][k];
+          controls[k] = stratumControl(x0 + column, y0 + row, strata[k], own, disks);
         }
       }
     }
@@ -594,32 +600,41 @@ class TileRenderer {
   // colour render through an orthographic camera without a lens, with a directional light.
   bool controlsStrata() const { return !m_suns.empty(); }
 
-  // The control variate of pixel (x, y)'s stratum p, whose members are the disks of spheres[i]
-  // (silhouetteStrata), where no two of them overlap (where they do, which sphere shows is a
-  // question of depth the control does not ask): each member's diffuse shading by the ambient light
-  // and by the directional lights that reach its part of the pixel (kd times the ambient light plus
-  // each light's colour times max(0, N · L), no shadows), less its mean over the stratum's inside:
-  // exact geometry (UnitDiskPart's area and integrals of the normal over each disk's part of the
-  // pixel, in the pixel's units; where a light's terminator crosses the part, the integral of its
-  // clamped cosine). A function of a sample's position alone whose mean over the inside is 0: the
-  // inside's mean of the samples' colours less their controls estimates the colours' mean without
-  // bias whatever the shading, and where the shading is that (diffuse spheres lit by suns, no
-  // shadows) every sample's colour less its control is that mean, whichever member's part it fell
-  // in. Left: emission, shadows, highlights, other lights, ambient occlusion, samples that met
-  // something else, which the samples estimate.
-  StratumControl stratumControl(int x, int y, const PixelStratum& p, const uint32_t* spheres) const {
+  // The control variate of pixel (x, y)'s stratum p, whose members are the disks of spheres[i] (as
+  // silhouetteStrata found them: disks[i]), where no two members whose disks overlap cut through each
+  // other in space (those leave the pixel without a control: which of them shows changes inside the
+  // overlap). Each member's diffuse shading by the ambient light and by the directional lights that
+  // reach its part of the pixel (kd times the ambient light plus each light's colour times
+  // max(0, N · L), no shadows), summed over the members whose disks hold the sample, less, for each of
+  // those but the nearest (its centre's depth), that member's mean shading over its part (`hidden`),
+  // less the mean of all that over the stratum's inside. The mean needs no visible part's shape: each
+  // member's shading over its whole disk's part of the pixel (exact geometry: UnitDiskPart's area and
+  // integrals of the normal, in the pixel's units; where a light's terminator crosses the part, the
+  // integral of its clamped cosine), and the area of each member's part that nearer members' disks
+  // cover (unions' areas). A function of a sample's position alone whose mean over the inside is 0:
+  // the inside's mean of the samples' colours less their controls estimates the colours' mean without
+  // bias whatever the shading. Where the shading is that (diffuse spheres lit by suns, no shadows),
+  // the nearer sphere is the one seen wherever disks overlap (spheres apart: the one whose centre is
+  // nearer), so a sample's colour less its control is the mean plus, where it lies in an overlap, the
+  // hidden spheres' mean shading less theirs there: exact from one sample in each disk's part where
+  // disks do not overlap, or where a hidden part's shading does not vary (dark, lit by the ambient
+  // light alone). Left: emission, shadows, highlights, other lights, ambient occlusion, samples that
+  // met something else, which the samples estimate.
+  StratumControl stratumControl(int x, int y, const PixelStratum& p, const uint32_t* spheres, const ImageDisk* disks) const {
+    constexpr int kMost = PixelStratum::kMostDisks;
     StratumControl control{};
     if (p.shear != 0) return control;
-    for (int i = 0; i < p.disks; ++i) {
-      for (int j = 0; j < i; ++j) {  // in the frame of the pixels' aspect, where they are circles
-        const double du = double(p.cx[i]) - double(p.cx[j]), dv = (double(p.cy[i]) - double(p.cy[j])) * double(p.aspect);
-        const double reach = 1 / double(p.inverseAx[i]) + 1 / double(p.inverseAx[j]);
-        if (!(du * du + dv * dv >= reach * reach)) return {};
+    const bool overlap = overlaps(p);
+    for (int i = 0; overlap && i < p.disks; ++i) {
+      for (int j = 0; j < i; ++j) {
+        const Vec3d d = disks[i].q - disks[j].q;
+        const double reach = disks[i].radius + disks[j].radius;
+        if (!(dot(d, d) >= reach * reach)) return control;  // they cut through each other (or touch)
       }
     }
     const auto& set = m_group.spheres();
     Vec3d sum(0);
-    double area = 0;  // the inside's, in pixels
+    double area[kMost] = {};  // each member's part, in pixels (of a member whose part is empty, 0 and no shading)
     for (int i = 0; i < p.disks; ++i) {
       double u0, v0, u1, v1;  // the pixel's corners in the member's frame (unsheared: a rectangle)
       p.frame(i, x, y, u0, v0), p.frame(i, x + 1, y + 1, u1, v1);
@@ -638,16 +653,49 @@ class TileRenderer {
         const double cosines = lit ? sun.a * part.u + sun.b * part.v + sun.c * part.w : part.clampedIntegral(sun.a, sun.b, sun.c);
         along += cosines * Vec3d(sun.color);
       }
-      sum += Vec3d(control.kd[i]) * along / scale, area += part.area / scale;
+      area[i] = part.area / scale;
+      const Vec3d shading = Vec3d(control.kd[i]) * along / scale;
+      sum += shading, control.hidden[i] = Vec3<float>(shading / area[i]);
     }
-    if (!(area > 0)) return {};
-    control.mean = Vec3<float>(sum / area);
+    // The part of each member's part that nearer ones cover, where any two disks overlap: its part
+    // plus the nearer ones' union less their union with it (pixel units across, the strata's aspect
+    // down: PixelStratum::of's frame).
+    double inside = 0;  // the union's area
+    for (int i = 0; i < p.disks; ++i) inside += area[i];
+    int order[kMost] = {0, 1, 2};  // nearest first
+    std::sort(order, order + p.disks, [&](int a, int b) { return disks[a].q.z < disks[b].q.z; });
+    double cu[kMost], cv[kMost], radius[kMost], nearer = 0;  // in order; the nearer ones' union
+    for (int n = 0; n < p.disks; ++n) {
+      const int i = order[n];
+      control.rank[i] = uint8_t(n);
+      if (!overlap) continue;
+      cu[n] = double(p.cx[i]) - x, cv[n] = (double(p.cy[i]) - y) * double(p.aspect), radius[n] = 1 / double(p.inverseAx[i]);
+      const double both = circlesRectangleUnionArea(cu, cv, radius, n + 1, 1, double(p.aspect)) / double(p.aspect);
+      const double covered = std::clamp(nearer + area[i] - both, 0.0, area[i]);
+      sum -= Vec3d(control.hidden[i]) * covered, inside -= covered;
+      nearer = both;
+    }
+    if (!(inside > 0)) return {};
+    control.mean = Vec3<float>(sum / inside);
     return control;
   }
 
-  // The control (stratumControl) of a sample at (x, y) inside stratum p: its member's (the first
-  // whose disk holds it, as p.contains finds them).
+  // Whether two of stratum p's disks overlap (in the frame of the pixels' aspect, where they are circles).
+  static bool overlaps(const PixelStratum& p) {
+    for (int i = 0; i < p.disks; ++i) {
+      for (int j = 0; j < i; ++j) {
+        const double du = double(p.cx[i]) - double(p.cx[j]), dv = (double(p.cy[i]) - double(p.cy[j])) * double(p.aspect);
+        const double reach = 1 / double(p.inverseAx[i]) + 1 / double(p.inverseAx[j]);
+        if (!(du * du + dv * dv >= reach * reach)) return true;
+      }
+    }
+    return false;
+  }
+
+  // The control (stratumControl) of a sample at (x, y) inside stratum p.
   Vec3<Real> control(const PixelStratum& p, const StratumControl& c, double x, double y) const {
+    Vec3d total(0), hidden(0);  // the shadings' sum; the members' `hidden` but the nearest's
+    int nearest = -1;
     for (int i = 0; i < p.disks; ++i) {
       double u, v;
       p.frame(i, x, y, u, v);
@@ -658,9 +706,16 @@ class TileRenderer {
         const Sun& sun = m_suns[size_t(l)];
         if (c.lights[i] & (1u << l)) sum += std::max(0.0, sun.a * u + sun.b * v + sun.c * w) * Vec3d(sun.color);
       }
-      return toReal<Real>(Vec3d(c.kd[i]) * sum - Vec3d(c.mean));
+      total += Vec3d(c.kd[i]) * sum;
+      if (nearest < 0) {
+        nearest = i;
+      } else {
+        const bool nearer = c.rank[i] < c.rank[nearest];
+        hidden += Vec3d(c.hidden[nearer ? nearest : i]);
+        if (nearer) nearest = i;
+      }
     }
-    return Vec3<Real>(0);
+    return toReal<Real>(nearest < 0 ? Vec3d(0) : total - hidden - Vec3d(c.mean));
   }
 
   // silhouetteStrata through a perspective camera (strata and spheres already cleared): a pixel's
