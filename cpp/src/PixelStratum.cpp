@@ -7,7 +7,7 @@
 
 namespace durer {
 
-DiskRectanglePieces::DiskRectanglePieces(double u0, double u1, double v0, double v1) {
+DiskPieces::DiskPieces(double u0, double u1, double v0, double v1) {
   const DiskRectanglePath path(u0, u1, v0, v1);
   const int n = path.count;
   if (n == 0) {
@@ -27,7 +27,45 @@ DiskRectanglePieces::DiskRectanglePieces(double u0, double u1, double v0, double
   }
 }
 
-void DiskRectanglePieces::addArc(Point p, Point q, int depth) {
+DiskPieces::DiskPieces(const Point* corner, int n) {
+  // Each side's chord inside the disk, where it has one: from a + t0 d to a + t1 d, 0 <= t0 < t1 <= 1
+  // (roots of |a + t d|^2 = 1 in the form that does not cancel); whether it leaves through the circle.
+  Point start[4], end[4];
+  bool leaves[4];
+  int chords = 0;
+  for (int k = 0; k < n; ++k) {
+    const Point a = corner[k], b = corner[k + 1 < n ? k + 1 : 0];
+    const double du = b.u - a.u, dv = b.v - a.v, qa = du * du + dv * dv;
+    const double qb = a.u * du + a.v * dv, qc = a.u * a.u + a.v * a.v - 1, discriminant = qb * qb - qa * qc;
+    if (!(qa > 0 && discriminant > 0)) continue;
+    const double q = -(qb + std::copysign(std::sqrt(discriminant), qb));
+    const double r0 = q / qa, r1 = q != 0 ? qc / q : -r0;
+    const double t0 = std::clamp(std::min(r0, r1), 0.0, 1.0), t1 = std::clamp(std::max(r0, r1), 0.0, 1.0);
+    if (!(t0 < t1)) continue;
+    start[chords] = {a.u + t0 * du, a.v + t0 * dv}, end[chords] = t1 < 1 ? Point{a.u + t1 * du, a.v + t1 * dv} : b;
+    leaves[chords++] = t1 < 1;
+  }
+  if (chords == 0) {  // no side reaches into the disk: the polygon holds all of it, or none
+    bool holds = true;
+    for (int k = 0; k < n; ++k) {
+      const Point a = corner[k], b = corner[k + 1 < n ? k + 1 : 0];
+      holds = holds && (b.u - a.u) * (0 - a.v) - (b.v - a.v) * (0 - a.u) > 0;  // the centre left of each side
+    }
+    if (!holds) return;
+    const Point e{1, 0}, north{0, 1}, w{-1, 0}, south{0, -1};
+    piece[0] = {e, north, true}, piece[1] = {north, w, true}, piece[2] = {w, south, true}, piece[3] = {south, e, true};
+    count = 4;
+    return;
+  }
+  // The chords in order, an arc from where one leaves the disk to where the next enters it.
+  for (int k = 0; k < chords; ++k) {
+    piece[count++] = {start[k], end[k], false};
+    const Point next = start[k + 1 < chords ? k + 1 : 0];
+    if (leaves[k] && !(end[k].u == next.u && end[k].v == next.v)) addArc(end[k], next, 0);
+  }
+}
+
+void DiskPieces::addArc(Point p, Point q, int depth) {
   const bool quarter = p.u * q.v - p.v * q.u > 0 && p.u * q.u + p.v * q.v >= 0;
   if (quarter || depth == 2) {
     piece[count++] = {p, q, true};
@@ -41,10 +79,16 @@ void DiskRectanglePieces::addArc(Point p, Point q, int depth) {
 
 UnitDiskPart::UnitDiskPart(double u0, double u1, double v0, double v1)
     : pieces(std::max(u0, -1.0), std::min(u1, 1.0), std::max(v0, -1.0), std::min(v1, 1.0)) {
-  static constexpr double kNode[4] = {0.069431844202973712, 0.33000947820757187, 0.66999052179242813,
-                                      0.93056815579702629};
-  static constexpr double kWeight[4] = {0.17392742256872693, 0.32607257743127307, 0.32607257743127307,
-                                        0.17392742256872693};
+  integrate();
+}
+
+UnitDiskPart::UnitDiskPart(const DiskPieces::Point* corner, int count) : pieces(corner, count) { integrate(); }
+
+void UnitDiskPart::integrate() {
+  static constexpr double kNode[6] = {0.033765242898423975, 0.16939530676686776, 0.38069040695840156,
+                                      0.61930959304159844, 0.83060469323313224, 0.96623475710157603};
+  static constexpr double kWeight[6] = {0.085662246189585178, 0.18038078652406930, 0.23395696728634552,
+                                        0.23395696728634552, 0.18038078652406930, 0.085662246189585178};
   for (int i = 0; i < pieces.count; ++i) {
     const auto& [p, q, arc] = pieces.piece[i];
     const double cross = p.u * q.v - p.v * q.u;
@@ -60,7 +104,7 @@ UnitDiskPart::UnitDiskPart(double u0, double u1, double v0, double v1)
     u += dv / 6 * (p.u * p.u + p.u * q.u + q.u * q.u);
     v -= du / 6 * (p.v * p.v + p.v * q.v + q.v * q.v);
     double sum = 0;
-    for (int j = 0; j < 4; ++j) {
+    for (int j = 0; j < 6; ++j) {
       const double bu = p.u + kNode[j] * du, bv = p.v + kNode[j] * dv, rest = std::max(0.0, 1 - bu * bu - bv * bv);
       sum += kWeight[j] * (1 + rest + rest * rest) / (1 + rest * std::sqrt(rest));  // (1 - rest^1.5) / r^2
     }

@@ -45,14 +45,16 @@
 // keeps the pixel marked while what it may put the mean off by exceeds targetError
 // (unresolvedShare): one no sample has reached yet, by its share (its colour may differ by about
 // 1), one whose samples all lie in one half, by its share times the spread of a colour.
-// Where directional lights shine (an orthographic camera) and the stratum's spheres do not cut
-// through each other, each sample inside it is taken less its control variate
-// (TileRenderer::stratumControl: its spheres' diffuse shading by the ambient light and those lights,
-// no shadows, less that shading's exact mean over the disks' parts; where disks overlap, the hidden
-// ones' by their parts' means): the part's mean, and its halves', then vary only with what the
-// control leaves out (shadows, highlights, emission, other lights, a hidden sphere's shading less its
-// mean), and diffuse spheres lit by suns without shadows are exact from one sample in each sphere's
-// part where their disks do not overlap.
+// Where directional lights shine, each sample inside the stratum is taken less its control variate
+// (orthographic, where the stratum's spheres do not cut through each other:
+// TileRenderer::stratumControl, its spheres' diffuse shading by the ambient light and those lights,
+// no shadows, less that shading's exact mean over the disks' parts, where disks overlap the hidden
+// ones' by their parts' means; perspective, for a small sphere: TileRenderer::ellipseControl, the
+// same with the sphere's normal modelled as an orthographic camera would see it): the part's mean,
+// and its halves', then vary only with what the control leaves out (shadows, highlights, emission,
+// other lights, a hidden sphere's shading less its mean, the perspective model's departure), and
+// diffuse spheres lit by suns without shadows seen orthographically are exact from one sample in
+// each sphere's part where their disks do not overlap.
 // Through an orthographic camera, a pixel also watches up to two spheres whose silhouettes cross it
 // and that its first samples did not meet, but the sphere of a one-sphere stratum
 // (TileRenderer::watchSilhouettes: a sliver beside the stratum's edge, an edge where two spheres'

@@ -92,7 +92,7 @@ class TileRenderer {
       }
       m_shader.useLightViews(std::move(views));
     }
-    if (seesDisks() && targets.color != nullptr && effects.lit) {  // the strata's control (stratumControl)
+    if (stratifies() && targets.color != nullptr && effects.lit) {  // the strata's control (stratumControl)
       const ParallelProjection image = m_camera.projection();
       for (const ShadingLight<Real>& light : m_shading.lights()) {
         if (light.kind != ShadingLight<Real>::Kind::Directional) continue;
@@ -490,6 +490,10 @@ class TileRenderer {
     bool any() const { return kd[0] != Vec3<float>(0) || kd[1] != Vec3<float>(0) || kd[2] != Vec3<float>(0); }
   };
   static constexpr int kMostControlLights = 8;  // the directional lights a control reads (the first)
+  // The largest sine of a sphere's angular radius, seen from a perspective camera, for which its
+  // silhouette's strata take a control (ellipseControl): its model of the normal departs from the
+  // sphere's by about that sine, and beyond it the control may add more spread than it removes.
+  static constexpr double kMostControlSine = 0.1;
   struct ImageDisk;  // a sphere's silhouette through an orthographic camera
 
   // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0), for a render that
@@ -522,7 +526,7 @@ class TileRenderer {
     std::fill(strata, strata + w * h, PixelStratum{});
     std::fill(spheres, spheres + w * h, kNoSphere);
     if (controls) std::fill(controls, controls + w * h, StratumControl{});
-    if (!seesDisks()) return perspectiveStrata(x0, y0, w, h, strata, spheres);
+    if (!seesDisks()) return perspectiveStrata(x0, y0, w, h, strata, spheres, controls);
     const ParallelProjection image = m_camera.projection();
     const int count = w * h;
     const double inf = std::numeric_limits<double>::infinity();
@@ -596,8 +600,8 @@ class TileRenderer {
     }
   }
 
-  // Whether a stratum's samples inside it take a control variate (stratumControl): a lit
-  // colour render through an orthographic camera without a lens, with a directional light.
+  // Whether a stratum's samples inside it take a control variate (stratumControl): a lit colour
+  // render through a camera without a lens, with a directional light.
   bool controlsStrata() const { return !m_suns.empty(); }
 
   // The control variate of pixel (x, y)'s stratum p, whose members are the disks of spheres[i] (as
@@ -680,6 +684,22 @@ class TileRenderer {
     return control;
   }
 
+  // A perspective stratum's control (ellipseControl) at (x, y) inside it.
+  Vec3<Real> ellipseControlAt(const PixelStratum& p, const StratumControl& c, double x, double y) const {
+    double u, v;
+    p.frame(0, x, y, u, v);
+    const double w = std::sqrt(std::max(0.0, 1 - u * u - v * v));
+    Vec3d axes[3];
+    ellipseAxes(p, axes);
+    const Vec3d normal = u * axes[0] + v * axes[1] + w * axes[2];
+    Vec3d sum(m_shading.ambient());
+    for (int l = 0; l < int(m_suns.size()) && l < kMostControlLights; ++l) {
+      const Sun& sun = m_suns[size_t(l)];
+      if (c.lights[0] & (1u << l)) sum += std::max(0.0, dot(Vec3d(sun.a, sun.b, sun.c), normal)) * Vec3d(sun.color);
+    }
+    return toReal<Real>(Vec3d(c.kd[0]) * sum - Vec3d(c.mean));
+  }
+
   // Whether two of stratum p's disks overlap (in the frame of the pixels' aspect, where they are circles).
   static bool overlaps(const PixelStratum& p) {
     for (int i = 0; i < p.disks; ++i) {
@@ -692,8 +712,9 @@ class TileRenderer {
     return false;
   }
 
-  // The control (stratumControl) of a sample at (x, y) inside stratum p.
+  // The control (stratumControl, ellipseControl) of a sample at (x, y) inside stratum p.
   Vec3<Real> control(const PixelStratum& p, const StratumControl& c, double x, double y) const {
+    if (m_camera.projection().perspective) return ellipseControlAt(p, c, x, y);
     Vec3d total(0), hidden(0);  // the shadings' sum; the members' `hidden` but the nearest's
     int nearest = -1;
     for (int i = 0; i < p.disks; ++i) {
@@ -718,6 +739,66 @@ class TileRenderer {
     return toReal<Real>(nearest < 0 ? Vec3d(0) : total - hidden - Vec3d(c.mean));
   }
 
+  // The control variate (StratumControl: kd[0], lights[0] and mean) of pixel (x, y)'s stratum p
+  // through a perspective camera, the silhouette of `sphere`: as stratumControl's of one disk, the
+  // sphere's diffuse shading by the ambient light and the directional lights, no shadows, less its
+  // mean over the part, with the sphere's normal at a sample taken as a disk's through an
+  // orthographic camera would be, in the ellipse's own frame (ellipseAxes): the part's mean of that
+  // is exact geometry (UnitDiskPart of the pixel's square in the frame, a parallelogram), whatever
+  // the true normal there, which a small sphere's follows closely; what the two differ by the samples
+  // estimate, with shadows and the rest.
+  StratumControl ellipseControl(int x, int y, const PixelStratum& p, uint32_t sphere) const {
+    StratumControl control{};
+    const Sphere<Real>& s = m_group.spheres().primitive(sphere);
+    const Vec3d q = Vec3d(s.center) - m_camera.projection().center;
+    if (!(double(s.radius) <= kMostControlSine * std::sqrt(dot(q, q)))) return control;
+    DiskPieces::Point corner[4];
+    const int xs[4] = {x, x + 1, x + 1, x}, ys[4] = {y, y, y + 1, y + 1};
+    for (int k = 0; k < 4; ++k) p.frame(0, xs[k], ys[k], corner[k].u, corner[k].v);
+    const UnitDiskPart part(corner, 4);
+    if (!(part.area > 0)) return control;
+    const auto& set = m_group.spheres();
+    control.kd[0] = Vec3<float>(set.colored() ? set.colors()[sphere][0] : m_shading.material(set.materials()[sphere]).diffuse);
+    Vec3d axes[3];
+    ellipseAxes(p, axes);
+    Vec3d along = Vec3d(m_shading.ambient()) * part.area;
+    for (int l = 0; l < int(m_suns.size()) && l < kMostControlLights; ++l) {
+      const Sun& sun = m_suns[size_t(l)];
+      const Vec3d toSun(sun.a, sun.b, sun.c);
+      const double a = dot(toSun, axes[0]), b = dot(toSun, axes[1]), c = dot(toSun, axes[2]);
+      const bool lit = part.lit(a, b, c);
+      if (!lit && part.lit(-a, -b, -c)) continue;  // dark all over
+      control.lights[0] |= uint8_t(1u << l);
+      along += (lit ? a * part.u + b * part.v + c * part.w : part.clampedIntegral(a, b, c)) * Vec3d(sun.color);
+    }
+    control.mean = Vec3<float>(Vec3d(control.kd[0]) * along / part.area);
+    return control;
+  }
+
+  // The axes (in the suns' frame: x right, y down, toward the camera) along which a perspective
+  // stratum's ellipse frame (PixelStratum::frame: u, v across the unit disk, w = sqrt(1 - u^2 - v^2))
+  // turns a sphere's normal, as an orthographic camera looking along the ray through the ellipse's
+  // centre would see it: w toward the camera along that ray, u and v toward where the rays through the
+  // frame's (1, 0) and (0, 1) pass it (unit, each square to that ray). The normal a model reads at
+  // (u, v): u axes[0] + v axes[1] + w axes[2].
+  void ellipseAxes(const PixelStratum& p, Vec3d* axes) const {
+    const ParallelProjection image = m_camera.projection();
+    const double l11 = p.inverseAx[0], l22 = p.inverseAy[0], l12 = p.shear;
+    const auto ray = [&](double du, double dv) {  // the unit direction through sample position centre + (du, dv)
+      const double x = double(p.cx[0]) + du, y = double(p.cy[0]) + dv;
+      const Vec3d d(x * image.pixelWidth + image.xOffset, y * image.pixelHeight - image.yOffset, -1.0);
+      return d / std::sqrt(dot(d, d));
+    };
+    const Vec3d centre = ray(0, 0);
+    const auto across = [&](const Vec3d& d) {
+      const Vec3d off = d - dot(d, centre) * centre;
+      return off / std::sqrt(dot(off, off));
+    };
+    axes[0] = across(ray(1 / l11, 0));
+    axes[1] = across(ray(-l12 / (l11 * l22), 1 / l22));
+    axes[2] = -centre;
+  }
+
   // silhouetteStrata through a perspective camera (strata and spheres already cleared): a pixel's
   // stratum is the one sphere's silhouette whose edge crosses it in front of its cover, where only
   // one does and no other sphere reaching into the pixel has its front nearer than that edge (which
@@ -727,8 +808,9 @@ class TileRenderer {
   // a covering sphere's image lies before it). A sphere reaching the eye's plane (its image
   // unbounded) or cut by the camera's near bound (ImageEllipse::exact) leaves the pixels it may reach
   // none; the far bound, like other geometry, is not looked at (a stratum whose edge is not the one
-  // seen costs only its gain: any exact split keeps the mean consistent).
-  void perspectiveStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres) const {
+  // seen costs only its gain: any exact split keeps the mean consistent). With `controls`: each
+  // stratum's control variate too (ellipseControl).
+  void perspectiveStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres, StratumControl* controls) const {
     const ParallelProjection image = m_camera.projection();
     const int count = w * h;
     const double inf = std::numeric_limits<double>::infinity();
@@ -777,6 +859,7 @@ class TileRenderer {
         const ImageEllipse& e = member[k];
         strata[k] = PixelStratum::sheared(x0 + column, y0 + row, e.cx, e.cy, e.l11, e.l12, e.l22);
         if (strata[k].any()) spheres[k] = memberSphere[k];
+        if (strata[k].any() && controls) controls[k] = ellipseControl(x0 + column, y0 + row, strata[k], memberSphere[k]);
       }
     }
   }
