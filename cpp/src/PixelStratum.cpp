@@ -1,5 +1,5 @@
 // The parts of PixelStratum.h that adaptive sampling calls once a pixel (its control variate's
-// geometry, TileRenderer::stratumControl): out of line, compiled once rather than in every kernel set.
+// geometry, StratumControl.h): out of line, compiled once rather than in every kernel set.
 #include "durer/render/PixelStratum.h"
 
 #include <algorithm>

@@ -47,9 +47,9 @@
 // 1), one whose samples all lie in one half, by its share times the spread of a colour.
 // Where directional lights shine, each sample inside the stratum is taken less its control variate
 // (orthographic, where the stratum's spheres do not cut through each other:
-// TileRenderer::stratumControl, its spheres' diffuse shading by the ambient light and those lights,
+// diskControl (StratumControl.h), its spheres' diffuse shading by the ambient light and those lights,
 // no shadows, less that shading's exact mean over the disks' parts, where disks overlap the hidden
-// ones' by their parts' means; perspective, for a small sphere: TileRenderer::ellipseControl, the
+// ones' by their parts' means; perspective, for a small sphere: ellipseControl, the
 // same with the sphere's normal modelled as an orthographic camera would see it): the part's mean,
 // and its halves', then vary only with what the control leaves out (shadows, highlights, emission,
 // other lights, a hidden sphere's shading less its mean, the perspective model's departure), and
@@ -256,7 +256,7 @@ class AdaptiveSampler {
     Real inR[kPacketSize], inG[kPacketSize], inB[kPacketSize], inA[kPacketSize];  // sums of the samples in it
     Real inside[kPacketSize];                             // their count
     Real lastInR[kPacketSize], lastInG[kPacketSize], lastInB[kPacketSize], lastInside[kPacketSize];  // of the second half
-    typename Tiles::StratumControl control[kPacketSize];  // its samples' inside control variate (stratumControl)
+    StratumControl control[kPacketSize];  // its samples' inside control variate (StratumControl.h)
     bool controlled;                                      // whether a pixel of the tile has a control
 
     // Pixel k's mean of one channel by its stratum (PixelStratum::mean), from the channel's sum over
@@ -309,7 +309,7 @@ class AdaptiveSampler {
 
   // For a tile with strata: marks inside[j] whether sample j, at (sampleX[j], sampleY[j]) in pixel
   // k = pixel[j] of the tile (pixel == nullptr: k = j), lies in the pixel's stratum. Where the tile's
-  // strata have a control (TileRenderer::stratumControl), sets correction[j] to what sample j's
+  // strata have a control (StratumControl.h), sets correction[j] to what sample j's
   // colour is taken less (its control, TileRenderer::control: 0 outside, or without one) and
   // returns correction; else null.
   const Vec3<Real>* markInside(const TileState& t, const Real* sampleX, const Real* sampleY, const int* pixel, int count,

@@ -121,7 +121,7 @@ struct DiskPieces {
 // The unit disk's part of [u0, u1] x [v0, v1] as a sphere's front seen orthographically (u, v
 // across the image in radii, w = sqrt(1 - u^2 - v^2) toward the viewer, the unit normal (u, v, w)):
 // the integrals over it of 1, u, v and w, whether a light's cosine a u + b v + c w is nowhere
-// negative on it, and the integral of the cosine clamped at 0 (TileRenderer::stratumControl's
+// negative on it, and the integral of the cosine clamped at 0 (diskControl's and ellipseControl's
 // geometry). The part is the fans from the centre to the pieces of its boundary (DiskPieces),
 // signed by their turn: its area, a straight piece's triangle and an arc's sector; u and v by
 // Green's theorem (exact: polynomials of the pieces' ends); w, the hemisphere's volume over the

@@ -16,6 +16,7 @@
 #include "durer/render/PacketShader.h"
 #include "durer/render/PixelSampler.h"
 #include "durer/render/PixelStratum.h"
+#include "durer/render/StratumControl.h"
 #include "durer/render/Renderer.h"
 #include "durer/render/Shading.h"
 
@@ -92,13 +93,14 @@ class TileRenderer {
       }
       m_shader.useLightViews(std::move(views));
     }
-    if (stratifies() && targets.color != nullptr && effects.lit) {  // the strata's control (stratumControl)
+    if (stratifies() && targets.color != nullptr && effects.lit) {  // the strata's control (StratumControl.h)
       const ParallelProjection image = m_camera.projection();
+      m_lighting.ambient = Vec3d(m_shading.ambient());
       for (const ShadingLight<Real>& light : m_shading.lights()) {
-        if (light.kind != ShadingLight<Real>::Kind::Directional) continue;
+        if (light.kind != ShadingLight<Real>::Kind::Directional || m_lighting.suns == kMostControlLights) continue;
         const Vec3d toLight(light.vector);
-        m_suns.push_back({glm::dot(image.horizontal, toLight), -glm::dot(image.up, toLight),
-                          -glm::dot(image.forward, toLight), light.color});
+        m_lighting.sun[m_lighting.suns++] = {glm::dot(image.horizontal, toLight), -glm::dot(image.up, toLight),
+                                             -glm::dot(image.forward, toLight), Vec3d(light.color)};
       }
     }
   }
@@ -474,28 +476,6 @@ class TileRenderer {
     });
   }
 
-  // A stratum's control variate (stratumControl): at a sample, the sum over the members whose disks
-  // hold it of the member's shading there, less hidden[i] for each but the nearest of them (rank[i]:
-  // the members' order by their centres' depths, 0 the nearest), less `mean` (linear RGB). A member's
-  // shading, where the sphere's front has unit normal (u, v, w) in the disk's frame (x right, y down,
-  // toward the camera): kd[i] times the ambient light plus the sum over the directional lights l of
-  // its bit lights[i] of the light's colour times its cosine there, max(0, (a_l, b_l, c_l) · (u, v, w)).
-  // None where every kd is 0.
-  struct StratumControl {
-    Vec3<float> kd[PixelStratum::kMostDisks];
-    Vec3<float> hidden[PixelStratum::kMostDisks];
-    uint8_t lights[PixelStratum::kMostDisks];
-    uint8_t rank[PixelStratum::kMostDisks];
-    Vec3<float> mean;
-    bool any() const { return kd[0] != Vec3<float>(0) || kd[1] != Vec3<float>(0) || kd[2] != Vec3<float>(0); }
-  };
-  static constexpr int kMostControlLights = 8;  // the directional lights a control reads (the first)
-  // The largest sine of a sphere's angular radius, seen from a perspective camera, for which its
-  // silhouette's strata take a control (ellipseControl): its model of the normal departs from the
-  // sphere's by about that sine, and beyond it the control may add more spread than it removes.
-  static constexpr double kMostControlSine = 0.1;
-  struct ImageDisk;  // a sphere's silhouette through an orthographic camera
-
   // Sets strata[k] (row by row) for the pixels of the w x h tile at (x0, y0), for a render that
   // stratifies(); through a perspective camera, perspectiveStrata's. Through an orthographic one:
   // the union of the silhouettes of the camera's view's spheres whose edges cross the pixel, where
@@ -519,7 +499,7 @@ class TileRenderer {
   // cell's spheres by their fronts' depths: once every pixel has a cover nearer than the next one's
   // front, or too many spheres crossing it, the rest can change nothing and are not read.
   // With `controls` (null unless the render controlsStrata()): each stratum's control variate too
-  // (stratumControl).
+  // (diskControl).
   void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres,
                         StratumControl* controls) const {
     constexpr int kMost = PixelStratum::kMostDisks;
@@ -591,212 +571,28 @@ class TileRenderer {
         strata[k] = PixelStratum::of(x0 + column, y0 + row, ellipses, members[k]);
         if (strata[k].any() && members[k] == 1) spheres[k] = memberSphere[0][k];
         if (strata[k].any() && controls) {
-          uint32_t own[kMost];
-          ImageDisk disks[kMost];
-          for (int m = 0; m < strata[k].disks; ++m) own[m] = memberSphere[m][k], disks[m] = member[m][k];
-          controls[k] = stratumControl(x0 + column, y0 + row, strata[k], own, disks);
+          ControlMember own[kMost];
+          for (int m = 0; m < strata[k].disks; ++m) own[m] = {diffuseOf(memberSphere[m][k]), member[m][k].q, member[m][k].radius};
+          controls[k] = diskControl(x0 + column, y0 + row, strata[k], own, m_lighting);
         }
       }
     }
   }
 
-  // Whether a stratum's samples inside it take a control variate (stratumControl): a lit colour
+  // Whether a stratum's samples inside it take a control variate (StratumControl.h): a lit colour
   // render through a camera without a lens, with a directional light.
-  bool controlsStrata() const { return !m_suns.empty(); }
+  bool controlsStrata() const { return m_lighting.suns > 0; }
 
-  // The control variate of pixel (x, y)'s stratum p, whose members are the disks of spheres[i] (as
-  // silhouetteStrata found them: disks[i]), where no two members whose disks overlap cut through each
-  // other in space (those leave the pixel without a control: which of them shows changes inside the
-  // overlap). Each member's diffuse shading by the ambient light and by the directional lights that
-  // reach its part of the pixel (kd times the ambient light plus each light's colour times
-  // max(0, N · L), no shadows), summed over the members whose disks hold the sample, less, for each of
-  // those but the nearest (its centre's depth), that member's mean shading over its part (`hidden`),
-  // less the mean of all that over the stratum's inside. The mean needs no visible part's shape: each
-  // member's shading over its whole disk's part of the pixel (exact geometry: UnitDiskPart's area and
-  // integrals of the normal, in the pixel's units; where a light's terminator crosses the part, the
-  // integral of its clamped cosine), and the area of each member's part that nearer members' disks
-  // cover (unions' areas). A function of a sample's position alone whose mean over the inside is 0:
-  // the inside's mean of the samples' colours less their controls estimates the colours' mean without
-  // bias whatever the shading. Where the shading is that (diffuse spheres lit by suns, no shadows),
-  // the nearer sphere is the one seen wherever disks overlap (spheres apart: the one whose centre is
-  // nearer), so a sample's colour less its control is the mean plus, where it lies in an overlap, the
-  // hidden spheres' mean shading less theirs there: exact from one sample in each disk's part where
-  // disks do not overlap, or where a hidden part's shading does not vary (dark, lit by the ambient
-  // light alone). Left: emission, shadows, highlights, other lights, ambient occlusion, samples that
-  // met something else, which the samples estimate.
-  StratumControl stratumControl(int x, int y, const PixelStratum& p, const uint32_t* spheres, const ImageDisk* disks) const {
-    constexpr int kMost = PixelStratum::kMostDisks;
-    StratumControl control{};
-    if (p.shear != 0) return control;
-    const bool overlap = overlaps(p);
-    for (int i = 0; overlap && i < p.disks; ++i) {
-      for (int j = 0; j < i; ++j) {
-        const Vec3d d = disks[i].q - disks[j].q;
-        const double reach = disks[i].radius + disks[j].radius;
-        if (!(dot(d, d) >= reach * reach)) return control;  // they cut through each other (or touch)
-      }
-    }
-    const auto& set = m_group.spheres();
-    Vec3d sum(0);
-    double area[kMost] = {};  // each member's part, in pixels (of a member whose part is empty, 0 and no shading)
-    for (int i = 0; i < p.disks; ++i) {
-      double u0, v0, u1, v1;  // the pixel's corners in the member's frame (unsheared: a rectangle)
-      p.frame(i, x, y, u0, v0), p.frame(i, x + 1, y + 1, u1, v1);
-      const double scale = (u1 - u0) * (v1 - v0);  // a pixel's area in the frame
-      const UnitDiskPart part(u0, u1, v0, v1);
-      if (!(part.area > 0)) continue;
-      const size_t sphere = spheres[i];
-      control.kd[i] = Vec3<float>(set.colored() ? set.colors()[sphere][0] : m_shading.material(set.materials()[sphere]).diffuse);
-      // The part's integral of the ambient light and the lights' colours times their cosines, in its frame.
-      Vec3d along = Vec3d(m_shading.ambient()) * part.area;
-      for (int l = 0; l < int(m_suns.size()) && l < kMostControlLights; ++l) {
-        const Sun& sun = m_suns[size_t(l)];
-        const bool lit = part.lit(sun.a, sun.b, sun.c);
-        if (!lit && part.lit(-sun.a, -sun.b, -sun.c)) continue;  // dark all over
-        control.lights[i] |= uint8_t(1u << l);
-        const double cosines = lit ? sun.a * part.u + sun.b * part.v + sun.c * part.w : part.clampedIntegral(sun.a, sun.b, sun.c);
-        along += cosines * Vec3d(sun.color);
-      }
-      area[i] = part.area / scale;
-      const Vec3d shading = Vec3d(control.kd[i]) * along / scale;
-      sum += shading, control.hidden[i] = Vec3<float>(shading / area[i]);
-    }
-    // The part of each member's part that nearer ones cover, where any two disks overlap: its part
-    // plus the nearer ones' union less their union with it (pixel units across, the strata's aspect
-    // down: PixelStratum::of's frame).
-    double inside = 0;  // the union's area
-    for (int i = 0; i < p.disks; ++i) inside += area[i];
-    int order[kMost] = {0, 1, 2};  // nearest first
-    std::sort(order, order + p.disks, [&](int a, int b) { return disks[a].q.z < disks[b].q.z; });
-    double cu[kMost], cv[kMost], radius[kMost], nearer = 0;  // in order; the nearer ones' union
-    for (int n = 0; n < p.disks; ++n) {
-      const int i = order[n];
-      control.rank[i] = uint8_t(n);
-      if (!overlap) continue;
-      cu[n] = double(p.cx[i]) - x, cv[n] = (double(p.cy[i]) - y) * double(p.aspect), radius[n] = 1 / double(p.inverseAx[i]);
-      const double both = circlesRectangleUnionArea(cu, cv, radius, n + 1, 1, double(p.aspect)) / double(p.aspect);
-      const double covered = std::clamp(nearer + area[i] - both, 0.0, area[i]);
-      sum -= Vec3d(control.hidden[i]) * covered, inside -= covered;
-      nearer = both;
-    }
-    if (!(inside > 0)) return {};
-    control.mean = Vec3<float>(sum / inside);
-    return control;
-  }
-
-  // A perspective stratum's control (ellipseControl) at (x, y) inside it.
-  Vec3<Real> ellipseControlAt(const PixelStratum& p, const StratumControl& c, double x, double y) const {
-    double u, v;
-    p.frame(0, x, y, u, v);
-    const double w = std::sqrt(std::max(0.0, 1 - u * u - v * v));
-    Vec3d axes[3];
-    ellipseAxes(p, axes);
-    const Vec3d normal = u * axes[0] + v * axes[1] + w * axes[2];
-    Vec3d sum(m_shading.ambient());
-    for (int l = 0; l < int(m_suns.size()) && l < kMostControlLights; ++l) {
-      const Sun& sun = m_suns[size_t(l)];
-      if (c.lights[0] & (1u << l)) sum += std::max(0.0, dot(Vec3d(sun.a, sun.b, sun.c), normal)) * Vec3d(sun.color);
-    }
-    return toReal<Real>(Vec3d(c.kd[0]) * sum - Vec3d(c.mean));
-  }
-
-  // Whether two of stratum p's disks overlap (in the frame of the pixels' aspect, where they are circles).
-  static bool overlaps(const PixelStratum& p) {
-    for (int i = 0; i < p.disks; ++i) {
-      for (int j = 0; j < i; ++j) {
-        const double du = double(p.cx[i]) - double(p.cx[j]), dv = (double(p.cy[i]) - double(p.cy[j])) * double(p.aspect);
-        const double reach = 1 / double(p.inverseAx[i]) + 1 / double(p.inverseAx[j]);
-        if (!(du * du + dv * dv >= reach * reach)) return true;
-      }
-    }
-    return false;
-  }
-
-  // The control (stratumControl, ellipseControl) of a sample at (x, y) inside stratum p.
+  // The control (diskControl, ellipseControl) of a sample at (x, y) inside stratum p.
   Vec3<Real> control(const PixelStratum& p, const StratumControl& c, double x, double y) const {
-    if (m_camera.projection().perspective) return ellipseControlAt(p, c, x, y);
-    Vec3d total(0), hidden(0);  // the shadings' sum; the members' `hidden` but the nearest's
-    int nearest = -1;
-    for (int i = 0; i < p.disks; ++i) {
-      double u, v;
-      p.frame(i, x, y, u, v);
-      if (!(u * u + v * v < 1)) continue;
-      const double w = std::sqrt(1 - u * u - v * v);
-      Vec3d sum(m_shading.ambient());
-      for (int l = 0; l < int(m_suns.size()) && l < kMostControlLights; ++l) {
-        const Sun& sun = m_suns[size_t(l)];
-        if (c.lights[i] & (1u << l)) sum += std::max(0.0, sun.a * u + sun.b * v + sun.c * w) * Vec3d(sun.color);
-      }
-      total += Vec3d(c.kd[i]) * sum;
-      if (nearest < 0) {
-        nearest = i;
-      } else {
-        const bool nearer = c.rank[i] < c.rank[nearest];
-        hidden += Vec3d(c.hidden[nearer ? nearest : i]);
-        if (nearer) nearest = i;
-      }
-    }
-    return toReal<Real>(nearest < 0 ? Vec3d(0) : total - hidden - Vec3d(c.mean));
-  }
-
-  // The control variate (StratumControl: kd[0], lights[0] and mean) of pixel (x, y)'s stratum p
-  // through a perspective camera, the silhouette of `sphere`: as stratumControl's of one disk, the
-  // sphere's diffuse shading by the ambient light and the directional lights, no shadows, less its
-  // mean over the part, with the sphere's normal at a sample taken as a disk's through an
-  // orthographic camera would be, in the ellipse's own frame (ellipseAxes): the part's mean of that
-  // is exact geometry (UnitDiskPart of the pixel's square in the frame, a parallelogram), whatever
-  // the true normal there, which a small sphere's follows closely; what the two differ by the samples
-  // estimate, with shadows and the rest.
-  StratumControl ellipseControl(int x, int y, const PixelStratum& p, uint32_t sphere) const {
-    StratumControl control{};
-    const Sphere<Real>& s = m_group.spheres().primitive(sphere);
-    const Vec3d q = Vec3d(s.center) - m_camera.projection().center;
-    if (!(double(s.radius) <= kMostControlSine * std::sqrt(dot(q, q)))) return control;
-    DiskPieces::Point corner[4];
-    const int xs[4] = {x, x + 1, x + 1, x}, ys[4] = {y, y, y + 1, y + 1};
-    for (int k = 0; k < 4; ++k) p.frame(0, xs[k], ys[k], corner[k].u, corner[k].v);
-    const UnitDiskPart part(corner, 4);
-    if (!(part.area > 0)) return control;
-    const auto& set = m_group.spheres();
-    control.kd[0] = Vec3<float>(set.colored() ? set.colors()[sphere][0] : m_shading.material(set.materials()[sphere]).diffuse);
-    Vec3d axes[3];
-    ellipseAxes(p, axes);
-    Vec3d along = Vec3d(m_shading.ambient()) * part.area;
-    for (int l = 0; l < int(m_suns.size()) && l < kMostControlLights; ++l) {
-      const Sun& sun = m_suns[size_t(l)];
-      const Vec3d toSun(sun.a, sun.b, sun.c);
-      const double a = dot(toSun, axes[0]), b = dot(toSun, axes[1]), c = dot(toSun, axes[2]);
-      const bool lit = part.lit(a, b, c);
-      if (!lit && part.lit(-a, -b, -c)) continue;  // dark all over
-      control.lights[0] |= uint8_t(1u << l);
-      along += (lit ? a * part.u + b * part.v + c * part.w : part.clampedIntegral(a, b, c)) * Vec3d(sun.color);
-    }
-    control.mean = Vec3<float>(Vec3d(control.kd[0]) * along / part.area);
-    return control;
-  }
-
-  // The axes (in the suns' frame: x right, y down, toward the camera) along which a perspective
-  // stratum's ellipse frame (PixelStratum::frame: u, v across the unit disk, w = sqrt(1 - u^2 - v^2))
-  // turns a sphere's normal, as an orthographic camera looking along the ray through the ellipse's
-  // centre would see it: w toward the camera along that ray, u and v toward where the rays through the
-  // frame's (1, 0) and (0, 1) pass it (unit, each square to that ray). The normal a model reads at
-  // (u, v): u axes[0] + v axes[1] + w axes[2].
-  void ellipseAxes(const PixelStratum& p, Vec3d* axes) const {
     const ParallelProjection image = m_camera.projection();
-    const double l11 = p.inverseAx[0], l22 = p.inverseAy[0], l12 = p.shear;
-    const auto ray = [&](double du, double dv) {  // the unit direction through sample position centre + (du, dv)
-      const double x = double(p.cx[0]) + du, y = double(p.cy[0]) + dv;
-      const Vec3d d(x * image.pixelWidth + image.xOffset, y * image.pixelHeight - image.yOffset, -1.0);
-      return d / std::sqrt(dot(d, d));
-    };
-    const Vec3d centre = ray(0, 0);
-    const auto across = [&](const Vec3d& d) {
-      const Vec3d off = d - dot(d, centre) * centre;
-      return off / std::sqrt(dot(off, off));
-    };
-    axes[0] = across(ray(1 / l11, 0));
-    axes[1] = across(ray(-l12 / (l11 * l22), 1 / l22));
-    axes[2] = -centre;
+    return toReal<Real>(image.perspective ? ellipseControlAt(p, c, image, m_lighting, x, y) : diskControlAt(p, c, m_lighting, x, y));
+  }
+
+  // Sphere `sphere`'s diffuse colour (its material's, or its own where the spheres are coloured).
+  Vec3d diffuseOf(uint32_t sphere) const {
+    const auto& set = m_group.spheres();
+    return Vec3d(set.colored() ? set.colors()[sphere][0] : m_shading.material(set.materials()[sphere]).diffuse);
   }
 
   // silhouetteStrata through a perspective camera (strata and spheres already cleared): a pixel's
@@ -859,7 +655,11 @@ class TileRenderer {
         const ImageEllipse& e = member[k];
         strata[k] = PixelStratum::sheared(x0 + column, y0 + row, e.cx, e.cy, e.l11, e.l12, e.l22);
         if (strata[k].any()) spheres[k] = memberSphere[k];
-        if (strata[k].any() && controls) controls[k] = ellipseControl(x0 + column, y0 + row, strata[k], memberSphere[k]);
+        if (strata[k].any() && controls) {
+          const Sphere<Real>& sphere = m_group.spheres().primitive(memberSphere[k]);
+          const double sine = double(sphere.radius) / glm::length(Vec3d(sphere.center) - image.center);
+          controls[k] = ellipseControl(x0 + column, y0 + row, strata[k], diffuseOf(memberSphere[k]), sine, image, m_lighting);
+        }
       }
     }
   }
@@ -1581,13 +1381,7 @@ class TileRenderer {
   bool m_edgesAtSilhouettes;                      // every edge a silhouette of the view's spheres (markSilhouettes)
   bool m_planeCut;                                // and the scene's plane may end at tMin or tMax (markPlaneEnds)
   std::vector<std::shared_ptr<const SphereView<Real>>> m_lightViews;  // from each light (Shading's order)
-  // A directional light as the strata's control reads it (controlsStrata): the unit direction toward
-  // it in the image's frame (x right, y down, and toward the camera, as a sample's disk frame), its colour.
-  struct Sun {
-    double a, b, c;
-    Vec3<Real> color;
-  };
-  std::vector<Sun> m_suns;
+  ControlLighting m_lighting;  // the light the strata's controls model (StratumControl.h; no suns: none)
 };
 
 }  // namespace tiles

@@ -1,0 +1,110 @@
+#pragma once
+// A pixel stratum's control variate (adaptive sampling: AdaptiveSampler, TileRenderer::silhouetteStrata).
+// Where spheres' silhouettes cross a pixel, its samples inside them are weighed by their exact share
+// (PixelStratum); each is also taken less a control variate: a model of the spheres' diffuse
+// shading there, a function of the sample's position alone, less that model's exact mean over the
+// pixel's part. The mean of what is left estimates the part's mean without bias whatever the
+// shading, and varies only with what the model leaves out. Its geometry is out of line
+// (src/StratumControl.cpp): it is made once a stratum pixel, and does not depend on the kernels'
+// precision.
+#include <cstdint>
+
+#include "durer/math/Vec.h"
+#include "durer/render/PixelStratum.h"
+
+namespace durer {
+
+struct ParallelProjection;
+
+// The directional lights a control reads (the first), and the largest sine of a sphere's angular
+// radius, seen from a perspective camera, for which its silhouette's strata take a control
+// (ellipseControl): its model of the normal departs from the sphere's by about that sine, and
+// beyond it the control may add more spread than it removes (docs/benchmarks.md, fifty-sixth round).
+inline constexpr int kMostControlLights = 8;
+inline constexpr double kMostControlSine = 0.1;
+
+// The light a control models: the ambient light and the directional lights, each as the unit
+// direction toward it (a, b, c) in the camera's frame (x right, y down, toward the camera) and its
+// colour (linear RGB).
+struct ControlLighting {
+  struct Sun {
+    double a, b, c;
+    Vec3d color;
+  };
+  Vec3d ambient{0};
+  Sun sun[kMostControlLights];
+  int suns = 0;
+};
+
+// A stratum's control variate: at a sample, the sum over the members whose disks hold it of the
+// member's shading there, less hidden[i] for each but the nearest of them (rank[i]: the members'
+// order by their centres' depths, 0 the nearest), less `mean` (linear RGB). A member's shading,
+// where the sphere's front has unit normal (u, v, w) in the disk's frame (x right, y down, toward the
+// camera; through a perspective camera, the model's axes: ellipseAxes): kd[i] times the ambient
+// light plus the sum over the directional lights l of its bit lights[i] of the light's colour times
+// its cosine there, max(0, (a_l, b_l, c_l) · (u, v, w)). None where every kd is 0.
+struct StratumControl {
+  Vec3<float> kd[PixelStratum::kMostDisks];
+  Vec3<float> hidden[PixelStratum::kMostDisks];
+  uint8_t lights[PixelStratum::kMostDisks];
+  uint8_t rank[PixelStratum::kMostDisks];
+  Vec3<float> mean;
+  bool any() const { return kd[0] != Vec3<float>(0) || kd[1] != Vec3<float>(0) || kd[2] != Vec3<float>(0); }
+};
+
+// A member of an orthographic stratum as its control reads it: the sphere's diffuse colour, its
+// centre in the camera's frame (across, up, depth) and its radius.
+struct ControlMember {
+  Vec3d kd, centre;
+  double radius;
+};
+
+// The control variate of pixel (x, y)'s orthographic stratum p, whose members' disks are
+// members[i], where no two members whose disks overlap cut through each other in space (those leave
+// the pixel without a control: which of them shows changes inside the overlap). Each member's
+// diffuse shading by the ambient light and by the directional lights that reach its part of the
+// pixel (kd times the ambient light plus each light's colour times max(0, N · L), no shadows), summed
+// over the members whose disks hold the sample, less, for each of those but the nearest (its
+// centre's depth), that member's mean shading over its part (`hidden`), less the mean of all that
+// over the stratum's inside. The mean needs no visible part's shape: each member's shading over its
+// whole disk's part of the pixel (exact geometry: UnitDiskPart's area and integrals of the normal, in
+// the pixel's units; where a light's terminator crosses the part, the integral of its clamped
+// cosine), and the area of each member's part that nearer members' disks cover (unions' areas). A
+// function of a sample's position alone whose mean over the inside is 0: the inside's mean of the
+// samples' colours less their controls estimates the colours' mean without bias whatever the
+// shading. Where the shading is that (diffuse spheres lit by suns, no shadows), the nearer sphere is
+// the one seen wherever disks overlap (spheres apart: the one whose centre is nearer), so a sample's
+// colour less its control is the mean plus, where it lies in an overlap, the hidden spheres' mean
+// shading less theirs there: exact from one sample in each disk's part where disks do not overlap,
+// or where a hidden part's shading does not vary (dark, lit by the ambient light alone). Left:
+// emission, shadows, highlights, other lights, ambient occlusion, samples that met something else,
+// which the samples estimate.
+StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMember* members, const ControlLighting& light);
+
+// diskControl's control of a sample at (x, y) inside stratum p.
+Vec3d diskControlAt(const PixelStratum& p, const StratumControl& c, const ControlLighting& light, double x, double y);
+
+// The control variate (kd[0], lights[0] and mean) of pixel (x, y)'s stratum p through a perspective
+// camera (`image`), the silhouette of a sphere of diffuse colour kd whose angular radius's sine is
+// `sine` (none beyond kMostControlSine): as diskControl's of one disk, the sphere's diffuse shading
+// by the ambient light and the directional lights, no shadows, less its mean over the part, with the
+// sphere's normal at a sample taken as a disk's through an orthographic camera would be, in the
+// ellipse's own frame (ellipseAxes): the part's mean of that is exact geometry (UnitDiskPart of the
+// pixel's square in the frame, a parallelogram), whatever the true normal there, which a small
+// sphere's follows closely; what the two differ by the samples estimate, with shadows and the rest.
+StratumControl ellipseControl(int x, int y, const PixelStratum& p, const Vec3d& kd, double sine, const ParallelProjection& image,
+                              const ControlLighting& light);
+
+// ellipseControl's control of a sample at (x, y) inside stratum p.
+Vec3d ellipseControlAt(const PixelStratum& p, const StratumControl& c, const ParallelProjection& image, const ControlLighting& light,
+                       double x, double y);
+
+// The axes (in the lights' frame: x right, y down, toward the camera) along which a perspective
+// stratum's ellipse frame (PixelStratum::frame: u, v across the unit disk, w = sqrt(1 - u^2 - v^2))
+// turns a sphere's normal, as an orthographic camera looking along the ray through the ellipse's
+// centre would see it: w toward the camera along that ray, u and v toward where the rays through the
+// frame's (1, 0) and (0, 1) pass it (unit, each square to that ray). The normal a model reads at
+// (u, v): u axes[0] + v axes[1] + w axes[2].
+void ellipseAxes(const PixelStratum& p, const ParallelProjection& image, Vec3d* axes);
+
+}  // namespace durer
