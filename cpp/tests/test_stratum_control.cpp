@@ -1,0 +1,183 @@
+// The strata's control variates (StratumControl.h): each one's mean over its stratum's inside is
+// its exact integral, so that the samples less their controls stay unbiased. Checked by numerical
+// integration of the per-sample control over the inside of random pixels: along each row exactly
+// piecewise (Gauss-Legendre between the disks' edges and the lights' terminators, where the control
+// is smooth), the midpoint rule across the rows.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "durer/accel/SphereView.h"
+#include "durer/render/StratumControl.h"
+
+using namespace durer;
+
+namespace {
+
+// Roots x in (x0, x1) of a u^2 + b u + c = 0 for u = u0 + du x (|du| > 0), appended to `out`.
+void rootsAlong(double a, double b, double c, double u0, double du, double x0, double x1, std::vector<double>& out) {
+  const auto add = [&](double u) {
+    const double x = (u - u0) / du;
+    if (x > x0 && x < x1) out.push_back(x);
+  };
+  if (a == 0) {
+    if (b != 0) add(-c / b);
+    return;
+  }
+  const double d = b * b - 4 * a * c;
+  if (d < 0) return;
+  add((-b + std::sqrt(d)) / (2 * a)), add((-b - std::sqrt(d)) / (2 * a));
+}
+
+// The integral over pixel (x, y)'s part inside stratum p of f(sx, sy) (a control's channel sum),
+// and the inside's area; `lights[i]`: the light directions (a, b, c) member i's shading reads in
+// its frame, whose terminators cut the rows.
+template <typename F>
+std::array<double, 2> integrateInside(const PixelStratum& p, int x, int y, const std::vector<std::vector<Vec3d>>& lights, const F& f) {
+  static constexpr double kNode[8] = {0.019855071751231856, 0.10166676129318664, 0.23723379504183550, 0.40828267875217510,
+                                      0.59171732124782490, 0.76276620495816450, 0.89833323870681336, 0.98014492824876811};
+  static constexpr double kWeight[8] = {0.050614268145188130, 0.11119051722668724, 0.15685332293894364, 0.18134189168918099,
+                                        0.18134189168918099, 0.15685332293894364, 0.11119051722668724, 0.050614268145188130};
+  const int rows = 3000;
+  std::array<double, 2> sum{};
+  for (int r = 0; r < rows; ++r) {
+    const double sy = y + (r + 0.5) / rows;
+    std::vector<double> cut{double(x), double(x + 1)};
+    for (int i = 0; i < p.disks; ++i) {
+      double u0, v, u1, unused;  // u along the row is linear in x: u0 at x's 0, du a unit's change
+      p.frame(i, 0.0, sy, u0, v), p.frame(i, 1.0, sy, u1, unused);
+      const double du = u1 - u0;
+      rootsAlong(1, 0, v * v - 1, u0, du, x, x + 1, cut);  // the disk's edge
+      for (const Vec3d& l : lights[size_t(i)]) {  // (l.x u + l.y v)^2 = l.z^2 (1 - u^2 - v^2)
+        rootsAlong(l.x * l.x + l.z * l.z, 2 * l.x * l.y * v, l.y * l.y * v * v - l.z * l.z * (1 - v * v), u0, du, x, x + 1, cut);
+      }
+    }
+    std::sort(cut.begin(), cut.end());
+    for (size_t k = 0; k + 1 < cut.size(); ++k) {
+      const double a = cut[k], length = cut[k + 1] - a;
+      for (int j = 0; j < 8; ++j) {
+        const double sx = a + length * kNode[j];
+        if (!p.contains(sx, sy)) continue;
+        sum[0] += kWeight[j] * length * f(sx, sy), sum[1] += kWeight[j] * length;
+      }
+    }
+  }
+  for (double& s : sum) s /= rows;
+  return sum;
+}
+
+double channels(const Vec3d& v) { return v.x + v.y + v.z; }
+
+}  // namespace
+
+TEST_CASE("an orthographic stratum's control integrates to 0 over its inside; spheres that cut through each other have none") {
+  std::mt19937_64 rng(41);
+  std::uniform_real_distribution<double> unit(0, 1);
+  std::normal_distribution<double> normal;
+  int tested = 0, overlapping = 0, refused = 0;
+  for (int trial = 0; trial < 200 && tested < 60; ++trial) {
+    // Two or three disks of 0.4-3 pixels' radius near pixel (0, 0); pixel units across and down.
+    const int n = 2 + (trial % 3 == 0);
+    PixelStratum::Ellipse e[3];
+    ControlMember member[3];
+    bool cut = false;
+    for (int i = 0; i < n; ++i) {
+      const double r = 0.4 + 2.6 * unit(rng), cx = -r + (1 + 2 * r) * unit(rng), cy = -r + (1 + 2 * r) * unit(rng);
+      e[i] = {cx, cy, r, r};
+      member[i] = {Vec3d(unit(rng), unit(rng), unit(rng)), Vec3d(cx, -cy, 20 * unit(rng)), r};
+    }
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < i; ++j) {
+        const Vec3d d = member[i].centre - member[j].centre;
+        cut = cut || std::sqrt(dot(d, d)) < member[i].radius + member[j].radius;
+      }
+    }
+    const PixelStratum p = PixelStratum::of(0, 0, e, n);
+    if (!p.any()) continue;
+    ControlLighting light;
+    light.ambient = Vec3d(0.1, 0.15, 0.2);
+    light.suns = 1 + trial % 2;
+    std::vector<std::vector<Vec3d>> toward(static_cast<size_t>(n));
+    for (int l = 0; l < light.suns; ++l) {
+      Vec3d d(normal(rng), normal(rng), normal(rng));
+      d /= std::sqrt(dot(d, d));
+      light.sun[l] = {d.x, d.y, d.z, Vec3d(0.9, 0.8, 0.7) * (l + 1.0)};
+      for (auto& t : toward) t.push_back(d);
+    }
+    const StratumControl c = diskControl(0, 0, p, member, light);
+    if (cut) {
+      bool overlaps = false;  // their disks' overlap, in the pixel's aspect (1 here)
+      for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < i; ++j) overlaps = overlaps || std::hypot(e[i].cx - e[j].cx, e[i].cy - e[j].cy) < e[i].ax + e[j].ax;
+      }
+      if (overlaps) {
+        CHECK_FALSE(c.any());
+        ++refused;
+        continue;
+      }
+    }
+    if (!c.any()) continue;
+    ++tested;
+    const auto [integral, inside] = integrateInside(p, 0, 0, toward, [&](double x, double y) { return channels(diskControlAt(p, c, light, x, y)); });
+    CHECK_MESSAGE(inside == doctest::Approx(double(p.share)).epsilon(1e-4), trial);
+    // In the pixel's units: the moments' quadrature (1e-5) and the rows' midpoint rule.
+    CHECK_MESSAGE(std::abs(integral) < 3e-5 * 3, trial, " ", integral);
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < i; ++j) overlapping += std::hypot(e[i].cx - e[j].cx, e[i].cy - e[j].cy) < e[i].ax + e[j].ax;
+    }
+  }
+  CHECK(tested >= 40);
+  CHECK(overlapping >= 10);  // strata whose disks overlap, of spheres apart in space
+  CHECK(refused >= 5);
+}
+
+TEST_CASE("a perspective stratum's control integrates to 0 over its inside; a sphere too large in view has none") {
+  // A camera at the origin looking down -z (the frame's forward), a 200 x 200 image 0.5 wide at
+  // distance 1: sample position (sx, sy) looks along (sx pw - 0.25, 0.25 - sy pw, -1).
+  ParallelProjection image;
+  image.center = Vec3d(0), image.horizontal = Vec3d(1, 0, 0), image.up = Vec3d(0, 1, 0), image.forward = Vec3d(0, 0, -1);
+  image.pixelWidth = image.pixelHeight = 0.0025, image.xOffset = -0.25, image.yOffset = 0.25, image.perspective = true;
+  std::mt19937_64 rng(43);
+  std::uniform_real_distribution<double> unit(0, 1), slant(-0.8, 0.8);
+  std::normal_distribution<double> normal;
+  int tested = 0;
+  for (int trial = 0; trial < 200 && tested < 40; ++trial) {
+    const double l11 = 1 / (0.4 + 3.6 * unit(rng)), l22 = 1 / (0.4 + 3.6 * unit(rng)), l12 = slant(rng) * std::min(l11, l22);
+    const double cx = 20 + 160 * unit(rng), cy = 20 + 160 * unit(rng);
+    const int x = int(std::floor(cx + (unit(rng) - 0.5) * 2 / l11)), y = int(std::floor(cy + (unit(rng) - 0.5) * 2 / l22));
+    const PixelStratum p = PixelStratum::sheared(x, y, cx, cy, l11, l12, l22);
+    if (!p.any()) continue;
+    ControlLighting light;
+    light.ambient = Vec3d(0.1, 0.15, 0.2);
+    light.suns = 2;
+    for (int l = 0; l < 2; ++l) {
+      Vec3d d(normal(rng), normal(rng), normal(rng));
+      d /= std::sqrt(dot(d, d));
+      light.sun[l] = {d.x, d.y, d.z, Vec3d(0.9, 0.8, 0.7)};
+    }
+    const Vec3d kd(0.8, 0.5, 0.3);
+    CHECK_FALSE(ellipseControl(x, y, p, kd, 0.2, image, light).any());
+    const StratumControl c = ellipseControl(x, y, p, kd, 0.05, image, light);
+    if (!c.any()) continue;
+    ++tested;
+    Vec3d axes[3];
+    ellipseAxes(p, image, axes);
+    std::vector<std::vector<Vec3d>> toward(1);
+    for (int l = 0; l < 2; ++l) {
+      const Vec3d d(light.sun[l].a, light.sun[l].b, light.sun[l].c);
+      toward[0].push_back(Vec3d(dot(d, axes[0]), dot(d, axes[1]), dot(d, axes[2])));
+    }
+    const auto [integral, inside] =
+        integrateInside(p, x, y, toward, [&](double sx, double sy) { return channels(ellipseControlAt(p, c, image, light, sx, sy)); });
+    CHECK_MESSAGE(inside == doctest::Approx(double(p.share)).epsilon(1e-4), trial);
+    CHECK_MESSAGE(std::abs(integral) < 3e-5 * 3, trial, " ", integral);
+    // The model's axes: unit, w's toward the camera along the ray through the ellipse's centre.
+    for (const Vec3d& a : axes) CHECK(std::sqrt(dot(a, a)) == doctest::Approx(1).epsilon(1e-12));
+    CHECK(std::abs(dot(axes[0], axes[2])) < 1e-12);
+    CHECK(std::abs(dot(axes[1], axes[2])) < 1e-12);
+  }
+  CHECK(tested >= 30);
+}
