@@ -38,8 +38,8 @@ Vec3d shadingOver(const UnitDiskPart& part, const ControlLighting& light, const 
   return along;
 }
 
-// The ambient light plus the lights of `lights` times their cosines at a normal whose cosine with
-// light l is cosine(sun l).
+// The ambient light plus the colours of the lights of `lights` times their cosines clamped at 0, the
+// cosine with light l cosine(sun l).
 template <typename Cosine>
 Vec3d shadingAt(const ControlLighting& light, uint8_t lights, const Cosine& cosine) {
   Vec3d sum = light.ambient;
