@@ -10,18 +10,6 @@ namespace durer {
 
 namespace {
 
-// Whether two of stratum p's disks overlap (in the frame of the pixels' aspect, where they are circles).
-bool overlaps(const PixelStratum& p) {
-  for (int i = 0; i < p.disks; ++i) {
-    for (int j = 0; j < i; ++j) {
-      const double du = double(p.cx[i]) - double(p.cx[j]), dv = (double(p.cy[i]) - double(p.cy[j])) * double(p.aspect);
-      const double reach = 1 / double(p.inverseAx[i]) + 1 / double(p.inverseAx[j]);
-      if (!(du * du + dv * dv >= reach * reach)) return true;
-    }
-  }
-  return false;
-}
-
 // A part's integral of the ambient light and the lights' colours times their cosines (a light's
 // direction in the part's frame: toward(l)), in its frame; sets the bit of each light that reaches
 // it in `lights`.
@@ -55,7 +43,7 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
   constexpr int kMost = PixelStratum::kMostDisks;
   StratumControl control{};
   if (p.shear != 0) return control;
-  const bool overlap = overlaps(p);
+  const bool overlap = p.overlaps();
   for (int i = 0; overlap && i < p.disks; ++i) {
     for (int j = 0; j < i; ++j) {
       const Vec3d d = members[i].centre - members[j].centre;

@@ -10,14 +10,15 @@ from ..scene import Scene
 from ..showcase import showcase_scene
 
 
-def edge_scene(spheres: int = 2000, seed: int = 3) -> tuple[Scene, OrthographicCamera]:
+def edge_scene(spheres: int = 2000, seed: int = 3, specular: float = 0.0) -> tuple[Scene, OrthographicCamera]:
     """Many small spheres (radius 0.02-0.08, under one to three pixels at 160 wide) on a plane, one
-    sun without shadows, seen from above: nearly every pixel has an edge in it."""
+    sun without shadows, seen from above: nearly every pixel has an edge in it. With `specular`, the
+    spheres' highlights (Phong, exponent 30) of that weight."""
     scene = Scene()
     scene.background = (0.55, 0.7, 0.9, 1.0)
     scene.ambient = (0.18, 0.2, 0.24)
     ground = scene.add_material(diffuse=(0.7, 0.68, 0.62))
-    palette = np.array([scene.add_material(diffuse=c) for c in
+    palette = np.array([scene.add_material(diffuse=c, specular=(specular,) * 3, exponent=30.0) for c in
                         ((0.85, 0.2, 0.15), (0.2, 0.45, 0.85), (0.95, 0.75, 0.2), (0.25, 0.7, 0.35),
                          (0.6, 0.3, 0.75), (0.05, 0.05, 0.05), (0.95, 0.95, 0.95))], dtype=np.int32)
     scene.add_plane((0, 1, 0), 0.0, material=ground)

@@ -54,7 +54,14 @@
 // and its halves', then vary only with what the control leaves out (shadows, highlights, emission,
 // other lights, a hidden sphere's shading less its mean, the perspective model's departure), and
 // diffuse spheres lit by suns without shadows seen orthographically are exact from one sample in
-// each sphere's part where their disks do not overlap.
+// each sphere's part where their disks do not overlap. Where the control is that exactly — the
+// render's shading is what it models, the disks lie apart and no sphere covers the pixel behind
+// them (StratumControl::exact) — a pixel's samples less their controls are one colour on each part
+// of its stratum: none of the rules above that look for what its samples missed marks it (the
+// neighbourhood's errors, the geometric edges, the contrast: its stratum names every edge crossing
+// it), and of its parts only one no sample has reached keeps it refining (unresolvedShare), as do
+// the spheres it watches. It settles at the first pass once its parts are reached (docs/benchmarks.md,
+// fifty-seventh round).
 // Through an orthographic camera, a pixel also watches up to two spheres whose silhouettes cross it
 // and that its first samples did not meet, but the sphere of a one-sphere stratum
 // (TileRenderer::watchSilhouettes: a sliver beside the stratum's edge, an edge where two spheres'
@@ -759,18 +766,27 @@ class AdaptiveSampler {
   // part of its stratum none of its samples has reached counts its share of the pixel (its colour is
   // unknown: it may be off the pixel's by about 1, a lit sphere against a dark ground); a part whose
   // samples all lie in one half (its spread is then invisible to the halves' difference) its share
-  // times kPartSpread over the root of its samples (a colour in [0, 1] spreads by at most 1/2). 0
+  // times kPartSpread over the root of its samples (a colour in [0, 1] spreads by at most 1/2), but
+  // where the samples less their control are one colour on each part (StratumControl::exact). 0
   // without a stratum, or where both halves reached both parts.
   static double unresolvedShare(const TileState& t, int k) {
     if (t.stratum == nullptr || !t.stratum->strata[k].any()) return 0;
     const StratumState& u = *t.stratum;
     const double share = double(u.strata[k].share), n = double(t.sums.samples[k]), last = t.last[k];
     const double inside = double(u.inside[k]), lastInside = double(u.lastInside[k]);
-    const auto part = [](double share, double samples, double inLast) {
+    const bool spread = !exactlyControlled(t, k);
+    const auto part = [&](double share, double samples, double inLast) {
       if (samples == 0) return share;
-      return inLast == 0 || inLast == samples ? share * kPartSpread / std::sqrt(samples) : 0.0;
+      return spread && (inLast == 0 || inLast == samples) ? share * kPartSpread / std::sqrt(samples) : 0.0;
     };
     return part(share, inside, lastInside) + part(1 - share, n - inside, last - lastInside);
+  }
+
+  // Whether pixel k's samples less their control are one colour on each part of its stratum
+  // (StratumControl::exact).
+  static bool exactlyControlled(const TileState& t, int k) {
+    const StratumState* u = t.stratum;
+    return u != nullptr && u->controlled && u->strata[k].any() && u->control[k].exact;
   }
 
   // What a sphere pixel k watches may put its mean off by, none of its samples having met it
@@ -824,7 +840,13 @@ class AdaptiveSampler {
           double neighbourhood = 0;
           float largestDifference = 0;
           int around = 0;
-          const bool young = taken < kEdgeSamples;  // an edge keeps a pixel refining only below them
+          // A pixel whose samples less their control are one colour all over it (StratumControl::exact)
+          // looks for no edge its samples missed, in it or beside it: its stratum names every edge
+          // crossing it, and what its samples may not have seen yet are its stratum's parts not yet
+          // reached (unresolvedShare) and the spheres it watches (unseenShare). Its neighbours'
+          // errors say nothing of it either.
+          const bool described = exactlyControlled(t, k);
+          const bool young = taken < kEdgeSamples && !described;  // an edge keeps a pixel refining only below them
           bool edge = young && t.mixed[k];
           uint32_t others = 0;  // the neighbours weighed whose first samples met another primitive (bit 3 dy + dx + 4)
           // The 3x3 neighbourhood without branches (which of them counts is as unpredictable as the
@@ -849,10 +871,10 @@ class AdaptiveSampler {
             edge = differ(self, x, y, (&self)[dy * m_stride + dx], x + dx, y + dy);
           }
           // The mean over the channels, divided once: a rounded division keeps the order of its operands.
-          const float squaredContrast = largestDifference / 3;
+          const float squaredContrast = described ? 0.0f : largestDifference / 3;
           // error <= target and taken >= contrast / target, compared as squares: the roots only for a
           // pixel marked (an infinite square is never settled, as its root would not be).
-          const double squaredError = std::max(own * own, kNeighbourWeight * neighbourhood / around);
+          const double squaredError = described ? own * own : std::max(own * own, kNeighbourWeight * neighbourhood / around);
           const double resolved = taken * m_target / kUnseenShare;  // the contrast `taken` samples resolve
           const double inf = std::numeric_limits<double>::infinity();
           const double unresolved = std::max(unresolvedShare(t, k), unseenShare(t, k));

@@ -493,6 +493,18 @@ struct PixelStratum {
 
   bool any() const { return share > 0; }
 
+  // Whether two of its disks overlap (in the frame of the pixels' aspect, where they are circles).
+  bool overlaps() const {
+    for (int i = 0; i < disks; ++i) {
+      for (int j = 0; j < i; ++j) {
+        const double du = double(cx[i]) - double(cx[j]), dv = (double(cy[i]) - double(cy[j])) * double(aspect);
+        const double reach = 1 / double(inverseAx[i]) + 1 / double(inverseAx[j]);
+        if (!(du * du + dv * dv >= reach * reach)) return true;
+      }
+    }
+    return false;
+  }
+
   // Whether a sample at (x, y) lies inside the union (false for a pixel without a stratum): one
   // ellipse by its own axes and shear, several as circles in the frame of the first's aspect (as the share is
   // found; their own axes' ratios differ from it by float's rounding).

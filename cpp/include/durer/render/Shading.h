@@ -195,6 +195,7 @@ class Shading {
   }
 
   const MaterialIn<Real>& material(int32_t id) const { return m_materials[static_cast<size_t>(id)]; }
+  const std::vector<MaterialIn<Real>>& materials() const { return m_materials; }
   const Vec3<Real>& ambient() const { return m_ambient; }
   const std::vector<ShadingLight<Real>>& lights() const { return m_lights; }
 

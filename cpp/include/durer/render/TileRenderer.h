@@ -102,6 +102,7 @@ class TileRenderer {
         m_lighting.sun[m_lighting.suns++] = {glm::dot(image.horizontal, toLight), -glm::dot(image.up, toLight),
                                              -glm::dot(image.forward, toLight), Vec3d(light.color)};
       }
+      m_controlExact = controlIsShading();
     }
   }
 
@@ -574,6 +575,7 @@ class TileRenderer {
           ControlMember own[kMost];
           for (int m = 0; m < strata[k].disks; ++m) own[m] = {diffuseOf(memberSphere[m][k]), member[m][k].q, member[m][k].radius};
           controls[k] = diskControl(x0 + column, y0 + row, strata[k], own, m_lighting);
+          controls[k].exact = m_controlExact && controls[k].any() && hidden[k] == inf && !strata[k].overlaps();
         }
       }
     }
@@ -1281,6 +1283,26 @@ class TileRenderer {
     return faces;
   }
 
+  // Whether the strata's controls are the colour itself, up to a constant, wherever their spheres
+  // show (StratumControl::exact): the image's every edge is a silhouette of the view's spheres
+  // (m_edgesAtSilhouettes) and the camera cuts nothing (no tMin or tMax: neither the plane nor a
+  // sphere ends in view), so a stratum's members are all the silhouettes crossing its pixel in front
+  // of its cover; the lights are the suns the controls model; the materials diffuse (no emission,
+  // highlights, mirrors or glass). Then the one plane, or the background, is one colour across a
+  // pixel too (an orthographic camera sees the plane along parallel rays).
+  bool controlIsShading() const {
+    if (!m_edgesAtSilhouettes || std::isfinite(m_camera.tMin()) || std::isfinite(m_camera.tMax())) return false;
+    for (const ShadingLight<Real>& light : m_shading.lights()) {
+      if (light.kind != ShadingLight<Real>::Kind::Directional) return false;
+    }
+    if (m_shading.lights().size() > size_t(kMostControlLights)) return false;
+    const Vec3<Real> none(0);
+    for (const MaterialIn<Real>& m : m_shading.materials()) {
+      if (m.emission != none || m.specular != none || m.reflective != none || m.transparent != none) return false;
+    }
+    return true;
+  }
+
   // Whether every edge of this render's image is a silhouette of the camera's view's spheres
   // (markSilhouettes): through a camera that seesDisks(), the scene's geometry is its own spheres (all in
   // the view) and at most one unbounded plane, and nothing in its shading changes abruptly — no
@@ -1382,6 +1404,7 @@ class TileRenderer {
   bool m_planeCut;                                // and the scene's plane may end at tMin or tMax (markPlaneEnds)
   std::vector<std::shared_ptr<const SphereView<Real>>> m_lightViews;  // from each light (Shading's order)
   ControlLighting m_lighting;  // the light the strata's controls model (StratumControl.h; no suns: none)
+  bool m_controlExact = false;  // and that light and the materials are the render's shading (controlIsShading)
 };
 
 }  // namespace tiles
