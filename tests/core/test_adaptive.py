@@ -412,6 +412,13 @@ def test_pixels_whose_control_is_their_colour_settle_at_their_first_samples():
     # A pixel whose part of under 0.002 of it no sample reached may settle without it (its share is
     # within the target).
     assert difference.max() < 0.002
+    # From two first samples, such a pixel settled reports its halves' estimate (about 0), not how far
+    # its mean lies from its neighbours' (the estimate of other two-sample pixels): it is that close.
+    two = adaptive(scene, spp=64, min_spp=2, target_error=0.002, seed=5)
+    settled = edge & (two.samples == 2)
+    assert settled.sum() >= 20
+    off = np.abs(two.color[..., :3] - forced.color[..., :3]).max(axis=-1)[settled]
+    assert np.all(two.error[settled] < 1e-5) and np.median(off) < 1e-6
     # Highlights, which the control does not model, keep the rule.
     highlighted, discs = _lit_spheres_apart(specular=0.5)
     assert np.all(adaptive(highlighted, spp=64, min_spp=4, target_error=0.002, seed=5).samples[edge] >= 16)

@@ -968,7 +968,10 @@ class AdaptiveSampler {
       m_tiles.writeRow(t.sums, k0, x1 - x0, first);
       for (int i = 0; i < x1 - x0; ++i) {
         const Summary& p = summaryAt(x0 + i, y);
-        const double e = t.taken[k0 + i] == 2 ? residualError(p) : smoothlyShaded(t, k0 + i, p) ? p.error / kNetHalves : p.error;
+        // (A pixel whose control is its colour reports its halves' estimate at two samples too: its
+        // neighbours' means say nothing of its own.)
+        const bool two = t.taken[k0 + i] == 2 && !exactlyControlled(t, k0 + i);
+        const double e = two ? residualError(p) : smoothlyShaded(t, k0 + i, p) ? p.error / kNetHalves : p.error;
         squares += e * e, worst = std::max(worst, e);
         if (m_targets.error) m_targets.error[first + i] = static_cast<float>(e);
       }
