@@ -359,10 +359,11 @@ def test_a_lit_sphere_seen_in_perspective_has_its_edge_pixels_near_exact_from_th
     assert np.sqrt(np.mean((r.color[..., :3] - reference[..., :3])[edge] ** 2)) < 4e-4
 
 
-def _lit_spheres_apart(specular: float = 0.0) -> tuple[durer.Scene, list[tuple[float, float, float]]]:
+def _lit_spheres_apart(specular: float = 0.0, sunk: bool = False) -> tuple[durer.Scene, list[tuple[float, float, float]]]:
     """Five diffuse spheres (or, with `specular`, highlighted ones) of 2.3-4.1 pixels' radius apart
     over a grey plane, lit by one sun without shadows, seen from above (pixel_camera): every edge of
-    the image is a sphere's silhouette; returns the discs (cx, cy, r)."""
+    the image is a sphere's silhouette (with `sunk`, the first sphere's centre lies 2 below the
+    plane, which hides its rim: its edge is the plane's cut); returns the discs (cx, cy, r)."""
     discs = [(-13.3, 9.1, 4.1), (-1.7, 13.6, 2.3), (9.4, 8.2, 3.6), (-9.8, -8.7, 3.1), (7.6, -10.3, 3.9)]
     scene = durer.Scene()
     scene.background = (0.2, 0.3, 0.4, 1.0)
@@ -370,7 +371,8 @@ def _lit_spheres_apart(specular: float = 0.0) -> tuple[durer.Scene, list[tuple[f
     scene.add_plane((0, 0, 1), -60.0, material=scene.add_material((0.6, 0.6, 0.55)))
     for k, (cx, cy, r) in enumerate(discs):
         kd = (0.9, 0.3, 0.2) if k % 2 else (0.2, 0.5, 0.9)
-        scene.add_spheres([(cx, cy, -50.0 - 2 * k)], [r], material=scene.add_material(kd, specular=(specular,) * 3, exponent=20.0))
+        z = -62.0 if sunk and k == 0 else -50.0 - 2 * k
+        scene.add_spheres([(cx, cy, z)], [r], material=scene.add_material(kd, specular=(specular,) * 3, exponent=20.0))
     scene.add_directional_light((-0.5, 0.3, -0.8), (0.95, 0.9, 0.8))
     return scene, discs
 
@@ -422,6 +424,11 @@ def test_pixels_whose_control_is_their_colour_settle_at_their_first_samples():
     # Highlights, which the control does not model, keep the rule.
     highlighted, discs = _lit_spheres_apart(specular=0.5)
     assert np.all(adaptive(highlighted, spp=64, min_spp=4, target_error=0.002, seed=5).samples[edge] >= 16)
+    # So does a sphere the plane cuts where the camera sees it (its disc's rim is the plane's).
+    sunk, discs = _lit_spheres_apart(sunk=True)
+    rim = edge & _one_edge_pixels(discs[:1])
+    assert rim.sum() >= 15
+    assert np.all(adaptive(sunk, spp=64, min_spp=4, target_error=0.002, seed=5).samples[rim] >= 16)
 
 
 def test_shadows_keep_their_edges_refined():

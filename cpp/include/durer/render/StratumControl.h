@@ -49,8 +49,9 @@ struct StratumControl {
   uint8_t lights[PixelStratum::kMostDisks];
   uint8_t rank[PixelStratum::kMostDisks];
   // Whether the samples less the control are one constant all over the pixel: the render's shading
-  // is what the control models (TileRenderer::controlIsShading), the members' disks lie apart, and
-  // no sphere covers the pixel behind them (outside them: the plane or the background, one colour).
+  // is what the control models (TileRenderer::controlIsShading), the members' disks lie apart, the
+  // plane cuts or hides none of them (TileRenderer::beforePlane), and no sphere covers the pixel
+  // behind them (outside them: the plane or the background, one colour).
   bool exact;
   Vec3<float> mean;
   bool any() const { return kd[0] != Vec3<float>(0) || kd[1] != Vec3<float>(0) || kd[2] != Vec3<float>(0); }

@@ -575,7 +575,9 @@ class TileRenderer {
           ControlMember own[kMost];
           for (int m = 0; m < strata[k].disks; ++m) own[m] = {diffuseOf(memberSphere[m][k]), member[m][k].q, member[m][k].radius};
           controls[k] = diskControl(x0 + column, y0 + row, strata[k], own, m_lighting);
-          controls[k].exact = m_controlExact && controls[k].any() && hidden[k] == inf && !strata[k].overlaps();
+          bool before = true;  // every member wholly before the plane
+          for (int m = 0; m < strata[k].disks; ++m) before = before && beforePlane(memberSphere[m][k]);
+          controls[k].exact = m_controlExact && controls[k].any() && hidden[k] == inf && !strata[k].overlaps() && before;
         }
       }
     }
@@ -1284,7 +1286,8 @@ class TileRenderer {
   }
 
   // Whether the strata's controls are the colour itself, up to a constant, wherever their spheres
-  // show (StratumControl::exact): the image's every edge is a silhouette of the view's spheres
+  // show (StratumControl::exact, where also each member lies before the plane: beforePlane): the
+  // image's every edge is a silhouette of the view's spheres
   // (m_edgesAtSilhouettes) and the camera cuts nothing (no tMin or tMax: neither the plane nor a
   // sphere ends in view), so a stratum's members are all the silhouettes crossing its pixel in front
   // of its cover; the lights are the suns the controls model; the materials diffuse (no emission,
@@ -1301,6 +1304,22 @@ class TileRenderer {
       if (m.emission != none || m.specular != none || m.reflective != none || m.transparent != none) return false;
     }
     return true;
+  }
+
+  // Whether the front of sphere i (the half the camera's parallel rays meet first) lies wholly on
+  // the side of the scene's plane that they come from, so that the plane hides none of its disk:
+  // its centre at least r sqrt(1 - cos^2) before the plane, cos the plane's normal's along the rays
+  // (the front's lowest point over the plane lies on its rim, the silhouette's circle). Or there is
+  // no plane, or the rays run along it (it is never seen).
+  bool beforePlane(uint32_t i) const {
+    if (m_group.planes().size() == 0) return true;
+    const Plane<Real>& plane = m_group.planes().primitive(0);
+    const Sphere<Real>& sphere = m_group.spheres().primitive(i);
+    const Vec3d normal(plane.normal);
+    const double toward = glm::dot(normal, m_camera.projection().forward);
+    if (toward == 0) return true;
+    const double above = glm::dot(normal, Vec3d(sphere.center) - Vec3d(plane.point));
+    return (toward < 0 ? above : -above) >= double(sphere.radius) * std::sqrt(std::max(0.0, 1 - toward * toward));
   }
 
   // Whether every edge of this render's image is a silhouette of the camera's view's spheres
