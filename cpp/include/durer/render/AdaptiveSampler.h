@@ -850,8 +850,9 @@ class AdaptiveSampler {
           bool edge = young && t.mixed[k];
           uint32_t others = 0;  // the neighbours weighed whose first samples met another primitive (bit 3 dy + dx + 4)
           // The 3x3 neighbourhood without branches (which of them counts is as unpredictable as the
-          // image): an absent pixel adds 0 to the sum of squares, as one not counted would.
-          for (int dy = -1; dy <= 1; ++dy) {
+          // image): an absent pixel adds 0 to the sum of squares, as one not counted would. (None for
+          // a pixel described: it reads nothing of it, its contrast left 0.)
+          for (int dy = -1; dy <= 1 && !described; ++dy) {
             for (int dx = -1; dx <= 1; ++dx) {
               const Summary& u = (&self)[dy * m_stride + dx];
               neighbourhood += u.present ? static_cast<double>(u.averaged) * u.averaged : 0.0;
@@ -871,7 +872,7 @@ class AdaptiveSampler {
             edge = differ(self, x, y, (&self)[dy * m_stride + dx], x + dx, y + dy);
           }
           // The mean over the channels, divided once: a rounded division keeps the order of its operands.
-          const float squaredContrast = described ? 0.0f : largestDifference / 3;
+          const float squaredContrast = largestDifference / 3;
           // error <= target and taken >= contrast / target, compared as squares: the roots only for a
           // pixel marked (an infinite square is never settled, as its root would not be).
           const double squaredError = described ? own * own : std::max(own * own, kNeighbourWeight * neighbourhood / around);

@@ -575,9 +575,13 @@ class TileRenderer {
           ControlMember own[kMost];
           for (int m = 0; m < strata[k].disks; ++m) own[m] = {diffuseOf(memberSphere[m][k]), member[m][k].q, member[m][k].radius};
           controls[k] = diskControl(x0 + column, y0 + row, strata[k], own, m_lighting);
-          bool before = true;  // every member wholly before the plane
-          for (int m = 0; m < strata[k].disks; ++m) before = before && beforePlane(memberSphere[m][k]);
-          controls[k].exact = m_controlExact && controls[k].any() && hidden[k] == inf && !strata[k].overlaps() && before;
+          const auto before = [&] {  // every member wholly before the plane
+            for (int m = 0; m < strata[k].disks; ++m) {
+              if (!beforePlane(memberSphere[m][k])) return false;
+            }
+            return true;
+          };
+          controls[k].exact = m_controlExact && controls[k].any() && hidden[k] == inf && !strata[k].overlaps() && before();
         }
       }
     }
@@ -1293,12 +1297,10 @@ class TileRenderer {
   // of its cover; the lights are the suns the controls model; the materials diffuse (no emission,
   // highlights, mirrors or glass). Then the one plane, or the background, is one colour across a
   // pixel too (an orthographic camera sees the plane along parallel rays).
+  // (Every light one of m_lighting's suns: all directional, none past kMostControlLights.)
   bool controlIsShading() const {
     if (!m_edgesAtSilhouettes || std::isfinite(m_camera.tMin()) || std::isfinite(m_camera.tMax())) return false;
-    for (const ShadingLight<Real>& light : m_shading.lights()) {
-      if (light.kind != ShadingLight<Real>::Kind::Directional) return false;
-    }
-    if (m_shading.lights().size() > size_t(kMostControlLights)) return false;
+    if (size_t(m_lighting.suns) != m_shading.lights().size()) return false;
     const Vec3<Real> none(0);
     for (const MaterialIn<Real>& m : m_shading.materials()) {
       if (m.emission != none || m.specular != none || m.reflective != none || m.transparent != none) return false;
