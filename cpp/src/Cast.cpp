@@ -49,12 +49,11 @@ CastStats cast(const Scene& scene, const CastInput& input, const CastOutput<Real
   const auto start = std::chrono::steady_clock::now();
   const CastJob<Real> job{scene, input, output, control, poll};
   CastStats stats;
-  if (input.sphereMethod != SphereMethod::Robust) {
-    stats = castLecture<Real>(job, input.sphereMethod);
-  } else if constexpr (std::is_same_v<Real, float>) {
-    stats = kernels().castFloat(job);
+  const KernelSet& set = kernelsFor(input.sphereMethod);
+  if constexpr (std::is_same_v<Real, float>) {
+    stats = set.castFloat(job);
   } else {
-    stats = kernels().castDouble(job);
+    stats = set.castDouble(job);
   }
   stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return stats;

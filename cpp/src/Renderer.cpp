@@ -139,11 +139,8 @@ RenderStats render(const Scene& scene, const CameraSpec& camera, const RenderSet
   const RenderJob job{scene, camera, settings, targets, effects, control, poll};
   const bool single = settings.precision == Precision::Float;
   RenderStats stats;
-  if (settings.sphereMethod != SphereMethod::Robust) {
-    stats = single ? renderLecture<float>(job, settings.sphereMethod) : renderLecture<double>(job, settings.sphereMethod);
-  } else {
-    stats = single ? kernels().renderFloat(job) : kernels().renderDouble(job);
-  }
+  const KernelSet& set = kernelsFor(settings.sphereMethod);
+  stats = single ? set.renderFloat(job) : set.renderDouble(job);
   stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return stats;
 }

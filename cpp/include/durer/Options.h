@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 namespace durer {
 
@@ -16,6 +17,22 @@ enum class SphereMethod {
   Algebraic,  // the lecture's quadratic: (-b ± sqrt(b² - 4ac)) / 2a
   Geometric,  // the lecture's construction: closest approach, early rejection, then Pythagoras
   Robust,     // discriminant from the ray-to-centre distance and the stable root pair (Ray Tracing Gems ch. 7)
+};
+
+// The sphere methods a kernel set compiles (Kernels.h): a render's method is a runtime setting,
+// and only the searches (Group::intersect, Group::occluded) are compiled once per method served,
+// not the renderer around them. call(method, f) calls f(std::integral_constant<SphereMethod, m>)
+// for method m, which must be one of Ms (Kernels.cpp sends a job only to a set that serves it).
+template <SphereMethod First, SphereMethod... Rest>
+struct SphereMethods {
+  static constexpr bool serves(SphereMethod method) { return method == First || ((method == Rest) || ...); }
+  template <typename F>
+  static auto call(SphereMethod method, const F& f) {
+    if constexpr (sizeof...(Rest) > 0) {
+      if (method != First) return SphereMethods<Rest...>::call(method, f);
+    }
+    return f(std::integral_constant<SphereMethod, First>{});
+  }
 };
 
 // Where a pixel's samples go (PixelSampler.h).

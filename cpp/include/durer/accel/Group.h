@@ -199,6 +199,17 @@ class Group {
     return m_anyOneSided ? tests + passInsides<M, true>(packet, cancel) : tests;
   }
 
+  // The searches of a render's or cast's sphere method, one of those `Methods` (SphereMethods)
+  // lists: the method's search compiled once, the caller for all of them.
+  template <typename Methods>
+  int64_t intersect(SphereMethod method, RayPacket<Real>& packet, const std::atomic<bool>* cancel) const {
+    return Methods::call(method, [&](auto m) { return intersect<decltype(m)::value>(packet, cancel); });
+  }
+  template <typename Methods>
+  int64_t occluded(SphereMethod method, RayPacket<Real>& packet, const std::atomic<bool>* cancel) const {
+    return Methods::call(method, [&](auto m) { return occluded<decltype(m)::value>(packet, cancel); });
+  }
+
   // Lowers each ray's tHit to its closest hit among this group's primitives (its transformed
   // groups' included), recorded as primBase + their packed index; with AnyHit, to any hit.
   template <SphereMethod M, bool AnyHit>

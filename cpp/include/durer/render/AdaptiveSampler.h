@@ -98,10 +98,10 @@
 namespace durer {
 namespace tiles {
 
-template <typename Real, SphereMethod M>
+template <typename Real, typename Methods>
 class AdaptiveSampler {
  public:
-  using Tiles = TileRenderer<Real, M>;
+  using Tiles = TileRenderer<Real, Methods>;
   using Sums = typename Tiles::Accumulator;
 
   static constexpr int kEdgeSamples = 16;         // geometric edges: samples to look for what the first ones missed

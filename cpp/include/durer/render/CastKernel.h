@@ -14,7 +14,7 @@ namespace durer {
 constexpr int64_t kRaysPerItem = 16 * kPacketSize;  // enough work per queue item to hide its cost
 
 // Casts one work item's rays; returns the ray-primitive tests made.
-template <typename Real, SphereMethod M>
+template <typename Real, typename Methods>
 int64_t castRays(const Group<Real>& group, const CastInput& in, const CastOutput<Real>& out, int64_t item,
                  const std::atomic<bool>& cancel) {
   const size_t begin = static_cast<size_t>(item * kRaysPerItem);
@@ -35,7 +35,8 @@ int64_t castRays(const Group<Real>& group, const CastInput& in, const CastOutput
       packet.dy[k] = static_cast<Real>(d[1]);
       packet.dz[k] = static_cast<Real>(d[2]);
     }
-    tests += in.anyHit ? group.template occluded<M>(packet, &cancel) : group.template intersect<M>(packet, &cancel);
+    tests += in.anyHit ? group.template occluded<Methods>(in.sphereMethod, packet, &cancel)
+                       : group.template intersect<Methods>(in.sphereMethod, packet, &cancel);
     if (cancel.load(std::memory_order_relaxed)) return tests;
     if (in.anyHit) {
       for (int k = 0; k < packet.count; ++k) {
@@ -55,7 +56,7 @@ int64_t castRays(const Group<Real>& group, const CastInput& in, const CastOutput
   return tests;
 }
 
-template <typename Real, SphereMethod M>
+template <typename Real, typename Methods>
 CastStats castWith(const CastJob<Real>& job) {
   const Scene& scene = job.scene;
   const CastInput& in = job.input;
@@ -69,7 +70,7 @@ CastStats castWith(const CastJob<Real>& job) {
   runParallel(
       items, threads, control,
       [&](int64_t item, int) {
-        tests.fetch_add(castRays<Real, M>(group, in, out, item, control.cancel));
+        tests.fetch_add(castRays<Real, Methods>(group, in, out, item, control.cancel));
       },
       job.poll);
   CastStats stats;

@@ -1,8 +1,9 @@
 #pragma once
-// The hot kernels' entry points: a render and a cast per precision for the robust sphere test,
-// compiled once per instruction set (src/kernels; CMakeLists.txt keeps each set's inline code to
-// itself), and the lecture's sphere methods, compiled once, for the accuracy comparisons. kernels()
-// picks the set for this CPU when first called: once per process, never per function call.
+// The hot kernels' entry points: a render and a cast per precision, compiled once per instruction
+// set (src/kernels; CMakeLists.txt keeps each set's inline code to itself). Every set serves the
+// robust sphere test; the baseline set (x86-64-v2, or the only one) also the lecture's methods,
+// there to compare accuracy, not to be fast. kernelsFor() picks the set for this CPU and method:
+// the CPU's once per process, never per function call.
 #include <functional>
 
 #include "durer/render/Cast.h"
@@ -29,9 +30,10 @@ struct CastJob {
   const std::function<void()>& poll;
 };
 
-// One instruction set's robust kernels.
+// One instruction set's kernels.
 struct KernelSet {
   const char* isa;  // "x86-64-v2", "x86-64-v3", "x86-64-v4", "native" or "generic"
+  bool lecture;     // whether it serves the lecture's sphere methods (the robust one: every set)
   RenderStats (*renderFloat)(const RenderJob&);
   RenderStats (*renderDouble)(const RenderJob&);
   CastStats (*castFloat)(const CastJob<float>&);
@@ -41,11 +43,15 @@ struct KernelSet {
 // The best kernel set this CPU runs.
 const KernelSet& kernels();
 
-// The lecture's sphere methods (algebraic, geometric), compiled for the baseline instruction set.
-template <typename Real>
-RenderStats renderLecture(const RenderJob& job, SphereMethod method);
-template <typename Real>
-CastStats castLecture(const CastJob<Real>& job, SphereMethod method);
+// The best kernel set this CPU runs that serves `method`.
+const KernelSet& kernelsFor(SphereMethod method);
+
+// The sphere methods the kernel set being compiled serves (DURER_LECTURE_METHODS: the baseline's).
+#if defined(DURER_LECTURE_METHODS)
+using KernelMethods = SphereMethods<SphereMethod::Robust, SphereMethod::Algebraic, SphereMethod::Geometric>;
+#else
+using KernelMethods = SphereMethods<SphereMethod::Robust>;
+#endif
 
 // Each kernel set's entry points, in a namespace of its own (DURER_ISA when a set is compiled); the
 // only symbols that stay global in the set's object (CMakeLists.txt).

@@ -48,13 +48,13 @@ struct OcclusionSettings {
   uint64_t seed = 0;     // the render's seed
 };
 
-template <typename Real, SphereMethod M>
+template <typename Real, typename Methods>
 class PacketShader {
  public:
-  PacketShader(const Group<Real>& group, const Shading<Real>& shading, const EffectSet& effects,
+  PacketShader(const Group<Real>& group, SphereMethod method, const Shading<Real>& shading, const EffectSet& effects,
                const BounceLimits& limits, const OcclusionSettings& occlusion, const Vec3<Real>& background,
                const std::atomic<bool>& cancel)
-      : m_group(group), m_shading(shading), m_effects(effects), m_limits(limits), m_occlusion(occlusion),
+      : m_group(group), m_method(method), m_shading(shading), m_effects(effects), m_limits(limits), m_occlusion(occlusion),
         m_background(background), m_cancel(cancel), m_minWeight(static_cast<Real>(limits.minWeight)) {}
 
   // The views of the scene's own spheres from its lights (SphereView), in the order of the shading's
@@ -433,7 +433,7 @@ class PacketShader {
     shadow.tMin = std::numeric_limits<Real>::denorm_min();
     shadow.tMax = light.shadowTMax();
     shadow.view = view;
-    counters.intersectionTests += m_group.template occluded<M>(shadow, &m_cancel);
+    counters.intersectionTests += m_group.template occluded<Methods>(m_method, shadow, &m_cancel);
     counters.shadow += shadow.count;
   }
 
@@ -508,7 +508,7 @@ class PacketShader {
         rays.ox[j] = origin.x, rays.oy[j] = origin.y, rays.oz[j] = origin.z;
         rays.dx[j] = w.x, rays.dy[j] = w.y, rays.dz[j] = w.z;
       }
-      counters.intersectionTests += m_group.template occluded<M>(rays, &m_cancel);
+      counters.intersectionTests += m_group.template occluded<Methods>(m_method, rays, &m_cancel);
       counters.ambientOcclusion += count;
       for (int j = 0; j < count; ++j) open[hitOf[j]] += rays.prim[j] == kNoPrimitive ? Real(1) : Real(0);
     }
@@ -604,7 +604,7 @@ class PacketShader {
       packet.dx[j] = c.direction.x, packet.dy[j] = c.direction.y, packet.dz[j] = c.direction.z;
       weights[j] = c.weight;
     }
-    counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
+    counters.intersectionTests += m_group.template intersect<Methods>(m_method, packet, &m_cancel);
     if (m_cancel.load(std::memory_order_relaxed)) return;
     HitRecords<Real, kPacketSize> hits;
     const auto make = [&](int j, const auto& f) { hits.make(j, f); };
@@ -667,6 +667,7 @@ class PacketShader {
   static Real maxComponent(const Vec3<Real>& v) { return std::max(v.x, std::max(v.y, v.z)); }
 
   const Group<Real>& m_group;
+  SphereMethod m_method;  // one of Methods
   const Shading<Real>& m_shading;
   EffectSet m_effects;
   BounceLimits m_limits;

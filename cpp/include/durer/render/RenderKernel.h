@@ -12,7 +12,7 @@
 
 namespace durer {
 
-template <typename Real, SphereMethod M>
+template <typename Real, typename Methods>
 RenderStats renderWith(const RenderJob& job) {
   const Scene& scene = job.scene;
   const CameraSpec& spec = job.camera;
@@ -26,23 +26,23 @@ RenderStats renderWith(const RenderJob& job) {
   // without it (at 10M spheres most of a first render's time), unless a view is refused.
   const bool viewsOnly = !effects.bounces() && !effects.occlusion && !effects.sampledShadows &&
                          !effects.mirroredLights &&
-                         tiles::TileRenderer<Real, M>::viewsLights(effects);
+                         tiles::TileRenderer<Real, Methods>::viewsLights(effects);
   std::shared_ptr<const Group<Real>> prepared = scene.prepared<Real>(settings.threads, !viewsOnly);
-  std::optional<tiles::TileRenderer<Real, M>> made;
+  std::optional<tiles::TileRenderer<Real, Methods>> made;
   made.emplace(scene, *prepared, spec, settings, targets, effects, control.cancel);
   if (viewsOnly && !made->viewsSpheres()) {
     made.reset();
     prepared = scene.prepared<Real>(settings.threads, true);
     made.emplace(scene, *prepared, spec, settings, targets, effects, control.cancel);
   }
-  const tiles::TileRenderer<Real, M>& tiles = *made;
+  const tiles::TileRenderer<Real, Methods>& tiles = *made;
   RenderStats stats;
   stats.effects = effects;
   // A work item is a tile (of the pixels sampled): more threads than tiles would have nothing to do
   // (not started).
   const int asked = settings.threads > 0 ? settings.threads : defaultThreadCount();
   if (settings.sampler == SamplerKind::Adaptive) {
-    tiles::AdaptiveSampler<Real, M> adaptive(tiles, settings, targets);
+    tiles::AdaptiveSampler<Real, Methods> adaptive(tiles, settings, targets);
     stats.threads = workersFor(asked, adaptive.tileCount());
     stats.counters = adaptive.render(stats.threads, control, job.poll, stats.adaptive);
     stats.cancelled = control.cancel.load();

@@ -50,7 +50,7 @@ inline RenderSettings::Region sampledRegion(const RenderSettings& s) {
   return {x0, y0, x1 - x0, y1 - y0};
 }
 
-template <typename Real, SphereMethod M>
+template <typename Real, typename Methods>
 class TileRenderer {
  public:
   TileRenderer(const Scene& scene, const Group<Real>& group, const CameraSpec& spec, const RenderSettings& settings,
@@ -63,7 +63,7 @@ class TileRenderer {
         m_targets(targets),
         m_cancel(cancel),
         m_flat(scene, group),
-        m_shader(group, m_shading, effects, BounceLimits{settings.maxBounces, settings.minWeight, settings.shadeBack},
+        m_shader(group, settings.sphereMethod, m_shading, effects, BounceLimits{settings.maxBounces, settings.minWeight, settings.shadeBack},
                  OcclusionSettings{settings.ambientOcclusion.samples, settings.ambientOcclusion.distance, settings.seed},
                  toReal<Real>(Vec3d(scene.background())), cancel),
         m_objectOf(targets.objectId ? objectTable(group) : std::vector<int32_t>{}),
@@ -220,7 +220,7 @@ class TileRenderer {
       m_camera.generate(packet, sampleX, sampleY, count, lens ? lensU : nullptr, lens ? lensV : nullptr);
       packet.view = m_view.get();
       packet.tileX = x0, packet.tileY = y0, packet.tileWidth = w;
-      counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
+      counters.intersectionTests += m_group.template intersect<Methods>(m_settings.sphereMethod, packet, &m_cancel);
       clipToPlanes(packet, counters);
       if (m_cancel.load(std::memory_order_relaxed)) return {};
       accumulate(packet, acc, counters);
@@ -331,7 +331,7 @@ class TileRenderer {
     std::copy(box, box + 4, packet.sampleBox);
     packet.view = m_view.get();
     packet.tileX = tileX, packet.tileY = tileY, packet.tileWidth = tileWidth;
-    counters.intersectionTests += m_group.template intersect<M>(packet, &m_cancel);
+    counters.intersectionTests += m_group.template intersect<Methods>(m_settings.sphereMethod, packet, &m_cancel);
     clipToPlanes(packet, counters);
     if (m_cancel.load(std::memory_order_relaxed)) return false;
     accumulate(packet, sink, counters);
@@ -1089,7 +1089,7 @@ class TileRenderer {
       ray.tMin = tMin, ray.tMax = packet.tMax;
       ray.ox[0] = packet.ox[k], ray.oy[0] = packet.oy[k], ray.oz[0] = packet.oz[k];
       ray.dx[0] = packet.dx[k], ray.dy[0] = packet.dy[k], ray.dz[0] = packet.dz[k];
-      counters.intersectionTests += m_group.template intersect<M>(ray, &m_cancel);
+      counters.intersectionTests += m_group.template intersect<Methods>(m_settings.sphereMethod, ray, &m_cancel);
       packet.tHit[k] = ray.tHit[0], packet.prim[k] = ray.prim[0];
       m_camera.clip(packet, k, tMin);  // the far plane, for the hit found beyond the near one
     }
@@ -1410,7 +1410,7 @@ class TileRenderer {
   RenderTargets m_targets;
   const std::atomic<bool>& m_cancel;
   FlatTable m_flat;
-  PacketShader<Real, M> m_shader;
+  PacketShader<Real, Methods> m_shader;
   std::vector<int32_t> m_objectOf;  // object id by packed primitive index + 1 (-1: a miss); with the object id pass
   bool m_needHits;   // colour needs hit records: lights, secondary rays or primitives' own colours
   bool m_needNearest;  // the id passes: the nearest hit sample's primitive, normals or not
