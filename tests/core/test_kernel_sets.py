@@ -76,3 +76,21 @@ def test_the_module_runs_the_best_set_this_cpu_supports():
     v3 = {"avx2", "fma", "bmi1", "bmi2", "f16c", "abm", "movbe"} <= flags
     v4 = v3 and {"avx512f", "avx512bw", "avx512cd", "avx512dq", "avx512vl"} <= flags
     assert _core.KERNEL_SET == ("x86-64-v4" if v4 else "x86-64-v3" if v3 else "x86-64-v2")
+
+
+def _sphere_methods_compiled(obj: Path) -> set[str]:
+    """The sphere methods whose searches an object instantiates (Group::intersect<m> and below)."""
+    out = subprocess.run([_tool("nm"), "-C", str(obj)], capture_output=True, text=True, check=True).stdout
+    methods = {int(m) for m in re.findall(r"\(durer::SphereMethod\)(\d)", out)}
+    return {_core.SPHERE_METHODS[m] for m in methods}
+
+
+def test_only_the_baseline_set_compiles_the_lecture_sphere_methods():
+    # The lecture's methods are there to compare accuracy: their searches are compiled once, in the
+    # baseline set that every render and cast of theirs runs (Kernels.cpp), not in every set.
+    objects = _kernel_objects()
+    baseline = next(name for name in ("native", "generic", "x86_64_v2") if name in objects)
+    assert _core.SPHERE_METHODS == ("algebraic", "geometric", "robust")  # the enum's order, which nm prints
+    for name, obj in objects.items():
+        expected = {"algebraic", "geometric", "robust"} if name == baseline else {"robust"}
+        assert _sphere_methods_compiled(obj) == expected, name
