@@ -431,6 +431,22 @@ def test_pixels_whose_control_is_their_colour_settle_at_their_first_samples():
     assert np.all(adaptive(sunk, spp=64, min_spp=4, target_error=0.002, seed=5).samples[rim] >= 16)
 
 
+def test_an_inside_its_control_describes_needs_no_sample():
+    # Where a stratum's samples less their control are one colour on its inside (StratumControl::exact),
+    # that colour is the control's mean: the control is the colour itself less its mean there. A pixel
+    # whose sliver of a sphere none of its first samples reached takes it from there and settles at 4
+    # samples, on the colour 64 samples give (to rounding), where it took up to 64 to reach the sliver
+    # (13 of these 37 pixels settled at 4).
+    scene, discs = _lit_spheres_apart()
+    covered = sum(disc_coverage(cx, cy, r, SIZE, SIZE) for cx, cy, r in discs)
+    sliver = _one_edge_pixels(discs) & (covered > 0.01) & (covered < 0.2)
+    assert sliver.sum() >= 30
+    result = adaptive(scene, spp=64, min_spp=4, target_error=0.002, seed=5)
+    forced = adaptive(scene, spp=64, min_spp=64, seed=5)
+    assert np.all(result.samples[sliver] == 4)
+    assert np.abs(result.color[..., :3] - forced.color[..., :3]).max(axis=-1)[sliver].max() < 1e-6
+
+
 def test_shadows_keep_their_edges_refined():
     # A sphere's shadow on a lit plane, seen from above: its edge crosses pixels the sphere's disc
     # does not reach, which the camera's view cannot prove smooth (shadows are not in it); they are

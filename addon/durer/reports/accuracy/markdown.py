@@ -201,8 +201,9 @@ def markdown(report: Report, plots: dict[str, str]) -> str:
         "no sphere's disc reaches holds no edge in either scene (only the spheres make edges there: no shadows, one "
         "unbounded plane), and a sphere's edge or contrast in a neighbour does not keep it refining; a pixel whose "
         "discs lie apart with no sphere behind them covering it, its samples less their control one colour on each "
-        "part (both scenes' shading is the control's: diffuse, one sun, no shadows), settles once each part holds "
-        "a sample (no edge rule, nor its neighbours' errors, keeps it refining). "
+        "part (both scenes' shading is the control's: diffuse, one sun, no shadows), settles once a sample reaches "
+        "its outside (no edge rule, nor its neighbours' errors, keeps it refining; its inside's colour is the "
+        "control's mean there, known without a sample). "
         "The slopes are "
         "least-squares fits of log RMSE against log spp (adaptive: against the samples it took); plain Monte "
         "Carlo converges as spp^-0.5. The reference's own error puts a floor under the curves at the highest spp.",

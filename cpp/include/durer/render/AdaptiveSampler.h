@@ -60,8 +60,10 @@
 // of its stratum: none of the rules above that look for what its samples missed marks it (the
 // neighbourhood's errors, the geometric edges, the contrast: its stratum names every edge crossing
 // it), and of its parts only one no sample has reached keeps it refining (unresolvedShare), as do
-// the spheres it watches. It settles at the first pass once its parts are reached (docs/benchmarks.md,
-// fifty-seventh round).
+// the spheres it watches. Its inside's colour less the control is the control's mean there (the
+// control is the colour itself less its mean), so its inside needs no sample either
+// (StratumState::mean; its spheres watched are its members): it settles at the first pass once its
+// outside is reached (docs/benchmarks.md, fifty-seventh and fifty-eighth rounds).
 // Through an orthographic camera, a pixel also watches up to two spheres whose silhouettes cross it
 // and that its first samples did not meet, but the sphere of a one-sphere stratum
 // (TileRenderer::watchSilhouettes: a sliver beside the stratum's edge, an edge where two spheres'
@@ -266,9 +268,21 @@ class AdaptiveSampler {
     StratumControl control[kPacketSize];  // its samples' inside control variate (StratumControl.h)
     bool controlled;                                      // whether a pixel of the tile has a control
 
-    // Pixel k's mean of one channel by its stratum (PixelStratum::mean), from the channel's sum over
-    // all the pixel's `count` samples and over those inside (`in`).
-    Real mean(int k, Real sum, Real count, Real in) const { return strata[k].mean(sum, count, in, inside[k]); }
+    // Pixel k's mean of channel `channel` (r, g, b, a) by its stratum (PixelStratum::mean), from the
+    // channel's sum over all the pixel's `count` samples and over those inside (`in`). Where no sample
+    // has reached the inside of a stratum whose samples less their control are one colour there
+    // (exact), that colour is the control's mean (the control is the colour itself less its mean
+    // there; alpha 1), weighed by the inside's share.
+    Real mean(int k, int channel, Real sum, Real count, Real in) const {
+      if (inside[k] == 0 && count > 0 && exact(k)) {
+        const Real s = static_cast<Real>(strata[k].share);
+        return s * (channel < 3 ? static_cast<Real>(control[k].mean[channel]) : Real(1)) + (1 - s) * (sum / count);
+      }
+      return strata[k].mean(sum, count, in, inside[k]);
+    }
+    // Whether pixel k's samples less their control are one colour on each part of its stratum
+    // (StratumControl::exact).
+    bool exact(int k) const { return controlled && strata[k].any() && control[k].exact; }
   };
 
   // A tile's pixels (clipped to the work region) and what adaptive sampling keeps of them.
@@ -627,9 +641,9 @@ class AdaptiveSampler {
       if (!u.strata[k].any() || !sampled[k]) continue;  // an unsampled pixel's summary stands (below)
       error[k] = stratifiedError(t, k);
       const Real n = t.sums.samples[k];
-      meanR[k] = static_cast<float>(u.mean(k, t.sums.r[k], n, u.inR[k]));
-      meanG[k] = static_cast<float>(u.mean(k, t.sums.g[k], n, u.inG[k]));
-      meanB[k] = static_cast<float>(u.mean(k, t.sums.b[k], n, u.inB[k]));
+      meanR[k] = static_cast<float>(u.mean(k, 0, t.sums.r[k], n, u.inR[k]));
+      meanG[k] = static_cast<float>(u.mean(k, 1, t.sums.g[k], n, u.inG[k]));
+      meanB[k] = static_cast<float>(u.mean(k, 2, t.sums.b[k], n, u.inB[k]));
     }
     // Sums that overflowed (a float render's colours saturate) leave the error unknown: infinite, not
     // the NaN of inf - inf (such a pixel is never settled before its last round, as an infinite error
@@ -764,38 +778,42 @@ class AdaptiveSampler {
 
   // How far pixel k's stratified mean may be off for want of samples its error estimate can see: a
   // part of its stratum none of its samples has reached counts its share of the pixel (its colour is
-  // unknown: it may be off the pixel's by about 1, a lit sphere against a dark ground); a part whose
+  // unknown: it may be off the pixel's by about 1, a lit sphere against a dark ground), but the
+  // inside of a stratum exactly controlled, whose colour is known (StratumState::mean); a part whose
   // samples all lie in one half (its spread is then invisible to the halves' difference) its share
   // times kPartSpread over the root of its samples (a colour in [0, 1] spreads by at most 1/2), but
   // where the samples less their control are one colour on each part (StratumControl::exact). 0
-  // without a stratum, or where both halves reached both parts.
+  // without a stratum, or where both halves reached both parts. (The depth, normal and id passes are
+  // their samples' means: where an inside no sample reached is known, they miss its spheres, as a
+  // part within the target's share would be; the passes asked for change no colour nor count.)
   static double unresolvedShare(const TileState& t, int k) {
     if (t.stratum == nullptr || !t.stratum->strata[k].any()) return 0;
     const StratumState& u = *t.stratum;
     const double share = double(u.strata[k].share), n = double(t.sums.samples[k]), last = t.last[k];
     const double inside = double(u.inside[k]), lastInside = double(u.lastInside[k]);
-    const bool spread = !exactlyControlled(t, k);
+    const bool exact = exactlyControlled(t, k), spread = !exact;
     const auto part = [&](double share, double samples, double inLast) {
       if (samples == 0) return share;
       return spread && (inLast == 0 || inLast == samples) ? share * kPartSpread / std::sqrt(samples) : 0.0;
     };
-    return part(share, inside, lastInside) + part(1 - share, n - inside, last - lastInside);
+    const double in = inside == 0 && exact ? 0.0 : part(share, inside, lastInside);
+    return in + part(1 - share, n - inside, last - lastInside);
   }
 
   // Whether pixel k's samples less their control are one colour on each part of its stratum
   // (StratumControl::exact).
-  static bool exactlyControlled(const TileState& t, int k) {
-    const StratumState* u = t.stratum;
-    return u != nullptr && u->controlled && u->strata[k].any() && u->control[k].exact;
-  }
+  static bool exactlyControlled(const TileState& t, int k) { return t.stratum != nullptr && t.stratum->exact(k); }
+
 
   // What a sphere pixel k watches may put its mean off by, none of its samples having met it
   // (watchSilhouettes): its colour there is unknown, as an unsampled part's, over the share of the
   // pixel it may show in: its silhouette's share, over 1 + the samples that have landed inside the
   // silhouette since and met something else (each a point where it is hidden; with none, a sliver
-  // the samples have not reached). The largest over the spheres it watches; 0 without any (or strata).
+  // the samples have not reached). The largest over the spheres it watches; 0 without any (or strata),
+  // or where its stratum is exactly controlled (it has no cover, so every sphere crossing the pixel
+  // is one of its members, whose colour the control knows: StratumState::mean).
   static double unseenShare(const TileState& t, int k) {
-    if (t.stratum == nullptr) return 0;
+    if (t.stratum == nullptr || exactlyControlled(t, k)) return 0;
     const StratumState& u = *t.stratum;
     double largest = 0;
     for (int s = 0; s < Tiles::kWatched; ++s) {
@@ -961,10 +979,10 @@ class AdaptiveSampler {
         const StratumState& u = *t.stratum;
         if (!u.strata[k].any()) continue;
         const Real n = t.sums.samples[k];
-        t.sums.r[k] = u.mean(k, t.sums.r[k], n, u.inR[k]) * n;
-        t.sums.g[k] = u.mean(k, t.sums.g[k], n, u.inG[k]) * n;
-        t.sums.b[k] = u.mean(k, t.sums.b[k], n, u.inB[k]) * n;
-        t.sums.a[k] = u.mean(k, t.sums.a[k], n, u.inA[k]) * n;
+        t.sums.r[k] = u.mean(k, 0, t.sums.r[k], n, u.inR[k]) * n;
+        t.sums.g[k] = u.mean(k, 1, t.sums.g[k], n, u.inG[k]) * n;
+        t.sums.b[k] = u.mean(k, 2, t.sums.b[k], n, u.inB[k]) * n;
+        t.sums.a[k] = u.mean(k, 3, t.sums.a[k], n, u.inA[k]) * n;
       }
       m_tiles.writeRow(t.sums, k0, x1 - x0, first);
       for (int i = 0; i < x1 - x0; ++i) {
