@@ -804,7 +804,6 @@ class AdaptiveSampler {
   // (StratumControl::exact).
   static bool exactlyControlled(const TileState& t, int k) { return t.stratum != nullptr && t.stratum->exact(k); }
 
-
   // What a sphere pixel k watches may put its mean off by, none of its samples having met it
   // (watchSilhouettes): its colour there is unknown, as an unsampled part's, over the share of the
   // pixel it may show in: its silhouette's share, over 1 + the samples that have landed inside the
