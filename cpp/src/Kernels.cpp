@@ -8,9 +8,9 @@ DURER_DECLARE_KERNEL_SET(x86_64_v3)
 DURER_DECLARE_KERNEL_SET(x86_64_v4)
 
 namespace {
-const KernelSet kV2{"x86-64-v2", true, DURER_KERNEL_SET_ENTRIES(x86_64_v2)};
-const KernelSet kV3{"x86-64-v3", false, DURER_KERNEL_SET_ENTRIES(x86_64_v3)};
-const KernelSet kV4{"x86-64-v4", false, DURER_KERNEL_SET_ENTRIES(x86_64_v4)};
+const KernelSet kV2{"x86-64-v2", DURER_KERNEL_SET_ENTRIES(x86_64_v2)};
+const KernelSet kV3{"x86-64-v3", DURER_KERNEL_SET_ENTRIES(x86_64_v3)};
+const KernelSet kV4{"x86-64-v4", DURER_KERNEL_SET_ENTRIES(x86_64_v4)};
 }  // namespace
 
 const KernelSet& kernels() {
@@ -29,7 +29,7 @@ const KernelSet& kernelsFor(SphereMethod method) { return method == SphereMethod
 DURER_DECLARE_KERNEL_SET(DURER_KERNEL_SET)
 
 const KernelSet& kernels() {
-  static const KernelSet set{DURER_KERNEL_SET_NAME, true, DURER_KERNEL_SET_ENTRIES(DURER_KERNEL_SET)};
+  static const KernelSet set{DURER_KERNEL_SET_NAME, DURER_KERNEL_SET_ENTRIES(DURER_KERNEL_SET)};
   return set;
 }
 

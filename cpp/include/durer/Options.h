@@ -25,7 +25,6 @@ enum class SphereMethod {
 // for method m, which must be one of Ms (Kernels.cpp sends a job only to a set that serves it).
 template <SphereMethod First, SphereMethod... Rest>
 struct SphereMethods {
-  static constexpr bool serves(SphereMethod method) { return method == First || ((method == Rest) || ...); }
   template <typename F>
   static auto call(SphereMethod method, const F& f) {
     if constexpr (sizeof...(Rest) > 0) {

@@ -33,7 +33,6 @@ struct CastJob {
 // One instruction set's kernels.
 struct KernelSet {
   const char* isa;  // "x86-64-v2", "x86-64-v3", "x86-64-v4", "native" or "generic"
-  bool lecture;     // whether it serves the lecture's sphere methods (the robust one: every set)
   RenderStats (*renderFloat)(const RenderJob&);
   RenderStats (*renderDouble)(const RenderJob&);
   CastStats (*castFloat)(const CastJob<float>&);
