@@ -90,13 +90,14 @@ void UnitDiskPart::integrate() {
   static constexpr double kWeight[6] = {0.085662246189585178, 0.18038078652406930, 0.23395696728634552,
                                         0.23395696728634552, 0.18038078652406930, 0.085662246189585178};
   for (int i = 0; i < pieces.count; ++i) {
-    const auto& [p, q, arc] = pieces.piece[i];
+    auto& [p, q, arc, fanW] = pieces.piece[i];
     const double cross = p.u * q.v - p.v * q.u;
     if (arc) {  // u = cos, v = sin: the integrals of cos^3 / 2 and sin^3 / 2 over its angle
       u += (q.v - q.v * q.v * q.v / 3 - (p.v - p.v * p.v * p.v / 3)) / 2;
       v += (-q.u + q.u * q.u * q.u / 3 - (-p.u + p.u * p.u * p.u / 3)) / 2;
       const double angle = std::atan2(cross, p.u * q.u + p.v * q.v);
-      area += angle / 2, w += angle / 3;
+      fanW = angle / 3;
+      area += angle / 2, w += fanW;
       continue;
     }
     const double du = q.u - p.u, dv = q.v - p.v;
@@ -108,7 +109,8 @@ void UnitDiskPart::integrate() {
       const double bu = p.u + kNode[j] * du, bv = p.v + kNode[j] * dv, rest = std::max(0.0, 1 - bu * bu - bv * bv);
       sum += kWeight[j] * (1 + rest + rest * rest) / (1 + rest * std::sqrt(rest));  // (1 - rest^1.5) / r^2
     }
-    w += cross * sum / 3;
+    fanW = cross * sum / 3;
+    w += fanW;
   }
 }
 
@@ -134,16 +136,38 @@ double UnitDiskPart::clampedIntegral(double a, double b, double c) const {
     }
     return slope > 0 ? slope * r * r * r / 3 : 0.0;
   };
+  // Each piece: where the terminator crosses it, and whether the light lights it all over (side 1),
+  // leaves it dark all over (-1), or neither (0). Where none is crossed, the part lies on one side of
+  // the terminator (which ends on the rim: where it enters the part, it crosses a piece).
+  const int n = pieces.count;
+  double crossing[20][2];
+  int crossings[20];
+  int side[20];
+  bool lit = true, dark = true;
+  for (int i = 0; i < n; ++i) {
+    const auto& [p, q, arc, fanW] = pieces.piece[i];
+    crossings[i] = arc ? 0 : terminatorCrossings(p, q, a, b, c, crossing[i]);
+    const auto rim = [&](DiskPieces::Point e) { return arc ? 0.0 : std::sqrt(std::max(0.0, 1 - e.u * e.u - e.v * e.v)); };
+    const double atP = a * p.u + b * p.v + c * rim(p), atQ = a * q.u + b * q.v + c * rim(q);  // the cosine at its ends
+    side[i] = crossings[i] > 0 ? 0 : atP >= 0 && atQ >= 0 ? 1 : atP <= 0 && atQ <= 0 ? -1 : 0;
+    lit = lit && side[i] == 1, dark = dark && side[i] == -1;
+  }
+  if (lit) return std::max(0.0, a * u + b * v + c * w);
+  if (dark) return 0;
   double total = 0;
-  for (int i = 0; i < pieces.count; ++i) {
-    const auto& [p, q, arc] = pieces.piece[i];
+  for (int i = 0; i < n; ++i) {
+    const auto& [p, q, arc, fanW] = pieces.piece[i];
     const double cross = p.u * q.v - p.v * q.u;
-    if (cross == 0) continue;
+    if (cross == 0 || (side[i] == -1 && c <= 0)) continue;  // no fan, or one dark all over
     const double du = q.u - p.u, dv = q.v - p.v, p0 = a * p.u + b * p.v, p1 = a * du + b * dv;
+    if (side[i] == 1 && c >= 0) {  // a fan lit all over: its moments
+      total += (arc ? (a * dv - b * du) / 3 : cross * (a * (p.u + q.u) + b * (p.v + q.v)) / 6) + c * fanW;
+      continue;
+    }
     double cut[5] = {0, 1, 1, 1, 1};
     int cuts = 1;
+    for (int k = 0; k < crossings[i]; ++k) cut[cuts++] = crossing[i][k];
     if (p1 != 0 && -p0 / p1 > 0 && -p0 / p1 < 1) cut[cuts++] = -p0 / p1;
-    if (!arc) cuts += terminatorCrossings(p, q, a, b, c, cut + cuts);
     std::sort(cut, cut + cuts);
     cut[cuts] = 1;
     double sum = 0;
@@ -172,21 +196,6 @@ int UnitDiskPart::terminatorCrossings(DiskRectanglePath::Point p, DiskRectangleP
     if (root > 0 && root < 1 && (p0 + p1 * root) * c < 0) cut[n++] = root;
   }
   return n;
-}
-
-bool UnitDiskPart::lit(double a, double b, double c) const {
-  for (int i = 0; i < pieces.count; ++i) {
-    const auto& [p, q, arc] = pieces.piece[i];
-    const double p0 = a * p.u + b * p.v;
-    if (!(p0 + c * std::sqrt(std::max(0.0, 1 - p.u * p.u - p.v * p.v)) >= 0)) return false;
-    if (arc) {
-      if (!(a * q.u + b * q.v >= 0)) return false;  // on the rim the cosine is p0's: not negative at either end
-      continue;
-    }
-    double cut[2];
-    if (terminatorCrossings(p, q, a, b, c, cut) > 0) return false;
-  }
-  return pieces.count > 0;
 }
 
 }  // namespace durer

@@ -18,10 +18,10 @@ Vec3d shadingOver(const UnitDiskPart& part, const ControlLighting& light, const 
   Vec3d along = light.ambient * part.area;
   for (int l = 0; l < light.suns; ++l) {
     const Vec3d d = toward(light.sun[l]);
-    const bool lit = part.lit(d.x, d.y, d.z);
-    if (!lit && part.lit(-d.x, -d.y, -d.z)) continue;  // dark all over
+    const double cosine = part.clampedIntegral(d.x, d.y, d.z);
+    if (!(cosine > 0)) continue;  // dark all over
     lights |= uint8_t(1u << l);
-    along += (lit ? d.x * part.u + d.y * part.v + d.z * part.w : part.clampedIntegral(d.x, d.y, d.z)) * light.sun[l].color;
+    along += cosine * light.sun[l].color;
   }
   return along;
 }

@@ -441,16 +441,19 @@ TEST_CASE("a sphere's front over the unit disk's part of a rectangle: its area, 
   CHECK(right.u == doctest::Approx(2.0 / 3).epsilon(1e-14));
   CHECK(std::abs(right.v) < 1e-14);
   CHECK(right.w == doctest::Approx(kPi / 3).epsilon(3e-6));
-  CHECK(right.lit(0, 0, 1));  // a light toward the viewer lights the whole front, to its rim
-  CHECK_FALSE(right.lit(-1, 0, 0));
-  CHECK_FALSE(right.lit(0, 1, 0));  // its terminator along u = 0 splits the half
+  // A light toward the viewer lights the whole front, to its rim: the moments' w; one from -u leaves
+  // the half dark (0 exactly); one from +v lights its upper quarter (the terminator along v = 0),
+  // whose first moment in v is 1/3.
+  CHECK(right.clampedIntegral(0, 0, 1) == doctest::Approx(right.w).epsilon(1e-15));
+  CHECK(right.clampedIntegral(-1, 0, 0) == 0);
+  CHECK(right.clampedIntegral(0, 1, 0) == doctest::Approx(1.0 / 3).epsilon(1e-14));
   const UnitDiskPart apart(1.2, 2, 0, 1);
   CHECK(apart.area == 0);
   CHECK(apart.w == 0);
   std::mt19937_64 rng(31);
   std::uniform_real_distribution<double> unit(0, 1);
   std::normal_distribution<double> normal;
-  int tested = 0, lit = 0, unlit = 0;
+  int tested = 0, lit = 0, dark = 0, crossed = 0;
   for (int trial = 0; trial < 150; ++trial) {
     // A pixel's square in the frame of a disk of radius 0.3 to 5 pixels, where the disk reaches it.
     const double r = 0.3 + 4.7 * unit(rng), cx = -r - 1 + (2 * r + 1) * unit(rng), cy = -r - 1 + (2 * r + 1) * unit(rng);
@@ -466,34 +469,34 @@ TEST_CASE("a sphere's front over the unit disk's part of a rectangle: its area, 
     CHECK_MESSAGE(std::abs(part.v - expected[2]) * r * r < 1e-8, trial);
     CHECK_MESSAGE(std::abs(part.w - expected[3]) * r * r < 1e-5, trial);
     CHECK(part.area == doctest::Approx(unitDiskRectangleArea(u0, u1, v0, v1)).epsilon(1e-12));
-    // A light in a random direction: lit() says whether its cosine is nowhere negative on the part,
-    // against a 200 x 200 grid of the part's points (a part that only grazes the terminator may
-    // read either way: within 1e-3 of 0).
+    // A light in a random direction, and its cosine's extremes over a 200 x 200 grid of the part's
+    // points.
     double l[3] = {normal(rng), normal(rng), normal(rng)};
     const double length = std::sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
     for (double& x : l) x /= length;
-    double darkest = 2;
+    double darkest = 2, brightest = -2;
     for (int i = 0; i < 200; ++i) {
       for (int j = 0; j < 200; ++j) {
         const double u = std::max(u0, -1.0) + (std::min(u1, 1.0) - std::max(u0, -1.0)) * (i + 0.5) / 200;
         const double v = std::max(v0, -1.0) + (std::min(v1, 1.0) - std::max(v0, -1.0)) * (j + 0.5) / 200;
         if (u * u + v * v >= 1) continue;
-        darkest = std::min(darkest, l[0] * u + l[1] * v + l[2] * std::sqrt(1 - u * u - v * v));
+        const double cosine = l[0] * u + l[1] * v + l[2] * std::sqrt(1 - u * u - v * v);
+        darkest = std::min(darkest, cosine), brightest = std::max(brightest, cosine);
       }
     }
-    // Its clamped cosine's integral (where the terminator crosses the part: the quadrature's), in
-    // the pixel's units.
-    CHECK_MESSAGE(std::abs(part.clampedIntegral(l[0], l[1], l[2]) - clampedIntegrated(u0, u1, v0, v1, l[0], l[1], l[2])) * r * r < 1e-5, trial);
-    const bool isLit = part.lit(l[0], l[1], l[2]);
-    // Lit all over: the clamped cosine is the cosine, whose integral is the moments'.
-    if (isLit) CHECK(std::abs(part.clampedIntegral(l[0], l[1], l[2]) - (l[0] * part.u + l[1] * part.v + l[2] * part.w)) * r * r < 1e-5);
-    lit += isLit, unlit += !isLit;
-    if (isLit) CHECK_MESSAGE(darkest >= -1e-3, trial);
-    if (!isLit) CHECK_MESSAGE(darkest < 1e-3, trial);
+    // Its clamped cosine's integral, in the pixel's units; lit all over (no point of the grid within
+    // 1e-3 of the terminator or beyond it), the cosine's, whose integral is the moments'; dark all
+    // over, 0 exactly.
+    const double clamped = part.clampedIntegral(l[0], l[1], l[2]);
+    CHECK_MESSAGE(std::abs(clamped - clampedIntegrated(u0, u1, v0, v1, l[0], l[1], l[2])) * r * r < 1e-5, trial);
+    if (darkest > 1e-3) CHECK(std::abs(clamped - (l[0] * part.u + l[1] * part.v + l[2] * part.w)) * r * r < 1e-12);
+    if (brightest < -1e-3) CHECK(clamped == 0);
+    lit += darkest > 1e-3, dark += brightest < -1e-3, crossed += darkest < -1e-3 && brightest > 1e-3;
   }
   CHECK(tested > 80);
   CHECK(lit > 10);
-  CHECK(unlit > 10);
+  CHECK(dark > 10);
+  CHECK(crossed > 10);
 }
 
 namespace {
@@ -541,7 +544,7 @@ TEST_CASE("a sphere's front over the unit disk's part of a parallelogram: as a r
   CHECK(whole.w == doctest::Approx(2 * kPi / 3).epsilon(1e-14));
   const Point beside[4] = {{1.1, -1}, {3, -1}, {3.5, 1}, {1.6, 1}};
   CHECK(UnitDiskPart(beside, 4).area == 0);
-  int tested = 0, lit = 0, unlit = 0;
+  int tested = 0;
   for (int trial = 0; trial < 120; ++trial) {
     // A pixel's square in the frame of a sheared ellipse of 0.3 to 5 pixels (u = (x l11 + y l12),
     // v = y l22), where the disk reaches it.
@@ -565,11 +568,6 @@ TEST_CASE("a sphere's front over the unit disk's part of a parallelogram: as a r
     CHECK_MESSAGE(std::abs(part.w - expected[3]) * scale < 3e-5, trial);
     CHECK(part.area == doctest::Approx(unitDiskPolygonArea(pu, pv, 4)).epsilon(1e-12));
     CHECK_MESSAGE(std::abs(part.clampedIntegral(l[0], l[1], l[2]) - expected[4]) * scale < 1e-5, trial);
-    const bool isLit = part.lit(l[0], l[1], l[2]);
-    if (isLit) CHECK(std::abs(part.clampedIntegral(l[0], l[1], l[2]) - (l[0] * part.u + l[1] * part.v + l[2] * part.w)) * scale < 1e-5);
-    lit += isLit, unlit += !isLit;
   }
   CHECK(tested > 60);
-  CHECK(lit > 5);
-  CHECK(unlit > 5);
 }

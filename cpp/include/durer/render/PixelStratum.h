@@ -104,6 +104,7 @@ struct DiskPieces {
   struct Piece {
     Point p, q;
     bool arc;
+    double w = 0;  // the integral of w over its fan (UnitDiskPart::integrate)
   };
   Piece piece[20];
   int count = 0;
@@ -120,9 +121,8 @@ struct DiskPieces {
 
 // The unit disk's part of [u0, u1] x [v0, v1] as a sphere's front seen orthographically (u, v
 // across the image in radii, w = sqrt(1 - u^2 - v^2) toward the viewer, the unit normal (u, v, w)):
-// the integrals over it of 1, u, v and w, whether a light's cosine a u + b v + c w is nowhere
-// negative on it, and the integral of the cosine clamped at 0 (diskControl's and ellipseControl's
-// geometry). The part is the fans from the centre to the pieces of its boundary (DiskPieces),
+// the integrals over it of 1, u, v and w, and of a light's cosine a u + b v + c w clamped at 0
+// (diskControl's and ellipseControl's geometry). The part is the fans from the centre to the pieces of its boundary (DiskPieces),
 // signed by their turn: its area, a straight piece's triangle and an arc's sector; u and v by
 // Green's theorem (exact: polynomials of the pieces' ends); w, the hemisphere's volume over the
 // part, an arc's fan's a third of its angle and a straight piece's the integral along it of the
@@ -140,8 +140,15 @@ struct UnitDiskPart {
   // The part of a convex polygon of 3 or 4 corners counter-clockwise.
   UnitDiskPart(const DiskPieces::Point* corner, int count);
 
-  // The integral over the part of max(0, a u + b v + c w), for a part the light's terminator crosses
-  // (for one it lights all over, a u + b v + c w's is the moments'): along each fan's ray exactly
+  // The integral over the part of max(0, a u + b v + c w) (a light's cosine). Where the terminator
+  // (where it is 0) crosses none of the part's pieces (an arc, at most a quarter turn on the rim,
+  // where the cosine is a u + b v: its ends' signs differ where it does; a straight piece:
+  // terminatorCrossings), the part lies on one side of it (the terminator ends on the rim): lit all
+  // over, the moments' a u + b v + c w; dark, 0 exactly. Otherwise the sum over its fans: one whose
+  // piece is lit all over, the light toward the viewer (c >= 0: along each ray from the centre the
+  // lit stretch starts there), is lit all over, its moments' (a triangle's or a sector's first
+  // moments exactly, w as integrate makes it); one whose piece is dark all over, the light behind
+  // (c <= 0: the dark stretch starts at the centre), adds nothing; the rest along each ray exactly
   // (fanRay: cut at the terminator), across the fan by 6-point Gauss-Legendre in the position along
   // the piece (an arc's points are its chord's pushed out to the circle), split where the terminator
   // crosses the piece or the cosine's rim term changes sign (where the integrand's form changes).
@@ -155,16 +162,8 @@ struct UnitDiskPart {
   static int terminatorCrossings(DiskRectanglePath::Point p, DiskRectanglePath::Point q, double a, double b, double c,
                                  double* cut);
 
-  // Whether a u + b v + c w >= 0 all over the part (a light's cosine: the part is lit all over, to a
-  // terminator along its rim at most): the light's terminator (where it is 0) crosses none of its
-  // boundary's pieces (an arc, at most a quarter turn, holds at most one of the two points where it
-  // meets the circle: its ends' signs differ; a straight piece: a root in it of (p0 + p1 s)^2 = c^2
-  // (1 - |p + s d|^2) where p0 + p1 s, the cosine less c w, and c are of opposite signs), so the part
-  // lies on one side of it, and at no piece's start is it negative.
-  bool lit(double a, double b, double c) const;
-
  private:
-  void integrate();  // the moments over the pieces
+  void integrate();  // the moments over the pieces (and each fan's of w)
 };
 
 // The area of the unit disk within the convex polygon of `count` vertices (u[i], v[i]), in either
