@@ -7,6 +7,61 @@
 
 namespace durer {
 
+namespace {
+
+// 6-point Gauss-Legendre on [0, 1].
+constexpr double kNode[6] = {0.033765242898423975, 0.16939530676686776, 0.38069040695840156,
+                             0.61930959304159844, 0.83060469323313224, 0.96623475710157603};
+constexpr double kWeight[6] = {0.085662246189585178, 0.18038078652406930, 0.23395696728634552,
+                               0.23395696728634552, 0.18038078652406930, 0.085662246189585178};
+
+// Of max(0, slope t + c sqrt(1 - t^2)) t dt over [0, r]: along a fan's ray from the disk's centre
+// (slope: the light's a u + b v along the ray's unit direction). Its antiderivative (slope t^3 - c
+// (1 - t^2)^1.5) / 3, cut where the cosine turns negative.
+double fanRay(double slope, double r, double c) {
+  const auto antiderivative = [&](double t, double w) { return (slope * t * t * t - c * w * w * w) / 3; };
+  const double w = std::sqrt(std::max(0.0, (1 - r) * (1 + r)));
+  const double h = std::sqrt(slope * slope + c * c);
+  if (c > 0) {
+    const double start = -c / 3;  // at t = 0
+    if (slope >= 0 || r * h <= c) return antiderivative(r, w) - start;
+    return antiderivative(c / h, -slope / h) - start;  // the terminator at t = c / h, w = |slope| / h
+  }
+  if (c < 0) {
+    if (slope <= 0 || r * h <= -c) return 0.0;
+    return antiderivative(r, w) - antiderivative(-c / h, slope / h);
+  }
+  return slope > 0 ? slope * r * r * r / 3 : 0.0;
+}
+
+// The fan integral of the clamped cosine over the fan from the centre to a straight piece (arc
+// false) or an arc of the unit circle (its points the chord's pushed out to the circle): across it by
+// Gauss-Legendre in the position along the chord, cut at `cut` (sorted, within (0, 1)) and where the
+// rim term a u + b v changes sign.
+double chordFan(DiskPieces::Point p, DiskPieces::Point q, bool arc, double a, double b, double c, const double* cuts, int count) {
+  const double cross = p.u * q.v - p.v * q.u;
+  if (cross == 0) return 0;
+  const double du = q.u - p.u, dv = q.v - p.v, p0 = a * p.u + b * p.v, p1 = a * du + b * dv;
+  double cut[5] = {0, 1, 1, 1, 1};
+  int n = 1;
+  for (int k = 0; k < count; ++k) cut[n++] = cuts[k];
+  if (p1 != 0 && -p0 / p1 > 0 && -p0 / p1 < 1) cut[n++] = -p0 / p1;
+  std::sort(cut, cut + n);
+  cut[n] = 1;
+  double sum = 0;
+  for (int k = 0; k < n; ++k) {
+    const double s0 = cut[k], length = cut[k + 1] - s0;
+    for (int j = 0; j < 6; ++j) {
+      const double s = s0 + length * kNode[j];
+      const double bu = p.u + s * du, bv = p.v + s * dv, r2 = bu * bu + bv * bv, r = std::sqrt(r2);
+      sum += kWeight[j] * length * fanRay((a * bu + b * bv) / r, arc ? 1.0 : std::min(r, 1.0), c) / r2;
+    }
+  }
+  return cross * sum;
+}
+
+}  // namespace
+
 DiskPieces::DiskPieces(double u0, double u1, double v0, double v1) {
   const DiskRectanglePath path(u0, u1, v0, v1);
   const int n = path.count;
@@ -85,10 +140,6 @@ UnitDiskPart::UnitDiskPart(double u0, double u1, double v0, double v1)
 UnitDiskPart::UnitDiskPart(const DiskPieces::Point* corner, int count) : pieces(corner, count) { integrate(); }
 
 void UnitDiskPart::integrate() {
-  static constexpr double kNode[6] = {0.033765242898423975, 0.16939530676686776, 0.38069040695840156,
-                                      0.61930959304159844, 0.83060469323313224, 0.96623475710157603};
-  static constexpr double kWeight[6] = {0.085662246189585178, 0.18038078652406930, 0.23395696728634552,
-                                        0.23395696728634552, 0.18038078652406930, 0.085662246189585178};
   for (int i = 0; i < pieces.count; ++i) {
     auto& [p, q, arc, fanW] = pieces.piece[i];
     const double cross = p.u * q.v - p.v * q.u;
@@ -115,27 +166,6 @@ void UnitDiskPart::integrate() {
 }
 
 double UnitDiskPart::clampedIntegral(double a, double b, double c) const {
-  static constexpr double kNode[6] = {0.033765242898423975, 0.16939530676686776, 0.38069040695840156,
-                                      0.61930959304159844, 0.83060469323313224, 0.96623475710157603};
-  static constexpr double kWeight[6] = {0.085662246189585178, 0.18038078652406930, 0.23395696728634552,
-                                        0.23395696728634552, 0.18038078652406930, 0.085662246189585178};
-  // Of max(0, slope t + c sqrt(1 - t^2)) t dt over [0, r]: its antiderivative (slope t^3 - c (1 -
-  // t^2)^1.5) / 3, cut where the cosine turns negative.
-  const auto fanRay = [c](double slope, double r) {
-    const auto antiderivative = [&](double t, double w) { return (slope * t * t * t - c * w * w * w) / 3; };
-    const double w = std::sqrt(std::max(0.0, (1 - r) * (1 + r)));
-    const double h = std::sqrt(slope * slope + c * c);
-    if (c > 0) {
-      const double start = -c / 3;  // at t = 0
-      if (slope >= 0 || r * h <= c) return antiderivative(r, w) - start;
-      return antiderivative(c / h, -slope / h) - start;  // the terminator at t = c / h, w = |slope| / h
-    }
-    if (c < 0) {
-      if (slope <= 0 || r * h <= -c) return 0.0;
-      return antiderivative(r, w) - antiderivative(-c / h, slope / h);
-    }
-    return slope > 0 ? slope * r * r * r / 3 : 0.0;
-  };
   // Each piece: where the terminator crosses it, and whether the light lights it all over (side 1),
   // leaves it dark all over (-1), or neither (0). Where none is crossed, the part lies on one side of
   // the terminator (which ends on the rim: where it enters the part, it crosses a piece).
@@ -159,27 +189,12 @@ double UnitDiskPart::clampedIntegral(double a, double b, double c) const {
     const auto& [p, q, arc, fanW] = pieces.piece[i];
     const double cross = p.u * q.v - p.v * q.u;
     if (cross == 0 || (side[i] == -1 && c <= 0)) continue;  // no fan, or one dark all over
-    const double du = q.u - p.u, dv = q.v - p.v, p0 = a * p.u + b * p.v, p1 = a * du + b * dv;
     if (side[i] == 1 && c >= 0) {  // a fan lit all over: its moments
+      const double du = q.u - p.u, dv = q.v - p.v;
       total += (arc ? (a * dv - b * du) / 3 : cross * (a * (p.u + q.u) + b * (p.v + q.v)) / 6) + c * fanW;
       continue;
     }
-    double cut[5] = {0, 1, 1, 1, 1};
-    int cuts = 1;
-    for (int k = 0; k < crossings[i]; ++k) cut[cuts++] = crossing[i][k];
-    if (p1 != 0 && -p0 / p1 > 0 && -p0 / p1 < 1) cut[cuts++] = -p0 / p1;
-    std::sort(cut, cut + cuts);
-    cut[cuts] = 1;
-    double sum = 0;
-    for (int k = 0; k < cuts; ++k) {
-      const double s0 = cut[k], length = cut[k + 1] - s0;
-      for (int j = 0; j < 6; ++j) {
-        const double s = s0 + length * kNode[j];
-        const double bu = p.u + s * du, bv = p.v + s * dv, r2 = bu * bu + bv * bv, r = std::sqrt(r2);
-        sum += kWeight[j] * length * fanRay((a * bu + b * bv) / r, arc ? 1.0 : std::min(r, 1.0)) / r2;
-      }
-    }
-    total += cross * sum;
+    total += chordFan(p, q, arc, a, b, c, crossing[i], crossings[i]);
   }
   return std::max(total, 0.0);
 }
@@ -196,6 +211,216 @@ int UnitDiskPart::terminatorCrossings(DiskRectanglePath::Point p, DiskRectangleP
     if (root > 0 && root < 1 && (p0 + p1 * root) * c < 0) cut[n++] = root;
   }
   return n;
+}
+
+
+ClippedDiskPart::ClippedDiskPart(double u0, double u1, double v0, double v1, const double* cu, const double* cv,
+                                 const double* cr, int circles) {
+  u0 = std::max(u0, -1.0), u1 = std::min(u1, 1.0), v0 = std::max(v0, -1.0), v1 = std::min(v1, 1.0);
+  if (!(u0 < u1 && v0 < v1)) return;
+  const DiskPieces pieces(u0, u1, v0, v1);
+  for (int i = 0; i < pieces.count; ++i) {
+    const auto& from = pieces.piece[i];
+    piece[count++] = {from.p, from.q, from.arc ? 1 : 0, 0, 0, 0, 0, 0};
+  }
+  for (int i = 0; i < std::min(circles, kMostCircles) && count > 0; ++i) clip(cu[i], cv[i], cr[i], u0, u1, v0, v1, i, cu, cv, cr);
+  double twice = 0;
+  for (int i = 0; i < count; ++i) {
+    const Piece& e = piece[i];
+    const double cross = e.p.u * e.q.v - e.p.v * e.q.u;
+    if (e.kind == 0) {
+      twice += cross;
+    } else if (e.kind == 1) {
+      twice += std::atan2(cross, e.p.u * e.q.u + e.p.v * e.q.v);
+    } else {
+      twice += e.radius * (e.cu * (std::sin(e.to) - std::sin(e.from)) - e.cv * (std::cos(e.to) - std::cos(e.from))) +
+               e.radius * e.radius * (e.to - e.from);
+    }
+  }
+  area = std::max(0.0, twice / 2);
+}
+
+void ClippedDiskPart::clip(double ku, double kv, double radius, double u0, double u1, double v0, double v1, int done,
+                           const double* pu, const double* pv, const double* pr) {
+  using Point = DiskPieces::Point;
+  const double rr = radius * radius;
+  const auto inside = [&](Point m) { return (m.u - ku) * (m.u - ku) + (m.v - kv) * (m.v - kv) < rr; };
+  // Where the circle meets another of centre (ou, ov) and radius orr's root: its points, as seen
+  // from that circle's centre (none where they do not cross).
+  const auto meet = [&](double ou, double ov, double other, Point* at) {
+    const double du = ku - ou, dv = kv - ov, d = std::sqrt(du * du + dv * dv);
+    if (!(d > std::abs(other - radius) && d < other + radius)) return 0;
+    const double along = (other * other - rr + d * d) / (2 * d), half = std::sqrt(std::max(0.0, other * other - along * along));
+    const double eu = du / d, ev = dv / d;
+    at[0] = {along * eu - half * ev, along * ev + half * eu}, at[1] = {along * eu + half * ev, along * ev - half * eu};
+    return 2;
+  };
+  struct Sub {
+    Piece piece;
+    bool in;
+  };
+  Sub sub[160];
+  int n = 0;
+  for (int i = 0; i < count; ++i) {
+    const Piece& e = piece[i];
+    if (e.kind == 0) {  // p + s d on the circle: a s^2 + 2 b s + c = 0
+      const double du = e.q.u - e.p.u, dv = e.q.v - e.p.v, wu = e.p.u - ku, wv = e.p.v - kv;
+      const double a = du * du + dv * dv, b = wu * du + wv * dv, c = wu * wu + wv * wv - rr, disc = b * b - a * c;
+      double s[3] = {0, 1, 1};
+      int m = 1;
+      if (a > 0 && disc > 0) {
+        const double q = -(b + std::copysign(std::sqrt(disc), b)), r0 = q / a, r1 = q != 0 ? c / q : -r0;
+        for (const double r : {std::min(r0, r1), std::max(r0, r1)}) {
+          if (r > 0 && r < 1) s[m++] = r;
+        }
+      }
+      s[m] = 1;
+      for (int k = 0; k < m; ++k) {
+        const Point from{e.p.u + s[k] * du, e.p.v + s[k] * dv}, to = k + 1 == m ? e.q : Point{e.p.u + s[k + 1] * du, e.p.v + s[k + 1] * dv};
+        const double mid = (s[k] + s[k + 1]) / 2;
+        sub[n++] = {{k == 0 ? e.p : from, to, 0, 0, 0, 0, 0, 0}, inside({e.p.u + mid * du, e.p.v + mid * dv})};
+      }
+    } else if (e.kind == 1) {  // an arc of the unit circle, at most a quarter turn: cut where the circle crosses it
+      Point at[2];
+      const int met = meet(0, 0, 1, at);
+      Point cut[2];
+      int m = 0;
+      for (int k = 0; k < met; ++k) {
+        if (e.p.u * at[k].v - e.p.v * at[k].u > 0 && at[k].u * e.q.v - at[k].v * e.q.u > 0) cut[m++] = at[k];
+      }
+      if (m == 2 && e.p.u * cut[0].u + e.p.v * cut[0].v < e.p.u * cut[1].u + e.p.v * cut[1].v) std::swap(cut[0], cut[1]);
+      Point ends[4] = {e.p};
+      for (int k = 0; k < m; ++k) ends[k + 1] = cut[k];
+      ends[m + 1] = e.q;
+      for (int k = 0; k <= m; ++k) {
+        const double su = ends[k].u + ends[k + 1].u, sv = ends[k].v + ends[k + 1].v, l = std::sqrt(su * su + sv * sv);
+        sub[n++] = {{ends[k], ends[k + 1], 1, 0, 0, 0, 0, 0}, inside({su / l, sv / l})};
+      }
+    } else {  // an arc of an earlier circle: cut where this one crosses it
+      Point at[2];
+      const int met = meet(e.cu, e.cv, e.radius, at);
+      double angle[4] = {e.from};
+      int m = 1;
+      for (int k = 0; k < met; ++k) {
+        double t = std::atan2(at[k].v, at[k].u);
+        while (t < e.from) t += 2 * kPi;
+        if (t < e.to) angle[m++] = t;
+      }
+      if (m == 3 && angle[2] < angle[1]) std::swap(angle[1], angle[2]);
+      angle[m] = e.to;
+      for (int k = 0; k < m; ++k) {
+        const auto point = [&](double t) { return Point{e.cu + e.radius * std::cos(t), e.cv + e.radius * std::sin(t)}; };
+        sub[n++] = {{k == 0 ? e.p : point(angle[k]), k + 1 == m ? e.q : point(angle[k + 1]), 2, e.cu, e.cv, e.radius, angle[k], angle[k + 1]},
+                    inside(point((angle[k] + angle[k + 1]) / 2))};
+      }
+    }
+  }
+  int start = -1, kept = 0;
+  for (int j = 0; j < n; ++j) {
+    kept += sub[j].in;
+    if (sub[j].in && !sub[j > 0 ? j - 1 : n - 1].in) start = j;
+  }
+  if (kept == n) return;  // the region lies inside the circle
+  if (kept == 0) {        // none of its boundary does: the circle lies inside the region, or apart
+    const Point e{ku + radius, kv};
+    bool within = e.u * e.u + e.v * e.v < 1 && e.u > u0 && e.u < u1 && e.v > v0 && e.v < v1;
+    for (int i = 0; i < done && within; ++i) within = (e.u - pu[i]) * (e.u - pu[i]) + (e.v - pv[i]) * (e.v - pv[i]) < pr[i] * pr[i];
+    count = 0;
+    if (within) piece[count++] = {e, e, 2, ku, kv, radius, 0, 2 * kPi};
+    return;
+  }
+  count = 0;
+  Point leaves{};
+  for (int j = 0, k = start; j < n; ++j, k = k + 1 < n ? k + 1 : 0) {
+    const Sub& t = sub[k];
+    const Sub& next = sub[k + 1 < n ? k + 1 : 0];
+    if (t.in) {
+      piece[count++] = t.piece;
+      if (!next.in) leaves = t.piece.q;
+    } else if (next.in) {  // back into the circle: its arc from where the boundary left it
+      const Point comes = next.piece.p;
+      const double from = std::atan2(leaves.v - kv, leaves.u - ku);
+      double to = std::atan2(comes.v - kv, comes.u - ku);
+      while (to <= from) to += 2 * kPi;
+      piece[count++] = {leaves, comes, 2, ku, kv, radius, from, to};
+    }
+  }
+}
+
+double ClippedDiskPart::clampedIntegral(double a, double b, double c) const {
+  double total = 0;
+  for (int i = 0; i < count; ++i) {
+    const Piece& e = piece[i];
+    if (e.kind == 0) {
+      double crossing[2];
+      const int crossings = UnitDiskPart::terminatorCrossings(e.p, e.q, a, b, c, crossing);
+      total += chordFan(e.p, e.q, false, a, b, c, crossing, crossings);
+      continue;
+    }
+    if (e.kind == 1) {
+      total += chordFan(e.p, e.q, true, a, b, c, nullptr, 0);
+      continue;
+    }
+    // Another circle's arc, in the angle t about its centre: b(t) = centre + radius (cos t, sin t),
+    // the fan's angle about the disk's centre turning by radius (b . (cos t, sin t)) / |b|^2 dt. The
+    // cosine at b(t), whose sign changes where the terminator crosses the arc.
+    const auto at = [&](double t, double& bu, double& bv) {
+      bu = e.cu + e.radius * std::cos(t), bv = e.cv + e.radius * std::sin(t);
+    };
+    const auto cosine = [&](double t) {
+      double bu, bv;
+      at(t, bu, bv);
+      return a * bu + b * bv + c * std::sqrt(std::max(0.0, 1 - bu * bu - bv * bv));
+    };
+    const int quarters = std::max(1, static_cast<int>(std::ceil((e.to - e.from) / (kPi / 2))));
+    for (int h = 0; h < quarters; ++h) {
+      const double t0 = e.from + (e.to - e.from) * h / quarters, t1 = e.from + (e.to - e.from) * (h + 1) / quarters;
+      double cut[24] = {t0};
+      int n = 1;
+      // Where the rim term a u + b v changes sign: a (cu + radius cos t) + b (cv + radius sin t) = 0.
+      const double ab = std::sqrt(a * a + b * b);
+      if (ab > 0) {
+        const double x = -(a * e.cu + b * e.cv) / (e.radius * ab);
+        if (std::abs(x) < 1) {
+          const double phase = std::atan2(b, a), off = std::acos(x);
+          for (double t : {phase + off, phase - off}) {
+            while (t < t0) t += 2 * kPi;
+            while (t - 2 * kPi >= t0) t -= 2 * kPi;
+            if (t < t1) cut[n++] = t;
+          }
+        }
+      }
+      // Where the cosine changes sign: bisection between 8 points.
+      constexpr int kSteps = 8;
+      double before = cosine(t0);
+      for (int k = 1; k <= kSteps && n < 23; ++k) {
+        double lo = t0 + (t1 - t0) * (k - 1) / kSteps, hi = t0 + (t1 - t0) * k / kSteps;
+        const double now = cosine(hi);
+        if ((before < 0) != (now < 0)) {
+          for (int it = 0; it < 50 && hi - lo > 1e-15 * (1 + std::abs(hi)); ++it) {
+            const double mid = (lo + hi) / 2;
+            ((cosine(mid) < 0) == (before < 0) ? lo : hi) = mid;
+          }
+          cut[n++] = (lo + hi) / 2;
+        }
+        before = now;
+      }
+      std::sort(cut, cut + n);
+      cut[n] = t1;
+      for (int k = 0; k < n; ++k) {
+        const double s0 = cut[k], length = cut[k + 1] - s0;
+        for (int j = 0; j < 6; ++j) {
+          const double t = s0 + length * kNode[j];
+          double bu, bv;
+          at(t, bu, bv);
+          const double r2 = bu * bu + bv * bv, r = std::sqrt(r2);
+          const double turn = e.radius * (bu * std::cos(t) + bv * std::sin(t)) / r2;
+          total += kWeight[j] * length * turn * fanRay((a * bu + b * bv) / r, std::min(r, 1.0), c);
+        }
+      }
+    }
+  }
+  return std::max(total, 0.0);
 }
 
 }  // namespace durer

@@ -571,3 +571,74 @@ TEST_CASE("a sphere's front over the unit disk's part of a parallelogram: as a r
   }
   CHECK(tested > 60);
 }
+
+namespace {
+
+// The area of the unit disk's part of [u0, u1] x [v0, v1] within `count` circles, and the integral
+// over it of max(0, a u + b v + c w): the midpoint rule over v of each chord's part (the disk's,
+// clipped to the rectangle and to each circle's chord), exact along u (clampedAlongChord).
+std::array<double, 2> clippedIntegrated(double u0, double u1, double v0, double v1, const double* cu, const double* cv,
+                                        const double* cr, int count, double a, double b, double c) {
+  const int steps = 40000;
+  const double lo = std::max(v0, -1.0), hi = std::min(v1, 1.0);
+  std::array<double, 2> sum{};
+  if (lo >= hi) return sum;
+  const double h = (hi - lo) / steps;
+  for (int i = 0; i < steps; ++i) {
+    const double v = lo + (i + 0.5) * h, s2 = 1 - v * v, s = std::sqrt(s2);
+    double from = std::max(u0, -s), to = std::min(u1, s);
+    for (int k = 0; k < count; ++k) {
+      const double dv = v - cv[k], half2 = cr[k] * cr[k] - dv * dv;
+      if (!(half2 > 0)) from = to;
+      const double half = std::sqrt(std::max(0.0, half2));
+      from = std::max(from, cu[k] - half), to = std::min(to, cu[k] + half);
+    }
+    if (from < to) sum[0] += to - from, sum[1] += clampedAlongChord(a, b * v, c, s2, from, to);
+  }
+  return {sum[0] * h, sum[1] * h};
+}
+
+}  // namespace
+
+TEST_CASE("a sphere's front over its disk's part of a pixel within other disks: area and clamped cosine, against numerical integration") {
+  // Within a circle that holds the whole part: the part's; a circle inside the part: its area.
+  const double far[1] = {5}, big[1] = {10};
+  const UnitDiskPart whole(-0.3, 0.4, -0.2, 0.5);
+  const ClippedDiskPart held(-0.3, 0.4, -0.2, 0.5, far, far, big, 1);
+  CHECK(held.area == doctest::Approx(whole.area).epsilon(1e-13));
+  CHECK(std::abs(held.clampedIntegral(0.3, -0.2, 0.9) - whole.clampedIntegral(0.3, -0.2, 0.9)) < 1e-9);
+  const double inU[1] = {0.05}, inV[1] = {0.1}, small[1] = {0.15};
+  const ClippedDiskPart within(-0.3, 0.4, -0.2, 0.5, inU, inV, small, 1);
+  CHECK(within.area == doctest::Approx(kPi * 0.15 * 0.15).epsilon(1e-13));
+  const double awayU[1] = {3}, awayV[1] = {0}, one[1] = {1};
+  CHECK(ClippedDiskPart(-0.3, 0.4, -0.2, 0.5, awayU, awayV, one, 1).area == 0);
+  std::mt19937_64 rng(47);
+  std::uniform_real_distribution<double> unit(0, 1);
+  std::normal_distribution<double> normal;
+  int tested = 0, cut = 0;
+  for (int trial = 0; trial < 160; ++trial) {
+    // A pixel's square in the frame of a disk of radius 0.3 to 5 pixels, and one or two more disks of
+    // 0.3 to 5 pixels overlapping it near the pixel.
+    const double r = 0.3 + 4.7 * unit(rng), cx = -r - 1 + (2 * r + 1) * unit(rng), cy = -r - 1 + (2 * r + 1) * unit(rng);
+    const double u0 = -cx / r, u1 = (1 - cx) / r, v0 = -cy / r, v1 = (1 - cy) / r;
+    const int circles = 1 + trial % 2;
+    double cu[2], cv[2], cr[2];
+    for (int k = 0; k < circles; ++k) {
+      cr[k] = (0.3 + 4.7 * unit(rng)) / r;
+      cu[k] = (u0 + u1) / 2 + (unit(rng) - 0.5) * 2 * (cr[k] + 1 / r), cv[k] = (v0 + v1) / 2 + (unit(rng) - 0.5) * 2 * (cr[k] + 1 / r);
+    }
+    double l[3] = {normal(rng), normal(rng), normal(rng)};
+    const double length = std::sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
+    for (double& x : l) x /= length;
+    const ClippedDiskPart part(u0, u1, v0, v1, cu, cv, cr, circles);
+    const std::array<double, 2> expected = clippedIntegrated(u0, u1, v0, v1, cu, cv, cr, circles, l[0], l[1], l[2]);
+    // In the pixel's units (times r^2): the area's error is the midpoint rule's, the clamped
+    // cosine's the fans' quadrature's.
+    CHECK_MESSAGE(std::abs(part.area - expected[0]) * r * r < 1e-7, trial);
+    CHECK_MESSAGE(std::abs(part.clampedIntegral(l[0], l[1], l[2]) - expected[1]) * r * r < 1e-5, trial);
+    ++tested;
+    cut += expected[0] > 0 && expected[0] < UnitDiskPart(u0, u1, v0, v1).area - 1e-9;
+  }
+  CHECK(tested == 160);
+  CHECK(cut > 30);
+}

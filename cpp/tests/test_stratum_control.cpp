@@ -73,26 +73,31 @@ double channels(const Vec3d& v) { return v.x + v.y + v.z; }
 
 }  // namespace
 
-TEST_CASE("an orthographic stratum's control integrates to 0 over its inside; spheres that cut through each other have none") {
+TEST_CASE("an orthographic stratum's control integrates to 0 over its inside, and is the shading of the sphere seen less its mean") {
   std::mt19937_64 rng(41);
   std::uniform_real_distribution<double> unit(0, 1);
   std::normal_distribution<double> normal;
-  int tested = 0, overlapping = 0, refused = 0;
-  for (int trial = 0; trial < 200 && tested < 60; ++trial) {
-    // Two or three disks of 0.4-3 pixels' radius near pixel (0, 0); pixel units across and down.
+  int tested = 0, overlapping = 0, cutting = 0, refused = 0;
+  for (int trial = 0; trial < 400 && tested < 80; ++trial) {
+    // Two or three disks of 0.4-3 pixels' radius near pixel (0, 0); pixel units across and down;
+    // their spheres' centres 0-3 units deep (many cut through each other) or 0-20.
     const int n = 2 + (trial % 3 == 0);
+    const double deep = trial % 2 ? 3 : 20;
     PixelStratum::Ellipse e[3];
     ControlMember member[3];
     bool cut = false;
     for (int i = 0; i < n; ++i) {
       const double r = 0.4 + 2.6 * unit(rng), cx = -r + (1 + 2 * r) * unit(rng), cy = -r + (1 + 2 * r) * unit(rng);
       e[i] = {cx, cy, r, r};
-      member[i] = {Vec3d(unit(rng), unit(rng), unit(rng)), Vec3d(cx, -cy, 20 * unit(rng)), r};
+      member[i] = {Vec3d(unit(rng), unit(rng), unit(rng)), Vec3d(cx, -cy, deep * unit(rng)), r};
     }
+    bool overlaps = false;  // their disks' overlap, in the pixel's aspect (1 here)
     for (int i = 0; i < n; ++i) {
       for (int j = 0; j < i; ++j) {
         const Vec3d d = member[i].centre - member[j].centre;
-        cut = cut || std::sqrt(dot(d, d)) < member[i].radius + member[j].radius;
+        const bool overlap = std::hypot(e[i].cx - e[j].cx, e[i].cy - e[j].cy) < e[i].ax + e[j].ax;
+        overlaps = overlaps || overlap;
+        cut = cut || (overlap && std::sqrt(dot(d, d)) < member[i].radius + member[j].radius);
       }
     }
     const PixelStratum p = PixelStratum::of(0, 0, e, n);
@@ -108,30 +113,86 @@ TEST_CASE("an orthographic stratum's control integrates to 0 over its inside; sp
       for (auto& t : toward) t.push_back(d);
     }
     const StratumControl c = diskControl(0, 0, p, member, light);
-    if (cut) {
-      bool overlaps = false;  // their disks' overlap, in the pixel's aspect (1 here)
-      for (int i = 0; i < n; ++i) {
-        for (int j = 0; j < i; ++j) overlaps = overlaps || std::hypot(e[i].cx - e[j].cx, e[i].cy - e[j].cy) < e[i].ax + e[j].ax;
-      }
-      if (overlaps) {
-        CHECK_FALSE(c.any());
-        ++refused;
-        continue;
-      }
+    if (!c.any()) {
+      refused += cut;
+      continue;
     }
-    if (!c.any()) continue;
-    ++tested;
+    ++tested, overlapping += overlaps, cutting += cut;
     const auto [integral, inside] = integrateInside(p, 0, 0, toward, [&](double x, double y) { return channels(diskControlAt(p, c, light, x, y)); });
     CHECK_MESSAGE(inside == doctest::Approx(double(p.share)).epsilon(1e-4), trial);
     // In the pixel's units: the moments' quadrature (1e-5) and the rows' midpoint rule.
     CHECK_MESSAGE(std::abs(integral) < 3e-5 * 3, trial, " ", integral);
-    for (int i = 0; i < n; ++i) {
-      for (int j = 0; j < i; ++j) overlapping += std::hypot(e[i].cx - e[j].cx, e[i].cy - e[j].cy) < e[i].ax + e[j].ax;
+    // The colour of a diffuse sphere seen there (the nearest front among the disks holding it) less
+    // the control is the mean, on a 60 x 60 grid of the inside.
+    double worst = 0;
+    for (int gy = 0; gy < 60; ++gy) {
+      for (int gx = 0; gx < 60; ++gx) {
+        const double x = (gx + 0.5) / 60, y = (gy + 0.5) / 60;
+        int seen = -1;
+        double front = 1e300, su = 0, sv = 0;
+        for (int i = 0; i < n; ++i) {
+          double u, v;
+          p.frame(i, x, y, u, v);
+          if (!(u * u + v * v < 1)) continue;
+          const double f = member[i].centre.z - std::sqrt(1 - u * u - v * v) / double(p.inverseAx[i]);
+          if (f < front) front = f, seen = i, su = u, sv = v;
+        }
+        if (seen < 0) continue;
+        const double w = std::sqrt(1 - su * su - sv * sv);
+        Vec3d shading = light.ambient;
+        for (int l = 0; l < light.suns; ++l) {
+          shading += std::max(0.0, light.sun[l].a * su + light.sun[l].b * sv + light.sun[l].c * w) * light.sun[l].color;
+        }
+        const Vec3d colour = Vec3d(Vec3<float>(member[seen].kd)) * shading;
+        const Vec3d left = colour - diskControlAt(p, c, light, x, y) - Vec3d(c.mean);
+        worst = std::max({worst, std::abs(left.x), std::abs(left.y), std::abs(left.z)});
+      }
     }
+    CHECK_MESSAGE(worst < 1e-5, trial, " ", worst);
   }
-  CHECK(tested >= 40);
-  CHECK(overlapping >= 10);  // strata whose disks overlap, of spheres apart in space
-  CHECK(refused >= 5);
+  CHECK(tested >= 60);
+  CHECK(overlapping >= 20);  // strata whose disks overlap
+  CHECK(cutting >= 10);      // of spheres that cut through each other, one seen all over the overlap in the pixel
+  CHECK(refused >= 5);       // the sphere seen changes in the pixel: no control
+}
+
+TEST_CASE("which of two spheres that cut through each other is seen over their disks' overlap in a rectangle, against a grid") {
+  std::mt19937_64 rng(43);
+  std::uniform_real_distribution<double> unit(0, 1);
+  int counts[4] = {}, bothSeen = 0;
+  for (int trial = 0; trial < 600; ++trial) {
+    // Spheres of 0.4-3 pixels cutting through each other near the unit square.
+    const double ra = 0.4 + 2.6 * unit(rng), rb = 0.4 + 2.6 * unit(rng);
+    const PixelBall a{-ra + (1 + 2 * ra) * unit(rng), -ra + (1 + 2 * ra) * unit(rng), 3 * unit(rng), ra};
+    PixelBall b{};
+    do {
+      b = {-rb + (1 + 2 * rb) * unit(rng), -rb + (1 + 2 * rb) * unit(rng), 3 * unit(rng), rb};
+    } while (!(std::hypot(std::hypot(a.x - b.x, a.y - b.y), a.z - b.z) < ra + rb));
+    const int seen = seenWithin(a, b, 0, 1, 0, 1);
+    ++counts[seen];
+    int grid[3] = {};  // points of the overlap where a, b is seen
+    const int steps = 150;
+    for (int gy = 0; gy < steps; ++gy) {
+      for (int gx = 0; gx < steps; ++gx) {
+        const double x = (gx + 0.5) / steps, y = (gy + 0.5) / steps;
+        const double da = ra * ra - (x - a.x) * (x - a.x) - (y - a.y) * (y - a.y), db = rb * rb - (x - b.x) * (x - b.x) - (y - b.y) * (y - b.y);
+        if (!(da > 0 && db > 0)) continue;
+        ++grid[a.z - std::sqrt(da) < b.z - std::sqrt(db) ? 1 : 2];
+      }
+    }
+    // One sphere seen: the grid sees only it; none of an overlap: the grid finds no point of one.
+    if (seen == 1) CHECK_MESSAGE(grid[2] == 0, trial);
+    if (seen == 2) CHECK_MESSAGE(grid[1] == 0, trial);
+    if (seen == 3) CHECK_MESSAGE(grid[1] + grid[2] == 0, trial);
+    // The one seen changes: the grid sees both, but where one shows in a sliver narrower than its
+    // spacing.
+    bothSeen += seen == 0 && grid[1] > 0 && grid[2] > 0;
+  }
+  CHECK(counts[0] > 50);
+  CHECK(bothSeen > 0.9 * counts[0]);
+  CHECK(counts[1] > 50);
+  CHECK(counts[2] > 50);
+  CHECK(counts[3] > 5);
 }
 
 TEST_CASE("a perspective stratum's control integrates to 0 over its inside; a sphere too large in view has none") {

@@ -46,24 +46,23 @@
 // (unresolvedShare): one no sample has reached yet, by its share (its colour may differ by about
 // 1), one whose samples all lie in one half, by its share times the spread of a colour.
 // Where directional lights shine, each sample inside the stratum is taken less its control variate
-// (orthographic, where the stratum's spheres do not cut through each other:
-// diskControl (StratumControl.h), its spheres' diffuse shading by the ambient light and those lights,
-// no shadows, less that shading's exact mean over the disks' parts, where disks overlap the hidden
-// ones' by their parts' means; perspective, for a small sphere: ellipseControl, the
-// same with the sphere's normal modelled as an orthographic camera would see it): the part's mean,
-// and its halves', then vary only with what the control leaves out (shadows, highlights, emission,
-// other lights, a hidden sphere's shading less its mean, the perspective model's departure), and
-// diffuse spheres lit by suns without shadows seen orthographically are exact from one sample in
-// each sphere's part where their disks do not overlap. Where the control is that exactly — the
-// render's shading is what it models, the disks lie apart and no sphere covers the pixel behind
-// them (StratumControl::exact) — a pixel's samples less their controls are one colour on each part
-// of its stratum: none of the rules above that look for what its samples missed marks it (the
-// neighbourhood's errors, the geometric edges, the contrast: its stratum names every edge crossing
-// it), and of its parts only one no sample has reached keeps it refining (unresolvedShare), as do
-// the spheres it watches. Its inside's colour less the control is the control's mean there (the
-// control is the colour itself less its mean), so its inside needs no sample either
-// (StratumState::mean; its spheres watched are its members): it settles at the first pass once its
-// outside is reached (docs/benchmarks.md, fifty-seventh and fifty-eighth rounds).
+// (orthographic: diskControl (StratumControl.h), the diffuse shading by the ambient light and those
+// lights, no shadows, of the sphere seen there, less that shading's exact mean over the stratum's
+// inside; where disks of spheres that cut through each other overlap in the pixel, only if one of
+// them is seen all over that overlap; perspective, for a small sphere: ellipseControl, the same with
+// the sphere's normal modelled as an orthographic camera would see it): the part's mean, and its
+// halves', then vary only with what the control leaves out (shadows, highlights, emission, other
+// lights, the perspective model's departure), and diffuse spheres lit by suns without shadows seen
+// orthographically are exact from one sample. Where the control is that exactly — the render's
+// shading is what it models and no sphere covers the pixel behind the disks (StratumControl::exact)
+// — a pixel's samples less their controls are one colour on each part of its stratum: none of the
+// rules above that look for what its samples missed marks it (the neighbourhood's errors, the
+// geometric edges, the contrast: its stratum names every edge crossing it), and of its parts only
+// one no sample has reached keeps it refining (unresolvedShare), as do the spheres it watches. Its
+// inside's colour less the control is the control's mean there (the control is the colour itself
+// less its mean), so its inside needs no sample either (StratumState::mean; its spheres watched are
+// its members): it settles at the first pass once its outside is reached (docs/benchmarks.md,
+// fifty-seventh to fifty-ninth rounds).
 // Through an orthographic camera, a pixel also watches up to two spheres whose silhouettes cross it
 // and that its first samples did not meet, but the sphere of a one-sphere stratum
 // (TileRenderer::watchSilhouettes: a sliver beside the stratum's edge, an edge where two spheres'

@@ -166,6 +166,35 @@ struct UnitDiskPart {
   void integrate();  // the moments over the pieces (and each fan's of w)
 };
 
+// The unit disk's part of [u0, u1] x [v0, v1] within `circles` more circles (centres (cu[i],
+// cv[i]), radii cr[i], in the disk's frame): where spheres' disks overlap, the part of a sphere's
+// front that a nearer one's disk covers (StratumControl's exact mean where the spheres seen are
+// known). A convex region (disks and a rectangle meet in one): its boundary the disk part's pieces
+// (DiskPieces) clipped to each circle in turn, each circle's arc from where the boundary leaves it to
+// where it comes back taking the stretch outside, counter-clockwise about the circle's centre. Its
+// area (each fan's from the disk's centre: a triangle, a sector, or over another circle's arc in
+// closed form) and the integral over it of a light's clamped cosine, by the fans (as
+// UnitDiskPart::clampedIntegral's, across another circle's arc in the angle about its centre, cut
+// where the terminator crosses it: found by bisection between 8 points a quarter turn).
+struct ClippedDiskPart {
+  static constexpr int kMostCircles = 2;
+  struct Piece {
+    DiskPieces::Point p, q;  // its ends
+    int kind;                // 0: straight, 1: an arc of the unit circle (at most a quarter turn), 2: another circle's
+    double cu, cv, radius, from, to;  // kind 2: the circle, and the arc's angles about its centre (from < to)
+  };
+  Piece piece[64];
+  int count = 0;
+  double area = 0;
+
+  ClippedDiskPart(double u0, double u1, double v0, double v1, const double* cu, const double* cv, const double* cr, int circles);
+  double clampedIntegral(double a, double b, double c) const;
+
+ private:
+  void clip(double cu, double cv, double radius, double u0, double u1, double v0, double v1, int done, const double* pu,
+            const double* pv, const double* pr);
+};
+
 // The area of the unit disk within the convex polygon of `count` vertices (u[i], v[i]), in either
 // order: the sum over its edges of the signed area the disk shares with the triangle of the origin
 // and the edge, which together cover the region once — the triangle's over the part of the edge
@@ -491,18 +520,6 @@ struct PixelStratum {
   }
 
   bool any() const { return share > 0; }
-
-  // Whether two of its disks overlap (in the frame of the pixels' aspect, where they are circles).
-  bool overlaps() const {
-    for (int i = 0; i < disks; ++i) {
-      for (int j = 0; j < i; ++j) {
-        const double du = double(cx[i]) - double(cx[j]), dv = (double(cy[i]) - double(cy[j])) * double(aspect);
-        const double reach = 1 / double(inverseAx[i]) + 1 / double(inverseAx[j]);
-        if (!(du * du + dv * dv >= reach * reach)) return true;
-      }
-    }
-    return false;
-  }
 
   // Whether a sample at (x, y) lies inside the union (false for a pixel without a stratum): one
   // ellipse by its own axes and shear, several as circles in the frame of the first's aspect (as the share is

@@ -36,22 +36,20 @@ struct ControlLighting {
   int suns = 0;
 };
 
-// A stratum's control variate: at a sample, the sum over the members whose disks hold it of the
-// member's shading there, less hidden[i] for each but the nearest of them (rank[i]: the members'
-// order by their centres' depths, 0 the nearest), less `mean` (linear RGB). A member's shading,
+// A stratum's control variate: at a sample, the shading of the member seen there, the first by
+// rank[i] (0 first) of the members whose disks hold it, less `mean` (linear RGB). A member's shading,
 // where the sphere's front has unit normal (u, v, w) in the disk's frame (x right, y down, toward the
 // camera; through a perspective camera, the model's axes: ellipseAxes): kd[i] times the ambient
 // light plus the sum over the directional lights l of its bit lights[i] of the light's colour times
 // its cosine there, max(0, (a_l, b_l, c_l) · (u, v, w)). None where every kd is 0.
 struct StratumControl {
   Vec3<float> kd[PixelStratum::kMostDisks];
-  Vec3<float> hidden[PixelStratum::kMostDisks];
   uint8_t lights[PixelStratum::kMostDisks];
   uint8_t rank[PixelStratum::kMostDisks];
   // Whether the samples less the control are one constant all over the pixel: the render's shading
-  // is what the control models (TileRenderer::controlIsShading), the members' disks lie apart, the
-  // plane cuts or hides none of them (TileRenderer::beforePlane), and no sphere covers the pixel
-  // behind them (outside them: the plane or the background, one colour).
+  // is what the control models (TileRenderer::controlIsShading), the plane cuts or hides none of the
+  // members (TileRenderer::beforePlane), and no sphere covers the pixel behind them (outside them:
+  // the plane or the background, one colour).
   bool exact;
   Vec3<float> mean;
   bool any() const { return kd[0] != Vec3<float>(0) || kd[1] != Vec3<float>(0) || kd[2] != Vec3<float>(0); }
@@ -65,29 +63,48 @@ struct ControlMember {
 };
 
 // The control variate of pixel (x, y)'s orthographic stratum p, whose members' disks are
-// members[i], where no two members whose disks overlap cut through each other in space (those leave
-// the pixel without a control: which of them shows changes inside the overlap). Each member's
-// diffuse shading by the ambient light and by the directional lights that reach its part of the
-// pixel (kd times the ambient light plus each light's colour times max(0, N · L), no shadows), summed
-// over the members whose disks hold the sample, less, for each of those but the nearest (its
-// centre's depth), that member's mean shading over its part (`hidden`), less the mean of all that
-// over the stratum's inside. The mean needs no visible part's shape: each member's shading over its
-// whole disk's part of the pixel (exact geometry: UnitDiskPart's area and integrals of the normal, in
-// the pixel's units; where a light's terminator crosses the part, the integral of its clamped
-// cosine), and the area of each member's part that nearer members' disks cover (unions' areas). A
-// function of a sample's position alone whose mean over the inside is 0: the inside's mean of the
-// samples' colours less their controls estimates the colours' mean without bias whatever the
-// shading. Where the shading is that (diffuse spheres lit by suns, no shadows), the nearer sphere is
-// the one seen wherever disks overlap (spheres apart: the one whose centre is nearer), so a sample's
-// colour less its control is the mean plus, where it lies in an overlap, the hidden spheres' mean
-// shading less theirs there: exact from one sample in each disk's part where disks do not overlap,
-// or where a hidden part's shading does not vary (dark, lit by the ambient light alone). Left:
-// emission, shadows, highlights, other lights, ambient occlusion, samples that met something else,
-// which the samples estimate.
+// members[i]: each member's diffuse shading by the ambient light and by the directional lights that
+// reach its part of the pixel (kd times the ambient light plus each light's colour times max(0, N ·
+// L), no shadows), where it is the sphere seen, less the mean of that over the stratum's inside. The
+// members are ranked by which is seen where their disks overlap in the pixel: of two spheres apart in
+// space, the one whose centre is nearer (wherever their disks overlap); of two that cut through each
+// other, the one in front all over their disks' overlap within the pixel (seenWithin), none if that
+// changes inside it (the projection of the circle where their fronts meet crosses it) or if the
+// pairs' orders disagree. Its mean is exact geometry: each member's shading over its disk's part of
+// the pixel (UnitDiskPart's area and integrals of the normal, in the pixel's units; where a light's
+// terminator crosses the part, the integral of its clamped cosine), less its shading over the part of
+// that which nearer members' disks cover (ClippedDiskPart; two nearer ones by inclusion and
+// exclusion). A function of a sample's position alone whose mean over the inside is 0: the inside's
+// mean of the samples' colours less their controls estimates the colours' mean without bias whatever
+// the shading. Where the shading is that (diffuse spheres lit by suns, no shadows), a sample's colour
+// less its control is the mean all over the inside: exact from one sample. Left: emission, shadows,
+// highlights, other lights, ambient occlusion, samples that met something else, which the samples
+// estimate.
 StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMember* members, const ControlLighting& light);
 
 // diskControl's control of a sample at (x, y) inside stratum p.
 Vec3d diskControlAt(const PixelStratum& p, const StratumControl& c, const ControlLighting& light, double x, double y);
+
+// A sphere in a frame of pixel units: across, down (in units of the pixels' width: the strata's
+// frame for several disks, PixelStratum::of) and depth along the view (farther greater), and radius.
+struct PixelBall {
+  double x, y, z, r;
+};
+
+// Whether the disks of two spheres (PixelBall) overlap within the rectangle [x0, x1] x [y0, y1], and
+// if so a point (px, py) of that overlap: where it reaches a side, the middle of the side's stretch
+// inside both disks; else it lies inside the rectangle, and so does its middle (between the circles'
+// crossings, or the smaller disk's centre).
+bool overlapWithin(const PixelBall& a, const PixelBall& b, double x0, double x1, double y0, double y1, double& px, double& py);
+
+// Which of two spheres that cut through each other (or one of which holds the other) is seen all over
+// their disks' overlap within the rectangle [x0, x1] x [y0, y1] (in their frame): 1 the first, 2 the
+// second, 3 none (their disks do not overlap there), 0 neither (the one seen changes there). The
+// fronts meet on the arc of their intersection circle that lies before both centres' depths; seen
+// orthographically, an arc of an ellipse inside the overlap, where the sphere seen changes. Where it
+// crosses none of the rectangle's sides and its midpoint lies outside it (to 1e-9 of a pixel), one
+// sphere is seen all over the overlap there: the one whose front is nearer at a point of it.
+int seenWithin(const PixelBall& a, const PixelBall& b, double x0, double x1, double y0, double y1);
 
 // The control variate (kd[0], lights[0] and mean) of pixel (x, y)'s stratum p through a perspective
 // camera (`image`), the silhouette of a sphere of diffuse colour kd whose angular radius's sine is

@@ -581,7 +581,7 @@ class TileRenderer {
             }
             return true;
           };
-          controls[k].exact = m_controlExact && controls[k].any() && hidden[k] == inf && !strata[k].overlaps() && before();
+          controls[k].exact = m_controlExact && controls[k].any() && hidden[k] == inf && before();
         }
       }
     }
