@@ -335,14 +335,18 @@ class AdaptiveSampler {
   const Vec3<Real>* markInside(const TileState& t, const Real* sampleX, const Real* sampleY, const int* pixel, int count,
                                bool* inside, Vec3<Real>* correction) const {
     const StratumState& u = *t.stratum;
-    for (int j = 0; j < count; ++j) inside[j] = u.strata[pixel ? pixel[j] : j].contains(double(sampleX[j]), double(sampleY[j]));
-    if (!u.controlled) return nullptr;
-    for (int j = 0; j < count; ++j) {
+    for (int j = 0, end; j < count; j = end) {  // by runs of one pixel's samples (a refining round's)
       const int k = pixel ? pixel[j] : j;
-      correction[j] = inside[j] && u.control[k].any() ? m_tiles.control(u.strata[k], u.control[k], double(sampleX[j]), double(sampleY[j]))
-                                                      : Vec3<Real>(0);
+      for (end = j + 1; pixel && end < count && pixel[end] == k;) ++end;
+      const PixelStratum& stratum = u.strata[k];
+      const bool controlled = u.controlled && u.control[k].any();
+      for (int i = j; i < end; ++i) {
+        inside[i] = stratum.contains(double(sampleX[i]), double(sampleY[i]));
+        if (!u.controlled) continue;
+        correction[i] = inside[i] && controlled ? m_tiles.control(stratum, u.control[k], double(sampleX[i]), double(sampleY[i])) : Vec3<Real>(0);
+      }
     }
-    return correction;
+    return u.controlled ? correction : nullptr;
   }
 
   // For a tile with strata: counts the samples at (sampleX[j], sampleY[j]) in pixel pixel[j] of the
@@ -613,9 +617,10 @@ class AdaptiveSampler {
   void sampleTile(TileState& t, int round, RayCounters& counters) {
     const bool first = round == 0;
     if (!(first ? firstPass(t, counters) : refine(t, counters))) return;
-    // The sampled pixels' counts, error estimates and means, made for every pixel of the tile in
-    // loops the compiler vectorises (a square root and two divisions a pixel, made one pixel at a
-    // time, cost a first pass about 5 %); only the sampled pixels' summaries take them.
+    // The sampled pixels' counts, error estimates and means: in the first pass, where every pixel
+    // is sampled, in loops the compiler vectorises (a square root and two divisions a pixel, made one
+    // pixel at a time, cost a first pass about 5 %); in a refining round, which samples a few of the
+    // tile's pixels, for those alone.
     const int count = t.w * t.h;
     alignas(64) float error[kPacketSize], meanR[kPacketSize], meanG[kPacketSize], meanB[kPacketSize];
     alignas(64) bool sampled[kPacketSize];
@@ -628,12 +633,19 @@ class AdaptiveSampler {
       t.add[k] = 0;
       t.sums.samples[k] = static_cast<Real>(t.taken[k]);
     }
-    for (int k = 0; k < count; ++k) {
+    const auto estimate = [&](int k) {
       error[k] = estimatedError(t, k);
       const Real inverse = 1 / t.sums.samples[k];
       meanR[k] = static_cast<float>(t.sums.r[k] * inverse);
       meanG[k] = static_cast<float>(t.sums.g[k] * inverse);
       meanB[k] = static_cast<float>(t.sums.b[k] * inverse);
+    };
+    if (first) {
+      for (int k = 0; k < count; ++k) estimate(k);
+    } else {
+      for (int k = 0; k < count; ++k) {
+        if (sampled[k]) estimate(k);
+      }
     }
     for (int k = 0; t.stratum && k < count; ++k) {  // a stratum's pixels: their estimates and means by its parts
       const StratumState& u = *t.stratum;
@@ -644,10 +656,6 @@ class AdaptiveSampler {
       meanG[k] = static_cast<float>(u.mean(k, 1, t.sums.g[k], n, u.inG[k]));
       meanB[k] = static_cast<float>(u.mean(k, 2, t.sums.b[k], n, u.inB[k]));
     }
-    // Sums that overflowed (a float render's colours saturate) leave the error unknown: infinite, not
-    // the NaN of inf - inf (such a pixel is never settled before its last round, as an infinite error
-    // is not). A loop of its own, out of the first loop above, which the compiler vectorises.
-    for (int k = 0; k < count; ++k) error[k] = error[k] == error[k] ? error[k] : std::numeric_limits<float>::infinity();
     uint64_t bits = 0;
     for (int row = 0, k = 0; row < t.h; ++row) {  // by rows: no division to find a pixel's summary
       Summary* line = &summaryAt(t.x0, t.y0 + row);
@@ -655,8 +663,12 @@ class AdaptiveSampler {
         if (!sampled[k]) continue;  // its summary is as its samples left it
         bits |= tileBit(t.x0 + col, t.y0 + row);
         Summary& p = line[col];
-        p.averaged = before[k] < kHistorySamples ? error[k] : averagedError(error[k], p.averaged, before[k], t.taken[k]);
-        p.error = error[k], p.meanR = meanR[k], p.meanG = meanG[k], p.meanB = meanB[k];
+        // Sums that overflowed (a float render's colours saturate) leave the error unknown: infinite,
+        // not the NaN of inf - inf (such a pixel is never settled before its last round, as an
+        // infinite error is not).
+        const float e = error[k] == error[k] ? error[k] : std::numeric_limits<float>::infinity();
+        p.averaged = before[k] < kHistorySamples ? e : averagedError(e, p.averaged, before[k], t.taken[k]);
+        p.error = e, p.meanR = meanR[k], p.meanG = meanG[k], p.meanB = meanB[k];
       }
     }
     t.sampledBits = bits, t.sampledRound = round;
