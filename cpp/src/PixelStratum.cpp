@@ -9,31 +9,6 @@ namespace durer {
 
 namespace {
 
-// 6-point Gauss-Legendre on [0, 1].
-constexpr double kNode[6] = {0.033765242898423975, 0.16939530676686776, 0.38069040695840156,
-                             0.61930959304159844, 0.83060469323313224, 0.96623475710157603};
-constexpr double kWeight[6] = {0.085662246189585178, 0.18038078652406930, 0.23395696728634552,
-                               0.23395696728634552, 0.18038078652406930, 0.085662246189585178};
-
-// Of max(0, slope t + c sqrt(1 - t^2)) t dt over [0, r]: along a fan's ray from the disk's centre
-// (slope: the light's a u + b v along the ray's unit direction). Its antiderivative (slope t^3 - c
-// (1 - t^2)^1.5) / 3, cut where the cosine turns negative.
-double fanRay(double slope, double r, double c) {
-  const auto antiderivative = [&](double t, double w) { return (slope * t * t * t - c * w * w * w) / 3; };
-  const double w = std::sqrt(std::max(0.0, (1 - r) * (1 + r)));
-  const double h = std::sqrt(slope * slope + c * c);
-  if (c > 0) {
-    const double start = -c / 3;  // at t = 0
-    if (slope >= 0 || r * h <= c) return antiderivative(r, w) - start;
-    return antiderivative(c / h, -slope / h) - start;  // the terminator at t = c / h, w = |slope| / h
-  }
-  if (c < 0) {
-    if (slope <= 0 || r * h <= -c) return 0.0;
-    return antiderivative(r, w) - antiderivative(-c / h, slope / h);
-  }
-  return slope > 0 ? slope * r * r * r / 3 : 0.0;
-}
-
 // The fan integral of the clamped cosine over the fan from the centre to a straight piece (arc
 // false) or an arc of the unit circle (its points the chord's pushed out to the circle): across it by
 // Gauss-Legendre in the position along the chord, cut at `cut` (sorted, within (0, 1)) and where the
@@ -52,15 +27,53 @@ double chordFan(DiskPieces::Point p, DiskPieces::Point q, bool arc, double a, do
   for (int k = 0; k < n; ++k) {
     const double s0 = cut[k], length = cut[k + 1] - s0;
     for (int j = 0; j < 6; ++j) {
-      const double s = s0 + length * kNode[j];
+      const double s = s0 + length * kGaussNode[j];
       const double bu = p.u + s * du, bv = p.v + s * dv, r2 = bu * bu + bv * bv, r = std::sqrt(r2);
-      sum += kWeight[j] * length * fanRay((a * bu + b * bv) / r, arc ? 1.0 : std::min(r, 1.0), c) / r2;
+      sum += kGaussWeight[j] * length * fanRay((a * bu + b * bv) / r, arc ? 1.0 : std::min(r, 1.0), c) / r2;
     }
   }
   return cross * sum;
 }
 
+// The area the pieces bound: half the integral of u dv - v du along them (each piece's fan from the
+// centre: a triangle, a sector, or in closed form over another circle's or an ellipse's arc).
+double areaOf(const ClippedDiskPart::Piece* piece, int count) {
+  double twice = 0;
+  for (int i = 0; i < count; ++i) {
+    const ClippedDiskPart::Piece& e = piece[i];
+    const double cross = e.p.u * e.q.v - e.p.v * e.q.u;
+    if (e.kind == 0) {
+      twice += cross;
+    } else if (e.kind == 1) {
+      twice += std::atan2(cross, e.p.u * e.q.u + e.p.v * e.q.v);
+    } else if (e.kind == 2) {
+      twice += e.radius * (e.cu * (std::sin(e.to) - std::sin(e.from)) - e.cv * (std::cos(e.to) - std::cos(e.from))) +
+               e.radius * e.radius * (e.to - e.from);
+    } else {  // u dv - v du = cu (bv cos - av sin) - cv (bu cos - au sin) + au bv - av bu
+      const double ds = std::sin(e.to) - std::sin(e.from), dc = std::cos(e.to) - std::cos(e.from);
+      twice += e.cu * (e.bv * ds + e.av * dc) - e.cv * (e.bu * ds + e.au * dc) + (e.au * e.bv - e.av * e.bu) * (e.to - e.from);
+    }
+  }
+  return std::max(0.0, twice / 2);
+}
+
 }  // namespace
+
+double fanRay(double slope, double r, double c) {
+  const auto antiderivative = [&](double t, double w) { return (slope * t * t * t - c * w * w * w) / 3; };
+  const double w = std::sqrt(std::max(0.0, (1 - r) * (1 + r)));
+  const double h = std::sqrt(slope * slope + c * c);
+  if (c > 0) {
+    const double start = -c / 3;  // at t = 0
+    if (slope >= 0 || r * h <= c) return antiderivative(r, w) - start;
+    return antiderivative(c / h, -slope / h) - start;  // the terminator at t = c / h, w = |slope| / h
+  }
+  if (c < 0) {
+    if (slope <= 0 || r * h <= -c) return 0.0;
+    return antiderivative(r, w) - antiderivative(-c / h, slope / h);
+  }
+  return slope > 0 ? slope * r * r * r / 3 : 0.0;
+}
 
 DiskPieces::DiskPieces(double u0, double u1, double v0, double v1) {
   const DiskRectanglePath path(u0, u1, v0, v1);
@@ -157,8 +170,8 @@ void UnitDiskPart::integrate() {
     v -= du / 6 * (p.v * p.v + p.v * q.v + q.v * q.v);
     double sum = 0;
     for (int j = 0; j < 6; ++j) {
-      const double bu = p.u + kNode[j] * du, bv = p.v + kNode[j] * dv, rest = std::max(0.0, 1 - bu * bu - bv * bv);
-      sum += kWeight[j] * (1 + rest + rest * rest) / (1 + rest * std::sqrt(rest));  // (1 - rest^1.5) / r^2
+      const double bu = p.u + kGaussNode[j] * du, bv = p.v + kGaussNode[j] * dv, rest = std::max(0.0, 1 - bu * bu - bv * bv);
+      sum += kGaussWeight[j] * (1 + rest + rest * rest) / (1 + rest * std::sqrt(rest));  // (1 - rest^1.5) / r^2
     }
     fanW = cross * sum / 3;
     w += fanW;
@@ -224,20 +237,12 @@ ClippedDiskPart::ClippedDiskPart(double u0, double u1, double v0, double v1, con
     piece[count++] = {from.p, from.q, from.arc ? 1 : 0, 0, 0, 0, 0, 0};
   }
   for (int i = 0; i < std::min(circles, kMostCircles) && count > 0; ++i) clip(cu[i], cv[i], cr[i], u0, u1, v0, v1, i, cu, cv, cr);
-  double twice = 0;
-  for (int i = 0; i < count; ++i) {
-    const Piece& e = piece[i];
-    const double cross = e.p.u * e.q.v - e.p.v * e.q.u;
-    if (e.kind == 0) {
-      twice += cross;
-    } else if (e.kind == 1) {
-      twice += std::atan2(cross, e.p.u * e.q.u + e.p.v * e.q.v);
-    } else {
-      twice += e.radius * (e.cu * (std::sin(e.to) - std::sin(e.from)) - e.cv * (std::cos(e.to) - std::cos(e.from))) +
-               e.radius * e.radius * (e.to - e.from);
-    }
-  }
-  area = std::max(0.0, twice / 2);
+  area = areaOf(piece, count);
+}
+
+ClippedDiskPart::ClippedDiskPart(const Piece* pieces, int n) : count(std::min(n, 64)) {
+  std::copy(pieces, pieces + count, piece);
+  area = areaOf(piece, count);
 }
 
 void ClippedDiskPart::clip(double ku, double kv, double radius, double u0, double u1, double v0, double v1, int done,
@@ -361,43 +366,46 @@ double ClippedDiskPart::clampedIntegral(double a, double b, double c) const {
       total += chordFan(e.p, e.q, true, a, b, c, nullptr, 0);
       continue;
     }
-    // Another circle's arc, in the angle t about its centre: b(t) = centre + radius (cos t, sin t),
-    // the fan's angle about the disk's centre turning by radius (b . (cos t, sin t)) / |b|^2 dt. The
-    // cosine at b(t), whose sign changes where the terminator crosses the arc.
+    // Another circle's arc, in the angle t about its centre: b(t) = centre + radius (cos t, sin t); an
+    // ellipse's, b(t) = centre + a cos t + b sin t. The fan's angle about the disk's centre turns by
+    // b x b'(t) / |b|^2 dt. The cosine at b(t), whose sign changes where the terminator crosses the arc.
+    const bool circle = e.kind == 2;
+    const double au = circle ? e.radius : e.au, av = circle ? 0 : e.av, bu2 = circle ? 0 : e.bu, bv2 = circle ? e.radius : e.bv;
     const auto at = [&](double t, double& bu, double& bv) {
-      bu = e.cu + e.radius * std::cos(t), bv = e.cv + e.radius * std::sin(t);
+      bu = e.cu + au * std::cos(t) + bu2 * std::sin(t), bv = e.cv + av * std::cos(t) + bv2 * std::sin(t);
     };
     const auto cosine = [&](double t) {
       double bu, bv;
       at(t, bu, bv);
       return a * bu + b * bv + c * std::sqrt(std::max(0.0, 1 - bu * bu - bv * bv));
     };
-    const int quarters = std::max(1, static_cast<int>(std::ceil((e.to - e.from) / (kPi / 2))));
+    const int quarters = std::max(1, static_cast<int>(std::ceil(std::abs(e.to - e.from) / (kPi / 2))));
     for (int h = 0; h < quarters; ++h) {
       const double t0 = e.from + (e.to - e.from) * h / quarters, t1 = e.from + (e.to - e.from) * (h + 1) / quarters;
       double cut[24] = {t0};
       int n = 1;
-      // Where the rim term a u + b v changes sign: a (cu + radius cos t) + b (cv + radius sin t) = 0.
-      const double ab = std::sqrt(a * a + b * b);
-      if (ab > 0) {
-        const double x = -(a * e.cu + b * e.cv) / (e.radius * ab);
+      // Where the rim term a u + b v changes sign: a cu + b cv + alpha cos t + beta sin t = 0.
+      const double alpha = a * au + b * av, beta = a * bu2 + b * bv2, reach = std::sqrt(alpha * alpha + beta * beta);
+      const double lo = std::min(t0, t1), hi = std::max(t0, t1);
+      if (reach > 0) {
+        const double x = -(a * e.cu + b * e.cv) / reach;
         if (std::abs(x) < 1) {
-          const double phase = std::atan2(b, a), off = std::acos(x);
+          const double phase = std::atan2(beta, alpha), off = std::acos(x);
           for (double t : {phase + off, phase - off}) {
-            while (t < t0) t += 2 * kPi;
-            while (t - 2 * kPi >= t0) t -= 2 * kPi;
-            if (t < t1) cut[n++] = t;
+            while (t < lo) t += 2 * kPi;
+            while (t - 2 * kPi >= lo) t -= 2 * kPi;
+            if (t < hi) cut[n++] = t;
           }
         }
       }
-      // Where the cosine changes sign: bisection between 8 points.
-      constexpr int kSteps = 8;
+      // Where the cosine changes sign: bisection between 4 points.
+      constexpr int kSteps = 4;
       double before = cosine(t0);
       for (int k = 1; k <= kSteps && n < 23; ++k) {
         double lo = t0 + (t1 - t0) * (k - 1) / kSteps, hi = t0 + (t1 - t0) * k / kSteps;
         const double now = cosine(hi);
         if ((before < 0) != (now < 0)) {
-          for (int it = 0; it < 50 && hi - lo > 1e-15 * (1 + std::abs(hi)); ++it) {
+          for (int it = 0; it < 30 && std::abs(hi - lo) > 1e-15 * (1 + std::abs(hi)); ++it) {
             const double mid = (lo + hi) / 2;
             ((cosine(mid) < 0) == (before < 0) ? lo : hi) = mid;
           }
@@ -405,17 +413,19 @@ double ClippedDiskPart::clampedIntegral(double a, double b, double c) const {
         }
         before = now;
       }
-      std::sort(cut, cut + n);
+      std::sort(cut + 1, cut + n, [&](double x, double y) { return t1 > t0 ? x < y : x > y; });
       cut[n] = t1;
       for (int k = 0; k < n; ++k) {
         const double s0 = cut[k], length = cut[k + 1] - s0;
         for (int j = 0; j < 6; ++j) {
-          const double t = s0 + length * kNode[j];
+          const double t = s0 + length * kGaussNode[j];
           double bu, bv;
           at(t, bu, bv);
+          const double du = -au * std::sin(t) + bu2 * std::cos(t), dv = -av * std::sin(t) + bv2 * std::cos(t);
           const double r2 = bu * bu + bv * bv, r = std::sqrt(r2);
-          const double turn = e.radius * (bu * std::cos(t) + bv * std::sin(t)) / r2;
-          total += kWeight[j] * length * turn * fanRay((a * bu + b * bv) / r, std::min(r, 1.0), c);
+          if (!(r2 > 0)) continue;
+          const double turn = (bu * dv - bv * du) / r2;
+          total += kGaussWeight[j] * length * turn * fanRay((a * bu + b * bv) / r, std::min(r, 1.0), c);
         }
       }
     }

@@ -74,54 +74,81 @@ bool overlapWithin(const PixelBall& a, const PixelBall& b, double x0, double x1,
   return found;
 }
 
-int seenWithin(const PixelBall& a, const PixelBall& b, double x0, double x1, double y0, double y1) {
-  double px = 0, py = 0;
-  if (!overlapWithin(a, b, x0, x1, y0, y1, px, py)) return 3;
-  // The fronts' intersection: the circle of centre o and radius rho in the plane square to n, its
-  // points o + rho (cos t e1 + sin t e2), e1 its direction of growing depth (its depth o.z + rho
-  // sigma cos t), e2 across the view. Before both centres' depths where cos t <= kappa.
-  const Vec3d ca(a.x, a.y, a.z), cb(b.x, b.y, b.z), between = cb - ca;
-  const double d = std::sqrt(dot(between, between));
-  if (d > std::abs(a.r - b.r) && d < a.r + b.r) {
+namespace {
+
+constexpr double kSlack = 1e-9;  // of a pixel: a crossing of the fronts' arc that near a side counts
+
+// Where the fronts of two spheres that cut through each other meet: their intersection circle, of
+// centre o and radius rho in the plane square to the line of their centres, its points o + rho (cos t
+// e1 + sin t e2), e1 its direction of growing depth (its depth o.z + rho sigma cos t), e2 across the
+// view; before both centres' depths (on both fronts) where cos t <= kappa. Seen orthographically,
+// (x, y) of that: an arc of an ellipse, through the middle t = pi (the nearest point). `meets` false
+// where the spheres' surfaces do not cross (apart, or one inside the other) or no part of the circle
+// lies on both fronts.
+struct FrontsMeet {
+  bool meets = false;
+  double ox = 0, oy = 0, rho = 0, ex1 = 1, ey1 = 0, ex2 = 0, ey2 = 1, kappa = -2;
+
+  FrontsMeet(const PixelBall& a, const PixelBall& b) {
+    const Vec3d ca(a.x, a.y, a.z), cb(b.x, b.y, b.z), between = cb - ca;
+    const double d = std::sqrt(dot(between, between));
+    if (!(d > std::abs(a.r - b.r) && d < a.r + b.r)) return;
     const Vec3d n = between / d;
-    const double t = (d * d + a.r * a.r - b.r * b.r) / (2 * d), rho = std::sqrt(std::max(0.0, a.r * a.r - t * t));
+    const double t = (d * d + a.r * a.r - b.r * b.r) / (2 * d);
+    rho = std::sqrt(std::max(0.0, a.r * a.r - t * t));
     const Vec3d o = ca + t * n;
+    ox = o.x, oy = o.y;
     const double sigma = std::sqrt(std::max(0.0, 1 - n.z * n.z)), nearest = std::min(a.z, b.z);
-    constexpr double kSlack = 1e-9;  // of a pixel: a crossing that near a side counts
-    double kappa, ex1, ey1, ex2, ey2;
     if (sigma > 1e-12) {
       ex1 = -n.z * n.x / sigma, ey1 = -n.z * n.y / sigma;
-      const Vec3d e1(ex1, ey1, sigma), e2 = cross(n, e1);
+      const Vec3d e2 = cross(n, Vec3d(ex1, ey1, sigma));
       ex2 = e2.x, ey2 = e2.y;
       kappa = (nearest - o.z) / (rho * sigma);
     } else {  // the circle faces the view: all of it at o's depth
-      ex1 = 1, ey1 = 0, ex2 = 0, ey2 = 1;
       kappa = o.z <= nearest ? 2.0 : -2.0;
     }
-    if (kappa >= -1 - kSlack) {
-      const auto onArc = [&](double angle) { return std::cos(angle) <= kappa + kSlack; };
-      const auto at = [&](double angle, double& x, double& y) {
-        x = o.x + rho * (std::cos(angle) * ex1 + std::sin(angle) * ex2), y = o.y + rho * (std::cos(angle) * ey1 + std::sin(angle) * ey2);
-      };
-      const auto within = [&](double x, double y) { return x >= x0 - kSlack && x <= x1 + kSlack && y >= y0 - kSlack && y <= y1 + kSlack; };
-      // Where it crosses the lines of the rectangle's sides: alpha cos t + beta sin t = gamma.
-      for (int side = 0; side < 4; ++side) {
-        const bool vertical = side < 2;
-        const double line = vertical ? (side == 0 ? x0 : x1) : (side == 2 ? y0 : y1);
-        const double alpha = rho * (vertical ? ex1 : ey1), beta = rho * (vertical ? ex2 : ey2), gamma = line - (vertical ? o.x : o.y);
-        const double reach = std::sqrt(alpha * alpha + beta * beta);
-        if (!(reach > 0) || std::abs(gamma) > reach * (1 + kSlack)) continue;
-        const double phase = std::atan2(beta, alpha), off = std::acos(std::clamp(gamma / reach, -1.0, 1.0));
-        for (const double angle : {phase + off, phase - off}) {
-          double x, y;
-          at(angle, x, y);
-          if (onArc(angle) && within(vertical ? line : x, vertical ? y : line)) return 0;
-        }
+    meets = kappa >= -1 - kSlack && rho > 0;
+  }
+  bool onArc(double t) const { return std::cos(t) <= kappa + kSlack; }
+  void at(double t, double& x, double& y) const {
+    x = ox + rho * (std::cos(t) * ex1 + std::sin(t) * ex2), y = oy + rho * (std::cos(t) * ey1 + std::sin(t) * ey2);
+  }
+  void tangent(double t, double& x, double& y) const {
+    x = rho * (-std::sin(t) * ex1 + std::cos(t) * ex2), y = rho * (-std::sin(t) * ey1 + std::cos(t) * ey2);
+  }
+  // The parameters t in (-pi, pi] where its ellipse crosses the line x = line (vertical) or y = line,
+  // in `cut`; how many (0 to 2).
+  int crossings(bool vertical, double line, double* cut) const {
+    const double alpha = rho * (vertical ? ex1 : ey1), beta = rho * (vertical ? ex2 : ey2), gamma = line - (vertical ? ox : oy);
+    const double reach = std::sqrt(alpha * alpha + beta * beta);
+    if (!(reach > 0) || std::abs(gamma) > reach * (1 + kSlack)) return 0;
+    const double phase = std::atan2(beta, alpha), off = std::acos(std::clamp(gamma / reach, -1.0, 1.0));
+    cut[0] = phase + off, cut[1] = phase - off;
+    return 2;
+  }
+};
+
+}  // namespace
+
+int seenWithin(const PixelBall& a, const PixelBall& b, double x0, double x1, double y0, double y1) {
+  double px = 0, py = 0;
+  if (!overlapWithin(a, b, x0, x1, y0, y1, px, py)) return 3;
+  const FrontsMeet meet(a, b);
+  if (meet.meets) {
+    const auto within = [&](double x, double y) { return x >= x0 - kSlack && x <= x1 + kSlack && y >= y0 - kSlack && y <= y1 + kSlack; };
+    for (int side = 0; side < 4; ++side) {  // where it crosses the lines of the rectangle's sides
+      const bool vertical = side < 2;
+      const double line = vertical ? (side == 0 ? x0 : x1) : (side == 2 ? y0 : y1);
+      double cut[2];
+      for (int k = 0, n = meet.crossings(vertical, line, cut); k < n; ++k) {
+        double x, y;
+        meet.at(cut[k], x, y);
+        if (meet.onArc(cut[k]) && within(vertical ? line : x, vertical ? y : line)) return 0;
       }
-      double x, y;
-      at(kPi, x, y);  // the arc's middle (cos t = -1: the nearest point)
-      if (within(x, y)) return 0;
     }
+    double x, y;
+    meet.at(kPi, x, y);  // else the arc lies all inside the rectangle or all outside it
+    if (within(x, y)) return 0;
   }
   const auto front = [&](const PixelBall& s) { return s.z - std::sqrt(std::max(0.0, s.r * s.r - (px - s.x) * (px - s.x) - (py - s.y) * (py - s.y))); };
   const double fa = front(a), fb = front(b);
@@ -129,6 +156,164 @@ int seenWithin(const PixelBall& a, const PixelBall& b, double x0, double x1, dou
 }
 
 namespace {
+
+// A piece of a region's boundary in PixelBall's frame: a segment from a to b (t in [0, 1]), an arc of
+// the circle of centre a and radius b.x (t its angle), or of the fronts' ellipse (FrontsMeet's t);
+// the region on its left as t runs from `from` to `to` (either way).
+struct Curve {
+  enum Kind { kSegment, kCircle, kEllipse } kind;
+  double ax, ay, bx, by;
+  const FrontsMeet* ellipse;
+  double from, to;
+  // Its point at t and the derivative there.
+  void at(double t, double& x, double& y, double& dx, double& dy) const {
+    if (kind == kSegment) {
+      dx = bx - ax, dy = by - ay, x = ax + t * dx, y = ay + t * dy;
+    } else if (kind == kCircle) {
+      x = ax + bx * std::cos(t), y = ay + bx * std::sin(t), dx = -bx * std::sin(t), dy = bx * std::cos(t);
+    } else {
+      ellipse->at(t, x, y), ellipse->tangent(t, dx, dy);
+    }
+  }
+};
+
+// The region that `curves` bound in the frame of a member's disk (ball s): ClippedDiskPart's pieces,
+// its own rim's arcs cut to quarter turns.
+ClippedDiskPart inFrame(const Curve* curves, int count, const PixelBall& s) {
+  ClippedDiskPart::Piece piece[64];
+  int n = 0;
+  const auto point = [&](double x, double y) { return DiskPieces::Point{(x - s.x) / s.r, (y - s.y) / s.r}; };
+  for (int i = 0; i < count && n < 60; ++i) {
+    const Curve& e = curves[i];
+    double x0, y0, x1, y1, unused, unused2;
+    e.at(e.from, x0, y0, unused, unused2), e.at(e.to, x1, y1, unused, unused2);
+    const DiskPieces::Point p = point(x0, y0), q = point(x1, y1);
+    if (e.kind == Curve::kSegment) {
+      piece[n++] = {p, q, 0, 0, 0, 0, 0, 0};
+    } else if (e.kind == Curve::kCircle) {
+      const bool own = std::abs(e.ax - s.x) <= 1e-9 * s.r && std::abs(e.ay - s.y) <= 1e-9 * s.r && std::abs(e.bx - s.r) <= 1e-9 * s.r;
+      if (!own) {
+        piece[n++] = {p, q, 2, (e.ax - s.x) / s.r, (e.ay - s.y) / s.r, e.bx / s.r, e.from, e.to};
+        continue;
+      }
+      const int quarters = std::max(1, static_cast<int>(std::ceil(std::abs(e.to - e.from) / (kPi / 2))));
+      for (int k = 0; k < quarters && n < 60; ++k) {
+        const double t0 = e.from + (e.to - e.from) * k / quarters, t1 = e.from + (e.to - e.from) * (k + 1) / quarters;
+        piece[n++] = {{std::cos(t0), std::sin(t0)}, {std::cos(t1), std::sin(t1)}, 1, 0, 0, 0, 0, 0};
+      }
+    } else {
+      const FrontsMeet& m = *e.ellipse;
+      ClippedDiskPart::Piece arc{p, q, 3, (m.ox - s.x) / s.r, (m.oy - s.y) / s.r, 0, e.from, e.to};
+      arc.au = m.rho * m.ex1 / s.r, arc.av = m.rho * m.ey1 / s.r, arc.bu = m.rho * m.ex2 / s.r, arc.bv = m.rho * m.ey2 / s.r;
+      piece[n++] = arc;
+    }
+  }
+  return ClippedDiskPart(piece, n);
+}
+
+// The boundary of the part of the overlap of a's and b's disks within the rectangle [0, 1] x [0, h]
+// where b is seen (its front nearer), for spheres that cut through each other, `meet` their fronts'
+// arc: the overlap's boundary (ClippedDiskPart, in a's frame) cut where the arc meets it, its
+// stretches where b is seen, and the arc's stretches inside the rectangle, turned to have that part
+// on their left. In `out` (room for 96); returns how many.
+int seenPart(const PixelBall& a, const PixelBall& b, const FrontsMeet& meet, double h, Curve* out) {
+  const double one[1] = {(b.x - a.x) / a.r}, two[1] = {(b.y - a.y) / a.r}, three[1] = {b.r / a.r};
+  const ClippedDiskPart lens(-a.x / a.r, (1 - a.x) / a.r, -a.y / a.r, (h - a.y) / a.r, one, two, three, 1);
+  const auto bSeen = [&](double x, double y) {
+    const double da = a.r * a.r - (x - a.x) * (x - a.x) - (y - a.y) * (y - a.y), db = b.r * b.r - (x - b.x) * (x - b.x) - (y - b.y) * (y - b.y);
+    return b.z - std::sqrt(std::max(0.0, db)) < a.z - std::sqrt(std::max(0.0, da));
+  };
+  const auto inside = [&](double x, double y) { return x > 0 && x < 1 && y > 0 && y < h; };
+  // The arc's stretch before both centres, and where it meets the rectangle's sides.
+  const double start = std::acos(std::min(1.0, std::max(-1.0, meet.kappa))), end = 2 * kPi - start;
+  double ts[10];
+  int nt = 0;
+  ts[nt++] = start, ts[nt++] = end;
+  double meets[8][2];  // the points where it meets the sides, and its ends, where inside
+  int nm = 0;
+  for (int side = 0; side < 4; ++side) {
+    const bool vertical = side < 2;
+    const double line = vertical ? (side == 0 ? 0.0 : 1.0) : (side == 2 ? 0.0 : h);
+    double cut[2];
+    for (int k = 0, n = meet.crossings(vertical, line, cut); k < n; ++k) {
+      double t = cut[k];
+      while (t < start) t += 2 * kPi;
+      while (t > end) t -= 2 * kPi;
+      double x, y;
+      meet.at(t, x, y);
+      if (t < start || (vertical ? y < 0 || y > h : x < 0 || x > 1)) continue;
+      ts[nt++] = t;
+      meets[nm][0] = vertical ? line : x, meets[nm][1] = vertical ? y : line, ++nm;
+    }
+  }
+  if (meet.kappa < 1) {
+    for (const double t : {start, end}) {
+      double x, y;
+      meet.at(t, x, y);
+      if (inside(x, y)) meets[nm][0] = x, meets[nm][1] = y, ++nm;
+    }
+  }
+  int count = 0;
+  // The overlap's boundary, cut at those points, where b is seen.
+  for (int i = 0; i < lens.count; ++i) {
+    const ClippedDiskPart::Piece& piece = lens.piece[i];
+    Curve c{};
+    if (piece.kind == 0) {
+      c = {Curve::kSegment, a.x + a.r * piece.p.u, a.y + a.r * piece.p.v, a.x + a.r * piece.q.u, a.y + a.r * piece.q.v, nullptr, 0, 1};
+    } else if (piece.kind == 1) {
+      const double from = std::atan2(piece.p.v, piece.p.u);
+      double to = std::atan2(piece.q.v, piece.q.u);
+      while (to <= from) to += 2 * kPi;
+      c = {Curve::kCircle, a.x, a.y, a.r, 0, nullptr, from, to};
+    } else {
+      c = {Curve::kCircle, a.x + a.r * piece.cu, a.y + a.r * piece.cv, a.r * piece.radius, 0, nullptr, piece.from, piece.to};
+    }
+    double at[10];
+    int na = 0;
+    at[na++] = c.from;
+    for (int k = 0; k < nm; ++k) {  // a point on it: its parameter
+      const double x = meets[k][0], y = meets[k][1];
+      double t;
+      if (c.kind == Curve::kSegment) {
+        const double dx = c.bx - c.ax, dy = c.by - c.ay, l2 = dx * dx + dy * dy;
+        if (!(l2 > 0) || std::abs(dx * (y - c.ay) - dy * (x - c.ax)) > 1e-9 * std::sqrt(l2)) continue;
+        t = (dx * (x - c.ax) + dy * (y - c.ay)) / l2;
+      } else {
+        if (std::abs(std::hypot(x - c.ax, y - c.ay) - c.bx) > 1e-9 * (1 + c.bx)) continue;
+        t = std::atan2(y - c.ay, x - c.ax);
+        while (t < c.from) t += 2 * kPi;
+      }
+      if (t > c.from && t < c.to) at[na++] = t;
+    }
+    for (int m = 2; m < na; ++m) {  // insertion sort of at most 9
+      for (int l = m; l > 1 && at[l] < at[l - 1]; --l) std::swap(at[l], at[l - 1]);
+    }
+    at[na] = c.to;
+    for (int k = 0; k < na; ++k) {
+      Curve part = c;
+      part.from = at[k], part.to = at[k + 1];
+      double x, y, dx, dy;
+      part.at((part.from + part.to) / 2, x, y, dx, dy);
+      if (bSeen(x, y) && count < 96) out[count++] = part;
+    }
+  }
+  // The arc's stretches inside the rectangle, b seen on their left.
+  for (int m = 1; m < nt; ++m) {  // insertion sort of at most 10
+    for (int l = m; l > 0 && ts[l] < ts[l - 1]; --l) std::swap(ts[l], ts[l - 1]);
+  }
+  for (int k = 0; k + 1 < nt; ++k) {
+    if (!(ts[k] >= start && ts[k + 1] <= end && ts[k + 1] > ts[k])) continue;
+    const double mid = (ts[k] + ts[k + 1]) / 2;
+    double x, y, dx, dy;
+    meet.at(mid, x, y), meet.tangent(mid, dx, dy);
+    if (!inside(x, y)) continue;
+    const double l = std::hypot(dx, dy), step = 1e-7 * (1 + a.r + b.r);
+    const bool left = bSeen(x - step * dy / l, y + step * dx / l);
+    if (count < 96) out[count++] = {Curve::kEllipse, 0, 0, 0, 0, &meet, left ? ts[k] : ts[k + 1], left ? ts[k + 1] : ts[k]};
+  }
+  return count;
+}
+
 
 // The shading (ambient light and the lights of `lights`) over a clipped part, in its frame.
 Vec3d shadingOver(const ClippedDiskPart& part, const ControlLighting& light, uint8_t lights) {
@@ -162,14 +347,17 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
   StratumControl control{};
   if (p.shear != 0) return control;
   const int n = p.disks;
-  // Which member is seen where two disks overlap: the rank. In the frame of several disks (pixel
-  // units across, the first's aspect down, depth in the same units).
-  bool overlap[kMost][kMost] = {}, before[kMost][kMost] = {};
+  // Which member is seen where two disks overlap in the pixel: a rank, or (two members) where it
+  // changes, the part each is seen in. In the frame of several disks (pixel units across, the
+  // first's aspect down, depth in the same units).
+  bool overlap[kMost][kMost] = {}, before[kMost][kMost] = {}, changes = false;
+  uint8_t rank[kMost] = {};
+  PixelBall ball[kMost];
   if (n > 1) {
     const double scale = 1 / (double(p.inverseAx[0]) * members[0].radius);  // pixel units a world unit
-    PixelBall ball[kMost];
     for (int i = 0; i < n; ++i) {
       ball[i] = {double(p.cx[i]) - x, (double(p.cy[i]) - y) * double(p.aspect), members[i].centre.z * scale, 1 / double(p.inverseAx[i])};
+      control.depth[i] = static_cast<float>(ball[i].z - ball[0].z);
     }
     for (int i = 0; i < n; ++i) {
       for (int j = 0; j < i; ++j) {
@@ -183,11 +371,12 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
           continue;
         }
         const int seen = seenWithin(ball[i], ball[j], 0, 1, 0, double(p.aspect));
-        if (seen == 0) return control;  // the one seen changes in the pixel
-        (seen == 1 ? before[i][j] : before[j][i]) = true;
+        if (seen == 0 && n > 2) return control;  // the one seen changes in the pixel, among three
+        changes = changes || seen == 0;
+        if (seen != 0) (seen == 1 ? before[i][j] : before[j][i]) = true;
       }
     }
-    if (!rankBy(before, n, control.rank)) return control;
+    if (!changes && !rankBy(before, n, rank)) return control;
   }
   Vec3d sum(0);
   double inside = 0;  // the union's area, in pixels
@@ -202,11 +391,11 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
     const Vec3d along = shadingOver(part, light, [](const ControlLighting::Sun& s) { return Vec3d(s.a, s.b, s.c); }, control.lights[i]);
     sum += kd * along / scale, inside += part.area / scale;
     // Less the part that nearer members' disks cover (in the member's frame): one's, or two's by
-    // inclusion and exclusion.
+    // inclusion and exclusion; where the one seen changes, the second member's whole overlap (below).
     double cu[kMost], cv[kMost], cr[kMost];
     int nearer = 0;
     for (int j = 0; j < n; ++j) {
-      if (!overlap[i][j] || control.rank[j] > control.rank[i]) continue;
+      if (!overlap[i][j] || (changes ? i == 0 : rank[j] > rank[i])) continue;
       cu[nearer] = (double(p.cx[j]) - double(p.cx[i])) * double(p.inverseAx[i]);
       cv[nearer] = (double(p.cy[j]) - double(p.cy[i])) * double(p.aspect) * double(p.inverseAx[i]);
       cr[nearer++] = double(p.inverseAx[i]) / double(p.inverseAx[j]);
@@ -218,23 +407,34 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
     if (nearer >= 1) cover(0, 1, 1);
     if (nearer == 2) cover(1, 1, 1), cover(0, 2, -1);
   }
+  if (changes) {  // two members: the second's overlap was taken out; the part of it where it is seen
+    // comes back, and the first loses it
+    const FrontsMeet meet(ball[0], ball[1]);
+    Curve curves[96];
+    const int count = seenPart(ball[0], ball[1], meet, double(p.aspect), curves);
+    for (int i = 0; i < 2; ++i) {  // a pixel's area in a member's frame: the aspect over its radius squared
+      const double pixel = double(p.aspect) / (ball[i].r * ball[i].r);
+      sum += (i == 0 ? -1.0 : 1.0) * Vec3d(control.kd[i]) * shadingOver(inFrame(curves, count, ball[i]), light, control.lights[i]) / pixel;
+    }
+  }
   if (!(inside > 0)) return {};
   control.mean = Vec3<float>(sum / inside);
   return control;
 }
 
 Vec3d diskControlAt(const PixelStratum& p, const StratumControl& c, const ControlLighting& light, double x, double y) {
-  int seen = -1;  // the first by rank whose disk holds it
-  double seenU = 0, seenV = 0;
+  int seen = -1;  // the member whose front is nearest among those whose disks hold it
+  double seenU = 0, seenV = 0, seenW = 0, front = 0;
   for (int i = 0; i < p.disks; ++i) {
     double u, v;
     p.frame(i, x, y, u, v);
-    if (!(u * u + v * v < 1) || (seen >= 0 && c.rank[seen] < c.rank[i])) continue;
-    seen = i, seenU = u, seenV = v;
+    if (!(u * u + v * v < 1)) continue;
+    const double w = std::sqrt(1 - u * u - v * v), f = double(c.depth[i]) - w / double(p.inverseAx[i]);
+    if (seen >= 0 && !(f < front)) continue;
+    seen = i, seenU = u, seenV = v, seenW = w, front = f;
   }
   if (seen < 0) return Vec3d(0);
-  const double w = std::sqrt(1 - seenU * seenU - seenV * seenV);
-  return Vec3d(c.kd[seen]) * shadingAt(light, c.lights[seen], [&](const ControlLighting::Sun& s) { return s.a * seenU + s.b * seenV + s.c * w; }) -
+  return Vec3d(c.kd[seen]) * shadingAt(light, c.lights[seen], [&](const ControlLighting::Sun& s) { return s.a * seenU + s.b * seenV + s.c * seenW; }) -
          Vec3d(c.mean);
 }
 

@@ -35,8 +35,9 @@ void rootsAlong(double a, double b, double c, double u0, double du, double x0, d
 // The integral over pixel (x, y)'s part inside stratum p of f(sx, sy) (a control's channel sum),
 // and the inside's area; `lights[i]`: the light directions (a, b, c) member i's shading reads in
 // its frame, whose terminators cut the rows.
-template <typename F>
-std::array<double, 2> integrateInside(const PixelStratum& p, int x, int y, const std::vector<std::vector<Vec3d>>& lights, const F& f) {
+template <typename F, typename Seam>
+std::array<double, 2> integrateInside(const PixelStratum& p, int x, int y, const std::vector<std::vector<Vec3d>>& lights, const F& f,
+                                      const Seam& seam) {
   static constexpr double kNode[8] = {0.019855071751231856, 0.10166676129318664, 0.23723379504183550, 0.40828267875217510,
                                       0.59171732124782490, 0.76276620495816450, 0.89833323870681336, 0.98014492824876811};
   static constexpr double kWeight[8] = {0.050614268145188130, 0.11119051722668724, 0.15685332293894364, 0.18134189168918099,
@@ -53,6 +54,18 @@ std::array<double, 2> integrateInside(const PixelStratum& p, int x, int y, const
       rootsAlong(1, 0, v * v - 1, u0, du, x, x + 1, cut);  // the disk's edge
       for (const Vec3d& l : lights[size_t(i)]) {  // (l.x u + l.y v)^2 = l.z^2 (1 - u^2 - v^2)
         rootsAlong(l.x * l.x + l.z * l.z, 2 * l.x * l.y * v, l.y * l.y * v * v - l.z * l.z * (1 - v * v), u0, du, x, x + 1, cut);
+      }
+    }
+    std::sort(cut.begin(), cut.end());
+    // Where seam(x, y) changes along the row (the sphere seen, where disks overlap): found on 64
+    // points between the cuts, then by bisection.
+    for (size_t k = 0, n = cut.size(); k + 1 < n; ++k) {
+      for (int step = 0; step < 64; ++step) {
+        double lo = cut[k] + (cut[k + 1] - cut[k]) * step / 64, hi = cut[k] + (cut[k + 1] - cut[k]) * (step + 1) / 64;
+        const int from = seam(lo, sy);
+        if (seam(hi, sy) == from) continue;
+        for (int it = 0; it < 50; ++it) ((seam((lo + hi) / 2, sy) == from) ? lo : hi) = (lo + hi) / 2;
+        cut.push_back((lo + hi) / 2);
       }
     }
     std::sort(cut.begin(), cut.end());
@@ -77,8 +90,8 @@ TEST_CASE("an orthographic stratum's control integrates to 0 over its inside, an
   std::mt19937_64 rng(41);
   std::uniform_real_distribution<double> unit(0, 1);
   std::normal_distribution<double> normal;
-  int tested = 0, overlapping = 0, cutting = 0, refused = 0;
-  for (int trial = 0; trial < 400 && tested < 80; ++trial) {
+  int tested = 0, overlapping = 0, cutting = 0, changing = 0, refused = 0;
+  for (int trial = 0; trial < 600 && tested < 120; ++trial) {
     // Two or three disks of 0.4-3 pixels' radius near pixel (0, 0); pixel units across and down;
     // their spheres' centres 0-3 units deep (many cut through each other) or 0-20.
     const int n = 2 + (trial % 3 == 0);
@@ -118,7 +131,25 @@ TEST_CASE("an orthographic stratum's control integrates to 0 over its inside, an
       continue;
     }
     ++tested, overlapping += overlaps, cutting += cut;
-    const auto [integral, inside] = integrateInside(p, 0, 0, toward, [&](double x, double y) { return channels(diskControlAt(p, c, light, x, y)); });
+    if (n == 2 && cut) {  // the sphere seen changes inside their overlap in the pixel (seenWithin)
+      PixelBall ball[2];
+      for (int i = 0; i < 2; ++i) ball[i] = {double(p.cx[i]), double(p.cy[i]) * double(p.aspect), member[i].centre.z, 1 / double(p.inverseAx[i])};
+      changing += seenWithin(ball[0], ball[1], 0, 1, 0, double(p.aspect)) == 0;
+    }
+    const auto seen = [&](double x, double y) {  // the sphere seen at (x, y): the nearest front among the disks holding it
+      int nearest = -1;
+      double front = 1e300;
+      for (int i = 0; i < n; ++i) {
+        double u, v;
+        p.frame(i, x, y, u, v);
+        if (!(u * u + v * v < 1)) continue;
+        const double f = member[i].centre.z - std::sqrt(1 - u * u - v * v) / double(p.inverseAx[i]);
+        if (f < front) front = f, nearest = i;
+      }
+      return nearest;
+    };
+    const auto [integral, inside] =
+        integrateInside(p, 0, 0, toward, [&](double x, double y) { return channels(diskControlAt(p, c, light, x, y)); }, seen);
     CHECK_MESSAGE(inside == doctest::Approx(double(p.share)).epsilon(1e-4), trial);
     // In the pixel's units: the moments' quadrature (1e-5) and the rows' midpoint rule.
     CHECK_MESSAGE(std::abs(integral) < 3e-5 * 3, trial, " ", integral);
@@ -150,10 +181,11 @@ TEST_CASE("an orthographic stratum's control integrates to 0 over its inside, an
     }
     CHECK_MESSAGE(worst < 1e-5, trial, " ", worst);
   }
-  CHECK(tested >= 60);
+  CHECK(tested >= 100);
   CHECK(overlapping >= 20);  // strata whose disks overlap
   CHECK(cutting >= 10);      // of spheres that cut through each other, one seen all over the overlap in the pixel
-  CHECK(refused >= 5);       // the sphere seen changes in the pixel: no control
+  CHECK(changing >= 5);      // of those, the sphere seen changes inside the overlap in the pixel
+  CHECK(refused >= 5);       // three disks, the sphere seen changes in the pixel: no control
 }
 
 TEST_CASE("which of two spheres that cut through each other is seen over their disks' overlap in a rectangle, against a grid") {
@@ -232,7 +264,8 @@ TEST_CASE("a perspective stratum's control integrates to 0 over its inside; a sp
       toward[0].push_back(Vec3d(dot(d, axes[0]), dot(d, axes[1]), dot(d, axes[2])));
     }
     const auto [integral, inside] =
-        integrateInside(p, x, y, toward, [&](double sx, double sy) { return channels(ellipseControlAt(p, c, image, light, sx, sy)); });
+        integrateInside(p, x, y, toward, [&](double sx, double sy) { return channels(ellipseControlAt(p, c, image, light, sx, sy)); },
+                        [](double, double) { return 0; });
     CHECK_MESSAGE(inside == doctest::Approx(double(p.share)).epsilon(1e-4), trial);
     CHECK_MESSAGE(std::abs(integral) < 3e-5 * 3, trial, " ", integral);
     // The model's axes: unit, w's toward the camera along the ray through the ellipse's centre.

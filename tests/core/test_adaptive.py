@@ -472,16 +472,15 @@ def _lit_sphere_pairs() -> tuple[durer.Scene, list[tuple[float, float, float, fl
     return scene, spheres
 
 
-def test_spheres_cutting_through_each_other_are_exact_where_one_is_seen_all_over_their_overlap():
-    # Where two spheres' discs overlap in a pixel and one of them is seen all over that overlap (the
-    # projection of the circle where their fronts meet misses it), the control is the shading of the
-    # sphere seen (StratumControl.h), exact: such a pixel settles at the first pass's 4 samples (once
-    # its outside holds one) on the colour 64 samples give, where before it took 64 (spheres cutting
-    # through each other had no control; spheres apart, one that left the hidden one's spread). Where
-    # the sphere seen changes inside the pixel, there is no control and the pixel keeps refining.
-    # Which sphere is seen where, in the pixels one pair's discs reach alone with their union's edge
-    # across them: the nearest front on a 64 x 64 grid of the pixel (a sliver of the other sphere
-    # narrower than its spacing may be missed).
+def test_spheres_whose_discs_overlap_are_exact_where_they_cut_through_each_other():
+    # Where two spheres' discs overlap in a pixel, the control is the shading of the sphere seen
+    # (StratumControl.h), its mean exact: where one sphere is seen all over the overlap in the pixel,
+    # and where the one seen changes there (the projection of the circle their fronts meet on crosses
+    # it, bounding the part of the overlap each is seen in). Such a pixel settles at the first pass's
+    # 4 samples (once its outside holds one) on the colour 64 samples give, where before it took 64
+    # (spheres cutting through each other had no control; spheres apart, one that left the hidden
+    # one's spread). Which sphere is seen where, in the pixels one pair's discs reach alone with their
+    # union's edge across them: the nearest front on a 64 x 64 grid of the pixel.
     scene, spheres = _lit_sphere_pairs()
     x, y = pixel_centres(SIZE, SIZE)
     offsets = (np.arange(64) + 0.5) / 64 - 0.5
@@ -506,10 +505,10 @@ def test_spheres_cutting_through_each_other_are_exact_where_one_is_seen_all_over
     assert one_seen.sum() >= 20 and both_seen.sum() >= 10
     result = adaptive(scene, spp=64, min_spp=4, target_error=0.002, seed=5)
     forced = adaptive(scene, spp=64, min_spp=64, seed=5)
-    assert np.mean(result.samples[one_seen] == 4) >= 0.75  # seen: 21 of 25 (the others hold a sliver finer than the grid)
     difference = np.abs(result.color[..., :3] - forced.color[..., :3]).max(axis=-1)
-    assert np.median(difference[one_seen]) < 1e-6 and difference[one_seen & (result.samples == 4)].max() < 1e-5
-    assert np.all(result.samples[both_seen] == 64)
+    for pixels in (one_seen, both_seen):
+        assert np.mean(result.samples[pixels] == 4) >= 0.9
+        assert np.median(difference[pixels]) < 1e-6 and difference[pixels & (result.samples == 4)].max() < 1e-5
 
 
 def test_shadows_keep_their_edges_refined():

@@ -48,8 +48,8 @@
 // Where directional lights shine, each sample inside the stratum is taken less its control variate
 // (orthographic: diskControl (StratumControl.h), the diffuse shading by the ambient light and those
 // lights, no shadows, of the sphere seen there, less that shading's exact mean over the stratum's
-// inside; where disks of spheres that cut through each other overlap in the pixel, only if one of
-// them is seen all over that overlap; perspective, for a small sphere: ellipseControl, the same with
+// inside; where three disks cross the pixel and the sphere seen changes inside an overlap of two of
+// spheres that cut through each other, none; perspective, for a small sphere: ellipseControl, the same with
 // the sphere's normal modelled as an orthographic camera would see it): the part's mean, and its
 // halves', then vary only with what the control leaves out (shadows, highlights, emission, other
 // lights, the perspective model's departure), and diffuse spheres lit by suns without shadows seen

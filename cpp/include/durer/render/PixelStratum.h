@@ -22,6 +22,18 @@
 
 namespace durer {
 
+// 6-point Gauss-Legendre on [0, 1]: the strata's quadratures across fans (UnitDiskPart,
+// ClippedDiskPart, StratumControl's regions).
+inline constexpr double kGaussNode[6] = {0.033765242898423975, 0.16939530676686776, 0.38069040695840156,
+                                         0.61930959304159844, 0.83060469323313224, 0.96623475710157603};
+inline constexpr double kGaussWeight[6] = {0.085662246189585178, 0.18038078652406930, 0.23395696728634552,
+                                           0.23395696728634552, 0.18038078652406930, 0.085662246189585178};
+
+// Of max(0, slope t + c sqrt(1 - t^2)) t dt over [0, r]: a light's cosine on the unit hemisphere
+// along a fan's ray from the disk's centre (slope: the light's a u + b v along the ray's unit
+// direction), in closed form (src/PixelStratum.cpp).
+double fanRay(double slope, double r, double c);
+
 // Twice the area between an arc of angle `angle` of a circle of squared radius rr and its chord,
 // rr (angle - sin angle), given rr sin angle (`cross`). Where the arc is short the difference
 // cancels, so there it is the series, whose error stays relative: the arcs of a wide circle through
@@ -175,19 +187,24 @@ struct UnitDiskPart {
 // area (each fan's from the disk's centre: a triangle, a sector, or over another circle's arc in
 // closed form) and the integral over it of a light's clamped cosine, by the fans (as
 // UnitDiskPart::clampedIntegral's, across another circle's arc in the angle about its centre, cut
-// where the terminator crosses it: found by bisection between 8 points a quarter turn).
+// where the terminator crosses it: found by bisection between 4 points a quarter turn).
 struct ClippedDiskPart {
   static constexpr int kMostCircles = 2;
   struct Piece {
     DiskPieces::Point p, q;  // its ends
-    int kind;                // 0: straight, 1: an arc of the unit circle (at most a quarter turn), 2: another circle's
-    double cu, cv, radius, from, to;  // kind 2: the circle, and the arc's angles about its centre (from < to)
+    // 0: straight, 1: an arc of the unit circle (at most a quarter turn, counter-clockwise), 2: another
+    // circle's, 3: an ellipse's, (cu, cv) + (au, av) cos t + (bu, bv) sin t
+    int kind;
+    double cu, cv, radius, from, to;  // kinds 2 and 3: the centre, the circle's radius, and the arc's parameters
+    double au = 0, av = 0, bu = 0, bv = 0;  // kind 3: its axes
   };
   Piece piece[64];
   int count = 0;
   double area = 0;
 
   ClippedDiskPart(double u0, double u1, double v0, double v1, const double* cu, const double* cv, const double* cr, int circles);
+  // The region `count` pieces bound (each with the region on its left), in the disk's frame.
+  ClippedDiskPart(const Piece* pieces, int count);
   double clampedIntegral(double a, double b, double c) const;
 
  private:

@@ -36,8 +36,9 @@ struct ControlLighting {
   int suns = 0;
 };
 
-// A stratum's control variate: at a sample, the shading of the member seen there, the first by
-// rank[i] (0 first) of the members whose disks hold it, less `mean` (linear RGB). A member's shading,
+// A stratum's control variate: at a sample, the shading of the member seen there, the one whose
+// front is nearest (depth[i] less its radius times w, in pixel units: depth[i] its centre's depth less
+// the first member's) of those whose disks hold it, less `mean` (linear RGB). A member's shading,
 // where the sphere's front has unit normal (u, v, w) in the disk's frame (x right, y down, toward the
 // camera; through a perspective camera, the model's axes: ellipseAxes): kd[i] times the ambient
 // light plus the sum over the directional lights l of its bit lights[i] of the light's colour times
@@ -45,7 +46,7 @@ struct ControlLighting {
 struct StratumControl {
   Vec3<float> kd[PixelStratum::kMostDisks];
   uint8_t lights[PixelStratum::kMostDisks];
-  uint8_t rank[PixelStratum::kMostDisks];
+  float depth[PixelStratum::kMostDisks];
   // Whether the samples less the control are one constant all over the pixel: the render's shading
   // is what the control models (TileRenderer::controlIsShading), the plane cuts or hides none of the
   // members (TileRenderer::beforePlane), and no sphere covers the pixel behind them (outside them:
@@ -65,21 +66,23 @@ struct ControlMember {
 // The control variate of pixel (x, y)'s orthographic stratum p, whose members' disks are
 // members[i]: each member's diffuse shading by the ambient light and by the directional lights that
 // reach its part of the pixel (kd times the ambient light plus each light's colour times max(0, N ·
-// L), no shadows), where it is the sphere seen, less the mean of that over the stratum's inside. The
-// members are ranked by which is seen where their disks overlap in the pixel: of two spheres apart in
-// space, the one whose centre is nearer (wherever their disks overlap); of two that cut through each
-// other, the one in front all over their disks' overlap within the pixel (seenWithin), none if that
-// changes inside it (the projection of the circle where their fronts meet crosses it) or if the
-// pairs' orders disagree. Its mean is exact geometry: each member's shading over its disk's part of
-// the pixel (UnitDiskPart's area and integrals of the normal, in the pixel's units; where a light's
-// terminator crosses the part, the integral of its clamped cosine), less its shading over the part of
-// that which nearer members' disks cover (ClippedDiskPart; two nearer ones by inclusion and
-// exclusion). A function of a sample's position alone whose mean over the inside is 0: the inside's
-// mean of the samples' colours less their controls estimates the colours' mean without bias whatever
-// the shading. Where the shading is that (diffuse spheres lit by suns, no shadows), a sample's colour
-// less its control is the mean all over the inside: exact from one sample. Left: emission, shadows,
-// highlights, other lights, ambient occlusion, samples that met something else, which the samples
-// estimate.
+// L), no shadows), where it is the sphere seen (the nearest front), less the mean of that over the
+// stratum's inside. Its mean is exact geometry: each member's shading over its disk's part of the
+// pixel (UnitDiskPart's area and integrals of the normal, in the pixel's units; where a light's
+// terminator crosses the part, the integral of its clamped cosine), less its shading over the part
+// of that where another is seen. Where disks overlap in the pixel, the members are ranked by which
+// is seen there: of two spheres apart in space, the one whose centre is nearer; of two that cut
+// through each other, the one in front all over their overlap within the pixel (seenWithin); a
+// member then loses the part nearer members' disks cover (ClippedDiskPart; two nearer ones by
+// inclusion and exclusion). Where the one seen changes inside the overlap (the projection of the arc
+// where their fronts meet crosses it), with two members: the second loses the overlap and gets back,
+// from the first, the part of it where it is seen, which that arc bounds (its fans integrated in the
+// arc's parameter); with three, none (nor where the pairs' ranks disagree). A function of a sample's
+// position alone whose mean over the inside is 0: the inside's mean of the samples' colours less
+// their controls estimates the colours' mean without bias whatever the shading. Where the shading is
+// that (diffuse spheres lit by suns, no shadows), a sample's colour less its control is the mean all
+// over the inside: exact from one sample. Left: emission, shadows, highlights, other lights, ambient
+// occlusion, samples that met something else, which the samples estimate.
 StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMember* members, const ControlLighting& light);
 
 // diskControl's control of a sample at (x, y) inside stratum p.
