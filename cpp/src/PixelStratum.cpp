@@ -271,7 +271,7 @@ void ClippedDiskPart::clip(double ku, double kv, double radius, double u0, doubl
     if (e.kind == 0) {  // p + s d on the circle: a s^2 + 2 b s + c = 0
       const double du = e.q.u - e.p.u, dv = e.q.v - e.p.v, wu = e.p.u - ku, wv = e.p.v - kv;
       const double a = du * du + dv * dv, b = wu * du + wv * dv, c = wu * wu + wv * wv - rr, disc = b * b - a * c;
-      double s[3] = {0, 1, 1};
+      double s[4] = {0, 1, 1, 1};
       int m = 1;
       if (a > 0 && disc > 0) {
         const double q = -(b + std::copysign(std::sqrt(disc), b)), r0 = q / a, r1 = q != 0 ? c / q : -r0;

@@ -229,7 +229,7 @@ int seenPart(const PixelBall& a, const PixelBall& b, const FrontsMeet& meet, dou
   double ts[10];
   int nt = 0;
   ts[nt++] = start, ts[nt++] = end;
-  double meets[8][2];  // the points where it meets the sides, and its ends, where inside
+  double meets[10][2];  // the points where it meets the sides (two a side), and its ends, where inside
   int nm = 0;
   for (int side = 0; side < 4; ++side) {
     const bool vertical = side < 2;
@@ -268,7 +268,7 @@ int seenPart(const PixelBall& a, const PixelBall& b, const FrontsMeet& meet, dou
     } else {
       c = {Curve::kCircle, a.x + a.r * piece.cu, a.y + a.r * piece.cv, a.r * piece.radius, 0, nullptr, piece.from, piece.to};
     }
-    double at[10];
+    double at[12];  // its start, and those points on it
     int na = 0;
     at[na++] = c.from;
     for (int k = 0; k < nm; ++k) {  // a point on it: its parameter
@@ -285,7 +285,7 @@ int seenPart(const PixelBall& a, const PixelBall& b, const FrontsMeet& meet, dou
       }
       if (t > c.from && t < c.to) at[na++] = t;
     }
-    for (int m = 2; m < na; ++m) {  // insertion sort of at most 9
+    for (int m = 2; m < na; ++m) {  // insertion sort of at most 10
       for (int l = m; l > 1 && at[l] < at[l - 1]; --l) std::swap(at[l], at[l - 1]);
     }
     at[na] = c.to;
@@ -342,7 +342,8 @@ bool rankBy(const bool (*before)[PixelStratum::kMostDisks], int n, uint8_t* rank
 
 }  // namespace
 
-StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMember* members, const ControlLighting& light) {
+StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMember* members, const ControlLighting& light,
+                           bool split) {
   constexpr int kMost = PixelStratum::kMostDisks;
   StratumControl control{};
   if (p.shear != 0) return control;
@@ -371,7 +372,7 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
           continue;
         }
         const int seen = seenWithin(ball[i], ball[j], 0, 1, 0, double(p.aspect));
-        if (seen == 0 && n > 2) return control;  // the one seen changes in the pixel, among three
+        if (seen == 0 && (n > 2 || !split)) return control;  // the one seen changes in the pixel, among three
         changes = changes || seen == 0;
         if (seen != 0) (seen == 1 ? before[i][j] : before[j][i]) = true;
       }

@@ -90,7 +90,7 @@ TEST_CASE("an orthographic stratum's control integrates to 0 over its inside, an
   std::mt19937_64 rng(41);
   std::uniform_real_distribution<double> unit(0, 1);
   std::normal_distribution<double> normal;
-  int tested = 0, overlapping = 0, cutting = 0, changing = 0, refused = 0;
+  int tested = 0, overlapping = 0, cutting = 0, changing = 0, refused = 0, unsplit = 0;
   for (int trial = 0; trial < 600 && tested < 120; ++trial) {
     // Two or three disks of 0.4-3 pixels' radius near pixel (0, 0); pixel units across and down;
     // their spheres' centres 0-3 units deep (many cut through each other) or 0-20.
@@ -125,7 +125,8 @@ TEST_CASE("an orthographic stratum's control integrates to 0 over its inside, an
       light.sun[l] = {d.x, d.y, d.z, Vec3d(0.9, 0.8, 0.7) * (l + 1.0)};
       for (auto& t : toward) t.push_back(d);
     }
-    const StratumControl c = diskControl(0, 0, p, member, light);
+    const StratumControl c = diskControl(0, 0, p, member, light, true);
+    if (!diskControl(0, 0, p, member, light, false).any() && c.any()) ++unsplit;  // one seen changes: split only if asked
     if (!c.any()) {
       refused += cut;
       continue;
@@ -185,6 +186,7 @@ TEST_CASE("an orthographic stratum's control integrates to 0 over its inside, an
   CHECK(overlapping >= 20);  // strata whose disks overlap
   CHECK(cutting >= 10);      // of spheres that cut through each other, one seen all over the overlap in the pixel
   CHECK(changing >= 5);      // of those, the sphere seen changes inside the overlap in the pixel
+  CHECK(unsplit == changing);  // and without `split` they have none
   CHECK(refused >= 5);       // three disks, the sphere seen changes in the pixel: no control
 }
 

@@ -477,9 +477,9 @@ def test_spheres_whose_discs_overlap_are_exact_where_they_cut_through_each_other
     # (StratumControl.h), its mean exact: where one sphere is seen all over the overlap in the pixel,
     # and where the one seen changes there (the projection of the circle their fronts meet on crosses
     # it, bounding the part of the overlap each is seen in). Such a pixel settles at the first pass's
-    # 4 samples (once its outside holds one) on the colour 64 samples give, where before it took 64
-    # (spheres cutting through each other had no control; spheres apart, one that left the hidden
-    # one's spread). Which sphere is seen where, in the pixels one pair's discs reach alone with their
+    # 4 samples (once its outside holds one) on the colour 128 samples give, where before it took all
+    # it could (spheres cutting through each other had no control; spheres apart, one that left the
+    # hidden one's spread). Which sphere is seen where, in the pixels one pair's discs reach alone with their
     # union's edge across them: the nearest front on a 64 x 64 grid of the pixel.
     scene, spheres = _lit_sphere_pairs()
     x, y = pixel_centres(SIZE, SIZE)
@@ -503,12 +503,18 @@ def test_spheres_whose_discs_overlap_are_exact_where_they_cut_through_each_other
         first = fronts[0][overlap] > fronts[1][overlap]
         one_seen[row, column], both_seen[row, column] = first.all() or not first.any(), first.any() and not first.all()
     assert one_seen.sum() >= 20 and both_seen.sum() >= 10
-    result = adaptive(scene, spp=64, min_spp=4, target_error=0.002, seed=5)
-    forced = adaptive(scene, spp=64, min_spp=64, seed=5)
+    result = adaptive(scene, spp=128, min_spp=4, target_error=0.002, seed=5)
+    forced = adaptive(scene, spp=128, min_spp=128, seed=5)
     difference = np.abs(result.color[..., :3] - forced.color[..., :3]).max(axis=-1)
     for pixels in (one_seen, both_seen):
         assert np.mean(result.samples[pixels] == 4) >= 0.9
         assert np.median(difference[pixels]) < 1e-6 and difference[pixels & (result.samples == 4)].max() < 1e-5
+    # Where a pixel may take at most 64 samples, an overlap the sphere seen changes in is not split (its
+    # geometry costs more than the samples it spares: AdaptiveSampler::kSplitSamples): no control there
+    # (seen: 21 of the 25 pixels of one sphere seen still settle at 4, the others hold a sliver of the
+    # other sphere finer than the grid).
+    capped = adaptive(scene, spp=64, min_spp=4, target_error=0.002, seed=5)
+    assert np.mean(capped.samples[one_seen] == 4) >= 0.75 and np.all(capped.samples[both_seen] >= 16)
 
 
 def test_shadows_keep_their_edges_refined():

@@ -48,8 +48,9 @@
 // Where directional lights shine, each sample inside the stratum is taken less its control variate
 // (orthographic: diskControl (StratumControl.h), the diffuse shading by the ambient light and those
 // lights, no shadows, of the sphere seen there, less that shading's exact mean over the stratum's
-// inside; where three disks cross the pixel and the sphere seen changes inside an overlap of two of
-// spheres that cut through each other, none; perspective, for a small sphere: ellipseControl, the same with
+// inside; where the sphere seen changes inside an overlap of two disks of spheres that cut through
+// each other and three disks cross the pixel, or a pixel may take fewer than kSplitSamples, none;
+// perspective, for a small sphere: ellipseControl, the same with
 // the sphere's normal modelled as an orthographic camera would see it): the part's mean, and its
 // halves', then vary only with what the control leaves out (shadows, highlights, emission, other
 // lights, the perspective model's departure), and diffuse spheres lit by suns without shadows seen
@@ -113,6 +114,11 @@ class AdaptiveSampler {
   static constexpr double kUnseenShare = 0.5;     // of the contrast an unseen edge's bound, expected
   static constexpr double kPartSpread = 0.5;      // the largest standard deviation of a colour in [0, 1]
   static constexpr double kNetHalves = 2.8284271247461903;  // 2^1.5: how far a smooth colour's halves over-state (smoothlyShaded)
+  // The most samples a pixel may take from which its strata also split an overlap of two disks
+  // where the sphere seen changes inside it (diskControl): that geometry costs about 90 samples' worth
+  // (50 k instructions against 560 a sample, docs/benchmarks.md, fifty-ninth round), and such a pixel
+  // without it takes about the most samples it may where the target is strict.
+  static constexpr int kSplitSamples = 128;
   static constexpr int kMetPrimitives = 4;        // a pixel's first samples' distinct primitives the watch is checked
                                                   // against (beyond: a sphere met may be watched until met again)
 
@@ -485,7 +491,8 @@ class AdaptiveSampler {
     bool strata = false;
     const bool watch = t.stratum != nullptr && m_rounds > 0 && m_tiles.seesDisks();
     if (StratumState* u = t.stratum) {
-      m_tiles.silhouetteStrata(t.x0, t.y0, t.w, t.h, u->strata, u->sphere, m_tiles.controlsStrata() ? u->control : nullptr);
+      m_tiles.silhouetteStrata(t.x0, t.y0, t.w, t.h, u->strata, u->sphere, m_tiles.controlsStrata() ? u->control : nullptr,
+                               m_maxSamples >= kSplitSamples);
       for (auto& watched : u->watched) std::fill(watched, watched + count, Tiles::kNoSphere);  // set after the samples
       strata = std::any_of(u->strata, u->strata + count, [](const PixelStratum& p) { return p.any(); });
       u->controlled = false;

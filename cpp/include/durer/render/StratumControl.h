@@ -77,13 +77,15 @@ struct ControlMember {
 // inclusion and exclusion). Where the one seen changes inside the overlap (the projection of the arc
 // where their fronts meet crosses it), with two members: the second loses the overlap and gets back,
 // from the first, the part of it where it is seen, which that arc bounds (its fans integrated in the
-// arc's parameter); with three, none (nor where the pairs' ranks disagree). A function of a sample's
+// arc's parameter), if `split`; with three, or without `split`, none (nor where the pairs' ranks
+// disagree). A function of a sample's
 // position alone whose mean over the inside is 0: the inside's mean of the samples' colours less
 // their controls estimates the colours' mean without bias whatever the shading. Where the shading is
 // that (diffuse spheres lit by suns, no shadows), a sample's colour less its control is the mean all
 // over the inside: exact from one sample. Left: emission, shadows, highlights, other lights, ambient
 // occlusion, samples that met something else, which the samples estimate.
-StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMember* members, const ControlLighting& light);
+StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMember* members, const ControlLighting& light,
+                           bool split);
 
 // diskControl's control of a sample at (x, y) inside stratum p.
 Vec3d diskControlAt(const PixelStratum& p, const StratumControl& c, const ControlLighting& light, double x, double y);

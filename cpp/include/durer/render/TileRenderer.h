@@ -500,9 +500,9 @@ class TileRenderer {
   // cell's spheres by their fronts' depths: once every pixel has a cover nearer than the next one's
   // front, or too many spheres crossing it, the rest can change nothing and are not read.
   // With `controls` (null unless the render controlsStrata()): each stratum's control variate too
-  // (diskControl).
+  // (diskControl; `split`: also where the sphere seen changes inside an overlap of two).
   void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres,
-                        StratumControl* controls) const {
+                        StratumControl* controls, bool split) const {
     constexpr int kMost = PixelStratum::kMostDisks;
     std::fill(strata, strata + w * h, PixelStratum{});
     std::fill(spheres, spheres + w * h, kNoSphere);
@@ -574,7 +574,7 @@ class TileRenderer {
         if (strata[k].any() && controls) {
           ControlMember own[kMost];
           for (int m = 0; m < strata[k].disks; ++m) own[m] = {diffuseOf(memberSphere[m][k]), member[m][k].q, member[m][k].radius};
-          controls[k] = diskControl(x0 + column, y0 + row, strata[k], own, m_lighting);
+          controls[k] = diskControl(x0 + column, y0 + row, strata[k], own, m_lighting, split);
           const auto before = [&] {  // every member wholly before the plane
             for (int m = 0; m < strata[k].disks; ++m) {
               if (!beforePlane(memberSphere[m][k])) return false;
