@@ -9,13 +9,73 @@ namespace durer {
 
 namespace {
 
-// The fan integral of the clamped cosine over the fan from the centre to a straight piece (arc
-// false) or an arc of the unit circle (its points the chord's pushed out to the circle): across it by
-// Gauss-Legendre in the position along the chord, cut at `cut` (sorted, within (0, 1)) and where the
-// rim term a u + b v changes sign.
-double chordFan(DiskPieces::Point p, DiskPieces::Point q, bool arc, double a, double b, double c, const double* cuts, int count) {
+// The integral of w over the fan from the centre to the straight piece from p to q (inside the disk),
+// the hemisphere's volume over it: along the piece, (1 - (1 - r^2)^1.5) / 3 over r^2 (in a form that
+// does not cancel near the centre) by 6-point Gauss-Legendre, times the fan's turn.
+double wFan(DiskPieces::Point p, DiskPieces::Point q) {
+  const double du = q.u - p.u, dv = q.v - p.v;
+  double sum = 0;
+  for (int j = 0; j < 6; ++j) {
+    const double bu = p.u + kGaussNode[j] * du, bv = p.v + kGaussNode[j] * dv, rest = std::max(0.0, 1 - bu * bu - bv * bv);
+    sum += kGaussWeight[j] * (1 + rest + rest * rest) / (1 + rest * std::sqrt(rest));  // (1 - rest^1.5) / r^2
+  }
+  return (p.u * q.v - p.v * q.u) * sum / 3;
+}
+
+// Along a fan's ray from the disk's centre, of direction e (any length), out to r, the light's cosine
+// is S t + c sqrt(1 - t^2) (S = (a, b) . e / |e|): the terminator, where it is 0, crosses the ray at
+// t = |c| / h (h = sqrt(S^2 + c^2)) if S and c differ in sign and r h > |c|. The ray's integral of
+// the cosine clamped at 0 (times t dt) is then one of three closed forms: the whole ray's, lit all
+// over (kLit: (S r^3 - c w^3 + c) / 3, w = sqrt(1 - r^2)); where the light faces the viewer (c > 0)
+// and the ray leaves it, its stretch before the terminator (kNear: c (1 + S / h) / 3, whatever r);
+// where the light is behind (c < 0) and the ray reaches it, its stretch beyond the terminator
+// (kFar: the whole ray's less c (1 - S / h) / 3); or nothing (kDark).
+enum class FanRays { kLit, kNear, kFar, kDark };
+
+FanRays raysOf(double ex, double ey, double r, double a, double b, double c) {
+  const double slope = (a * ex + b * ey) / std::sqrt(ex * ex + ey * ey), h = std::sqrt(slope * slope + c * c);
+  if (c > 0) return slope < 0 && r * h > c ? FanRays::kNear : FanRays::kLit;
+  if (c < 0) return slope > 0 && r * h > -c ? FanRays::kFar : FanRays::kDark;
+  return slope > 0 ? FanRays::kLit : FanRays::kDark;
+}
+
+// The integral of c (1 + side S / h) / 3 (kNear's with side 1, kFar's less with -1) across the fan
+// from direction p to direction q (any lengths; less than half a turn apart): c / 3 times the angle
+// plus side times that of S / h, whose antiderivative in the ray's angle t is asin(A sin(t - psi) /
+// H) (A, psi the polar form of (a, b), H = sqrt(A^2 + c^2)), the argument of (h, A sin(t - psi)),
+// here scaled by |e|. As 1 + side S / h lies in [0, 1] on such rays, the sum lies within half a turn:
+// one argument, of the product of the three complex numbers.
+double terminatorFan(DiskPieces::Point p, DiskPieces::Point q, double a, double b, double c, double side) {
+  const auto antiderivative = [&](DiskPieces::Point e, double& re, double& im) {
+    const double along = a * e.u + b * e.v;
+    re = std::sqrt(along * along + c * c * (e.u * e.u + e.v * e.v)), im = side * (a * e.v - b * e.u);
+  };
+  double pr, pi, qr, qi;
+  antiderivative(p, pr, pi), antiderivative(q, qr, qi);
+  const double turnRe = qr * pr + qi * pi, turnIm = qi * pr - qr * pi;  // q's times p's conjugate
+  const double angleRe = p.u * q.u + p.v * q.v, angleIm = p.u * q.v - p.v * q.u;
+  return c / 3 * std::atan2(angleRe * turnIm + angleIm * turnRe, angleRe * turnRe - angleIm * turnIm);
+}
+
+// kLit's integral across the fan from the centre to the straight piece from p to q (inside the
+// disk): the triangle's moments of a u + b v exactly, and c times its fan's of w (wFan).
+double litFan(DiskPieces::Point p, DiskPieces::Point q, double a, double b, double c) {
   const double cross = p.u * q.v - p.v * q.u;
-  if (cross == 0) return 0;
+  return cross * (a * (p.u + q.u) + b * (p.v + q.v)) / 6 + c * wFan(p, q);
+}
+
+// kLit's across the fan to an arc of the unit circle from p to q (on it; at most a quarter turn).
+double litArcFan(DiskPieces::Point p, DiskPieces::Point q, double a, double b, double c) {
+  return (a * (q.v - p.v) - b * (q.u - p.u)) / 3 + c * std::atan2(p.u * q.v - p.v * q.u, p.u * q.u + p.v * q.v) / 3;
+}
+
+// The fan integral of the clamped cosine over the fan from the centre to a straight piece (arc
+// false) or an arc of the unit circle (its points the chord's pushed out to the circle), cut at `cut`
+// (sorted, within (0, 1): where the terminator crosses it) and where the rim term a u + b v changes
+// sign: between cuts its rays are of one kind (FanRays), each stretch's fan in closed form but for
+// a straight piece's w (wFan).
+double chordFan(DiskPieces::Point p, DiskPieces::Point q, bool arc, double a, double b, double c, const double* cuts, int count) {
+  if (p.u * q.v - p.v * q.u == 0) return 0;
   const double du = q.u - p.u, dv = q.v - p.v, p0 = a * p.u + b * p.v, p1 = a * du + b * dv;
   double cut[5] = {0, 1, 1, 1, 1};
   int n = 1;
@@ -23,16 +83,46 @@ double chordFan(DiskPieces::Point p, DiskPieces::Point q, bool arc, double a, do
   if (p1 != 0 && -p0 / p1 > 0 && -p0 / p1 < 1) cut[n++] = -p0 / p1;
   std::sort(cut, cut + n);
   cut[n] = 1;
+  const auto at = [&](double s) { return s == 0 ? p : s == 1 ? q : DiskPieces::Point{p.u + s * du, p.v + s * dv}; };
+  const auto onRim = [](DiskPieces::Point e) {
+    const double l = std::sqrt(e.u * e.u + e.v * e.v);
+    return DiskPieces::Point{e.u / l, e.v / l};
+  };
   double sum = 0;
   for (int k = 0; k < n; ++k) {
-    const double s0 = cut[k], length = cut[k + 1] - s0;
-    for (int j = 0; j < 6; ++j) {
-      const double s = s0 + length * kGaussNode[j];
-      const double bu = p.u + s * du, bv = p.v + s * dv, r2 = bu * bu + bv * bv, r = std::sqrt(r2);
-      sum += kGaussWeight[j] * length * fanRay((a * bu + b * bv) / r, arc ? 1.0 : std::min(r, 1.0), c) / r2;
+    if (!(cut[k] < cut[k + 1])) continue;
+    const DiskPieces::Point from = at(cut[k]), to = at(cut[k + 1]), mid = at((cut[k] + cut[k + 1]) / 2);
+    const FanRays rays = raysOf(mid.u, mid.v, arc ? 1.0 : std::min(1.0, std::sqrt(mid.u * mid.u + mid.v * mid.v)), a, b, c);
+    if (rays == FanRays::kDark) continue;
+    if (rays != FanRays::kNear) sum += arc ? litArcFan(onRim(from), onRim(to), a, b, c) : litFan(from, to, a, b, c);
+    if (rays == FanRays::kNear) sum += terminatorFan(from, to, a, b, c, 1);
+    if (rays == FanRays::kFar) sum -= terminatorFan(from, to, a, b, c, -1);
+  }
+  return sum;
+}
+
+// A root of f between x0 and x1, where f's values f0 and f1 differ in sign: false position with the
+// Illinois rule (the end kept twice has its value halved), to the last bits of x.
+template <typename F>
+double signChange(double x0, double f0, double x1, double f1, const F& f) {
+  double x = x1;
+  for (int it = 0, side = 0; it < 60; ++it) {
+    const double next = (f0 * x1 - f1 * x0) / (f0 - f1);
+    if (!(next > std::min(x0, x1) && next < std::max(x0, x1)) || next == x) return next == next ? next : (x0 + x1) / 2;
+    x = next;
+    const double fx = f(x);
+    if (fx == 0) return x;
+    if ((fx < 0) == (f1 < 0)) {
+      x1 = x, f1 = fx;
+      if (side == -1) f0 /= 2;
+      side = -1;
+    } else {
+      x0 = x, f0 = fx;
+      if (side == 1) f1 /= 2;
+      side = 1;
     }
   }
-  return cross * sum;
+  return x;
 }
 
 // The area the pieces bound: half the integral of u dv - v du along them (each piece's fan from the
@@ -58,22 +148,6 @@ double areaOf(const ClippedDiskPart::Piece* piece, int count) {
 }
 
 }  // namespace
-
-double fanRay(double slope, double r, double c) {
-  const auto antiderivative = [&](double t, double w) { return (slope * t * t * t - c * w * w * w) / 3; };
-  const double w = std::sqrt(std::max(0.0, (1 - r) * (1 + r)));
-  const double h = std::sqrt(slope * slope + c * c);
-  if (c > 0) {
-    const double start = -c / 3;  // at t = 0
-    if (slope >= 0 || r * h <= c) return antiderivative(r, w) - start;
-    return antiderivative(c / h, -slope / h) - start;  // the terminator at t = c / h, w = |slope| / h
-  }
-  if (c < 0) {
-    if (slope <= 0 || r * h <= -c) return 0.0;
-    return antiderivative(r, w) - antiderivative(-c / h, slope / h);
-  }
-  return slope > 0 ? slope * r * r * r / 3 : 0.0;
-}
 
 DiskPieces::DiskPieces(double u0, double u1, double v0, double v1) {
   const DiskRectanglePath path(u0, u1, v0, v1);
@@ -168,12 +242,7 @@ void UnitDiskPart::integrate() {
     area += cross / 2;
     u += dv / 6 * (p.u * p.u + p.u * q.u + q.u * q.u);
     v -= du / 6 * (p.v * p.v + p.v * q.v + q.v * q.v);
-    double sum = 0;
-    for (int j = 0; j < 6; ++j) {
-      const double bu = p.u + kGaussNode[j] * du, bv = p.v + kGaussNode[j] * dv, rest = std::max(0.0, 1 - bu * bu - bv * bv);
-      sum += kGaussWeight[j] * (1 + rest + rest * rest) / (1 + rest * std::sqrt(rest));  // (1 - rest^1.5) / r^2
-    }
-    fanW = cross * sum / 3;
+    fanW = wFan(p, q);
     w += fanW;
   }
 }
@@ -398,34 +467,46 @@ double ClippedDiskPart::clampedIntegral(double a, double b, double c) const {
           }
         }
       }
-      // Where the cosine changes sign: bisection between 4 points.
+      // Where the cosine changes sign: between 4 points, then by false position (Illinois).
       constexpr int kSteps = 4;
       double before = cosine(t0);
       for (int k = 1; k <= kSteps && n < 23; ++k) {
-        double lo = t0 + (t1 - t0) * (k - 1) / kSteps, hi = t0 + (t1 - t0) * k / kSteps;
-        const double now = cosine(hi);
-        if ((before < 0) != (now < 0)) {
-          for (int it = 0; it < 30 && std::abs(hi - lo) > 1e-15 * (1 + std::abs(hi)); ++it) {
-            const double mid = (lo + hi) / 2;
-            ((cosine(mid) < 0) == (before < 0) ? lo : hi) = mid;
-          }
-          cut[n++] = (lo + hi) / 2;
-        }
+        const double now = cosine(t0 + (t1 - t0) * k / kSteps);
+        if ((before < 0) != (now < 0)) cut[n++] = signChange(t0 + (t1 - t0) * (k - 1) / kSteps, before, t0 + (t1 - t0) * k / kSteps, now, cosine);
         before = now;
       }
       std::sort(cut + 1, cut + n, [&](double x, double y) { return t1 > t0 ? x < y : x > y; });
       cut[n] = t1;
+      // Between cuts the rays are of one kind (FanRays); across the stretch by 6-point Gauss-Legendre
+      // in t, the fan's turn b x b'(t) / |b|^2 times its ray's integral (kLit's, over r^2 without
+      // cancelling: a u + b v plus c (1 + w + w^2) / (1 + w)).
       for (int k = 0; k < n; ++k) {
         const double s0 = cut[k], length = cut[k + 1] - s0;
+        double mu, mv;
+        at(s0 + length / 2, mu, mv);
+        const double mr = std::sqrt(mu * mu + mv * mv);
+        if (!(length != 0 && mr > 0)) continue;
+        const FanRays rays = raysOf(mu, mv, std::min(mr, 1.0), a, b, c);
+        if (rays == FanRays::kDark) continue;
         for (int j = 0; j < 6; ++j) {
           const double t = s0 + length * kGaussNode[j];
           double bu, bv;
           at(t, bu, bv);
           const double du = -au * std::sin(t) + bu2 * std::cos(t), dv = -av * std::sin(t) + bv2 * std::cos(t);
-          const double r2 = bu * bu + bv * bv, r = std::sqrt(r2);
+          const double r2 = bu * bu + bv * bv;
           if (!(r2 > 0)) continue;
-          const double turn = (bu * dv - bv * du) / r2;
-          total += kGaussWeight[j] * length * turn * fanRay((a * bu + b * bv) / r, std::min(r, 1.0), c);
+          const double along = a * bu + b * bv;
+          double ray = 0;
+          if (rays != FanRays::kNear) {
+            const double w = std::sqrt(std::max(0.0, 1 - r2));
+            ray += along + c * (1 + w + w * w) / (1 + w);
+          }
+          if (rays != FanRays::kLit) {
+            const double slope = along / std::sqrt(r2);
+            const double side = rays == FanRays::kNear ? 1 : -1;
+            ray += side * c * (1 + side * slope / std::sqrt(slope * slope + c * c)) / r2;
+          }
+          total += kGaussWeight[j] * length * (bu * dv - bv * du) * ray / 3;
         }
       }
     }
