@@ -467,12 +467,13 @@ double ClippedDiskPart::clampedIntegral(double a, double b, double c) const {
           }
         }
       }
-      // Where the cosine changes sign: between 4 points, then by false position (Illinois).
-      constexpr int kSteps = 4;
+      // Where the cosine changes sign: between points at most an eighth of a turn apart, then by
+      // false position (Illinois).
+      const int steps = std::max(1, static_cast<int>(std::ceil(std::abs(t1 - t0) / (kPi / 8))));
       double before = cosine(t0);
-      for (int k = 1; k <= kSteps && n < 23; ++k) {
-        const double now = cosine(t0 + (t1 - t0) * k / kSteps);
-        if ((before < 0) != (now < 0)) cut[n++] = signChange(t0 + (t1 - t0) * (k - 1) / kSteps, before, t0 + (t1 - t0) * k / kSteps, now, cosine);
+      for (int k = 1; k <= steps && n < 23; ++k) {
+        const double now = cosine(t0 + (t1 - t0) * k / steps);
+        if ((before < 0) != (now < 0)) cut[n++] = signChange(t0 + (t1 - t0) * (k - 1) / steps, before, t0 + (t1 - t0) * k / steps, now, cosine);
         before = now;
       }
       std::sort(cut + 1, cut + n, [&](double x, double y) { return t1 > t0 ? x < y : x > y; });

@@ -211,15 +211,16 @@ ClippedDiskPart inFrame(const Curve* curves, int count, const PixelBall& s) {
   return ClippedDiskPart(piece, n);
 }
 
-// The boundary of the part of the overlap of a's and b's disks within the rectangle [0, 1] x [0, h]
-// where b is seen (its front nearer), for spheres that cut through each other, `meet` their fronts'
-// arc: the overlap's boundary (ClippedDiskPart, in a's frame) cut where the arc meets it, its
-// stretches where b is seen, and the arc's stretches inside the rectangle, turned to have that part
-// on their left. In `out` (room for 96); returns how many.
-int seenPart(const PixelBall& a, const PixelBall& b, const FrontsMeet& meet, double h, Curve* out) {
+// The boundaries of the parts of the overlap of a's and b's disks within the rectangle [0, 1] x [0, h]
+// where each is seen (its front nearer), for spheres that cut through each other, `meet` their
+// fronts' arc: the overlap's boundary (ClippedDiskPart, in a's frame) cut where the arc meets it,
+// each stretch to the part of the sphere seen there, and the arc's stretches inside the rectangle
+// to both, turned to have each part on their left. Where b is seen in `bSeen` (room for 96), where a
+// is in `aSeen` (as much); their counts in `counts`.
+void seenPart(const PixelBall& a, const PixelBall& b, const FrontsMeet& meet, double h, Curve* bSeen, Curve* aSeen, int* counts) {
   const double one[1] = {(b.x - a.x) / a.r}, two[1] = {(b.y - a.y) / a.r}, three[1] = {b.r / a.r};
   const ClippedDiskPart lens(-a.x / a.r, (1 - a.x) / a.r, -a.y / a.r, (h - a.y) / a.r, one, two, three, 1);
-  const auto bSeen = [&](double x, double y) {
+  const auto seesB = [&](double x, double y) {
     const double da = a.r * a.r - (x - a.x) * (x - a.x) - (y - a.y) * (y - a.y), db = b.r * b.r - (x - b.x) * (x - b.x) - (y - b.y) * (y - b.y);
     return b.z - std::sqrt(std::max(0.0, db)) < a.z - std::sqrt(std::max(0.0, da));
   };
@@ -253,8 +254,11 @@ int seenPart(const PixelBall& a, const PixelBall& b, const FrontsMeet& meet, dou
       if (inside(x, y)) meets[nm][0] = x, meets[nm][1] = y, ++nm;
     }
   }
-  int count = 0;
-  // The overlap's boundary, cut at those points, where b is seen.
+  counts[0] = counts[1] = 0;
+  const auto add = [&](bool toB, const Curve& c) {
+    if (counts[toB ? 0 : 1] < 96) (toB ? bSeen : aSeen)[counts[toB ? 0 : 1]++] = c;
+  };
+  // The overlap's boundary, cut at those points, to the part of the sphere seen there.
   for (int i = 0; i < lens.count; ++i) {
     const ClippedDiskPart::Piece& piece = lens.piece[i];
     Curve c{};
@@ -294,10 +298,10 @@ int seenPart(const PixelBall& a, const PixelBall& b, const FrontsMeet& meet, dou
       part.from = at[k], part.to = at[k + 1];
       double x, y, dx, dy;
       part.at((part.from + part.to) / 2, x, y, dx, dy);
-      if (bSeen(x, y) && count < 96) out[count++] = part;
+      add(seesB(x, y), part);
     }
   }
-  // The arc's stretches inside the rectangle, b seen on their left.
+  // The arc's stretches inside the rectangle, both ways: b seen on the left of one, a on the other's.
   for (int m = 1; m < nt; ++m) {  // insertion sort of at most 10
     for (int l = m; l > 0 && ts[l] < ts[l - 1]; --l) std::swap(ts[l], ts[l - 1]);
   }
@@ -308,10 +312,10 @@ int seenPart(const PixelBall& a, const PixelBall& b, const FrontsMeet& meet, dou
     meet.at(mid, x, y), meet.tangent(mid, dx, dy);
     if (!inside(x, y)) continue;
     const double l = std::hypot(dx, dy), step = 1e-7 * (1 + a.r + b.r);
-    const bool left = bSeen(x - step * dy / l, y + step * dx / l);
-    if (count < 96) out[count++] = {Curve::kEllipse, 0, 0, 0, 0, &meet, left ? ts[k] : ts[k + 1], left ? ts[k + 1] : ts[k]};
+    const bool left = seesB(x - step * dy / l, y + step * dx / l);
+    add(true, {Curve::kEllipse, 0, 0, 0, 0, &meet, left ? ts[k] : ts[k + 1], left ? ts[k + 1] : ts[k]});
+    add(false, {Curve::kEllipse, 0, 0, 0, 0, &meet, left ? ts[k + 1] : ts[k], left ? ts[k] : ts[k + 1]});
   }
-  return count;
 }
 
 
@@ -392,11 +396,12 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
     const Vec3d along = shadingOver(part, light, [](const ControlLighting::Sun& s) { return Vec3d(s.a, s.b, s.c); }, control.lights[i]);
     sum += kd * along / scale, inside += part.area / scale;
     // Less the part that nearer members' disks cover (in the member's frame): one's, or two's by
-    // inclusion and exclusion; where the one seen changes, the second member's whole overlap (below).
+    // inclusion and exclusion; where the one seen changes, each the part of the overlap where the
+    // other is seen (below).
     double cu[kMost], cv[kMost], cr[kMost];
     int nearer = 0;
-    for (int j = 0; j < n; ++j) {
-      if (!overlap[i][j] || (changes ? i == 0 : rank[j] > rank[i])) continue;
+    for (int j = 0; j < n && !changes; ++j) {
+      if (!overlap[i][j] || rank[j] > rank[i]) continue;
       cu[nearer] = (double(p.cx[j]) - double(p.cx[i])) * double(p.inverseAx[i]);
       cv[nearer] = (double(p.cy[j]) - double(p.cy[i])) * double(p.aspect) * double(p.inverseAx[i]);
       cr[nearer++] = double(p.inverseAx[i]) / double(p.inverseAx[j]);
@@ -408,14 +413,15 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
     if (nearer >= 1) cover(0, 1, 1);
     if (nearer == 2) cover(1, 1, 1), cover(0, 2, -1);
   }
-  if (changes) {  // two members: the second's overlap was taken out; the part of it where it is seen
-    // comes back, and the first loses it
+  if (changes) {  // two members: each loses the part of their overlap where the other is seen
     const FrontsMeet meet(ball[0], ball[1]);
-    Curve curves[96];
-    const int count = seenPart(ball[0], ball[1], meet, double(p.aspect), curves);
+    Curve seen[2][96];
+    int counts[2];
+    seenPart(ball[0], ball[1], meet, double(p.aspect), seen[0], seen[1], counts);
     for (int i = 0; i < 2; ++i) {  // a pixel's area in a member's frame: the aspect over its radius squared
       const double pixel = double(p.aspect) / (ball[i].r * ball[i].r);
-      sum += (i == 0 ? -1.0 : 1.0) * Vec3d(control.kd[i]) * shadingOver(inFrame(curves, count, ball[i]), light, control.lights[i]) / pixel;
+      const ClippedDiskPart lost = inFrame(seen[i], counts[i], ball[i]);
+      sum -= Vec3d(control.kd[i]) * shadingOver(lost, light, control.lights[i]) / pixel, inside -= lost.area / pixel;
     }
   }
   if (!(inside > 0)) return {};

@@ -182,8 +182,8 @@ struct UnitDiskPart {
 // area (each fan's from the disk's centre: a triangle, a sector, or over another circle's arc in
 // closed form) and the integral over it of a light's clamped cosine, by the fans (as
 // UnitDiskPart::clampedIntegral's; across another circle's or an ellipse's arc by 6-point
-// Gauss-Legendre in its parameter, cut where the terminator crosses it: found between 4 points a
-// quarter turn by false position).
+// Gauss-Legendre in its parameter, cut where the terminator crosses it: found between points at
+// most an eighth of a turn apart by false position).
 struct ClippedDiskPart {
   static constexpr int kMostCircles = 2;
   struct Piece {

@@ -75,11 +75,10 @@ struct ControlMember {
 // through each other, the one in front all over their overlap within the pixel (seenWithin); a
 // member then loses the part nearer members' disks cover (ClippedDiskPart; two nearer ones by
 // inclusion and exclusion). Where the one seen changes inside the overlap (the projection of the arc
-// where their fronts meet crosses it), with two members: the second loses the overlap and gets back,
-// from the first, the part of it where it is seen, which that arc bounds (its fans integrated in the
-// arc's parameter), if `split`; with three, or without `split`, none (nor where the pairs' ranks
-// disagree). A function of a sample's
-// position alone whose mean over the inside is 0: the inside's mean of the samples' colours less
+// where their fronts meet crosses it), with two members: each loses the part of the overlap where
+// the other is seen, which that arc bounds (its fans integrated in the arc's parameter), if `split`;
+// with three, or without `split`, none (nor where the pairs' ranks disagree). A function of a
+// sample's position alone whose mean over the inside is 0: the inside's mean of the samples' colours less
 // their controls estimates the colours' mean without bias whatever the shading. Where the shading is
 // that (diffuse spheres lit by suns, no shadows), a sample's colour less its control is the mean all
 // over the inside: exact from one sample. Left: emission, shadows, highlights, other lights, ambient
