@@ -479,21 +479,23 @@ double ClippedDiskPart::clampedIntegral(double a, double b, double c) const {
       std::sort(cut + 1, cut + n, [&](double x, double y) { return t1 > t0 ? x < y : x > y; });
       cut[n] = t1;
       // Between cuts the rays are of one kind (FanRays); across the stretch by 6-point Gauss-Legendre
-      // in t, the fan's turn b x b'(t) / |b|^2 times its ray's integral (kLit's, over r^2 without
-      // cancelling: a u + b v plus c (1 + w + w^2) / (1 + w)).
+      // in tau = tan(sigma / 2), t = its middle + sigma (no sine or cosine a point: cos sigma = (1 -
+      // tau^2) / (1 + tau^2), sin sigma = 2 tau / (1 + tau^2), d sigma = 2 d tau / (1 + tau^2)), the
+      // fan's turn b x b' / |b|^2 times its ray's integral (kLit's, over r^2 without cancelling: a u +
+      // b v plus c (1 + w + w^2) / (1 + w)).
       for (int k = 0; k < n; ++k) {
-        const double s0 = cut[k], length = cut[k + 1] - s0;
-        double mu, mv;
-        at(s0 + length / 2, mu, mv);
-        const double mr = std::sqrt(mu * mu + mv * mv);
-        if (!(length != 0 && mr > 0)) continue;
+        const double middle = (cut[k] + cut[k + 1]) / 2, half = (cut[k + 1] - cut[k]) / 2;
+        const double cm = std::cos(middle), sm = std::sin(middle);
+        // b(middle + sigma) = centre + p cos sigma + q sin sigma
+        const double pu = au * cm + bu2 * sm, pv = av * cm + bv2 * sm, qu = bu2 * cm - au * sm, qv = bv2 * cm - av * sm;
+        const double mu = e.cu + pu, mv = e.cv + pv, mr = std::sqrt(mu * mu + mv * mv);
+        if (!(half != 0 && mr > 0)) continue;
         const FanRays rays = raysOf(mu, mv, std::min(mr, 1.0), a, b, c);
         if (rays == FanRays::kDark) continue;
+        const double reach = std::tan(half / 2);
         for (int j = 0; j < 6; ++j) {
-          const double t = s0 + length * kGaussNode[j];
-          double bu, bv;
-          at(t, bu, bv);
-          const double du = -au * std::sin(t) + bu2 * std::cos(t), dv = -av * std::sin(t) + bv2 * std::cos(t);
+          const double tau = reach * (2 * kGaussNode[j] - 1), d = 1 / (1 + tau * tau), cs = (1 - tau * tau) * d, sn = 2 * tau * d;
+          const double bu = e.cu + pu * cs + qu * sn, bv = e.cv + pv * cs + qv * sn, du = qu * cs - pu * sn, dv = qv * cs - pv * sn;
           const double r2 = bu * bu + bv * bv;
           if (!(r2 > 0)) continue;
           const double along = a * bu + b * bv;
@@ -503,11 +505,10 @@ double ClippedDiskPart::clampedIntegral(double a, double b, double c) const {
             ray += along + c * (1 + w + w * w) / (1 + w);
           }
           if (rays != FanRays::kLit) {
-            const double slope = along / std::sqrt(r2);
-            const double side = rays == FanRays::kNear ? 1 : -1;
+            const double slope = along / std::sqrt(r2), side = rays == FanRays::kNear ? 1 : -1;
             ray += side * c * (1 + side * slope / std::sqrt(slope * slope + c * c)) / r2;
           }
-          total += kGaussWeight[j] * length * (bu * dv - bv * du) * ray / 3;
+          total += kGaussWeight[j] * 4 * reach * d * (bu * dv - bv * du) * ray / 3;
         }
       }
     }
