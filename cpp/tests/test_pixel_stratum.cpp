@@ -387,7 +387,8 @@ std::array<double, 4> momentsIntegrated(double u0, double u1, double v0, double 
 }
 
 // The integral over [from, to] of max(0, slope t + offset + c sqrt(s2 - t^2)) dt (a light's cosine
-// along a chord of the unit disk at half-length sqrt(s2)), exact: split where it changes sign.
+// along a chord of the unit disk at half-length sqrt(s2)), exact: split where it changes sign (with c
+// 0, where slope t + offset does: the quadratic's double root, which rounding may lose).
 double clampedAlongChord(double slope, double offset, double c, double s2, double from, double to) {
   const double s = std::sqrt(s2);
   const auto root = [&](double t) { return std::sqrt(std::max(0.0, s2 - t * t)); };
@@ -396,12 +397,15 @@ double clampedAlongChord(double slope, double offset, double c, double s2, doubl
     return slope * t * t / 2 + offset * t + c / 2 * (t * root(t) + s2 * std::asin(std::clamp(t / s, -1.0, 1.0)));
   };
   std::vector<double> ends{from, to};
-  const double qa = slope * slope + c * c, qb = 2 * slope * offset, qc = offset * offset - c * c * s2, d = qb * qb - 4 * qa * qc;
-  if (d > 0 && qa > 0) {
-    for (const double t : {(-qb + std::sqrt(d)) / (2 * qa), (-qb - std::sqrt(d)) / (2 * qa)}) {
+  // The discriminant qb^2 - 4 qa qc as 4 c^2 (qa s2 - offset^2), which does not cancel where c is near 0.
+  const double qa = slope * slope + c * c, qb = 2 * slope * offset, qc = offset * offset - c * c * s2, d = 4 * c * c * (qa * s2 - offset * offset);
+  if (d > 0 && qa > 0) {  // the roots in the form that does not cancel
+    const double q = -(qb + std::copysign(std::sqrt(d), qb)) / 2;
+    for (const double t : {q / qa, q != 0 ? qc / q : -q / qa}) {
       if (t > from && t < to) ends.push_back(t);
     }
   }
+  if (c == 0 && slope != 0 && -offset / slope > from && -offset / slope < to) ends.push_back(-offset / slope);
   std::sort(ends.begin(), ends.end());
   double sum = 0;
   for (size_t k = 0; k + 1 < ends.size(); ++k) {
@@ -621,4 +625,29 @@ TEST_CASE("a sphere's front over its disk's part of a pixel within other disks: 
   }
   CHECK(tested == 160);
   CHECK(cut > 30);
+}
+
+TEST_CASE("the clamped cosine's closed forms hold for lights in the view's plane, nearly so, and straight along the view") {
+  // The terminator seen edge on (c 0 or 1e-9: the rays' stretch before it shrinks to nothing), or as
+  // the rim (a = b = 0), against numerical integration; over a disk's part alone and within one more
+  // disk (ClippedDiskPart's arcs). Within 1e-5 of the pixel (w's quadrature near the rim).
+  std::mt19937_64 rng(53);
+  std::uniform_real_distribution<double> unit(0, 1);
+  std::normal_distribution<double> normal;
+  for (int trial = 0; trial < 90; ++trial) {
+    const double r = 0.3 + 4.7 * unit(rng), cx = -r - 1 + (2 * r + 1) * unit(rng), cy = -r - 1 + (2 * r + 1) * unit(rng);
+    const double u0 = -cx / r, u1 = (1 - cx) / r, v0 = -cy / r, v1 = (1 - cy) / r;
+    double l[3] = {normal(rng), normal(rng), normal(rng)};
+    if (trial % 3 == 0) l[2] = 0;
+    if (trial % 3 == 1) l[2] *= 1e-9;
+    if (trial % 3 == 2) l[0] = l[1] = 0;
+    const double length = std::sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
+    for (double& x : l) x /= length;
+    const double expected = clippedIntegrated(u0, u1, v0, v1, nullptr, nullptr, nullptr, 0, l[0], l[1], l[2])[1];
+    CHECK_MESSAGE(std::abs(UnitDiskPart(u0, u1, v0, v1).clampedIntegral(l[0], l[1], l[2]) - expected) * r * r < 1e-5, trial);
+    const double cr[1] = {(0.3 + 4.7 * unit(rng)) / r};
+    const double cu[1] = {(u0 + u1) / 2 + (unit(rng) - 0.5) * 2 * (cr[0] + 1 / r)}, cv[1] = {(v0 + v1) / 2 + (unit(rng) - 0.5) * 2 * (cr[0] + 1 / r)};
+    const double clipped = clippedIntegrated(u0, u1, v0, v1, cu, cv, cr, 1, l[0], l[1], l[2])[1];
+    CHECK_MESSAGE(std::abs(ClippedDiskPart(u0, u1, v0, v1, cu, cv, cr, 1).clampedIntegral(l[0], l[1], l[2]) - clipped) * r * r < 1e-5, trial);
+  }
 }
