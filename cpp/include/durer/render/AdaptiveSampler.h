@@ -115,9 +115,10 @@ class AdaptiveSampler {
   static constexpr double kPartSpread = 0.5;      // the largest standard deviation of a colour in [0, 1]
   static constexpr double kNetHalves = 2.8284271247461903;  // 2^1.5: how far a smooth colour's halves over-state (smoothlyShaded)
   // The most samples a pixel may take from which its strata also split an overlap of two disks
-  // where the sphere seen changes inside it (diskControl): that geometry costs about 90 samples' worth
-  // (50 k instructions against 560 a sample, docs/benchmarks.md, fifty-ninth round), and such a pixel
-  // without it takes about the most samples it may where the target is strict.
+  // where the sphere seen changes inside it (diskControl): that geometry costs about 45 samples' worth
+  // (25 k instructions against 560 a sample), and such a pixel without it takes about the most samples
+  // it may where the target is strict; at 64 it spares the edge scene's refining rounds less than it
+  // costs its first pass (docs/benchmarks.md, fifty-ninth and sixtieth rounds).
   static constexpr int kSplitSamples = 128;
   static constexpr int kMetPrimitives = 4;        // a pixel's first samples' distinct primitives the watch is checked
                                                   // against (beyond: a sphere met may be watched until met again)
