@@ -67,7 +67,9 @@
 // Through an orthographic camera, a pixel also watches up to two spheres whose silhouettes cross it
 // and that its first samples did not meet, but the sphere of a one-sphere stratum
 // (TileRenderer::watchSilhouettes: a sliver beside the stratum's edge, an edge where two spheres'
-// disks meet, or a member of the union none of whose part of it was reached): while no sample has
+// disks meet, or a member of the union none of whose part of it was reached), nearer than the
+// farthest they met where what they met hides all beyond it over the pixel (a plane, a sphere whose
+// disk covers it), at any depth where not (a deeper sphere beside the disk they all fell in): while no sample has
 // met one, it keeps the pixel marked as an unseen edge would (kUnseenShare of its share), less for
 // each sample that has landed inside its silhouette and met something else (unseenShare: evidence
 // that it is hidden there).
@@ -555,7 +557,17 @@ class AdaptiveSampler {
       // One that could not matter (unseen, it would put the mean off by less than the target) is not
       // watched: its share never changes.
       const double least = m_target / kUnseenShare;
-      m_tiles.watchSilhouettes(t.x0, t.y0, t.w, t.h, farthest, u->sphere, wasMet, least, u->watched, u->watchedShare);
+      // A sphere beyond every hit of the first samples may still show where what they met leaves
+      // part of the pixel uncovered (a sphere's disk around which the samples all fell).
+      alignas(64) float reach[kPacketSize];
+      for (int row = 0, k = 0; row < t.h; ++row) {
+        for (int col = 0; col < t.w; ++col, ++k) {
+          bool hidden = false;
+          for (int i = 0; i < metCount[k] && !hidden; ++i) hidden = m_tiles.hidesBeyond(met[i][k], t.x0 + col, t.y0 + row);
+          reach[k] = hidden ? farthest[k] : std::numeric_limits<float>::infinity();
+        }
+      }
+      m_tiles.watchSilhouettes(t.x0, t.y0, t.w, t.h, reach, u->sphere, wasMet, least, u->watched, u->watchedShare);
       for (auto& missed : u->watchedMissed) std::fill(missed, missed + count, 0.0f);
     }
     // A tile without a stratum or a sphere watched (most tiles of an image of large spheres) keeps

@@ -675,23 +675,24 @@ class TileRenderer {
   // Sets watched[s][k] (s < kWatched; kNoSphere: none) for the pixels k (row by row) of the w x h
   // tile at (x0, y0) to the first kWatched spheres of the camera's view, by the view's bounds on
   // their fronts' depths (the nearest a sphere may be met anywhere in the cell: tLow), whose
-  // silhouettes cross the pixel nearer than the farthest hit its samples met (farthest[k], inf: a
-  // miss), other than its stratum's (stratum[k]) and those that sphere hides there (hides), that
+  // silhouettes cross the pixel nearer than `reach`[k] (the farthest hit its samples met where what
+  // they met hides all beyond it, else inf), other than its stratum's (stratum[k]) and those that
+  // sphere hides there (hides), that
   // cover more than `least` of it (shares[s][k] their share, PixelStratum's), and that none of its
   // samples met (met(k, sphere) false). Such a sphere may show in a part of the pixel no sample
   // reached (a sliver, or one sphere's edge beside another's), or lie hidden there: adaptive
   // sampling keeps the pixel refining while what it may cover unseen exceeds targetError
   // (AdaptiveSampler::unseenShare). For a render that seesDisks().
   template <typename Met>
-  void watchSilhouettes(int x0, int y0, int w, int h, const float* farthest, const uint32_t* stratum, const Met& met,
+  void watchSilhouettes(int x0, int y0, int w, int h, const float* reach, const uint32_t* stratum, const Met& met,
                         double least, uint32_t (*watched)[kPacketSize], float (*shares)[kPacketSize]) const {
     for (int s = 0; s < kWatched; ++s) std::fill(watched[s], watched[s] + w * h, kNoSphere);
     const ParallelProjection image = m_camera.projection();
-    const float deepest = *std::max_element(farthest, farthest + w * h);
+    const float deepest = *std::max_element(reach, reach + w * h);
     m_view->forCellOf(x0, y0, deepest, [&](uint32_t i, float nearest, std::array<int, 2> rows, std::array<int, 2> columns) {
       const ImageDisk d = imageDisk(image, i);
       forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
-        if (!(nearest < farthest[k]) || stratum[k] == i || watched[kWatched - 1][k] != kNoSphere) return;
+        if (!(nearest < reach[k]) || stratum[k] == i || watched[kWatched - 1][k] != kNoSphere) return;
         const double boxShare = std::max(0.0, std::min(x + 1.0, d.cx + d.ax) - std::max(double(x), d.cx - d.ax)) *
                                 std::max(0.0, std::min(y + 1.0, d.cy + d.ay) - std::max(double(y), d.cy - d.ay));
         if (!(boxShare > least) || d.cover(x, y) != Cover::Crosses || met(k, i)) return;
@@ -756,6 +757,15 @@ class TileRenderer {
 
   // Sphere `sphere`'s silhouette in the image. For a render that seesDisks().
   ImageDisk silhouette(uint32_t sphere) const { return imageDisk(m_camera.projection(), sphere); }
+
+  // Whether primitive `prim`, which a sample of pixel (x, y) met, hides whatever lies beyond it all
+  // over the pixel: anything but one of the top-level group's own spheres (a plane, unbounded; a
+  // group's or mesh's, not looked into), or such a sphere whose silhouette covers the pixel. For a
+  // render that seesDisks().
+  bool hidesBeyond(int32_t prim, int x, int y) const {
+    if (prim < 0 || static_cast<size_t>(prim) >= m_group.spheres().size()) return true;
+    return silhouette(static_cast<uint32_t>(prim)).cover(x, y) == Cover::Inside;
+  }
 
   // A sphere of the camera's view as a perspective image shows it: the ellipse of the sample
   // positions whose rays' lines pass through it, a du^2 + 2 b du dv + c dv^2 < 1 about its centre
