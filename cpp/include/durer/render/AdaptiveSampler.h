@@ -69,10 +69,10 @@
 // (TileRenderer::watchSilhouettes: a sliver beside the stratum's edge, an edge where two spheres'
 // disks meet, or a member of the union none of whose part of it was reached), nearer than the
 // farthest they met where what they met hides all beyond it over the pixel (a plane, a sphere whose
-// disk covers it), at any depth where not (a deeper sphere beside the disk they all fell in): while no sample has
-// met one, it keeps the pixel marked as an unseen edge would (kUnseenShare of its share), less for
-// each sample that has landed inside its silhouette and met something else (unseenShare: evidence
-// that it is hidden there).
+// disk covers it), at any depth where not (a deeper sphere beside the disk they all fell in): while
+// no sample has met one, it keeps the pixel marked as an unseen edge would (kUnseenShare of its
+// share), less for each sample that has landed inside its silhouette and met something else
+// (unseenShare: evidence that it is hidden there).
 // What the render reports as a pixel's error (`result.error`, the estimated RMSE) is its last
 // round's estimate alone: the average leans toward the larger errors of fewer samples; a pixel of
 // two samples reports how far its mean lies from its neighbours' (residualError), one whose samples

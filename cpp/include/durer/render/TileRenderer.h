@@ -677,12 +677,11 @@ class TileRenderer {
   // their fronts' depths (the nearest a sphere may be met anywhere in the cell: tLow), whose
   // silhouettes cross the pixel nearer than `reach`[k] (the farthest hit its samples met where what
   // they met hides all beyond it, else inf), other than its stratum's (stratum[k]) and those that
-  // sphere hides there (hides), that
-  // cover more than `least` of it (shares[s][k] their share, PixelStratum's), and that none of its
-  // samples met (met(k, sphere) false). Such a sphere may show in a part of the pixel no sample
-  // reached (a sliver, or one sphere's edge beside another's), or lie hidden there: adaptive
-  // sampling keeps the pixel refining while what it may cover unseen exceeds targetError
-  // (AdaptiveSampler::unseenShare). For a render that seesDisks().
+  // sphere hides there (hides), that cover more than `least` of it (shares[s][k] their share,
+  // PixelStratum's), and that none of its samples met (met(k, sphere) false). Such a sphere may show
+  // in a part of the pixel no sample reached (a sliver, or one sphere's edge beside another's), or
+  // lie hidden there: adaptive sampling keeps the pixel refining while what it may cover unseen
+  // exceeds targetError (AdaptiveSampler::unseenShare). For a render that seesDisks().
   template <typename Met>
   void watchSilhouettes(int x0, int y0, int w, int h, const float* reach, const uint32_t* stratum, const Met& met,
                         double least, uint32_t (*watched)[kPacketSize], float (*shares)[kPacketSize]) const {
@@ -758,10 +757,10 @@ class TileRenderer {
   // Sphere `sphere`'s silhouette in the image. For a render that seesDisks().
   ImageDisk silhouette(uint32_t sphere) const { return imageDisk(m_camera.projection(), sphere); }
 
-  // Whether primitive `prim`, which a sample of pixel (x, y) met, hides whatever lies beyond it all
-  // over the pixel: anything but one of the top-level group's own spheres (a plane, unbounded; a
-  // group's or mesh's, not looked into), or such a sphere whose silhouette covers the pixel. For a
-  // render that seesDisks().
+  // Whether primitive `prim`, which a sample of pixel (x, y) met, is taken to hide whatever lies
+  // beyond it all over the pixel: one of the top-level group's own spheres if its silhouette covers
+  // the pixel; anything else (a plane is unbounded; a group's or a mesh's primitive is not looked
+  // into). For a render that seesDisks().
   bool hidesBeyond(int32_t prim, int x, int y) const {
     if (prim < 0 || static_cast<size_t>(prim) >= m_group.spheres().size()) return true;
     return silhouette(static_cast<uint32_t>(prim)).cover(x, y) == Cover::Inside;
