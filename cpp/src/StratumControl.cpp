@@ -289,9 +289,7 @@ void seenPart(const PixelBall& a, const PixelBall& b, const FrontsMeet& meet, do
       }
       if (t > c.from && t < c.to) at[na++] = t;
     }
-    for (int m = 2; m < na; ++m) {  // insertion sort of at most 10
-      for (int l = m; l > 1 && at[l] < at[l - 1]; --l) std::swap(at[l], at[l - 1]);
-    }
+    std::sort(at + 1, at + na);
     at[na] = c.to;
     for (int k = 0; k < na; ++k) {
       Curve part = c;
@@ -302,9 +300,7 @@ void seenPart(const PixelBall& a, const PixelBall& b, const FrontsMeet& meet, do
     }
   }
   // The arc's stretches inside the rectangle, both ways: b seen on the left of one, a on the other's.
-  for (int m = 1; m < nt; ++m) {  // insertion sort of at most 10
-    for (int l = m; l > 0 && ts[l] < ts[l - 1]; --l) std::swap(ts[l], ts[l - 1]);
-  }
+  std::sort(ts, ts + nt);
   for (int k = 0; k + 1 < nt; ++k) {
     if (!(ts[k] >= start && ts[k + 1] <= end && ts[k + 1] > ts[k])) continue;
     const double mid = (ts[k] + ts[k + 1]) / 2;
