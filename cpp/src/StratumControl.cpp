@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "durer/accel/SphereView.h"
 
@@ -343,9 +344,10 @@ bool rankBy(const bool (*before)[PixelStratum::kMostDisks], int n, uint8_t* rank
 }  // namespace
 
 StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMember* members, const ControlLighting& light,
-                           bool split) {
+                           bool split, double* share) {
   constexpr int kMost = PixelStratum::kMostDisks;
   StratumControl control{};
+  if (share) *share = std::numeric_limits<double>::quiet_NaN();
   if (p.shear != 0) return control;
   const int n = p.disks;
   // Which member is seen where two disks overlap in the pixel: a rank, or (two members) where it
@@ -420,6 +422,13 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
       sum -= Vec3d(control.kd[i]) * shadingOver(lost, light, control.lights[i]) / pixel, inside -= lost.area / pixel;
     }
   }
+  // Without the split, the members' parts less what nearer ones cover partition the union's part of
+  // the pixel, each bounded by circles and the pixel's sides: its share. Their fans from each disk's
+  // centre round to about 1e-16 a^2 of the pixel (a disk of a pixels' radius), the union's area
+  // (PixelStratum::unionShare) to about 1e-16 a: the parts make it up to kMostPartsShareRadius.
+  bool small = true;
+  for (int i = 0; i < n; ++i) small = small && 1 / double(p.inverseAx[i]) <= kMostPartsShareRadius;
+  if (share && !changes && small) *share = inside;
   if (!(inside > 0)) return {};
   control.mean = Vec3<float>(sum / inside);
   return control;

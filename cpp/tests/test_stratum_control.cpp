@@ -277,3 +277,57 @@ TEST_CASE("a perspective stratum's control integrates to 0 over its inside; a sp
   }
   CHECK(tested >= 30);
 }
+
+TEST_CASE("an orthographic control's parts make its stratum's share: the union's area, where no split cuts them") {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> unit(0, 1);
+  ControlLighting light;
+  light.suns = 1;
+  light.sun[0] = {0.3, -0.5, 0.81, Vec3d(1)};
+  int single = 0, several = 0, split = 0, large = 0;
+  double worst = 0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    // One to three disks of 0.3-3 pixels' radius (a tenth of them up to 16, a tenth up to 300) near
+    // pixel (0, 0); their spheres' centres 0-3 units deep (many cut through each other) or 0-20.
+    const int n = 1 + trial % 3;
+    const double deep = trial % 2 ? 3 : 20;
+    PixelStratum::Ellipse e[3];
+    ControlMember member[3];
+    bool small = true;
+    for (int i = 0; i < n; ++i) {
+      const double most = trial % 10 == 0 ? 300 : trial % 10 == 1 ? kMostPartsShareRadius : 3;
+      const double r = 0.3 + (most - 0.3) * unit(rng);
+      // Their edges near the pixel: centres r - 1 to r + 1 from its middle.
+      const double angle = 2 * kPi * unit(rng), reach = r - 1 + 2 * unit(rng);
+      const double cx = 0.5 + reach * std::cos(angle), cy = 0.5 + reach * std::sin(angle);
+      e[i] = {cx, cy, r, r};
+      member[i] = {Vec3d(0.5), Vec3d(cx, -cy, deep * unit(rng)), r};
+      small = small && 1 / double(float(1 / r)) <= kMostPartsShareRadius;
+    }
+    const PixelStratum p = PixelStratum::shaped(e, n);
+    const double area = p.unionShare(0, 0);
+    if (!(area > 0 && area < 1)) continue;
+    for (const bool splits : {false, true}) {
+      double share = 0;
+      const StratumControl c = diskControl(0, 0, p, member, light, splits, &share);
+      if (!small) {
+        CHECK_MESSAGE(std::isnan(share), trial);
+        large += c.any();
+        continue;
+      }
+      if (std::isnan(share)) {  // a split's parts are bounded by the arc where the fronts meet, or none
+        split += splits && c.any();
+        CHECK_MESSAGE((splits || !c.any()), trial);
+        continue;
+      }
+      CHECK_MESSAGE(c.any(), trial);
+      worst = std::max(worst, std::abs(share - area));
+      single += n == 1, several += n > 1;
+    }
+  }
+  CHECK(worst < 1e-13);
+  CHECK(single > 1000);
+  CHECK(several > 1500);
+  CHECK(split > 40);
+  CHECK(large > 200);
+}

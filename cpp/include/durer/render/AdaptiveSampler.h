@@ -669,7 +669,7 @@ class AdaptiveSampler {
     }
     for (int k = 0; t.stratum && k < count; ++k) {  // a stratum's pixels: their estimates and means by its parts
       const StratumState& u = *t.stratum;
-      if (!u.strata[k].any() || !sampled[k]) continue;  // an unsampled pixel's summary stands (below)
+      if (!sampled[k] || !u.strata[k].any()) continue;  // an unsampled pixel's summary stands (below)
       error[k] = stratifiedError(t, k);
       const Real n = t.sums.samples[k];
       meanR[k] = static_cast<float>(u.mean(k, 0, t.sums.r[k], n, u.inR[k]));

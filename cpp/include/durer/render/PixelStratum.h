@@ -462,12 +462,17 @@ struct PixelStratum {
   };
 
   // The stratum of pixel (x, y) by the union of `count` ellipses (the first kMostDisks), if its edge
-  // crosses the pixel (and no axis exceeds kMostAxis); otherwise none. The share is computed for the
-  // ellipses as the members test them (centres and inverses rounded to float): one ellipse's in the
-  // unit disk's frame (unitDiskRectangleArea); a union's in the frame where the first is a circle,
-  // where the others are too (all of them one family: their axes' ratio is the pixels' aspect, to
-  // float's rounding) — circlesRectangleUnionArea.
+  // crosses the pixel (and no axis exceeds kMostAxis); otherwise none: shaped(), its share by
+  // unionShare().
   static PixelStratum of(int x, int y, const Ellipse* ellipses, int count) {
+    const PixelStratum p = shaped(ellipses, count);
+    return p.disks > 0 ? p.withShare(p.unionShare(x, y)) : p;
+  }
+
+  // The ellipses of a stratum (the first kMostDisks of `count`) as its members test them (centres
+  // and inverses rounded to float), its share not yet known (0: any() is false until withShare);
+  // none (no disk) where an axis exceeds kMostAxis or is not a positive finite number.
+  static PixelStratum shaped(const Ellipse* ellipses, int count) {
     PixelStratum p{};
     p.disks = std::min(count, kMostDisks);
     for (int i = 0; i < p.disks; ++i) {
@@ -480,25 +485,35 @@ struct PixelStratum {
         return {};
       }
     }
-    if (p.disks == 0) return {};
-    const double iu = p.inverseAx[0], iv = p.inverseAy[0];
-    double share;
-    if (p.disks == 1) {
-      share = unitDiskRectangleArea((x - double(p.cx[0])) * iu, (x + 1 - double(p.cx[0])) * iu,
-                                    (y - double(p.cy[0])) * iv, (y + 1 - double(p.cy[0])) * iv) / (iu * iv);
-    } else {
-      // Pixel units across, the first ellipse's aspect down (v = (y - y0) iv / iu), which every
-      // member takes (contains): circles of radius 1 / inverseAx.
-      p.aspect = static_cast<float>(iv / iu);
-      const double aspect = p.aspect;
-      double cu[kMostDisks], cv[kMostDisks], radius[kMostDisks];
-      for (int i = 0; i < p.disks; ++i) {
-        cu[i] = double(p.cx[i]) - x, cv[i] = (double(p.cy[i]) - y) * aspect, radius[i] = 1 / double(p.inverseAx[i]);
-      }
-      share = circlesRectangleUnionArea(cu, cv, radius, p.disks, 1, aspect) / aspect;
+    // Of several: pixel units across, the first ellipse's aspect down (v = (y - y0) iv / iu), which
+    // every member takes (contains): circles of radius 1 / inverseAx.
+    if (p.disks > 1) p.aspect = static_cast<float>(double(p.inverseAy[0]) / double(p.inverseAx[0]));
+    return p;
+  }
+
+  // The share of pixel (x, y)'s square inside the union of a shaped() stratum's ellipses: one
+  // ellipse's in the unit disk's frame (unitDiskRectangleArea); a union's in the frame where the
+  // first is a circle, where the others are too (all of them one family: their axes' ratio is the
+  // pixels' aspect, to float's rounding) — circlesRectangleUnionArea.
+  double unionShare(int x, int y) const {
+    const double iu = inverseAx[0], iv = inverseAy[0];
+    if (disks == 1) {
+      return unitDiskRectangleArea((x - double(cx[0])) * iu, (x + 1 - double(cx[0])) * iu, (y - double(cy[0])) * iv,
+                                   (y + 1 - double(cy[0])) * iv) / (iu * iv);
     }
+    double cu[kMostDisks], cv[kMostDisks], radius[kMostDisks];
+    for (int i = 0; i < disks; ++i) {
+      cu[i] = double(cx[i]) - x, cv[i] = (double(cy[i]) - y) * double(aspect), radius[i] = 1 / double(inverseAx[i]);
+    }
+    return circlesRectangleUnionArea(cu, cv, radius, disks, 1, double(aspect)) / double(aspect);
+  }
+
+  // This shaped() stratum with `share` (of its pixel inside the union), if that lies in (0, 1) as
+  // rounded to float; otherwise none (its edge does not cross the pixel).
+  PixelStratum withShare(double share) const {
+    PixelStratum p = *this;
     p.share = static_cast<float>(share);
-    return p.share > 0 && p.share < 1 ? p : PixelStratum{};  // as rounded
+    return p.share > 0 && p.share < 1 ? p : PixelStratum{};
   }
 
   // The stratum of pixel (x, y) by one ellipse of centre (cx, cy) and semi-axes ax, ay.

@@ -21,6 +21,8 @@ struct ParallelProjection;
 // (ellipseControl): its model of the normal departs from the sphere's by about that sine, and
 // beyond it the control may add more spread than it removes (docs/benchmarks.md, fifty-sixth round).
 inline constexpr int kMostControlLights = 8;
+// The largest radius (pixels) of the disks whose control's parts make their stratum's share (diskControl).
+inline constexpr double kMostPartsShareRadius = 16;
 inline constexpr double kMostControlSine = 0.1;
 
 // The light a control models: the ambient light and the directional lights, each as the unit
@@ -83,8 +85,12 @@ struct ControlMember {
 // that (diffuse spheres lit by suns, no shadows), a sample's colour less its control is the mean all
 // over the inside: exact from one sample. Left: emission, shadows, highlights, other lights, ambient
 // occlusion, samples that met something else, which the samples estimate.
+// p's share is not read (p may be PixelStratum::shaped's). With `share`, sets *share to the union's
+// share of the pixel as the members' parts make it, where they partition it along circles and the
+// pixel's sides (no split) and no member's radius exceeds kMostPartsShareRadius: p.unionShare's, to
+// 1e-13 of the pixel, at no further cost; NaN elsewhere.
 StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMember* members, const ControlLighting& light,
-                           bool split);
+                           bool split, double* share = nullptr);
 
 // diskControl's control of a sample at (x, y) inside stratum p.
 Vec3d diskControlAt(const PixelStratum& p, const StratumControl& c, const ControlLighting& light, double x, double y);

@@ -569,19 +569,30 @@ class TileRenderer {
       for (int column = 0; column < w; ++column, ++k) {
         PixelStratum::Ellipse ellipses[kMost];
         for (int m = 0; m < members[k]; ++m) ellipses[m] = {member[m][k].cx, member[m][k].cy, member[m][k].ax, member[m][k].ay};
-        strata[k] = PixelStratum::of(x0 + column, y0 + row, ellipses, members[k]);
-        if (strata[k].any() && members[k] == 1) spheres[k] = memberSphere[0][k];
-        if (strata[k].any() && controls) {
+        const int x = x0 + column, y = y0 + row;
+        const PixelStratum shape = PixelStratum::shaped(ellipses, members[k]);
+        if (shape.disks == 0) continue;
+        // The control's parts make the union's share too where they partition it (diskControl);
+        // elsewhere, and without a control, the union's area does.
+        StratumControl control{};
+        double share = std::numeric_limits<double>::quiet_NaN();
+        if (controls) {
           ControlMember own[kMost];
-          for (int m = 0; m < strata[k].disks; ++m) own[m] = {diffuseOf(memberSphere[m][k]), member[m][k].q, member[m][k].radius};
-          controls[k] = diskControl(x0 + column, y0 + row, strata[k], own, m_lighting, split);
+          for (int m = 0; m < shape.disks; ++m) own[m] = {diffuseOf(memberSphere[m][k]), member[m][k].q, member[m][k].radius};
+          control = diskControl(x, y, shape, own, m_lighting, split, &share);
+        }
+        strata[k] = shape.withShare(std::isnan(share) ? shape.unionShare(x, y) : share);
+        if (!strata[k].any()) continue;
+        if (members[k] == 1) spheres[k] = memberSphere[0][k];
+        if (controls) {
           const auto before = [&] {  // every member wholly before the plane
             for (int m = 0; m < strata[k].disks; ++m) {
               if (!beforePlane(memberSphere[m][k])) return false;
             }
             return true;
           };
-          controls[k].exact = m_controlExact && controls[k].any() && hidden[k] == inf && before();
+          control.exact = m_controlExact && control.any() && hidden[k] == inf && before();
+          controls[k] = control;
         }
       }
     }
