@@ -450,6 +450,42 @@ def test_an_inside_its_control_describes_needs_no_sample():
     assert np.abs(result.color[..., :3] - forced.color[..., :3]).max(axis=-1)[sliver].max() < 1e-6
 
 
+def test_a_pixel_one_sphere_fills_beside_its_edge_takes_its_exact_colour_from_its_first_samples():
+    # A pixel one sphere's disc covers, no other reaching into it, sees that sphere's front all over.
+    # Where a neighbour's square crosses the disc's edge (its samples may meet the plane, which kept
+    # the pixel refining to 16 samples to look for an edge), its stratum is the disc filling it and
+    # its control the sphere's shading, exact (diffuse, one sun, no shadows): it settles at its first
+    # two samples, on the sphere's shading integrated over the pixel (here on a 256 x 256 grid).
+    scene, discs = _lit_spheres_apart()
+    x, y = pixel_centres(SIZE, SIZE)
+    filled = np.zeros(x.shape, bool)
+    for cx, cy, r in discs:  # its square inside the disc, its 3 x 3 neighbourhood's not
+        filled |= (np.hypot(np.abs(x - cx) + 0.5, np.abs(y - cy) + 0.5) < r) & (np.hypot(np.abs(x - cx) + 1.5, np.abs(y - cy) + 1.5) > r)
+    assert filled.sum() >= 40
+    result = adaptive(scene, spp=64, min_spp=2, target_error=0.002, seed=5)
+    assert np.all(result.samples[filled] == 2)
+    toward = np.array([0.5, -0.3, 0.8]) / np.linalg.norm([0.5, -0.3, 0.8])
+    ambient, sun = np.array([0.1, 0.12, 0.08]), np.array([0.95, 0.9, 0.8])
+    offsets = (np.arange(256) + 0.5) / 256 - 0.5
+    worst = 0.0
+    for row, column in zip(*np.nonzero(filled)):
+        k, (cx, cy, r) = next((k, d) for k, d in enumerate(discs) if math.hypot(x[row, column] - d[0], y[row, column] - d[1]) < d[2])
+        u, v = np.meshgrid((x[row, column] + offsets - cx) / r, (y[row, column] + offsets - cy) / r)
+        cosine = np.maximum(0.0, toward[0] * u + toward[1] * v + toward[2] * np.sqrt(1 - u * u - v * v))
+        kd = np.array((0.9, 0.3, 0.2) if k % 2 else (0.2, 0.5, 0.9))
+        exact = kd * (ambient + sun * cosine.mean())
+        worst = max(worst, np.abs(result.color[row, column, :3] - exact).max())
+    assert worst < 1e-6
+    # Not where the control would not be exact: highlights, or a sphere whose rim the plane cuts.
+    highlighted, _ = _lit_spheres_apart(specular=0.5)
+    assert np.all(adaptive(highlighted, spp=64, min_spp=2, target_error=0.002, seed=5).samples[filled] >= 16)
+    sunk, _ = _lit_spheres_apart(sunk=True)
+    cx, cy, r = discs[0]
+    first = filled & (np.hypot(x - cx, y - cy) < r)
+    assert first.sum() >= 10
+    assert np.all(adaptive(sunk, spp=64, min_spp=2, target_error=0.002, seed=5).samples[first] >= 16)
+
+
 def _lit_sphere_pairs() -> tuple[durer.Scene, list[tuple[float, float, float, float]]]:
     """Thirty-six pairs of diffuse spheres of 1.4-2.4 pixels' radius whose discs overlap (most cutting
     through each other, their centres within 1.5 of one depth; every fourth pair apart in space),

@@ -204,7 +204,9 @@ def markdown(report: Report, plots: dict[str, str]) -> str:
         "control and no sphere behind its discs covering it, its samples less their control one colour on each "
         "part (both scenes' shading is the control's: diffuse, one sun, no shadows), settles once a sample reaches "
         "its outside (no edge rule, nor its neighbours' errors, keeps it refining; its inside's colour is the "
-        "control's mean there, known without a sample). "
+        "control's mean there, known without a sample); so does a pixel one sphere's disc covers beside its edge "
+        "(a neighbour's square crosses it), no other sphere reaching into it before that sphere's centre, at its "
+        "first samples: its stratum is the disc filling it, its colour the control's mean. "
         "The slopes are "
         "least-squares fits of log RMSE against log spp (adaptive: against the samples it took); plain Monte "
         "Carlo converges as spp^-0.5. The reference's own error puts a floor under the curves at the highest spp.",

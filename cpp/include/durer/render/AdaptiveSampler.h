@@ -63,7 +63,10 @@
 // inside's colour less the control is the control's mean there (the control is the colour itself
 // less its mean), so its inside needs no sample either (StratumState::mean; its spheres watched are
 // its members): it settles at the first pass once its outside is reached (docs/benchmarks.md,
-// fifty-seventh to fifty-ninth rounds).
+// fifty-seventh to fifty-ninth rounds). A pixel one sphere's disk covers beside its edge, which the
+// edge rules would take to kEdgeSamples for its neighbours' other geometry, has for its stratum that
+// disk filling it (share 1, TileRenderer::fill) where such a control would be exact: it settles at
+// the first pass too (sixty-first round).
 // Through an orthographic camera, a pixel also watches up to two spheres whose silhouettes cross it
 // and that its first samples did not meet, but the sphere of a one-sphere stratum
 // (TileRenderer::watchSilhouettes: a sliver beside the stratum's edge, an edge where two spheres'

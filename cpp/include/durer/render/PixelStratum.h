@@ -443,7 +443,7 @@ struct PixelStratum {
   static constexpr int kMostDisks = 3;
   float cx[kMostDisks], cy[kMostDisks];                // the ellipses' centres
   float inverseAx[kMostDisks], inverseAy[kMostDisks];  // their semi-axes' inverses
-  float share;   // of pixel (x, y)'s square [x, x + 1] x [y, y + 1] inside the union, in (0, 1)
+  float share;   // of pixel (x, y)'s square [x, x + 1] x [y, y + 1] inside the union, in (0, 1); 1: filled()
   float aspect;  // of several: each one's semi-axes' ratio ay / ax, as its membership and the share take it
   int32_t disks;  // how many ellipses
   float shear;   // of one: a rotated ellipse's (sheared): u = (x - cx) inverseAx + (y - cy) shear; 0 else
@@ -506,6 +506,14 @@ struct PixelStratum {
       cu[i] = double(cx[i]) - x, cv[i] = (double(cy[i]) - y) * double(aspect), radius[i] = 1 / double(inverseAx[i]);
     }
     return circlesRectangleUnionArea(cu, cv, radius, disks, 1, double(aspect)) / double(aspect);
+  }
+
+  // The stratum of a pixel that one ellipse fills (share 1: every sample lies inside), for its control
+  // alone (TileRenderer::fill); none where shaped() makes none.
+  static PixelStratum filled(const Ellipse& e) {
+    PixelStratum p = shaped(&e, 1);
+    if (p.disks == 1) p.share = 1;
+    return p;
   }
 
   // This shaped() stratum with `share` (of its pixel inside the union), if that lies in (0, 1) as

@@ -500,7 +500,9 @@ class TileRenderer {
   // cell's spheres by their fronts' depths: once every pixel has a cover nearer than the next one's
   // front, or too many spheres crossing it, the rest can change nothing and are not read.
   // With `controls` (null unless the render controlsStrata()): each stratum's control variate too
-  // (diskControl; `split`: also where the sphere seen changes inside an overlap of two).
+  // (diskControl; `split`: also where the sphere seen changes inside an overlap of two); and a pixel
+  // that one sphere's disk covers, no other sphere reaching into it before that sphere's centre, may
+  // take that disk filling it for its stratum (fill).
   void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres,
                         StratumControl* controls, bool split) const {
     constexpr int kMost = PixelStratum::kMostDisks;
@@ -515,9 +517,12 @@ class TileRenderer {
     uint32_t memberSphere[kMost][kPacketSize];
     int members[kPacketSize];
     double hidden[kPacketSize];  // the depth behind which a sphere covering the pixel hides everything
+    uint32_t cover[kPacketSize];  // that sphere
+    int reaching[kPacketSize];    // the spheres reaching into the pixel whose fronts lay before `hidden` when met
     double deepest[kPacketSize];  // the deepest member's centre
     std::fill(members, members + count, 0);
     std::fill(hidden, hidden + count, inf);
+    std::fill(reaching, reaching + count, 0);
     std::fill(deepest, deepest + count, -inf);
     // A sphere can change a pixel's union or cover only if its centre lies before the cover; a pixel
     // more spheres cross than a union holds (members[k] > kMost) keeps none, whatever follows: the
@@ -525,13 +530,15 @@ class TileRenderer {
     const auto bound = [&](int k) { return members[k] <= kMost ? hidden[k] : -inf; };
     walkStrata(x0, y0, w, h, [&](uint32_t i) { return imageDisk(image, i); }, bound,
                [&](const ImageDisk& d, uint32_t i, int k, int x, int y) {
+                 if (!(d.q.z - d.radius < hidden[k])) return false;
+                 const Cover reach = d.cover(x, y);
+                 reaching[k] += reach != Cover::Outside;
                  if (!(d.q.z < hidden[k])) return false;
-                 const Cover cover = d.cover(x, y);
-                 if (cover == Cover::Inside) {
-                   hidden[k] = d.q.z;
+                 if (reach == Cover::Inside) {
+                   hidden[k] = d.q.z, cover[k] = i;
                    return true;
                  }
-                 if (cover != Cover::Crosses || members[k] > kMost) return false;
+                 if (reach != Cover::Crosses || members[k] > kMost) return false;
                  if (members[k] < kMost) member[members[k]][k] = d, memberSphere[members[k]][k] = i;
                  ++members[k];
                  return members[k] > kMost;  // the bound moves only with a cover or too many
@@ -570,6 +577,10 @@ class TileRenderer {
         PixelStratum::Ellipse ellipses[kMost];
         for (int m = 0; m < members[k]; ++m) ellipses[m] = {member[m][k].cx, member[m][k].cy, member[m][k].ax, member[m][k].ay};
         const int x = x0 + column, y = y0 + row;
+        if (members[k] == 0 && controls && m_controlExact && hidden[k] < inf && reaching[k] == 1) {
+          fill(x, y, cover[k], strata[k], spheres[k], controls[k]);
+          continue;
+        }
         const PixelStratum shape = PixelStratum::shaped(ellipses, members[k]);
         if (shape.disks == 0) continue;
         // The control's parts make the union's share too where they partition it (diskControl);
@@ -596,6 +607,27 @@ class TileRenderer {
         }
       }
     }
+  }
+
+  // For silhouetteStrata, a pixel (x, y) that sphere `sphere`'s disk covers, no other sphere reaching
+  // into it before the sphere's centre: its front is seen all over the pixel. Where a neighbour's
+  // square lies partly outside the disk (so that its samples may meet other geometry, which would
+  // keep the pixel refining to look for an edge: AdaptiveSampler::mark), and the render's shading is
+  // the control's (m_controlExact) with the plane hiding none of the sphere's front, the pixel's
+  // stratum is the disk filling it (share 1) and its control that sphere's (diskControl), exact:
+  // its colour is the control's mean, and it settles at its first samples. Elsewhere none (a disk's
+  // inner pixels, whose neighbours see its front too, settle from their samples' errors).
+  void fill(int x, int y, uint32_t sphere, PixelStratum& stratum, uint32_t& own, StratumControl& control) const {
+    const ImageDisk d = imageDisk(m_camera.projection(), sphere);
+    const bool inner = d.contains(x - 1, y - 1) && d.contains(x + 2, y - 1) && d.contains(x - 1, y + 2) && d.contains(x + 2, y + 2);
+    if (inner || !beforePlane(sphere)) return;
+    const PixelStratum::Ellipse e{d.cx, d.cy, d.ax, d.ay};
+    const PixelStratum filled = PixelStratum::filled(e);
+    const ControlMember member{diffuseOf(sphere), d.q, d.radius};
+    const StratumControl c = diskControl(x, y, filled, &member, m_lighting, false);
+    if (!filled.any() || !c.any()) return;
+    stratum = filled, own = sphere, control = c;
+    control.exact = true;
   }
 
   // Whether a stratum's samples inside it take a control variate (StratumControl.h): a lit colour
