@@ -341,10 +341,42 @@ bool rankBy(const bool (*before)[PixelStratum::kMostDisks], int n, uint8_t* rank
   return false;
 }
 
+// diskControl's control of a one-member stratum's outside by its cover (sphere c, disk e), where the
+// member (m) is seen before it all over its part of the pixel.
+void coverOutside(int x, int y, const PixelStratum& p, const ControlMember& m, const ControlMember& c, const PixelStratum::Ellipse& e,
+                  const ControlLighting& light, StratumControl& control) {
+  const float cx = static_cast<float>(e.cx), cy = static_cast<float>(e.cy);
+  const float inverseAx = static_cast<float>(1 / e.ax), inverseAy = static_cast<float>(1 / e.ay);
+  const double iu = inverseAx, iv = inverseAy;
+  if (!(std::isfinite(iu) && std::isfinite(iv) && iu > 0 && iv > 0 && std::isfinite(cx) && std::isfinite(cy))) return;
+  const Vec3d d = m.centre - c.centre;
+  if (dot(d, d) < (m.radius + c.radius) * (m.radius + c.radius)) {  // cutting through each other: the member seen all over its part
+    const double scale = 1 / (double(p.inverseAx[0]) * m.radius);  // pixel units a world unit
+    const double aspect = double(p.inverseAy[0]) / double(p.inverseAx[0]);
+    const PixelBall own{double(p.cx[0]) - x, (double(p.cy[0]) - y) * aspect, m.centre.z * scale, 1 / double(p.inverseAx[0])};
+    const PixelBall behind{double(cx) - x, (double(cy) - y) * aspect, c.centre.z * scale, 1 / iu};
+    if (seenWithin(own, behind, 0, 1, 0, aspect) != 1) return;
+  }
+  // The pixel's square in the cover's frame, and the member's disk there (a circle: the disks are of
+  // one family, their axes' ratio the pixels' aspect).
+  const double u0 = (x - double(cx)) * iu, u1 = (x + 1 - double(cx)) * iu, v0 = (y - double(cy)) * iv, v1 = (y + 1 - double(cy)) * iv;
+  const double cu = (double(p.cx[0]) - double(cx)) * iu, cv = (double(p.cy[0]) - double(cy)) * iv, cr = iu / double(p.inverseAx[0]);
+  const UnitDiskPart whole(u0, u1, v0, v1);
+  const ClippedDiskPart under(u0, u1, v0, v1, &cu, &cv, &cr, 1);
+  const double outside = whole.area - under.area;
+  if (!(outside > 0)) return;
+  uint8_t lights = 0;
+  const Vec3d all = shadingOver(whole, light, [](const ControlLighting::Sun& s) { return Vec3d(s.a, s.b, s.c); }, lights);
+  const Vec3<float> kd(c.kd);
+  control.coverKd = kd, control.coverLights = lights;
+  control.coverCx = cx, control.coverCy = cy, control.coverInverseAx = inverseAx, control.coverInverseAy = inverseAy;
+  control.coverMean = Vec3<float>(Vec3d(kd) * (all - shadingOver(under, light, lights)) / outside);
+}
+
 }  // namespace
 
 StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMember* members, const ControlLighting& light,
-                           bool split, double* share) {
+                           bool split, double* share, const ControlMember* cover, const PixelStratum::Ellipse* coverDisk) {
   constexpr int kMost = PixelStratum::kMostDisks;
   StratumControl control{};
   if (share) *share = std::numeric_limits<double>::quiet_NaN();
@@ -431,6 +463,7 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
   if (share && !changes && small) *share = inside;
   if (!(inside > 0)) return {};
   control.mean = Vec3<float>(sum / inside);
+  if (cover && n == 1 && control.any()) coverOutside(x, y, p, members[0], *cover, *coverDisk, light, control);
   return control;
 }
 
@@ -444,6 +477,12 @@ Vec3d diskControlAt(const PixelStratum& p, const StratumControl& c, const Contro
     const double w = std::sqrt(1 - u * u - v * v), f = double(c.depth[i]) - w / double(p.inverseAx[i]);
     if (seen >= 0 && !(f < front)) continue;
     seen = i, seenU = u, seenV = v, seenW = w, front = f;
+  }
+  if (seen < 0 && c.covered()) {  // outside: the cover's
+    const double u = (x - double(c.coverCx)) * double(c.coverInverseAx), v = (y - double(c.coverCy)) * double(c.coverInverseAy);
+    const double w = std::sqrt(std::max(0.0, 1 - u * u - v * v));
+    return Vec3d(c.coverKd) * shadingAt(light, c.coverLights, [&](const ControlLighting::Sun& s) { return s.a * u + s.b * v + s.c * w; }) -
+           Vec3d(c.coverMean);
   }
   if (seen < 0) return Vec3d(0);
   return Vec3d(c.kd[seen]) * shadingAt(light, c.lights[seen], [&](const ControlLighting::Sun& s) { return s.a * seenU + s.b * seenV + s.c * seenW; }) -

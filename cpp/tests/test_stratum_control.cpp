@@ -331,3 +331,89 @@ TEST_CASE("an orthographic control's parts make its stratum's share: the union's
   CHECK(split > 40);
   CHECK(large > 200);
 }
+
+TEST_CASE("a cover's control integrates to 0 over the stratum's outside, where the member is seen before the cover") {
+  // One disk of 0.4-3 pixels' radius crossing pixel (0, 0), a disk of 4-30 covering it; their
+  // spheres apart in space (the member nearer) or cutting through each other. Outside the member's
+  // disk the cover is seen: its control there is its shading less coverMean, whose integral over the
+  // outside is checked row by row (Gauss-Legendre between the member's edge and the cover's
+  // terminators, the midpoint rule across 3000 rows).
+  static constexpr double kNode[8] = {0.019855071751231856, 0.10166676129318664, 0.23723379504183550, 0.40828267875217510,
+                                      0.59171732124782490, 0.76276620495816450, 0.89833323870681336, 0.98014492824876811};
+  static constexpr double kWeight[8] = {0.050614268145188130, 0.11119051722668724, 0.15685332293894364, 0.18134189168918099,
+                                        0.18134189168918099, 0.15685332293894364, 0.11119051722668724, 0.050614268145188130};
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> unit(0, 1);
+  std::normal_distribution<double> normal;
+  int covered = 0, cutting = 0, refused = 0;
+  for (int trial = 0; trial < 400 && covered < 60; ++trial) {
+    const double r = 0.4 + 2.6 * unit(rng), angle = 2 * kPi * unit(rng), reach = r - 0.7 + 1.4 * unit(rng);
+    const PixelStratum::Ellipse e{0.5 + reach * std::cos(angle), 0.5 + reach * std::sin(angle), r, r};
+    const PixelStratum p = PixelStratum::of(0, 0, &e, 1);
+    if (!p.any()) continue;
+    const double cr = 4 + 26 * unit(rng), ca = 2 * kPi * unit(rng), cd = (cr - 1.5) * unit(rng);
+    const PixelStratum::Ellipse ce{0.5 + cd * std::cos(ca), 0.5 + cd * std::sin(ca), cr, cr};
+    // Depths (pixel units): the member's centre before the cover's; apart, or cutting through it
+    // with its centre near the cover's front (before it or behind, by up to half its radius).
+    const bool cut = trial % 2 == 1;
+    const double lateral = std::hypot(e.cx - ce.cx, e.cy - ce.cy);
+    const double gap = cut ? std::sqrt(std::max(0.0, cr * cr - lateral * lateral)) + r * (1.5 * unit(rng) - 0.5) : cr + r + 1 + 5 * unit(rng);
+    const ControlMember member{Vec3d(0.6, 0.5, 0.4), Vec3d(e.cx, -e.cy, 10.0), r};
+    const ControlMember cover{Vec3d(0.3, 0.6, 0.9), Vec3d(ce.cx, -ce.cy, 10.0 + gap), cr};
+    ControlLighting light;
+    light.ambient = Vec3d(0.1, 0.15, 0.2);
+    light.suns = 1;
+    Vec3d l(normal(rng), normal(rng), normal(rng));
+    l /= std::sqrt(dot(l, l));
+    light.sun[0] = {l.x, l.y, l.z, Vec3d(0.9, 0.8, 0.7)};
+    const StratumControl c = diskControl(0, 0, p, &member, light, true, nullptr, &cover, &ce);
+    REQUIRE(c.any());
+    if (!c.covered()) {
+      refused += cut;
+      continue;
+    }
+    ++covered, cutting += cut;
+    // The cover's shading less its mean, integrated over the outside.
+    const int rows = 3000;
+    double sum = 0, area = 0;
+    for (int row = 0; row < rows; ++row) {
+      const double sy = (row + 0.5) / rows;
+      std::vector<double> cuts{0.0, 1.0};
+      const double dv = sy - e.cy;
+      if (std::abs(dv) < r) {
+        const double half = std::sqrt(r * r - dv * dv);
+        for (const double x : {e.cx - half, e.cx + half}) {
+          if (x > 0 && x < 1) cuts.push_back(x);
+        }
+      }
+      const double v = (sy - ce.cy) / cr;  // the cover's terminator: (l.x u + l.y v)^2 = l.z^2 (1 - u^2 - v^2)
+      const double a = l.x * l.x + l.z * l.z, b = 2 * l.x * l.y * v, k = l.y * l.y * v * v - l.z * l.z * (1 - v * v), disc = b * b - 4 * a * k;
+      if (disc >= 0) {
+        for (const double u : {(-b + std::sqrt(disc)) / (2 * a), (-b - std::sqrt(disc)) / (2 * a)}) {
+          const double x = ce.cx + u * cr;
+          if (x > 0 && x < 1) cuts.push_back(x);
+        }
+      }
+      std::sort(cuts.begin(), cuts.end());
+      for (size_t s = 0; s + 1 < cuts.size(); ++s) {
+        const double x0 = cuts[s], length = cuts[s + 1] - x0;
+        for (int j = 0; j < 8; ++j) {
+          const double sx = x0 + length * kNode[j];
+          if (p.contains(sx, sy)) continue;
+          const double u = (sx - ce.cx) / cr, w = std::sqrt(std::max(0.0, 1 - u * u - v * v));
+          const double shading = std::max(0.0, l.x * u + l.y * v + l.z * w);
+          const Vec3d colour = Vec3d(Vec3<float>(cover.kd)) * (light.ambient + shading * light.sun[0].color);
+          const Vec3d left = colour - diskControlAt(p, c, light, sx, sy);  // the cover's mean there
+          sum += kWeight[j] * length * (channels(colour) - channels(Vec3d(c.coverMean)));
+          area += kWeight[j] * length;
+          CHECK_MESSAGE(std::abs(channels(left) - channels(Vec3d(c.coverMean))) < 1e-5, trial);
+        }
+      }
+    }
+    CHECK_MESSAGE(area / rows == doctest::Approx(1 - double(p.share)).epsilon(1e-4), trial);
+    CHECK_MESSAGE(std::abs(sum / rows) < 3e-5, trial, " ", sum / rows);
+  }
+  CHECK(covered >= 60);
+  CHECK(cutting >= 15);  // the member seen all over its part where they cut through each other
+  CHECK(refused >= 5);   // and not where the cover is seen in part of it
+}

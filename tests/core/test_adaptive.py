@@ -486,6 +486,53 @@ def test_a_pixel_one_sphere_fills_beside_its_edge_takes_its_exact_colour_from_it
     assert np.all(adaptive(sunk, spp=64, min_spp=2, target_error=0.002, seed=5).samples[first] >= 16)
 
 
+def test_a_sphere_covering_a_pixel_behind_one_disc_is_its_outsides_control():
+    # Small spheres in front of a large one (apart in space), lit by a sun without shadows: where one
+    # small disc crosses a pixel the large disc covers, the large sphere is seen all over the rest of
+    # it. Its shading less its exact mean there is the outside's control (StratumControl::covered),
+    # so the pixel's samples less their controls are one colour on each part: it settles at its first
+    # two samples on the shading integrated over the pixel (here the nearest front's on a 512 x 512
+    # grid, for 24 of them), where before it took 16 or more (the edge rules: no control knew the
+    # outside).
+    toward = np.array([0.5, -0.3, 0.8]) / np.linalg.norm([0.5, -0.3, 0.8])
+    ambient, sun = np.array([0.1, 0.12, 0.08]), np.array([0.95, 0.9, 0.8])
+    spheres = [(0.3, -0.2, -60.0, 14.0, (0.2, 0.5, 0.9))]
+    for k in range(8):
+        angle, r = 2 * np.pi * k / 8 + 0.3, 1.6 + 0.1 * k
+        spheres.append((7.0 * np.cos(angle), 7.0 * np.sin(angle), -40.0, r, (0.9, 0.3, 0.2) if k % 2 else (0.3, 0.8, 0.3)))
+    scene = durer.Scene()
+    scene.background = (0.2, 0.3, 0.4, 1.0)
+    scene.ambient = tuple(ambient)
+    scene.add_plane((0, 0, 1), -100.0, material=scene.add_material((0.6, 0.6, 0.55)))
+    for cx, cy, z, r, kd in spheres:
+        scene.add_spheres([(cx, cy, z)], [r], material=scene.add_material(kd))
+    scene.add_directional_light(tuple(-toward), tuple(sun))
+    x, y = pixel_centres(SIZE, SIZE)
+    near = [np.hypot(np.maximum(np.abs(x - cx) - 0.5, 0), np.maximum(np.abs(y - cy) - 0.5, 0)) < r for cx, cy, _, r, _ in spheres]
+    far = [np.hypot(np.abs(x - cx) + 0.5, np.abs(y - cy) + 0.5) < r for cx, cy, _, r, _ in spheres]
+    crossed = sum((n & ~f).astype(int) for n, f in zip(near[1:], far[1:]))
+    reached = sum(n.astype(int) for n in near[1:])
+    pixels = far[0] & (crossed == 1) & (reached == 1)
+    assert pixels.sum() >= 40
+    result = adaptive(scene, spp=64, min_spp=2, target_error=0.002, seed=5)
+    assert np.all(result.samples[pixels] == 2)
+    offsets = (np.arange(512) + 0.5) / 512 - 0.5
+    worst = 0.0
+    for row, column in list(zip(*np.nonzero(pixels)))[::3][:24]:
+        px, py = np.meshgrid(x[row, column] + offsets, y[row, column] + offsets)
+        front, colour = np.full(px.shape, -np.inf), np.zeros(px.shape + (3,))
+        for cx, cy, z, r, kd in spheres:
+            d2 = ((px - cx) ** 2 + (py - cy) ** 2) / r ** 2
+            inside = d2 < 1
+            w = np.sqrt(np.clip(1 - d2, 0, 1))
+            seen = inside & (z + r * w > front)
+            front = np.where(seen, z + r * w, front)
+            cosine = np.maximum(0.0, toward[0] * (px - cx) / r + toward[1] * (py - cy) / r + toward[2] * w)
+            colour = np.where(seen[..., None], np.array(kd) * (ambient + sun * cosine[..., None]), colour)
+        worst = max(worst, np.abs(result.color[row, column, :3] - colour.mean(axis=(0, 1))).max())
+    assert worst < 1e-4
+
+
 def _lit_sphere_pairs() -> tuple[durer.Scene, list[tuple[float, float, float, float]]]:
     """Thirty-six pairs of diffuse spheres of 1.4-2.4 pixels' radius whose discs overlap (most cutting
     through each other, their centres within 1.5 of one depth; every fourth pair apart in space),

@@ -63,10 +63,12 @@
 // inside's colour less the control is the control's mean there (the control is the colour itself
 // less its mean), so its inside needs no sample either (StratumState::mean; its spheres watched are
 // its members): it settles at the first pass once its outside is reached (docs/benchmarks.md,
-// fifty-seventh to fifty-ninth rounds). A pixel one sphere's disk covers beside its edge, which the
-// edge rules would take to kEdgeSamples for its neighbours' other geometry, has for its stratum that
-// disk filling it (share 1, TileRenderer::fill) where such a control would be exact: it settles at
-// the first pass too (sixty-first round).
+// fifty-seventh to fifty-ninth rounds). Where a sphere's disk covers a pixel and is seen all over it
+// but for one member's part (TileRenderer::silhouetteStrata), its shading is the outside's control
+// (StratumControl::covered): that stratum is exact too, its outside's colour known without a sample;
+// and a pixel it covers beside its edge, with no member, which the edge rules would take to
+// kEdgeSamples for its neighbours' other geometry, has for its stratum that disk filling it (share 1,
+// TileRenderer::fill): it settles at the first pass (sixty-first round).
 // Through an orthographic camera, a pixel also watches up to two spheres whose silhouettes cross it
 // and that its first samples did not meet, but the sphere of a one-sphere stratum
 // (TileRenderer::watchSilhouettes: a sliver beside the stratum's edge, an edge where two spheres'
@@ -85,7 +87,7 @@
 // A time limit stops the refining rounds (never the first pass) when spent; each worker takes its
 // band's tiles worst first (the largest estimated error), so what the limit cuts matters least.
 // Every pixel's state is kept until the end (TileState and Summary: 201 bytes a pixel in double, 133
-// in float; in a colour render through a camera without a lens, StratumState: 216 and 180 more).
+// in float; in a colour render through a camera without a lens, StratumState: 260 and 224 more).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
 // threads; a pixel's result depends on the pixels within `rounds` of it, and its reported error on
 // those within one more, so a region is rendered with that margin around it (sampledRegion) and
@@ -265,8 +267,8 @@ class AdaptiveSampler {
 
  private:
   // A tile's pixels' silhouette strata, the sums of their samples inside them, and the spheres they
-  // watch, and their control variates (kept only where pixels may have one: m_strata; 216 bytes a pixel in
-  // double, 180 in float).
+  // watch, and their control variates (kept only where pixels may have one: m_strata; 260 bytes a pixel in
+  // double, 224 in float).
   struct StratumState {
     PixelStratum strata[kPacketSize];                     // the silhouettes crossing the pixel (PixelStratum)
     uint32_t sphere[kPacketSize];                         // its sphere, if one (Tiles::kNoSphere: none, or several)
@@ -283,13 +285,17 @@ class AdaptiveSampler {
     // channel's sum over all the pixel's `count` samples and over those inside (`in`). Where no sample
     // has reached the inside of a stratum whose samples less their control are one colour there
     // (exact), that colour is the control's mean (the control is the colour itself less its mean
-    // there; alpha 1), weighed by the inside's share.
+    // there; alpha 1), weighed by the inside's share; so is the outside's, where its cover's control
+    // makes it exact too (StratumControl::covered).
     Real mean(int k, int channel, Real sum, Real count, Real in) const {
-      if (inside[k] == 0 && count > 0 && exact(k)) {
-        const Real s = static_cast<Real>(strata[k].share);
-        return s * (channel < 3 ? static_cast<Real>(control[k].mean[channel]) : Real(1)) + (1 - s) * (sum / count);
+      if (!(count > 0 && exact(k)) || (inside[k] > 0 && (inside[k] < count || !control[k].covered()))) {
+        return strata[k].mean(sum, count, in, inside[k]);
       }
-      return strata[k].mean(sum, count, in, inside[k]);
+      const auto known = [&](const Vec3<float>& mean) { return channel < 3 ? static_cast<Real>(mean[channel]) : Real(1); };
+      const Real s = static_cast<Real>(strata[k].share);
+      const Real inMean = inside[k] > 0 ? in / inside[k] : known(control[k].mean);
+      const Real outMean = inside[k] < count ? (sum - in) / (count - inside[k]) : known(control[k].coverMean);
+      return s * inMean + (1 - s) * outMean;
     }
     // Whether pixel k's samples less their control are one colour on each part of its stratum
     // (StratumControl::exact).
@@ -351,11 +357,12 @@ class AdaptiveSampler {
       const int k = pixel ? pixel[j] : j;
       for (end = j + 1; pixel && end < count && pixel[end] == k;) ++end;
       const PixelStratum& stratum = u.strata[k];
-      const bool controlled = u.controlled && u.control[k].any();
+      const bool controlled = u.controlled && u.control[k].any(), covered = controlled && u.control[k].covered();
       for (int i = j; i < end; ++i) {
         inside[i] = stratum.contains(double(sampleX[i]), double(sampleY[i]));
         if (!u.controlled) continue;
-        correction[i] = inside[i] && controlled ? m_tiles.control(stratum, u.control[k], double(sampleX[i]), double(sampleY[i])) : Vec3<Real>(0);
+        correction[i] = (inside[i] || covered) && controlled ? m_tiles.control(stratum, u.control[k], double(sampleX[i]), double(sampleY[i]))
+                                                             : Vec3<Real>(0);
       }
     }
     return u.controlled ? correction : nullptr;
@@ -831,7 +838,8 @@ class AdaptiveSampler {
       return spread && (inLast == 0 || inLast == samples) ? share * kPartSpread / std::sqrt(samples) : 0.0;
     };
     const double in = inside == 0 && exact ? 0.0 : part(share, inside, lastInside);
-    return in + part(1 - share, n - inside, last - lastInside);
+    const double out = inside == n && exact && u.control[k].covered() ? 0.0 : part(1 - share, n - inside, last - lastInside);
+    return in + out;
   }
 
   // Whether pixel k's samples less their control are one colour on each part of its stratum

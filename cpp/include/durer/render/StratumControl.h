@@ -49,13 +49,23 @@ struct StratumControl {
   Vec3<float> kd[PixelStratum::kMostDisks];
   uint8_t lights[PixelStratum::kMostDisks];
   float depth[PixelStratum::kMostDisks];
-  // Whether the samples less the control are one constant all over the pixel: the render's shading
-  // is what the control models (TileRenderer::controlIsShading), the plane cuts or hides none of the
-  // members (TileRenderer::beforePlane), and no sphere covers the pixel behind them (outside them:
-  // the plane or the background, one colour).
+  // Whether the samples less the control are one constant on each part of the pixel: the render's
+  // shading is what the control models (TileRenderer::controlIsShading), the plane cuts or hides none
+  // of the members (TileRenderer::beforePlane), and outside them lies the plane or the background (one
+  // colour), or the cover, whose control this is too (covered()).
   bool exact;
   Vec3<float> mean;
+  // Where a sphere's disk covers the pixel behind a one-disk stratum, that sphere seen all over the
+  // stratum's outside (its cover: diskControl's `cover`), a sample outside takes the cover's shading
+  // less its mean there: the cover's diffuse colour (0: none), the lights that reach it, its disk
+  // (centre and semi-axes' inverses, pixels, rounded to float as a PixelStratum's members) and that
+  // mean.
+  Vec3<float> coverKd;
+  uint8_t coverLights;
+  float coverCx, coverCy, coverInverseAx, coverInverseAy;
+  Vec3<float> coverMean;
   bool any() const { return kd[0] != Vec3<float>(0) || kd[1] != Vec3<float>(0) || kd[2] != Vec3<float>(0); }
+  bool covered() const { return coverKd != Vec3<float>(0); }
 };
 
 // A member of an orthographic stratum as its control reads it: the sphere's diffuse colour, its
@@ -85,14 +95,22 @@ struct ControlMember {
 // that (diffuse spheres lit by suns, no shadows), a sample's colour less its control is the mean all
 // over the inside: exact from one sample. Left: emission, shadows, highlights, other lights, ambient
 // occlusion, samples that met something else, which the samples estimate.
+// With `cover` (its disk `coverDisk`, pixels), a sphere whose disk covers the pixel behind a
+// one-member stratum, no other reaching into it before the cover's centre: where the member is seen
+// before it all over the member's part (spheres apart in space, or seenWithin), also the cover's
+// control over the outside (StratumControl::covered): its shading there less its exact mean over
+// the pixel's square less the member's part, both in the cover's frame (UnitDiskPart,
+// ClippedDiskPart).
 // p's share is not read (p may be PixelStratum::shaped's). With `share`, sets *share to the union's
 // share of the pixel as the members' parts make it, where they partition it along circles and the
 // pixel's sides (no split) and no member's radius exceeds kMostPartsShareRadius: p.unionShare's, to
 // 1e-13 of the pixel, at no further cost; NaN elsewhere.
 StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMember* members, const ControlLighting& light,
-                           bool split, double* share = nullptr);
+                           bool split, double* share = nullptr, const ControlMember* cover = nullptr,
+                           const PixelStratum::Ellipse* coverDisk = nullptr);
 
-// diskControl's control of a sample at (x, y) inside stratum p.
+// diskControl's control of a sample at (x, y) of stratum p's pixel: inside, as diskControl's; outside,
+// the cover's where the control has one (StratumControl::covered), else 0.
 Vec3d diskControlAt(const PixelStratum& p, const StratumControl& c, const ControlLighting& light, double x, double y);
 
 // A sphere in a frame of pixel units: across, down (in units of the pixels' width: the strata's

@@ -500,9 +500,11 @@ class TileRenderer {
   // cell's spheres by their fronts' depths: once every pixel has a cover nearer than the next one's
   // front, or too many spheres crossing it, the rest can change nothing and are not read.
   // With `controls` (null unless the render controlsStrata()): each stratum's control variate too
-  // (diskControl; `split`: also where the sphere seen changes inside an overlap of two); and a pixel
-  // that one sphere's disk covers, no other sphere reaching into it before that sphere's centre, may
-  // take that disk filling it for its stratum (fill).
+  // (diskControl; `split`: also where the sphere seen changes inside an overlap of two). Where a
+  // sphere covers a pixel and every other sphere reaching into it before the cover's centre lies
+  // apart from the cover behind that centre (hidden by its front), the cover is seen all over the
+  // pixel (fill: that disk filling it may be its stratum) or all over a single member's outside
+  // (diskControl's cover: the outside's control).
   void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres,
                         StratumControl* controls, bool split) const {
     constexpr int kMost = PixelStratum::kMostDisks;
@@ -518,7 +520,9 @@ class TileRenderer {
     int members[kPacketSize];
     double hidden[kPacketSize];  // the depth behind which a sphere covering the pixel hides everything
     uint32_t cover[kPacketSize];  // that sphere
-    int reaching[kPacketSize];    // the spheres reaching into the pixel whose fronts lay before `hidden` when met
+    constexpr int kReached = 4;   // the spheres reaching into the pixel whose fronts lay before `hidden` when met
+    uint32_t reached[kReached][kPacketSize];  // (the first kReached), and how many
+    int reaching[kPacketSize];
     double deepest[kPacketSize];  // the deepest member's centre
     std::fill(members, members + count, 0);
     std::fill(hidden, hidden + count, inf);
@@ -532,6 +536,7 @@ class TileRenderer {
                [&](const ImageDisk& d, uint32_t i, int k, int x, int y) {
                  if (!(d.q.z - d.radius < hidden[k])) return false;
                  const Cover reach = d.cover(x, y);
+                 if (reach != Cover::Outside && reaching[k] < kReached) reached[reaching[k]][k] = i;
                  reaching[k] += reach != Cover::Outside;
                  if (!(d.q.z < hidden[k])) return false;
                  if (reach == Cover::Inside) {
@@ -577,7 +582,28 @@ class TileRenderer {
         PixelStratum::Ellipse ellipses[kMost];
         for (int m = 0; m < members[k]; ++m) ellipses[m] = {member[m][k].cx, member[m][k].cy, member[m][k].ax, member[m][k].ay};
         const int x = x0 + column, y = y0 + row;
-        if (members[k] == 0 && controls && m_controlExact && hidden[k] < inf && reaching[k] == 1) {
+        // Whether the cover is seen all over the pixel but for `member`'s part: every other sphere
+        // reaching into it before the cover's centre has its centre behind the cover's and lies apart
+        // from the cover (so behind its front wherever both are met), or cuts through it and the
+        // cover is seen all over their overlap in the pixel (seenWithin).
+        const auto coverSeen = [&](uint32_t member) {
+          if (!(hidden[k] < inf) || reaching[k] > kReached) return false;
+          const ImageDisk c = imageDisk(image, cover[k]);
+          const double aspect = c.ax / c.ay, scale = c.ax / c.radius;  // y pixels to x's; pixels a world unit
+          const auto ball = [&](const ImageDisk& d) { return PixelBall{d.cx - x, (d.cy - y) * aspect, d.q.z * scale, d.ax}; };
+          for (int j = 0; j < reaching[k]; ++j) {
+            const uint32_t i = reached[j][k];
+            if (i == cover[k] || i == member) continue;
+            const ImageDisk s = imageDisk(image, i);
+            const Vec3d d = s.q - c.q;
+            const double apart = s.radius + c.radius;
+            if (!(s.q.z >= hidden[k] && (glm::dot(d, d) >= apart * apart || seenWithin(ball(c), ball(s), 0, 1, 0, aspect) == 1))) {
+              return false;
+            }
+          }
+          return true;
+        };
+        if (members[k] == 0 && controls && m_controlExact && coverSeen(kNoSphere)) {
           fill(x, y, cover[k], strata[k], spheres[k], controls[k]);
           continue;
         }
@@ -587,10 +613,19 @@ class TileRenderer {
         // elsewhere, and without a control, the union's area does.
         StratumControl control{};
         double share = std::numeric_limits<double>::quiet_NaN();
+        // A sphere covering the pixel behind one member, nothing else reaching into it before the
+        // cover's centre, is seen all over the outside: its control there too (diskControl's cover).
+        const bool covered = members[k] == 1 && coverSeen(memberSphere[0][k]);
         if (controls) {
           ControlMember own[kMost];
           for (int m = 0; m < shape.disks; ++m) own[m] = {diffuseOf(memberSphere[m][k]), member[m][k].q, member[m][k].radius};
-          control = diskControl(x, y, shape, own, m_lighting, split, &share);
+          ControlMember behind{};
+          PixelStratum::Ellipse behindDisk{};
+          if (covered) {
+            const ImageDisk d = imageDisk(image, cover[k]);
+            behind = {diffuseOf(cover[k]), d.q, d.radius}, behindDisk = {d.cx, d.cy, d.ax, d.ay};
+          }
+          control = diskControl(x, y, shape, own, m_lighting, split, &share, covered ? &behind : nullptr, &behindDisk);
         }
         strata[k] = shape.withShare(std::isnan(share) ? shape.unionShare(x, y) : share);
         if (!strata[k].any()) continue;
@@ -602,15 +637,15 @@ class TileRenderer {
             }
             return true;
           };
-          control.exact = m_controlExact && control.any() && hidden[k] == inf && before();
+          const bool outside = hidden[k] == inf || (control.covered() && beforePlane(cover[k]));  // one colour, or the cover's
+          control.exact = m_controlExact && control.any() && outside && before();
           controls[k] = control;
         }
       }
     }
   }
 
-  // For silhouetteStrata, a pixel (x, y) that sphere `sphere`'s disk covers, no other sphere reaching
-  // into it before the sphere's centre: its front is seen all over the pixel. Where a neighbour's
+  // For silhouetteStrata, a pixel (x, y) whose cover, sphere `sphere`, is seen all over it. Where a neighbour's
   // square lies partly outside the disk (so that its samples may meet other geometry, which would
   // keep the pixel refining to look for an edge: AdaptiveSampler::mark), and the render's shading is
   // the control's (m_controlExact) with the plane hiding none of the sphere's front, the pixel's
