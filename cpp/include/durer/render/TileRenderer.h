@@ -501,10 +501,10 @@ class TileRenderer {
   // front, or too many spheres crossing it, the rest can change nothing and are not read.
   // With `controls` (null unless the render controlsStrata()): each stratum's control variate too
   // (diskControl; `split`: also where the sphere seen changes inside an overlap of two). Where a
-  // sphere covers a pixel and every other sphere reaching into it before the cover's centre lies
-  // apart from the cover behind that centre (hidden by its front), the cover is seen all over the
-  // pixel (fill: that disk filling it may be its stratum) or all over a single member's outside
-  // (diskControl's cover: the outside's control).
+  // sphere covers a pixel and hides every other sphere reaching into it before its centre (each
+  // one's centre behind it and the two apart, or the cover seen all over their overlap there), the
+  // cover is seen all over the pixel (fill: the disk filling it may be its stratum) or all over a
+  // single member's outside (diskControl's cover: the outside's control).
   void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres,
                         StratumControl* controls, bool split) const {
     constexpr int kMost = PixelStratum::kMostDisks;
@@ -613,8 +613,8 @@ class TileRenderer {
         // elsewhere, and without a control, the union's area does.
         StratumControl control{};
         double share = std::numeric_limits<double>::quiet_NaN();
-        // A sphere covering the pixel behind one member, nothing else reaching into it before the
-        // cover's centre, is seen all over the outside: its control there too (diskControl's cover).
+        // A sphere covering the pixel behind one member and seen all over the rest of it (coverSeen):
+        // its control over the outside too (diskControl's cover).
         const bool covered = members[k] == 1 && coverSeen(memberSphere[0][k]);
         if (controls) {
           ControlMember own[kMost];
@@ -645,13 +645,13 @@ class TileRenderer {
     }
   }
 
-  // For silhouetteStrata, a pixel (x, y) whose cover, sphere `sphere`, is seen all over it. Where a neighbour's
-  // square lies partly outside the disk (so that its samples may meet other geometry, which would
-  // keep the pixel refining to look for an edge: AdaptiveSampler::mark), and the render's shading is
-  // the control's (m_controlExact) with the plane hiding none of the sphere's front, the pixel's
-  // stratum is the disk filling it (share 1) and its control that sphere's (diskControl), exact:
-  // its colour is the control's mean, and it settles at its first samples. Elsewhere none (a disk's
-  // inner pixels, whose neighbours see its front too, settle from their samples' errors).
+  // For silhouetteStrata, a pixel (x, y) whose cover, sphere `sphere`, is seen all over it. Where a
+  // neighbour's square lies partly outside the disk (so that its samples may meet other geometry,
+  // which would keep the pixel refining to look for an edge: AdaptiveSampler::mark), and the render's
+  // shading is the control's (m_controlExact) with the plane hiding none of the sphere's front, the
+  // pixel's stratum is the disk filling it (share 1) and its control that sphere's (diskControl),
+  // exact: its colour is the control's mean, and it settles at its first samples. Elsewhere none (a
+  // disk's inner pixels, whose neighbours see its front too, settle from their samples' errors).
   void fill(int x, int y, uint32_t sphere, PixelStratum& stratum, uint32_t& own, StratumControl& control) const {
     const ImageDisk d = imageDisk(m_camera.projection(), sphere);
     const bool inner = d.contains(x - 1, y - 1) && d.contains(x + 2, y - 1) && d.contains(x - 1, y + 2) && d.contains(x + 2, y + 2);
