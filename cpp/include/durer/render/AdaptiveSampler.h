@@ -315,6 +315,7 @@ class AdaptiveSampler {
     bool uniform[kPacketSize];  // every sample met the first's primitive (or every one nothing)
     float firstNx[kPacketSize], firstNy[kPacketSize], firstNz[kPacketSize];  // the first sample's shading normal (0: none)
     uint64_t sampledBits;                                 // the pixels sampledRound sampled (TileMask.h)
+    uint64_t exactBits;                                   // the pixels exactly controlled (exactlyControlled)
     int sampledRound;                                     // the last round that sampled any
     float priority;                                       // the worst marked pixel's (time limit: first)
     double squares, worst;                                // its output pixels' error estimates: sum of squares, largest
@@ -588,6 +589,10 @@ class AdaptiveSampler {
       });
     };
     if (t.stratum != nullptr && !strata && !watching(*t.stratum)) t.stratum = nullptr;
+    t.exactBits = 0;
+    for (int row = 0, k = 0; row < t.h; ++row) {
+      for (int col = 0; col < t.w; ++col, ++k) t.exactBits |= exactlyControlled(t, k) ? tileBit(t.x0 + col, t.y0 + row) : 0;
+    }
     return true;
   }
 
@@ -723,7 +728,7 @@ class AdaptiveSampler {
     std::fill(t.firstNy, t.firstNy + count, 0.0f);
     std::fill(t.firstNz, t.firstNz + count, 0.0f);
     t.priority = 0;
-    t.sampledBits = 0, t.sampledRound = -1;
+    t.sampledBits = 0, t.sampledRound = -1, t.exactBits = 0;
     for (int row = 0; row < t.h; ++row) {
       Summary* line = &summaryAt(t.x0, t.y0 + row);
       for (int col = 0; col < t.w; ++col) {
@@ -884,14 +889,17 @@ class AdaptiveSampler {
     TileState& t = m_state[index];
     t.priority = 0;
     const uint64_t fresh = round == 0 ? ~uint64_t(0) : freshBits(index, round);
+    const uint64_t sampled = t.sampledRound == round ? t.sampledBits : 0;
     for (int row = 0; row < t.h; ++row) {  // by rows: no division to find a pixel's summary
       const Summary* line = &summaryAt(t.x0, t.y0 + row);
       for (int col = 0; col < t.w; ++col) {
         const int k = row * t.w + col;
         const int taken = t.taken[k];
+        const uint64_t bit = tileBit(t.x0 + col, t.y0 + row);
         // A pixel none around which (itself included) the round sampled decides as before it: its
         // error was within the target (one that was not took samples) and nothing it reads changed.
-        if (taken >= level || (fresh & tileBit(t.x0 + col, t.y0 + row)) == 0) continue;
+        // One exactly controlled reads only its own state (below): so unless the round sampled it.
+        if (taken >= level || (fresh & bit) == 0 || ((t.exactBits & bit) != 0 && (sampled & bit) == 0)) continue;
         const Summary& self = line[col];
         const double own = std::max(self.error, self.averaged);  // its judged error (the file's head)
         double error = own, contrast = 0;
@@ -904,7 +912,7 @@ class AdaptiveSampler {
           // crossing it, and what its samples may not have seen yet are its stratum's parts not yet
           // reached (unresolvedShare) and the spheres it watches (unseenShare). Its neighbours'
           // errors say nothing of it either.
-          const bool described = exactlyControlled(t, k);
+          const bool described = (t.exactBits & bit) != 0;
           const bool young = taken < kEdgeSamples && !described;  // an edge keeps a pixel refining only below them
           bool edge = young && t.mixed[k];
           uint32_t others = 0;  // the neighbours weighed whose first samples met another primitive (bit 3 dy + dx + 4)
