@@ -613,10 +613,10 @@ class TileRenderer {
         // elsewhere, and without a control, the union's area does.
         StratumControl control{};
         double share = std::numeric_limits<double>::quiet_NaN();
-        // A sphere covering the pixel behind one member and seen all over the rest of it (coverSeen):
-        // its control over the outside too (diskControl's cover).
-        const bool covered = members[k] == 1 && coverSeen(memberSphere[0][k]);
         if (controls) {
+          // A sphere covering the pixel behind one member and seen all over the rest of it
+          // (coverSeen): its control over the outside too (diskControl's cover).
+          const bool covered = members[k] == 1 && coverSeen(memberSphere[0][k]);
           ControlMember own[kMost];
           for (int m = 0; m < shape.disks; ++m) own[m] = {diffuseOf(memberSphere[m][k]), member[m][k].q, member[m][k].radius};
           ControlMember behind{};
