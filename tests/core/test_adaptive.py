@@ -595,12 +595,17 @@ def test_spheres_whose_discs_overlap_are_exact_where_they_cut_through_each_other
     for pixels in (one_seen, both_seen):
         assert np.mean(result.samples[pixels] == 4) >= 0.9
         assert np.median(difference[pixels]) < 1e-6 and difference[pixels & (result.samples == 4)].max() < 1e-5
-    # Where a pixel may take at most 64 samples, an overlap the sphere seen changes in is not split (its
-    # geometry costs more than the samples it spares: AdaptiveSampler::kSplitSamples): no control there
-    # (seen: 21 of the 25 pixels of one sphere seen still settle at 4, the others hold a sliver of the
-    # other sphere finer than the grid).
+    # Where a pixel may take at most 64 samples, an overlap the sphere seen changes in is not split
+    # exactly (that geometry costs more than the samples it spares: AdaptiveSampler::kSplitSamples):
+    # what each sphere loses to the other there is found on a lattice, within half the target of the
+    # colour by its own estimate, which the pixel reports as its error. Such pixels settle at 4
+    # samples too, off by about what they report (seen: median 4.0e-4 off, reporting 4.5e-4; the
+    # furthest 2.4e-3 off).
     capped = adaptive(scene, spp=64, min_spp=4, target_error=0.002, seed=5)
-    assert np.mean(capped.samples[one_seen] == 4) >= 0.75 and np.all(capped.samples[both_seen] >= 16)
+    off = np.abs(capped.color[..., :3] - forced.color[..., :3]).max(axis=-1)[both_seen]
+    assert np.mean(capped.samples[one_seen] == 4) >= 0.9 and np.mean(capped.samples[both_seen] == 4) >= 0.9
+    assert np.all(capped.error[both_seen] > 0) and np.median(off) < 1e-3 and off.max() < 5e-3
+    assert np.sqrt(np.mean(off ** 2)) < 2 * np.sqrt(np.mean(capped.error[both_seen] ** 2))
 
 
 def test_a_sphere_deeper_than_every_first_hit_is_watched_where_their_spheres_leave_the_pixel_uncovered():

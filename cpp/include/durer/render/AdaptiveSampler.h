@@ -48,8 +48,10 @@
 // Where directional lights shine, each sample inside the stratum is taken less its control variate
 // (orthographic: diskControl (StratumControl.h), the diffuse shading by the ambient light and those
 // lights, no shadows, of the sphere seen there, less that shading's exact mean over the stratum's
-// inside; where the sphere seen changes inside an overlap of two disks of spheres that cut through
-// each other and three disks cross the pixel, or a pixel may take fewer than kSplitSamples, none;
+// inside; where the sphere seen changes inside an overlap of disks of spheres that cut through each
+// other and three disks cross the pixel, or a pixel may take fewer than kSplitSamples, what each loses
+// to a nearer one there found on a lattice, within kControlError of the target by its own estimate,
+// which the pixel's error estimate adds: its samples cannot see it; beyond that, none;
 // perspective, for a small sphere: ellipseControl, the same with
 // the sphere's normal modelled as an orthographic camera would see it): the part's mean, and its
 // halves', then vary only with what the control leaves out (shadows, highlights, emission, other
@@ -87,7 +89,7 @@
 // A time limit stops the refining rounds (never the first pass) when spent; each worker takes its
 // band's tiles worst first (the largest estimated error), so what the limit cuts matters least.
 // Every pixel's state is kept until the end (TileState and Summary: 201 bytes a pixel in double, 133
-// in float; in a colour render through a camera without a lens, StratumState: 260 and 224 more).
+// in float; in a colour render through a camera without a lens, StratumState: 280 and 244 more).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
 // threads; a pixel's result depends on the pixels within `rounds` of it, and its reported error on
 // those within one more, so a region is rendered with that margin around it (sampledRegion) and
@@ -121,12 +123,14 @@ class AdaptiveSampler {
   static constexpr double kUnseenShare = 0.5;     // of the contrast an unseen edge's bound, expected
   static constexpr double kPartSpread = 0.5;      // the largest standard deviation of a colour in [0, 1]
   static constexpr double kNetHalves = 2.8284271247461903;  // 2^1.5: how far a smooth colour's halves over-state (smoothlyShaded)
-  // The most samples a pixel may take from which its strata also split an overlap of two disks
-  // where the sphere seen changes inside it (diskControl): that geometry costs about 45 samples' worth
-  // (25 k instructions against 560 a sample), and such a pixel without it takes about the most samples
-  // it may where the target is strict; at 64 it spares the edge scene's refining rounds less than it
-  // costs its first pass (docs/benchmarks.md, fifty-ninth and sixtieth rounds).
+  // The most samples a pixel may take from which its strata split an overlap of two disks where the
+  // sphere seen changes inside it exactly (diskControl), not on a lattice: that geometry costs about
+  // 45 samples' worth (25 k instructions against 560 a sample), the lattice's about 8 (sixty-second
+  // round), which where the target is strict must be finer, and leaves the pixel an error beside.
   static constexpr int kSplitSamples = 128;
+  // Of the target, the most a stratum's control's mean found numerically (diskControl) may put a pixel's
+  // colour off by: the samples cannot see it, and it adds to their error (a quarter of its square).
+  static constexpr double kControlError = 0.5;
   static constexpr int kMetPrimitives = 4;        // a pixel's first samples' distinct primitives the watch is checked
                                                   // against (beyond: a sphere met may be watched until met again)
 
@@ -267,8 +271,8 @@ class AdaptiveSampler {
 
  private:
   // A tile's pixels' silhouette strata, the sums of their samples inside them, and the spheres they
-  // watch, and their control variates (kept only where pixels may have one: m_strata; 260 bytes a pixel in
-  // double, 224 in float).
+  // watch, and their control variates (kept only where pixels may have one: m_strata; 280 bytes a pixel in
+  // double, 244 in float).
   struct StratumState {
     PixelStratum strata[kPacketSize];                     // the silhouettes crossing the pixel (PixelStratum)
     uint32_t sphere[kPacketSize];                         // its sphere, if one (Tiles::kNoSphere: none, or several)
@@ -506,7 +510,7 @@ class AdaptiveSampler {
     const bool watch = t.stratum != nullptr && m_rounds > 0 && m_tiles.seesDisks();
     if (StratumState* u = t.stratum) {
       m_tiles.silhouetteStrata(t.x0, t.y0, t.w, t.h, u->strata, u->sphere, m_tiles.controlsStrata() ? u->control : nullptr,
-                               m_maxSamples >= kSplitSamples);
+                               m_maxSamples >= kSplitSamples, kControlError * m_target);
       for (auto& watched : u->watched) std::fill(watched, watched + count, Tiles::kNoSphere);  // set after the samples
       strata = std::any_of(u->strata, u->strata + count, [](const PixelStratum& p) { return p.any(); });
       u->controlled = false;
@@ -685,7 +689,9 @@ class AdaptiveSampler {
     for (int k = 0; t.stratum && k < count; ++k) {  // a stratum's pixels: their estimates and means by its parts
       const StratumState& u = *t.stratum;
       if (!sampled[k] || !u.strata[k].any()) continue;  // an unsampled pixel's summary stands (below)
-      error[k] = stratifiedError(t, k);
+      // (and what a control's mean found numerically may put it off by: its samples cannot see that)
+      const double e = stratifiedError(t, k), numeric = u.controlled ? u.control[k].meanError : 0.0f;
+      error[k] = static_cast<float>(std::sqrt(e * e + numeric * numeric));
       const Real n = t.sums.samples[k];
       meanR[k] = static_cast<float>(u.mean(k, 0, t.sums.r[k], n, u.inR[k]));
       meanG[k] = static_cast<float>(u.mean(k, 1, t.sums.g[k], n, u.inG[k]));

@@ -24,6 +24,11 @@ inline constexpr int kMostControlLights = 8;
 // The largest radius (pixels) of the disks whose control's parts make their stratum's share (diskControl).
 inline constexpr double kMostPartsShareRadius = 16;
 inline constexpr double kMostControlSine = 0.1;
+// The lattices (points a side) on which diskControl finds, where it does not split exactly, what
+// members lose to nearer ones whose fronts cut through theirs: the coarsest, then twice as fine while
+// that misses its tolerance, up to the finest.
+inline constexpr int kLostGrid = 8;
+inline constexpr int kFinestLostGrid = 32;
 
 // The light a control models: the ambient light and the directional lights, each as the unit
 // direction toward it (a, b, c) in the camera's frame (x right, y down, toward the camera) and its
@@ -55,6 +60,9 @@ struct StratumControl {
   // colour), or the cover, whose control this is too (covered()).
   bool exact;
   Vec3<float> mean;
+  // The estimated RMS error (over the channels) by which `mean`, found in part numerically
+  // (diskControl), puts the pixel's colour off (`mean` times the stratum's share); 0 where exact.
+  float meanError;
   // Where a sphere's disk covers the pixel behind a one-disk stratum, that sphere seen all over the
   // stratum's outside (its cover: diskControl's `cover`), a sample outside takes the cover's shading
   // less its mean there: the cover's diffuse colour (0: none), the lights that reach it, its disk
@@ -88,8 +96,11 @@ struct ControlMember {
 // member then loses the part nearer members' disks cover (ClippedDiskPart; two nearer ones by
 // inclusion and exclusion). Where the one seen changes inside the overlap (the projection of the arc
 // where their fronts meet crosses it), with two members: each loses the part of the overlap where
-// the other is seen, which that arc bounds (its fans integrated in the arc's parameter), if `split`;
-// with three, or without `split`, none (nor where the pairs' ranks disagree). A function of a
+// the other is seen, which that arc bounds (its fans integrated in the arc's parameter), if `split`.
+// With three, or without `split` (or where the pairs' ranks disagree), what each loses where another
+// is seen is found numerically instead (the midpoint rule on a kLostGrid lattice over the overlaps'
+// box in the pixel, estimating its own error: meanError), where that error is within `tolerance`
+// (finer lattices otherwise, up to kFinestLostGrid; beyond, none: 0 asks for exact geometry only). A function of a
 // sample's position alone whose mean over the inside is 0: the inside's mean of the samples' colours less
 // their controls estimates the colours' mean without bias whatever the shading. Where the shading is
 // that (diffuse spheres lit by suns, no shadows), a sample's colour less its control is the mean all
@@ -104,9 +115,9 @@ struct ControlMember {
 // p's share is not read (p may be PixelStratum::shaped's). With `share`, sets *share to the union's
 // share of the pixel as the members' parts make it, where they partition it along circles and the
 // pixel's sides (no split) and no member's radius exceeds kMostPartsShareRadius: p.unionShare's, to
-// 1e-13 of the pixel, at no further cost; NaN elsewhere.
+// 1e-13 of the pixel, at no further cost; where found numerically, p.unionShare's; NaN elsewhere.
 StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMember* members, const ControlLighting& light,
-                           bool split, double* share = nullptr, const ControlMember* cover = nullptr,
+                           bool split, double tolerance, double* share = nullptr, const ControlMember* cover = nullptr,
                            const PixelStratum::Ellipse* coverDisk = nullptr);
 
 // diskControl's control of a sample at (x, y) of stratum p's pixel: inside, as diskControl's; outside,

@@ -500,13 +500,14 @@ class TileRenderer {
   // cell's spheres by their fronts' depths: once every pixel has a cover nearer than the next one's
   // front, or too many spheres crossing it, the rest can change nothing and are not read.
   // With `controls` (null unless the render controlsStrata()): each stratum's control variate too
-  // (diskControl; `split`: also where the sphere seen changes inside an overlap of two). Where a
+  // (diskControl; `split`: exactly also where the sphere seen changes inside an overlap of two; a
+  // control found in part numerically only within `tolerance` of the pixel's colour). Where a
   // sphere covers a pixel and hides every other sphere reaching into it before its centre (each
   // one's centre behind it and the two apart, or the cover seen all over their overlap there), the
   // cover is seen all over the pixel (fill: the disk filling it may be its stratum) or all over a
   // single member's outside (diskControl's cover: the outside's control).
   void silhouetteStrata(int x0, int y0, int w, int h, PixelStratum* strata, uint32_t* spheres,
-                        StratumControl* controls, bool split) const {
+                        StratumControl* controls, bool split, double tolerance) const {
     constexpr int kMost = PixelStratum::kMostDisks;
     std::fill(strata, strata + w * h, PixelStratum{});
     std::fill(spheres, spheres + w * h, kNoSphere);
@@ -625,7 +626,7 @@ class TileRenderer {
             const ImageDisk d = imageDisk(image, cover[k]);
             behind = {diffuseOf(cover[k]), d.q, d.radius}, behindDisk = {d.cx, d.cy, d.ax, d.ay};
           }
-          control = diskControl(x, y, shape, own, m_lighting, split, &share, covered ? &behind : nullptr, &behindDisk);
+          control = diskControl(x, y, shape, own, m_lighting, split, tolerance, &share, covered ? &behind : nullptr, &behindDisk);
         }
         strata[k] = shape.withShare(std::isnan(share) ? shape.unionShare(x, y) : share);
         if (!strata[k].any()) continue;
@@ -659,7 +660,7 @@ class TileRenderer {
     const PixelStratum::Ellipse e{d.cx, d.cy, d.ax, d.ay};
     const PixelStratum filled = PixelStratum::filled(e);
     const ControlMember member{diffuseOf(sphere), d.q, d.radius};
-    const StratumControl c = diskControl(x, y, filled, &member, m_lighting, false);
+    const StratumControl c = diskControl(x, y, filled, &member, m_lighting, false, 0);
     if (!filled.any() || !c.any()) return;
     stratum = filled, own = sphere, control = c;
     control.exact = true;
