@@ -125,7 +125,7 @@ class AdaptiveSampler {
   static constexpr double kNetHalves = 2.8284271247461903;  // 2^1.5: how far a smooth colour's halves over-state (smoothlyShaded)
   // The most samples a pixel may take from which its strata split an overlap of two disks where the
   // sphere seen changes inside it exactly (diskControl), not on a lattice: that geometry costs about
-  // 45 samples' worth (25 k instructions against 560 a sample), the lattice's about 8 (sixty-second
+  // 45 samples' worth (25 k instructions against 560 a sample), the lattice's about 7 (sixty-second
   // round), which where the target is strict must be finer, and leaves the pixel an error beside.
   static constexpr int kSplitSamples = 128;
   // Of the target, the most a stratum's control's mean found numerically (diskControl) may put a pixel's
