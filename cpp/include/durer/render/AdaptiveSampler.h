@@ -689,9 +689,7 @@ class AdaptiveSampler {
     for (int k = 0; t.stratum && k < count; ++k) {  // a stratum's pixels: their estimates and means by its parts
       const StratumState& u = *t.stratum;
       if (!sampled[k] || !u.strata[k].any()) continue;  // an unsampled pixel's summary stands (below)
-      // (and what a control's mean found numerically may put it off by: its samples cannot see that)
-      const double e = stratifiedError(t, k), numeric = u.controlled ? u.control[k].meanError : 0.0f;
-      error[k] = static_cast<float>(std::sqrt(e * e + numeric * numeric));
+      error[k] = static_cast<float>(std::hypot(stratifiedError(t, k), controlError(t, k)));
       const Real n = t.sums.samples[k];
       meanR[k] = static_cast<float>(u.mean(k, 0, t.sums.r[k], n, u.inR[k]));
       meanG[k] = static_cast<float>(u.mean(k, 1, t.sums.g[k], n, u.inG[k]));
@@ -856,6 +854,12 @@ class AdaptiveSampler {
   // Whether pixel k's samples less their control are one colour on each part of its stratum
   // (StratumControl::exact).
   static bool exactlyControlled(const TileState& t, int k) { return t.stratum != nullptr && t.stratum->exact(k); }
+
+  // What pixel k's control's mean, found in part numerically (StratumControl::meanError), may put its
+  // colour off by: its samples cannot see that, and its error estimates add it. 0 without one.
+  static double controlError(const TileState& t, int k) {
+    return t.stratum != nullptr && t.stratum->controlled ? double(t.stratum->control[k].meanError) : 0.0;
+  }
 
   // What a sphere pixel k watches may put its mean off by, none of its samples having met it
   // (watchSilhouettes): its colour there is unknown, as an unsampled part's, over the share of the
@@ -1045,7 +1049,8 @@ class AdaptiveSampler {
         // (A pixel whose control is its colour reports its halves' estimate at two samples too: its
         // neighbours' means say nothing of its own.)
         const bool two = t.taken[k0 + i] == 2 && !exactlyControlled(t, k0 + i);
-        const double e = two ? residualError(p) : smoothlyShaded(t, k0 + i, p) ? p.error / kNetHalves : p.error;
+        const double e = two ? std::hypot(residualError(p), controlError(t, k0 + i))
+                             : smoothlyShaded(t, k0 + i, p) ? p.error / kNetHalves : p.error;
         squares += e * e, worst = std::max(worst, e);
         if (m_targets.error) m_targets.error[first + i] = static_cast<float>(e);
       }
