@@ -425,9 +425,7 @@ LostShading lostToNearer(const PixelBall* ball, const StratumControl& control, i
   const double cell = dx * dy / h;
   double brightest = 0;
   for (int m = 0; m < n; ++m) {
-    Vec3d most = light.ambient;
-    for (int l = 0; l < suns; ++l) most += (control.lights[m] & (1u << l)) ? light.sun[l].color : Vec3d(0);
-    const Vec3d colour = Vec3d(control.kd[m]) * most;
+    const Vec3d colour = Vec3d(control.kd[m]) * shadingAt(light, control.lights[m], [](const ControlLighting::Sun&) { return 1.0; });
     brightest = std::max(brightest, std::sqrt(dot(colour, colour) / 3));
   }
   const Vec3d apart = (halves[0] - halves[1]) * cell;

@@ -84,6 +84,53 @@ std::array<double, 2> integrateInside(const PixelStratum& p, int x, int y, const
 
 double channels(const Vec3d& v) { return v.x + v.y + v.z; }
 
+// `suns` (1 or 2) directional lights from random directions, the ambient light (0.1, 0.15, 0.2), and
+// each light's direction for each of n members' rows (integrateInside's `lights`).
+ControlLighting randomLighting(int suns, int n, std::mt19937_64& rng, std::normal_distribution<double>& normal,
+                               std::vector<std::vector<Vec3d>>& toward) {
+  ControlLighting light;
+  light.ambient = Vec3d(0.1, 0.15, 0.2);
+  light.suns = suns;
+  toward.assign(static_cast<size_t>(n), {});
+  for (int l = 0; l < light.suns; ++l) {
+    Vec3d d(normal(rng), normal(rng), normal(rng));
+    d /= std::sqrt(dot(d, d));
+    light.sun[l] = {d.x, d.y, d.z, Vec3d(0.9, 0.8, 0.7) * (l + 1.0)};
+    for (auto& t : toward) t.push_back(d);
+  }
+  return light;
+}
+
+// The member of stratum p seen at (x, y): the nearest front among the disks holding it (-1: none).
+int seenMember(const PixelStratum& p, const ControlMember* member, double x, double y) {
+  int nearest = -1;
+  double front = 1e300;
+  for (int i = 0; i < p.disks; ++i) {
+    double u, v;
+    p.frame(i, x, y, u, v);
+    if (!(u * u + v * v < 1)) continue;
+    const double f = member[i].centre.z - std::sqrt(1 - u * u - v * v) / double(p.inverseAx[i]);
+    if (f < front) front = f, nearest = i;
+  }
+  return nearest;
+}
+
+// How far, at (x, y), the colour of the diffuse member seen there less control c is from c's mean
+// (its largest channel; 0 where no member is seen).
+double leftAt(const PixelStratum& p, const StratumControl& c, const ControlMember* member, const ControlLighting& light, double x, double y) {
+  const int i = seenMember(p, member, x, y);
+  if (i < 0) return 0;
+  double u, v;
+  p.frame(i, x, y, u, v);
+  const double w = std::sqrt(1 - u * u - v * v);
+  Vec3d shading = light.ambient;
+  for (int l = 0; l < light.suns; ++l) {
+    shading += std::max(0.0, light.sun[l].a * u + light.sun[l].b * v + light.sun[l].c * w) * light.sun[l].color;
+  }
+  const Vec3d left = Vec3d(Vec3<float>(member[i].kd)) * shading - diskControlAt(p, c, light, x, y) - Vec3d(c.mean);
+  return std::max({std::abs(left.x), std::abs(left.y), std::abs(left.z)});
+}
+
 }  // namespace
 
 TEST_CASE("an orthographic stratum's control integrates to 0 over its inside, and is the shading of the sphere seen less its mean") {
@@ -115,16 +162,8 @@ TEST_CASE("an orthographic stratum's control integrates to 0 over its inside, an
     }
     const PixelStratum p = PixelStratum::of(0, 0, e, n);
     if (!p.any()) continue;
-    ControlLighting light;
-    light.ambient = Vec3d(0.1, 0.15, 0.2);
-    light.suns = 1 + trial % 2;
-    std::vector<std::vector<Vec3d>> toward(static_cast<size_t>(n));
-    for (int l = 0; l < light.suns; ++l) {
-      Vec3d d(normal(rng), normal(rng), normal(rng));
-      d /= std::sqrt(dot(d, d));
-      light.sun[l] = {d.x, d.y, d.z, Vec3d(0.9, 0.8, 0.7) * (l + 1.0)};
-      for (auto& t : toward) t.push_back(d);
-    }
+    std::vector<std::vector<Vec3d>> toward;
+    const ControlLighting light = randomLighting(1 + trial % 2, n, rng, normal, toward);
     const StratumControl c = diskControl(0, 0, p, member, light, true, 0);
     if (!diskControl(0, 0, p, member, light, false, 0).any() && c.any()) ++unsplit;  // one seen changes: split only if asked
     if (!c.any()) {
@@ -137,18 +176,7 @@ TEST_CASE("an orthographic stratum's control integrates to 0 over its inside, an
       for (int i = 0; i < 2; ++i) ball[i] = {double(p.cx[i]), double(p.cy[i]) * double(p.aspect), member[i].centre.z, 1 / double(p.inverseAx[i])};
       changing += seenWithin(ball[0], ball[1], 0, 1, 0, double(p.aspect)) == 0;
     }
-    const auto seen = [&](double x, double y) {  // the sphere seen at (x, y): the nearest front among the disks holding it
-      int nearest = -1;
-      double front = 1e300;
-      for (int i = 0; i < n; ++i) {
-        double u, v;
-        p.frame(i, x, y, u, v);
-        if (!(u * u + v * v < 1)) continue;
-        const double f = member[i].centre.z - std::sqrt(1 - u * u - v * v) / double(p.inverseAx[i]);
-        if (f < front) front = f, nearest = i;
-      }
-      return nearest;
-    };
+    const auto seen = [&](double x, double y) { return seenMember(p, member, x, y); };
     const auto [integral, inside] =
         integrateInside(p, 0, 0, toward, [&](double x, double y) { return channels(diskControlAt(p, c, light, x, y)); }, seen);
     CHECK_MESSAGE(inside == doctest::Approx(double(p.share)).epsilon(1e-4), trial);
@@ -157,29 +185,7 @@ TEST_CASE("an orthographic stratum's control integrates to 0 over its inside, an
     // The colour of a diffuse sphere seen there (the nearest front among the disks holding it) less
     // the control is the mean, on a 60 x 60 grid of the inside.
     double worst = 0;
-    for (int gy = 0; gy < 60; ++gy) {
-      for (int gx = 0; gx < 60; ++gx) {
-        const double x = (gx + 0.5) / 60, y = (gy + 0.5) / 60;
-        int seen = -1;
-        double front = 1e300, su = 0, sv = 0;
-        for (int i = 0; i < n; ++i) {
-          double u, v;
-          p.frame(i, x, y, u, v);
-          if (!(u * u + v * v < 1)) continue;
-          const double f = member[i].centre.z - std::sqrt(1 - u * u - v * v) / double(p.inverseAx[i]);
-          if (f < front) front = f, seen = i, su = u, sv = v;
-        }
-        if (seen < 0) continue;
-        const double w = std::sqrt(1 - su * su - sv * sv);
-        Vec3d shading = light.ambient;
-        for (int l = 0; l < light.suns; ++l) {
-          shading += std::max(0.0, light.sun[l].a * su + light.sun[l].b * sv + light.sun[l].c * w) * light.sun[l].color;
-        }
-        const Vec3d colour = Vec3d(Vec3<float>(member[seen].kd)) * shading;
-        const Vec3d left = colour - diskControlAt(p, c, light, x, y) - Vec3d(c.mean);
-        worst = std::max({worst, std::abs(left.x), std::abs(left.y), std::abs(left.z)});
-      }
-    }
+    for (int g = 0; g < 3600; ++g) worst = std::max(worst, leftAt(p, c, member, light, (g % 60 + 0.5) / 60, (g / 60 + 0.5) / 60));
     CHECK_MESSAGE(worst < 1e-5, trial, " ", worst);
   }
   CHECK(tested >= 100);
@@ -219,30 +225,11 @@ TEST_CASE("where the sphere seen changes inside overlaps, a control's mean found
       for (int j = 0; j < i; ++j) changes = changes || seenWithin(ball[i], ball[j], 0, 1, 0, 1) == 0;
     }
     if (!changes) continue;
-    ControlLighting light;
-    light.ambient = Vec3d(0.1, 0.15, 0.2);
-    light.suns = 1 + trial % 2;
-    std::vector<std::vector<Vec3d>> toward(static_cast<size_t>(n));
-    for (int l = 0; l < light.suns; ++l) {
-      Vec3d d(normal(rng), normal(rng), normal(rng));
-      d /= std::sqrt(dot(d, d));
-      light.sun[l] = {d.x, d.y, d.z, Vec3d(0.9, 0.8, 0.7) * (l + 1.0)};
-      for (auto& t : toward) t.push_back(d);
-    }
+    std::vector<std::vector<Vec3d>> toward;
+    const ControlLighting light = randomLighting(1 + trial % 2, n, rng, normal, toward);
     CHECK_MESSAGE(!diskControl(0, 0, p, member, light, false, 0).any(), trial);  // exact geometry only: none
     ++tested, three += n == 3;
-    const auto seen = [&](double x, double y) {
-      int nearest = -1;
-      double front = 1e300;
-      for (int i = 0; i < n; ++i) {
-        double u, v;
-        p.frame(i, x, y, u, v);
-        if (!(u * u + v * v < 1)) continue;
-        const double f = member[i].centre.z - std::sqrt(1 - u * u - v * v) / double(p.inverseAx[i]);
-        if (f < front) front = f, nearest = i;
-      }
-      return nearest;
-    };
+    const auto seen = [&](double x, double y) { return seenMember(p, member, x, y); };
     for (int t = 0; t < 2; ++t) {
       double share = 0;
       const StratumControl c = diskControl(0, 0, p, member, light, false, tolerances[t], &share);
@@ -262,18 +249,7 @@ TEST_CASE("where the sphere seen changes inside overlaps, a control's mean found
       offSquares[t] += off * off, estimateSquares[t] += double(c.meanError) * c.meanError;
       worstRatio[t] = std::max(worstRatio[t], off / c.meanError);
       // At a point, the colour of the sphere seen less the control is still the mean.
-      for (int g = 0; g < 400; ++g) {
-        const double x = (g % 20 + 0.5) / 20, y = (g / 20 + 0.5) / 20;
-        const int i = seen(x, y);
-        if (i < 0) continue;
-        double u, v;
-        p.frame(i, x, y, u, v);
-        const double w = std::sqrt(1 - u * u - v * v);
-        Vec3d shading = light.ambient;
-        for (int l = 0; l < light.suns; ++l) shading += std::max(0.0, light.sun[l].a * u + light.sun[l].b * v + light.sun[l].c * w) * light.sun[l].color;
-        const Vec3d left = Vec3d(Vec3<float>(member[i].kd)) * shading - diskControlAt(p, c, light, x, y) - Vec3d(c.mean);
-        CHECK_MESSAGE(std::max({std::abs(left.x), std::abs(left.y), std::abs(left.z)}) < 1e-5, trial);
-      }
+      for (int g = 0; g < 400; ++g) CHECK_MESSAGE(leftAt(p, c, member, light, (g % 20 + 0.5) / 20, (g / 20 + 0.5) / 20) < 1e-5, trial);
     }
   }
   CHECK(tested >= 60);
