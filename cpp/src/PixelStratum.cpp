@@ -81,7 +81,9 @@ double chordFan(DiskPieces::Point p, DiskPieces::Point q, bool arc, double a, do
   int n = 1;
   for (int k = 0; k < count; ++k) cut[n++] = cuts[k];
   if (p1 != 0 && -p0 / p1 > 0 && -p0 / p1 < 1) cut[n++] = -p0 / p1;
-  std::sort(cut, cut + n);
+  for (int i = 2; i < n; ++i) {  // cut[1..n) sorted by insertion: at most four
+    for (int j = i; j > 1 && cut[j] < cut[j - 1]; --j) std::swap(cut[j], cut[j - 1]);
+  }
   cut[n] = 1;
   const auto at = [&](double s) { return s == 0 ? p : s == 1 ? q : DiskPieces::Point{p.u + s * du, p.v + s * dv}; };
   const auto onRim = [](DiskPieces::Point e) {
@@ -248,22 +250,39 @@ void UnitDiskPart::integrate() {
 }
 
 double UnitDiskPart::clampedIntegral(double a, double b, double c) const {
-  // Each piece: where the terminator crosses it, and whether the light lights it all over (side 1),
-  // leaves it dark all over (-1), or neither (0). Where none is crossed, the part lies on one side of
-  // the terminator (which ends on the rim: where it enters the part, it crosses a piece).
+  // The cosine at each piece's ends. The part is convex, and over it the cosine is concave where
+  // c >= 0 (c w is) and convex where c <= 0: its least value (c >= 0), or its greatest (c <= 0), lies
+  // at a straight piece's end or on an arc, where it is a u + b v and, over at most a quarter turn,
+  // lies between its ends' values unless both are of the other sign. So where c >= 0 and every end
+  // is lit, the part is lit all over; where c <= 0 and every end is dark, dark all over; and a
+  // straight piece whose ends are both so is crossed by no terminator.
   const int n = pieces.count;
+  double atP[20], atQ[20];
+  bool lit = c >= 0, dark = c <= 0;
+  for (int i = 0; i < n; ++i) {
+    const auto& [p, q, arc, fanW] = pieces.piece[i];
+    const auto rim = [&](DiskPieces::Point e) { return arc ? 0.0 : std::sqrt(std::max(0.0, 1 - e.u * e.u - e.v * e.v)); };
+    atP[i] = a * p.u + b * p.v + c * rim(p), atQ[i] = a * q.u + b * q.v + c * rim(q);
+    lit = lit && atP[i] >= 0 && atQ[i] >= 0, dark = dark && atP[i] <= 0 && atQ[i] <= 0;
+  }
+  if (lit) return std::max(0.0, a * u + b * v + c * w);
+  if (dark) return 0;
+  lit = dark = true;
+  // Otherwise each piece: where the terminator crosses it, and whether the light lights it all over
+  // (side 1), leaves it dark all over (-1), or neither (0); the sum over its fans.
   double crossing[20][2];
   int crossings[20];
   int side[20];
-  bool lit = true, dark = true;
   for (int i = 0; i < n; ++i) {
     const auto& [p, q, arc, fanW] = pieces.piece[i];
-    crossings[i] = arc ? 0 : terminatorCrossings(p, q, a, b, c, crossing[i]);
-    const auto rim = [&](DiskPieces::Point e) { return arc ? 0.0 : std::sqrt(std::max(0.0, 1 - e.u * e.u - e.v * e.v)); };
-    const double atP = a * p.u + b * p.v + c * rim(p), atQ = a * q.u + b * q.v + c * rim(q);  // the cosine at its ends
-    side[i] = crossings[i] > 0 ? 0 : atP >= 0 && atQ >= 0 ? 1 : atP <= 0 && atQ <= 0 ? -1 : 0;
+    const bool litEnds = atP[i] >= 0 && atQ[i] >= 0, darkEnds = atP[i] <= 0 && atQ[i] <= 0;
+    const bool oneSide = arc || (c >= 0 && litEnds) || (c <= 0 && darkEnds);
+    crossings[i] = oneSide ? 0 : terminatorCrossings(p, q, a, b, c, crossing[i]);
+    side[i] = crossings[i] > 0 ? 0 : litEnds ? 1 : darkEnds ? -1 : 0;
     lit = lit && side[i] == 1, dark = dark && side[i] == -1;
   }
+  // Where the terminator crosses no piece, the part lies on one side of it (it ends on the rim: where
+  // it enters the part, it crosses a piece).
   if (lit) return std::max(0.0, a * u + b * v + c * w);
   if (dark) return 0;
   double total = 0;
