@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 
 #include "durer/accel/SphereView.h"
 
@@ -436,7 +437,8 @@ LostShading lostToNearer(const PixelBall* ball, const StratumControl& control, i
 
 // An order of n members (rank[i]: 0 first) in which before[i][j] puts i before j, if one exists.
 bool rankBy(const bool (*before)[PixelStratum::kMostDisks], int n, uint8_t* rank) {
-  int order[PixelStratum::kMostDisks] = {0, 1, 2};
+  int order[PixelStratum::kMostDisks];
+  std::iota(order, order + PixelStratum::kMostDisks, 0);
   do {
     bool fits = true;
     for (int i = 0; i < n && fits; ++i) {
@@ -521,6 +523,13 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
       }
     }
     numeric = numeric || (!changes && !rankBy(before, n, rank));
+    // Nearer members' disks are taken off a member's part exactly by inclusion and exclusion of at most
+    // ClippedDiskPart::kMostCircles of them; beyond, numerically.
+    for (int i = 0; i < n && !numeric && !changes; ++i) {
+      int nearer = 0;
+      for (int j = 0; j < n; ++j) nearer += overlap[i][j] && rank[j] < rank[i];
+      numeric = nearer > ClippedDiskPart::kMostCircles;
+    }
     if (numeric && !(tolerance > 0)) return control;
     changes = changes && !numeric;
   }

@@ -266,12 +266,14 @@ TEST_CASE("a pixel's stratum of several silhouettes: the share of their union, a
   // A pixel two silhouettes cross, neither covering it, whose union covers it: none.
   const PixelStratum::Ellipse halves[2] = {{0.0, 0.5, 0.8, 0.8}, {1.0, 0.5, 0.8, 0.8}};
   CHECK_FALSE(PixelStratum::of(0, 0, halves, 2).any());
-  // Only the first kMostDisks count.
-  const PixelStratum::Ellipse four[4] = {{0, 0, 0.3, 0.3}, {1, 0, 0.3, 0.3}, {0, 1, 0.3, 0.3}, {1, 1, 0.3, 0.3}};
-  const PixelStratum q = PixelStratum::of(0, 0, four, 4);
-  CHECK(q.disks == 3);
-  CHECK(double(q.share) == doctest::Approx(3 * kPi * 0.09 / 4).epsilon(1e-6));
-  CHECK_FALSE(q.contains(0.95, 0.95));
+  // Only the first kMostDisks (4) count.
+  const PixelStratum::Ellipse five[5] = {{0, 0, 0.3, 0.3}, {1, 0, 0.3, 0.3}, {0, 1, 0.3, 0.3}, {1, 1, 0.3, 0.3}, {0.5, 0.5, 0.1, 0.1}};
+  static_assert(PixelStratum::kMostDisks == 4);
+  const PixelStratum q = PixelStratum::of(0, 0, five, 5);
+  CHECK(q.disks == 4);
+  CHECK(double(q.share) == doctest::Approx(kPi * 0.09).epsilon(1e-6));
+  CHECK(q.contains(0.95, 0.95));
+  CHECK_FALSE(q.contains(0.5, 0.5));
 }
 
 namespace {

@@ -10,10 +10,11 @@ from ..scene import Scene
 from ..showcase import showcase_scene
 
 
-def edge_scene(spheres: int = 2000, seed: int = 3, specular: float = 0.0) -> tuple[Scene, OrthographicCamera]:
+def edge_scene(spheres: int = 2000, seed: int = 3, specular: float = 0.0, sun: bool = True) -> tuple[Scene, OrthographicCamera]:
     """Many small spheres (radius 0.02-0.08, under one to three pixels at 160 wide) on a plane, one
     sun without shadows, seen from above: nearly every pixel has an edge in it. With `specular`, the
-    spheres' highlights (Phong, exponent 30) of that weight."""
+    spheres' highlights (Phong, exponent 30) of that weight; without `sun`, a white ambient light alone
+    (every surface its diffuse colour: a render without the strata's controls)."""
     scene = Scene()
     scene.background = (0.55, 0.7, 0.9, 1.0)
     scene.ambient = (0.18, 0.2, 0.24)
@@ -26,7 +27,10 @@ def edge_scene(spheres: int = 2000, seed: int = 3, specular: float = 0.0) -> tup
     r = rng.uniform(0.02, 0.08, spheres)
     centers = np.stack([rng.uniform(-4.4, 4.4, spheres), r, rng.uniform(-2.6, 2.6, spheres)], axis=1)
     scene.add_spheres(centers, r, material=palette[rng.integers(0, palette.size, spheres)])
-    scene.add_directional_light((-0.5, -1.0, -0.4), (0.95, 0.92, 0.85))
+    if sun:
+        scene.add_directional_light((-0.5, -1.0, -0.4), (0.95, 0.92, 0.85))
+    else:
+        scene.ambient = (1.0, 1.0, 1.0)
     # Slightly off straight down, so that no ray direction component is exactly 0 (kept for comparable figures).
     camera = OrthographicCamera(center=(0.0, 5.0, 0.0), direction=(0.02, -1.0, -0.05), up=(0.0, 0.0, -1.0), size=8.0)
     return scene, camera

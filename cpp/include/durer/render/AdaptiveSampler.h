@@ -39,8 +39,9 @@
 // noise of a light's samples; a light's edge squeezed against the silhouette next door).
 // In a colour render, where a camera without a lens sees spheres' silhouettes cross a pixel
 // (TileRenderer::silhouetteStrata), the pixel's mean is its stratum's (PixelStratum): the mean of
-// its samples inside the silhouettes' union (orthographic: up to three disks; perspective: one
-// sphere's ellipse) and that of those outside, weighed by their exact shares of the pixel; its error
+// its samples inside the silhouettes' union (orthographic: up to four disks; perspective: one
+// sphere's ellipse) and that of those outside, weighed by their exact shares of the pixel (a union
+// filling the pixel is there for its control alone: share 1, no outside); its error
 // estimate the difference of its halves' means made the same way. A part that estimate cannot see
 // keeps the pixel marked while what it may put the mean off by exceeds targetError
 // (unresolvedShare): one no sample has reached yet, by its share (its colour may differ by about
@@ -49,7 +50,7 @@
 // (orthographic: diskControl (StratumControl.h), the diffuse shading by the ambient light and those
 // lights, no shadows, of the sphere seen there, less that shading's exact mean over the stratum's
 // inside; where the sphere seen changes inside an overlap of disks of spheres that cut through each
-// other and three disks cross the pixel, or a pixel may take fewer than kSplitSamples, what each loses
+// other and three or more disks cross the pixel, or a pixel may take fewer than kSplitSamples, what each loses
 // to a nearer one there found on a lattice, within kControlError of the target by its own estimate,
 // which the pixel's error estimate adds: its samples cannot see it; beyond that, none;
 // perspective, for a small sphere: ellipseControl, the same with
@@ -89,7 +90,7 @@
 // A time limit stops the refining rounds (never the first pass) when spent; each worker takes its
 // band's tiles worst first (the largest estimated error), so what the limit cuts matters least.
 // Every pixel's state is kept until the end (TileState and Summary: 201 bytes a pixel in double, 133
-// in float; in a colour render through a camera without a lens, StratumState: 280 and 244 more).
+// in float; in a colour render through a camera without a lens, StratumState: 312 and 276 more).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
 // threads; a pixel's result depends on the pixels within `rounds` of it, and its reported error on
 // those within one more, so a region is rendered with that margin around it (sampledRegion) and
@@ -271,8 +272,8 @@ class AdaptiveSampler {
 
  private:
   // A tile's pixels' silhouette strata, the sums of their samples inside them, and the spheres they
-  // watch, and their control variates (kept only where pixels may have one: m_strata; 280 bytes a pixel in
-  // double, 244 in float).
+  // watch, and their control variates (kept only where pixels may have one: m_strata; 312 bytes a pixel in
+  // double, 276 in float).
   struct StratumState {
     PixelStratum strata[kPacketSize];                     // the silhouettes crossing the pixel (PixelStratum)
     uint32_t sphere[kPacketSize];                         // its sphere, if one (Tiles::kNoSphere: none, or several)

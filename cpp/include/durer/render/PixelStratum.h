@@ -440,7 +440,7 @@ inline double circlesRectangleUnionArea(const double* cu, const double* cv, cons
 // share 0 (as PixelStratum{} makes it): the pixel has none (its samples' plain mean stands).
 // Trivial, for adaptive sampling's tile states (HugeArray).
 struct PixelStratum {
-  static constexpr int kMostDisks = 3;
+  static constexpr int kMostDisks = 4;
   float cx[kMostDisks], cy[kMostDisks];                // the ellipses' centres
   float inverseAx[kMostDisks], inverseAy[kMostDisks];  // their semi-axes' inverses
   float share;   // of pixel (x, y)'s square [x, x + 1] x [y, y + 1] inside the union, in (0, 1); 1: filled()
@@ -513,6 +513,14 @@ struct PixelStratum {
   static PixelStratum filled(const Ellipse& e) {
     PixelStratum p = shaped(&e, 1);
     if (p.disks == 1) p.share = 1;
+    return p;
+  }
+
+  // This shaped() stratum filling its pixel (share 1), for its control alone (TileRenderer's
+  // silhouetteStrata: a union that covers the pixel).
+  PixelStratum filling() const {
+    PixelStratum p = *this;
+    p.share = disks > 0 ? 1.0f : 0.0f;
     return p;
   }
 

@@ -72,7 +72,11 @@ struct StratumControl {
   uint8_t coverLights;
   float coverCx, coverCy, coverInverseAx, coverInverseAy;
   Vec3<float> coverMean;
-  bool any() const { return kd[0] != Vec3<float>(0) || kd[1] != Vec3<float>(0) || kd[2] != Vec3<float>(0); }
+  bool any() const {
+    bool some = false;  // without exits: read for every sample inside a stratum
+    for (const Vec3<float>& c : kd) some = some || c != Vec3<float>(0);
+    return some;
+  }
   bool covered() const { return coverKd != Vec3<float>(0); }
 };
 
@@ -97,8 +101,9 @@ struct ControlMember {
 // inclusion and exclusion). Where the one seen changes inside the overlap (the projection of the arc
 // where their fronts meet crosses it), with two members: each loses the part of the overlap where
 // the other is seen, which that arc bounds (its fans integrated in the arc's parameter), if `split`.
-// With three, or without `split` (or where the pairs' ranks disagree), what each loses where another
-// is seen is found numerically instead (the midpoint rule on a kLostGrid lattice over the overlaps'
+// With three or more, or without `split` (or where the pairs' ranks disagree, or a member has more
+// than two nearer ones overlapping it), what each loses where another is seen is found numerically
+// instead (the midpoint rule on a kLostGrid lattice over the overlaps'
 // box in the pixel, estimating its own error: meanError), where that error is within `tolerance`
 // (finer lattices otherwise, up to kFinestLostGrid; beyond, none: 0 asks for exact geometry only). A function of a
 // sample's position alone whose mean over the inside is 0: the inside's mean of the samples' colours less

@@ -494,11 +494,17 @@ class TileRenderer {
   // may hide a member's edge: one whose disk overlaps the member's and reaches into the pixel, its
   // front nearer than the edge (a small sphere before a large one's rim): the edge seen is then not
   // the union's, and a part of the stratum holding colours its samples may all have missed would
-  // settle the pixel on a wrong mean. Other geometry (planes, triangles, boxes, groups' spheres) and
-  // a t_min cutting into a sphere are not looked at: an edge of theirs in a part only costs the
-  // stratum its gain (any exact split of the pixel keeps the mean consistent). The view lists a
-  // cell's spheres by their fronts' depths: once every pixel has a cover nearer than the next one's
-  // front, or too many spheres crossing it, the rest can change nothing and are not read.
+  // settle the pixel on a wrong mean; but where that sphere is the pixel's cover, it cutting
+  // through the members, and a control knows which sphere is seen where, it joins the members (if
+  // fewer than kMostDisks, and it hides every other sphere reaching into the pixel: the members'
+  // parts and its own are then all of the pixel). A union that fills the pixel (so joined, or of
+  // spheres that cut through each other all over it) keeps a stratum for its control alone (share
+  // 1, PixelStratum::filling), as a sphere covering a pixel may (fill). Other geometry (planes,
+  // triangles, boxes, groups' spheres) and a t_min cutting into a sphere are not looked at: an edge
+  // of theirs in a part only costs the stratum its gain (any exact split of the pixel keeps the
+  // mean consistent). The view lists a cell's spheres by their fronts' depths: once every pixel has
+  // a cover nearer than the next one's front, or too many spheres crossing it, the rest can change
+  // nothing and are not read.
   // With `controls` (null unless the render controlsStrata()): each stratum's control variate too
   // (diskControl; `split`: exactly also where the sphere seen changes inside an overlap of two; a
   // control found in part numerically only within `tolerance` of the pixel's colour). Where a
@@ -525,7 +531,9 @@ class TileRenderer {
     uint32_t reached[kReached][kPacketSize];  // (the first kReached), and how many
     int reaching[kPacketSize];
     double deepest[kPacketSize];  // the deepest member's centre
+    bool joins[kPacketSize];      // its cover cuts through a member before the member's edge (below)
     std::fill(members, members + count, 0);
+    std::fill(joins, joins + count, false);
     std::fill(hidden, hidden + count, inf);
     std::fill(reaching, reaching + count, 0);
     std::fill(deepest, deepest + count, -inf);
@@ -563,7 +571,7 @@ class TileRenderer {
     }
     // Another sphere whose disk overlaps a member's and reaches into the pixel, its front nearer than
     // the member's edge, may hide that edge there (a small sphere before a large one's rim): the edge
-    // seen is then not the union's.
+    // seen is then not the union's. The pixel's cover so may join the members instead (below).
     m_view->forCellOf(x0, y0, farthest, [&](uint32_t i, float, std::array<int, 2> rows, std::array<int, 2> columns) {
       const ImageDisk d = imageDisk(image, i);
       forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
@@ -575,26 +583,31 @@ class TileRenderer {
           own = own || memberSphere[m][k] == i;
           hides = hides || (d.q.z - d.radius < c.q.z && dx * dx + dy * dy < reach * reach);
         }
-        if (hides && !own && d.cover(x, y) != Cover::Outside) members[k] = 0;
+        if (!(hides && !own && d.cover(x, y) != Cover::Outside)) return;
+        if (hidden[k] < inf && i == cover[k]) {
+          joins[k] = true;
+        } else {
+          members[k] = 0;
+        }
       });
     });
     for (int row = 0, k = 0; row < h; ++row) {
       for (int column = 0; column < w; ++column, ++k) {
-        PixelStratum::Ellipse ellipses[kMost];
-        for (int m = 0; m < members[k]; ++m) ellipses[m] = {member[m][k].cx, member[m][k].cy, member[m][k].ax, member[m][k].ay};
         const int x = x0 + column, y = y0 + row;
-        // Whether the cover is seen all over the pixel but for `member`'s part: every other sphere
-        // reaching into it before the cover's centre has its centre behind the cover's and lies apart
-        // from the cover (so behind its front wherever both are met), or cuts through it and the
-        // cover is seen all over their overlap in the pixel (seenWithin).
-        const auto coverSeen = [&](uint32_t member) {
+        // Whether the cover is seen all over the pixel but for the parts of the first `count` members:
+        // every other sphere reaching into it before the cover's centre has its centre behind the
+        // cover's and lies apart from the cover (so behind its front wherever both are met), or cuts
+        // through it and the cover is seen all over their overlap in the pixel (seenWithin).
+        const auto coverSeen = [&](int count) {
           if (!(hidden[k] < inf) || reaching[k] > kReached) return false;
           const ImageDisk c = imageDisk(image, cover[k]);
           const double aspect = c.ax / c.ay, scale = c.ax / c.radius;  // y pixels to x's; pixels a world unit
           const auto ball = [&](const ImageDisk& d) { return PixelBall{d.cx - x, (d.cy - y) * aspect, d.q.z * scale, d.ax}; };
           for (int j = 0; j < reaching[k]; ++j) {
             const uint32_t i = reached[j][k];
-            if (i == cover[k] || i == member) continue;
+            bool member = false;
+            for (int m = 0; m < count; ++m) member = member || memberSphere[m][k] == i;
+            if (i == cover[k] || member) continue;
             const ImageDisk s = imageDisk(image, i);
             const Vec3d d = s.q - c.q;
             const double apart = s.radius + c.radius;
@@ -604,10 +617,20 @@ class TileRenderer {
           }
           return true;
         };
-        if (members[k] == 0 && controls && m_controlExact && coverSeen(kNoSphere)) {
+        // A cover cutting through members before their edges joins them where it may (a control, room,
+        // and every other sphere reaching into the pixel hidden behind it: coverSeen): their union is
+        // then the pixel, and the control knows every sphere seen in it. Where not, no stratum.
+        if (joins[k] && members[k] > 0) {
+          const int n = members[k];
+          if (!(controls && n < kMost && coverSeen(n))) continue;
+          member[n][k] = imageDisk(image, cover[k]), memberSphere[n][k] = cover[k], members[k] = n + 1;
+        }
+        if (members[k] == 0 && controls && m_controlExact && coverSeen(0)) {
           fill(x, y, cover[k], strata[k], spheres[k], controls[k]);
           continue;
         }
+        PixelStratum::Ellipse ellipses[kMost];
+        for (int m = 0; m < members[k]; ++m) ellipses[m] = {member[m][k].cx, member[m][k].cy, member[m][k].ax, member[m][k].ay};
         const PixelStratum shape = PixelStratum::shaped(ellipses, members[k]);
         if (shape.disks == 0) continue;
         // The control's parts make the union's share too where they partition it (diskControl);
@@ -617,7 +640,7 @@ class TileRenderer {
         if (controls) {
           // A sphere covering the pixel behind one member and seen all over the rest of it
           // (coverSeen): its control over the outside too (diskControl's cover).
-          const bool covered = members[k] == 1 && coverSeen(memberSphere[0][k]);
+          const bool covered = members[k] == 1 && coverSeen(1);
           ControlMember own[kMost];
           for (int m = 0; m < shape.disks; ++m) own[m] = {diffuseOf(memberSphere[m][k]), member[m][k].q, member[m][k].radius};
           ControlMember behind{};
@@ -628,7 +651,10 @@ class TileRenderer {
           }
           control = diskControl(x, y, shape, own, m_lighting, split, tolerance, &share, covered ? &behind : nullptr, &behindDisk);
         }
-        strata[k] = shape.withShare(std::isnan(share) ? shape.unionShare(x, y) : share);
+        // A union filling the pixel (one the cover joined, or members cutting through each other all
+        // over it) keeps a stratum for its control alone: share 1.
+        const double inUnion = std::isnan(share) ? shape.unionShare(x, y) : share;
+        strata[k] = control.any() && !(static_cast<float>(inUnion) < 1) ? shape.filling() : shape.withShare(inUnion);
         if (!strata[k].any()) continue;
         if (members[k] == 1) spheres[k] = memberSphere[0][k];
         if (controls) {
@@ -638,7 +664,8 @@ class TileRenderer {
             }
             return true;
           };
-          const bool outside = hidden[k] == inf || (control.covered() && beforePlane(cover[k]));  // one colour, or the cover's
+          // None, one colour (the plane or the background), or the cover's.
+          const bool outside = strata[k].share == 1 || hidden[k] == inf || (control.covered() && beforePlane(cover[k]));
           control.exact = m_controlExact && control.any() && outside && before();
           controls[k] = control;
         }
