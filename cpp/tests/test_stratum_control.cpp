@@ -268,6 +268,55 @@ TEST_CASE("where the sphere seen changes inside overlaps, a control's mean found
   }
 }
 
+TEST_CASE("four disks, the farthest behind three nearer ones that overlap it: its control found on the lattice") {
+  // Four spheres apart in space (5 pixels apart in depth, at most 0.55 across), their disks
+  // overlapping in pixel (0, 0): the farthest may lose its part to three nearer disks, more than
+  // inclusion and exclusion takes exactly (ClippedDiskPart::kMostCircles), so its control is the
+  // lattice's or, with exact geometry only, none.
+  static_assert(PixelStratum::kMostDisks == 4 && ClippedDiskPart::kMostCircles == 2);
+  std::mt19937_64 rng(53);
+  std::uniform_real_distribution<double> unit(0, 1);
+  std::normal_distribution<double> normal;
+  int tested = 0;
+  double offSquares = 0, estimateSquares = 0;
+  for (int trial = 0; trial < 400 && tested < 30; ++trial) {
+    PixelStratum::Ellipse e[4];
+    ControlMember member[4];
+    for (int i = 0; i < 4; ++i) {
+      const double r = 0.3 + 0.25 * unit(rng), cx = 0.25 + 0.5 * unit(rng), cy = 0.25 + 0.5 * unit(rng);
+      e[i] = {cx, cy, r, r};
+      member[i] = {Vec3d(unit(rng), unit(rng), unit(rng)), Vec3d(cx, -cy, 5.0 * (i + 1)), r};
+    }
+    const PixelStratum p = PixelStratum::of(0, 0, e, 4);
+    bool behindThree = p.disks == 4;  // the farthest's disk overlaps the other three's
+    for (int i = 0; i < 3; ++i) behindThree = behindThree && std::hypot(e[i].cx - e[3].cx, e[i].cy - e[3].cy) < e[i].ax + e[3].ax;
+    if (!behindThree) continue;
+    std::vector<std::vector<Vec3d>> toward;
+    const ControlLighting light = randomLighting(1 + trial % 2, 4, rng, normal, toward);
+    CHECK_MESSAGE(!diskControl(0, 0, p, member, light, true, 0).any(), trial);
+    double share = 0;
+    const StratumControl c = diskControl(0, 0, p, member, light, true, 0.002, &share);
+    if (!c.any()) continue;  // a lattice of 32 x 32 may miss the tolerance
+    ++tested;
+    CHECK_MESSAGE(share == p.unionShare(0, 0), trial);
+    CHECK_MESSAGE((c.meanError > 0 && c.meanError <= 0.002), trial);
+    const auto seen = [&](double x, double y) { return seenMember(p, member, x, y); };
+    const auto [integral, inside] =
+        integrateInside(p, 0, 0, toward, [&](double x, double y) { return channels(diskControlAt(p, c, light, x, y)); }, seen);
+    CHECK_MESSAGE(inside == doctest::Approx(double(p.share)).epsilon(1e-4), trial);
+    offSquares += integral * integral / 9, estimateSquares += double(c.meanError) * c.meanError;
+    for (int g = 0; g < 400; ++g) CHECK_MESSAGE(leftAt(p, c, member, light, (g % 20 + 0.5) / 20, (g / 20 + 0.5) / 20) < 1e-5, trial);
+  }
+  CHECK(tested >= 20);
+  // Its mean's error (the control's integral over the inside, a third of it: the channels' mean), RMS
+  // over the strata, within the tolerance and about its estimate.
+  const double offRms = std::sqrt(offSquares / tested), estimateRms = std::sqrt(estimateSquares / tested);
+  MESSAGE("four disks: off RMS ", offRms, ", estimated ", estimateRms, " over ", tested);
+  CHECK(offRms < 0.002);
+  CHECK(offRms < 2 * estimateRms);
+  CHECK(offRms > estimateRms / 4);
+}
+
 TEST_CASE("which of two spheres that cut through each other is seen over their disks' overlap in a rectangle, against a grid") {
   std::mt19937_64 rng(43);
   std::uniform_real_distribution<double> unit(0, 1);

@@ -436,14 +436,15 @@ inline double circlesRectangleUnionArea(const double* cu, const double* cv, cons
 // union, not each sphere's own region: where spheres overlap, which of them shows (in front, or
 // cutting through each other) is not the question the stratum answers, only where some sphere's
 // colour is against where the background's is; the union's area is exact (to rounding) however
-// they overlap.
+// they overlap. (A union filling the pixel, share 1 — filled(), filling() — is there for a control
+// variate alone: its members may include a disk covering the pixel.)
 // share 0 (as PixelStratum{} makes it): the pixel has none (its samples' plain mean stands).
 // Trivial, for adaptive sampling's tile states (HugeArray).
 struct PixelStratum {
   static constexpr int kMostDisks = 4;
   float cx[kMostDisks], cy[kMostDisks];                // the ellipses' centres
   float inverseAx[kMostDisks], inverseAy[kMostDisks];  // their semi-axes' inverses
-  float share;   // of pixel (x, y)'s square [x, x + 1] x [y, y + 1] inside the union, in (0, 1); 1: filled()
+  float share;   // of pixel (x, y)'s square [x, x + 1] x [y, y + 1] inside the union, in (0, 1); 1: filling it
   float aspect;  // of several: each one's semi-axes' ratio ay / ax, as its membership and the share take it
   int32_t disks;  // how many ellipses
   float shear;   // of one: a rotated ellipse's (sheared): u = (x - cx) inverseAx + (y - cy) shear; 0 else

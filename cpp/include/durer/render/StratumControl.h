@@ -103,11 +103,11 @@ struct ControlMember {
 // the other is seen, which that arc bounds (its fans integrated in the arc's parameter), if `split`.
 // With three or more, or without `split` (or where the pairs' ranks disagree, or a member has more
 // than two nearer ones overlapping it), what each loses where another is seen is found numerically
-// instead (the midpoint rule on a kLostGrid lattice over the overlaps'
-// box in the pixel, estimating its own error: meanError), where that error is within `tolerance`
-// (finer lattices otherwise, up to kFinestLostGrid; beyond, none: 0 asks for exact geometry only). A function of a
-// sample's position alone whose mean over the inside is 0: the inside's mean of the samples' colours less
-// their controls estimates the colours' mean without bias whatever the shading. Where the shading is
+// instead (the midpoint rule on a kLostGrid lattice over the overlaps' box in the pixel, estimating
+// its own error: meanError), where that error is within `tolerance` (finer lattices otherwise, up to
+// kFinestLostGrid; beyond, none: 0 asks for exact geometry only). A function of a sample's position
+// alone whose mean over the inside is 0: the inside's mean of the samples' colours less their
+// controls estimates the colours' mean without bias whatever the shading. Where the shading is
 // that (diffuse spheres lit by suns, no shadows), a sample's colour less its control is the mean all
 // over the inside: exact from one sample. Left: emission, shadows, highlights, other lights, ambient
 // occlusion, samples that met something else, which the samples estimate.
