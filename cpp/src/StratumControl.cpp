@@ -498,6 +498,9 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
   // first's aspect down, depth in the same units).
   bool overlap[kMost][kMost] = {}, before[kMost][kMost] = {}, changes = false, numeric = false;
   uint8_t rank[kMost] = {};
+  // Where a rank holds, each member's nearer members whose disks overlap its own in the pixel (in
+  // index order): what its part loses to them is taken off exactly (below).
+  int nearer[kMost][kMost], nearers[kMost] = {};
   PixelBall ball[kMost];
   if (n > 1) {
     const double scale = 1 / (double(p.inverseAx[0]) * members[0].radius);  // pixel units a world unit
@@ -526,9 +529,10 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
     // Nearer members' disks are taken off a member's part exactly by inclusion and exclusion of at most
     // ClippedDiskPart::kMostCircles of them; beyond, numerically.
     for (int i = 0; i < n && !numeric && !changes; ++i) {
-      int nearer = 0;
-      for (int j = 0; j < n; ++j) nearer += overlap[i][j] && rank[j] < rank[i];
-      numeric = nearer > ClippedDiskPart::kMostCircles;
+      for (int j = 0; j < n; ++j) {
+        if (overlap[i][j] && rank[j] < rank[i]) nearer[i][nearers[i]++] = j;
+      }
+      numeric = nearers[i] > ClippedDiskPart::kMostCircles;
     }
     if (numeric && !(tolerance > 0)) return control;
     changes = changes && !numeric;
@@ -548,20 +552,20 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
     // Less the part that nearer members' disks cover (in the member's frame): one's, or two's by
     // inclusion and exclusion; where the one seen changes, each the part of the overlap where the
     // other is seen (below).
+    const int count = changes || numeric ? 0 : nearers[i];
     double cu[kMost], cv[kMost], cr[kMost];
-    int nearer = 0;
-    for (int j = 0; j < n && !changes && !numeric; ++j) {
-      if (!overlap[i][j] || rank[j] > rank[i]) continue;
-      cu[nearer] = (double(p.cx[j]) - double(p.cx[i])) * double(p.inverseAx[i]);
-      cv[nearer] = (double(p.cy[j]) - double(p.cy[i])) * double(p.aspect) * double(p.inverseAx[i]);
-      cr[nearer++] = double(p.inverseAx[i]) / double(p.inverseAx[j]);
+    for (int m = 0; m < count; ++m) {
+      const int j = nearer[i][m];
+      cu[m] = (double(p.cx[j]) - double(p.cx[i])) * double(p.inverseAx[i]);
+      cv[m] = (double(p.cy[j]) - double(p.cy[i])) * double(p.aspect) * double(p.inverseAx[i]);
+      cr[m] = double(p.inverseAx[i]) / double(p.inverseAx[j]);
     }
-    const auto cover = [&](int first, int count, double sign) {
-      const ClippedDiskPart covered(u0, u1, v0, v1, cu + first, cv + first, cr + first, count);
+    const auto cover = [&](int first, int circles, double sign) {
+      const ClippedDiskPart covered(u0, u1, v0, v1, cu + first, cv + first, cr + first, circles);
       sum -= sign * kd * shadingOver(covered, light, control.lights[i]) / scale, inside -= sign * covered.area / scale;
     };
-    if (nearer >= 1) cover(0, 1, 1);
-    if (nearer == 2) cover(1, 1, 1), cover(0, 2, -1);
+    if (count >= 1) cover(0, 1, 1);
+    if (count == 2) cover(1, 1, 1), cover(0, 2, -1);
   }
   if (changes) {  // two members: each loses the part of their overlap where the other is seen
     const FrontsMeet meet(ball[0], ball[1]);

@@ -436,7 +436,7 @@ inline double circlesRectangleUnionArea(const double* cu, const double* cv, cons
 // union, not each sphere's own region: where spheres overlap, which of them shows (in front, or
 // cutting through each other) is not the question the stratum answers, only where some sphere's
 // colour is against where the background's is; the union's area is exact (to rounding) however
-// they overlap. (A union filling the pixel, share 1 — filled(), filling() — is there for a control
+// they overlap. (A union filling the pixel, share 1 — filling() — is there for a control
 // variate alone: its members may include a disk covering the pixel.)
 // share 0 (as PixelStratum{} makes it): the pixel has none (its samples' plain mean stands).
 // Trivial, for adaptive sampling's tile states (HugeArray).
@@ -509,16 +509,9 @@ struct PixelStratum {
     return circlesRectangleUnionArea(cu, cv, radius, disks, 1, double(aspect)) / double(aspect);
   }
 
-  // The stratum of a pixel that one ellipse fills (share 1: every sample lies inside), for its control
-  // alone (TileRenderer::fill); none where shaped() makes none.
-  static PixelStratum filled(const Ellipse& e) {
-    PixelStratum p = shaped(&e, 1);
-    if (p.disks == 1) p.share = 1;
-    return p;
-  }
-
-  // This shaped() stratum filling its pixel (share 1), for its control alone (TileRenderer's
-  // silhouetteStrata: a union that covers the pixel).
+  // This shaped() stratum filling its pixel (share 1: every sample lies inside), for its control
+  // alone (TileRenderer's silhouetteStrata: a union that covers the pixel; fill: one disk that does);
+  // none where shaped() made none.
   PixelStratum filling() const {
     PixelStratum p = *this;
     p.share = disks > 0 ? 1.0f : 0.0f;

@@ -685,7 +685,7 @@ class TileRenderer {
     const bool inner = d.contains(x - 1, y - 1) && d.contains(x + 2, y - 1) && d.contains(x - 1, y + 2) && d.contains(x + 2, y + 2);
     if (inner || !beforePlane(sphere)) return;
     const PixelStratum::Ellipse e{d.cx, d.cy, d.ax, d.ay};
-    const PixelStratum filled = PixelStratum::filled(e);
+    const PixelStratum filled = PixelStratum::shaped(&e, 1).filling();
     const ControlMember member{diffuseOf(sphere), d.q, d.radius};
     const StratumControl c = diskControl(x, y, filled, &member, m_lighting, false, 0);
     if (!filled.any() || !c.any()) return;
