@@ -326,6 +326,96 @@ Vec3d shadingOver(const ClippedDiskPart& part, const ControlLighting& light, uin
   return along;
 }
 
+// A lattice's rows over a stratum's members (lostToNearer, seenMean), in float, a row's points at
+// once (the loops over its columns vectorise): each member's frame, and its lights' directions (0
+// for a light that does not reach it).
+struct LatticeRows {
+  static constexpr int kMost = PixelStratum::kMostDisks, kMostGrid = kFinestLostGrid;
+  static constexpr float kBig = std::numeric_limits<float>::max(), kFar = kBig / 2;
+  int n, grid;
+  double y0, dx, dy;  // the lattice's first row, and its spacing
+  float cx[kMost], inverse[kMost], r[kMost], z[kMost], sa[kMost][kMostControlLights], sb[kMost][kMostControlLights],
+      sc[kMost][kMostControlLights];
+  alignas(64) float column[kMostGrid];
+  // Row y's: each member's v, and at each column its u, w and front, pushed past kFar beyond its disk
+  // by a sum rather than a selection (a loop whose floating-point work is all done unconditionally
+  // vectorises); the nearest front.
+  float v[kMost];
+  alignas(64) float u[kMost][kMostGrid], w[kMost][kMostGrid], front[kMost][kMostGrid], nearest[kMostGrid];
+
+  // Over the box [x0, x1] x [y0, y1], `points` a side (at most kMostGrid).
+  LatticeRows(const PixelBall* ball, const StratumControl& control, int members, const ControlLighting& light, double x0, double x1,
+              double top, double y1, int points)
+      : n(members), grid(std::min(points, kMostGrid)), y0(top), dx((x1 - x0) / grid), dy((y1 - top) / grid) {
+    for (int m = 0; m < n; ++m) {
+      cx[m] = static_cast<float>(ball[m].x), inverse[m] = static_cast<float>(1 / ball[m].r), r[m] = static_cast<float>(ball[m].r);
+      z[m] = static_cast<float>(ball[m].z);
+      for (int l = 0; l < light.suns; ++l) {
+        const bool reaches = control.lights[m] & (1u << l);
+        sa[m][l] = reaches ? static_cast<float>(light.sun[l].a) : 0, sb[m][l] = reaches ? static_cast<float>(light.sun[l].b) : 0;
+        sc[m][l] = reaches ? static_cast<float>(light.sun[l].c) : 0;
+      }
+    }
+    for (int c = 0; c < grid; ++c) column[c] = static_cast<float>(x0 + (c + 0.5) * dx);
+  }
+
+  void row(const PixelBall* ball, int index) {
+    const double y = y0 + (index + 0.5) * dy;
+    for (int m = 0; m < n; ++m) {
+      v[m] = static_cast<float>((y - ball[m].y) / ball[m].r);
+      const float rest0 = 1 - v[m] * v[m];
+      for (int c = 0; c < grid; ++c) {
+        const float um = (column[c] - cx[m]) * inverse[m], rest = rest0 - um * um, wm = std::sqrt(std::max(rest, 0.0f));
+        u[m][c] = um, w[m][c] = wm, front[m][c] = (z[m] - r[m] * wm) + (rest > 0 ? 0.0f : kBig);
+      }
+    }
+    std::copy(front[0], front[0] + grid, nearest);
+    for (int m = 1; m < n; ++m) {
+      for (int c = 0; c < grid; ++c) nearest[c] = std::min(nearest[c], front[m][c]);
+    }
+  }
+
+  // Adds member m's `weight`ed points and its lights' clamped cosines there, by column, to into[0]
+  // and into[1 + l].
+  void add(int m, const float* weight, int suns, float (*into)[kMostGrid]) const {
+    for (int c = 0; c < grid; ++c) into[0][c] += weight[c];
+    for (int l = 0; l < suns; ++l) {
+      const float a = sa[m][l], b = sb[m][l] * v[m], cz = sc[m][l];
+      for (int c = 0; c < grid; ++c) into[1 + l][c] += weight[c] * std::max(0.0f, a * u[m][c] + b + cz * w[m][c]);
+    }
+  }
+
+  // The checkerboard's halves (even rows' even columns and odd rows' odd ones, and the rest) of what
+  // `add` summed by row parity: the members' shading (diffuse colours times the ambient light and the
+  // lights' colours) and the points.
+  using Sums = float[2][kMost][1 + kMostControlLights][kMostGrid];
+  void halves(const Sums& sums, const StratumControl& control, const ControlLighting& light, Vec3d* shading, double* points) const {
+    shading[0] = shading[1] = Vec3d(0), points[0] = points[1] = 0;
+    for (int parity = 0; parity < 2; ++parity) {
+      for (int m = 0; m < n; ++m) {
+        for (int k = 0; k <= light.suns; ++k) {
+          double byColumn[2] = {0, 0};
+          for (int c = 0; c < grid; ++c) byColumn[c & 1] += sums[parity][m][k][c];
+          const Vec3d colour = Vec3d(control.kd[m]) * (k == 0 ? light.ambient : light.sun[k - 1].color);
+          shading[parity] += colour * byColumn[0], shading[1 - parity] += colour * byColumn[1];
+          if (k == 0) points[parity] += byColumn[0], points[1 - parity] += byColumn[1];
+        }
+      }
+    }
+  }
+
+  // The brightest member's colour under every light it reaches, RMS over the channels: what a sliver
+  // between the points may hold.
+  double brightest(const StratumControl& control, const ControlLighting& light) const {
+    double most = 0;
+    for (int m = 0; m < n; ++m) {
+      const Vec3d colour = Vec3d(control.kd[m]) * shadingAt(light, control.lights[m], [](const ControlLighting::Sun&) { return 1.0; });
+      most = std::max(most, std::sqrt(dot(colour, colour) / 3));
+    }
+    return most;
+  }
+};
+
 // The shading the members of a stratum lose where another member is seen before them inside the
 // overlaps of their disks within the pixel's rectangle [0, 1] x [0, h] (PixelBall's frame): each
 // member's diffuse colour times the ambient light and the lights of its bit mask (its cosines clamped
@@ -354,85 +444,83 @@ LostShading lostToNearer(const PixelBall* ball, const StratumControl& control, i
     }
   }
   LostShading lost;
-  grid = std::min(grid, kMostGrid);
   if (!(x0 < x1 && y0 < y1)) return lost;
-  const double dx = (x1 - x0) / grid, dy = (y1 - y0) / grid;
+  LatticeRows rows(ball, control, n, light, x0, x1, y0, y1, grid);
+  grid = rows.grid;
   const int suns = light.suns;
-  // In float, a row's points at once (the loops over its columns vectorise): each member's frame, and
-  // what it loses there summed by column (the lights' cosines where they reach it), apart for even
-  // and odd rows (the checkerboard's halves are their even and odd columns).
-  const float big = std::numeric_limits<float>::max(), far = big / 2;
-  float cx[kMost], inverse[kMost], r[kMost], z[kMost], sa[kMost][kMostControlLights], sb[kMost][kMostControlLights], sc[kMost][kMostControlLights];
-  for (int m = 0; m < n; ++m) {
-    cx[m] = static_cast<float>(ball[m].x), inverse[m] = static_cast<float>(1 / ball[m].r), r[m] = static_cast<float>(ball[m].r);
-    z[m] = static_cast<float>(ball[m].z);
-    for (int l = 0; l < suns; ++l) {  // a light that does not reach the member adds nothing
-      const bool reaches = control.lights[m] & (1u << l);
-      sa[m][l] = reaches ? static_cast<float>(light.sun[l].a) : 0, sb[m][l] = reaches ? static_cast<float>(light.sun[l].b) : 0;
-      sc[m][l] = reaches ? static_cast<float>(light.sun[l].c) : 0;
-    }
-  }
-  alignas(32) float column[kMostGrid];
-  for (int c = 0; c < grid; ++c) column[c] = static_cast<float>(x0 + (c + 0.5) * dx);
-  alignas(32) float sums[2][kMost][1 + kMostControlLights][kMostGrid];  // [row parity][member][area, then lights][column]
+  // What each member loses there, summed by column, apart for even and odd rows (the checkerboard's
+  // halves are their even and odd columns).
+  alignas(64) float sums[2][kMost][1 + kMostControlLights][kMostGrid];  // [row parity][member][area, then lights][column]
   for (auto& byParity : sums) {
     for (int m = 0; m < n; ++m) {
       for (int k = 0; k <= suns; ++k) std::fill(byParity[m][k], byParity[m][k] + grid, 0.0f);
     }
   }
-  alignas(32) float u[kMost][kMostGrid], w[kMost][kMostGrid], front[kMost][kMostGrid], hidden[kMostGrid], nearest[kMostGrid];
+  alignas(64) float hidden[kMostGrid];
   for (int row = 0; row < grid; ++row) {
-    const double y = y0 + (row + 0.5) * dy;
-    float v[kMost];
-    for (int m = 0; m < n; ++m) {
-      v[m] = static_cast<float>((y - ball[m].y) / ball[m].r);
-      const float rest0 = 1 - v[m] * v[m];
-      for (int c = 0; c < grid; ++c) {
-        // Beyond the disk, its front is pushed past `far` by a sum rather than a selection: a loop
-        // whose floating-point work is all done unconditionally vectorises.
-        const float um = (column[c] - cx[m]) * inverse[m], rest = rest0 - um * um, wm = std::sqrt(std::max(rest, 0.0f));
-        u[m][c] = um, w[m][c] = wm, front[m][c] = (z[m] - r[m] * wm) + (rest > 0 ? 0.0f : big);
-      }
-    }
+    rows.row(ball, row);
     // A member loses a point its disk holds where another's front is nearer (equal fronts, a set of
     // no area, both keep).
-    std::copy(front[0], front[0] + grid, nearest);
-    for (int m = 1; m < n; ++m) {
-      for (int c = 0; c < grid; ++c) nearest[c] = std::min(nearest[c], front[m][c]);
-    }
-    auto& into = sums[row & 1];
     for (int m = 0; m < n; ++m) {
-      for (int c = 0; c < grid; ++c) hidden[c] = (front[m][c] < far) & (front[m][c] > nearest[c]) ? 1.0f : 0.0f;
-      for (int c = 0; c < grid; ++c) into[m][0][c] += hidden[c];
-      for (int l = 0; l < suns; ++l) {
-        const float a = sa[m][l], b = sb[m][l] * v[m], cz = sc[m][l];
-        for (int c = 0; c < grid; ++c) into[m][1 + l][c] += hidden[c] * std::max(0.0f, a * u[m][c] + b + cz * w[m][c]);
-      }
+      for (int c = 0; c < grid; ++c) hidden[c] = (rows.front[m][c] < LatticeRows::kFar) & (rows.front[m][c] > rows.nearest[c]) ? 1.0f : 0.0f;
+      rows.add(m, hidden, suns, sums[row & 1][m]);
     }
   }
-  // The halves: even rows' even columns and odd rows' odd ones, and the rest.
-  Vec3d halves[2] = {Vec3d(0), Vec3d(0)};
-  for (int parity = 0; parity < 2; ++parity) {
-    for (int m = 0; m < n; ++m) {
-      for (int k = 0; k <= suns; ++k) {
-        double byColumn[2] = {0, 0};
-        for (int c = 0; c < grid; ++c) byColumn[c & 1] += sums[parity][m][k][c];
-        const Vec3d colour = Vec3d(control.kd[m]) * (k == 0 ? light.ambient : light.sun[k - 1].color);
-        halves[parity] += colour * byColumn[0], halves[1 - parity] += colour * byColumn[1];
-      }
-    }
-  }
-  // A point's share of the pixel.
-  const double cell = dx * dy / h;
-  double brightest = 0;
-  for (int m = 0; m < n; ++m) {
-    const Vec3d colour = Vec3d(control.kd[m]) * shadingAt(light, control.lights[m], [](const ControlLighting::Sun&) { return 1.0; });
-    brightest = std::max(brightest, std::sqrt(dot(colour, colour) / 3));
-  }
+  Vec3d halves[2];
+  double points[2];
+  rows.halves(sums, control, light, halves, points);
+  const double cell = rows.dx * rows.dy / h, brightest = rows.brightest(control, light);  // a point's share of the pixel
   const Vec3d apart = (halves[0] - halves[1]) * cell;
   lost.shading = (halves[0] + halves[1]) * cell;
   lost.error = std::max(std::sqrt(dot(apart, apart) / 3), cell * brightest / 2);
   return lost;
+}
+
+// The mean over the union's part of the pixel of the shading of the member seen (the nearest front
+// among those whose disks hold the point): each member's diffuse colour times the ambient light and
+// the lights (cosines clamped at 0), by the midpoint rule on a grid x grid lattice over the box the
+// members' disks span within the pixel's rectangle [0, 1] x [0, h] (PixelBall's frame), the mean of
+// the points inside the union. `error`: the RMS over the channels of half the difference of the
+// lattice's two checkerboard halves' means, but at least half the brightest member's colour over
+// the points inside (a sliver may lie between them); `count`: the points inside.
+struct SeenMean {
+  Vec3d mean{0};
+  double error = 0;
+  int count = 0;
+};
+
+SeenMean seenMean(const PixelBall* ball, const StratumControl& control, int n, const ControlLighting& light, double h, int grid) {
+  constexpr int kMost = PixelStratum::kMostDisks, kMostGrid = kFinestLostGrid;
+  double x0 = 1, x1 = 0, y0 = h, y1 = 0;
+  for (int i = 0; i < n; ++i) {
+    x0 = std::min(x0, std::max(0.0, ball[i].x - ball[i].r)), x1 = std::max(x1, std::min(1.0, ball[i].x + ball[i].r));
+    y0 = std::min(y0, std::max(0.0, ball[i].y - ball[i].r)), y1 = std::max(y1, std::min(h, ball[i].y + ball[i].r));
+  }
+  SeenMean seen;
+  if (!(x0 < x1 && y0 < y1)) return seen;
+  LatticeRows rows(ball, control, n, light, x0, x1, y0, y1, grid);
+  grid = rows.grid;
+  const int suns = light.suns;
+  // Per member, by row parity: the points where it is seen, and its lights' cosines there, by column.
+  alignas(64) float sums[2][kMost][1 + kMostControlLights][kMostGrid] = {};
+  alignas(64) float mine[kMostGrid];
+  for (int row = 0; row < grid; ++row) {
+    rows.row(ball, row);
+    for (int m = 0; m < n; ++m) {  // seen: inside, its front the nearest (ties, a set of no area, go to each)
+      for (int c = 0; c < grid; ++c) mine[c] = (rows.front[m][c] < LatticeRows::kFar) & (rows.front[m][c] <= rows.nearest[c]) ? 1.0f : 0.0f;
+      rows.add(m, mine, suns, sums[row & 1][m]);
+    }
+  }
+  Vec3d shade[2];
+  double count[2];
+  rows.halves(sums, control, light, shade, count);
+  const double brightest = rows.brightest(control, light);
+  seen.count = static_cast<int>(count[0] + count[1]);
+  if (!(count[0] > 0 && count[1] > 0)) return seen;
+  seen.mean = (shade[0] + shade[1]) / (count[0] + count[1]);
+  const Vec3d apart = (shade[0] / count[0] - shade[1] / count[1]) / 2.0;
+  seen.error = std::max(std::sqrt(dot(apart, apart) / 3), brightest / (2 * (count[0] + count[1])));
+  return seen;
 }
 
 // An order of n members (rank[i]: 0 first) in which before[i][j] puts i before j, if one exists.
@@ -507,6 +595,30 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
     for (int i = 0; i < n; ++i) {
       ball[i] = {double(p.cx[i]) - x, (double(p.cy[i]) - y) * double(p.aspect), members[i].centre.z * scale, 1 / double(p.inverseAx[i])};
       control.depth[i] = static_cast<float>(ball[i].z - ball[0].z);
+    }
+    // Where members cut through each other and the exact split is not asked for, the mean of the
+    // shading of the one seen over the union's part, found on a lattice (seenMean) where that is within
+    // `tolerance` of the pixel's colour: cheaper than the members' exact parts, their ranks and the
+    // parts their overlaps take off.
+    bool cutting = false;
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < i; ++j) {
+        const Vec3d d = members[i].centre - members[j].centre;
+        const double apart = members[i].radius + members[j].radius;
+        cutting = cutting || dot(d, d) < apart * apart;
+      }
+    }
+    const double union_ = cutting && !split && tolerance > 0 ? p.unionShare(x, y) : 0;
+    if (union_ > 0) {
+      StratumControl seen = control;
+      for (int i = 0; i < n; ++i) seen.kd[i] = Vec3<float>(members[i].kd), seen.lights[i] = uint8_t((1u << light.suns) - 1);
+      for (int grid = kLostGrid; grid <= kFinestLostGrid; grid *= 2) {
+        const SeenMean m = seenMean(ball, seen, n, light, double(p.aspect), grid);
+        if (!(m.count >= kLeastSeenPoints && m.error * union_ <= tolerance)) continue;
+        seen.mean = Vec3<float>(m.mean), seen.meanError = static_cast<float>(m.error * union_);
+        if (share) *share = union_;
+        return seen;
+      }
     }
     for (int i = 0; i < n; ++i) {
       for (int j = 0; j < i; ++j) {

@@ -49,10 +49,11 @@
 // Where directional lights shine, each sample inside the stratum is taken less its control variate
 // (orthographic: diskControl (StratumControl.h), the diffuse shading by the ambient light and those
 // lights, no shadows, of the sphere seen there, less that shading's exact mean over the stratum's
-// inside; where the sphere seen changes inside an overlap of disks of spheres that cut through each
-// other and three or more disks cross the pixel, or a pixel may take fewer than kSplitSamples, what each loses
-// to a nearer one there found on a lattice, within kControlError of the target by its own estimate,
-// which the pixel's error estimate adds: its samples cannot see it; beyond that, none;
+// inside; where the disks' spheres cut through each other and a pixel may take fewer than
+// kSplitSamples, that mean found on a lattice, and where the sphere seen changes inside an overlap
+// and three or more disks cross the pixel, what each loses to a nearer one there, within
+// kControlError of the target by its own estimate, which the pixel's error estimate adds: its
+// samples cannot see it; beyond that, none;
 // perspective, for a small sphere: ellipseControl, the same with
 // the sphere's normal modelled as an orthographic camera would see it): the part's mean, and its
 // halves', then vary only with what the control leaves out (shadows, highlights, emission, other
