@@ -612,7 +612,7 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
     if (union_ > 0) {
       StratumControl seen = control;
       for (int i = 0; i < n; ++i) seen.kd[i] = Vec3<float>(members[i].kd), seen.lights[i] = uint8_t((1u << light.suns) - 1);
-      for (int grid = kLostGrid; grid <= kFinestLostGrid; grid *= 2) {
+      for (int grid = kSeenGrid; grid <= kFinestLostGrid; grid *= 2) {
         const SeenMean m = seenMean(ball, seen, n, light, double(p.aspect), grid);
         if (!(m.count >= kLeastSeenPoints && m.error * union_ <= tolerance)) continue;
         seen.mean = Vec3<float>(m.mean), seen.meanError = static_cast<float>(m.error * union_);

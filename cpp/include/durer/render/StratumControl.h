@@ -29,8 +29,12 @@ inline constexpr double kMostControlSine = 0.1;
 // that misses its tolerance, up to the finest.
 inline constexpr int kLostGrid = 8;
 inline constexpr int kFinestLostGrid = 32;
-// The fewest lattice points inside the union from which diskControl takes the mean of the shading of
-// the sphere seen (seenMean): fewer, and a sliver may lie between them.
+// The lattice on which diskControl first finds the mean of the shading of the sphere seen over a
+// union's part (seenMean), finer than kLostGrid: over the whole part a coarser one's estimate errs
+// large (from 8 points a side, the edge scene's estimated RMSE read 1.33-1.49 times its measured; from
+// 16, 0.95-1.14), and the fewest of its points inside the union it takes that mean from (fewer, and a
+// sliver may lie between them).
+inline constexpr int kSeenGrid = 16;
 inline constexpr int kLeastSeenPoints = 8;
 
 // The light a control models: the ambient light and the directional lights, each as the unit
@@ -110,9 +114,9 @@ struct ControlMember {
 // its own error: meanError), where that error is within `tolerance` (finer lattices otherwise, up to
 // kFinestLostGrid; beyond, none: 0 asks for exact geometry only). Before all that, where members cut
 // through each other and not `split`: the mean of the shading of the member seen over the union's
-// part is found on the lattice itself (the midpoint rule over the box the disks span in the pixel,
-// the mean of the points inside the union, its error estimated as above: 2.7e-3 of the pixel's colour
-// RMS off at a tolerance of 0.01, estimated 5.1e-3, cpp/tests/test_stratum_control.cpp), where that
+// part is found on the lattice itself (the midpoint rule over the box the disks span in the pixel
+// from kSeenGrid points a side, the mean of the points inside the union, its error estimated as
+// above, cpp/tests/test_stratum_control.cpp), where that
 // is within `tolerance` — a fraction of the exact parts' cost, which is most of a first pass's where
 // such spheres abound (docs/benchmarks.md, sixty-fourth round). A function of a sample's position
 // alone whose mean over the inside is 0: the inside's mean of the samples' colours less their
