@@ -375,6 +375,16 @@ struct LatticeRows {
     }
   }
 
+  using Sums = float[2][kMost][1 + kMostControlLights][kMostGrid];  // [row parity][member][points, then lights][column]
+  // Zeroes what `add` adds to for `suns` lights.
+  void clear(Sums& sums, int suns) const {
+    for (auto& byParity : sums) {
+      for (int m = 0; m < n; ++m) {
+        for (int k = 0; k <= suns; ++k) std::fill(byParity[m][k], byParity[m][k] + grid, 0.0f);
+      }
+    }
+  }
+
   // Adds member m's `weight`ed points and its lights' clamped cosines there, by column, to into[0]
   // and into[1 + l].
   void add(int m, const float* weight, int suns, float (*into)[kMostGrid]) const {
@@ -388,7 +398,6 @@ struct LatticeRows {
   // The checkerboard's halves (even rows' even columns and odd rows' odd ones, and the rest) of what
   // `add` summed by row parity: the members' shading (diffuse colours times the ambient light and the
   // lights' colours) and the points.
-  using Sums = float[2][kMost][1 + kMostControlLights][kMostGrid];
   void halves(const Sums& sums, const StratumControl& control, const ControlLighting& light, Vec3d* shading, double* points) const {
     shading[0] = shading[1] = Vec3d(0), points[0] = points[1] = 0;
     for (int parity = 0; parity < 2; ++parity) {
@@ -433,7 +442,7 @@ struct LostShading {
 };
 
 LostShading lostToNearer(const PixelBall* ball, const StratumControl& control, int n, const ControlLighting& light, double h, int grid) {
-  constexpr int kMost = PixelStratum::kMostDisks, kMostGrid = kFinestLostGrid;
+  constexpr int kMostGrid = LatticeRows::kMostGrid;
   double x0 = 1, x1 = 0, y0 = h, y1 = 0;  // the box: empty until an overlap reaches into the pixel
   for (int i = 0; i < n; ++i) {
     for (int j = 0; j < i; ++j) {
@@ -450,12 +459,8 @@ LostShading lostToNearer(const PixelBall* ball, const StratumControl& control, i
   const int suns = light.suns;
   // What each member loses there, summed by column, apart for even and odd rows (the checkerboard's
   // halves are their even and odd columns).
-  alignas(64) float sums[2][kMost][1 + kMostControlLights][kMostGrid];  // [row parity][member][area, then lights][column]
-  for (auto& byParity : sums) {
-    for (int m = 0; m < n; ++m) {
-      for (int k = 0; k <= suns; ++k) std::fill(byParity[m][k], byParity[m][k] + grid, 0.0f);
-    }
-  }
+  alignas(64) LatticeRows::Sums sums;
+  rows.clear(sums, suns);
   alignas(64) float hidden[kMostGrid];
   for (int row = 0; row < grid; ++row) {
     rows.row(ball, row);
@@ -490,7 +495,7 @@ struct SeenMean {
 };
 
 SeenMean seenMean(const PixelBall* ball, const StratumControl& control, int n, const ControlLighting& light, double h, int grid) {
-  constexpr int kMost = PixelStratum::kMostDisks, kMostGrid = kFinestLostGrid;
+  constexpr int kMostGrid = LatticeRows::kMostGrid;
   double x0 = 1, x1 = 0, y0 = h, y1 = 0;
   for (int i = 0; i < n; ++i) {
     x0 = std::min(x0, std::max(0.0, ball[i].x - ball[i].r)), x1 = std::max(x1, std::min(1.0, ball[i].x + ball[i].r));
@@ -502,7 +507,8 @@ SeenMean seenMean(const PixelBall* ball, const StratumControl& control, int n, c
   grid = rows.grid;
   const int suns = light.suns;
   // Per member, by row parity: the points where it is seen, and its lights' cosines there, by column.
-  alignas(64) float sums[2][kMost][1 + kMostControlLights][kMostGrid] = {};
+  alignas(64) LatticeRows::Sums sums;
+  rows.clear(sums, suns);
   alignas(64) float mine[kMostGrid];
   for (int row = 0; row < grid; ++row) {
     rows.row(ball, row);
@@ -608,15 +614,15 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
         cutting = cutting || dot(d, d) < apart * apart;
       }
     }
-    const double union_ = cutting && !split && tolerance > 0 ? p.unionShare(x, y) : 0;
-    if (union_ > 0) {
+    const double inUnion = cutting && !split && tolerance > 0 ? p.unionShare(x, y) : 0;
+    if (inUnion > 0) {
       StratumControl seen = control;
       for (int i = 0; i < n; ++i) seen.kd[i] = Vec3<float>(members[i].kd), seen.lights[i] = uint8_t((1u << light.suns) - 1);
       for (int grid = kSeenGrid; grid <= kFinestLostGrid; grid *= 2) {
         const SeenMean m = seenMean(ball, seen, n, light, double(p.aspect), grid);
-        if (!(m.count >= kLeastSeenPoints && m.error * union_ <= tolerance)) continue;
-        seen.mean = Vec3<float>(m.mean), seen.meanError = static_cast<float>(m.error * union_);
-        if (share) *share = union_;
+        if (!(m.count >= kLeastSeenPoints && m.error * inUnion <= tolerance)) continue;
+        seen.mean = Vec3<float>(m.mean), seen.meanError = static_cast<float>(m.error * inUnion);
+        if (share) *share = inUnion;
         return seen;
       }
     }
