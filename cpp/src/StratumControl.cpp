@@ -395,6 +395,22 @@ struct LatticeRows {
     }
   }
 
+  // By row parity, each member's points inside its disk where `counts(its front, the nearest front)`,
+  // and its lights' clamped cosines there, summed by column (the checkerboard's halves are the even
+  // and odd rows' even and odd columns).
+  template <typename Counts>
+  void sum(const PixelBall* ball, int suns, const Counts& counts, Sums& sums) {
+    clear(sums, suns);
+    alignas(64) float weight[kMostGrid];
+    for (int index = 0; index < grid; ++index) {
+      row(ball, index);
+      for (int m = 0; m < n; ++m) {
+        for (int c = 0; c < grid; ++c) weight[c] = (front[m][c] < kFar) & counts(front[m][c], nearest[c]) ? 1.0f : 0.0f;
+        add(m, weight, suns, sums[index & 1][m]);
+      }
+    }
+  }
+
   // The checkerboard's halves (even rows' even columns and odd rows' odd ones, and the rest) of what
   // `add` summed by row parity: the members' shading (diffuse colours times the ambient light and the
   // lights' colours) and the points.
@@ -442,7 +458,6 @@ struct LostShading {
 };
 
 LostShading lostToNearer(const PixelBall* ball, const StratumControl& control, int n, const ControlLighting& light, double h, int grid) {
-  constexpr int kMostGrid = LatticeRows::kMostGrid;
   double x0 = 1, x1 = 0, y0 = h, y1 = 0;  // the box: empty until an overlap reaches into the pixel
   for (int i = 0; i < n; ++i) {
     for (int j = 0; j < i; ++j) {
@@ -455,22 +470,10 @@ LostShading lostToNearer(const PixelBall* ball, const StratumControl& control, i
   LostShading lost;
   if (!(x0 < x1 && y0 < y1)) return lost;
   LatticeRows rows(ball, control, n, light, x0, x1, y0, y1, grid);
-  grid = rows.grid;
-  const int suns = light.suns;
-  // What each member loses there, summed by column, apart for even and odd rows (the checkerboard's
-  // halves are their even and odd columns).
+  // What each member loses there: a point its disk holds where another's front is nearer (equal
+  // fronts, a set of no area, both keep).
   alignas(64) LatticeRows::Sums sums;
-  rows.clear(sums, suns);
-  alignas(64) float hidden[kMostGrid];
-  for (int row = 0; row < grid; ++row) {
-    rows.row(ball, row);
-    // A member loses a point its disk holds where another's front is nearer (equal fronts, a set of
-    // no area, both keep).
-    for (int m = 0; m < n; ++m) {
-      for (int c = 0; c < grid; ++c) hidden[c] = (rows.front[m][c] < LatticeRows::kFar) & (rows.front[m][c] > rows.nearest[c]) ? 1.0f : 0.0f;
-      rows.add(m, hidden, suns, sums[row & 1][m]);
-    }
-  }
+  rows.sum(ball, light.suns, [](float own, float nearest) { return own > nearest; }, sums);
   Vec3d halves[2];
   double points[2];
   rows.halves(sums, control, light, halves, points);
@@ -495,7 +498,6 @@ struct SeenMean {
 };
 
 SeenMean seenMean(const PixelBall* ball, const StratumControl& control, int n, const ControlLighting& light, double h, int grid) {
-  constexpr int kMostGrid = LatticeRows::kMostGrid;
   double x0 = 1, x1 = 0, y0 = h, y1 = 0;
   for (int i = 0; i < n; ++i) {
     x0 = std::min(x0, std::max(0.0, ball[i].x - ball[i].r)), x1 = std::max(x1, std::min(1.0, ball[i].x + ball[i].r));
@@ -504,19 +506,9 @@ SeenMean seenMean(const PixelBall* ball, const StratumControl& control, int n, c
   SeenMean seen;
   if (!(x0 < x1 && y0 < y1)) return seen;
   LatticeRows rows(ball, control, n, light, x0, x1, y0, y1, grid);
-  grid = rows.grid;
-  const int suns = light.suns;
-  // Per member, by row parity: the points where it is seen, and its lights' cosines there, by column.
+  // Where each member is seen: its front the nearest (ties, a set of no area, go to each).
   alignas(64) LatticeRows::Sums sums;
-  rows.clear(sums, suns);
-  alignas(64) float mine[kMostGrid];
-  for (int row = 0; row < grid; ++row) {
-    rows.row(ball, row);
-    for (int m = 0; m < n; ++m) {  // seen: inside, its front the nearest (ties, a set of no area, go to each)
-      for (int c = 0; c < grid; ++c) mine[c] = (rows.front[m][c] < LatticeRows::kFar) & (rows.front[m][c] <= rows.nearest[c]) ? 1.0f : 0.0f;
-      rows.add(m, mine, suns, sums[row & 1][m]);
-    }
-  }
+  rows.sum(ball, light.suns, [](float own, float nearest) { return own <= nearest; }, sums);
   Vec3d shade[2];
   double count[2];
   rows.halves(sums, control, light, shade, count);
