@@ -149,7 +149,9 @@ def render(
     the rounds' before), or their 3x3 neighbourhood's, exceeds `target_error`, or that sit on an edge
     their own or their neighbours' samples show; `target_error` is the estimated RMS error over RGB
     a pixel stops at, `result.error` each pixel's estimate, stats "estimated_rmse" /
-    "estimated_worst" the image's, "rounds" the rounds run, `result.samples` the counts;
+    "estimated_worst" the image's, "rounds" the rounds run, "probes" the camera rays that found the
+    colour outside a silhouette where the samples had not (in "rays", not samples), `result.samples`
+    the counts;
     `time_limit` seconds (None: none) stops refining when spent, the worst tiles refined first, and
     sets stats "time_limit_reached"; see AdaptiveSampler.h).
     `durer.preset(name)` gives ready settings. `precision` "float" or "double" is used for every ray and

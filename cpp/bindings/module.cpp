@@ -290,6 +290,7 @@ py::dict renderPy(const Scene& scene, const CameraSpec& camera, int width, int h
     s["estimated_rmse"] = a.estimatedRmse;
     s["estimated_worst"] = a.estimatedWorst;
     s["rounds"] = a.rounds;
+    s["probes"] = a.probes;
     s["time_limit_reached"] = a.timeLimitReached;
   }
   const EffectSet& e = stats.effects;

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <tuple>
 #include <utility>
@@ -274,6 +275,57 @@ TEST_CASE("a pixel's stratum of several silhouettes: the share of their union, a
   CHECK(double(q.share) == doctest::Approx(kPi * 0.09).epsilon(1e-6));
   CHECK(q.contains(0.95, 0.95));
   CHECK_FALSE(q.contains(0.5, 0.5));
+}
+
+TEST_CASE("a point of a stratum's outside: in the pixel, a thousandth of a pixel clear of every ellipse, where a lattice finds one") {
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> offset(-1.0, 2.0), axis(0.2, 3.0);
+  const double aspect = 1.25;
+  const auto clearance = [&](const PixelStratum::Ellipse* e, int count, double px, double py) {  // pixels, at least
+    double least = std::numeric_limits<double>::infinity();
+    for (int j = 0; j < count; ++j) {  // (radial distance to an ellipse over its largest axis's: under the true one's)
+      const double u = (px - e[j].cx) / e[j].ax, v = (py - e[j].cy) / e[j].ay;
+      least = std::min(least, (std::sqrt(u * u + v * v) - 1) * std::min(e[j].ax, e[j].ay));
+    }
+    return least;
+  };
+  int found = 0, none = 0, small = 0;
+  for (int i = 0; i < 800; ++i) {
+    const int x = 40, y = -12, count = 1 + i % 4;
+    PixelStratum::Ellipse e[4];
+    for (int j = 0; j < count; ++j) {
+      const double a = axis(rng);
+      e[j] = {x + offset(rng), y + offset(rng), a, a / aspect};
+    }
+    const PixelStratum p = PixelStratum::of(x, y, e, count);
+    if (!p.any()) continue;
+    double u = -1, v = -1;
+    if (!p.outsidePoint(x, y, u, v)) {
+      // Nothing outside, or a sliver between the finest lattice's points (1/64 of a pixel from a side).
+      CHECK(gridShare(p, x, y) > 1 - 0.04);
+      ++none;
+      continue;
+    }
+    ++found;
+    small += 1 - double(p.share) < 0.05;
+    CHECK((u > 0 && u < 1 && v > 0 && v < 1));
+    CHECK_FALSE(p.contains(x + u, y + v));
+    CHECK(clearance(e, count, x + u, y + v) > 1e-3 * (1 - 1e-6));
+  }
+  CHECK(found > 150);
+  CHECK(small >= 5);
+  CHECK(none >= 3);
+  // A corner's sliver of 0.0044 of the pixel beside a wide disk is found; the pixel a disk covers has none.
+  const PixelStratum::Ellipse wide{-2.4, -2.4, 4.74, 4.74};
+  const PixelStratum corner = PixelStratum::of(0, 0, &wide, 1);
+  REQUIRE(corner.any());
+  const double sliver = 1 - double(corner.share);
+  CHECK((sliver > 0.003 && sliver < 0.006));
+  double u = 0, v = 0;
+  REQUIRE(corner.outsidePoint(0, 0, u, v));
+  CHECK((u > 0.9 && v > 0.9));
+  const PixelStratum::Ellipse over{0.5, 0.5, 0.8, 0.8};
+  CHECK_FALSE(PixelStratum::shaped(&over, 1).filling().outsidePoint(0, 0, u, v));
 }
 
 namespace {

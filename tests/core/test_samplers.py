@@ -105,14 +105,16 @@ def test_adaptive_sample_counts(spp, min_spp):
     counts = result.samples
     assert isinstance(counts, np.ndarray) and counts.dtype == np.int32 and counts.shape == (30, 40)
     first = min(min_spp, spp)
-    # The first pass, then rounds that double a marked pixel's samples, the last one cut at spp.
+    # The first pass, then rounds that double a marked pixel's samples, the last one cut at spp, until
+    # no pixel is marked.
     levels = {min(first * 2**r, spp) for r in range(21)}
     assert set(np.unique(counts)) <= levels
-    assert result.stats["rounds"] == 1 + sum(1 for r in range(21) if first * 2**r < spp)
-    assert int(counts.sum()) == result.stats["samples"] == result.stats["rays"]
+    assert result.stats["rounds"] == 1 + sum(1 for r in range(21) if first * 2**r < counts.max())
+    # Camera rays: the samples, and where a silhouette's one-colour outside was unreached, a probe.
+    assert int(counts.sum()) == result.stats["samples"] == result.stats["rays"] - result.stats["probes"]
     assert result.stats["sampler"] == "adaptive"
     if spp >= 16 and first < spp:  # the showcase has flat sky and silhouettes: both ends are used
-        assert counts.min() == first and counts.max() == spp
+        assert counts.min() == first and counts.max() >= 4 * first
 
 
 def test_adaptive_spends_its_samples_on_edges_and_weighs_a_silhouettes_parts_exactly():

@@ -226,7 +226,8 @@ def test_antialiasing_measurement_on_a_tiny_image():
     assert [(p.spp, p.min_spp, p.target_error) for p in aa.sweep] == [(16, 2, 0.02), (16, 4, 0.02)]
     for p in aa.sweep:
         assert p.samples.shape == (18, 32) and p.samples.min() >= p.min_spp and p.color.shape == (18, 32, 4)
-        assert p.samples_per_pixel == pytest.approx(p.samples.mean())
+        # Camera rays a pixel: its samples, and at most one probe of its stratum's outside.
+        assert p.samples.mean() <= p.samples_per_pixel <= p.samples.mean() + 1
         assert 0 < p.estimated_rmse and 0 < p.rmse
     assert 0 < aa.edge_share < 1
     assert aa.reference.shape == (18, 32, 4)

@@ -93,9 +93,10 @@ def timed(renders: Sequence[Callable[..., RenderResult]], runs: int, reuse: bool
 
 
 def samples_per_pixel(result: RenderResult) -> float:
-    """Mean camera samples per pixel actually taken (adaptive: fewer than its spp maximum)."""
+    """Mean camera rays per pixel actually traced: the samples (adaptive: fewer than its spp maximum),
+    and adaptive sampling's probes of strata's outsides, which are not samples (docs/accuracy.md)."""
     stats = result.stats
-    return stats["samples"] / (stats["width"] * stats["height"])
+    return stats["rays"] / (stats["width"] * stats["height"])
 
 
 # --- measurements ---------------------------------------------------------------------------------

@@ -67,7 +67,8 @@
 // inside's colour less the control is the control's mean there (the control is the colour itself
 // less its mean), so its inside needs no sample either (StratumState::mean; its spheres watched are
 // its members): it settles at the first pass once its outside is reached (docs/benchmarks.md,
-// fifty-seventh to fifty-ninth rounds). Where a sphere's disk covers a pixel and is seen all over it
+// fifty-seventh to fifty-ninth rounds), or once one ray at a point of it has told its colour, one
+// colour, where the first samples all fell inside (probeOutsides: sixty-fifth round). Where a sphere's disk covers a pixel and is seen all over it
 // but for one member's part (TileRenderer::silhouetteStrata), its shading is the outside's control
 // (StratumControl::covered): that stratum is exact too, its outside's colour known without a sample;
 // and a pixel it covers beside its edge, with no member, which the edge rules would take to
@@ -90,8 +91,8 @@
 // their mean).
 // A time limit stops the refining rounds (never the first pass) when spent; each worker takes its
 // band's tiles worst first (the largest estimated error), so what the limit cuts matters least.
-// Every pixel's state is kept until the end (TileState and Summary: 201 bytes a pixel in double, 133
-// in float; in a colour render through a camera without a lens, StratumState: 312 and 276 more).
+// Every pixel's state is kept until the end (TileState and Summary: 202 bytes a pixel in double, 134
+// in float; in a colour render through a camera without a lens, StratumState: 345 and 293 more).
 // Each round reads the state the round before left, so the image depends on the seed only, never on
 // threads; a pixel's result depends on the pixels within `rounds` of it, and its reported error on
 // those within one more, so a region is rendered with that margin around it (sampledRegion) and
@@ -273,8 +274,8 @@ class AdaptiveSampler {
 
  private:
   // A tile's pixels' silhouette strata, the sums of their samples inside them, and the spheres they
-  // watch, and their control variates (kept only where pixels may have one: m_strata; 312 bytes a pixel in
-  // double, 276 in float).
+  // watch, and their control variates (kept only where pixels may have one: m_strata; 345 bytes a pixel in
+  // double, 293 in float).
   struct StratumState {
     PixelStratum strata[kPacketSize];                     // the silhouettes crossing the pixel (PixelStratum)
     uint32_t sphere[kPacketSize];                         // its sphere, if one (Tiles::kNoSphere: none, or several)
@@ -285,6 +286,8 @@ class AdaptiveSampler {
     Real inside[kPacketSize];                             // their count
     Real lastInR[kPacketSize], lastInG[kPacketSize], lastInB[kPacketSize], lastInside[kPacketSize];  // of the second half
     StratumControl control[kPacketSize];  // its samples' inside control variate (StratumControl.h)
+    Real probe[4][kPacketSize];  // the colour (r, g, b, a) a probe ray met outside its stratum (probeOutsides)
+    bool probed[kPacketSize];    // whether one did
     bool controlled;                                      // whether a pixel of the tile has a control
 
     // Pixel k's mean of channel `channel` (r, g, b, a) by its stratum (PixelStratum::mean), from the
@@ -292,15 +295,19 @@ class AdaptiveSampler {
     // has reached the inside of a stratum whose samples less their control are one colour there
     // (exact), that colour is the control's mean (the control is the colour itself less its mean
     // there; alpha 1), weighed by the inside's share; so is the outside's, where its cover's control
-    // makes it exact too (StratumControl::covered).
+    // makes it exact too (StratumControl::covered), or where a probe ray met it (the outside of an
+    // exact stratum is one colour: probeOutsides).
     Real mean(int k, int channel, Real sum, Real count, Real in) const {
-      if (!(count > 0 && exact(k)) || (inside[k] > 0 && (inside[k] < count || !control[k].covered()))) {
+      const bool outsideKnown = control[k].covered() || probed[k];
+      if (!(count > 0 && exact(k)) || (inside[k] > 0 && (inside[k] < count || !outsideKnown))) {
         return strata[k].mean(sum, count, in, inside[k]);
       }
       const auto known = [&](const Vec3<float>& mean) { return channel < 3 ? static_cast<Real>(mean[channel]) : Real(1); };
       const Real s = static_cast<Real>(strata[k].share);
       const Real inMean = inside[k] > 0 ? in / inside[k] : known(control[k].mean);
-      const Real outMean = inside[k] < count ? (sum - in) / (count - inside[k]) : known(control[k].coverMean);
+      const Real outMean = inside[k] < count ? (sum - in) / (count - inside[k])
+                           : probed[k]       ? probe[channel][k]
+                                             : known(control[k].coverMean);
       return s * inMean + (1 - s) * outMean;
     }
     // Whether pixel k's samples less their control are one colour on each part of its stratum
@@ -321,9 +328,11 @@ class AdaptiveSampler {
     bool uniform[kPacketSize];  // every sample met the first's primitive (or every one nothing)
     float firstNx[kPacketSize], firstNy[kPacketSize], firstNz[kPacketSize];  // the first sample's shading normal (0: none)
     uint64_t sampledBits;                                 // the pixels sampledRound sampled (TileMask.h)
-    uint64_t exactBits;                                   // the pixels exactly controlled (exactlyControlled)
+    bool exact[kPacketSize];                              // exactly controlled (StratumState::exact; the first pass's)
+    uint64_t exactBits;                                   // those pixels (TileMask.h)
     int sampledRound;                                     // the last round that sampled any
     float priority;                                       // the worst marked pixel's (time limit: first)
+    int probes;                                           // probeOutsides' rays
     double squares, worst;                                // its output pixels' error estimates: sum of squares, largest
   };
 
@@ -514,6 +523,7 @@ class AdaptiveSampler {
       m_tiles.silhouetteStrata(t.x0, t.y0, t.w, t.h, u->strata, u->sphere, m_tiles.controlsStrata() ? u->control : nullptr,
                                m_maxSamples >= kSplitSamples, kControlError * m_target);
       for (auto& watched : u->watched) std::fill(watched, watched + count, Tiles::kNoSphere);  // set after the samples
+      std::fill(u->probed, u->probed + count, false);
       strata = std::any_of(u->strata, u->strata + count, [](const PixelStratum& p) { return p.any(); });
       u->controlled = false;
       if (strata) {
@@ -544,6 +554,7 @@ class AdaptiveSampler {
         if (i == metCount[k] && i < kMetPrimitives) met[i][k] = prim[k], metCount[k] = i + 1;
       }
     }
+    if (!probeOutsides(t, counters)) return false;
     // A sphere smaller than the samples' spacing, or the sliver of one, may lie between them: where
     // the camera's view says a silhouette crosses a pixel, it is an edge (mark) whatever they saw.
     // Where the view proves a pixel smooth (read by mark and a two-sample pixel's reported error).
@@ -597,10 +608,66 @@ class AdaptiveSampler {
     if (t.stratum != nullptr && !strata && !watching(*t.stratum)) t.stratum = nullptr;
     t.exactBits = 0;
     for (int row = 0, k = 0; row < t.h; ++row) {
-      for (int col = 0; col < t.w; ++col, ++k) t.exactBits |= exactlyControlled(t, k) ? tileBit(t.x0 + col, t.y0 + row) : 0;
+      for (int col = 0; col < t.w; ++col, ++k) {
+        t.exact[k] = t.stratum != nullptr && t.stratum->exact(k);
+        t.exactBits |= t.exact[k] ? tileBit(t.x0 + col, t.y0 + row) : 0;
+      }
     }
     return true;
   }
+
+  // Where a refining round may follow, the first pass's probes: a pixel whose samples less their
+  // control are one colour on each part of its stratum (exact), whose first samples all landed
+  // inside it and whose outside no cover's control makes known would refine until a sample reaches
+  // that outside while its share exceeds the target (unresolvedShare), a sliver of it taking dozens.
+  // Its outside is one colour (the plane's or the background's: StratumControl::exact), which one ray
+  // there tells: at a point of it (PixelStratum::outsidePoint), its colour the outside's mean until a
+  // sample reaches it (StratumState::mean). A camera ray, not one of the pixel's samples (which stay
+  // its Sobol points, doubling). A probe that met one of the spheres after all (a sliver the
+  // members' float-rounded disks leave out) is dropped. False if cancelled.
+  bool probeOutsides(TileState& t, RayCounters& counters) {
+    StratumState* u = t.stratum;
+    if (u == nullptr || !u->controlled || m_rounds == 0) return true;
+    alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize], box[4], along[kPacketSize];
+    alignas(64) double offsetU[kPacketSize], offsetV[kPacketSize];
+    alignas(64) int px[kPacketSize], py[kPacketSize], pixel[kPacketSize];
+    alignas(64) int32_t prim[kPacketSize];
+    int n = 0;
+    for (int row = 0, k = 0; row < t.h; ++row) {
+      for (int col = 0; col < t.w; ++col, ++k) {
+        const PixelStratum& p = u->strata[k];
+        const bool unreached = u->exact(k) && !u->control[k].covered() && u->inside[k] == Real(m_firstSamples);
+        if (!(unreached && 1 - double(p.share) > m_target)) continue;
+        px[n] = t.x0 + col, py[n] = t.y0 + row, pixel[n] = k;
+        n += p.outsidePoint(px[n], py[n], offsetU[n], offsetV[n]);
+      }
+    }
+    if (n == 0) return true;
+    placeSamples(px, py, offsetU, offsetV, n, sampleX, sampleY, box);
+    ProbeSink sink{*u, pixel};
+    if (!m_tiles.trace(sampleX, sampleY, box, nullptr, nullptr, n, sink, prim, along, counters)) return false;
+    t.probes = n;
+    for (int j = 0; j < n; ++j) u->probed[pixel[j]] = !m_tiles.metSphere(prim[j]);
+    return true;
+  }
+
+  // Where probeOutsides' rays go: probe j's colour to pixel pixel[j]'s stratum state, nothing else
+  // (the depth, normal and id passes are the samples').
+  struct ProbeSink {
+    StratumState& u;
+    const int* pixel;
+    void addColor(int j, Real r, Real g, Real b, Real a) {
+      const int k = pixel[j];
+      u.probe[0][k] = r, u.probe[1][k] = g, u.probe[2][k] = b, u.probe[3][k] = a;
+    }
+    void addColors(const Vec3<Real>* rgb, const Real* alpha, int count) {
+      for (int j = 0; j < count; ++j) addColor(j, rgb[j].r, rgb[j].g, rgb[j].b, alpha[j]);
+    }
+    void addDepth(int, Real) {}
+    bool wantsNormal(int) const { return false; }
+    void addNormal(int, Real, int32_t, Real, Real, Real) {}
+    bool addNearest(int, bool, Real, int32_t) { return false; }
+  };
 
   // A refining round: each pixel's add[k] samples, pixel by pixel in packets of up to kPacketSize
   // rays (a pixel's samples are the most coherent rays there are; a packet's sample positions are
@@ -729,12 +796,13 @@ class AdaptiveSampler {
     std::fill(t.last, t.last + count, 0);
     std::fill(t.add, t.add + count, m_firstSamples);
     std::fill(t.mixed, t.mixed + count, false);
+    std::fill(t.exact, t.exact + count, false);
     std::fill(t.uniform, t.uniform + count, true);
     std::fill(t.firstNx, t.firstNx + count, 0.0f);
     std::fill(t.firstNy, t.firstNy + count, 0.0f);
     std::fill(t.firstNz, t.firstNz + count, 0.0f);
     t.priority = 0;
-    t.sampledBits = 0, t.sampledRound = -1, t.exactBits = 0;
+    t.sampledBits = 0, t.sampledRound = -1, t.exactBits = 0, t.probes = 0;
     for (int row = 0; row < t.h; ++row) {
       Summary* line = &summaryAt(t.x0, t.y0 + row);
       for (int col = 0; col < t.w; ++col) {
@@ -849,13 +917,14 @@ class AdaptiveSampler {
       return spread && (inLast == 0 || inLast == samples) ? share * kPartSpread / std::sqrt(samples) : 0.0;
     };
     const double in = inside == 0 && exact ? 0.0 : part(share, inside, lastInside);
-    const double out = inside == n && exact && u.control[k].covered() ? 0.0 : part(1 - share, n - inside, last - lastInside);
+    const double out = inside == n && exact && (u.control[k].covered() || u.probed[k]) ? 0.0 : part(1 - share, n - inside, last - lastInside);
     return in + out;
   }
 
   // Whether pixel k's samples less their control are one colour on each part of its stratum
-  // (StratumControl::exact).
-  static bool exactlyControlled(const TileState& t, int k) { return t.stratum != nullptr && t.stratum->exact(k); }
+  // (StratumControl::exact), as its first pass found (a byte of the tile's state: marking reads it
+  // for every pixel, the stratum's state lies two cache lines away).
+  static bool exactlyControlled(const TileState& t, int k) { return t.exact[k]; }
 
   // What pixel k's control's mean, found in part numerically (StratumControl::meanError), may put its
   // colour off by: its samples cannot see that, and its error estimates add it. 0 without one.
@@ -1113,11 +1182,13 @@ class AdaptiveSampler {
   }
 
   // The image's estimated RMS error and worst pixel, from the tiles' (in tile order: the same sums
-  // on any number of threads).
+  // on any number of threads), and the probes traced (as the rays are, a region's margin's too).
   void summarise(AdaptiveStats& stats) const {
     const RenderSettings::Region& r = m_output;
     double squares = 0, worst = 0;
-    for (size_t u = 0; u < m_tileCount; ++u) squares += m_state[u].squares, worst = std::max(worst, m_state[u].worst);
+    for (size_t u = 0; u < m_tileCount; ++u) {
+      squares += m_state[u].squares, worst = std::max(worst, m_state[u].worst), stats.probes += m_state[u].probes;
+    }
     stats.estimatedRmse = std::sqrt(squares / (static_cast<double>(r.width) * r.height));
     stats.estimatedWorst = worst;
   }

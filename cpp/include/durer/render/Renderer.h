@@ -61,6 +61,7 @@ struct AdaptiveStats {
   double estimatedRmse = 0;    // root mean square over the pixels of their estimated colour errors
   double estimatedWorst = 0;   // the largest of them
   int rounds = 0;              // sampling rounds run (the first pass included)
+  int64_t probes = 0;          // camera rays that probed a stratum's outside (not samples: AdaptiveSampler.h)
   bool timeLimitReached = false;
 };
 

@@ -863,6 +863,9 @@ class TileRenderer {
   // Sphere `sphere`'s silhouette in the image. For a render that seesDisks().
   ImageDisk silhouette(uint32_t sphere) const { return imageDisk(m_camera.projection(), sphere); }
 
+  // Whether a sample that met primitive `prim` met one of the scene's own spheres (the camera's view's).
+  bool metSphere(int32_t prim) const { return prim >= 0 && static_cast<size_t>(prim) < m_group.spheres().size(); }
+
   // Whether primitive `prim`, which a sample of pixel (x, y) met, is taken to hide whatever lies
   // beyond it all over the pixel: one of the top-level group's own spheres if its silhouette covers
   // the pixel; anything else (a plane is unbounded; a group's or a mesh's primitive is not looked
