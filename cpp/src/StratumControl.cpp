@@ -539,6 +539,13 @@ bool rankBy(const bool (*before)[PixelStratum::kMostDisks], int n, uint8_t* rank
   return false;
 }
 
+// Whether two spheres cut through each other (or one holds the other): their centres nearer than the
+// sum of their radii.
+bool cutThrough(const ControlMember& a, const ControlMember& b) {
+  const Vec3d d = a.centre - b.centre;
+  return dot(d, d) < (a.radius + b.radius) * (a.radius + b.radius);
+}
+
 // diskControl's control of a one-member stratum's outside by its cover (sphere c, disk e), where the
 // member (m) is seen before it all over its part of the pixel.
 void coverOutside(int x, int y, const PixelStratum& p, const ControlMember& m, const ControlMember& c, const PixelStratum::Ellipse& e,
@@ -547,8 +554,7 @@ void coverOutside(int x, int y, const PixelStratum& p, const ControlMember& m, c
   const float inverseAx = static_cast<float>(1 / e.ax), inverseAy = static_cast<float>(1 / e.ay);
   const double iu = inverseAx, iv = inverseAy;
   if (!(std::isfinite(iu) && std::isfinite(iv) && iu > 0 && iv > 0 && std::isfinite(cx) && std::isfinite(cy))) return;
-  const Vec3d d = m.centre - c.centre;
-  if (dot(d, d) < (m.radius + c.radius) * (m.radius + c.radius)) {  // cutting through each other: the member seen all over its part
+  if (cutThrough(m, c)) {  // the member seen all over its part
     const double scale = 1 / (double(p.inverseAx[0]) * m.radius);  // pixel units a world unit
     const double aspect = double(p.inverseAy[0]) / double(p.inverseAx[0]);
     const PixelBall own{double(p.cx[0]) - x, (double(p.cy[0]) - y) * aspect, m.centre.z * scale, 1 / double(p.inverseAx[0])};
@@ -601,11 +607,7 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
     // parts their overlaps take off.
     bool cutting = false;
     for (int i = 0; i < n; ++i) {
-      for (int j = 0; j < i; ++j) {
-        const Vec3d d = members[i].centre - members[j].centre;
-        const double apart = members[i].radius + members[j].radius;
-        cutting = cutting || dot(d, d) < apart * apart;
-      }
+      for (int j = 0; j < i; ++j) cutting = cutting || cutThrough(members[i], members[j]);
     }
     const double inUnion = cutting && !split && tolerance > 0 ? p.unionShare(x, y) : 0;
     if (inUnion > 0) {
@@ -624,9 +626,7 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
         double px, py;
         if (!overlapWithin(ball[i], ball[j], 0, 1, 0, double(p.aspect), px, py)) continue;
         overlap[i][j] = overlap[j][i] = true;
-        const Vec3d d = members[i].centre - members[j].centre;
-        const double apart = members[i].radius + members[j].radius;
-        if (dot(d, d) >= apart * apart) {  // apart in space: the nearer centre in front
+        if (!cutThrough(members[i], members[j])) {  // apart in space: the nearer centre in front
           (members[i].centre.z < members[j].centre.z ? before[i][j] : before[j][i]) = true;
           continue;
         }

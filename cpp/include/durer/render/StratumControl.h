@@ -116,9 +116,9 @@ struct ControlMember {
 // through each other and not `split`: the mean of the shading of the member seen over the union's
 // part is found on the lattice itself (the midpoint rule over the box the disks span in the pixel
 // from kSeenGrid points a side, the mean of the points inside the union, its error estimated as
-// above, cpp/tests/test_stratum_control.cpp), where that
-// is within `tolerance` — a fraction of the exact parts' cost, which is most of a first pass's where
-// such spheres abound (docs/benchmarks.md, sixty-fourth round). A function of a sample's position
+// above, cpp/tests/test_stratum_control.cpp), where that is within `tolerance` — a fraction of the
+// exact parts' cost, which is most of a first pass's where such spheres abound (docs/benchmarks.md,
+// sixty-fourth round). A function of a sample's position
 // alone whose mean over the inside is 0: the inside's mean of the samples' colours less their
 // controls estimates the colours' mean without bias whatever the shading. Where the shading is
 // that (diffuse spheres lit by suns, no shadows), a sample's colour less its control is the mean all
