@@ -288,6 +288,9 @@ class AdaptiveSampler {
     StratumControl control[kPacketSize];  // its samples' inside control variate (StratumControl.h)
     Real probe[4][kPacketSize];  // the colour (r, g, b, a) a probe ray met outside its stratum (probeOutsides)
     bool probed[kPacketSize];    // whether one did
+    // Whether its outside's colour is known without a sample (a cover's control, StratumControl::covered,
+    // or a probe's), or it has none (share 1): set by the first pass, which has the controls at hand.
+    bool outsideKnown[kPacketSize];
     bool controlled;                                      // whether a pixel of the tile has a control
 
     // Pixel k's mean of channel `channel` (r, g, b, a) by its stratum (PixelStratum::mean), from the
@@ -555,6 +558,11 @@ class AdaptiveSampler {
       }
     }
     if (!probeOutsides(t, counters)) return false;
+    if (StratumState* u = t.stratum; u && strata) {
+      for (int k = 0; k < count; ++k) {
+        u->outsideKnown[k] = u->probed[k] || (u->controlled && u->control[k].covered()) || !(u->strata[k].share < 1);
+      }
+    }
     // A sphere smaller than the samples' spacing, or the sliver of one, may lie between them: where
     // the camera's view says a silhouette crosses a pixel, it is an edge (mark) whatever they saw.
     // Where the view proves a pixel smooth (read by mark and a two-sample pixel's reported error).
@@ -586,10 +594,15 @@ class AdaptiveSampler {
       // watched: its share never changes.
       const double least = m_target / kUnseenShare;
       // A sphere beyond every hit of the first samples may still show where what they met leaves
-      // part of the pixel uncovered (a sphere's disk around which the samples all fell).
+      // part of the pixel uncovered (a sphere's disk around which the samples all fell). An exactly
+      // controlled pixel watches none: its members are every sphere crossing it (unseenShare).
       alignas(64) float reach[kPacketSize];
       for (int row = 0, k = 0; row < t.h; ++row) {
         for (int col = 0; col < t.w; ++col, ++k) {
+          if (u->exact(k)) {
+            reach[k] = -std::numeric_limits<float>::infinity();
+            continue;
+          }
           bool hidden = false;
           for (int i = 0; i < metCount[k] && !hidden; ++i) hidden = m_tiles.hidesBeyond(met[i][k], t.x0 + col, t.y0 + row);
           reach[k] = hidden ? farthest[k] : std::numeric_limits<float>::infinity();
@@ -899,7 +912,8 @@ class AdaptiveSampler {
   // How far pixel k's stratified mean may be off for want of samples its error estimate can see: a
   // part of its stratum none of its samples has reached counts its share of the pixel (its colour is
   // unknown: it may be off the pixel's by about 1, a lit sphere against a dark ground), but the
-  // inside of a stratum exactly controlled, whose colour is known (StratumState::mean); a part whose
+  // inside of a stratum exactly controlled, whose colour is known (StratumState::mean), and its
+  // outside where a cover's control or a probe tells its colour (probeOutsides); a part whose
   // samples all lie in one half (its spread is then invisible to the halves' difference) its share
   // times kPartSpread over the root of its samples (a colour in [0, 1] spreads by at most 1/2), but
   // where the samples less their control are one colour on each part (StratumControl::exact). 0
@@ -907,18 +921,19 @@ class AdaptiveSampler {
   // their samples' means: where an inside no sample reached is known, they miss its spheres, as a
   // part within the target's share would be; the passes asked for change no colour nor count.)
   static double unresolvedShare(const TileState& t, int k) {
-    if (t.stratum == nullptr || !t.stratum->strata[k].any()) return 0;
+    if (t.stratum == nullptr) return 0;
     const StratumState& u = *t.stratum;
-    const double share = double(u.strata[k].share), n = double(t.sums.samples[k]), last = t.last[k];
-    const double inside = double(u.inside[k]), lastInside = double(u.lastInside[k]);
-    const bool exact = exactlyControlled(t, k), spread = !exact;
+    const double n = double(t.sums.samples[k]), inside = double(u.inside[k]);
+    if (exactlyControlled(t, k)) {  // its inside known, its outside too with a cover's control or a probe's colour
+      return inside == n && !u.outsideKnown[k] ? 1 - double(u.strata[k].share) : 0.0;
+    }
+    if (!u.strata[k].any()) return 0;
+    const double share = double(u.strata[k].share), last = t.last[k], lastInside = double(u.lastInside[k]);
     const auto part = [&](double share, double samples, double inLast) {
       if (samples == 0) return share;
-      return spread && (inLast == 0 || inLast == samples) ? share * kPartSpread / std::sqrt(samples) : 0.0;
+      return inLast == 0 || inLast == samples ? share * kPartSpread / std::sqrt(samples) : 0.0;
     };
-    const double in = inside == 0 && exact ? 0.0 : part(share, inside, lastInside);
-    const double out = inside == n && exact && (u.control[k].covered() || u.probed[k]) ? 0.0 : part(1 - share, n - inside, last - lastInside);
-    return in + out;
+    return part(share, inside, lastInside) + part(1 - share, n - inside, last - lastInside);
   }
 
   // Whether pixel k's samples less their control are one colour on each part of its stratum

@@ -575,25 +575,27 @@ struct PixelStratum {
 
   // A point (x + u, y + v) of pixel (x, y)'s square outside the union and a thousandth of a pixel
   // clear of every member (the members' ellipses are silhouettes rounded to float, off by less than
-  // that in an image under 16,384 pixels across): the first that is of the centres of the cells of
-  // lattices of 2 to 32 cells a side, coarse to fine, each row by row; false where none is (no
-  // outside, or one thinner than the finest cells).
+  // that in an image under 16,384 pixels across): the first that is of the centres of the four
+  // corner cells of a lattice of 32 cells a side (where a disk's edge leaves the outside, mostly),
+  // then of every cell of lattices of 2 to 32 cells a side, coarse to fine, each row by row; false
+  // where none is (no outside, or one thinner than the finest cells).
   bool outsidePoint(int x, int y, double& u, double& v) const {
-    constexpr double kClear = 1e-3;  // pixels
-    for (int grid = 2; grid <= 32; grid *= 2) {
+    constexpr int kFinest = 32;
+    const auto clear = [&](double pu, double pv) {
+      for (int i = 0; i < disks; ++i) {
+        double a, b;
+        frame(i, x + pu, y + pv, a, b);
+        const double reach = 1 + 1e-3 * std::max(double(inverseAx[i]), double(inverseAy[i]));  // over the smaller axis
+        if (!(a * a + b * b > reach * reach)) return false;
+      }
+      u = pu, v = pv;
+      return true;
+    };
+    constexpr double kNear = 0.5 / kFinest, kFar = 1 - kNear;
+    if (clear(kNear, kNear) || clear(kFar, kNear) || clear(kNear, kFar) || clear(kFar, kFar)) return true;
+    for (int grid = 2; grid <= kFinest; grid *= 2) {
       for (int cell = 0; cell < grid * grid; ++cell) {
-        const double pu = (cell % grid + 0.5) / grid, pv = (cell / grid + 0.5) / grid;
-        bool clear = true;
-        for (int i = 0; i < disks && clear; ++i) {
-          double a, b;
-          frame(i, x + pu, y + pv, a, b);
-          const double reach = 1 + kClear * std::max(double(inverseAx[i]), double(inverseAy[i]));  // over the smaller axis
-          clear = a * a + b * b > reach * reach;
-        }
-        if (clear) {
-          u = pu, v = pv;
-          return true;
-        }
+        if (clear((cell % grid + 0.5) / grid, (cell / grid + 0.5) / grid)) return true;
       }
     }
     return false;
