@@ -63,13 +63,14 @@
 // — a pixel's samples less their controls are one colour on each part of its stratum: none of the
 // rules above that look for what its samples missed marks it (the neighbourhood's errors, the
 // geometric edges, the contrast: its stratum names every edge crossing it), and of its parts only
-// one no sample has reached keeps it refining (unresolvedShare), as do the spheres it watches. Its
-// inside's colour less the control is the control's mean there (the control is the colour itself
-// less its mean), so its inside needs no sample either (StratumState::mean; its spheres watched are
-// its members): it settles at the first pass once its outside is reached (docs/benchmarks.md,
+// one no sample has reached keeps it refining (unresolvedShare); it watches no sphere (its members
+// are every sphere crossing it). Its inside's colour less the control is the control's mean there
+// (the control is the colour itself less its mean), so its inside needs no sample either
+// (StratumState::mean): it settles at the first pass once its outside is reached (docs/benchmarks.md,
 // fifty-seventh to fifty-ninth rounds), or once one ray at a point of it has told its colour, one
-// colour, where the first samples all fell inside (probeOutsides: sixty-fifth round). Where a sphere's disk covers a pixel and is seen all over it
-// but for one member's part (TileRenderer::silhouetteStrata), its shading is the outside's control
+// colour, where the first samples all fell inside (probeOutsides: sixty-fifth round). Where a
+// sphere's disk covers a pixel and is seen all over it but for one member's part
+// (TileRenderer::silhouetteStrata), its shading is the outside's control
 // (StratumControl::covered): that stratum is exact too, its outside's colour known without a sample;
 // and a pixel it covers beside its edge, with no member, which the edge rules would take to
 // kEdgeSamples for its neighbours' other geometry, has for its stratum that disk filling it (share 1,
@@ -301,8 +302,7 @@ class AdaptiveSampler {
     // makes it exact too (StratumControl::covered), or where a probe ray met it (the outside of an
     // exact stratum is one colour: probeOutsides).
     Real mean(int k, int channel, Real sum, Real count, Real in) const {
-      const bool outsideKnown = control[k].covered() || probed[k];
-      if (!(count > 0 && exact(k)) || (inside[k] > 0 && (inside[k] < count || !outsideKnown))) {
+      if (!(count > 0 && exact(k)) || (inside[k] > 0 && (inside[k] < count || !outsideKnown[k]))) {
         return strata[k].mean(sum, count, in, inside[k]);
       }
       const auto known = [&](const Vec3<float>& mean) { return channel < 3 ? static_cast<Real>(mean[channel]) : Real(1); };
