@@ -26,6 +26,8 @@
 //     spacing, or the sliver of one, that they and the neighbours' may all have missed; or its
 //     samples all met one plane on whose part of it a light's view of the spheres shows that a
 //     shadow's edge may fall (TileRenderer::markShadowEdges): a shadow's sliver likewise;
+//   - it has one sample (minSamples 1), whose halves say nothing of its error (estimatedError reads
+//     0), and neither does the camera's view prove it smooth nor its control describe it (below);
 //   - it has fewer than kUnseenShare * contrast / targetError samples, where contrast is the RMS
 //     difference of its mean colour from a neighbour's: an edge inside it covering less than about
 //     1 / samples of its area may not have been seen yet, and would be off by at most about that
@@ -1010,6 +1012,10 @@ class AdaptiveSampler {
           // errors say nothing of it either.
           const bool described = (t.exactBits & bit) != 0;
           const bool young = taken < kEdgeSamples && !described;  // an edge keeps a pixel refining only below them
+          // A pixel of one sample, whose halves say nothing of its error (estimatedError reads 0), settles
+          // only on its control's word (described) or where the camera's view proves it smooth: one
+          // plane or the background, no edge (markSilhouettes).
+          const bool alone = taken < 2 && !described && !self.smooth;
           bool edge = young && t.mixed[k];
           uint32_t others = 0;  // the neighbours weighed whose first samples met another primitive (bit 3 dy + dx + 4)
           // The 3x3 neighbourhood without branches (which of them counts is as unpredictable as the
@@ -1042,7 +1048,7 @@ class AdaptiveSampler {
           const double resolved = taken * m_target / kUnseenShare;  // the contrast `taken` samples resolve
           const double inf = std::numeric_limits<double>::infinity();
           const double unresolved = std::max(unresolvedShare(t, k), unseenShare(t, k));
-          if (squaredError <= m_target * m_target && squaredError < inf && !edge &&
+          if (squaredError <= m_target * m_target && squaredError < inf && !edge && !alone &&
               squaredContrast <= resolved * resolved && squaredContrast < inf && unresolved <= m_target) {
             continue;
           }
