@@ -595,6 +595,7 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
   // index order): what its part loses to them is taken off exactly (below).
   int nearer[kMost][kMost], nearers[kMost] = {};
   PixelBall ball[kMost];
+  double inUnion = 0;  // the union's share, where the lattice of the one seen was tried (kept if it missed)
   if (n > 1) {
     const double scale = 1 / (double(p.inverseAx[0]) * members[0].radius);  // pixel units a world unit
     for (int i = 0; i < n; ++i) {
@@ -609,7 +610,7 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
     for (int i = 0; i < n; ++i) {
       for (int j = 0; j < i; ++j) cutting = cutting || cutThrough(members[i], members[j]);
     }
-    const double inUnion = cutting && !split && tolerance > 0 ? p.unionShare(x, y) : 0;
+    inUnion = cutting && !split && tolerance > 0 ? p.unionShare(x, y) : 0;
     if (inUnion > 0) {
       StratumControl seen = control;
       for (int i = 0; i < n; ++i) seen.kd[i] = Vec3<float>(members[i].kd), seen.lights[i] = uint8_t((1u << light.suns) - 1);
@@ -700,7 +701,7 @@ StratumControl diskControl(int x, int y, const PixelStratum& p, const ControlMem
       if (lost.error <= tolerance) break;
     }
     if (!(lost.error <= tolerance)) return {};
-    sum -= lost.shading, inside = p.unionShare(x, y), control.meanError = static_cast<float>(lost.error);
+    sum -= lost.shading, inside = inUnion > 0 ? inUnion : p.unionShare(x, y), control.meanError = static_cast<float>(lost.error);
     if (share) *share = inside;
   }
   bool small = true;
