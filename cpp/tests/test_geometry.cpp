@@ -197,6 +197,17 @@ TEST_CASE_TEMPLATE("non-negative numbers' bits order as the numbers do, and come
   CHECK(nonNegativeBits(Real(-1)) < 0);  // a negative number's bits do not order as it does: not for them
 }
 
+TEST_CASE_TEMPLATE("positivePart is std::max(0, x) bit for bit, -0 and negative infinity included", Real, float, double) {
+  const Real inf = std::numeric_limits<Real>::infinity();
+  const Real values[] = {-inf, -std::numeric_limits<Real>::max(), Real(-1.5), -std::numeric_limits<Real>::denorm_min(),
+                         Real(-0.0), Real(0), std::numeric_limits<Real>::denorm_min(), Real(0.25), std::numeric_limits<Real>::max(), inf};
+  for (const Real x : values) {
+    const Real expected = std::max(Real(0), x), got = positivePart(x);
+    CHECK(std::memcmp(&expected, &got, sizeof got) == 0);
+  }
+  CHECK(!std::signbit(positivePart(Real(-0.0))));
+}
+
 TEST_CASE("error-free transformations recover what plain arithmetic rounds away") {
   // 1 - 2^-60 rounds to 1; the lost part is exactly -2^-60.
   CHECK(twoDiffError(1.0, std::ldexp(1.0, -60), 1.0) == -std::ldexp(1.0, -60));
