@@ -1,5 +1,6 @@
 // The parts of PixelStratum.h that adaptive sampling calls once a pixel (its control variate's
-// geometry, StratumControl.h): out of line, compiled once rather than in every kernel set.
+// geometry, StratumControl.h): out of line, compiled into each kernel set (CMakeLists.txt) but not
+// inlined into its renders.
 #include "durer/render/PixelStratum.h"
 
 #include <algorithm>
