@@ -93,7 +93,7 @@ def test_configs():
     quick, full = Config.quick_config(), Config.full()
     assert quick.quick and quick.aa_size == (80, 45) and quick.spps == (1, 4, 16) and quick.reference_spp == 256
     assert quick.runs == 1 and quick.baselines == ((16, 1 / 3),) and quick.adaptive_max_spps == (16,)
-    assert full.spps == (1, 4, 16, 64, 256) and full.reference_spp == 4096 and full.runs == 3
+    assert full.spps == (1, 4, 16, 64, 256) and full.reference_spp == 4096 and full.runs == 5
     assert full.baselines == ((64, 1 / 3), (256, 1 / 4)) and full.adaptive_max_spps == (64, 256)
     assert full.min_spps == (1, 2, 4, 8) and 0.005 in full.target_errors
     assert full.samplers == SAMPLERS

@@ -49,7 +49,7 @@ class Config:
 
     @classmethod
     def full(cls) -> Config:
-        return cls(quick=False, aa_size=(160, 90), spps=(1, 4, 16, 64, 256), reference_spp=4096, runs=3,
+        return cls(quick=False, aa_size=(160, 90), spps=(1, 4, 16, 64, 256), reference_spp=4096, runs=5,
                    target_errors=(0.04, 0.028, 0.02, 0.014, 0.01, 0.007, 0.005, 0.0035, 0.0025), min_spps=(1, 2, 4, 8),
                    oracle_seeds=6,
                    timing_size=(480, 270), timing_spp=4, timing_runs=5, effects_size=(640, 360))
