@@ -15,13 +15,11 @@ namespace {
 // does not cancel near the centre) by 6-point Gauss-Legendre, times the fan's turn.
 double wFan(DiskPieces::Point p, DiskPieces::Point q) {
   const double du = q.u - p.u, dv = q.v - p.v;
-  // The nodes' terms in one pass of vector roots and quotients (eight lanes, two idle), summed in order below.
-  static constexpr double node[8] = {kGaussNode[0], kGaussNode[1], kGaussNode[2], kGaussNode[3], kGaussNode[4], kGaussNode[5], 0, 0};
-  static constexpr double weight[8] = {kGaussWeight[0], kGaussWeight[1], kGaussWeight[2], kGaussWeight[3], kGaussWeight[4], kGaussWeight[5], 0, 0};
-  double term[8];
-  for (int j = 0; j < 8; ++j) {
-    const double bu = p.u + node[j] * du, bv = p.v + node[j] * dv, rest = positivePart(1 - bu * bu - bv * bv);
-    term[j] = weight[j] * (1 + rest + rest * rest) / (1 + rest * std::sqrt(rest));  // (1 - rest^1.5) / r^2
+  // The nodes' terms in one pass of vector roots and quotients, summed in order below.
+  double term[6];
+  for (int j = 0; j < 6; ++j) {
+    const double bu = p.u + kGaussNode[j] * du, bv = p.v + kGaussNode[j] * dv, rest = positivePart(1 - bu * bu - bv * bv);
+    term[j] = kGaussWeight[j] * (1 + rest + rest * rest) / (1 + rest * std::sqrt(rest));  // (1 - rest^1.5) / r^2
   }
   double sum = 0;
   for (int j = 0; j < 6; ++j) sum += term[j];
