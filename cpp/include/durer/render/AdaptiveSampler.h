@@ -288,7 +288,7 @@ class AdaptiveSampler {
     Real inR[kPacketSize], inG[kPacketSize], inB[kPacketSize], inA[kPacketSize];  // sums of the samples in it
     Real inside[kPacketSize];                             // their count
     Real lastInR[kPacketSize], lastInG[kPacketSize], lastInB[kPacketSize], lastInside[kPacketSize];  // of the second half
-    StratumControl control[kPacketSize];  // its samples' inside control variate (StratumControl.h)
+    StratumControl control[kPacketSize];  // its samples' inside control variate (StratumControl.h): only where strata[k] is set
     Real probe[4][kPacketSize];  // the colour (r, g, b, a) a probe ray met outside its stratum (probeOutsides)
     bool probed[kPacketSize];    // whether one did
     // Whether its outside's colour is known without a sample (a cover's control, StratumControl::covered,
@@ -378,7 +378,7 @@ class AdaptiveSampler {
       const int k = pixel ? pixel[j] : j;
       for (end = j + 1; pixel && end < count && pixel[end] == k;) ++end;
       const PixelStratum& stratum = u.strata[k];
-      const bool controlled = u.controlled && u.control[k].any(), covered = controlled && u.control[k].covered();
+      const bool controlled = u.controlled && stratum.any() && u.control[k].any(), covered = controlled && u.control[k].covered();
       for (int i = j; i < end; ++i) {
         inside[i] = stratum.contains(double(sampleX[i]), double(sampleY[i]));
         if (!u.controlled) continue;
@@ -535,8 +535,9 @@ class AdaptiveSampler {
         for (Real* sums : {u->inR, u->inG, u->inB, u->inA, u->inside, u->lastInR, u->lastInG, u->lastInB, u->lastInside}) {
           std::fill(sums, sums + count, Real(0));
         }
-        u->controlled = m_tiles.controlsStrata() &&
-                        std::any_of(u->control, u->control + count, [](const auto& c) { return c.any(); });
+        for (int k = 0; m_tiles.controlsStrata() && k < count; ++k) {  // (a control is set only with its stratum)
+          u->controlled = u->controlled || (u->strata[k].any() && u->control[k].any());
+        }
       }
     }
     for (int sample = 0; sample < m_firstSamples; ++sample) {
@@ -562,7 +563,7 @@ class AdaptiveSampler {
     if (!probeOutsides(t, counters)) return false;
     if (StratumState* u = t.stratum; u && strata) {
       for (int k = 0; k < count; ++k) {
-        u->outsideKnown[k] = u->probed[k] || (u->controlled && u->control[k].covered()) || !(u->strata[k].share < 1);
+        u->outsideKnown[k] = u->probed[k] || (u->controlled && u->strata[k].any() && u->control[k].covered()) || !(u->strata[k].share < 1);
       }
     }
     // A sphere smaller than the samples' spacing, or the sliver of one, may lie between them: where
@@ -773,7 +774,7 @@ class AdaptiveSampler {
     for (int k = 0; t.stratum && k < count; ++k) {  // a stratum's pixels: their estimates and means by its parts
       const StratumState& u = *t.stratum;
       if (!sampled[k] || !u.strata[k].any()) continue;  // an unsampled pixel's summary stands (below)
-      error[k] = static_cast<float>(std::hypot(stratifiedError(t, k), controlError(t, k)));
+      error[k] = static_cast<float>(withControlError(stratifiedError(t, k), controlError(t, k)));
       const Real n = t.sums.samples[k];
       meanR[k] = static_cast<float>(u.mean(k, 0, t.sums.r[k], n, u.inR[k]));
       meanG[k] = static_cast<float>(u.mean(k, 1, t.sums.g[k], n, u.inG[k]));
@@ -943,10 +944,17 @@ class AdaptiveSampler {
   // for every pixel, the stratum's state lies two cache lines away).
   static bool exactlyControlled(const TileState& t, int k) { return t.exact[k]; }
 
+  // An error estimate with a control's error (controlError) added in quadrature. Most pixels have
+  // none, and glibc's hypot is slow where hypot(e, 0) = |e| anyway.
+  static double withControlError(double estimate, double control) {
+    return control == 0 ? std::abs(estimate) : std::hypot(estimate, control);
+  }
+
   // What pixel k's control's mean, found in part numerically (StratumControl::meanError), may put its
   // colour off by: its samples cannot see that, and its error estimates add it. 0 without one.
   static double controlError(const TileState& t, int k) {
-    return t.stratum != nullptr && t.stratum->controlled ? double(t.stratum->control[k].meanError) : 0.0;
+    const StratumState* u = t.stratum;
+    return u != nullptr && u->controlled && u->strata[k].any() ? double(u->control[k].meanError) : 0.0;
   }
 
   // What a sphere pixel k watches may put its mean off by, none of its samples having met it
@@ -1141,7 +1149,7 @@ class AdaptiveSampler {
         // (A pixel whose control is its colour reports its halves' estimate at two samples too: its
         // neighbours' means say nothing of its own.)
         const bool two = t.taken[k0 + i] == 2 && !exactlyControlled(t, k0 + i);
-        const double e = two ? std::hypot(residualError(p), controlError(t, k0 + i))
+        const double e = two ? withControlError(residualError(p), controlError(t, k0 + i))
                              : smoothlyShaded(t, k0 + i, p) ? p.error / kNetHalves : p.error;
         squares += e * e, worst = std::max(worst, e);
         if (m_targets.error) m_targets.error[first + i] = static_cast<float>(e);

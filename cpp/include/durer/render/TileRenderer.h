@@ -507,7 +507,8 @@ class TileRenderer {
   // nothing and are not read.
   // With `controls` (null unless the render controlsStrata()): each stratum's control variate too
   // (diskControl; `split`: exactly also where the sphere seen changes inside an overlap of two; a
-  // control found in part numerically only within `tolerance` of the pixel's colour). Where a
+  // control found in part numerically only within `tolerance` of the pixel's colour), written only
+  // where the pixel has a stratum (its readers look at the stratum first). Where a
   // sphere covers a pixel and hides every other sphere reaching into it before its centre (each
   // one's centre behind it and the two apart, or the cover seen all over their overlap there), the
   // cover is seen all over the pixel (fill: the disk filling it may be its stratum) or all over a
@@ -517,7 +518,6 @@ class TileRenderer {
     constexpr int kMost = PixelStratum::kMostDisks;
     std::fill(strata, strata + w * h, PixelStratum{});
     std::fill(spheres, spheres + w * h, kNoSphere);
-    if (controls) std::fill(controls, controls + w * h, StratumControl{});
     if (!seesDisks()) return perspectiveStrata(x0, y0, w, h, strata, spheres, controls);
     const ParallelProjection image = m_camera.projection();
     const int count = w * h;
