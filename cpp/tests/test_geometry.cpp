@@ -170,6 +170,12 @@ TEST_CASE_TEMPLATE("wellScaled keeps a unit vector's bits, and stands in where t
   CHECK(glm::normalize(wellScaled(Vec3<Real>(0), fallback)) == Vec3<Real>(0, 0, -1));
   CHECK(glm::normalize(wellScaled(Vec3<Real>(0, std::numeric_limits<Real>::denorm_min(), 0), fallback)) ==
         Vec3<Real>(0, 0, -1));
+  // The largest magnitude found from the bits: a negative one's, and no direction from inf or NaN.
+  const Vec3<Real> negative(Real(0.5), Real(-7.5), Real(2));
+  CHECK(wellScaled(negative, fallback) == negative * Real(0.25));
+  const Real inf = std::numeric_limits<Real>::infinity(), nan = std::numeric_limits<Real>::quiet_NaN();
+  CHECK(glm::normalize(wellScaled(Vec3<Real>(1, inf, 0), fallback)) == Vec3<Real>(0, 0, -1));
+  CHECK(glm::normalize(wellScaled(Vec3<Real>(1, 0, nan), fallback)) == Vec3<Real>(0, 0, -1));
 }
 
 TEST_CASE_TEMPLATE("absolute is std::fabs per component: no sign survives, not even zero's", Real, float, double) {

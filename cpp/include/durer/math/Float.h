@@ -198,8 +198,13 @@ DURER_INLINE Real inversePowerOfTwo(Real x) {
 // that works. `otherwise` (finite, normal) stands in where v is 0 or subnormal: no direction to trust.
 template <typename Real>
 DURER_INLINE Vec3<Real> wellScaled(const Vec3<Real>& v, const Vec3<Real>& otherwise) {
+  // The largest magnitude by the magnitudes' bits (nonNegativeBits; a NaN's are the largest, and
+  // leave inversePowerOfTwo nothing usable): std::max of doubles stays a branch under
+  // -ftrapping-math, which kept loops over hits' normals scalar.
   const auto largest = [](const Vec3<Real>& u) {
-    return std::max(std::fabs(u.x), std::max(std::fabs(u.y), std::fabs(u.z)));
+    const auto x = nonNegativeBits(std::fabs(u.x)), y = nonNegativeBits(std::fabs(u.y)), z = nonNegativeBits(std::fabs(u.z));
+    const auto xy = x < y ? y : x;
+    return fromNonNegativeBits<Real>(xy < z ? z : xy);
   };
   const Real power = inversePowerOfTwo(largest(v));
   return power == power ? v * power : otherwise * inversePowerOfTwo(largest(otherwise));

@@ -1133,20 +1133,24 @@ class TileRenderer {
     const int32_t sphereCount = static_cast<int32_t>(m_group.spheres().size());
     const int32_t ownEnd = sphereCount + static_cast<int32_t>(m_group.planes().size());
     const int32_t first = packet.prim[0];
-    if (uniform && first != kNoPrimitive && first < ownEnd) {  // one sphere's or plane's: loops that vectorise
+    if (uniform && first == kNoPrimitive) return;  // the background's: a miss adds nothing
+    if (uniform && first < ownEnd) {  // one sphere's or plane's: the normals made in a loop that vectorises
+      alignas(64) Real nx[kPacketSize], ny[kPacketSize], nz[kPacketSize];
       if (first < sphereCount) {
+        const auto& spheres = m_group.spheres();
         for (int k = 0; k < packet.count; ++k) {
           const Vec3<Real> d(packet.dx[k], packet.dy[k], packet.dz[k]);
-          const Vec3<Real> n = shadingNormal(m_group.spheres().normal(packet, k, static_cast<size_t>(first)), d, m_shadeBack);
-          acc.addNormal(k, packet.tHit[k], first, n.x, n.y, n.z);
+          const Vec3<Real> n = shadingNormal(spheres.normal(packet, k, static_cast<size_t>(first)), d, m_shadeBack);
+          nx[k] = n.x, ny[k] = n.y, nz[k] = n.z;
         }
       } else {
         const Vec3<Real> normal = m_group.planes().primitive(static_cast<size_t>(first - sphereCount)).normal;
         for (int k = 0; k < packet.count; ++k) {
           const Vec3<Real> n = shadingNormal(normal, Vec3<Real>(packet.dx[k], packet.dy[k], packet.dz[k]), m_shadeBack);
-          acc.addNormal(k, packet.tHit[k], first, n.x, n.y, n.z);
+          nx[k] = n.x, ny[k] = n.y, nz[k] = n.z;
         }
       }
+      for (int k = 0; k < packet.count; ++k) acc.addNormal(k, packet.tHit[k], first, nx[k], ny[k], nz[k]);
       return;
     }
     for (int k = 0; k < packet.count; ++k) {
