@@ -195,7 +195,8 @@ DURER_INLINE Real inversePowerOfTwo(Real x) {
 
 // v scaled by a power of two (exact) so that its largest |component| is in [1, 2): no square of it
 // under- or overflows, and a unit vector made from it has the bits one made from v has wherever
-// that works. `otherwise` (finite, normal) stands in where v is 0 or subnormal: no direction to trust.
+// that works. `otherwise` (finite, normal) stands in where v is 0 or subnormal, or has an infinite
+// or NaN component: no direction to trust.
 template <typename Real>
 DURER_INLINE Vec3<Real> wellScaled(const Vec3<Real>& v, const Vec3<Real>& otherwise) {
   // The largest magnitude by the magnitudes' bits (nonNegativeBits; a NaN's are the largest, and
