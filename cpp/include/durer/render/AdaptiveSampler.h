@@ -288,7 +288,7 @@ class AdaptiveSampler {
     Real inR[kPacketSize], inG[kPacketSize], inB[kPacketSize], inA[kPacketSize];  // sums of the samples in it
     Real inside[kPacketSize];                             // their count
     Real lastInR[kPacketSize], lastInG[kPacketSize], lastInB[kPacketSize], lastInside[kPacketSize];  // of the second half
-    StratumControl control[kPacketSize];  // its samples' inside control variate (StratumControl.h): only where strata[k] is set
+    StratumControl control[kPacketSize];  // its samples' inside control variate (StratumControl.h): read through controlOf
     Real probe[4][kPacketSize];  // the colour (r, g, b, a) a probe ray met outside its stratum (probeOutsides)
     bool probed[kPacketSize];    // whether one did
     // Whether its outside's colour is known without a sample (a cover's control, StratumControl::covered,
@@ -315,9 +315,12 @@ class AdaptiveSampler {
                                              : known(control[k].coverMean);
       return s * inMean + (1 - s) * outMean;
     }
+    // Pixel k's control where the tile has controls and the pixel a stratum (silhouetteStrata writes
+    // a control only with its stratum: elsewhere control[k] holds an earlier tile's); else null.
+    const StratumControl* controlOf(int k) const { return controlled && strata[k].any() ? &control[k] : nullptr; }
     // Whether pixel k's samples less their control are one colour on each part of its stratum
     // (StratumControl::exact).
-    bool exact(int k) const { return controlled && strata[k].any() && control[k].exact; }
+    bool exact(int k) const { return controlOf(k) != nullptr && control[k].exact; }
   };
 
   // A tile's pixels (clipped to the work region) and what adaptive sampling keeps of them.
@@ -378,11 +381,12 @@ class AdaptiveSampler {
       const int k = pixel ? pixel[j] : j;
       for (end = j + 1; pixel && end < count && pixel[end] == k;) ++end;
       const PixelStratum& stratum = u.strata[k];
-      const bool controlled = u.controlled && stratum.any() && u.control[k].any(), covered = controlled && u.control[k].covered();
+      const StratumControl* control = u.controlOf(k);
+      const bool controlled = control != nullptr && control->any(), covered = controlled && control->covered();
       for (int i = j; i < end; ++i) {
         inside[i] = stratum.contains(double(sampleX[i]), double(sampleY[i]));
         if (!u.controlled) continue;
-        correction[i] = (inside[i] || covered) && controlled ? m_tiles.control(stratum, u.control[k], double(sampleX[i]), double(sampleY[i]))
+        correction[i] = (inside[i] || covered) && controlled ? m_tiles.control(stratum, *control, double(sampleX[i]), double(sampleY[i]))
                                                              : Vec3<Real>(0);
       }
     }
@@ -535,7 +539,7 @@ class AdaptiveSampler {
         for (Real* sums : {u->inR, u->inG, u->inB, u->inA, u->inside, u->lastInR, u->lastInG, u->lastInB, u->lastInside}) {
           std::fill(sums, sums + count, Real(0));
         }
-        for (int k = 0; m_tiles.controlsStrata() && k < count; ++k) {  // (a control is set only with its stratum)
+        for (int k = 0; m_tiles.controlsStrata() && k < count; ++k) {  // as controlOf reads them: with their strata
           u->controlled = u->controlled || (u->strata[k].any() && u->control[k].any());
         }
       }
@@ -563,7 +567,8 @@ class AdaptiveSampler {
     if (!probeOutsides(t, counters)) return false;
     if (StratumState* u = t.stratum; u && strata) {
       for (int k = 0; k < count; ++k) {
-        u->outsideKnown[k] = u->probed[k] || (u->controlled && u->strata[k].any() && u->control[k].covered()) || !(u->strata[k].share < 1);
+        const StratumControl* control = u->controlOf(k);
+        u->outsideKnown[k] = u->probed[k] || (control != nullptr && control->covered()) || !(u->strata[k].share < 1);
       }
     }
     // A sphere smaller than the samples' spacing, or the sliver of one, may lie between them: where
@@ -953,8 +958,8 @@ class AdaptiveSampler {
   // What pixel k's control's mean, found in part numerically (StratumControl::meanError), may put its
   // colour off by: its samples cannot see that, and its error estimates add it. 0 without one.
   static double controlError(const TileState& t, int k) {
-    const StratumState* u = t.stratum;
-    return u != nullptr && u->controlled && u->strata[k].any() ? double(u->control[k].meanError) : 0.0;
+    const StratumControl* control = t.stratum != nullptr ? t.stratum->controlOf(k) : nullptr;
+    return control != nullptr ? double(control->meanError) : 0.0;
   }
 
   // What a sphere pixel k watches may put its mean off by, none of its samples having met it
