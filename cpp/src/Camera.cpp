@@ -131,11 +131,6 @@ Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
 }
 
 namespace {
-// Added to a footprint's box on every side, in pixels, beyond the rounding bounds. The box bounds the
-// rays' own (rounded) sample positions; a margin above 0 also keeps a ray whose position rounded up
-// onto its pixel's far edge in its pixel's row (SphereView's rows: floor of the box's ends).
-constexpr double kMarginPixels = 1.0 / 64;
-
 // The rays' own rounding: each coordinate of an orthographic origin within a few units in the last
 // place of its magnitude, a direction within a few of its angle; the robust test's roots within a
 // few of t (docs/numerics.md). 64 epsilons of every magnitude involved bounds all of them with room
@@ -200,8 +195,8 @@ SampleDisk Camera<Real>::perspectiveDisk(const ParallelProjection& image, const 
   // shrunk / distance, so its line passes within `shrunk` of the centre.
   const double inner = shrunk > 0 ? std::sqrt(1 + T * T) * shrunk / distance : 0;
   return {image.sampleX(q.x / q.z), image.sampleY(q.y / q.z),
-          outer / std::min(image.pixelWidth, image.pixelHeight) + kMarginPixels,
-          inner / std::max(image.pixelWidth, image.pixelHeight) - kMarginPixels};
+          outer / std::min(image.pixelWidth, image.pixelHeight) + kFootprintMargin,
+          inner / std::max(image.pixelWidth, image.pixelHeight) - kFootprintMargin};
 }
 
 template <typename Real>
@@ -210,7 +205,7 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
   const double eps = kFootprintEps<Real>;
   const ParallelProjection image = projection();
   const Vec3d q = image.inFrame(center);
-  constexpr double m = kMarginPixels;
+  constexpr double m = kFootprintMargin;
   if (!m_perspective) {
     const double reach = orthographicReach(image, q, radius);
     // A lens's rays lean from the axis by up to lensSlope: t exceeds the depth by up to that factor.

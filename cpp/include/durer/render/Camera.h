@@ -106,6 +106,11 @@ class Camera {
   // lens, the box and the bound hold for rays from anywhere on it (the disk is the pinhole's: lights
   // have no lens).
   bool footprint(const Vec3d& center, double radius, SampleBox& box, double& tLow, SampleDisk* disk = nullptr) const;
+  // That margin, in pixels, beyond the rounding bounds on every side of a footprint. The box bounds
+  // the rays' own (rounded) sample positions; the margin keeps a ray whose position rounded up onto
+  // its pixel's far edge in its pixel's row (SphereView's rows: floor of the box's ends). Whether a
+  // pixel's closed square meets the sphere's disk needs none (TileRenderer::markSilhouettes).
+  static constexpr double kFootprintMargin = 1.0 / 64;
 
   // The frame and image window in double, as rounded to Real (where a point lies on the image).
   ParallelProjection projection() const {

@@ -348,9 +348,11 @@ class TileRenderer {
   // largest t, inf if one missed): the spheres of the camera's view whose footprint overlaps the
   // pixel without covering it, which the samples may have missed (adaptive sampling's geometric
   // edges, AdaptiveSampler). A footprint is the ellipse inscribed in the sphere's sample box
-  // (Camera::footprint): the disk itself seen orthographically, close to the projected ellipse in
-  // perspective; through a lens, widened by the sphere's blur (the rim where its blurred image may
-  // begin). Without a view (none made) nothing is marked.
+  // (Camera::footprint): the disk itself seen orthographically (widened by the bounds on the rays'
+  // rounding, not by the rows' margin: a pixel whose closed square it misses has no sample that may
+  // meet the sphere), close to the projected ellipse in perspective; through a lens, widened by the
+  // sphere's blur (the rim where its blurred image may begin). Without a view (none made) nothing is
+  // marked.
   // With `smooth` (not null), also marks smooth[k] for the pixels the camera's view proves hold no
   // edge of the scene's geometry: in a render whose every such edge is a silhouette of the view's
   // spheres (m_edgesAtSilhouettes), those no sphere's footprint reaches (its image, widened by the
@@ -376,6 +378,10 @@ class TileRenderer {
       SampleBox box;
       double tLow;
       if (!m_camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow)) return true;
+      if (seesDisks()) {  // the disk and the rounding bounds alone (kFootprintMargin: for the rows)
+        constexpr double m = Camera<Real>::kFootprintMargin;
+        box = {box.x0 + m, box.x1 - m, box.y0 + m, box.y1 - m};
+      }
       forSpan(x0, y0, w, h, rows, columns, [&](int k, int x, int y) {
         if (smoothing) smooth[k] = smooth[k] && coverOfInscribed(box, x, y, Cover::Inside) == Cover::Outside;
         if (any && open(k)) crossed[k] = coverOfInscribed(box, x, y, Cover::Outside) == Cover::Crosses;
