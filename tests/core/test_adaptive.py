@@ -436,6 +436,16 @@ def test_pixels_whose_control_is_their_colour_settle_at_their_first_samples():
     assert settled.sum() >= 20
     off = np.abs(two.color[..., :3] - forced.color[..., :3]).max(axis=-1)[settled]
     assert np.all(two.error[settled] < 1e-5) and np.median(off) < 1e-6
+    # From one first sample (or two), such a render's outsides need no probe: every ray there that
+    # meets no sphere sees the plane's one colour, which a pixel of the tile off every disc has
+    # met. Half the edge pixels' one sample lands inside their disc, yet they all settle at it,
+    # none traced, on the colour of 1024 samples.
+    for first in (1, 2):
+        few = adaptive(scene, spp=64, min_spp=first, target_error=0.002, seed=5)
+        assert few.stats["probes"] == 0 and few.stats["rays"] == few.samples.sum()
+        settled = edge & (few.samples == first) & (np.minimum(covered, 1 - covered) > 0.002)
+        assert settled.sum() >= 0.9 * (edge & (np.minimum(covered, 1 - covered) > 0.002)).sum()
+        assert np.abs(few.color[..., :3] - forced.color[..., :3]).max(axis=-1)[settled].max() < 1e-5
     # Highlights, which the control does not model, keep the rule.
     highlighted, discs = _lit_spheres_apart(specular=0.5)
     assert np.all(adaptive(highlighted, spp=64, min_spp=4, target_error=0.002, seed=5).samples[edge] >= 16)

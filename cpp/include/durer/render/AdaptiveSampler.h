@@ -70,7 +70,9 @@
 // (the control is the colour itself less its mean), so its inside needs no sample either
 // (StratumState::mean): it settles at the first pass once its outside is reached (docs/benchmarks.md,
 // fifty-seventh to fifty-ninth rounds), or once one ray at a point of it has told its colour, one
-// colour, where the first samples all fell inside (probeOutsides: sixty-fifth round). Where a
+// colour, where the first samples all fell inside (probeOutsides: sixty-fifth round), or, from one
+// or two first samples, a sample of the tile off every disk (every ray meeting no sphere there sees
+// one colour: sixty-eighth round). Where a
 // sphere's disk covers a pixel and is seen all over it but for one member's part
 // (TileRenderer::silhouetteStrata), its shading is the outside's control
 // (StratumControl::covered): that stratum is exact too, its outside's colour known without a sample;
@@ -564,7 +566,7 @@ class AdaptiveSampler {
         if (i == metCount[k] && i < kMetPrimitives) met[i][k] = prim[k], metCount[k] = i + 1;
       }
     }
-    if (!probeOutsides(t, counters)) return false;
+    if (!probeOutsides(t, prim, counters)) return false;
     if (StratumState* u = t.stratum; u && strata) {
       for (int k = 0; k < count; ++k) {
         const StratumControl* control = u->controlOf(k);
@@ -645,8 +647,14 @@ class AdaptiveSampler {
   // there tells: at a point of it (PixelStratum::outsidePoint), its colour the outside's mean until a
   // sample reaches it (StratumState::mean). A camera ray, not one of the pixel's samples (which stay
   // its Sobol points, doubling). A probe that met one of the spheres after all (a sliver the
-  // members' float-rounded disks leave out) is dropped. False if cancelled.
-  bool probeOutsides(TileState& t, RayCounters& counters) {
+  // members' float-rounded disks leave out) is dropped. Such a render is orthographic, its rays
+  // whole lines, its geometry the view's spheres and at most one unbounded plane, lit by suns
+  // alone, unshadowed (TileRenderer::controlIsShading): every ray that meets no sphere meets the
+  // plane, or every one misses, and sees one colour. So where the first pass took one or two samples
+  // a pixel, and a pixel of the tile with no stratum (its samples taken less no control) met no
+  // sphere with all of them (uniform), their mean is every probe's colour, exactly, and none is
+  // traced (`met`: what each pixel's last sample met). False if cancelled.
+  bool probeOutsides(TileState& t, const int32_t* met, RayCounters& counters) {
     StratumState* u = t.stratum;
     if (u == nullptr || !u->controlled || m_rounds == 0) return true;
     alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize], box[4], along[kPacketSize];
@@ -664,6 +672,16 @@ class AdaptiveSampler {
       }
     }
     if (n == 0) return true;
+    for (int k = 0; m_firstSamples <= 2 && k < t.w * t.h; ++k) {
+      if (u->strata[k].any() || !t.uniform[k] || m_tiles.metSphere(met[k])) continue;
+      const Real samples = Real(m_firstSamples);  // x or x + x: their mean exactly x
+      const Real colour[4] = {t.sums.r[k] / samples, t.sums.g[k] / samples, t.sums.b[k] / samples, t.sums.a[k] / samples};
+      for (int j = 0; j < n; ++j) {
+        for (int c = 0; c < 4; ++c) u->probe[c][pixel[j]] = colour[c];
+        u->probed[pixel[j]] = true;
+      }
+      return true;
+    }
     placeSamples(px, py, offsetU, offsetV, n, sampleX, sampleY, box);
     ProbeSink sink{*u, pixel};
     if (!m_tiles.trace(sampleX, sampleY, box, nullptr, nullptr, n, sink, prim, along, counters)) return false;
