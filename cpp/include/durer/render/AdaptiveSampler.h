@@ -652,11 +652,27 @@ class AdaptiveSampler {
   // alone, unshadowed (TileRenderer::controlIsShading): every ray that meets no sphere meets the
   // plane, or every one misses, and sees one colour. So where the first pass took one or two samples
   // a pixel, and a pixel of the tile with no stratum (its samples taken less no control) met no
-  // sphere with all of them (uniform), their mean is every probe's colour, exactly, and none is
-  // traced (`met`: what each pixel's last sample met). False if cancelled.
+  // sphere with all of them (uniform), their mean is every probe's colour, exactly: no point of the
+  // outside is looked for and no ray traced (`met`: what each pixel's last sample met). False if
+  // cancelled.
   bool probeOutsides(TileState& t, const int32_t* met, RayCounters& counters) {
     StratumState* u = t.stratum;
     if (u == nullptr || !u->controlled || m_rounds == 0) return true;
+    const int count = t.w * t.h;
+    const auto unreached = [&](int k) {
+      return u->exact(k) && !u->control[k].covered() && u->inside[k] == Real(m_firstSamples) && 1 - double(u->strata[k].share) > m_target;
+    };
+    for (int k = 0; m_firstSamples <= 2 && k < count; ++k) {  // a sample that met no sphere, taken less no control
+      if (u->strata[k].any() || !t.uniform[k] || m_tiles.metSphere(met[k])) continue;
+      const Real samples = Real(m_firstSamples);  // x or x + x: their mean exactly x
+      const Real colour[4] = {t.sums.r[k] / samples, t.sums.g[k] / samples, t.sums.b[k] / samples, t.sums.a[k] / samples};
+      for (int j = 0; j < count; ++j) {
+        if (!unreached(j)) continue;
+        for (int c = 0; c < 4; ++c) u->probe[c][j] = colour[c];
+        u->probed[j] = true;
+      }
+      return true;
+    }
     alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize], box[4], along[kPacketSize];
     alignas(64) double offsetU[kPacketSize], offsetV[kPacketSize];
     alignas(64) int px[kPacketSize], py[kPacketSize], pixel[kPacketSize];
@@ -664,24 +680,12 @@ class AdaptiveSampler {
     int n = 0;
     for (int row = 0, k = 0; row < t.h; ++row) {
       for (int col = 0; col < t.w; ++col, ++k) {
-        const PixelStratum& p = u->strata[k];
-        const bool unreached = u->exact(k) && !u->control[k].covered() && u->inside[k] == Real(m_firstSamples);
-        if (!(unreached && 1 - double(p.share) > m_target)) continue;
+        if (!unreached(k)) continue;
         px[n] = t.x0 + col, py[n] = t.y0 + row, pixel[n] = k;
-        n += p.outsidePoint(px[n], py[n], offsetU[n], offsetV[n]);
+        n += u->strata[k].outsidePoint(px[n], py[n], offsetU[n], offsetV[n]);
       }
     }
     if (n == 0) return true;
-    for (int k = 0; m_firstSamples <= 2 && k < t.w * t.h; ++k) {
-      if (u->strata[k].any() || !t.uniform[k] || m_tiles.metSphere(met[k])) continue;
-      const Real samples = Real(m_firstSamples);  // x or x + x: their mean exactly x
-      const Real colour[4] = {t.sums.r[k] / samples, t.sums.g[k] / samples, t.sums.b[k] / samples, t.sums.a[k] / samples};
-      for (int j = 0; j < n; ++j) {
-        for (int c = 0; c < 4; ++c) u->probe[c][pixel[j]] = colour[c];
-        u->probed[pixel[j]] = true;
-      }
-      return true;
-    }
     placeSamples(px, py, offsetU, offsetV, n, sampleX, sampleY, box);
     ProbeSink sink{*u, pixel};
     if (!m_tiles.trace(sampleX, sampleY, box, nullptr, nullptr, n, sink, prim, along, counters)) return false;
