@@ -130,51 +130,11 @@ Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
   }
 }
 
-namespace {
-// The rays' own rounding: each coordinate of an orthographic origin within a few units in the last
-// place of its magnitude, a direction within a few of its angle; the robust test's roots within a
-// few of t (docs/numerics.md). 64 epsilons of every magnitude involved bounds all of them with room
-// to spare.
-template <typename Real>
-constexpr double kFootprintEps = 64 * static_cast<double>(std::numeric_limits<Real>::epsilon());
-
-// The range of x/z over the disk of radius r around (x, z) in the half plane z > 0, the tangents of
-// the angles under which an eye at the origin sees it; infinite ends where it reaches z = 0 on that
-// side. `angle`: widening of those angles. False if it lies wholly in z <= 0.
-// Without trigonometry (tan, atan2 and asin per sphere would dominate a view's making): the disk's
-// two tangents from the eye, (x L + z r, z L - x r) and (x L - z r, z L + x r) for the tangent
-// length L = sqrt(d^2 - r^2), are its extreme directions. Their z decides each end: at or behind
-// z = 0 the range reaches that side's infinity. The disk spans less than half a turn (d > r), so
-// the directions between them lie in front wherever both ends do, and behind wherever neither does.
-// A radius grown by kAngleWidening angle D, for any D >= d (the caller's distance in three
-// dimensions), widens the angles by at least that many times angle (asin's slope is at least 1):
-// `angle`, and room for the few units in the last place the products here round by.
-constexpr double kAngleWidening = 1.25;
-
-bool seenRange(double x, double z, double r, double angle, double distance, double& lo, double& hi) {
-  constexpr double inf = std::numeric_limits<double>::infinity();
-  const double distanceSq = x * x + z * z;
-  const double reach = r + kAngleWidening * angle * distance;
-  const double tangentSq = distanceSq - reach * reach;
-  if (!(tangentSq > 0)) {  // the eye is inside (or on) the widened disk: every direction
-    lo = -inf, hi = inf;
-    return true;
-  }
-  const double tangent = std::sqrt(tangentSq);
-  const double lowX = x * tangent - z * reach, lowZ = z * tangent + x * reach;
-  const double highX = x * tangent + z * reach, highZ = z * tangent - x * reach;
-  if (!(lowZ > 0) && !(highZ > 0)) return false;
-  lo = lowZ > 0 ? lowX / lowZ : -inf;
-  hi = highZ > 0 ? highX / highZ : inf;
-  return true;
-}
-}  // namespace
-
 template <typename Real>
 double Camera<Real>::orthographicReach(const ParallelProjection& image, const Vec3d& q, double radius) const {
   const ImageWindow w = window();
   const double window = w.reachX(m_width) + w.reachY(m_height);
-  return radius + kFootprintEps<Real> * (maxAbs(image.center) + window + std::fabs(q.z) + radius);
+  return radius + kFootprintEps * (maxAbs(image.center) + window + std::fabs(q.z) + radius);
 }
 
 template <typename Real>
@@ -202,7 +162,7 @@ SampleDisk Camera<Real>::perspectiveDisk(const ParallelProjection& image, const 
 template <typename Real>
 bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box, double& tLow, SampleDisk* disk) const {
   // In double from the frame as rounded to Real (what generate uses); kFootprintEps says why.
-  const double eps = kFootprintEps<Real>;
+  const double eps = kFootprintEps;
   const ParallelProjection image = projection();
   const Vec3d q = image.inFrame(center);
   constexpr double m = kFootprintMargin;
@@ -229,13 +189,10 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
     }
     return true;
   }
-  const double distance = glm::length(center - image.center);
-  const double reach = radius + eps * (distance + radius);
-  double x0, x1, y0, y1;
-  if (!seenRange(q.x, q.z, reach, eps, distance, x0, x1) || !seenRange(q.y, q.z, reach, eps, distance, y0, y1)) {
-    return false;
-  }
-  box = {image.sampleX(x0) - m, image.sampleX(x1) + m, image.sampleY(y1) - m, image.sampleY(y0) + m};
+  const Pinhole seen = pinhole(image, center, radius);
+  if (!seen.seen) return false;
+  const double distance = seen.distance, reach = seen.reach;
+  box = seen.box;
   tLow = distance - reach;
   if (hasLens()) {
     // A lens ray through the sample at x (at unit distance) meets depth z where the eye sees
@@ -262,6 +219,7 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
         lo = low > 0 ? low / far - slack : -inf;
         hi = high < 0 ? high / far + slack : inf;
       };
+      double x0, x1, y0, y1;
       range(q.x, lensReachX(), x0, x1);
       range(q.y, lensReachY(), y0, y1);
       box = {image.sampleX(x0) - m, image.sampleX(x1) + m, image.sampleY(y1) - m, image.sampleY(y0) + m};

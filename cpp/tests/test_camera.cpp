@@ -5,6 +5,8 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <random>
 
@@ -168,23 +170,29 @@ Checked checkCamera(const CameraSpec& spec, std::mt19937_64& random) {
   return checked;
 }
 
+// A perspective camera of field of view `fov` at a random place, looking a random way.
+CameraSpec randomPerspective(double fov, std::mt19937_64& random) {
+  std::uniform_real_distribution<double> unit(-1, 1);
+  CameraSpec spec;
+  spec.projection = Projection::Perspective;
+  spec.center = Vec3d(unit(random), unit(random), unit(random)) * 5.0;
+  spec.direction = Vec3d(unit(random), unit(random), unit(random));
+  spec.up = Vec3d(0, 1, 0);
+  spec.size = fov;
+  spec.tMin = 0;
+  spec.tMax = std::numeric_limits<double>::infinity();
+  return spec;
+}
+
 }  // namespace
 
 TEST_CASE_TEMPLATE("a footprint holds every sample whose camera ray meets the sphere, and little more", Real, float,
                    double) {
   std::mt19937_64 random(7);
-  std::uniform_real_distribution<double> unit(-1, 1);
   Checked perspective;
   for (const double fov : {20.0, 60.0, 110.0, 170.0}) {
     for (int camera = 0; camera < 4; ++camera) {
-      CameraSpec spec;
-      spec.projection = Projection::Perspective;
-      spec.center = Vec3d(unit(random), unit(random), unit(random)) * 5.0;
-      spec.direction = Vec3d(unit(random), unit(random), unit(random));
-      spec.up = Vec3d(0, 1, 0);
-      spec.size = fov;
-      spec.tMin = 0;
-      spec.tMax = std::numeric_limits<double>::infinity();
+      const CameraSpec spec = randomPerspective(fov, random);
       CAPTURE(fov);
       perspective.add(checkCamera<Real>(spec, random));
     }
@@ -286,6 +294,59 @@ int checkLens(const CameraSpec& spec, std::mt19937_64& random) {
 }
 
 }  // namespace
+
+// Camera::footprints makes a pinhole's footprints eight at once with footprint()'s operations:
+// the same boxes, bounds and verdicts bit for bit, for spheres in front of, around and behind the
+// eye, on its plane, huge and tiny, eight at a time and fewer (through a lens, and with disks, it
+// calls footprint() itself).
+TEST_CASE_TEMPLATE("footprints gives footprint's boxes bit for bit", Real, float, double) {
+  constexpr int kLanes = Camera<Real>::kFootprints;
+  std::mt19937_64 random(20261204);
+  std::uniform_real_distribution<double> unit(-1, 1), scale(-6, 6);
+  int seen = 0, unseen = 0;
+  for (const double fov : {20.0, 60.0, 110.0, 170.0}) {
+    const CameraSpec spec = randomPerspective(fov, random);
+    const Camera<Real> camera(spec, 640, 360);
+    for (int block = 0; block < 500; ++block) {
+      Vec3d centers[kLanes];
+      double radii[kLanes];
+      for (int j = 0; j < kLanes; ++j) {
+        const double reach = std::pow(10.0, scale(random) / 2);  // 0.001 to 1000 from the eye
+        centers[j] = spec.center + reach * Vec3d(unit(random), unit(random), unit(random));
+        radii[j] = std::pow(10.0, scale(random) / 2) * (j == 3 ? 1e-9 : 1);
+      }
+      if (block % 7 == 0) centers[1] = spec.center;  // the eye at the centre
+      const int n = block % 5 == 0 ? 1 + block % kLanes : kLanes;
+      SampleBox boxes[kLanes];
+      double tLows[kLanes];
+      bool in[kLanes];
+      camera.footprints(n, centers, radii, boxes, tLows, nullptr, in);
+      for (int j = 0; j < n; ++j) {
+        SampleBox box{};
+        double tLow = 0;
+        const bool alone = camera.footprint(centers[j], radii[j], box, tLow);
+        CAPTURE(fov);
+        CAPTURE(block);
+        CAPTURE(j);
+        REQUIRE(in[j] == alone);
+        (alone ? seen : unseen) += 1;
+        if (!alone) continue;
+        const auto bits = [](double x) {
+          uint64_t b;
+          std::memcpy(&b, &x, sizeof b);
+          return b;
+        };
+        CHECK(bits(boxes[j].x0) == bits(box.x0));
+        CHECK(bits(boxes[j].x1) == bits(box.x1));
+        CHECK(bits(boxes[j].y0) == bits(box.y0));
+        CHECK(bits(boxes[j].y1) == bits(box.y1));
+        CHECK(bits(tLows[j]) == bits(tLow));
+      }
+    }
+  }
+  CHECK(seen > 1000);
+  CHECK(unseen > 1000);
+}
 
 TEST_CASE_TEMPLATE("through a lens, a footprint holds every sample whose ray from any of its points meets the sphere",
                    Real, float, double) {

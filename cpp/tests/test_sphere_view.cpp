@@ -30,12 +30,12 @@ bool coreHolds(double x, double y, double r, double c, double px, double py) {
 
 // A camera's view of one sphere seen on pixels [2, 6] x [2, 6] of a 16 x 16 image, from t = 1 on.
 std::unique_ptr<durer::SphereView<double>> oneSphereView() {
-  const auto footprint = [](size_t, durer::SampleBox& box, double& tLow, durer::SampleDisk*) {
-    box = {2, 6, 2, 6};
-    tLow = 1;
-    return true;
+  const auto footprints = [](size_t, int, durer::SampleBox* boxes, double* tLows, durer::SampleDisk*, bool* seen) {
+    boxes[0] = {2, 6, 2, 6};
+    tLows[0] = 1;
+    seen[0] = true;
   };
-  return durer::SphereView<double>::make(1, footprint, 0, 0, 16, 16, 1);
+  return durer::SphereView<double>::make(1, footprints, 0, 0, 16, 16, 1);
 }
 
 }  // namespace
@@ -165,11 +165,10 @@ TEST_CASE("a packet split into its pixels' runs tests each sphere against exactl
       const double x = -3 + 21 * unit(rng), y = -3 + 21 * unit(rng);
       b = {x, x + 6 * unit(rng), y, y + 6 * unit(rng)};
     }
-    const auto footprint = [&](size_t i, durer::SampleBox& box, double& tLow, durer::SampleDisk*) {
-      box = boxes[i], tLow = 1 + unit(rng);
-      return true;
+    const auto footprints = [&](size_t first, int n, durer::SampleBox* box, double* tLow, durer::SampleDisk*, bool* seen) {
+      for (int j = 0; j < n; ++j) box[j] = boxes[first + size_t(j)], tLow[j] = 1 + unit(rng), seen[j] = true;
     };
-    const auto view = durer::SphereView<double>::make(boxes.size(), footprint, 0, 0, 16, 16, 1);
+    const auto view = durer::SphereView<double>::make(boxes.size(), footprints, 0, 0, 16, 16, 1);
     REQUIRE(view != nullptr);
     const int cellX = 8 * int(2 * unit(rng)), cellY = 8 * int(2 * unit(rng));
     double x[durer::kPacketSize], y[durer::kPacketSize];

@@ -152,14 +152,18 @@ class SphereView {
     float tLow;       // no ray of the cell meets it before this t (a light's view: no point nearer the light)
   };
 
+  // Footprints asked for at once (Camera::footprints makes a camera's together).
+  static constexpr int kFootprints = 8;
+
   // The view of `count` spheres over the cells of the pixels [x, x + width) x [y, y + height):
-  // footprint(i, box, tLow, disk) gives sphere i's sample box and lower bound (false: no camera ray
-  // meets it), and with `disks` its disk and core (SampleDisk; else disk is null). Sphere i is the
+  // footprints(first, n, boxes, tLows, disks, seen) gives spheres first + j's sample boxes and lower
+  // bounds, j < n <= kFootprints (seen[j] false: no camera ray meets it), and with `disks` their disks
+  // and cores (SampleDisk; else disks is null); each array holds kFootprints. Sphere i is the
   // set's sphere `spheres[i]` (null: i), spheres in increasing order. With disks (a light's view)
   // the entries keep them (Disk) rather than their pixel spans, for occluders() only. Null if it
   // would not pay (see kMaxEntriesPerSphere).
-  template <typename Footprint>
-  static std::unique_ptr<SphereView> make(size_t count, const Footprint& footprint, int x, int y, int width,
+  template <typename Footprints>
+  static std::unique_ptr<SphereView> make(size_t count, const Footprints& footprints, int x, int y, int width,
                                           int height, int threads, const uint32_t* spheres = nullptr,
                                           bool disks = false);
 
@@ -529,8 +533,8 @@ class SphereView {
 };
 
 template <typename Real>
-template <typename Footprint>
-std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Footprint& footprint, int x, int y,
+template <typename Footprints>
+std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Footprints& footprints, int x, int y,
                                                          int width, int height, int threads, const uint32_t* spheres,
                                                          bool disks) {
   auto view = std::make_unique<SphereView>();
@@ -555,13 +559,19 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
   std::atomic<double> entries{0};
   parallelChunks(count, threads, [&](size_t begin, size_t end) {
     double made = 0;
+    SampleBox boxes[kFootprints];
+    SampleDisk diskOf[kFootprints];
+    double tLowOf[kFootprints];
+    bool seen[kFootprints];
     for (size_t i = begin; i < end; ++i) {
-      SampleBox box;
-      SampleDisk disk;
-      double tLow;
+      const size_t j = (i - begin) % kFootprints;
+      if (j == 0) footprints(i, int(std::min<size_t>(kFootprints, end - i)), boxes, tLowOf, disks ? diskOf : nullptr, seen);
+      const SampleBox& box = boxes[j];
+      const SampleDisk& disk = diskOf[j];
+      const double tLow = tLowOf[j];
       Cells& c = cells[i];
       c = {1, 0, 1, 0};
-      if (!footprint(i, box, tLow, disks ? &disk : nullptr)) continue;
+      if (!seen[j]) continue;
       // Cell coordinates relative to the view's first cell, clamped to it (in double: infinite
       // ends and huge boxes stay ordered).
       const double x0 = std::max(std::floor(box.x0 / kCell) - view->m_cellX, 0.0);

@@ -1287,13 +1287,20 @@ class TileRenderer {
                                                        const RenderSettings& settings,
                                                        const std::vector<uint32_t>* only = nullptr,
                                                        bool disks = false) {
-    const auto footprint = [&](size_t i, SampleBox& box, double& tLow, SampleDisk* disk) {
-      const Sphere<Real>& sphere = spheres.primitive(only ? (*only)[i] : i);
-      return camera.footprint(Vec3d(sphere.center), double(sphere.radius), box, tLow, disk);
+    constexpr int kFootprints = SphereView<Real>::kFootprints;
+    const auto footprints = [&](size_t first, int n, SampleBox* boxes, double* tLows, SampleDisk* disks, bool* seen) {
+      Vec3d centers[kFootprints];
+      double radii[kFootprints];
+      for (int j = 0; j < kFootprints; ++j) {  // lanes past n repeat the first
+        const size_t i = first + size_t(j < n ? j : 0);
+        const Sphere<Real>& sphere = spheres.primitive(only ? (*only)[i] : i);
+        centers[j] = Vec3d(sphere.center), radii[j] = double(sphere.radius);
+      }
+      camera.footprints(n, centers, radii, boxes, tLows, disks, seen);
     };
     const int threads = settings.threads > 0 ? settings.threads : defaultThreadCount();
     const size_t count = only ? only->size() : spheres.size();
-    return SphereView<Real>::make(count, footprint, seen.x, seen.y, seen.width, seen.height, threads,
+    return SphereView<Real>::make(count, footprints, seen.x, seen.y, seen.width, seen.height, threads,
                                   only ? only->data() : nullptr, disks);
   }
 
