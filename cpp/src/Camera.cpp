@@ -189,7 +189,7 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
     }
     return true;
   }
-  const Pinhole seen = pinhole(image, center, radius);
+  const Pinhole seen = pinhole(image, q, center, radius);
   if (!seen.seen) return false;
   const double distance = seen.distance, reach = seen.reach;
   box = seen.box;

@@ -132,7 +132,7 @@ class Camera {
     double x0[kFootprints], x1[kFootprints], y0[kFootprints], y1[kFootprints], low[kFootprints];
     bool in[kFootprints];
     for (int j = 0; j < kFootprints; ++j) {
-      const Pinhole p = pinhole(image, centers[j], radii[j]);
+      const Pinhole p = pinhole(image, image.inFrame(centers[j]), centers[j], radii[j]);
       x0[j] = p.box.x0, x1[j] = p.box.x1, y0[j] = p.box.y0, y1[j] = p.box.y1;
       low[j] = p.distance - p.reach, in[j] = p.seen;
     }
@@ -213,24 +213,23 @@ class Camera {
     return around | lowAhead | highAhead;
   }
 
-  // A perspective camera's footprint of a sphere through its pinhole (footprint() without a lens) and
-  // what footprint() builds on for a lens or a disk: the centre in the frame, its distance from the
-  // eye, and the radius grown by the rounding bounds.
+  // A perspective camera's footprint of a sphere (its centre q in the frame: image.inFrame(center))
+  // through its pinhole (footprint() without a lens), and what footprint() builds on for a lens or a
+  // disk: the centre's distance from the eye and the radius grown by the rounding bounds.
   struct Pinhole {
-    Vec3d q;
     double distance, reach;
     SampleBox box;
     bool seen;
   };
-  DURER_INLINE static Pinhole pinhole(const ParallelProjection& image, const Vec3d& center, double radius) {
+  DURER_INLINE static Pinhole pinhole(const ParallelProjection& image, const Vec3d& q, const Vec3d& center,
+                                      double radius) {
     constexpr double eps = kFootprintEps, m = kFootprintMargin;
     Pinhole p;
-    p.q = image.inFrame(center);
     p.distance = glm::length(center - image.center);
     p.reach = radius + eps * (p.distance + radius);
     double x0, x1, y0, y1;
-    const bool seenX = seenRange(p.q.x, p.q.z, p.reach, eps, p.distance, x0, x1);
-    const bool seenY = seenRange(p.q.y, p.q.z, p.reach, eps, p.distance, y0, y1);
+    const bool seenX = seenRange(q.x, q.z, p.reach, eps, p.distance, x0, x1);
+    const bool seenY = seenRange(q.y, q.z, p.reach, eps, p.distance, y0, y1);
     p.seen = seenX & seenY;
     p.box = {image.sampleX(x0) - m, image.sampleX(x1) + m, image.sampleY(y1) - m, image.sampleY(y0) + m};
     return p;
