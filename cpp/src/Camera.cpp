@@ -164,7 +164,9 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
   // In double from the frame as rounded to Real (what generate uses); kFootprintEps says why.
   const double eps = kFootprintEps;
   const ParallelProjection image = projection();
-  const Vec3d q = image.inFrame(center);
+  Vec3d q;
+  double fromEye;  // perspective: the centre's distance from the eye
+  image.inFrame(center.x, center.y, center.z, q.x, q.y, q.z, fromEye);
   constexpr double m = kFootprintMargin;
   if (!m_perspective) {
     const double reach = orthographicReach(image, q, radius);
@@ -189,10 +191,10 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
     }
     return true;
   }
-  const Pinhole seen = pinhole(image, q, center, radius);
+  const Pinhole<double> seen = pinhole(image, q.x, q.y, q.z, fromEye, radius);
   if (!seen.seen) return false;
   const double distance = seen.distance, reach = seen.reach;
-  box = seen.box;
+  box = {seen.x0, seen.x1, seen.y0, seen.y1};
   tLow = distance - reach;
   if (hasLens()) {
     // A lens ray through the sample at x (at unit distance) meets depth z where the eye sees

@@ -51,13 +51,27 @@ struct ParallelProjection {
 
   // A world point in the frame: along horizontal, up and forward from the centre.
   Vec3d inFrame(const Vec3d& point) const {
-    const Vec3d q = point - center;
-    return {glm::dot(q, horizontal), glm::dot(q, up), glm::dot(q, forward)};
+    Vec3d q;
+    double distance;
+    inFrame(point.x, point.y, point.z, q.x, q.y, q.z, distance);
+    return q;
+  }
+  // The same of the point (x, y, z), numbers or lanes of them (DoubleLanes), and its distance from
+  // the centre: glm's dot products and length, term by term.
+  template <typename D>
+  DURER_INLINE void inFrame(D x, D y, D z, D& qx, D& qy, D& qz, D& distance) const {
+    const D dx = x - center.x, dy = y - center.y, dz = z - center.z;
+    qx = dx * horizontal.x + dy * horizontal.y + dz * horizontal.z;
+    qy = dx * up.x + dy * up.y + dz * up.z;
+    qz = dx * forward.x + dy * forward.y + dz * forward.z;
+    distance = squareRoot(dx * dx + dy * dy + dz * dz);
   }
   // The sample position (pixels: x right, y down) of image-plane position x or y (orthographic: from
-  // the centre, in world units; perspective: at distance 1).
-  double sampleX(double x) const { return (x - xOffset) / pixelWidth; }
-  double sampleY(double y) const { return (yOffset - y) / pixelHeight; }
+  // the centre, in world units; perspective: at distance 1), of numbers or lanes.
+  template <typename D>
+  DURER_INLINE D sampleX(D x) const { return (x - xOffset) / pixelWidth; }
+  template <typename D>
+  DURER_INLINE D sampleY(D y) const { return (yOffset - y) / pixelHeight; }
   // Where a world point lies on the image, in pixels, and how deep: along the view direction
   // (orthographic) or its distance from the eye (perspective: the t of a camera ray). False for a
   // perspective image if the point lies outside the pyramid from the eye over [-1, 1]^2 of the image

@@ -9,6 +9,9 @@
 
 #include "durer/Inline.h"
 #include "durer/math/Vec.h"
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
 
 namespace durer {
 
@@ -279,5 +282,25 @@ inline double maxAbs(const Vec3d& v) { return std::fmax(std::fabs(v.x), std::fma
 
 // Unit vector without overflow or underflow for any finite non-zero input.
 inline Vec3d safeNormalize(const Vec3d& v) { return glm::normalize(v / maxAbs(v)); }
+
+// Eight doubles as one GCC vector: arithmetic, comparisons (lanes of -1 or 0) and selects (a
+// mask ? a : b) act lane by lane with the operations a double's would make, so code written for a
+// number D that is either gives each lane the number's result bit for bit (Camera::footprints).
+// AVX-512 registers where the kernel set has them, halves or quarters elsewhere.
+typedef double DoubleLanes __attribute__((vector_size(8 * sizeof(double))));
+template <typename D>
+using LaneMask = decltype(D{} > D{});  // bool for a number
+
+// The square root of a number, or of each lane: GCC has no vector square root of its own.
+DURER_INLINE double squareRoot(double x) { return std::sqrt(x); }
+DURER_INLINE DoubleLanes squareRoot(DoubleLanes x) {
+#if defined(__AVX512F__)
+  return DoubleLanes(_mm512_sqrt_pd(__m512d(x)));
+#else
+  DoubleLanes root;
+  for (int j = 0; j < 8; ++j) root[j] = std::sqrt(x[j]);
+  return root;
+#endif
+}
 
 }  // namespace durer

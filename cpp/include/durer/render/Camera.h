@@ -116,12 +116,11 @@ class Camera {
   // footprint() of the spheres (centers[j], radii[j]), seen[j] its result, for j < n <=
   // SphereView's kFootprints; every array holds kFootprints entries (lanes from n on are the
   // caller's to fill and are computed, not used), `disks` footprint's disk (or null). A pinhole's
-  // without disks (a camera's view) are made together, each by pinhole()'s operations, which do not
-  // branch: independent chains of roots and divisions that the core overlaps, where one footprint at
-  // a time waited on each (a new camera pose of 10M spheres about 10 % quicker). The same operations as
-  // footprint(): the same numbers. (GCC does not put them in vector lanes: under -ftrapping-math it
-  // keeps the selects of divisions as branches.)
+  // without disks (a camera's view) are made in the lanes of vectors (DoubleLanes), by pinhole()'s
+  // operations, which do not branch: the same numbers as footprint()'s, eight spheres an
+  // instruction.
   static constexpr int kFootprints = SphereView<Real>::kFootprints;
+  static_assert(kFootprints == sizeof(DoubleLanes) / sizeof(double), "a footprint a lane");
   DURER_INLINE void footprints(int n, const Vec3d* centers, const double* radii, SampleBox* boxes, double* tLows,
                                SampleDisk* disks, bool* seen) const {
     if (!m_perspective || hasLens() || disks) {
@@ -129,14 +128,12 @@ class Camera {
       return;
     }
     const ParallelProjection image = projection();
-    double x0[kFootprints], x1[kFootprints], y0[kFootprints], y1[kFootprints], low[kFootprints];
-    bool in[kFootprints];
-    for (int j = 0; j < kFootprints; ++j) {
-      const Pinhole p = pinhole(image, image.inFrame(centers[j]), centers[j], radii[j]);
-      x0[j] = p.box.x0, x1[j] = p.box.x1, y0[j] = p.box.y0, y1[j] = p.box.y1;
-      low[j] = p.distance - p.reach, in[j] = p.seen;
-    }
-    for (int j = 0; j < n; ++j) boxes[j] = {x0[j], x1[j], y0[j], y1[j]}, tLows[j] = low[j], seen[j] = in[j];
+    DoubleLanes x, y, z, r, qx, qy, qz, distance;
+    for (int j = 0; j < kFootprints; ++j) x[j] = centers[j].x, y[j] = centers[j].y, z[j] = centers[j].z, r[j] = radii[j];
+    image.inFrame(x, y, z, qx, qy, qz, distance);
+    const Pinhole<DoubleLanes> p = pinhole(image, qx, qy, qz, distance, r);
+    const DoubleLanes low = p.distance - p.reach;
+    for (int j = 0; j < n; ++j) boxes[j] = {p.x0[j], p.x1[j], p.y0[j], p.y1[j]}, tLows[j] = low[j], seen[j] = p.seen[j] != 0;
   }
 
   // The frame and image window in double, as rounded to Real (where a point lies on the image).
@@ -194,44 +191,46 @@ class Camera {
   // A radius grown by kAngleWidening angle D, for any D >= d (the caller's distance in three
   // dimensions), widens the angles by at least that many times angle (asin's slope is at least 1):
   // `angle`, and room for the few units in the last place the products here round by. Every
-  // operation is made and its result selected, without branches (footprints()).
+  // operation is made and its result selected, without branches (footprints()), in numbers or lanes.
   static constexpr double kAngleWidening = 1.25;
-  DURER_INLINE static bool seenRange(double x, double z, double r, double angle, double distance, double& lo,
-                                     double& hi) {
-    constexpr double inf = std::numeric_limits<double>::infinity();
-    const double distanceSq = x * x + z * z;
-    const double reach = r + kAngleWidening * angle * distance;
-    const double tangentSq = distanceSq - reach * reach;
-    const bool around = !(tangentSq > 0);  // the eye is inside (or on) the widened disk: every direction
-    const double tangent = std::sqrt(around ? 0.0 : tangentSq);
-    const double lowX = x * tangent - z * reach, lowZ = z * tangent + x * reach;
-    const double highX = x * tangent + z * reach, highZ = z * tangent - x * reach;
-    const double lowSlope = lowX / lowZ, highSlope = highX / highZ;
-    const bool lowAhead = lowZ > 0, highAhead = highZ > 0;  // bitwise below: no branch
-    lo = (!around & lowAhead) ? lowSlope : -inf;
-    hi = (!around & highAhead) ? highSlope : inf;
+  template <typename D>
+  DURER_INLINE static LaneMask<D> seenRange(D x, D z, D r, double angle, D distance, D& lo, D& hi) {
+    const D zero{}, inf = zero + std::numeric_limits<double>::infinity();
+    const D distanceSq = x * x + z * z;
+    const D reach = r + kAngleWidening * angle * distance;
+    const D tangentSq = distanceSq - reach * reach;
+    const LaneMask<D> around = !(tangentSq > zero);  // the eye is inside (or on) the widened disk: every direction
+    const D tangent = squareRoot(around ? zero : tangentSq);
+    const D lowX = x * tangent - z * reach, lowZ = z * tangent + x * reach;
+    const D highX = x * tangent + z * reach, highZ = z * tangent - x * reach;
+    const D lowSlope = lowX / lowZ, highSlope = highX / highZ;
+    const LaneMask<D> lowAhead = lowZ > zero, highAhead = highZ > zero;  // bitwise below: no branch
+    lo = ((!around) & lowAhead) ? lowSlope : -inf;
+    hi = ((!around) & highAhead) ? highSlope : inf;
     return around | lowAhead | highAhead;
   }
 
-  // A perspective camera's footprint of a sphere (its centre q in the frame: image.inFrame(center))
-  // through its pinhole (footprint() without a lens), and what footprint() builds on for a lens or a
-  // disk: the centre's distance from the eye and the radius grown by the rounding bounds.
+  // A perspective camera's footprint of a sphere (its centre q in the frame and its distance from the
+  // eye: image.inFrame) through its pinhole (footprint() without a lens), and what footprint()
+  // builds on for a lens or a disk: the radius grown by the rounding bounds. Numbers or lanes.
+  template <typename D>
   struct Pinhole {
-    double distance, reach;
-    SampleBox box;
-    bool seen;
+    D distance, reach;
+    D x0, x1, y0, y1;  // the box (SampleBox)
+    LaneMask<D> seen;
   };
-  DURER_INLINE static Pinhole pinhole(const ParallelProjection& image, const Vec3d& q, const Vec3d& center,
-                                      double radius) {
+  template <typename D>
+  DURER_INLINE static Pinhole<D> pinhole(const ParallelProjection& image, D qx, D qy, D qz, D distance, D radius) {
     constexpr double eps = kFootprintEps, m = kFootprintMargin;
-    Pinhole p;
-    p.distance = glm::length(center - image.center);
-    p.reach = radius + eps * (p.distance + radius);
-    double x0, x1, y0, y1;
-    const bool seenX = seenRange(q.x, q.z, p.reach, eps, p.distance, x0, x1);
-    const bool seenY = seenRange(q.y, q.z, p.reach, eps, p.distance, y0, y1);
+    Pinhole<D> p;
+    p.distance = distance;
+    p.reach = radius + eps * (distance + radius);
+    D x0, x1, y0, y1;
+    const LaneMask<D> seenX = seenRange(qx, qz, p.reach, eps, distance, x0, x1);
+    const LaneMask<D> seenY = seenRange(qy, qz, p.reach, eps, distance, y0, y1);
     p.seen = seenX & seenY;
-    p.box = {image.sampleX(x0) - m, image.sampleX(x1) + m, image.sampleY(y1) - m, image.sampleY(y0) + m};
+    p.x0 = image.sampleX(x0) - m, p.x1 = image.sampleX(x1) + m;
+    p.y0 = image.sampleY(y1) - m, p.y1 = image.sampleY(y0) + m;
     return p;
   }
 
