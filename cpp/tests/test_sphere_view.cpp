@@ -28,6 +28,9 @@ bool coreHolds(double x, double y, double r, double c, double px, double py) {
   return around(x, y, r, c).coreHolds(px * Disk::kUnits, py * Disk::kUnits);
 }
 
+// The spheres the test views' entries index (search() fetches them ahead of their tests).
+const durer::Sphere<double> kSpheres[64] = {};
+
 // A camera's view of one sphere seen on pixels [2, 6] x [2, 6] of a 16 x 16 image, from t = 1 on.
 std::unique_ptr<durer::SphereView<double>> oneSphereView() {
   const auto footprints = [](size_t, int, durer::SampleBox* boxes, double* tLows, durer::SampleDisk*, bool* seen) {
@@ -115,11 +118,11 @@ TEST_CASE("a camera view searches a packet by the box of its samples, and declin
   packet.resetHits();
   int met = 0;
   const auto test = [&](uint32_t, int, int, bool) { ++met; };
-  CHECK(view->search(packet, test) == -1);  // no box set: the caller searches otherwise
+  CHECK(view->search(packet, test, kSpheres) == -1);  // no box set: the caller searches otherwise
   CHECK(met == 0);
   const double box[4] = {0.5, 7.5, 0.5, 7.5};  // the first tile's pixel centres
   std::copy(box, box + 4, packet.sampleBox);
-  CHECK(view->search(packet, test) > 0);
+  CHECK(view->search(packet, test, kSpheres) > 0);
   CHECK(met == 1);
 }
 
@@ -139,17 +142,17 @@ TEST_CASE("a camera view tests a sphere against the rays of the pixels its span 
   std::vector<std::array<int, 2>> ranges;
   const auto test = [&](uint32_t, int begin, int end, bool) { ranges.push_back({begin, end}); };
   // Without the positions: every ray.
-  CHECK(view->search(packet, test) == 14);
+  CHECK(view->search(packet, test, kSpheres) == 14);
   CHECK(ranges == std::vector<std::array<int, 2>>{{0, 14}});
   // With them: the runs of (3, 3) and (4, 5) together, then (5, 3)'s.
   packet.sampleX = x, packet.sampleY = y;
   ranges.clear();
-  CHECK(view->search(packet, test) == 8);
+  CHECK(view->search(packet, test, kSpheres) == 8);
   CHECK(ranges == std::vector<std::array<int, 2>>{{4, 11}, {13, 14}});
   // Samples over two cells: every ray again (the view searches each cell's spheres for all of them).
   x[13] = 8.5, packet.sampleBox[1] = 8.5;
   ranges.clear();
-  CHECK(view->search(packet, test) == 14);
+  CHECK(view->search(packet, test, kSpheres) == 14);
   CHECK(ranges == std::vector<std::array<int, 2>>{{0, 14}});
 }
 
@@ -192,7 +195,7 @@ TEST_CASE("a packet split into its pixels' runs tests each sphere against exactl
         tested[i][k] = true, ++pairs;
       }
     };
-    const int64_t reported = view->search(packet, test);  // before `pairs` is read
+    const int64_t reported = view->search(packet, test, kSpheres);  // before `pairs` is read
     CHECK(reported == pairs);
     for (size_t i = 0; i < boxes.size(); ++i) {
       const durer::SampleBox& b = boxes[i];

@@ -244,7 +244,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
           } else {  // the rays under the sphere's rows: the prefilter would rarely spare the test
             intersectOne<M, false>(packet, terms, static_cast<size_t>(i), primBase, kBegin, kEnd);
           }
-        });
+        }, this->m_primitives.data());
         if (tests >= 0) return tests;
       }
     }

@@ -23,6 +23,7 @@
 #include "durer/Inline.h"
 #include "durer/accel/Bvh.h"
 #include "durer/geometry/RayPacket.h"
+#include "durer/geometry/Sphere.h"
 #include "durer/math/Float.h"
 #include "durer/math/RadixSort.h"
 #include "durer/math/Vec.h"
@@ -166,6 +167,11 @@ class SphereView {
     float tLow;       // no ray of the cell meets it before this t (a light's view: no point nearer the light)
   };
 
+  // How many entries ahead of its test search() fetches a sphere (its `spheres`): each test reads a
+  // sphere from anywhere in the set, a miss the next test's branch on the rays' hits would keep the
+  // core from reaching on its own. Cached renders of 1M and 10M spheres 13 % and 37 % quicker, a
+  // new camera pose of 10M 9-20 % (4 and 16 ahead: no better).
+  static constexpr uint32_t kSpheresAhead = 8;
   // Footprints asked for at once (Camera::footprints makes a camera's together).
   static constexpr int kFootprints = 8;
 
@@ -188,10 +194,11 @@ class SphereView {
   // known instead (sampleX), each stretch of consecutive rays whose pixels it covers (`all` false);
   // else all of them (`all` true: any, none or some may meet it), skipping spheres off the pixel
   // rows and columns the packet's samples lie in.
+  // `spheres`: those the entries index (the set's), fetched ahead of their tests.
   // Returns the ray-sphere tests made; -1 if the packet's samples fall outside the cells (then the
   // caller searches otherwise).
   template <typename Test>
-  DURER_INLINE int64_t search(const RayPacket<Real>& packet, const Test& test) const {
+  DURER_INLINE int64_t search(const RayPacket<Real>& packet, const Test& test, const Sphere<Real>* spheres) const {
     const Real* box = packet.sampleBox;
     const Real cx0 = std::floor(box[0] / kCell) - m_cellX, cx1 = std::floor(box[1] / kCell) - m_cellX;
     const Real cy0 = std::floor(box[2] / kCell) - m_cellY, cy1 = std::floor(box[3] / kCell) - m_cellY;
@@ -227,7 +234,10 @@ class SphereView {
         const int cellColumn = (m_cellX + cx) * kCell;
         const int firstColumn = int(std::floor(box[0])) - cellColumn, lastColumn = int(std::floor(box[1])) - cellColumn;
         Real farthest = farthestHit(packet);
-        for (uint32_t e = m_first[cell]; e != m_first[cell + 1]; ++e) {
+        const uint32_t begin = m_first[cell], end = m_first[cell + 1];
+        for (uint32_t e = begin; e < end && e < begin + kSpheresAhead; ++e) __builtin_prefetch(&spheres[m_entries[e].sphere]);
+        for (uint32_t e = begin; e != end; ++e) {
+          if (e + kSpheresAhead < end) __builtin_prefetch(&spheres[m_entries[e + kSpheresAhead].sphere]);
           const Entry& entry = m_entries[e];
           if (entry.tLow > farthest) break;
           if (byRow) {
