@@ -131,10 +131,9 @@ Camera<Real>::Camera(const CameraSpec& spec, int width, int height)
 }
 
 template <typename Real>
-double Camera<Real>::orthographicReach(const ParallelProjection& image, const Vec3d& q, double radius) const {
+double Camera<Real>::orthographicExtent(const ParallelProjection& image) const {
   const ImageWindow w = window();
-  const double window = w.reachX(m_width) + w.reachY(m_height);
-  return radius + kFootprintEps * (maxAbs(image.center) + window + std::fabs(q.z) + radius);
+  return maxAbs(image.center) + (w.reachX(m_width) + w.reachY(m_height));
 }
 
 template <typename Real>
@@ -169,13 +168,13 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
   image.inFrame(center.x, center.y, center.z, q.x, q.y, q.z, fromEye);
   constexpr double m = kFootprintMargin;
   if (!m_perspective) {
-    const double reach = orthographicReach(image, q, radius);
+    const Pinhole<double> seen = orthographic(image, q.x, q.y, q.z, radius, orthographicExtent(image));
+    const double reach = seen.reach;
     // A lens's rays lean from the axis by up to lensSlope: t exceeds the depth by up to that factor.
     const double lean = hasLens() ? std::sqrt(1 + lensSlope() * lensSlope()) * (1 + 1e-6) : 1;
     const double deepest = q.z + reach;
     if ((deepest > 0 ? deepest * lean : deepest) < static_cast<double>(m_tMin)) return false;  // wholly before t_min
-    box = {image.sampleX(q.x - reach) - m, image.sampleX(q.x + reach) + m, image.sampleY(q.y + reach) - m,
-           image.sampleY(q.y - reach) + m};
+    box = {seen.x0, seen.x1, seen.y0, seen.y1};
     tLow = q.z - reach;
     if (hasLens()) {
       // A lens ray through sample x meets depth z at x + L (1 - z / focus), L its point on the lens.

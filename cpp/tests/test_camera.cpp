@@ -295,17 +295,18 @@ int checkLens(const CameraSpec& spec, std::mt19937_64& random) {
 
 }  // namespace
 
-// Camera::footprints makes a pinhole's footprints eight at once with footprint()'s operations:
-// the same boxes, bounds and verdicts bit for bit, for spheres in front of, around and behind the
-// eye, on its plane, huge and tiny, eight at a time and fewer (through a lens, and with disks, it
-// calls footprint() itself).
+// Camera::footprints makes a pinhole's footprints (perspective or orthographic) eight at once with
+// footprint()'s operations: the same boxes, bounds and verdicts bit for bit, for spheres in front
+// of, around and behind the eye (or the orthographic t_min), on its plane, huge and tiny, eight at
+// a time and fewer (through a lens, and with disks, it calls footprint() itself).
 TEST_CASE_TEMPLATE("footprints gives footprint's boxes bit for bit", Real, float, double) {
   constexpr int kLanes = Camera<Real>::kFootprints;
   std::mt19937_64 random(20261204);
   std::uniform_real_distribution<double> unit(-1, 1), scale(-6, 6);
   int seen = 0, unseen = 0;
-  for (const double fov : {20.0, 60.0, 110.0, 170.0}) {
-    const CameraSpec spec = randomPerspective(fov, random);
+  for (const double fov : {20.0, 60.0, 110.0, 170.0, 0.0}) {  // 0: orthographic, 6 wide, from t = -1
+    CameraSpec spec = randomPerspective(fov, random);
+    if (fov == 0) spec.projection = Projection::Orthographic, spec.size = 6, spec.tMin = -1;
     const Camera<Real> camera(spec, 640, 360);
     for (int block = 0; block < 500; ++block) {
       Vec3d centers[kLanes];

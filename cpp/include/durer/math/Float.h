@@ -291,6 +291,13 @@ typedef double DoubleLanes __attribute__((vector_size(8 * sizeof(double))));
 template <typename D>
 using LaneMask = decltype(D{} > D{});  // bool for a number
 
+// |x| of a number, or of each lane (its sign bit cleared, as std::fabs does).
+DURER_INLINE double magnitude(double x) { return std::fabs(x); }
+DURER_INLINE DoubleLanes magnitude(DoubleLanes x) {
+  typedef int64_t Bits __attribute__((vector_size(sizeof(DoubleLanes))));
+  return DoubleLanes(Bits(x) & std::numeric_limits<int64_t>::max());
+}
+
 // The square root of a number, or of each lane: GCC has no vector square root of its own.
 DURER_INLINE double squareRoot(double x) { return std::sqrt(x); }
 DURER_INLINE DoubleLanes squareRoot(DoubleLanes x) {

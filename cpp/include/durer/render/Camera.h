@@ -123,7 +123,7 @@ class Camera {
   static_assert(kFootprints == sizeof(DoubleLanes) / sizeof(double), "a footprint a lane");
   DURER_INLINE void footprints(int n, const Vec3d* centers, const double* radii, SampleBox* boxes, double* tLows,
                                SampleDisk* disks, bool* seen) const {
-    if (!m_perspective || hasLens() || disks) {
+    if (hasLens() || disks) {
       for (int j = 0; j < n; ++j) seen[j] = footprint(centers[j], radii[j], boxes[j], tLows[j], disks ? &disks[j] : nullptr);
       return;
     }
@@ -131,7 +131,8 @@ class Camera {
     DoubleLanes x, y, z, r, qx, qy, qz, distance;
     for (int j = 0; j < kFootprints; ++j) x[j] = centers[j].x, y[j] = centers[j].y, z[j] = centers[j].z, r[j] = radii[j];
     image.inFrame(x, y, z, qx, qy, qz, distance);
-    const Pinhole<DoubleLanes> p = pinhole(image, qx, qy, qz, distance, r);
+    const Pinhole<DoubleLanes> p = m_perspective ? pinhole(image, qx, qy, qz, distance, r)
+                                                 : orthographic(image, qx, qy, qz, r, orthographicExtent(image));
     const DoubleLanes low = p.distance - p.reach;
     for (int j = 0; j < n; ++j) boxes[j] = {p.x0[j], p.x1[j], p.y0[j], p.y1[j]}, tLows[j] = low[j], seen[j] = p.seen[j] != 0;
   }
@@ -215,8 +216,8 @@ class Camera {
   // builds on for a lens or a disk: the radius grown by the rounding bounds. Numbers or lanes.
   template <typename D>
   struct Pinhole {
-    D distance, reach;
-    D x0, x1, y0, y1;  // the box (SampleBox)
+    D distance, reach;  // distance - reach: the footprint's tLow (orthographic: distance is the depth)
+    D x0, x1, y0, y1;   // the box (SampleBox)
     LaneMask<D> seen;
   };
   template <typename D>
@@ -234,8 +235,23 @@ class Camera {
     return p;
   }
 
-  // An orthographic footprint's half width in world units: the radius and the rounding bounds.
-  double orthographicReach(const ParallelProjection& image, const Vec3d& q, double radius) const;
+  // The same through an orthographic camera (its centre's depth q.z the distance; footprint() without
+  // a lens, whose seen it is; `extent`: orthographicExtent()): the box of the radius grown by the
+  // rounding bounds (the reach: the footprint's half width in world units).
+  template <typename D>
+  DURER_INLINE Pinhole<D> orthographic(const ParallelProjection& image, D qx, D qy, D qz, D radius, double extent) const {
+    constexpr double m = kFootprintMargin;
+    Pinhole<D> p;
+    p.distance = qz;
+    p.reach = radius + kFootprintEps * (extent + magnitude(qz) + radius);
+    p.seen = !(qz + p.reach < D{} + static_cast<double>(m_tMin));  // not wholly before t_min
+    p.x0 = image.sampleX(qx - p.reach) - m, p.x1 = image.sampleX(qx + p.reach) + m;
+    p.y0 = image.sampleY(qy + p.reach) - m, p.y1 = image.sampleY(qy - p.reach) + m;
+    return p;
+  }
+  // The magnitudes in an orthographic footprint's rounding bound that do not depend on the sphere:
+  // the frame's centre and the image window's reach.
+  double orthographicExtent(const ParallelProjection& image) const;
   // A perspective footprint's disk (footprint's), from the sphere's centre q in the frame, its
   // distance and radius grown and shrunk by the rounding bounds.
   static SampleDisk perspectiveDisk(const ParallelProjection& image, const Vec3d& q, double distance, double grown,
