@@ -117,8 +117,8 @@ class Camera {
   // SphereView's kFootprints; every array holds kFootprints entries (lanes from n on are the
   // caller's to fill and are computed, not used), `disks` footprint's disk (or null). A pinhole's
   // without disks (a camera's view) are made in the lanes of vectors (DoubleLanes), by pinhole()'s
-  // operations, which do not branch: the same numbers as footprint()'s, eight spheres an
-  // instruction.
+  // or orthographic()'s operations, which do not branch: the same numbers as footprint()'s, eight
+  // spheres an instruction.
   static constexpr int kFootprints = SphereView<Real>::kFootprints;
   static_assert(kFootprints == sizeof(DoubleLanes) / sizeof(double), "a footprint a lane");
   DURER_INLINE void footprints(int n, const Vec3d* centers, const double* radii, SampleBox* boxes, double* tLows,
