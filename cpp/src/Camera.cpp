@@ -168,12 +168,11 @@ bool Camera<Real>::footprint(const Vec3d& center, double radius, SampleBox& box,
   image.inFrame(center.x, center.y, center.z, q.x, q.y, q.z, fromEye);
   constexpr double m = kFootprintMargin;
   if (!m_perspective) {
-    const Pinhole<double> flat = orthographic(image, q.x, q.y, q.z, radius, orthographicExtent(image));
-    const double reach = flat.reach;
     // A lens's rays lean from the axis by up to lensSlope: t exceeds the depth by up to that factor.
     const double lean = hasLens() ? std::sqrt(1 + lensSlope() * lensSlope()) * (1 + 1e-6) : 1;
-    const double deepest = q.z + reach;
-    if ((deepest > 0 ? deepest * lean : deepest) < static_cast<double>(m_tMin)) return false;  // wholly before t_min
+    const Pinhole<double> flat = orthographic(image, q.x, q.y, q.z, radius, orthographicExtent(image), lean);
+    if (!flat.seen) return false;  // wholly before t_min
+    const double reach = flat.reach, deepest = q.z + reach;
     box = {flat.x0, flat.x1, flat.y0, flat.y1};
     tLow = q.z - reach;
     if (hasLens()) {

@@ -132,7 +132,7 @@ class Camera {
     for (int j = 0; j < kFootprints; ++j) x[j] = centers[j].x, y[j] = centers[j].y, z[j] = centers[j].z, r[j] = radii[j];
     image.inFrame(x, y, z, qx, qy, qz, distance);
     const Pinhole<DoubleLanes> p = m_perspective ? pinhole(image, qx, qy, qz, distance, r)
-                                                 : orthographic(image, qx, qy, qz, r, orthographicExtent(image));
+                                                 : orthographic(image, qx, qy, qz, r, orthographicExtent(image), 1);
     const DoubleLanes low = p.distance - p.reach;
     for (int j = 0; j < n; ++j) boxes[j] = {p.x0[j], p.x1[j], p.y0[j], p.y1[j]}, tLows[j] = low[j], seen[j] = p.seen[j] != 0;
   }
@@ -235,16 +235,20 @@ class Camera {
     return p;
   }
 
-  // The same through an orthographic camera (its centre's depth q.z the distance; footprint() without
-  // a lens, whose seen it is; `extent`: orthographicExtent()): the box of the radius grown by the
-  // rounding bounds (the reach: the footprint's half width in world units).
+  // The same through an orthographic camera (its centre's depth q.z the distance; `extent`:
+  // orthographicExtent()): the box of the radius grown by the rounding bounds (the reach: the
+  // footprint's half width in world units), before a lens widens it, and whether some ray may meet
+  // the sphere at t_min or beyond: a lens's rays lean from the axis, their t exceeding the depth by
+  // up to `lean` (1 without a lens).
   template <typename D>
-  DURER_INLINE Pinhole<D> orthographic(const ParallelProjection& image, D qx, D qy, D qz, D radius, double extent) const {
+  DURER_INLINE Pinhole<D> orthographic(const ParallelProjection& image, D qx, D qy, D qz, D radius, double extent,
+                                       double lean) const {
     constexpr double m = kFootprintMargin;
     Pinhole<D> p;
     p.distance = qz;
     p.reach = radius + kFootprintEps * (extent + magnitude(qz) + radius);
-    p.seen = !(qz + p.reach < D{} + static_cast<double>(m_tMin));  // not wholly before t_min
+    const D deepest = qz + p.reach, zero{};
+    p.seen = !((deepest > zero ? deepest * lean : deepest) < zero + static_cast<double>(m_tMin));
     p.x0 = image.sampleX(qx - p.reach) - m, p.x1 = image.sampleX(qx + p.reach) + m;
     p.y0 = image.sampleY(qy + p.reach) - m, p.y1 = image.sampleY(qy - p.reach) + m;
     return p;
