@@ -529,6 +529,70 @@ class SphereView {
                                                             : -std::numeric_limits<float>::infinity();
   }
 
+  // A sphere's part of one row of a view's cells (make()'s): its cells there and, in a camera's view,
+  // its pixel rows in them and its pixel columns in the first and the last (every cell between is
+  // covered whole).
+  struct Part {
+    uint32_t index;  // its place among the spheres make() is given
+    float tLow;
+    int32_t x0, x1;  // its cells in the row, from the view's first
+    uint16_t span;   // rows, first cell's first column, last cell's last column (spanOf)
+  };
+
+  // One chunk of spheres' parts, row by row of cells, in the spheres' order, each row's in blocks of
+  // a few large arrays (HugeArray: unset until written, in huge pages, their memory kept between
+  // renders), and the entries they make in each cell: the thread of a band of rows then reads only
+  // its rows' parts, and places and sorts their entries while they are in its caches, rather than
+  // reading every sphere's cells and scattering entries over all its cells.
+  class RowParts {
+   public:
+    RowParts(size_t cellsWide, size_t rows, size_t spheres)
+        : m_rows(rows), m_counts(cellsWide * rows, 0), m_cellsWide(cellsWide), m_spheres(spheres) {
+      // Blocks of about half a row's share of the spheres (16 to 1,024 parts): rows' last blocks
+      // left part empty waste at most about the chunk's own size.
+      const size_t share = spheres / std::max<size_t>(rows, 1) / 2;
+      while (m_block < share && m_block < 1024) m_block *= 2;
+    }
+    void add(size_t row, const Part& part) {
+      Row& r = m_rows[row];
+      if (r.free == 0) {
+        if (m_used + m_block > m_capacity) grow();
+        r.blocks.push_back(&m_arenas.back()[m_used]);
+        m_used += m_block;
+        r.free = uint32_t(m_block);
+      }
+      r.blocks.back()[m_block - r.free--] = part;
+      r.entries += uint64_t(part.x1 - part.x0 + 1);
+      for (int32_t cx = part.x0; cx <= part.x1; ++cx) ++m_counts[row * m_cellsWide + size_t(cx)];
+    }
+    uint64_t entries(size_t row) const { return m_rows[row].entries; }
+    uint32_t count(size_t cell) const { return m_counts[cell]; }  // its parts' entries in a cell
+    template <typename F>
+    void forRow(size_t row, const F& f) const {
+      const Row& r = m_rows[row];
+      for (size_t b = 0; b < r.blocks.size(); ++b) {
+        const size_t n = b + 1 < r.blocks.size() ? m_block : m_block - r.free;
+        for (size_t j = 0; j < n; ++j) f(r.blocks[b][j]);
+      }
+    }
+
+   private:
+    struct Row {
+      std::vector<Part*> blocks;
+      uint32_t free = 0;  // in the last block
+      uint64_t entries = 0;
+    };
+    void grow() {  // room for the chunk's spheres (a quarter more: some span two rows), then half of it more
+      m_capacity = std::max(m_arenas.empty() ? m_spheres + m_spheres / 4 : (m_spheres + 1) / 2, 64 * m_block);
+      m_arenas.emplace_back(m_capacity);
+      m_used = 0;
+    }
+    std::vector<Row> m_rows;
+    std::vector<uint32_t> m_counts;  // by cell, row by row
+    std::vector<HugeArray<Part>> m_arenas;
+    size_t m_cellsWide, m_spheres, m_block = 16, m_used = 0, m_capacity = 0;
+  };
+
   // Sorts entries [begin, end), placed in the spheres' order, nearest first (their tLow, then
   // the sphere), with their spans or disks; the vectors are scratch space.
   void sortCell(uint32_t begin, uint32_t end, std::vector<uint64_t>& order, std::vector<uint64_t>& scratch,
@@ -566,117 +630,108 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
   view->m_cellX = x / kCell, view->m_cellY = y / kCell;
   view->m_cellsX = (x + width + kCell - 1) / kCell - view->m_cellX;
   view->m_cellsY = (y + height + kCell - 1) / kCell - view->m_cellY;
-  struct Cells {
-    int32_t x0, x1, y0, y1;  // inclusive; x0 > x1: none
-  };
-  // Each sphere's cells, and its footprint's first pixel row and column in its first cell and last
-  // in its last (spanOf; every cell between is covered whole) or, in a light's view, its disk: 18 or
-  // 28 bytes a sphere, which every band below reads in full. These and the entries are left unset
-  // until written and lie in huge pages once large (HugeArray): at 10M spheres they are ~0.5 GB,
-  // which a vector would zero before they are written, and 4 KiB pages would fault in ~100,000
-  // times, for each new camera pose.
-  HugeArray<Cells> cells(count);
-  HugeArray<uint16_t> edges(disks ? 0 : count);  // a light's view keeps disks instead
-  HugeArray<float> tLows(count);
-  HugeArray<typename Disk::Quantised> rounds(disks ? count : 0);  // centres from the view's first cell
-  const double cellsX = view->m_cellsX, cellsY = view->m_cellsY;
-  std::atomic<double> entries{0};
-  parallelChunks(count, threads, [&](size_t begin, size_t end) {
-    double made = 0;
+  const size_t cellsWide = size_t(view->m_cellsX), cellsHigh = size_t(view->m_cellsY);
+  // Each chunk of spheres lists its spheres' parts row by row of cells (RowParts); a light's view
+  // keeps each sphere's disk (rounded once, centres from the view's first cell) by its place.
+  HugeArray<typename Disk::Quantised> rounds(disks ? count : 0);
+  const size_t chunks = chunksFor(count, threads);
+  std::vector<RowParts> parts;
+  parts.reserve(chunks);
+  for (size_t k = 0; k < chunks; ++k) parts.emplace_back(cellsWide, cellsHigh, count / chunks + 1);
+  forChunks(count, chunks, [&](size_t chunk, size_t begin, size_t end) {
+    RowParts& own = parts[chunk];
     SampleBox boxes[kFootprints];
-    SampleDisk diskOf[kFootprints];
+    SampleDisk diskOf[kFootprints] = {};  // zeroed: GCC cannot tell that a light's view's are written
     double tLowOf[kFootprints];
     bool seen[kFootprints];
     for (size_t i = begin; i < end; ++i) {
       const size_t j = (i - begin) % kFootprints;
       if (j == 0) footprints(i, int(std::min<size_t>(kFootprints, end - i)), boxes, tLowOf, disks ? diskOf : nullptr, seen);
-      const SampleBox& box = boxes[j];
-      const SampleDisk& disk = diskOf[j];
-      const double tLow = tLowOf[j];
-      Cells& c = cells[i];
-      c = {1, 0, 1, 0};
       if (!seen[j]) continue;
+      const SampleBox& box = boxes[j];
       // Cell coordinates relative to the view's first cell, clamped to it (in double: infinite
       // ends and huge boxes stay ordered).
       const double x0 = std::max(std::floor(box.x0 / kCell) - view->m_cellX, 0.0);
-      const double x1 = std::min(std::floor(box.x1 / kCell) - view->m_cellX, cellsX - 1);
+      const double x1 = std::min(std::floor(box.x1 / kCell) - view->m_cellX, double(cellsWide) - 1);
       const double y0 = std::max(std::floor(box.y0 / kCell) - view->m_cellY, 0.0);
-      const double y1 = std::min(std::floor(box.y1 / kCell) - view->m_cellY, cellsY - 1);
+      const double y1 = std::min(std::floor(box.y1 / kCell) - view->m_cellY, double(cellsHigh) - 1);
       if (!(x0 <= x1 && y0 <= y1)) continue;
       const double firstRow = y0 * kCell, lastRow = y1 * kCell + kCell - 1;
       const double firstColumn = x0 * kCell, lastColumn = x1 * kCell + kCell - 1;
-      c = {int32_t(x0), int32_t(x1), int32_t(y0), int32_t(y1)};
       const auto within = [](double pixel, double first, double last, double cellStart) {
         return std::clamp(int(std::clamp(pixel, first, last) - cellStart), 0, kCell - 1);
       };
+      // Its pixel rows in its first and last cell rows, and columns in its first and last cells
+      // (every cell between is covered whole); a light's view keeps its disk instead.
+      int row0 = 0, row1 = 0, column0 = 0, column1 = 0;
       if (disks) {
+        const SampleDisk& disk = diskOf[j];
         rounds[i] = Disk::quantise(disk.x - view->m_cellX * kCell, disk.y - view->m_cellY * kCell, disk.radius,
                                    disk.core);
       } else {
-        edges[i] = spanOf(within(std::floor(box.y0) - view->m_cellY * kCell, firstRow, lastRow, firstRow),
-                          within(std::floor(box.y1) - view->m_cellY * kCell, firstRow, lastRow, y1 * kCell),
-                          within(std::floor(box.x0) - view->m_cellX * kCell, firstColumn, lastColumn, firstColumn),
-                          within(std::floor(box.x1) - view->m_cellX * kCell, firstColumn, lastColumn, x1 * kCell));
+        row0 = within(std::floor(box.y0) - view->m_cellY * kCell, firstRow, lastRow, firstRow);
+        row1 = within(std::floor(box.y1) - view->m_cellY * kCell, firstRow, lastRow, y1 * kCell);
+        column0 = within(std::floor(box.x0) - view->m_cellX * kCell, firstColumn, lastColumn, firstColumn);
+        column1 = within(std::floor(box.x1) - view->m_cellX * kCell, firstColumn, lastColumn, x1 * kCell);
       }
-      tLows[i] = floatBelow(tLow);
-      made += (x1 - x0 + 1) * (y1 - y0 + 1);
-    }
-    double total = entries.load();
-    while (!entries.compare_exchange_weak(total, total + made)) {
+      const float tLow = floatBelow(tLowOf[j]);
+      for (int32_t cy = int32_t(y0); cy <= int32_t(y1); ++cy) {
+        const uint16_t span = spanOf(cy == int32_t(y0) ? row0 : 0, cy == int32_t(y1) ? row1 : kCell - 1, column0, column1);
+        own.add(size_t(cy), {uint32_t(i), tLow, int32_t(x0), int32_t(x1), span});
+      }
     }
   });
-  const double most = kMaxEntriesPerSphere * double(count) + double(view->m_cellsX) * view->m_cellsY;
-  if (entries.load() > std::min(most, double(std::numeric_limits<uint32_t>::max() - 1))) {
-    return nullptr;
+  // Where each row's entries begin: rows in order, each row's cells in order.
+  std::vector<uint64_t> rowStart(cellsHigh + 1, 0);
+  for (size_t cy = 0; cy < cellsHigh; ++cy) {
+    rowStart[cy + 1] = rowStart[cy];
+    for (const RowParts& own : parts) rowStart[cy + 1] += own.entries(cy);
   }
-  // Entries cell by cell: counted, placed in the spheres' order, then each cell's sorted nearest
-  // first; each thread for a band of cell rows (its own cells, so no two threads write the same),
-  // reading the spheres' cells as one stream and sorting its own cells.
-  const size_t cellCount = size_t(view->m_cellsX) * size_t(view->m_cellsY);
-  const size_t cellsWide = size_t(view->m_cellsX);
-  // As many bands as the entries pay threads for (parallelChunks' rule): a few spheres' view is made
-  // on this thread alone.
-  const size_t bands = std::min(chunksFor(size_t(entries.load()) + count, threads), size_t(view->m_cellsY));
-  const auto overBands = [&](const auto& place) {
-    forChunks(size_t(view->m_cellsY), bands, [&](size_t, size_t rowBegin, size_t rowEnd) {
-      for (size_t i = 0; i < count; ++i) {
-        const Cells& c = cells[i];
-        const int32_t y0 = std::max(c.y0, int32_t(rowBegin)), y1 = std::min(c.y1, int32_t(rowEnd) - 1);
-        for (int32_t cy = y0; cy <= y1; ++cy) place(uint32_t(i), c, cy);
-      }
-    });
-  };
+  const uint64_t total = rowStart[cellsHigh];
+  const double most = kMaxEntriesPerSphere * double(count) + double(cellsWide) * double(cellsHigh);
+  if (double(total) > std::min(most, double(std::numeric_limits<uint32_t>::max() - 1))) return nullptr;
+  // Entries cell by cell, each thread for a band of cell rows (its own cells, so no two threads write
+  // the same): each cell's begin where the chunks' counts before it say, its entries placed in the
+  // spheres' order (the chunks' in turn), then sorted nearest first while they are in the caches. As
+  // many bands as the entries pay threads for (parallelChunks' rule): a few spheres' view is made on
+  // this thread alone.
   std::vector<uint32_t>& first = view->m_first;
-  first.assign(cellCount + 1, 0);
-  overBands([&](uint32_t, const Cells& c, int32_t cy) {
-    for (int32_t cx = c.x0; cx <= c.x1; ++cx) ++first[size_t(cy) * cellsWide + size_t(cx) + 1];
-  });
-  for (size_t cell = 0; cell < cellCount; ++cell) first[cell + 1] += first[cell];
-  view->m_entries = HugeArray<Entry>(first[cellCount]);
-  view->m_disks = HugeArray<Disk>(disks ? first[cellCount] : 0);
-  view->m_spans = HugeArray<uint16_t>(disks ? 0 : first[cellCount]);
-  std::vector<uint32_t> next(first.begin(), first.end() - 1);
-  overBands([&](uint32_t i, const Cells& c, int32_t cy) {
-    for (int32_t cx = c.x0; cx <= c.x1; ++cx) {
-      const uint32_t e = next[size_t(cy) * cellsWide + size_t(cx)]++;
-      view->m_entries[e] = {spheres ? spheres[i] : i, tLows[i]};
-      if (disks) {
-        view->m_disks[e] = rounds[i].inCell(cx, cy);
-      } else {
-        const uint16_t edge = edges[i];
-        const int row0 = cy == c.y0 ? firstRowOf(edge) : 0, row1 = cy == c.y1 ? lastRowOf(edge) : kCell - 1;
-        const int column0 = cx == c.x0 ? firstColumnOf(edge) : 0, column1 = cx == c.x1 ? lastColumnOf(edge) : kCell - 1;
-        view->m_spans[e] = spanOf(row0, row1, column0, column1);
-      }
-    }
-  });
-  forChunks(size_t(view->m_cellsY), bands, [&](size_t, size_t rowBegin, size_t rowEnd) {
+  first.assign(cellsWide * cellsHigh + 1, uint32_t(total));
+  view->m_entries = HugeArray<Entry>(total);
+  view->m_disks = HugeArray<Disk>(disks ? total : 0);
+  view->m_spans = HugeArray<uint16_t>(disks ? 0 : total);
+  const size_t bands = std::min(chunksFor(size_t(total) + count, threads), cellsHigh);
+  forChunks(cellsHigh, bands, [&](size_t, size_t rowBegin, size_t rowEnd) {
+    std::vector<uint32_t> next(cellsWide);
     std::vector<uint64_t> order, scratch;
     std::vector<Entry> cellEntries;
     std::vector<uint16_t> cellSpans;
     std::vector<Disk> cellDisks;
-    for (size_t cell = rowBegin * cellsWide; cell < rowEnd * cellsWide; ++cell) {
-      view->sortCell(first[cell], first[cell + 1], order, scratch, cellEntries, cellSpans, cellDisks);
+    for (size_t cy = rowBegin; cy < rowEnd; ++cy) {
+      uint32_t at = uint32_t(rowStart[cy]);
+      for (size_t cx = 0; cx < cellsWide; ++cx) {
+        first[cy * cellsWide + cx] = next[cx] = at;
+        for (const RowParts& own : parts) at += own.count(cy * cellsWide + cx);
+      }
+      for (const RowParts& own : parts) {
+        own.forRow(cy, [&](const Part& part) {
+          const uint32_t sphere = spheres ? spheres[part.index] : part.index;
+          for (int32_t cx = part.x0; cx <= part.x1; ++cx) {
+            const uint32_t e = next[size_t(cx)]++;
+            view->m_entries[e] = {sphere, part.tLow};
+            if (disks) {
+              view->m_disks[e] = rounds[part.index].inCell(cx, int(cy));
+            } else {
+              const uint16_t span = part.span;
+              view->m_spans[e] = spanOf(firstRowOf(span), lastRowOf(span), cx == part.x0 ? firstColumnOf(span) : 0,
+                                        cx == part.x1 ? lastColumnOf(span) : kCell - 1);
+            }
+          }
+        });
+      }
+      for (size_t cx = 0; cx < cellsWide; ++cx) {
+        view->sortCell(first[cy * cellsWide + cx], next[cx], order, scratch, cellEntries, cellSpans, cellDisks);
+      }
     }
   });
   return view;
