@@ -7,8 +7,10 @@ in both precisions, for regions, and after the spheres move."""
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
+from pathlib import Path
 
 import durer
 import numpy as np
@@ -30,6 +32,26 @@ def test_camera_rays_find_what_a_cast_finds(case):
 @given(lens_cases())
 def test_lens_rays_find_through_the_view_what_a_hierarchy_finds(case):
     check_lens(case)
+
+
+def test_lens_check_sets_aside_an_exact_tie_between_overlapping_spheres():
+    """A case the view fuzz failed on (bench/fuzz_sanitized.sh, 2026-12-04): 352 spheres, a lens; one
+    pixel's nearest sample meets two overlapping spheres (47 and 214) at the same float t, bit for
+    bit, and the view's order and the hierarchy's give it to different ones. The check passes it as
+    a tie: each sphere alone reaches that pixel's depth."""
+    data = np.load(Path(__file__).parents[1] / "fuzz_findings" / "view" / "lens-tie.npz")
+    centers, radii = data["centers"], data["radii"]
+    camera = durer.OrthographicCamera(
+        tuple(data["center"]), tuple(data["direction"]), tuple(data["up"]), size=float(data["size"]), t_min=-math.inf,
+        aperture_radius=float(data["aperture_radius"]), focus_distance=float(data["focus_distance"]),
+        aperture_blades=int(data["aperture_blades"]), aperture_rotation=float(data["aperture_rotation"]),
+        aperture_ratio=float(data["aperture_ratio"]))
+    width, height = int(data["width"]), int(data["height"])
+    check_lens((scene_of(centers, radii), (centers, radii, False), camera, width, height, "float", None))
+    kwargs = dict(spp=4, sampler="random", passes=("depth",), precision="float", threads=2)
+    depth = durer.render(scene_of(centers, radii), camera, width, height, **kwargs).depth[40, 3]
+    for k in (47, 214):
+        assert durer.render(scene_of(centers[k:k + 1], radii[k:k + 1]), camera, width, height, **kwargs).depth[40, 3] == depth
 
 
 @pytest.mark.parametrize("precision", ["float", "double"])
