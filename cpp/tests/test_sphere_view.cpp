@@ -209,3 +209,30 @@ TEST_CASE("a packet split into its pixels' runs tests each sphere against exactl
     }
   }
 }
+
+TEST_CASE("a view whose spheres would make more than kMaxEntriesPerSphere entries a sphere is not made, nor listed to the end") {
+  // 8 x 8 cells of a 64 x 64 image; most entries: 16 a sphere and one a cell.
+  using View = durer::SphereView<double>;
+  const auto covering = [](double side, size_t& asked) {
+    return [side, &asked](size_t, int n, durer::SampleBox* boxes, double* tLows, durer::SampleDisk*, bool* seen) {
+      asked += size_t(n);
+      for (int j = 0; j < n; ++j) boxes[j] = {1, side, 1, side}, tLows[j] = 1, seen[j] = true;
+    };
+  };
+  size_t asked = 0;
+  // Four cells each (a sphere over pixels [1, 15]^2): 4 entries a sphere, made.
+  CHECK(View::make(1000, covering(15, asked), 0, 0, 64, 64, 1) != nullptr);
+  CHECK(asked == 1000);
+  // All 64 cells each: 64,000 entries for 1,000 spheres (at most 16,064), not made.
+  asked = 0;
+  CHECK(View::make(1000, covering(63, asked), 0, 0, 64, 64, 1) == nullptr);
+  // 100,000 spheres over every cell: the listing stops once past the most (16 * 100,000 + 64
+  // entries: 25,002 spheres), at the next block of footprints.
+  asked = 0;
+  CHECK(View::make(100000, covering(63, asked), 0, 0, 64, 64, 1) == nullptr);
+  CHECK(asked <= 25002 + View::kFootprints);
+  CHECK(asked >= 25002);
+  // One sphere over every cell: 64 entries, at most 16 + 64: made.
+  asked = 0;
+  CHECK(View::make(1, covering(63, asked), 0, 0, 64, 64, 1) != nullptr);
+}

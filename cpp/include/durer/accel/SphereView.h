@@ -563,8 +563,10 @@ class SphereView {
       }
       r.blocks.back()[m_block - r.free--] = part;
       r.entries += uint64_t(part.x1 - part.x0 + 1);
+      m_entries += uint64_t(part.x1 - part.x0 + 1);
       for (int32_t cx = part.x0; cx <= part.x1; ++cx) ++m_counts[row * m_cellsWide + size_t(cx)];
     }
+    uint64_t entries() const { return m_entries; }
     uint64_t entries(size_t row) const { return m_rows[row].entries; }
     uint32_t count(size_t cell) const { return m_counts[cell]; }  // its parts' entries in a cell
     template <typename F>
@@ -591,6 +593,7 @@ class SphereView {
     std::vector<uint32_t> m_counts;  // by cell, row by row
     std::vector<HugeArray<Part>> m_arenas;
     size_t m_cellsWide, m_spheres, m_block = 16, m_used = 0, m_capacity = 0;
+    uint64_t m_entries = 0;  // in all rows
   };
 
   // Sorts entries [begin, end), placed in the spheres' order, nearest first (their tLow, then
@@ -638,13 +641,17 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
   std::vector<RowParts> parts;
   parts.reserve(chunks);
   for (size_t k = 0; k < chunks; ++k) parts.emplace_back(cellsWide, cellsHigh, count / chunks + 1);
+  // The most entries a view may have; a chunk past it alone stops listing (no view: spheres large on
+  // the image, whose parts would otherwise take memory in proportion to the rows they span).
+  const double most = std::min(kMaxEntriesPerSphere * double(count) + double(cellsWide) * double(cellsHigh),
+                               double(std::numeric_limits<uint32_t>::max() - 1));
   forChunks(count, chunks, [&](size_t chunk, size_t begin, size_t end) {
     RowParts& own = parts[chunk];
     SampleBox boxes[kFootprints];
     SampleDisk diskOf[kFootprints] = {};  // zeroed: GCC cannot tell that a light's view's are written
     double tLowOf[kFootprints];
     bool seen[kFootprints];
-    for (size_t i = begin; i < end; ++i) {
+    for (size_t i = begin; i < end && double(own.entries()) <= most; ++i) {
       const size_t j = (i - begin) % kFootprints;
       if (j == 0) footprints(i, int(std::min<size_t>(kFootprints, end - i)), boxes, tLowOf, disks ? diskOf : nullptr, seen);
       if (!seen[j]) continue;
@@ -688,8 +695,7 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
     for (const RowParts& own : parts) rowStart[cy + 1] += own.entries(cy);
   }
   const uint64_t total = rowStart[cellsHigh];
-  const double most = kMaxEntriesPerSphere * double(count) + double(cellsWide) * double(cellsHigh);
-  if (double(total) > std::min(most, double(std::numeric_limits<uint32_t>::max() - 1))) return nullptr;
+  if (double(total) > most) return nullptr;
   // Entries cell by cell, each thread for a band of cell rows (its own cells, so no two threads write
   // the same): each cell's begin where the chunks' counts before it say, its entries placed in the
   // spheres' order (the chunks' in turn), then sorted nearest first while they are in the caches. As
