@@ -11,7 +11,6 @@
 // render's threads; the sphere set keeps the last few (SphereSet::view).
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -562,12 +561,10 @@ class SphereView {
         r.free = uint32_t(m_block);
       }
       r.blocks.back()[m_block - r.free--] = part;
-      r.entries += uint64_t(part.x1 - part.x0 + 1);
       m_entries += uint64_t(part.x1 - part.x0 + 1);
       for (int32_t cx = part.x0; cx <= part.x1; ++cx) ++m_counts[row * m_cellsWide + size_t(cx)];
     }
     uint64_t entries() const { return m_entries; }
-    uint64_t entries(size_t row) const { return m_rows[row].entries; }
     uint32_t count(size_t cell) const { return m_counts[cell]; }  // its parts' entries in a cell
     template <typename F>
     void forRow(size_t row, const F& f) const {
@@ -582,7 +579,6 @@ class SphereView {
     struct Row {
       std::vector<Part*> blocks;
       uint32_t free = 0;  // in the last block
-      uint64_t entries = 0;
     };
     void grow() {  // room for the chunk's spheres (a quarter more: some span two rows), then half of it more
       m_capacity = std::max(m_arenas.empty() ? m_spheres + m_spheres / 4 : (m_spheres + 1) / 2, 64 * m_block);
@@ -692,7 +688,9 @@ std::unique_ptr<SphereView<Real>> SphereView<Real>::make(size_t count, const Foo
   std::vector<uint64_t> rowStart(cellsHigh + 1, 0);
   for (size_t cy = 0; cy < cellsHigh; ++cy) {
     rowStart[cy + 1] = rowStart[cy];
-    for (const RowParts& own : parts) rowStart[cy + 1] += own.entries(cy);
+    for (size_t cell = cy * cellsWide; cell < (cy + 1) * cellsWide; ++cell) {
+      for (const RowParts& own : parts) rowStart[cy + 1] += own.count(cell);
+    }
   }
   const uint64_t total = rowStart[cellsHigh];
   if (double(total) > most) return nullptr;

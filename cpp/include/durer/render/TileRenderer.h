@@ -4,6 +4,7 @@
 // method per kernel translation unit (src/kernels), each compiled once per instruction set.
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <initializer_list>
