@@ -6,7 +6,10 @@
 Each run makes a fresh Scene of the same spheres (uniform in [-10, 10]^3, radius 0.01, seed 13), casts
 one ray through it, which prepares it (conversion to the precision, the 4-wide hierarchy, the
 primitives reordered to it), and reads Scene.hierarchy_counts["milliseconds"]: the core's own timer
-of that preparation. Every (precision, threads) row takes its turn in every run, so the machine's
+of that preparation. That first cast also makes the grid its incoherent ray walks (up to 4M
+spheres: accel/SphereGrid.h), after the preparation's timer stops: "Grid ms" is the first cast's
+wall-clock time less the preparation's and less a second cast of the same ray (its trace and the
+call's own cost), so the grid's making and the first use of its fresh memory. Every (precision, threads) row takes its turn in every run, so the machine's
 drift hits all rows alike. The first run of each row pays fresh memory from the system (page faults
 that later builds in the same process partly avoid, reusing what the one before freed); it is shown
 apart and left out of the median, min and max of the other runs. CPU/wall: the cores the build
@@ -48,24 +51,32 @@ class Row:
     first_ms: float                 # the process's first build of this row: fresh memory
     milliseconds: tuple[float, ...]  # the later runs
     cpu_use: tuple[float, ...]      # process CPU seconds / build seconds, later runs
+    grid_ms: tuple[float, ...]      # the grid's making (the first cast's time beyond the preparation), later runs
 
     @property
     def median_ms(self) -> float:
         return statistics.median(self.milliseconds)
 
 
-def prepare(centers: np.ndarray, precision: str, threads: int) -> tuple[float, float]:
-    """A fresh scene of the spheres made ready to trace: (its preparation's ms, CPU/wall during it)."""
+def prepare(centers: np.ndarray, precision: str, threads: int) -> tuple[float, float, float]:
+    """A fresh scene of the spheres made ready to trace: (its preparation's ms, CPU/wall during it,
+    the grid's ms: the first cast's wall-clock time beyond the preparation and a second cast's)."""
     scene = durer.Scene()
     scene.add_spheres(centers, RADIUS)
+
+    def cast() -> float:
+        start = time.perf_counter()
+        durer.cast(scene, [[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]], precision=precision, threads=threads)
+        return (time.perf_counter() - start) * 1000
+
     cpu = time.process_time()
-    durer.cast(scene, [[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]], precision=precision, threads=threads)
+    first = cast()
     cpu = time.process_time() - cpu
     counts = scene.hierarchy_counts
     if counts["built"] != 1:
         raise RuntimeError(f"expected one build, the scene says {counts}")
     ms = counts["milliseconds"]
-    return ms, cpu / (ms / 1000) if ms > 0 else float("nan")
+    return ms, cpu / (ms / 1000) if ms > 0 else float("nan"), first - ms - cast()
 
 
 def measure(spheres: int, runs: int, threads: Sequence[int]) -> tuple[list[Row], float | None]:
@@ -74,23 +85,27 @@ def measure(spheres: int, runs: int, threads: Sequence[int]) -> tuple[list[Row],
     configs = [(p, t) for t in threads for p in PRECISIONS]
     times: list[list[float]] = [[] for _ in configs]
     cpu: list[list[float]] = [[] for _ in configs]
+    grid: list[list[float]] = [[] for _ in configs]
     start = CpuClock.now()
     for _ in range(runs + 1):
         for i, (precision, count) in enumerate(configs):
-            ms, use = prepare(centers, precision, count)
+            ms, use, grid_ms = prepare(centers, precision, count)
             times[i].append(ms)
             cpu[i].append(use)
+            grid[i].append(grid_ms)
     others = CpuClock.now().others_since(start)
-    rows = [Row(p, t, times[i][0], tuple(times[i][1:]), tuple(cpu[i][1:])) for i, (p, t) in enumerate(configs)]
+    rows = [Row(p, t, times[i][0], tuple(times[i][1:]), tuple(cpu[i][1:]), tuple(grid[i][1:]))
+            for i, (p, t) in enumerate(configs)]
     return rows, others
 
 
-HEADER = ("Precision", "Threads", "First ms", "Median ms", "Min ms", "Max ms", "CPU/wall")
+HEADER = ("Precision", "Threads", "First ms", "Median ms", "Min ms", "Max ms", "CPU/wall", "Grid ms")
 
 
 def cells(row: Row) -> tuple[str, ...]:
     return (row.precision, str(row.threads), f"{row.first_ms:.1f}", f"{row.median_ms:.1f}",
-            f"{min(row.milliseconds):.1f}", f"{max(row.milliseconds):.1f}", f"{statistics.median(row.cpu_use):.2f}")
+            f"{min(row.milliseconds):.1f}", f"{max(row.milliseconds):.1f}", f"{statistics.median(row.cpu_use):.2f}",
+            f"{statistics.median(row.grid_ms):.1f}")
 
 
 def summary(rows: Sequence[Row], spheres: int, others: float | None) -> list[str]:

@@ -456,3 +456,39 @@ TEST_CASE_TEMPLATE("the walk in lanes visits each ray's records in walk()'s orde
   CHECK(skipped > 10000);
 }
 #endif
+
+// The grid made on several threads (a chunk of the spheres each, their registrations placed after
+// the chunks' before them) is the grid made on one: every ray's walk visits the same cells' records,
+// the same records in the same order, the same spheres. 200,000 spheres: three chunks of them.
+TEST_CASE_TEMPLATE("a grid made on three threads is the one made on one, record for record", Real, float, double) {
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> unit(-1, 1), inside(-11, 11);
+  std::vector<Sphere<Real>> spheres;
+  for (int i = 0; i < 200000; ++i) {
+    const Vec3d c = i % 1000 == 0 ? Vec3d(0.5, 0.5, 0.5) : 10.0 * Vec3d(unit(rng), unit(rng), unit(rng));  // copies too
+    spheres.push_back(Sphere<Real>{toReal<Real>(c), Real(i % 7 == 0 ? 0.2 : 0.03)});  // some across cells
+  }
+  const auto one = SphereGrid<Real>::make(spheres, 1), three = SphereGrid<Real>::make(spheres, 3);
+  REQUIRE(one != nullptr);
+  REQUIRE(three != nullptr);
+  int64_t records = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    const double o[3] = {inside(rng), inside(rng), inside(rng)}, d[3] = {unit(rng), unit(rng), unit(rng)};
+    std::vector<uint32_t> visits[2];
+    for (int g = 0; g < 2; ++g) {
+      const SphereGrid<Real>& grid = g == 0 ? *one : *three;
+      REQUIRE(grid.walk(o, d, 0.0, std::numeric_limits<double>::infinity(), [&](uint32_t first, uint32_t n) {
+        visits[g].push_back(first), visits[g].push_back(n);
+      }, [](double) { return false; }));
+    }
+    REQUIRE(visits[0] == visits[1]);
+    for (size_t v = 0; v < visits[0].size(); v += 2) {
+      for (uint32_t r = visits[0][v]; r < visits[0][v] + visits[0][v + 1]; ++r, ++records) {
+        CHECK(std::memcmp(&one->records()[r], &three->records()[r], sizeof(Sphere<Real>)) == 0);
+        CHECK(one->sphereOf(r) == three->sphereOf(r));
+        if (r > visits[0][v]) CHECK(three->sphereOf(r - 1) < three->sphereOf(r));  // the set's order in a cell
+      }
+    }
+  }
+  CHECK(records > 100000);
+}

@@ -142,7 +142,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   // Builds the bounding-volume hierarchy (and reorders the spheres and their ids to its order);
   // worth it from kBvhMinPrimitives spheres, after which intersect() traverses it.
   void buildBvh(int threads) {
-    m_grid.clear();
+    m_grid.clear(threads);
     Base::buildBvh(kBoxOf, threads);
   }
 
@@ -176,7 +176,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   template <typename Other>
   bool refitFrom(const SphereSet<Other>& source, int threads) {
     m_views.clear();
-    m_grid.clear();
+    m_grid.clear(threads);
     return Base::refitFrom(source, convert<Other>, kBoxOf, threads);
   }
 
@@ -676,16 +676,18 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   };
   mutable ViewCache m_views;
 
-  // The grid, made by the first search that wants it (render threads share the set); a copy of the
-  // set, or spheres moved or reordered, start without one.
+  // The grid, made by the first search that wants it (render threads share the set, and wait for it),
+  // on as many threads as the hierarchy was last built or refitted on; a copy of the set, or spheres
+  // moved or reordered, start without one.
   struct GridCache {
     std::mutex mutex;
     std::atomic<bool> made{false};
     std::unique_ptr<const SphereGrid<Real>> grid;
+    int threads = 1;
     GridCache() = default;
     GridCache(const GridCache&) {}
     GridCache& operator=(const GridCache&) {
-      clear();
+      clear(1);
       return *this;
     }
     void clear() {
@@ -693,11 +695,16 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       grid.reset();
       made.store(false, std::memory_order_release);
     }
+    // Where no search runs: the hierarchy's build or refit.
+    void clear(int makeThreads) {
+      clear();
+      threads = makeThreads;
+    }
     const SphereGrid<Real>* find(const std::vector<Sphere<Real>>& spheres) {
       if (!made.load(std::memory_order_acquire)) {
         const std::lock_guard<std::mutex> lock(mutex);
         if (!made.load(std::memory_order_relaxed)) {
-          grid = SphereGrid<Real>::make(spheres);
+          grid = SphereGrid<Real>::make(spheres, threads);
           made.store(true, std::memory_order_release);
         }
       }
