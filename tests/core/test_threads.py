@@ -204,3 +204,19 @@ def test_threads_that_cannot_be_created_shrink_the_pool_or_raise(headroom_mib, b
                           timeout=120, check=False)
     assert done.returncode == 0, done.stderr
     assert done.stdout.startswith(expected)
+
+
+def test_a_grid_made_on_three_threads_finds_what_one_threads_finds():
+    # 200,000 spheres fill their box evenly: incoherent rays walk a grid of them, made by the first
+    # cast on the scene's threads, a chunk of the spheres each (three chunks here). Two scenes, as the
+    # prepared spheres and their grid are kept per scene.
+    rng = np.random.default_rng(5)
+    centers, radii = rng.uniform(-10, 10, (200_000, 3)), rng.uniform(0.02, 0.1, 200_000)
+    origins, directions = rng.uniform(-11, 11, (20_000, 3)), rng.normal(size=(20_000, 3))
+    hits = []
+    for threads in (1, 3):
+        scene = durer.Scene()
+        scene.add_spheres(centers, radii)
+        hits.append(durer.cast(scene, origins, directions, threads=threads))
+    assert np.isfinite(hits[0].t).mean() > 0.5  # most rays meet a sphere: the grid's records are read
+    assert np.array_equal(hits[0].t, hits[1].t) and np.array_equal(hits[0].object_id, hits[1].object_id)
