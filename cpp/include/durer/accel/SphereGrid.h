@@ -447,7 +447,9 @@ class SphereGrid {
     const size_t chunks = std::min(chunksFor(n, threads), kMostBuildChunks);
     std::vector<Bounds> chunkBounds(chunks);
     forChunks(n, chunks, [&](size_t chunk, size_t begin, size_t end) {
-      for (size_t i = begin; i < end; ++i) chunkBounds[chunk].add(spheres[i]);
+      Bounds b;  // not chunkBounds[chunk] in the loop: the chunks' share cache lines
+      for (size_t i = begin; i < end; ++i) b.add(spheres[i]);
+      chunkBounds[chunk] = b;
     });
     Bounds all;
     for (const Bounds& b : chunkBounds) all.add(b);
