@@ -16,7 +16,6 @@
 #include <cstddef>
 #include <cstdlib>
 #include <memory>
-#include <mutex>
 #include <new>
 #include <type_traits>
 #if defined(__linux__)
@@ -30,7 +29,9 @@ namespace durer {
 // give pages up lazily (no MADV_FREE) nothing is kept. A block is taken only by an array at least
 // half its size: a small array kept for long (a scene's grid) would otherwise hold a render's
 // large one. The lock is only tried: where another thread holds it (or held it when a process
-// forked), the array is made and freed as without a cache.
+// forked), the array is made and freed as without a cache. One cache for the whole module, out of
+// line in HugeArray.cpp: each kernel set keeps its inline code's statics to itself (CMakeLists.txt),
+// and an array made in one (a grid, made in a search) is often freed in another (with its scene).
 class HugeBlocks {
  public:
   static constexpr int kKept = 8;
@@ -42,63 +43,9 @@ class HugeBlocks {
   };
 
   // The smallest kept block of `bytes` to 2 x `bytes`, or none.
-  static Block take(size_t bytes) {
-    HugeBlocks& b = instance();
-    const std::unique_lock<std::mutex> lock(b.m_mutex, std::try_to_lock);
-    if (!lock.owns_lock()) return {nullptr, 0};
-    int best = -1;
-    for (int i = 0; i < b.m_count; ++i) {
-      const size_t size = b.m_kept[i].bytes;
-      if (size >= bytes && size / 2 <= bytes && (best < 0 || size < b.m_kept[best].bytes)) best = i;
-    }
-    if (best < 0) return {nullptr, 0};
-    const Block block = b.m_kept[best];
-    b.m_total -= block.bytes;
-    b.remove(best);
-    return block;
-  }
-
+  static Block take(size_t bytes);
   // Keeps `block` for a later take, or frees it.
-  static void give(Block block) {
-#if defined(__linux__) && defined(MADV_FREE)
-    Block evicted[kKept];
-    int count = 0;
-    if (block.bytes <= kKeptBytes && madvise(block.memory, block.bytes, MADV_FREE) == 0) {
-      HugeBlocks& b = instance();
-      std::unique_lock<std::mutex> lock(b.m_mutex, std::try_to_lock);
-      if (lock.owns_lock()) {
-        while (b.m_count == kKept || b.m_total + block.bytes > kKeptBytes) {
-          evicted[count++] = b.m_kept[0];
-          b.m_total -= b.m_kept[0].bytes;
-          b.remove(0);
-        }
-        b.m_kept[b.m_count++] = block;
-        b.m_total += block.bytes;
-        lock.unlock();
-        for (int i = 0; i < count; ++i) std::free(evicted[i].memory);  // not under the lock: it takes milliseconds
-        return;
-      }
-    }
-#endif
-    std::free(block.memory);
-  }
-
- private:
-  // Never destroyed: arrays freed while the process exits still find it.
-  static HugeBlocks& instance() {
-    static HugeBlocks* blocks = new HugeBlocks;
-    return *blocks;
-  }
-
-  void remove(int i) {
-    for (int j = i + 1; j < m_count; ++j) m_kept[j - 1] = m_kept[j];
-    --m_count;
-  }
-
-  std::mutex m_mutex;
-  Block m_kept[kKept];  // oldest first
-  int m_count = 0;
-  size_t m_total = 0;
+  static void give(Block block);
 };
 
 template <typename T>
