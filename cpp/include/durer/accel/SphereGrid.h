@@ -72,6 +72,7 @@ class SphereGrid {
   };
   static constexpr Division kCachedSet{0.15, 2.71}, kLargeSet{0.5, 4};
   static constexpr size_t kCachedSetUpTo = size_t(1) << 20;
+  static constexpr Division divisionFor(size_t spheres) { return spheres <= kCachedSetUpTo ? kCachedSet : kLargeSet; }
   static constexpr int kMaxCellsPerAxis = 1024;
   // Not a grid's spheres either: clusters in an otherwise empty box (the hierarchy adapts to them, a
   // uniform grid does not): in the cell of an average registration, more than kMaxCrowding times the
@@ -454,7 +455,7 @@ class SphereGrid {
     Bounds all;
     for (const Bounds& b : chunkBounds) all.add(b);
     if (!divide(n, all)) return false;
-    const Division division = n <= kCachedSetUpTo ? kCachedSet : kLargeSet;
+    const Division division = divisionFor(n);
     const size_t cells = size_t(m_res[0]) * size_t(m_res[1]) * size_t(m_res[2]);
     // Each chunk's registrations by cell, then (in place) where its first one in each cell goes.
     std::vector<std::vector<uint32_t>> slots(chunks);
@@ -524,7 +525,7 @@ class SphereGrid {
     // side thick.
     const double thinnest = largest / kMaxCellsPerAxis;
     const double volume = std::max(size.x, thinnest) * std::max(size.y, thinnest) * std::max(size.z, thinnest);
-    const Division division = n <= kCachedSetUpTo ? kCachedSet : kLargeSet;
+    const Division division = divisionFor(n);
     const double edge = std::cbrt(volume / (division.cellsPerSphere * double(n)));
     for (int a = 0; a < 3; ++a) {
       m_res[a] = std::clamp(static_cast<int>(std::ceil(size[a] / edge)), 1, kMaxCellsPerAxis);
