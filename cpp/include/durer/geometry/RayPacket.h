@@ -1,6 +1,9 @@
 #pragma once
 #include <cstdint>
+#include <cstring>
 #include <limits>
+
+#include "durer/Inline.h"
 
 namespace durer {
 
@@ -11,6 +14,17 @@ constexpr int kPacketSize = 64;
 // cell (SphereView::kCell), so that a tile's packet reads one cell.
 constexpr int kTileSize = 8;
 static_assert(kTileSize * kTileSize == kPacketSize, "a tile is one packet");
+
+// Sets all kPacketSize entries of a packet's array (a packet's, or a tile's sums) to `value` in
+// 64-byte stores. GCC makes a fixed-size fill of zeros `rep stos`, or calls memset for one of
+// `count` entries, whose start-up costs more than the stores: memset, clearing each tile's sums,
+// held 4.6 % of a one-sphere render's samples, and the render is 3 % quicker with the stores.
+template <typename T>
+DURER_INLINE void fillPacket(T* entries, T value) {
+  typedef T Lanes __attribute__((vector_size(64)));
+  const Lanes lanes = Lanes{} + value;
+  for (int i = 0; i < kPacketSize; i += int(sizeof lanes / sizeof(T))) std::memcpy(entries + i, &lanes, sizeof lanes);
+}
 
 template <typename Real>
 class SphereView;

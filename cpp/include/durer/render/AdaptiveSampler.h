@@ -833,7 +833,7 @@ class AdaptiveSampler {
     t.w = std::min((tx + 1) * kTileSize, m_work.x + m_work.width) - t.x0;
     t.h = std::min((ty + 1) * kTileSize, m_work.y + m_work.height) - t.y0;
     const int count = t.w * t.h;
-    t.sums.clear(count, true, m_tiles.needsNormals(), true);  // colours too: the error estimates read them
+    t.sums.clear(true, m_tiles.needsNormals(), true);  // colours too: the error estimates read them
     t.stratum = m_strata ? &m_stratum[u] : nullptr;  // its sums are cleared where a pixel has a stratum (firstPass)
     std::fill(t.taken, t.taken + count, 0);
     std::fill(t.last, t.last + count, 0);

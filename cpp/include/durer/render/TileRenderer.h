@@ -179,7 +179,7 @@ class TileRenderer {
     const auto [x0, y0, w, h] = tileRect(tile);
     const int count = w * h;
     Accumulator acc;
-    acc.clear(count, m_targets.color != nullptr, m_needNormals, m_needNearest || m_sampler.samplesPerPixel() > 1);
+    acc.clear(m_targets.color != nullptr, m_needNormals, m_needNearest || m_sampler.samplesPerPixel() > 1);
     RayCounters counters;
     RayPacket<Real> packet;
     alignas(64) Real sampleX[kPacketSize], sampleY[kPacketSize];
@@ -250,21 +250,21 @@ class TileRenderer {
                    // left unset until a worker clears them)
     bool nearest;  // whether addNormal keeps the nearest hit sample: the id passes read it, and the
                    // normal pass where a pixel's samples' normals cancel (never with one sample)
-    // Clears the sums of `count` pixels; the colours' only if `keepColors`, the normals' only if
-    // `keepNormals`, and the nearest hit's only if `keepNearest` too: nothing reads them otherwise
-    // (clearing the normals took 8 % of a depth render; the colours' 2 % of a depth render and 7 %
-    // of a depth + normal one).
-    void clear(int count, bool keepColors, bool keepNormals, bool keepNearest) {
+    // Clears the sums (every pixel's: a tile's at the image's edge, with fewer, writes only its
+    // own); the colours' only if `keepColors`, the normals' only if `keepNormals`, and the nearest
+    // hit's only if `keepNearest` too: nothing reads them otherwise (clearing the normals took 8 % of
+    // a depth render; the colours' 2 % of a depth render and 7 % of a depth + normal one).
+    void clear(bool keepColors, bool keepNormals, bool keepNearest) {
       normals = keepNormals, nearest = keepNormals && keepNearest;
       const Real inf = std::numeric_limits<Real>::infinity();
       // A loop per kept kind: a loop with the choices inside stays scalar (2 % of a one-sphere render).
-      const auto fill = [count](std::initializer_list<Real*> sums, Real value) {
-        for (Real* sum : sums) std::fill_n(sum, count, value);
+      const auto fill = [](std::initializer_list<Real*> sums, Real value) {
+        for (Real* sum : sums) fillPacket(sum, value);
       };
       fill({samples}, 0), fill({depth}, inf);
       if (keepColors) fill({r, g, b, a}, 0);
       if (keepNormals) fill({nx, ny, nz, hits}, 0);
-      if (nearest) fill({fx, fy, fz}, 0), fill({nearestT}, inf), std::fill_n(nearestPrim, count, kNoPrimitive);
+      if (nearest) fill({fx, fy, fz}, 0), fill({nearestT}, inf), fillPacket(nearestPrim, kNoPrimitive);
     }
     // Whether sample k's normal is to be added (a colour render makes none: 14 % of its time).
     bool wantsNormal(int) const { return normals; }
