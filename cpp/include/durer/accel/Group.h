@@ -47,6 +47,7 @@ struct Instance {
     local.tMax = world.tMax;
     local.commonOrigin = world.commonOrigin;  // the same origin maps to the same point
     local.coherent = world.coherent;
+    local.leaving = false;  // `from` holds the parent's packed indices, not the child's
     const Affine<Real>& m = objectFromWorld;
     for (int k = 0; k < world.count; ++k) {
       const Real ox = world.ox[k], oy = world.oy[k], oz = world.oz[k];

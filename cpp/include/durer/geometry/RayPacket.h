@@ -68,6 +68,11 @@ struct RayPacket {
   alignas(64) Real dz[kPacketSize];
   alignas(64) Real tHit[kPacketSize];  // in/out: closest t so far; starts at tMax
   alignas(64) int32_t prim[kPacketSize];  // out: packed primitive index of the closest hit, kNoPrimitive on a miss
+  // With `leaving` (secondary rays off a hit of the same group: bounces, shadow rays), ray k starts
+  // on packed primitive from[k] (kNoPrimitive: none), which the sphere tests may then skip where the
+  // ray leaves it (SphereSet::Leaving): most such rays' walks meet their own sphere first.
+  bool leaving = false;
+  alignas(64) int32_t from[kPacketSize];
 
   void resetHits() {
     for (int k = 0; k < count; ++k) {

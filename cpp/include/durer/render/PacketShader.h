@@ -259,6 +259,7 @@ class PacketShader {
         continue;
       }
       const int j = shadow.count++;
+      shadow.from[j] = packet.prim[k];
       const Vec3<Real> origin = shadowOrigin(h, lit, k, toLight, cosine);
       Vec3<Real> toward;
       if constexpr (Area) {
@@ -271,6 +272,7 @@ class PacketShader {
       pixelOf[j] = k;
       term[j] = contribution;
     }
+    shadow.leaving = true;
     addUnblocked(shadow, light, view, pixelOf, term, rgb, counters);
   }
 
@@ -556,6 +558,7 @@ class PacketShader {
   struct Child {
     Vec3<Real> origin, direction;
     int parent;
+    int32_t from;  // the packed primitive it leaves (RayPacket::from)
     Vec3<Real> factor;  // the reflective or transparent colour it is seen through
     Real weight;
   };
@@ -573,7 +576,7 @@ class PacketShader {
       if (reflective && spawnable(weights[k] * maxComponent(m.reflective), depth, counters)) {
         Vec3<Real> origin, r;
         mirrorRay(hits[k], d, origin, r);
-        children[count++] = {origin, r, k, m.reflective, weights[k] * maxComponent(m.reflective)};
+        children[count++] = {origin, r, k, packet.prim[k], m.reflective, weights[k] * maxComponent(m.reflective)};
         ++counters.reflection;
       }
       if (transparent && spawnable(weights[k] * maxComponent(m.transparent), depth, counters)) {
@@ -582,8 +585,8 @@ class PacketShader {
           t = glm::reflect(d, about);
           ++counters.totalInternalReflections;
         }
-        children[count++] = {offsetRayOrigin(hits[k].point, hits[k].geometricNormal, hits[k].pointError, t), t, k, m.transparent,
-                             weights[k] * maxComponent(m.transparent)};
+        children[count++] = {offsetRayOrigin(hits[k].point, hits[k].geometricNormal, hits[k].pointError, t), t, k,
+                             packet.prim[k], m.transparent, weights[k] * maxComponent(m.transparent)};
         ++counters.refraction;
       }
     }
@@ -602,8 +605,10 @@ class PacketShader {
       const Child& c = children[j];
       packet.ox[j] = c.origin.x, packet.oy[j] = c.origin.y, packet.oz[j] = c.origin.z;
       packet.dx[j] = c.direction.x, packet.dy[j] = c.direction.y, packet.dz[j] = c.direction.z;
+      packet.from[j] = c.from;
       weights[j] = c.weight;
     }
+    packet.leaving = true;
     counters.intersectionTests += m_group.template intersect<Methods>(m_method, packet, &m_cancel);
     if (m_cancel.load(std::memory_order_relaxed)) return;
     HitRecords<Real, kPacketSize> hits;
