@@ -228,59 +228,64 @@ TEST_CASE_TEMPLATE("rays marked as leaving their sphere find what they find unma
   // Off random spheres' surfaces, outward (a reflection or shadow ray: the search may skip the sphere
   // it leaves) and inward (a refraction: it must meet that sphere's far side), some off spheres that
   // have a copy (the copy is skipped by value where the ray leaves it), some marked with a sphere
-  // they do not start on, or with none.
-  SphereSet<Real> set;
-  std::mt19937 rng(15);
-  std::uniform_real_distribution<double> unit(-1, 1), size(0.02, 0.3);
-  std::vector<Sphere<Real>> copied;
-  for (int32_t i = 0; i < 6000; ++i) {
-    const Sphere<Real> s{toReal<Real>(Vec3d(unit(rng), unit(rng), unit(rng)) * 10.0), static_cast<Real>(size(rng))};
-    set.add(s, 0, i);
-    if (i % 60 == 0) copied.push_back(s);
-  }
-  for (size_t c = 0; c < copied.size(); ++c) set.add(copied[c], 0, int32_t(6000 + c));
-  set.buildBvh(2);
-  REQUIRE(set.grid() != nullptr);
-  std::vector<size_t> twins;  // the spheres with a copy (and the copies), after the hierarchy's reordering
-  for (size_t i = 0; i < set.size(); ++i) {
-    for (const Sphere<Real>& c : copied) {
-      if (std::memcmp(&set.primitive(i), &c, sizeof c) == 0) twins.push_back(i);
+  // they do not start on, or with none; through the grid of an even cloud and the hierarchy of a
+  // clustered one (no grid).
+  for (const bool clustered : {false, true}) {
+    CAPTURE(clustered);
+    SphereSet<Real> set;
+    std::mt19937 rng(15);
+    std::uniform_real_distribution<double> unit(-1, 1), size(0.02, clustered ? 0.05 : 0.3), corner(-10, -7);
+    std::vector<Sphere<Real>> copied;
+    for (int32_t i = 0; i < 6000; ++i) {
+      const Vec3d c = clustered && i % 10 != 0 ? Vec3d(corner(rng), corner(rng), corner(rng)) : Vec3d(unit(rng), unit(rng), unit(rng)) * 10.0;
+      const Sphere<Real> s{toReal<Real>(c), static_cast<Real>(size(rng))};
+      set.add(s, 0, i);
+      if (i % 60 == 0) copied.push_back(s);
     }
-  }
-  REQUIRE(twins.size() == 2 * copied.size());
-  std::uniform_int_distribution<size_t> pick(0, set.size() - 1), pickTwin(0, twins.size() - 1);
-  int inward = 0, ownHits = 0;
-  for (int trial = 0; trial < 80; ++trial) {
-    RayPacket<Real> marked = emptyPacket(std::numeric_limits<Real>::denorm_min());
-    for (int k = 0; k < marked.count; ++k) {
-      const size_t i = k % 4 == 1 ? twins[pickTwin(rng)] : pick(rng);
-      const Sphere<Real>& s = set.primitive(i);
-      const Vec3d n = glm::normalize(Vec3d(unit(rng), unit(rng), unit(rng)));
-      const bool in = k % 3 == 0;
-      const Vec3d o = Vec3d(s.center) + double(s.radius) * n * (in ? 0.999 : 1.001);
-      const Vec3d d = in ? -n + Vec3d(unit(rng), unit(rng), unit(rng)) * 0.5 : n + Vec3d(unit(rng), unit(rng), unit(rng)) * 0.9;
-      setRay(marked, k, o, d);
-      marked.from[k] = k % 11 == 0 ? kNoPrimitive : k % 13 == 0 ? int32_t(pick(rng)) : int32_t(i);
-      inward += in;
+    for (size_t c = 0; c < copied.size(); ++c) set.add(copied[c], 0, int32_t(6000 + c));
+    set.buildBvh(2);
+    REQUIRE((set.grid() == nullptr) == clustered);
+    std::vector<size_t> twins;  // the spheres with a copy (and the copies), after the hierarchy's reordering
+    for (size_t i = 0; i < set.size(); ++i) {
+      for (const Sphere<Real>& c : copied) {
+        if (std::memcmp(&set.primitive(i), &c, sizeof c) == 0) twins.push_back(i);
+      }
     }
-    marked.leaving = true;
-    marked.resetHits();
-    RayPacket<Real> plain = marked, markedShadow = marked, plainShadow = marked;
-    plain.leaving = plainShadow.leaving = false;
-    set.template intersect<SphereMethod::Robust, false>(marked, 0, nullptr);
-    set.template intersect<SphereMethod::Robust, false>(plain, 0, nullptr);
-    set.template intersect<SphereMethod::Robust, true>(markedShadow, 0, nullptr);
-    set.template intersect<SphereMethod::Robust, true>(plainShadow, 0, nullptr);
-    for (int k = 0; k < marked.count; ++k) {
-      CAPTURE(k);
-      CHECK(sameBits(marked.tHit[k], plain.tHit[k]));
-      CHECK(marked.prim[k] == plain.prim[k]);
-      CHECK((markedShadow.prim[k] == kNoPrimitive) == (plainShadow.prim[k] == kNoPrimitive));
-      ownHits += k % 3 == 0 && marked.prim[k] == marked.from[k];
+    REQUIRE(twins.size() == 2 * copied.size());
+    std::uniform_int_distribution<size_t> pick(0, set.size() - 1), pickTwin(0, twins.size() - 1);
+    int inward = 0, ownHits = 0;
+    for (int trial = 0; trial < 80; ++trial) {
+      RayPacket<Real> marked = emptyPacket(std::numeric_limits<Real>::denorm_min());
+      for (int k = 0; k < marked.count; ++k) {
+        const size_t i = k % 4 == 1 ? twins[pickTwin(rng)] : pick(rng);
+        const Sphere<Real>& s = set.primitive(i);
+        const Vec3d n = glm::normalize(Vec3d(unit(rng), unit(rng), unit(rng)));
+        const bool in = k % 3 == 0;
+        const Vec3d o = Vec3d(s.center) + double(s.radius) * n * (in ? 0.999 : 1.001);
+        const Vec3d d = in ? -n + Vec3d(unit(rng), unit(rng), unit(rng)) * 0.5 : n + Vec3d(unit(rng), unit(rng), unit(rng)) * 0.9;
+        setRay(marked, k, o, d);
+        marked.from[k] = k % 11 == 0 ? kNoPrimitive : k % 13 == 0 ? int32_t(pick(rng)) : int32_t(i);
+        inward += in;
+      }
+      marked.leaving = true;
+      marked.resetHits();
+      RayPacket<Real> plain = marked, markedShadow = marked, plainShadow = marked;
+      plain.leaving = plainShadow.leaving = false;
+      set.template intersect<SphereMethod::Robust, false>(marked, 0, nullptr);
+      set.template intersect<SphereMethod::Robust, false>(plain, 0, nullptr);
+      set.template intersect<SphereMethod::Robust, true>(markedShadow, 0, nullptr);
+      set.template intersect<SphereMethod::Robust, true>(plainShadow, 0, nullptr);
+      for (int k = 0; k < marked.count; ++k) {
+        CAPTURE(k);
+        CHECK(sameBits(marked.tHit[k], plain.tHit[k]));
+        CHECK(marked.prim[k] == plain.prim[k]);
+        CHECK((markedShadow.prim[k] == kNoPrimitive) == (plainShadow.prim[k] == kNoPrimitive));
+        ownHits += k % 3 == 0 && marked.prim[k] == marked.from[k];
+      }
     }
+    CHECK(inward > 1500);
+    CHECK(ownHits > 1000);  // the inward rays meet the sphere they start in (those marked with it)
   }
-  CHECK(inward > 1500);
-  CHECK(ownHits > 1000);  // the inward rays meet the sphere they start in (those marked with it)
 }
 
 TEST_CASE_TEMPLATE("rays the grid declines (far origins) are searched through the hierarchy", Real, float, double) {

@@ -41,6 +41,7 @@ struct LeafLanes<double> {
   static V fnmadd(V a, V b, V c) { return _mm256_fnmadd_pd(a, b, c); }
   static V abs(V a) { return _mm256_andnot_pd(_mm256_set1_pd(-0.0), a); }
   static unsigned greaterMask(V a, V b) { return unsigned(_mm256_movemask_pd(_mm256_cmp_pd(a, b, _CMP_GT_OQ))); }
+  static unsigned equalMask(V a, V b) { return unsigned(_mm256_movemask_pd(_mm256_cmp_pd(a, b, _CMP_EQ_OQ))); }
   // Spheres p[0], p[4 i1], p[4 i2], p[4 i3] (centre x, y, z, radius each) to x, y, z and r.
   static void transpose(const double* p, int i1, int i2, int i3, V& x, V& y, V& z, V& r) {
     const V a = _mm256_loadu_pd(p), b = _mm256_loadu_pd(p + 4 * i1), c = _mm256_loadu_pd(p + 4 * i2),
@@ -60,6 +61,7 @@ struct LeafLanes<float> {
   static V fnmadd(V a, V b, V c) { return _mm_fnmadd_ps(a, b, c); }
   static V abs(V a) { return _mm_andnot_ps(_mm_set1_ps(-0.0f), a); }
   static unsigned greaterMask(V a, V b) { return unsigned(_mm_movemask_ps(_mm_cmp_ps(a, b, _CMP_GT_OQ))); }
+  static unsigned equalMask(V a, V b) { return unsigned(_mm_movemask_ps(_mm_cmp_ps(a, b, _CMP_EQ_OQ))); }
   static void transpose(const float* p, int i1, int i2, int i3, V& x, V& y, V& z, V& r) {
     x = _mm_loadu_ps(p), y = _mm_loadu_ps(p + 4 * i1), z = _mm_loadu_ps(p + 4 * i2), r = _mm_loadu_ps(p + 4 * i3);
     _MM_TRANSPOSE4_PS(x, y, z, r);
@@ -221,6 +223,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   int64_t intersect(RayPacket<Real>& packet, int32_t primBase, const std::atomic<bool>* cancel) const {
     if (this->m_primitives.empty()) return 0;
     PacketRayTerms<Real> terms;
+    Leaving<M> left;
     bool computed = false;
     const auto compute = [&] {
       if (!computed) terms.template compute<M>(packet.dx, packet.dy, packet.dz, packet.count), computed = true;
@@ -228,7 +231,6 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     if (packet.view) {
       if constexpr (AnyHit) {  // shadow rays toward a light, through its view (a sun's, or a point light's faces)
         compute();
-        Leaving<M> left;
         left.find(*this, packet, terms, primBase);
         return packet.view->occluders(packet, [&](int k, uint32_t i, double sureT) {
           if (sureT > 0 && packet.sureHits) {  // its sphere data is often cold: not read where the view knows the answer
@@ -253,13 +255,14 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       }
     }
     compute();
+    left.find(*this, packet, terms, primBase);
     const auto testLeaf = [&](int32_t first, int32_t count, int k) {
-      intersectLeaf<M>(packet, terms[k], k, first, count, primBase);
+      intersectLeaf<M>(packet, terms[k], k, first, count, primBase, left.of(k));
     };
     if constexpr (M == SphereMethod::Robust) {  // the grid's bound on a root's error is the robust test's
       if (AnyHit || !packet.coherent) {          // the rays search() would walk one by one
         if (const SphereGrid<Real>* spheres = grid()) {
-          return searchGrid<M, AnyHit>(*spheres, packet, terms, primBase, cancel, testLeaf);
+          return searchGrid<M, AnyHit>(*spheres, packet, terms, left, primBase, cancel, testLeaf);
         }
       }
     }
@@ -280,23 +283,26 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   template <SphereMethod M>
   struct Leaving {
     static constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
+    bool any = false;  // whether some ray has one; the arrays are set only then
     uint32_t index[kPacketSize];
-    alignas(64) Real x[kPacketSize], y[kPacketSize], z[kPacketSize], r[kPacketSize];
-    bool any = false;
+    Sphere<Real> sphere[kPacketSize];
 
+    // Finds them (none for methods other than the robust one, or rays that may start at t <= 0).
     void find(const SphereSet& set, const RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, int32_t primBase) {
-      const Real none = std::numeric_limits<Real>::quiet_NaN();
-      for (int k = 0; k < packet.count; ++k) index[k] = kNone, x[k] = y[k] = z[k] = r[k] = none;
+      any = false;
       if (M != SphereMethod::Robust || !packet.leaving || !(packet.tMin > 0)) return;
+      const Real none = std::numeric_limits<Real>::quiet_NaN();
+      for (int k = 0; k < packet.count; ++k) index[k] = kNone, sphere[k] = {Vec3<Real>(none), none};
       const size_t n = set.m_primitives.size();
       for (int k = 0; k < packet.count; ++k) {
         const uint32_t i = static_cast<uint32_t>(packet.from[k] - primBase);  // from < primBase wraps past n
         if (packet.from[k] == kNoPrimitive || i >= n) continue;
         const Sphere<Real>& s = set.m_primitives[i];
         if (!robustLeaves(robustOrigin(packet.ox[k], packet.oy[k], packet.oz[k], s.center, s.radius), terms[k])) continue;
-        index[k] = i, x[k] = s.center.x, y[k] = s.center.y, z[k] = s.center.z, r[k] = s.radius, any = true;
+        index[k] = i, sphere[k] = s, any = true;
       }
     }
+    const Sphere<Real>* of(int k) const { return any && index[k] != kNone ? &sphere[k] : nullptr; }
   };
 
   // The nearest hit so far (recordHit), for intersectSphere and the runs and pairs that call it.
@@ -308,7 +314,8 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   // leaves with testLeaf(first, count, k)), each lowering its tHit as intersect() does.
   template <SphereMethod M, bool AnyHit, typename TestLeaf>
   int64_t searchGrid(const SphereGrid<Real>& grid, RayPacket<Real>& packet, const PacketRayTerms<Real>& terms,
-                     int32_t primBase, const std::atomic<bool>* cancel, const TestLeaf& testLeaf) const {
+                     const Leaving<M>& left, int32_t primBase, const std::atomic<bool>* cancel,
+                     const TestLeaf& testLeaf) const {
     if (cancel && cancel->load(std::memory_order_relaxed)) return 0;
     int64_t tests = 0;
     int others[kPacketSize], count = 0;
@@ -336,8 +343,6 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     };
 #if DURER_WALK_LANES
     WalkRays rays;
-    Leaving<M> left;
-    left.find(*this, packet, terms, primBase);
     grid.walkLanes(
         packet.count, rayOf, [&](int k, int lane) DURER_INLINE_LAMBDA { rays.take(lane, packet, terms, left, k); },
         [&](const int32_t* lanes, const uint32_t* records, int n) DURER_INLINE_LAMBDA {
@@ -355,7 +360,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
           o, d, tMin, tHit,
           [&](uint32_t first, uint32_t n) DURER_INLINE_LAMBDA {
             tests += n;
-            intersectRun<M>(packet, rayTerms, k, grid.records(), first, n, idOf, record);
+            intersectRun<M>(packet, rayTerms, k, grid.records(), first, n, idOf, record, left.of(k));
           },
           [&](double exitT) DURER_INLINE_LAMBDA { return done(k, exitT); });
       if (!walked) others[count++] = k;
@@ -389,14 +394,17 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   struct WalkRays {
     static constexpr int kLanes = SphereGrid<Real>::kLanes;
     alignas(64) Real ox[kLanes], oy[kLanes], oz[kLanes], sx[kLanes], sy[kLanes], sz[kLanes], invA[kLanes];
-    alignas(64) Real leftX[kLanes], leftY[kLanes], leftZ[kLanes], leftR[kLanes];  // the sphere it leaves (Leaving)
+    alignas(64) Real leftX[kLanes], leftY[kLanes], leftZ[kLanes], leftR[kLanes];  // the sphere it leaves (Leaving::any)
     int ray[kLanes];
 
     template <typename Left>
     DURER_INLINE void take(int lane, const RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, const Left& left, int k) {
       ox[lane] = packet.ox[k], oy[lane] = packet.oy[k], oz[lane] = packet.oz[k];
       sx[lane] = terms.sx[k], sy[lane] = terms.sy[k], sz[lane] = terms.sz[k], invA[lane] = terms.invA[k];
-      leftX[lane] = left.x[k], leftY[lane] = left.y[k], leftZ[lane] = left.z[k], leftR[lane] = left.r[k];
+      if (left.any) {
+        const Sphere<Real>& s = left.sphere[k];
+        leftX[lane] = s.center.x, leftY[lane] = s.center.y, leftZ[lane] = s.center.z, leftR[lane] = s.radius;
+      }
       ray[lane] = k;
     }
   };
@@ -414,8 +422,6 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     constexpr int kPairs = WalkRays::kLanes;  // a vector's lanes: the pairs tested at once
     const typename L::V ox = L::load(rays.ox), oy = L::load(rays.oy), oz = L::load(rays.oz);
     const typename L::V sx = L::load(rays.sx), sy = L::load(rays.sy), sz = L::load(rays.sz), invA = L::load(rays.invA);
-    const typename L::V leftX = L::load(rays.leftX), leftY = L::load(rays.leftY), leftZ = L::load(rays.leftZ),
-                        leftR = L::load(rays.leftR);
     for (int j = 0; j < n; j += kPairs) {
       uint32_t at[kPairs];  // pairs past n repeat the first (their bits are masked off)
       for (int i = 0; i < kPairs; ++i) at[i] = records[j + i < n ? j + i : j];
@@ -425,8 +431,8 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       unsigned may = mayMeetLanes<L>(L::pick(pick, ox) - cx, L::pick(pick, oy) - cy, L::pick(pick, oz) - cz,
                                      L::pick(pick, sx), L::pick(pick, sy), L::pick(pick, sz), L::pick(pick, invA), r);
       if constexpr (SkipLeft) {
-        may &= ~(L::equalMask(cx, L::pick(pick, leftX)) & L::equalMask(cy, L::pick(pick, leftY)) &
-                 L::equalMask(cz, L::pick(pick, leftZ)) & L::equalMask(r, L::pick(pick, leftR)));
+        may &= ~(L::equalMask(cx, L::pick(pick, L::load(rays.leftX))) & L::equalMask(cy, L::pick(pick, L::load(rays.leftY))) &
+                 L::equalMask(cz, L::pick(pick, L::load(rays.leftZ))) & L::equalMask(r, L::pick(pick, L::load(rays.leftR))));
       }
       for (unsigned bits = may & (n - j >= kPairs ? 0xffu : (1u << (n - j)) - 1); bits != 0; bits &= bits - 1) {
         const int i = __builtin_ctz(bits);
@@ -437,28 +443,29 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   }
 #endif
 
-  // A leaf's spheres [first, first + count) against ray k, in order (intersectRun).
+  // A leaf's spheres [first, first + count) against ray k, in order (intersectRun), less the
+  // sphere it leaves (`left`: Leaving's, or null).
   template <SphereMethod M>
   DURER_INLINE void intersectLeaf(RayPacket<Real>& packet, const SphereRayTerms<Real>& terms, int k, int32_t first,
-                                  int32_t count, int32_t primBase) const {
+                                  int32_t count, int32_t primBase, const Sphere<Real>* left) const {
     intersectRun<M>(packet, terms, k, this->m_primitives.data(), size_t(first), size_t(count),
-                    [&](size_t i) { return primBase + static_cast<int32_t>(i); });
+                    [&](size_t i) { return primBase + static_cast<int32_t>(i); }, NearestHit(), left);
   }
 
   // Spheres [first, first + count) of `spheres` (a hierarchy leaf's, or a grid cell's records)
   // against ray k, in order, sphere i recorded as idOf(i) by `record` (recordHit's signature). The
   // robust test's prefilter (most spheres a ray's walk reaches miss it) is made four spheres at a time
   // where the kernel set has AVX2 and FMA: one branch a leaf instead of a mispredicted one every few
-  // spheres.
+  // spheres. Spheres equal to `left` (the one the ray leaves, Leaving's; null: none) are not tested.
   template <SphereMethod M, typename IdOf, typename Record = NearestHit>
   DURER_INLINE static void intersectRun(RayPacket<Real>& packet, const SphereRayTerms<Real>& terms, int k,
                                         const Sphere<Real>* spheres, size_t first, size_t count, const IdOf& idOf,
-                                        const Record& record = Record()) {
+                                        const Record& record = Record(), const Sphere<Real>* left = nullptr) {
 #if defined(__AVX2__) && defined(__FMA__)
     if constexpr (M == SphereMethod::Robust) {  // four at a time: spheres the build cannot split share a leaf
       for (size_t quad = first; quad < first + count; quad += 4) {
         const int n = int(std::min<size_t>(4, first + count - quad));
-        const unsigned may = leafMayMeet(&spheres[quad], n, packet.ox[k], packet.oy[k], packet.oz[k], terms);
+        const unsigned may = leafMayMeet(&spheres[quad], n, packet.ox[k], packet.oy[k], packet.oz[k], terms, left);
         for (unsigned bits = may; bits != 0; bits &= bits - 1) {
           const size_t i = quad + size_t(__builtin_ctz(bits));
           intersectSphere<M, false>(packet, terms, k, spheres[i], idOf(i), record);
@@ -467,7 +474,10 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       return;
     }
 #endif
-    for (size_t i = first; i < first + count; ++i) intersectSphere<M>(packet, terms, k, spheres[i], idOf(i), record);
+    for (size_t i = first; i < first + count; ++i) {
+      if (left && spheres[i].center == left->center && spheres[i].radius == left->radius) continue;
+      intersectSphere<M>(packet, terms, k, spheres[i], idOf(i), record);
+    }
   }
 
   // One sphere against ray k: the same arithmetic as intersectOne's loop, so the same t. Without
@@ -551,18 +561,24 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   // robustMayMeet for one ray and one to four spheres s[0 .. count), a lane each: a bit per sphere
   // that may meet the ray. Each lane makes the scalar test's operations in its order (the fused
   // multiply-adds of differenceOfProducts included), so the bits are the scalar outcomes. Lanes past
-  // `count` repeat the last sphere (nothing is read beyond the leaf) and are masked off.
+  // `count` repeat the last sphere (nothing is read beyond the leaf) and are masked off, as are
+  // spheres equal to `left` (null: none).
   DURER_INLINE static unsigned leafMayMeet(const Sphere<Real>* s, int count, Real ox, Real oy, Real oz,
-                                           const SphereRayTerms<Real>& t) {
+                                           const SphereRayTerms<Real>& t, const Sphere<Real>* left = nullptr) {
     using L = LeafLanes<Real>;
     using V = typename L::V;
     const int last = count - 1;
     V cx, cy, cz, r;
     static_assert(sizeof(Sphere<Real>) == 4 * sizeof(Real), "a sphere is four numbers");
     L::transpose(&s[0].center.x, last < 1 ? last : 1, last < 2 ? last : 2, last < 3 ? last : 3, cx, cy, cz, r);
-    return mayMeetLanes<L>(L::set1(ox) - cx, L::set1(oy) - cy, L::set1(oz) - cz, L::set1(t.sx), L::set1(t.sy),
-                           L::set1(t.sz), L::set1(t.invA), r) &
-           ((1u << count) - 1);
+    unsigned may = mayMeetLanes<L>(L::set1(ox) - cx, L::set1(oy) - cy, L::set1(oz) - cz, L::set1(t.sx), L::set1(t.sy),
+                                   L::set1(t.sz), L::set1(t.invA), r) &
+                   ((1u << count) - 1);
+    if (left) {
+      may &= ~(L::equalMask(cx, L::set1(left->center.x)) & L::equalMask(cy, L::set1(left->center.y)) &
+               L::equalMask(cz, L::set1(left->center.z)) & L::equalMask(r, L::set1(left->radius)));
+    }
+    return may;
   }
 
   // robustMayMeet in each lane of L's vectors, for f = o - c, the ray's s and 1 / (s·s), and r: the
