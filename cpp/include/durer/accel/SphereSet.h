@@ -236,7 +236,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
           if (sureT > 0 && packet.sureHits) {  // its sphere data is often cold: not read where the view knows the answer
             packet.prim[k] = primBase + static_cast<int32_t>(i);
             packet.tHit[k] = static_cast<Real>(sureT);
-          } else if (i != left.index[k]) {
+          } else if (!left.skips(k, i)) {
             intersectRay<M>(packet, terms[k], k, static_cast<size_t>(i), primBase);
           }
           return packet.prim[k] != kNoPrimitive;
@@ -314,6 +314,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       }
     }
     const Sphere<Real>* of(int k) const { return any && index[k] != kNone ? &sphere[k] : nullptr; }
+    bool skips(int k, uint32_t i) const { return any && index[k] == i; }  // sphere i, by index
   };
 
   // The nearest hit so far (recordHit), for intersectSphere and the runs and pairs that call it.
