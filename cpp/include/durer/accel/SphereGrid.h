@@ -74,6 +74,9 @@ class SphereGrid {
   static constexpr size_t kCachedSetUpTo = size_t(1) << 20;
   static constexpr Division divisionFor(size_t spheres) { return spheres <= kCachedSetUpTo ? kCachedSet : kLargeSet; }
   static constexpr int kMaxCellsPerAxis = 1024;
+  // The records past the last that a list of pairs may name (walkLanes): its entries past those
+  // listed are records too, so that the pairs' tests read their records without a select.
+  static constexpr size_t kListedPast = 15;
   // Not a grid's spheres either: clusters in an otherwise empty box (the hierarchy adapts to them, a
   // uniform grid does not): in the cell of an average registration, more than kMaxCrowding times the
   // spheres an even cloud's has, 1 + the registrations a cell (a Poisson count's mean count² / count).
@@ -196,17 +199,19 @@ class SphereGrid {
         }
         handed = 0;
         startLanes(starts);
-        for (int j = 0; j < made; ++j) {
+        for (int j = 0; j < made; ++j) {  // where the walks' first records begin: read as each takes a lane
           if (starts.status[j] == int(Start::Refused)) unwalked(starts.ray[j]);
+          if (starts.status[j] == int(Start::Walking)) __builtin_prefetch(&m_begin[size_t(starts.index[j])]);
         }
       }
     };
     __mmask8 active = 0;
     for (int lane = 0; lane < kLanes; ++lane) active |= __mmask8(fill(lane) << lane);
     // Listed sixteen at a time (sixteen entries stored, the kept ones first), tested eight at a time:
-    // both past the pairs listed.
+    // both past the pairs listed. Every entry names a lane and a record (less than kListedPast past
+    // the last): one listed, one of the slots a list passed over, or the zero it starts as.
     alignas(64) int32_t pairLane[kMostPairs + 16] = {};
-    alignas(64) uint32_t pairRecord[kMostPairs + 16];
+    alignas(64) uint32_t pairRecord[kMostPairs + 16] = {};
     while (active) {
       // Each walk's cell: its exit (the nearest boundary, ties as walk() breaks them) and records.
       const __m512d nx = _mm512_load_pd(next[0]), ny = _mm512_load_pd(next[1]), nz = _mm512_load_pd(next[2]);
@@ -483,7 +488,8 @@ class SphereGrid {
     m_begin[cells] = uint32_t(refs);
     if (double(refs) > division.maxRefsPerSphere * double(n)) return false;
     if (crowding > kMaxCrowding * (1 + double(refs) / double(cells)) * double(refs)) return false;
-    m_records = HugeArray<Sphere<Real>>(refs, kHugePagesFrom);
+    m_records = HugeArray<Sphere<Real>>(refs + kListedPast, kHugePagesFrom);
+    for (size_t r = refs; r < refs + kListedPast; ++r) m_records[r] = Sphere<Real>{Vec3<Real>(0), 0};
     m_sphere = HugeArray<int32_t>(refs, kHugePagesFrom);
     m_octants = HugeArray<uint8_t>(refs, kHugePagesFrom);
     forChunks(n, chunks, [&](size_t chunk, size_t begin, size_t end) {
@@ -582,7 +588,7 @@ class SphereGrid {
   // scene's reflection rays 3-11 % quicker a ray, its render 5-9 %).
   static constexpr size_t kHugePagesFrom = size_t(4) << 20;
   HugeArray<uint32_t> m_begin;           // cell c's records: [m_begin[c], m_begin[c + 1])
-  HugeArray<Sphere<Real>> m_records;     // the spheres, cell by cell
+  HugeArray<Sphere<Real>> m_records;     // the spheres, cell by cell, then kListedPast spheres of radius 0
   HugeArray<int32_t> m_sphere;           // record -> the set's sphere index
   HugeArray<uint8_t> m_octants;          // record -> the octants of its cell its padded box touches
   static constexpr int64_t kLowHalf[3] = {0x55, 0x33, 0x0f}, kHighHalf[3] = {0xaa, 0xcc, 0xf0};

@@ -425,7 +425,8 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
   // recording a hit as intersectSphere does: robustMayMeet's test for eight pairs at once
   // (mayMeetLanes), the full test for those it keeps. With SkipLeft, not a walk's pairs with the
   // sphere its ray leaves (WalkRays' left*: Leaving), matched by value (a copy of it, equal bit for
-  // bit, would be turned away by the same test).
+  // bit, would be turned away by the same test). The entries up to n rounded up to eight name lanes
+  // and records too (walkLanes lists them so): a select of each past n cost the test 8 % in the caches.
   template <SphereMethod M, bool SkipLeft, typename IdOf, typename Record>
   DURER_INLINE static void intersectPairs(RayPacket<Real>& packet, const PacketRayTerms<Real>& terms, const WalkRays& rays,
                                           const Sphere<Real>* spheres, const int32_t* lanes, const uint32_t* records,
@@ -435,8 +436,7 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     const typename L::V ox = L::load(rays.ox), oy = L::load(rays.oy), oz = L::load(rays.oz);
     const typename L::V sx = L::load(rays.sx), sy = L::load(rays.sy), sz = L::load(rays.sz), invA = L::load(rays.invA);
     for (int j = 0; j < n; j += kPairs) {
-      uint32_t at[kPairs];  // pairs past n repeat the first (their bits are masked off)
-      for (int i = 0; i < kPairs; ++i) at[i] = records[j + i < n ? j + i : j];
+      const uint32_t* at = records + j;  // past n: records too (walkLanes' list), their bits masked off
       typename L::V cx, cy, cz, r;
       L::transpose(spheres, at, cx, cy, cz, r);
       const typename L::Index pick = L::index(lanes + j);

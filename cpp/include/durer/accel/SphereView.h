@@ -479,7 +479,8 @@ class SphereView {
   }
 
   // std::upper_bound of `reach` among the entries [begin, end) by tLow (the first entry whose tLow
-  // exceeds it), with selects instead of branches.
+  // exceeds it). GCC makes the comparison a branch; a branch-free form, whose steps depend on the
+  // count alone, was no quicker (docs/benchmarks.md): each step waits on its entry's load either way.
   uint32_t upperBound(uint32_t begin, uint32_t end, double reach) const {
     uint32_t low = begin, length = end - begin;
     while (length > 0) {
