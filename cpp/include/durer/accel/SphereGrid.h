@@ -74,9 +74,11 @@ class SphereGrid {
   static constexpr size_t kCachedSetUpTo = size_t(1) << 20;
   static constexpr Division divisionFor(size_t spheres) { return spheres <= kCachedSetUpTo ? kCachedSet : kLargeSet; }
   static constexpr int kMaxCellsPerAxis = 1024;
-  // The records past the last that a list of pairs may name (walkLanes): its entries past those
-  // listed are records too, so that the pairs' tests read their records without a select.
-  static constexpr size_t kListedPast = 15;
+  // walkLanes lists a cell's pairs kListedAtOnce records at a time, storing that many entries each
+  // time, so that its lists' entries past those listed name records too (up to kListedPast past the
+  // last, which the records are padded by): the pairs' tests then read them without a select.
+  static constexpr int kListedAtOnce = 16;
+  static constexpr size_t kListedPast = kListedAtOnce - 1;
   // Not a grid's spheres either: clusters in an otherwise empty box (the hierarchy adapts to them, a
   // uniform grid does not): in the cell of an average registration, more than kMaxCrowding times the
   // spheres an even cloud's has, 1 + the registrations a cell (a Poisson count's mean count² / count).
@@ -207,11 +209,12 @@ class SphereGrid {
     };
     __mmask8 active = 0;
     for (int lane = 0; lane < kLanes; ++lane) active |= __mmask8(fill(lane) << lane);
-    // Listed sixteen at a time (sixteen entries stored, the kept ones first), tested eight at a time:
-    // both past the pairs listed. Every entry names a lane and a record (less than kListedPast past
-    // the last): one listed, one of the slots a list passed over, or the zero it starts as.
-    alignas(64) int32_t pairLane[kMostPairs + 16] = {};
-    alignas(64) uint32_t pairRecord[kMostPairs + 16] = {};
+    // Listed kListedAtOnce at a time (as many entries stored, the kept ones first), tested eight at a
+    // time: both past the pairs listed. Every entry names a lane and a record (at most kListedPast
+    // past the last): one listed, one of the slots a list passed over, or the zero it starts as.
+    static_assert(kListedAtOnce == 16, "a list step is one 16-byte load of octants and one 16-lane compress");
+    alignas(64) int32_t pairLane[kMostPairs + kListedAtOnce] = {};
+    alignas(64) uint32_t pairRecord[kMostPairs + kListedAtOnce] = {};
     while (active) {
       // Each walk's cell: its exit (the nearest boundary, ties as walk() breaks them) and records.
       const __m512d nx = _mm512_load_pd(next[0]), ny = _mm512_load_pd(next[1]), nz = _mm512_load_pd(next[2]);
@@ -268,8 +271,8 @@ class SphereGrid {
         const uint32_t first = uint32_t(records[lane]), last = uint32_t(records[lane] >> 32);
         const __m128i mask = _mm_set1_epi8(char(octants[lane]));
         const __m512i laneId = _mm512_set1_epi32(lane);
-        for (uint32_t r = first; r < last; r += 16) {
-          const __mmask16 in = __mmask16(last - r >= 16 ? 0xffffu : (1u << (last - r)) - 1);
+        for (uint32_t r = first; r < last; r += kListedAtOnce) {
+          const __mmask16 in = __mmask16(last - r >= kListedAtOnce ? 0xffffu : (1u << (last - r)) - 1);
           const __mmask16 keep = _mm_mask_test_epi8_mask(in, _mm_maskz_loadu_epi8(in, &m_octants[r]), mask);
           // Compressed in a register, then stored whole: the compress with a memory destination is
           // microcoded on AMD Zen 4 (its optimization guide, 2.11.2, says to avoid it); as quick on Zen 5.
@@ -277,7 +280,7 @@ class SphereGrid {
           _mm512_storeu_si512(pairRecord + n, _mm512_mask_compress_epi32(slots, keep, slots));
           _mm512_storeu_si512(pairLane + n, laneId);
           n += __builtin_popcount(keep);
-          if (n > kMostPairs - 16) testPairs(pairLane, pairRecord, n), n = 0;
+          if (n > kMostPairs - kListedAtOnce) testPairs(pairLane, pairRecord, n), n = 0;
         }
       }
       for (unsigned lanes = stepped; lanes != 0; lanes &= lanes - 1) prefetchCell(uint32_t(upcoming[__builtin_ctz(lanes)]));
