@@ -435,6 +435,11 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
     constexpr int kPairs = WalkRays::kLanes;  // a vector's lanes: the pairs tested at once
     const typename L::V ox = L::load(rays.ox), oy = L::load(rays.oy), oz = L::load(rays.oz);
     const typename L::V sx = L::load(rays.sx), sy = L::load(rays.sy), sz = L::load(rays.sz), invA = L::load(rays.invA);
+    // Loaded once, as the rays are: the full tests' stores of hits (Real, as these) could alias them.
+    [[maybe_unused]] typename L::V leftX, leftY, leftZ, leftR;
+    if constexpr (SkipLeft) {
+      leftX = L::load(rays.leftX), leftY = L::load(rays.leftY), leftZ = L::load(rays.leftZ), leftR = L::load(rays.leftR);
+    }
     for (int j = 0; j < n; j += kPairs) {
       const uint32_t* at = records + j;  // past n: records too (walkLanes' list), their bits masked off
       typename L::V cx, cy, cz, r;
@@ -443,8 +448,8 @@ class SphereSet : public PrimitiveSet<Sphere<Real>, Real> {
       unsigned may = mayMeetLanes<L>(L::pick(pick, ox) - cx, L::pick(pick, oy) - cy, L::pick(pick, oz) - cz,
                                      L::pick(pick, sx), L::pick(pick, sy), L::pick(pick, sz), L::pick(pick, invA), r);
       if constexpr (SkipLeft) {
-        may &= ~(L::equalMask(cx, L::pick(pick, L::load(rays.leftX))) & L::equalMask(cy, L::pick(pick, L::load(rays.leftY))) &
-                 L::equalMask(cz, L::pick(pick, L::load(rays.leftZ))) & L::equalMask(r, L::pick(pick, L::load(rays.leftR))));
+        may &= ~(L::equalMask(cx, L::pick(pick, leftX)) & L::equalMask(cy, L::pick(pick, leftY)) &
+                 L::equalMask(cz, L::pick(pick, leftZ)) & L::equalMask(r, L::pick(pick, leftR)));
       }
       for (unsigned bits = may & (n - j >= kPairs ? 0xffu : (1u << (n - j)) - 1); bits != 0; bits &= bits - 1) {
         const int i = __builtin_ctz(bits);
